@@ -1,0 +1,5 @@
+import sys
+
+from idefix_rules.cli import main
+
+sys.exit(main())

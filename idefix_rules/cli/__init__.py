@@ -1,0 +1,84 @@
+"""``idefix-verify``: the command line.
+
+Each subcommand lives in its own module of this package with ``NAME``, ``HELP``,
+``add_arguments(parser)`` and ``run(args) -> int``. The dispatcher catches only
+:class:`~idefix_rules.errors.IdefixError` (rendered, exit code from the error); anything else is
+an internal error (exit 3). ``idefix-verify campaign.yaml`` is short for
+``idefix-verify run campaign.yaml``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import traceback
+from collections.abc import Sequence
+from types import ModuleType
+
+from idefix_rules import __version__
+from idefix_rules.errors import IdefixError
+
+# Module names under idefix_rules.cli, in the order --help lists them.
+COMMAND_MODULES: tuple[str, ...] = (
+    "check",
+    "fmt",
+    "explain",
+)
+
+DEFAULT_COMMAND = "run"
+
+
+def _load_commands() -> dict[str, ModuleType]:
+    modules = {}
+    for module_name in COMMAND_MODULES:
+        module = importlib.import_module(f"idefix_rules.cli.{module_name}")
+        modules[module.NAME] = module
+    return modules
+
+
+def build_parser(commands: dict[str, ModuleType]) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="idefix-verify",
+        description="Verify IDEFIX driving command chains against a rulebook. "
+                    "`idefix-verify CAMPAIGN.yaml` runs a campaign (same as `run`).",
+    )
+    parser.add_argument("--version", action="version", version=f"idefix-rules {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module in commands.items():
+        command_parser = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(command_parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    commands = _load_commands()
+    if args_list and not args_list[0].startswith("-") and args_list[0] not in commands \
+            and DEFAULT_COMMAND in commands:
+        args_list.insert(0, DEFAULT_COMMAND)
+    parser = build_parser(commands)
+    try:
+        args = parser.parse_args(args_list)
+    except SystemExit as exit_request:  # argparse: usage errors are exit 2 already
+        return int(exit_request.code or 0)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(commands[args.command].run(args))
+    except IdefixError as failure:
+        print(failure.render(), file=sys.stderr)
+        return failure.exit_code
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except Exception:  # noqa: BLE001 - last line of defence: report, exit 3
+        traceback.print_exc()
+        print("idefix-verify: internal error (exit 3); please report the traceback above",
+              file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

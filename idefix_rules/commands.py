@@ -1,0 +1,130 @@
+"""Driving commands and their ideal kinematics.
+
+A command is (max wheel rate, delta position, delta heading): the rover drives a circular arc of
+length ``delta_position`` while its yaw changes by ``delta_heading``, the fastest wheel turning at
+``max_wheel_rate``. Straight lines (``delta_heading == 0``) and point turns
+(``delta_position == 0``) are special cases. The same kinematics drive the rover FMU's
+controller (``fmu/idefix_rover/sources/controller.c``), the command rules of a rulebook and the
+theoretical path, so they live here once.
+
+Skid steering on unsteered wheels: each side's wheels move along the arc at lateral offset
+``± half_track`` from the body centre, so for turn radius ``R`` the left and right wheel
+ground speeds are ``v (R ∓ b) / R``. A point turn spins the sides at ``± yaw_rate · b``.
+
+>>> rover = RoverGeometry()
+>>> k = command_kinematics(Command(0.05, 1.0, 0.0), rover)
+>>> round(k.speed, 4), round(k.duration, 1)
+(0.005, 200.0)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+WHEELS = ("FL", "FR", "RL", "RR")
+
+
+@dataclass(frozen=True)
+class Command:
+    """One driving command, SI units: rad/s, m, rad."""
+
+    max_wheel_rate: float
+    delta_position: float
+    delta_heading: float
+
+
+@dataclass(frozen=True)
+class RoverGeometry:
+    """Geometry the kinematics need; defaults match the rover FMU's parameter defaults.
+
+    The published IDEFIX figures give the 0.275 m legs and a body of about 0.41 × 0.37 m; wheel
+    radius and the wheel positions in the driving pose are assumptions (docs/rover-model.md).
+    """
+
+    wheel_radius: float = 0.10
+    half_track: float = 0.26
+    half_wheelbase: float = 0.20
+
+
+@dataclass(frozen=True)
+class CommandKinematics:
+    """Ideal execution of one command (no slip)."""
+
+    turn_radius: float  # m, signed (positive = left turn); inf for straight, 0 for point turns
+    duration: float  # s
+    speed: float  # m/s, body centre, signed (negative = reverse)
+    yaw_rate: float  # rad/s
+    wheel_rates: tuple[float, float, float, float]  # rad/s, FL FR RL RR
+
+
+def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinematics:
+    """Duration, speeds and wheel rates of a command executed without slip."""
+    rate = abs(command.max_wheel_rate)
+    dp, dh = command.delta_position, command.delta_heading
+    b, r = rover.half_track, rover.wheel_radius
+    if rate == 0.0 or (dp == 0.0 and dh == 0.0):
+        return CommandKinematics(math.inf, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
+    # Path length of each side: centre arc length ± b·|Δψ| (left side is inside for a left turn).
+    left_path = dp - b * dh
+    right_path = dp + b * dh
+    fastest = max(abs(left_path), abs(right_path))
+    duration = fastest / (rate * r)
+    left_rate = left_path / duration / r
+    right_rate = right_path / duration / r
+    turn_radius = math.inf if dh == 0.0 else dp / dh
+    return CommandKinematics(
+        turn_radius=turn_radius,
+        duration=duration,
+        speed=dp / duration,
+        yaw_rate=dh / duration,
+        wheel_rates=(left_rate, right_rate, left_rate, right_rate),
+    )
+
+
+def chain_duration(chain: list[Command] | tuple[Command, ...], rover: RoverGeometry) -> float:
+    """Ideal total duration of a command chain, in seconds."""
+    return sum(command_kinematics(c, rover).duration for c in chain)
+
+
+def ideal_poses(chain: list[Command] | tuple[Command, ...], rover: RoverGeometry,
+                times: np.ndarray, scale: float = 1.0,
+                start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    """Planar poses (x, y, yaw) along the ideal path at ``times``, shape (len(times), 3).
+
+    ``scale`` shrinks every command's travel (a fixed slip ``s`` gives ``scale = 1 - s``).
+    Commands follow each other at their ideal durations.
+    """
+    x, y, yaw = start
+    out = np.empty((len(times), 3))
+    out[:, 0], out[:, 1], out[:, 2] = x, y, yaw
+    t0 = 0.0
+    for command in chain:
+        k = command_kinematics(command, rover)
+        if k.duration <= 0.0:
+            continue
+        t1 = t0 + k.duration
+        frac = np.clip((times - t0) / k.duration, 0.0, 1.0)
+        active = times >= t0
+        dp = command.delta_position * scale * frac
+        dh = command.delta_heading * scale * frac
+        px, py, pyaw = _advance(x, y, yaw, dp, dh)
+        out[active, 0], out[active, 1], out[active, 2] = px[active], py[active], pyaw[active]
+        end = _advance(x, y, yaw, np.array([command.delta_position * scale]),
+                       np.array([command.delta_heading * scale]))
+        x, y, yaw = (float(v[0]) for v in end)
+        t0 = t1
+    return out
+
+
+def _advance(x: float, y: float, yaw: float, dp: np.ndarray,
+             dh: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pose after an arc of length ``dp`` turning by ``dh`` from (x, y, yaw)."""
+    small = np.abs(dh) < 1e-12
+    safe_dh = np.where(small, 1.0, dh)
+    # Chord of the arc: length 2R sin(dh/2) in direction yaw + dh/2; straight limit dp.
+    chord = np.where(small, dp, 2.0 * (dp / safe_dh) * np.sin(dh / 2.0))
+    heading = yaw + dh / 2.0
+    return x + chord * np.cos(heading), y + chord * np.sin(heading), yaw + dh

@@ -1,0 +1,158 @@
+"""Diagnostics and the project's exception root.
+
+Every user mistake (bad rulebook, bad campaign, missing FMU variable, bad terrain file) is raised
+as a :class:`UserInputError` carrying :class:`Diagnostic` records. The CLI catches
+:class:`IdefixError` only, prints the diagnostics and exits with the error's ``exit_code``.
+
+>>> span = Span("r.rules", 3, 5)
+>>> d = Diagnostic("E101", Severity.ERROR, "unknown name 'slp'", span)
+>>> d.location()
+'r.rules:3:5'
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+
+class Severity(enum.Enum):
+    ERROR = "error"
+    WARNING = "warning"
+
+
+@dataclass(frozen=True)
+class Span:
+    """Where something is in a source file; lines and columns count from 1."""
+
+    path: str
+    line: int = 0
+    column: int = 0
+    end_line: int = 0
+    end_column: int = 0
+
+    def __str__(self) -> str:
+        if self.line <= 0:
+            return self.path
+        return f"{self.path}:{self.line}:{self.column}"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One finding about user input, as data (rendering happens in the CLI)."""
+
+    code: str
+    severity: Severity
+    message: str
+    span: Span | None = None
+    hint: str | None = None
+
+    def location(self) -> str:
+        return str(self.span) if self.span is not None else "<input>"
+
+    def to_dict(self) -> dict[str, Any]:
+        span = self.span
+        return {
+            "code": self.code,
+            "severity": self.severity.value,
+            "message": self.message,
+            "path": span.path if span else None,
+            "line": span.line if span else None,
+            "column": span.column if span else None,
+            "hint": self.hint,
+        }
+
+    def format(self, source: str | None = None) -> str:
+        """``path:line:col: severity[code]: message`` then the source line and a caret."""
+        head = f"{self.location()}: {self.severity.value}[{self.code}]: {self.message}"
+        lines = [head]
+        span = self.span
+        if span is not None and span.line > 0:
+            text = source if source is not None else _read_quietly(span.path)
+            if text is not None:
+                source_lines = text.splitlines()
+                if span.line <= len(source_lines):
+                    src = source_lines[span.line - 1].expandtabs(1)
+                    col = max(span.column, 1)
+                    width = 1
+                    if span.end_line == span.line and span.end_column > col:
+                        width = span.end_column - col
+                    lines.append(f"    {src}")
+                    lines.append("    " + " " * (col - 1) + "^" * width)
+        if self.hint:
+            lines.append(f"    hint: {self.hint}")
+        return "\n".join(lines)
+
+
+def _read_quietly(path: str) -> str | None:
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+class IdefixError(Exception):
+    """Root of every error this project raises on purpose."""
+
+    exit_code = 3
+
+    def render(self) -> str:
+        return str(self)
+
+
+class UserInputError(IdefixError):
+    """Invalid input or usage: exit code 2, one or more diagnostics."""
+
+    exit_code = 2
+
+    def __init__(self, diagnostics: Sequence[Diagnostic] | Diagnostic | str,
+                 sources: dict[str, str] | None = None) -> None:
+        if isinstance(diagnostics, str):
+            diagnostics = [Diagnostic("E000", Severity.ERROR, diagnostics)]
+        elif isinstance(diagnostics, Diagnostic):
+            diagnostics = [diagnostics]
+        self.diagnostics: list[Diagnostic] = list(diagnostics)
+        self.sources = dict(sources or {})
+        first = self.diagnostics[0] if self.diagnostics else None
+        summary = f"{first.location()}: {first.message}" if first else "invalid input"
+        more = len(self.diagnostics) - 1
+        if more > 0:
+            summary += f" (and {more} more)"
+        super().__init__(summary)
+
+    def render(self) -> str:
+        return render_diagnostics(self.diagnostics, self.sources)
+
+
+class VerificationFailure(IdefixError):
+    """A path or expectation failed: exit code 1."""
+
+    exit_code = 1
+
+
+class InfrastructureError(IdefixError):
+    """Simulation or internal infrastructure broke: exit code 3."""
+
+    exit_code = 3
+
+
+def render_diagnostics(diagnostics: Iterable[Diagnostic],
+                       sources: dict[str, str] | None = None) -> str:
+    sources = sources or {}
+    parts = []
+    for diagnostic in diagnostics:
+        source = sources.get(diagnostic.span.path) if diagnostic.span else None
+        parts.append(diagnostic.format(source))
+    return "\n".join(parts)
+
+
+def error(code: str, message: str, span: Span | None = None, hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code, Severity.ERROR, message, span, hint)
+
+
+def warning(code: str, message: str, span: Span | None = None,
+            hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code, Severity.WARNING, message, span, hint)

@@ -1,0 +1,254 @@
+"""Units and dimensions, shared by the rulebook language and campaign files.
+
+Everything inside the project is SI (angles in radians, charge in A·s). A unit is a scale to SI
+plus a :class:`Dimension`. Angles are a base dimension of their own, so ``5 cm + 2 deg`` is an
+error while ``deg`` and ``rad`` convert exactly; ``%`` is the dimensionless ratio times 0.01.
+
+>>> parse_quantity("70 %")
+Quantity(value=0.7, dimension=Dimension())
+>>> parse_unit("mAs").scale
+0.001
+>>> parse_unit("mm/s").dimension == parse_unit("m/s").dimension
+True
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from fractions import Fraction
+
+_BASES = ("length", "mass", "time", "current", "angle")
+_SYMBOLS = ("m", "kg", "s", "A", "rad")
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """Exponents of the base dimensions (length, mass, time, current, angle)."""
+
+    length: int = 0
+    mass: int = 0
+    time: int = 0
+    current: int = 0
+    angle: int = 0
+
+    def _exponents(self) -> tuple[int, ...]:
+        return (self.length, self.mass, self.time, self.current, self.angle)
+
+    def __mul__(self, other: Dimension) -> Dimension:
+        return Dimension(*(a + b for a, b in zip(self._exponents(), other._exponents(), strict=True)))
+
+    def __truediv__(self, other: Dimension) -> Dimension:
+        return Dimension(*(a - b for a, b in zip(self._exponents(), other._exponents(), strict=True)))
+
+    def __pow__(self, power: int) -> Dimension:
+        return Dimension(*(a * power for a in self._exponents()))
+
+    @property
+    def is_dimensionless(self) -> bool:
+        return not any(self._exponents())
+
+    def __repr__(self) -> str:
+        inner = ", ".join(f"{n}={e}" for n, e in zip(_BASES, self._exponents(), strict=True) if e)
+        return f"Dimension({inner})"
+
+    def __str__(self) -> str:
+        """SI spelling, e.g. ``m/s``; ``1`` when dimensionless."""
+        num = [_power(sym, e) for sym, e in zip(_SYMBOLS, self._exponents(), strict=True) if e > 0]
+        den = [_power(sym, -e) for sym, e in zip(_SYMBOLS, self._exponents(), strict=True) if e < 0]
+        text = "·".join(num) or "1"
+        if den:
+            text += "/" + ("·".join(den) if len(den) == 1 else "(" + "·".join(den) + ")")
+        return text
+
+
+def _power(symbol: str, exponent: int) -> str:
+    return symbol if exponent == 1 else f"{symbol}^{exponent}"
+
+
+DIMENSIONLESS = Dimension()
+LENGTH = Dimension(length=1)
+MASS = Dimension(mass=1)
+TIME = Dimension(time=1)
+CURRENT = Dimension(current=1)
+ANGLE = Dimension(angle=1)
+CHARGE = CURRENT * TIME
+VELOCITY = LENGTH / TIME
+ACCELERATION = VELOCITY / TIME
+ANGULAR_RATE = ANGLE / TIME
+FORCE = MASS * LENGTH / TIME**2
+PRESSURE = FORCE / LENGTH**2
+
+# Named dimensions, for messages like "expected an angle".
+DIMENSION_NAMES: dict[Dimension, str] = {
+    DIMENSIONLESS: "a ratio",
+    LENGTH: "a length",
+    MASS: "a mass",
+    TIME: "a duration",
+    CURRENT: "a current",
+    ANGLE: "an angle",
+    CHARGE: "a charge",
+    VELOCITY: "a speed",
+    ACCELERATION: "an acceleration",
+    ANGULAR_RATE: "an angular rate",
+    FORCE: "a force",
+    PRESSURE: "a pressure",
+}
+
+
+def describe(dimension: Dimension) -> str:
+    """Human name of a dimension: ``an angle``, or its SI unit when it has no name."""
+    return DIMENSION_NAMES.get(dimension, f"a quantity in {dimension}")
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A unit: multiply a number in this unit by ``scale`` to get SI.
+
+    The scale is kept as an exact fraction so decimal prefixes and ``%`` convert exactly
+    (``70 %`` is the double nearest 0.7, ``648.32 mAs`` the double nearest 0.64832 A·s).
+    """
+
+    symbol: str
+    exact_scale: Fraction
+    dimension: Dimension
+
+    @property
+    def scale(self) -> float:
+        return float(self.exact_scale)
+
+    def to_si(self, number: float) -> float:
+        return float(Fraction(number) * self.exact_scale)
+
+    def from_si(self, value: float) -> float:
+        return float(Fraction(value) / self.exact_scale)
+
+
+_DEG = Fraction(math.pi) / 180
+_ATOMS: dict[str, tuple[Fraction, Dimension]] = {
+    "1": (Fraction(1), DIMENSIONLESS),
+    "%": (Fraction(1, 100), DIMENSIONLESS),
+    "ratio": (Fraction(1), DIMENSIONLESS),
+    "m": (Fraction(1), LENGTH),
+    "cm": (Fraction(1, 100), LENGTH),
+    "mm": (Fraction(1, 1000), LENGTH),
+    "km": (Fraction(1000), LENGTH),
+    "um": (Fraction(1, 10**6), LENGTH),
+    "kg": (Fraction(1), MASS),
+    "g": (Fraction(1, 1000), MASS),
+    "s": (Fraction(1), TIME),
+    "ms": (Fraction(1, 1000), TIME),
+    "min": (Fraction(60), TIME),
+    "h": (Fraction(3600), TIME),
+    "A": (Fraction(1), CURRENT),
+    "mA": (Fraction(1, 1000), CURRENT),
+    "As": (Fraction(1), CHARGE),
+    "mAs": (Fraction(1, 1000), CHARGE),
+    "mAh": (Fraction(18, 5), CHARGE),
+    "C": (Fraction(1), CHARGE),
+    "rad": (Fraction(1), ANGLE),
+    "mrad": (Fraction(1, 1000), ANGLE),
+    "deg": (_DEG, ANGLE),
+    "°": (_DEG, ANGLE),
+    "rpm": (Fraction(math.pi) / 30, ANGULAR_RATE),
+    "N": (Fraction(1), FORCE),
+    "mN": (Fraction(1, 1000), FORCE),
+    "Pa": (Fraction(1), PRESSURE),
+    "kPa": (Fraction(1000), PRESSURE),
+}
+
+_TOKEN = re.compile(r"\s*([A-Za-z%°]+|1)(?:\^?(-?\d+))?\s*")
+
+
+class UnitError(ValueError):
+    """A unit or quantity could not be understood."""
+
+
+def parse_unit(text: str) -> Unit:
+    """Parse a unit expression: atoms joined by ``*``, ``·`` or ``/`` with ``^n`` powers.
+
+    >>> parse_unit("m/s^2").dimension == ACCELERATION
+    True
+    >>> parse_unit("A·s").scale
+    1.0
+    """
+    source = text.strip()
+    if not source:
+        raise UnitError("empty unit")
+    scale = Fraction(1)
+    dimension = DIMENSIONLESS
+    sign = 1
+    position = 0
+    expect_atom = True
+    while position < len(source):
+        if expect_atom:
+            match = _TOKEN.match(source, position)
+            if match is None or match.group(1) not in _ATOMS:
+                atom = match.group(1) if match else source[position:]
+                raise UnitError(f"unknown unit {atom!r} in {text!r}")
+            atom_scale, atom_dim = _ATOMS[match.group(1)]
+            power = int(match.group(2)) if match.group(2) else 1
+            scale *= atom_scale ** (sign * power)
+            dimension = dimension * atom_dim ** (sign * power)
+            position = match.end()
+            expect_atom = False
+        else:
+            op = source[position]
+            if op in "*·":
+                sign = 1
+            elif op == "/":
+                sign = -1
+            elif op.isspace():
+                position += 1
+                continue
+            else:
+                raise UnitError(f"unexpected {op!r} in unit {text!r}")
+            position += 1
+            expect_atom = True
+    if expect_atom:
+        raise UnitError(f"unit {text!r} ends with an operator")
+    return Unit(source, scale, dimension)
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A number in SI with its dimension."""
+
+    value: float
+    dimension: Dimension
+
+
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def parse_quantity(text: str | float | int, default_unit: str | None = None) -> Quantity:
+    """Parse ``"5 cm"`` → 0.05 m. A bare number takes ``default_unit`` (or is dimensionless).
+
+    >>> parse_quantity("90 deg").value == math.pi / 2
+    True
+    """
+    if isinstance(text, bool):
+        raise UnitError(f"expected a quantity, got {text!r}")
+    if isinstance(text, int | float):
+        number, unit_text = float(text), ""
+    else:
+        match = _QUANTITY.match(text)
+        if match is None:
+            raise UnitError(f"expected a number with a unit, got {text!r}")
+        number, unit_text = float(match.group(1)), match.group(2)
+    if not unit_text:
+        if default_unit is None:
+            return Quantity(number, DIMENSIONLESS)
+        unit_text = default_unit
+    unit = parse_unit(unit_text)
+    return Quantity(unit.to_si(number), unit.dimension)
+
+
+def convert(value: float, from_unit: str, to_unit: str) -> float:
+    """Convert between two units of the same dimension."""
+    source, target = parse_unit(from_unit), parse_unit(to_unit)
+    if source.dimension != target.dimension:
+        raise UnitError(f"cannot convert {from_unit} ({describe(source.dimension)}) "
+                        f"to {to_unit} ({describe(target.dimension)})")
+    return float(Fraction(value) * source.exact_scale / target.exact_scale)
