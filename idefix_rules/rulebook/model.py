@@ -1,0 +1,297 @@
+"""The typed rule model: what a rulebook says, as frozen dataclasses.
+
+The parser lowers the lark tree into these nodes at once (the tree never leaves the parsing
+modules); the checker, the formatter, the compiler and the interpreter all work on this model.
+Every node carries a :class:`~idefix_rules.errors.Span`; spans and comments do not take part in
+equality, so ``parse(format(model)) == model`` is the formatter's round-trip property.
+
+Numbers keep the value and unit *as written* (``Number(5.0, "cm")``) so the formatter can print
+them back; the checker converts them to SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal, TypeAlias
+
+from idefix_rules.errors import Span
+
+NO_SPAN = Span("<generated>")
+
+
+def _span() -> Span:
+    return field(default=NO_SPAN, compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+
+
+def _comments() -> tuple[str, ...]:
+    return field(default=(), compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+
+
+# ----------------------------------------------------------------------------- expressions
+
+@dataclass(frozen=True)
+class Number:
+    """A literal quantity: ``70 %``, ``5 cm``, ``0.6``. ``unit`` is ``None`` for bare numbers."""
+
+    value: float
+    unit: str | None = None
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Name:
+    """A constant, a signal (``wheel.slip``, ``ref.x``, ``collision.hits``), a command quantity
+    (``delta_heading``), an index (``I_obs``) or a path statistic (``risk``), by context."""
+
+    name: str
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Select:
+    """Pick labels on named axes: ``wheel.slip[FL]``, ``collision.hits[wheel, L2]``."""
+
+    operand: Expr
+    labels: tuple[str, ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Table:
+    """A constant indexed by an axis: ``{L1: 0.2, L2: 0.6, L3: 1.0}``."""
+
+    entries: tuple[tuple[str, Expr], ...]
+    span: Span = _span()
+
+
+UnaryOp = Literal["-", "not"]
+BinaryOp = Literal["+", "-", "*", "/", "^", "<", "<=", ">", ">=", "==", "!=", "and", "or"]
+
+
+@dataclass(frozen=True)
+class Unary:
+    op: UnaryOp
+    operand: Expr
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Binary:
+    op: BinaryOp
+    left: Expr
+    right: Expr
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Call:
+    """Element-wise functions: ``abs(x)``, ``min(a, b)``, ``max(a, b)``, ``sqrt(x)``,
+    ``clamp(x, lo, hi)``; in verdicts also path statistics ``chance(hit_L2)``, ``mean(I_pos)``."""
+
+    function: str
+    args: tuple[Expr, ...]
+    span: Span = _span()
+
+
+WindowKind = Literal["command", "after", "before"]
+
+
+@dataclass(frozen=True)
+class Window:
+    """Part of the drive a time reduction looks at.
+
+    ``during command 2`` (1-based, as operators count commands), ``after 10 s``
+    (settling time), ``before 60 s``. No window = the whole drive.
+    """
+
+    kind: WindowKind
+    value: Expr
+    span: Span = _span()
+
+
+Reducer = Literal[
+    "final", "initial", "max", "min", "mean", "rms", "sum", "integral",
+    "percentile", "time_above", "any", "all", "count",
+]
+Domain = Literal["time", "wheels", "parts", "levels"]
+
+# Reducers that take a parameter: ``percentile 95 over time (x)``, ``time_above 30 deg over
+# time (abs(pitch))``.
+PARAMETRIC_REDUCERS: frozenset[str] = frozenset({"percentile", "time_above"})
+# Domain word → axis name of the signal contract.
+DOMAIN_AXES: dict[str, str] = {"time": "time", "wheels": "wheel", "parts": "part",
+                               "levels": "level"}
+
+
+@dataclass(frozen=True)
+class Reduce:
+    """``max over time after 5 s (abs(roll - ref.roll))``, ``any over wheels (x > 1)``."""
+
+    reducer: Reducer
+    domain: Domain
+    operand: Expr
+    parameter: Expr | None = None
+    window: Window | None = None
+    span: Span = _span()
+
+
+Expr: TypeAlias = Number | Name | Select | Table | Unary | Binary | Call | Reduce
+
+
+# ----------------------------------------------------------------------------- declarations
+
+@dataclass(frozen=True)
+class Header:
+    """``rulebook "idefix-ops" version "1.0.0"`` and ``purpose "…"``."""
+
+    name: str
+    version: str
+    purpose: str
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class Constant:
+    """``const critical_slip = 70 % because "…"``."""
+
+    name: str
+    value: Expr
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class Setting:
+    """Evaluator settings in ``settings { … }``: ``theoretical_slip``, ``tolerance_growth``."""
+
+    name: str
+    value: Expr
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class ObstacleLevel:
+    """``level L2 below 10 cm buffer 5 cm``: size threshold (None for the top level) and the
+    buffer-zone margin around obstacles of that level."""
+
+    level: str
+    below: Expr | None
+    buffer: Expr
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class CommandRule:
+    """``command max_turn: require abs(delta_heading) <= 90 deg because "…"``."""
+
+    name: str
+    condition: Expr
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class Index:
+    """A risk index: normalised ``clamp(value / limit, 0, 1)``, weighted in I_max."""
+
+    name: str
+    value: Expr
+    limit: Expr
+    weight: Expr
+    title: str | None = None
+    map: Expr | None = None  # per-sample value override for the result map
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class Chance:
+    """``chance hit_L2 = any over parts (collision.hits[L2] > 0)``: per run a boolean; the path
+    statistic is the fraction of runs where it holds."""
+
+    name: str
+    condition: Expr
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+RunCombination = Literal["max_weighted"]
+PathCombination = Literal["mean"]
+
+
+@dataclass(frozen=True)
+class Combine:
+    """How indices combine: I_max per run (eq. 1), path risk over runs (eq. 2)."""
+
+    run: RunCombination = "max_weighted"
+    path: PathCombination = "mean"
+    confidence: Expr | None = None  # e.g. 95 %; None = 95 %
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class Prescreen:
+    """``prescreen no_collision: require I_obs < 1 because "…"`` on the reference run."""
+
+    name: str
+    condition: Expr
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class VerdictRule:
+    """``verdict acceptable_risk: require risk <= 70 % because "…"`` on path statistics."""
+
+    name: str
+    condition: Expr
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class RankKey:
+    expr: Expr
+    descending: bool = False
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """``rank by risk, time, energy``."""
+
+    keys: tuple[RankKey, ...]
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
+DEFAULT_RANKING = Ranking((RankKey(Name("risk")), RankKey(Name("time")),
+                           RankKey(Name("energy"))))
+
+
+@dataclass(frozen=True)
+class Rulebook:
+    header: Header
+    constants: tuple[Constant, ...] = ()
+    settings: tuple[Setting, ...] = ()
+    obstacle_levels: tuple[ObstacleLevel, ...] = ()
+    command_rules: tuple[CommandRule, ...] = ()
+    indices: tuple[Index, ...] = ()
+    chances: tuple[Chance, ...] = ()
+    combine: Combine = Combine()
+    prescreens: tuple[Prescreen, ...] = ()
+    verdicts: tuple[VerdictRule, ...] = ()
+    ranking: Ranking = DEFAULT_RANKING
+    trailing_comments: tuple[str, ...] = _comments()
+    path: str = field(default="<rulebook>", compare=False)
+    source: str = field(default="", compare=False, repr=False)
