@@ -1,0 +1,232 @@
+"""Loading a campaign file: YAML with positions → pydantic → :class:`Campaign` (paths resolved).
+
+Every mistake of a file is reported in one :class:`UserInputError`, each diagnostic at
+``campaign.yaml:line:col`` with the dotted location, e.g.
+``paths.detour[1].delta_heading: expected an angle, got "90"``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from idefix_rules.campaign.schema import (
+    CampaignFile,
+    CollisionExpectation,
+    MeanRiskExpectation,
+    PathVerdictExpectation,
+    RankFirstExpectation,
+)
+from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
+from idefix_rules.commands import Command
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+
+BUILTIN_FMU = "builtin"
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """One named command chain of the campaign."""
+
+    name: str
+    index: int
+    chain: tuple[Command, ...]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A validated campaign with every file path resolved against the campaign file."""
+
+    source: Path
+    text: str
+    sha256: str
+    model: CampaignFile
+    paths: tuple[PathSpec, ...]
+    rulebook: Path
+    output: Path
+    fmu: Path | None  # None: the built-in rover FMU
+    dem: Path | None
+    runs: int
+    seed: int
+    workers: int | None  # None: all cores
+    locations: SourceMap
+
+    @property
+    def name(self) -> str:
+        return self.model.name or self.source.stem
+
+    def span(self, loc: Sequence[str | int]) -> Span:
+        return self.locations.span(loc)
+
+    def with_overrides(self, runs: int | None = None, seed: int | None = None,
+                       output: Path | None = None, workers: int | None = None) -> Campaign:
+        """The same campaign with command-line overrides applied."""
+        return replace(
+            self,
+            runs=self.runs if runs is None else runs,
+            seed=self.seed if seed is None else seed,
+            output=self.output if output is None else output,
+            workers=self.workers if workers is None else workers,
+        )
+
+
+def format_loc(loc: Sequence[str | int]) -> str:
+    """``("paths", "detour", 1, "delta_heading")`` → ``paths.detour[1].delta_heading``."""
+    text = ""
+    for part in loc:
+        if isinstance(part, int):
+            text += f"[{part}]"
+        else:
+            text += ("." if text else "") + str(part)
+    return text
+
+
+def _data_loc(data: Any, loc: Sequence[str | int]) -> tuple[tuple[str | int, ...], bool]:
+    """Keep only the parts of a pydantic ``loc`` that exist in the data (drops union tags).
+
+    Returns the cleaned location and whether its last part exists in the data.
+    """
+    cleaned: list[str | int] = []
+    node = data
+    found = True
+    for part in loc:
+        if isinstance(node, dict) and part in node:
+            cleaned.append(part)
+            node = node[part]
+            found = True
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            cleaned.append(part)
+            node = node[part]
+            found = True
+        elif isinstance(node, dict | list):
+            # A union tag (e.g. "normal") or a missing key: keep missing keys for the message.
+            found = False
+            if isinstance(part, str) and part.isidentifier() and part not in _UNION_TAGS:
+                cleaned.append(part)
+                break
+        else:
+            found = False
+            break
+    return tuple(cleaned), found
+
+
+_UNION_TAGS = frozenset({"fixed", "normal", "truncated_normal", "uniform", "log_normal",
+                         "verdict", "rank_first", "max_mean_risk", "max_collision_chance"})
+
+
+def _diagnostics_from_validation(failure: ValidationError, data: Any,
+                                 locations: SourceMap) -> list[Diagnostic]:
+    diagnostics = []
+    seen = set()
+    for item in failure.errors(include_url=False):
+        loc, found = _data_loc(data, item["loc"])
+        kind = item["type"]
+        if kind == "extra_forbidden":
+            message = f"unknown key {loc[-1]!r}" if loc else "unknown key"
+            span = locations.span(loc, at_key=True)
+        elif kind == "missing":
+            message = "missing required key"
+            span = locations.span(loc[:-1] if not found else loc)
+        elif kind == "union_tag_invalid":
+            context = item.get("ctx", {})
+            message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
+                       f"{context.get('tag')!r} (expected one of: "
+                       f"{context.get('expected_tags', '')})")
+            span = locations.span((*loc, "distribution"))
+        else:
+            message = item["msg"]
+            span = locations.span(loc)
+        where = format_loc(loc)
+        text = f"{where}: {message}" if where else message
+        if (text, str(span)) in seen:
+            continue
+        seen.add((text, str(span)))
+        diagnostics.append(error("C100", text, span))
+    diagnostics.sort(key=lambda d: (d.span.line, d.span.column) if d.span else (0, 0))
+    return diagnostics
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
+    source = Path(path)
+    shown = str(path)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserInputError(error("C010", f"campaign file {shown} not found")) from None
+    except (OSError, UnicodeDecodeError) as failure:
+        raise UserInputError(error("C010", f"cannot read campaign file {shown}: {failure}")) \
+            from None
+    document = load_yaml(text, shown)
+    if not isinstance(document.data, dict):
+        raise UserInputError(error("C101", "a campaign file is a mapping (key: value lines)",
+                                   Span(shown, 1, 1)), sources={shown: text})
+    try:
+        model = CampaignFile.model_validate(document.data)
+    except ValidationError as failure:
+        raise UserInputError(_diagnostics_from_validation(failure, document.data,
+                                                          document.locations),
+                             sources={shown: text}) from None
+    base = source.resolve().parent
+    diagnostics = _cross_checks(model, document.locations, base)
+    if diagnostics:
+        raise UserInputError(diagnostics, sources={shown: text})
+    paths = tuple(
+        PathSpec(name, index, tuple(Command(c.max_wheel_rate, c.delta_position, c.delta_heading)
+                                    for c in chain))
+        for index, (name, chain) in enumerate(model.paths.items()))
+    return Campaign(
+        source=source.resolve(),
+        text=text,
+        sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(),
+        model=model,
+        paths=paths,
+        rulebook=(base / model.rulebook).resolve(),
+        output=(base / model.output).resolve(),
+        fmu=None if model.fmu.path == BUILTIN_FMU else (base / model.fmu.path).resolve(),
+        dem=(base / model.environment.terrain.dem).resolve()
+        if model.environment.terrain.dem else None,
+        runs=model.runs,
+        seed=model.uncertainty.seed,
+        workers=None if model.workers == "auto" else model.workers,
+        locations=document.locations,
+    )
+
+
+def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list[Diagnostic]:
+    """Checks that need more than one field: files exist, expectations name known paths."""
+    found: list[Diagnostic] = []
+
+    def need_file(relative: str, loc: tuple[str | int, ...], what: str) -> None:
+        if not (base / relative).is_file():
+            found.append(error("C200", f"{format_loc(loc)}: {what} {relative!r} not found "
+                                       f"(relative paths start at the campaign file's folder)",
+                               locations.span(loc)))
+
+    need_file(model.rulebook, ("rulebook",), "rulebook")
+    if model.fmu.path != BUILTIN_FMU:
+        need_file(model.fmu.path, ("fmu", "path"), "FMU")
+    if model.environment.terrain.dem:
+        need_file(model.environment.terrain.dem, ("environment", "terrain", "dem"), "DEM file")
+    if model.workers != "auto" and model.workers < 1:
+        found.append(error("C201", "workers: expected 'auto' or a positive number",
+                           locations.span(("workers",))))
+    for index, expectation in enumerate(model.expect):
+        if isinstance(expectation, RankFirstExpectation):
+            name, key = expectation.rank_first, "rank_first"
+        elif isinstance(expectation, PathVerdictExpectation | MeanRiskExpectation
+                        | CollisionExpectation):
+            name, key = expectation.path, "path"
+        else:  # pragma: no cover - the schema admits no other kind
+            continue
+        if name not in model.paths:
+            known = ", ".join(model.paths)
+            found.append(error("C202", f"expect[{index}].{key}: unknown path {name!r} "
+                                       f"(paths: {known})",
+                               locations.span(("expect", index, key))))
+    return found

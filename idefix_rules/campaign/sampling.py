@@ -1,0 +1,139 @@
+"""Sampling uncertain parameters: distributions, designs and deterministic seeds.
+
+Run ``j`` of path ``p`` draws from ``SeedSequence(seed, spawn_key=(p, j))`` (plain Monte Carlo),
+or takes row ``j`` of a design generated for the whole path from
+``SeedSequence(seed, spawn_key=(p,))`` (Latin hypercube, Sobol). Nothing depends on the worker
+that simulates the run, so results are identical for any worker count and order.
+
+>>> from idefix_rules.campaign.schema import Normal
+>>> values = sample_path({"x0": Normal(distribution="normal", mean=0.0, std=0.01)},
+...                      "monte_carlo", seed=1, path_index=0, runs=3)
+>>> values["x0"].shape
+(3,)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from scipy import stats
+from scipy.stats import qmc
+
+from idefix_rules.campaign.schema import (
+    Fixed,
+    LogNormal,
+    Normal,
+    SamplingMethod,
+    TruncatedNormal,
+    Uniform,
+)
+
+AnyDistribution = Fixed | Normal | TruncatedNormal | Uniform | LogNormal
+
+# Keeps inverse CDFs finite at the ends of the unit interval.
+_EDGE = 1e-12
+
+
+def nominal(spec: AnyDistribution) -> float:
+    """The value the reference run uses: mean, midpoint, median or the fixed value."""
+    if isinstance(spec, Fixed):
+        return spec.value
+    if isinstance(spec, Normal | TruncatedNormal):
+        if isinstance(spec, TruncatedNormal):
+            return float(min(max(spec.mean, spec.low), spec.high))
+        return spec.mean
+    if isinstance(spec, Uniform):
+        return 0.5 * (spec.low + spec.high)
+    return spec.median
+
+
+def standard_deviation(spec: AnyDistribution) -> float:
+    """Standard deviation of a distribution, SI."""
+    if isinstance(spec, Fixed):
+        return 0.0
+    if isinstance(spec, Normal):
+        return spec.std
+    if isinstance(spec, TruncatedNormal):
+        low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
+        return float(stats.truncnorm.std(low, high, loc=spec.mean, scale=spec.std))
+    if isinstance(spec, Uniform):
+        return (spec.high - spec.low) / math.sqrt(12.0)
+    return float(stats.lognorm.std(spec.sigma, scale=spec.median))
+
+
+def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
+    """Map uniform numbers in (0, 1) to the distribution."""
+    u = np.clip(u, _EDGE, 1.0 - _EDGE)
+    if isinstance(spec, Fixed):
+        return np.full(u.shape, spec.value)
+    if isinstance(spec, Normal):
+        return np.asarray(stats.norm.ppf(u, loc=spec.mean, scale=spec.std), dtype=float)
+    if isinstance(spec, TruncatedNormal):
+        low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
+        values = stats.truncnorm.ppf(u, low, high, loc=spec.mean, scale=spec.std)
+        return np.clip(np.asarray(values, dtype=float), spec.low, spec.high)
+    if isinstance(spec, Uniform):
+        return spec.low + u * (spec.high - spec.low)
+    return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
+
+
+def run_seed(seed: int, path_index: int, run_index: int) -> np.random.SeedSequence:
+    """The seed of run ``run_index`` of path ``path_index``."""
+    return np.random.SeedSequence(seed, spawn_key=(path_index, run_index))
+
+
+def path_seed(seed: int, path_index: int) -> np.random.SeedSequence:
+    """The seed of a path's whole design (Latin hypercube, Sobol)."""
+    return np.random.SeedSequence(seed, spawn_key=(path_index,))
+
+
+def unit_design(method: SamplingMethod, dimensions: int, seed: int, path_index: int,
+                runs: int) -> np.ndarray:
+    """Uniform design of shape (runs, dimensions) in (0, 1).
+
+    Sobol designs are balanced only for a power-of-two number of points: other run counts take
+    the first ``runs`` points of the next power-of-two design (still low-discrepancy, but the
+    balance guarantee is lost; :func:`sobol_warning` says so).
+    """
+    if dimensions == 0:
+        return np.empty((runs, 0))
+    if method == "monte_carlo":
+        design = np.empty((runs, dimensions))
+        for run_index in range(runs):
+            rng = np.random.default_rng(run_seed(seed, path_index, run_index))
+            design[run_index] = rng.random(dimensions)
+        return design
+    rng = np.random.default_rng(path_seed(seed, path_index))
+    if method == "latin_hypercube":
+        return np.asarray(qmc.LatinHypercube(d=dimensions, rng=rng).random(runs))
+    exponent = max(0, math.ceil(math.log2(runs)))
+    sobol = qmc.Sobol(d=dimensions, scramble=True, rng=rng)
+    return np.asarray(sobol.random_base2(exponent)[:runs])
+
+
+def sobol_warning(method: SamplingMethod, runs: int) -> str | None:
+    if method == "sobol" and runs & (runs - 1):
+        return (f"Sobol sampling with {runs} runs (not a power of two): using the first "
+                f"{runs} points of a {1 << math.ceil(math.log2(runs))}-point design; "
+                "its balance properties hold only for powers of two")
+    return None
+
+
+def sample_path(parameters: Mapping[str, AnyDistribution], method: SamplingMethod, seed: int,
+                path_index: int, runs: int) -> dict[str, np.ndarray]:
+    """Sampled values (runs,) per parameter, in SI, for one path."""
+    uncertain = [name for name, spec in parameters.items() if not isinstance(spec, Fixed)]
+    design = unit_design(method, len(uncertain), seed, path_index, runs)
+    values = {}
+    for name, spec in parameters.items():
+        if isinstance(spec, Fixed):
+            values[name] = np.full(runs, spec.value)
+        else:
+            values[name] = inverse_cdf(spec, design[:, uncertain.index(name)])
+    return values
+
+
+def nominal_values(parameters: Mapping[str, AnyDistribution]) -> dict[str, float]:
+    return {name: nominal(spec) for name, spec in parameters.items()}

@@ -1,0 +1,336 @@
+"""The campaign file schema (pydantic): what a campaign may say, in SI after validation.
+
+Dimensioned values are strings with units (``"5 mm/s"``, ``"90 deg"``), parsed with
+:func:`idefix_rules.units.parse_quantity`; a bare number where a dimension is expected is an
+error. The format is documented in ``docs/campaign-format.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    PrivateAttr,
+    Tag,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from idefix_rules import units
+from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
+
+LEVELS = ("L1", "L2", "L3")
+
+
+def _quantity(dimension: Dimension | None) -> BeforeValidator:
+    """A validator turning ``"5 cm"`` into SI; ``dimension=None`` accepts any dimension."""
+
+    def parse(value: Any) -> float:
+        wanted = describe(dimension) if dimension is not None else "a number or a quantity"
+        if isinstance(value, bool) or not isinstance(value, str | int | float):
+            raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
+                                      {"wanted": wanted, "got": _show(value)})
+        if isinstance(value, int | float) or not _has_unit(value):
+            if dimension is None or dimension.is_dimensionless:
+                return float(parse_quantity(value).value)
+            raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
+                                      {"wanted": wanted, "got": _show(value)})
+        try:
+            quantity = parse_quantity(value)
+        except UnitError as failure:
+            raise PydanticCustomError("quantity", "{reason}", {"reason": str(failure)}) from None
+        if dimension is not None and quantity.dimension != dimension:
+            raise PydanticCustomError(
+                "quantity", "expected {wanted}, got {got} ({got_kind})",
+                {"wanted": wanted, "got": _show(value), "got_kind": describe(quantity.dimension)})
+        if not math.isfinite(quantity.value):
+            raise PydanticCustomError("quantity", "expected a finite value, got {got}",
+                                      {"got": _show(value)})
+        return float(quantity.value)
+
+    return BeforeValidator(parse)
+
+
+def _has_unit(text: str) -> bool:
+    try:
+        number = float(text)
+    except ValueError:
+        return True
+    return not math.isfinite(number)
+
+
+def _show(value: Any) -> str:
+    return f'"{value}"' if isinstance(value, str) else repr(value)
+
+
+Length = Annotated[float, _quantity(units.LENGTH)]
+Angle = Annotated[float, _quantity(units.ANGLE)]
+AngularRate = Annotated[float, _quantity(units.ANGULAR_RATE)]
+Duration = Annotated[float, _quantity(units.TIME)]
+Ratio = Annotated[float, _quantity(units.DIMENSIONLESS)]
+Charge = Annotated[float, _quantity(units.CHARGE)]
+AnyQuantity = Annotated[float, _quantity(None)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# --- fmu -------------------------------------------------------------------------------------
+
+class FmuSection(Strict):
+    path: str = "builtin"
+    signals: dict[str, str] | None = None
+    parameters: dict[str, str] | None = None
+
+
+# --- environment -----------------------------------------------------------------------------
+
+class SyntheticTerrain(Strict):
+    size: Length = 4.0
+    cell: Length = 0.02
+    slope: Angle = 0.0
+    slope_direction: Angle = 0.0
+    roughness: Length = 0.0
+    seed: int = 0
+
+
+class TerrainSection(Strict):
+    dem: str | None = None
+    synthetic: SyntheticTerrain | None = None
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TerrainSection:
+        if self.dem is not None and self.synthetic is not None:
+            raise PydanticCustomError("terrain", "give either 'dem' or 'synthetic', not both")
+        return self
+
+
+class RockSpec(Strict):
+    x: Length
+    y: Length
+    radius: Length | None = None
+    semi_axes: tuple[Length, Length, Length] | None = None
+    embed: Length = 0.0
+    level: Literal["L1", "L2", "L3"] | None = None
+
+    @model_validator(mode="after")
+    def _one_size(self) -> RockSpec:
+        if (self.radius is None) == (self.semi_axes is None):
+            raise PydanticCustomError("rock", "give exactly one of 'radius' or 'semi_axes'")
+        return self
+
+    @property
+    def axes(self) -> tuple[float, float, float]:
+        if self.semi_axes is not None:
+            return self.semi_axes
+        assert self.radius is not None
+        return (self.radius, self.radius, self.radius)
+
+
+class RockLevels(Strict):
+    l1_max_size: Length
+    l2_max_size: Length
+
+
+class KeepOutArea(Strict):
+    name: str
+    polygon: list[tuple[Length, Length]] = Field(min_length=3)
+    level: Literal["L1", "L2", "L3"] = "L3"
+
+
+class EnvironmentSection(Strict):
+    terrain: TerrainSection = TerrainSection()
+    rocks: list[RockSpec] = []
+    rock_levels: RockLevels | None = None
+    keep_out: list[KeepOutArea] = []
+    regolith: dict[str, AnyQuantity] = {}
+
+
+# --- uncertainty -----------------------------------------------------------------------------
+
+class _DistributionBase(Strict):
+    """Values carry units; a bare number means a dimensionless parameter."""
+
+    _dimension: Dimension = PrivateAttr(default=units.DIMENSIONLESS)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _common_dimension(cls, data: Any, handler: Any) -> Any:
+        instance = handler(data)
+        if isinstance(data, dict):
+            dimensions = {}
+            for key, value in data.items():
+                if key in ("distribution", "sigma") or not isinstance(value, str | int | float):
+                    continue
+                try:
+                    dimensions[key] = parse_quantity(value).dimension
+                except UnitError:
+                    continue
+            kinds = set(dimensions.values())
+            if len(kinds) > 1:
+                listing = ", ".join(f"{key} is {describe(dim)}" for key, dim in dimensions.items())
+                raise PydanticCustomError("dimension", "values disagree in dimension: {listing}",
+                                          {"listing": listing})
+            if kinds:
+                instance._dimension = kinds.pop()
+        return instance
+
+    @property
+    def dimension(self) -> Dimension:
+        return self._dimension
+
+
+class Fixed(_DistributionBase):
+    distribution: Literal["fixed"]
+    value: AnyQuantity
+
+
+class Normal(_DistributionBase):
+    distribution: Literal["normal"]
+    mean: AnyQuantity
+    std: AnyQuantity = Field(gt=0)
+
+
+class TruncatedNormal(_DistributionBase):
+    distribution: Literal["truncated_normal"]
+    mean: AnyQuantity
+    std: AnyQuantity = Field(gt=0)
+    low: AnyQuantity
+    high: AnyQuantity
+
+    @model_validator(mode="after")
+    def _ordered(self) -> TruncatedNormal:
+        if not self.low < self.high:
+            raise PydanticCustomError("bounds", "'low' must be below 'high'")
+        return self
+
+
+class Uniform(_DistributionBase):
+    distribution: Literal["uniform"]
+    low: AnyQuantity
+    high: AnyQuantity
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Uniform:
+        if not self.low < self.high:
+            raise PydanticCustomError("bounds", "'low' must be below 'high'")
+        return self
+
+
+class LogNormal(_DistributionBase):
+    """Log-normal given by its median (with unit) and the std of the log (dimensionless)."""
+
+    distribution: Literal["log_normal"]
+    median: AnyQuantity = Field(gt=0)
+    sigma: Ratio = Field(gt=0)
+
+
+Distribution = Annotated[Fixed | Normal | TruncatedNormal | Uniform | LogNormal,
+                         Field(discriminator="distribution")]
+
+SamplingMethod = Literal["monte_carlo", "latin_hypercube", "sobol"]
+
+
+class UncertaintySection(Strict):
+    method: SamplingMethod = "monte_carlo"
+    seed: int = Field(default=0, ge=0)
+    parameters: dict[str, Distribution] = {}
+
+
+# --- paths -----------------------------------------------------------------------------------
+
+class CommandSpec(Strict):
+    max_wheel_rate: AngularRate = Field(gt=0)
+    delta_position: Length
+    delta_heading: Angle
+
+
+# --- expectations ----------------------------------------------------------------------------
+
+class PathVerdictExpectation(Strict):
+    path: str
+    verdict: Literal["pass", "fail"]
+
+
+class RankFirstExpectation(Strict):
+    rank_first: str
+
+
+class MeanRiskExpectation(Strict):
+    path: str
+    max_mean_risk: Ratio = Field(ge=0)
+
+
+class CollisionExpectation(Strict):
+    path: str
+    max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Ratio]
+
+
+_EXPECTATION_KEYS = {
+    "verdict": "verdict",
+    "rank_first": "rank_first",
+    "max_mean_risk": "max_mean_risk",
+    "max_collision_chance": "max_collision_chance",
+}
+
+
+def _expectation_kind(value: Any) -> str | None:
+    if isinstance(value, BaseModel):
+        for key in _EXPECTATION_KEYS:
+            if hasattr(value, key):
+                return key
+        return None
+    if isinstance(value, dict):
+        for key in _EXPECTATION_KEYS:
+            if key in value:
+                return key
+    return None
+
+
+Expectation = Annotated[
+    Annotated[PathVerdictExpectation, Tag("verdict")]
+    | Annotated[RankFirstExpectation, Tag("rank_first")]
+    | Annotated[MeanRiskExpectation, Tag("max_mean_risk")]
+    | Annotated[CollisionExpectation, Tag("max_collision_chance")],
+    Discriminator(_expectation_kind, custom_error_type="expectation",
+                  custom_error_message="an expectation needs one of: verdict, rank_first, "
+                                       "max_mean_risk, max_collision_chance"),
+]
+
+
+# --- simulation and the whole file -----------------------------------------------------------
+
+class SimulationSection(Strict):
+    output_interval: Duration = Field(default=0.1, gt=0)
+    duration_margin: Ratio = Field(default=1.3, ge=1.0)
+    extra_time: Duration = Field(default=5.0, ge=0)
+
+
+class CampaignFile(Strict):
+    name: str | None = None
+    description: str = ""
+    fmu: FmuSection = FmuSection()
+    environment: EnvironmentSection = EnvironmentSection()
+    uncertainty: UncertaintySection = UncertaintySection()
+    paths: dict[str, list[CommandSpec]] = Field(min_length=1)
+    runs: int = Field(default=100, ge=1)
+    rulebook: str
+    output: str = "results"
+    workers: int | Literal["auto"] = "auto"
+    simulation: SimulationSection = SimulationSection()
+    expect: list[Expectation] = []
+
+    @model_validator(mode="after")
+    def _paths_not_empty(self) -> CampaignFile:
+        for name, chain in self.paths.items():
+            if not chain:
+                raise PydanticCustomError("chain", "path {name!r} has no commands",
+                                          {"name": name})
+        return self

@@ -1,0 +1,233 @@
+"""The results file (``results.h5``): layout in ``docs/results-format.md``.
+
+Only the parent process writes. A path's datasets are created in full (contiguous, storage
+allocated at creation, filled with NaN) and flushed before its first run is written, so from
+then on writing a run changes raw data only, never the file's structure. Each run is written as
+its data, then its ``status`` entry (1 complete, 2 failed), then a flush: a kill at any moment
+leaves every run either complete-and-valid or not marked complete, which ``--resume`` re-runs.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from idefix_rules.commands import Command
+from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.signals import lookup
+
+FORMAT = "idefix-results"
+FORMAT_VERSION = 1
+
+STATUS_MISSING = 0
+STATUS_COMPLETE = 1
+STATUS_FAILED = 2
+
+REASON_BYTES = 240
+_REASON_DTYPE = f"S{REASON_BYTES}"
+
+CHAIN_COLUMNS = ("max_wheel_rate", "delta_position", "delta_heading")
+CHAIN_UNITS = ("rad/s", "m", "rad")
+
+
+def _early_dcpl() -> h5py.h5p.PropDCID:
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    return dcpl
+
+
+def encode_reason(reason: str) -> bytes:
+    data = reason.encode("utf-8")[:REASON_BYTES]
+    return data.decode("utf-8", errors="ignore").encode("utf-8")
+
+
+def decode_reason(value: bytes) -> str:
+    return bytes(value).rstrip(b"\0").decode("utf-8", errors="replace")
+
+
+def signal_attrs(name: str) -> dict[str, Any]:
+    spec = lookup(name)
+    if spec is None:
+        return {"unit": "", "axes": json.dumps(["time"])}
+    return {"unit": spec.unit, "axes": json.dumps(list(spec.axes))}
+
+
+class ResultStore:
+    """Writer and reader of one ``results.h5``."""
+
+    def __init__(self, file: h5py.File) -> None:
+        self.file = file
+
+    # --- opening ----------------------------------------------------------------------------
+
+    @classmethod
+    def create(cls, path: Path, attrs: Mapping[str, Any],
+               texts: Mapping[str, str]) -> ResultStore:
+        """A new results file (an existing one is replaced)."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        file = h5py.File(path, "w", libver="latest", track_order=True)
+        file.attrs["format"] = FORMAT
+        file.attrs["format_version"] = FORMAT_VERSION
+        for key, value in attrs.items():
+            file.attrs[key] = value
+        provenance = file.create_group("provenance")
+        for key, text in texts.items():
+            provenance.create_dataset(key, data=text, dtype=h5py.string_dtype("utf-8"))
+        file.create_group("paths", track_order=True)
+        file.flush()
+        return cls(file)
+
+    @classmethod
+    def open(cls, path: Path, writable: bool = False) -> ResultStore:
+        """Open an existing results file; :class:`UserInputError` if it is not one."""
+        try:
+            file = h5py.File(path, "r+" if writable else "r")
+        except FileNotFoundError:
+            raise UserInputError(error("H001", f"results file {path} not found")) from None
+        except OSError as failure:
+            raise UserInputError(error(
+                "H002", f"cannot open results file {path}: {failure}",
+                hint="a file damaged while its structure was being written cannot be resumed: "
+                     "run the campaign again without --resume")) from None
+        if file.attrs.get("format") != FORMAT:
+            file.close()
+            raise UserInputError(error("H003", f"{path} is not an idefix results file",
+                                       Span(str(path))))
+        return cls(file)
+
+    def close(self) -> None:
+        if self.file.id.valid:
+            self.file.flush()
+            self.file.close()
+
+    @property
+    def attrs(self) -> h5py.AttributeManager:
+        return self.file.attrs
+
+    def text(self, key: str) -> str:
+        value = self.file["provenance"][key][()]
+        return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+    # --- paths ------------------------------------------------------------------------------
+
+    @property
+    def path_names(self) -> list[str]:
+        group = self.file["paths"]
+        return sorted(group, key=lambda name: int(group[name].attrs["index"]))
+
+    def path_group(self, name: str) -> h5py.Group:
+        return self.file["paths"][name]
+
+    def has_path(self, name: str) -> bool:
+        return name in self.file["paths"]
+
+    def create_path(self, name: str, index: int, chain: Sequence[Command],
+                    attrs: Mapping[str, Any]) -> h5py.Group:
+        group = self.file["paths"].create_group(name)
+        group.attrs["index"] = index
+        for key, value in attrs.items():
+            group.attrs[key] = value
+        table = np.array([[c.max_wheel_rate, c.delta_position, c.delta_heading] for c in chain],
+                         dtype=np.float64).reshape(-1, 3)
+        dataset = group.create_dataset("chain", data=table)
+        dataset.attrs["columns"] = list(CHAIN_COLUMNS)
+        dataset.attrs["units"] = list(CHAIN_UNITS)
+        self.file.flush()
+        return group
+
+    def set_path_status(self, name: str, status: str, reason: str = "") -> None:
+        group = self.path_group(name)
+        group.attrs["status"] = status
+        group.attrs["reason"] = reason
+        self.file.flush()
+
+    def write_reference(self, name: str, signals: Mapping[str, np.ndarray] | None,
+                        parameters: Mapping[str, float], reason: str = "") -> None:
+        group = self.path_group(name).create_group("reference")
+        params = group.create_group("parameters")
+        for key, value in parameters.items():
+            params.attrs[key] = value
+        if signals is not None:
+            data = group.create_group("signals", track_order=True)
+            for key, values in signals.items():
+                dataset = data.create_dataset(key, data=np.asarray(values, dtype=np.float64))
+                for attr, attr_value in signal_attrs(key).items():
+                    dataset.attrs[attr] = attr_value
+        group.attrs["status"] = STATUS_COMPLETE if signals is not None else STATUS_FAILED
+        group.attrs["failure"] = reason
+        self.file.flush()
+
+    def reference(self, name: str) -> dict[str, np.ndarray] | None:
+        group = self.path_group(name).get("reference")
+        if group is None or group.attrs.get("status") != STATUS_COMPLETE:
+            return None
+        return {key: dataset[()] for key, dataset in group["signals"].items()}
+
+    def allocate_runs(self, name: str, runs: int, shapes: Mapping[str, tuple[int, ...]],
+                      parameters: Mapping[str, np.ndarray],
+                      parameter_info: Mapping[str, Mapping[str, Any]]) -> None:
+        """Create every dataset of a path's runs at full size, then flush."""
+        group = self.path_group(name).create_group("runs")
+        group.attrs["count"] = runs
+        signals = group.create_group("signals", track_order=True)
+        for key, shape in shapes.items():
+            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=np.float64,
+                                             fillvalue=np.nan, dcpl=_early_dcpl())
+            for attr, value in signal_attrs(key).items():
+                dataset.attrs[attr] = value
+        params = group.create_group("parameters", track_order=True)
+        for key, values in parameters.items():
+            dataset = params.create_dataset(key, data=np.asarray(values, dtype=np.float64))
+            for attr, value in parameter_info.get(key, {}).items():
+                dataset.attrs[attr] = value
+        group.create_dataset("failure", shape=(runs,), dtype=_REASON_DTYPE, dcpl=_early_dcpl())
+        # The status is created last: its presence means the run datasets all exist.
+        group.create_dataset("status", shape=(runs,), dtype=np.int8, fillvalue=STATUS_MISSING,
+                             dcpl=_early_dcpl())
+        self.file.flush()
+
+    def has_runs(self, name: str) -> bool:
+        group = self.path_group(name).get("runs")
+        return group is not None and "status" in group
+
+    def write_run(self, name: str, run: int, signals: Mapping[str, np.ndarray]) -> None:
+        group = self.path_group(name)["runs"]
+        datasets = group["signals"]
+        for key in datasets:
+            datasets[key][run] = np.asarray(signals[key], dtype=np.float64)
+        self.file.flush()
+        group["status"][run] = STATUS_COMPLETE
+        self.file.flush()
+
+    def write_failure(self, name: str, run: int, reason: str) -> None:
+        group = self.path_group(name)["runs"]
+        group["failure"][run] = encode_reason(reason)
+        self.file.flush()
+        group["status"][run] = STATUS_FAILED
+        self.file.flush()
+
+    def run_status(self, name: str) -> np.ndarray:
+        return np.asarray(self.path_group(name)["runs"]["status"][()])
+
+    def failures(self, name: str) -> dict[int, str]:
+        group = self.path_group(name)["runs"]
+        status = group["status"][()]
+        reasons = group["failure"][()]
+        return {int(j): decode_reason(reasons[j]) for j in np.flatnonzero(status == STATUS_FAILED)}
+
+    def read_runs(self, name: str, selection: slice | np.ndarray,
+                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name."""
+        datasets = self.path_group(name)["runs"]["signals"]
+        wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
+        if isinstance(selection, np.ndarray):
+            return {key: datasets[key][np.sort(selection)] for key in wanted}
+        return {key: datasets[key][selection] for key in wanted}
+
+    def signal_names(self, name: str) -> list[str]:
+        return list(self.path_group(name)["runs"]["signals"])

@@ -1,0 +1,106 @@
+"""YAML loading that remembers where every mapping key and sequence item came from.
+
+Pydantic reports errors at a ``loc`` tuple such as ``("paths", "detour", 1, "delta_heading")``;
+:class:`SourceMap` turns that back into ``campaign.yaml:12:5``. Only safe YAML is accepted.
+
+>>> doc = load_yaml("a:\\n  - 1\\n  - x: 2\\n", "c.yaml")
+>>> doc.data
+{'a': [1, {'x': 2}]}
+>>> str(doc.locations.span(("a", 1, "x")))
+'c.yaml:3:8'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+from idefix_rules.errors import Span, UserInputError, error
+
+Loc = tuple[str | int, ...]
+
+
+@dataclass
+class SourceMap:
+    """Line and column of each node of a YAML document, keyed by its path in the data."""
+
+    path: str
+    values: dict[Loc, tuple[int, int]] = field(default_factory=dict)
+    keys: dict[Loc, tuple[int, int]] = field(default_factory=dict)
+
+    def span(self, loc: Sequence[str | int], at_key: bool = False) -> Span:
+        """Span of the deepest known prefix of ``loc`` (its key when ``at_key``)."""
+        loc = tuple(loc)
+        for end in range(len(loc), -1, -1):
+            prefix = loc[:end]
+            table = self.keys if at_key and end == len(loc) else self.values
+            if prefix in table:
+                line, column = table[prefix]
+                return Span(self.path, line, column)
+            if prefix in self.keys:
+                line, column = self.keys[prefix]
+                return Span(self.path, line, column)
+        return Span(self.path)
+
+
+@dataclass
+class YamlDocument:
+    data: Any
+    locations: SourceMap
+    text: str
+
+
+class LocatingLoader(yaml.SafeLoader):
+    """A SafeLoader that records the position of every node while constructing the data."""
+
+    def construct_with_locations(self, node: yaml.Node, source_map: SourceMap,
+                                 loc: Loc = ()) -> Any:
+        source_map.values[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
+        if isinstance(node, yaml.MappingNode):
+            self.flatten_mapping(node)
+            result: dict[Any, Any] = {}
+            for key_node, value_node in node.value:
+                key = self.construct_object(key_node, deep=True)
+                if not isinstance(key, str | int | float | bool) or key is None:
+                    raise UserInputError(error(
+                        "C001", "mapping keys must be plain names",
+                        Span(source_map.path, key_node.start_mark.line + 1,
+                             key_node.start_mark.column + 1)))
+                if key in result:
+                    raise UserInputError(error(
+                        "C002", f"duplicate key {key!r}",
+                        Span(source_map.path, key_node.start_mark.line + 1,
+                             key_node.start_mark.column + 1)))
+                child = (*loc, key)
+                source_map.keys[child] = (key_node.start_mark.line + 1,
+                                          key_node.start_mark.column + 1)
+                result[key] = self.construct_with_locations(value_node, source_map, child)
+            return result
+        if isinstance(node, yaml.SequenceNode):
+            return [self.construct_with_locations(item, source_map, (*loc, index))
+                    for index, item in enumerate(node.value)]
+        return self.construct_object(node, deep=True)
+
+
+def load_yaml(text: str, path: str) -> YamlDocument:
+    """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics."""
+    loader = LocatingLoader(text)
+    source_map = SourceMap(path)
+    try:
+        node = loader.get_single_node()
+        data = None if node is None else loader.construct_with_locations(node, source_map)
+    except yaml.MarkedYAMLError as failure:
+        mark = failure.problem_mark or failure.context_mark
+        span = Span(path, mark.line + 1, mark.column + 1) if mark else Span(path)
+        message = failure.problem or str(failure)
+        raise UserInputError(error("C000", f"invalid YAML: {message}", span),
+                             sources={path: text}) from None
+    except yaml.YAMLError as failure:
+        raise UserInputError(error("C000", f"invalid YAML: {failure}", Span(path)),
+                             sources={path: text}) from None
+    finally:
+        loader.dispose()
+    return YamlDocument(data, source_map, text)
