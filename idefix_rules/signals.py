@@ -108,5 +108,6 @@ def lookup(name: str) -> SignalSpec | None:
         base = FMU_SIGNALS.get(name[len(REF_PREFIX):])
         if base is None:
             return None
-        return SignalSpec(name, base.unit, base.axes, "derived", f"reference run: {base.description}")
+        return SignalSpec(name, base.unit, base.axes, "derived",
+                          f"reference run: {base.description}")
     return SIGNALS.get(name)

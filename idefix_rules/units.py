@@ -33,30 +33,31 @@ class Dimension:
     current: int = 0
     angle: int = 0
 
-    def _exponents(self) -> tuple[int, ...]:
+    def exponents(self) -> tuple[int, ...]:
+        """Exponents in the order length, mass, time, current, angle."""
         return (self.length, self.mass, self.time, self.current, self.angle)
 
     def __mul__(self, other: Dimension) -> Dimension:
-        return Dimension(*(a + b for a, b in zip(self._exponents(), other._exponents(), strict=True)))
+        return Dimension(*(a + b for a, b in zip(self.exponents(), other.exponents(), strict=True)))
 
     def __truediv__(self, other: Dimension) -> Dimension:
-        return Dimension(*(a - b for a, b in zip(self._exponents(), other._exponents(), strict=True)))
+        return Dimension(*(a - b for a, b in zip(self.exponents(), other.exponents(), strict=True)))
 
     def __pow__(self, power: int) -> Dimension:
-        return Dimension(*(a * power for a in self._exponents()))
+        return Dimension(*(a * power for a in self.exponents()))
 
     @property
     def is_dimensionless(self) -> bool:
-        return not any(self._exponents())
+        return not any(self.exponents())
 
     def __repr__(self) -> str:
-        inner = ", ".join(f"{n}={e}" for n, e in zip(_BASES, self._exponents(), strict=True) if e)
+        inner = ", ".join(f"{n}={e}" for n, e in zip(_BASES, self.exponents(), strict=True) if e)
         return f"Dimension({inner})"
 
     def __str__(self) -> str:
         """SI spelling, e.g. ``m/s``; ``1`` when dimensionless."""
-        num = [_power(sym, e) for sym, e in zip(_SYMBOLS, self._exponents(), strict=True) if e > 0]
-        den = [_power(sym, -e) for sym, e in zip(_SYMBOLS, self._exponents(), strict=True) if e < 0]
+        num = [_power(sym, e) for sym, e in zip(_SYMBOLS, self.exponents(), strict=True) if e > 0]
+        den = [_power(sym, -e) for sym, e in zip(_SYMBOLS, self.exponents(), strict=True) if e < 0]
         text = "·".join(num) or "1"
         if den:
             text += "/" + ("·".join(den) if len(den) == 1 else "(" + "·".join(den) + ")")

@@ -73,7 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except Exception:  # noqa: BLE001 - last line of defence: report, exit 3
+    except Exception:  # last line of defence: report, exit 3
         traceback.print_exc()
         print("idefix-verify: internal error (exit 3); please report the traceback above",
               file=sys.stderr)

@@ -1,0 +1,578 @@
+"""Checking a rulebook: small named passes over the rule model, each returning diagnostics.
+
+``check(rulebook)`` first resolves the constants (types and SI values, in dependency order),
+then runs every pass of :data:`CHECKS` (and :data:`STRICT_CHECKS` with ``strict=True``). All
+problems of a file are collected; the result carries a :class:`CheckedRulebook` with every
+constant value the compiler needs already in SI.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+
+from idefix_rules import signals
+from idefix_rules.errors import Diagnostic, Severity, error, warning
+from idefix_rules.rulebook.fold import NotConstant, Value, fold
+from idefix_rules.rulebook.infer import did_you_mean, infer_type
+from idefix_rules.rulebook.model import (
+    Binary,
+    Call,
+    Expr,
+    Name,
+    Reduce,
+    Rulebook,
+    Select,
+    Table,
+    Unary,
+)
+from idefix_rules.rulebook.types import (
+    COMMAND_NAMES,
+    PATH_NAMES,
+    RATIO,
+    SETTINGS,
+    ExprType,
+    Scope,
+)
+from idefix_rules.units import DIMENSIONLESS, LENGTH, describe
+
+_SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
+                     r"(?:\+[0-9A-Za-z.-]+)?$")
+LEVELS = signals.AXIS_LABELS["level"]
+
+
+@dataclass(frozen=True)
+class ObstacleLevelSpec:
+    """A level's size threshold (exclusive upper bound, m; None = no upper bound) and buffer."""
+
+    level: str
+    below: float | None
+    buffer: float
+
+
+@dataclass(frozen=True)
+class CheckedRulebook:
+    """A rulebook that passed the checks, with every constant resolved to SI."""
+
+    rulebook: Rulebook
+    constants: dict[str, Value]
+    constant_types: dict[str, ExprType]
+    settings: dict[str, float]
+    obstacle_levels: tuple[ObstacleLevelSpec, ...]
+    limits: dict[str, float]
+    weights: dict[str, float]
+    index_types: dict[str, ExprType]
+    confidence: float
+
+    def scope(self, kind: str) -> Scope:
+        """The scope the checker used for one context (``command``, ``run``, …)."""
+        return _scope(kind, self.rulebook, self.constant_types)
+
+    def value(self, expr: Expr) -> Value:
+        """SI value of a constant expression of this rulebook (windows, thresholds …)."""
+        return fold(expr, self.constants)
+
+    def level_of_size(self, size: float) -> str:
+        """Obstacle level a rock of ``size`` metres gets from the thresholds."""
+        for spec in self.obstacle_levels:
+            if spec.below is None or size < spec.below:
+                return spec.level
+        return LEVELS[-1]
+
+
+@dataclass
+class CheckResult:
+    diagnostics: list[Diagnostic]
+    checked: CheckedRulebook | None
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+
+@dataclass
+class _Env:
+    """What the passes share: resolved constants and collected values."""
+
+    rulebook: Rulebook
+    constant_types: dict[str, ExprType] = field(default_factory=dict)
+    constants: dict[str, Value] = field(default_factory=dict)
+    limits: dict[str, float] = field(default_factory=dict)
+    weights: dict[str, float] = field(default_factory=dict)
+    index_types: dict[str, ExprType] = field(default_factory=dict)
+    settings: dict[str, float] = field(default_factory=dict)
+    levels: list[ObstacleLevelSpec] = field(default_factory=list)
+    confidence: float = 0.95
+
+    def scope(self, kind: str) -> Scope:
+        return _scope(kind, self.rulebook, self.constant_types)
+
+
+def _scope(kind: str, rulebook: Rulebook, constant_types: dict[str, ExprType]) -> Scope:
+    indices = frozenset(i.name for i in rulebook.indices)
+    chances = frozenset(c.name for c in rulebook.chances)
+    extra: dict[str, ExprType] = {}
+    if kind == "command":
+        extra = dict(COMMAND_NAMES)
+    elif kind == "prescreen":
+        extra = {name: RATIO for name in indices}
+        extra.update({name: ExprType(DIMENSIONLESS, (), True) for name in chances})
+        extra["risk"] = RATIO
+    elif kind == "path":
+        extra = dict(PATH_NAMES)
+    return Scope(kind, dict(constant_types), extra, chances, indices)  # type: ignore[arg-type]
+
+
+def names_in(expr: Expr) -> Iterator[Name]:
+    """Every :class:`Name` read by an expression (windows and parameters included)."""
+    if isinstance(expr, Name):
+        yield expr
+    elif isinstance(expr, Select | Unary):
+        yield from names_in(expr.operand)
+    elif isinstance(expr, Binary):
+        yield from names_in(expr.left)
+        yield from names_in(expr.right)
+    elif isinstance(expr, Call):
+        for arg in expr.args:
+            yield from names_in(arg)
+    elif isinstance(expr, Table):
+        for _, value in expr.entries:
+            yield from names_in(value)
+    elif isinstance(expr, Reduce):
+        yield from names_in(expr.operand)
+        if expr.parameter is not None:
+            yield from names_in(expr.parameter)
+        if expr.window is not None:
+            yield from names_in(expr.window.value)
+
+
+# ----------------------------------------------------------------------------- constants
+
+def resolve_constants(env: _Env) -> list[Diagnostic]:
+    """Type and fold every constant, in dependency order; report cycles."""
+    problems: list[Diagnostic] = []
+    declared = {c.name: c for c in env.rulebook.constants}
+    state: dict[str, str] = {}  # name -> "busy" | "done"
+
+    def visit(name: str, chain: tuple[str, ...]) -> None:
+        if state.get(name) == "done":
+            return
+        constant = declared[name]
+        if state.get(name) == "busy":
+            cycle = " -> ".join((*chain, name))
+            problems.append(error("E403", f"constants depend on each other in a circle: {cycle}",
+                                  constant.span))
+            return
+        state[name] = "busy"
+        dependencies = [used.name for used in names_in(constant.value) if used.name in declared]
+        for dependency in dependencies:
+            visit(dependency, (*chain, name))
+        state[name] = "done"
+        if any(dependency not in env.constants for dependency in dependencies):
+            return  # the dependency's own message says what is wrong
+        scope = env.scope("constant")
+        found = infer_type(constant.value, scope, problems)
+        if found is None:
+            return
+        if found.boolean:
+            problems.append(error("E304", f"constant '{name}' must be a quantity, not a "
+                                  "condition", constant.value.span))
+            return
+        try:
+            value = fold(constant.value, env.constants)
+        except NotConstant:
+            return
+        except (OverflowError, ValueError, ZeroDivisionError) as failure:
+            problems.append(error("E402", f"constant '{name}' cannot be computed: {failure}",
+                                  constant.value.span))
+            return
+        env.constant_types[name] = found
+        env.constants[name] = value
+
+    for name in declared:
+        visit(name, ())
+    return problems
+
+
+# ----------------------------------------------------------------------------- passes
+
+def check_header(env: _Env) -> list[Diagnostic]:
+    header = env.rulebook.header
+    problems = []
+    if not _SEMVER.match(header.version):
+        problems.append(error("E503", f"version '{header.version}' is not a semantic version",
+                              header.span, "write MAJOR.MINOR.PATCH, e.g. \"1.2.0\""))
+    if not header.name.strip():
+        problems.append(error("E504", "the rulebook needs a name", header.span))
+    if not header.purpose.strip():
+        problems.append(error("E504", "the rulebook needs a one-line purpose", header.span))
+    return problems
+
+
+def _declarations(rulebook: Rulebook) -> Iterator[tuple[str, str, object]]:
+    for c in rulebook.constants:
+        yield "constant", c.name, c
+    for r in rulebook.command_rules:
+        yield "command rule", r.name, r
+    for i in rulebook.indices:
+        yield "index", i.name, i
+    for ch in rulebook.chances:
+        yield "chance", ch.name, ch
+    for p in rulebook.prescreens:
+        yield "prescreen", p.name, p
+    for v in rulebook.verdicts:
+        yield "verdict", v.name, v
+
+
+def check_names(env: _Env) -> list[Diagnostic]:
+    """Duplicate declarations, and names that would hide a signal or a built-in name."""
+    problems = []
+    seen: dict[str, tuple[str, object]] = {}
+    reserved = set(COMMAND_NAMES) | set(PATH_NAMES)
+    for kind, name, node in _declarations(env.rulebook):
+        span = getattr(node, "span", None)
+        if name in seen:
+            first_kind, first = seen[name]
+            first_span = getattr(first, "span", None)
+            problems.append(error("E102", f"{kind} '{name}' is already declared as a {first_kind}"
+                                  + (f" at {first_span}" if first_span else ""), span))
+            continue
+        seen[name] = (kind, node)
+        if signals.lookup(name) is not None or name in reserved:
+            problems.append(error("E103", f"{kind} '{name}' hides the built-in name '{name}'",
+                                  span, "choose another name"))
+    settings_seen: set[str] = set()
+    for setting in env.rulebook.settings:
+        if setting.name in settings_seen:
+            problems.append(error("E102", f"setting '{setting.name}' is set twice", setting.span))
+        settings_seen.add(setting.name)
+    return problems
+
+
+def check_settings(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    env.settings = {name: default for name, (_, default) in SETTINGS.items()}
+    for setting in env.rulebook.settings:
+        if setting.name not in SETTINGS:
+            problems.append(error("E505", f"unknown setting '{setting.name}'", setting.span,
+                                  did_you_mean(setting.name, list(SETTINGS))
+                                  or f"settings are {', '.join(SETTINGS)}"))
+            continue
+        wanted, _ = SETTINGS[setting.name]
+        value = _constant_quantity(env, setting.value, wanted, f"setting '{setting.name}'",
+                                   problems)
+        if value is not None:
+            if value < 0:
+                problems.append(error("E402", f"setting '{setting.name}' cannot be negative",
+                                      setting.value.span))
+            elif setting.name == "theoretical_slip" and value >= 1:
+                problems.append(error("E402", "theoretical_slip must be below 100 %",
+                                      setting.value.span))
+            else:
+                env.settings[setting.name] = value
+    return problems
+
+
+def _constant_quantity(env: _Env, expr: Expr, wanted: object, what: str,
+                       problems: list[Diagnostic]) -> float | None:
+    """Type-check ``expr`` as a constant of dimension ``wanted`` and fold it."""
+    found = infer_type(expr, env.scope("constant"), problems)
+    if found is None:
+        return None
+    if found.boolean or found.axes:
+        problems.append(error("E304", f"{what} must be a single quantity", expr.span))
+        return None
+    if wanted is not None and found.dimension != wanted:
+        problems.append(error("E204", f"{what} must be {describe(wanted)}, got "  # type: ignore[arg-type]
+                              f"{describe(found.dimension)}", expr.span))
+        return None
+    try:
+        value = fold(expr, env.constants)
+    except NotConstant:
+        return None
+    return float(value) if not isinstance(value, dict) else None
+
+
+def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    declared = env.rulebook.obstacle_levels
+    seen: set[str] = set()
+    specs = []
+    for level in declared:
+        if level.level not in LEVELS:
+            problems.append(error("E104", f"unknown obstacle level '{level.level}'", level.span,
+                                  f"levels are {', '.join(LEVELS)}"))
+            continue
+        if level.level in seen:
+            problems.append(error("E102", f"obstacle level {level.level} is declared twice",
+                                  level.span))
+            continue
+        seen.add(level.level)
+        below = None
+        if level.below is not None:
+            below = _constant_quantity(env, level.below, LENGTH,
+                                       f"the size threshold of {level.level}", problems)
+        buffer = _constant_quantity(env, level.buffer, LENGTH, f"the buffer of {level.level}",
+                                    problems)
+        if buffer is not None and buffer < 0:
+            problems.append(error("E402", "a buffer zone cannot be negative", level.buffer.span))
+        specs.append((level, below, buffer if buffer is not None else 0.0))
+    if not declared:
+        env.levels = [ObstacleLevelSpec(lvl, None if lvl == LEVELS[-1] else 0.0, 0.0)
+                      for lvl in LEVELS]
+        return problems
+    specs.sort(key=lambda item: LEVELS.index(item[0].level))
+    previous = 0.0
+    for position, (level, below, _) in enumerate(specs):
+        last = position == len(specs) - 1
+        if level.below is None and not last:
+            problems.append(error("E405", f"level {level.level} needs a size threshold "
+                                  "('below …'): only the highest level may omit it", level.span))
+        if below is not None:
+            if below <= previous:
+                problems.append(error("E405", f"size thresholds must increase from L1 to L3; "
+                                      f"{level.level}'s is not above the level before",
+                                      level.below.span if level.below else level.span))
+            previous = below
+    env.levels = [ObstacleLevelSpec(level.level, below, buffer)
+                  for level, below, buffer in specs]
+    missing = [lvl for lvl in LEVELS if lvl not in seen]
+    if missing and not problems:
+        problems.append(error("E405", f"obstacle levels {', '.join(missing)} are missing",
+                              declared[0].span, "declare L1, L2 and L3"))
+    return problems
+
+
+def _condition(env: _Env, expr: Expr, kind: str, what: str,
+               problems: list[Diagnostic]) -> ExprType | None:
+    found = infer_type(expr, env.scope(kind), problems)
+    if found is None:
+        return None
+    if not found.boolean:
+        problems.append(error("E303", f"{what} must be a condition (a comparison), got "
+                              f"{describe(found.dimension)}", expr.span,
+                              "for example 'abs(delta_heading) <= 90 deg'"))
+        return None
+    if found.axes:
+        problems.append(error("E302", f"{what} must be one condition per "
+                              f"{'command' if kind == 'command' else 'run'}, but it still has "
+                              f"the axes {', '.join(found.axes)}", expr.span,
+                              "reduce them with any/all over …"))
+        return None
+    return found
+
+
+def check_command_rules(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    for rule in env.rulebook.command_rules:
+        _condition(env, rule.condition, "command", f"command rule '{rule.name}'", problems)
+    return problems
+
+
+def check_indices(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    run_scope = env.scope("run")
+    for index in env.rulebook.indices:
+        found = infer_type(index.value, run_scope, problems)
+        what = f"index '{index.name}'"
+        if found is not None:
+            if found.boolean:
+                problems.append(error("E304", f"{what} must be a quantity, not a condition",
+                                      index.value.span, "use a chance for conditions"))
+                found = None
+            elif found.axes:
+                problems.append(error(
+                    "E302", f"{what} must give one value per run, but it still has the axes "
+                    f"{', '.join(found.axes)}", index.value.span,
+                    "reduce them, e.g. 'max over time (…)' or 'max over wheels (…)'"))
+                found = None
+        if found is not None:
+            env.index_types[index.name] = found
+            limit = _constant_quantity(env, index.limit, found.dimension, f"the limit of {what}",
+                                       problems)
+            if limit is not None:
+                if limit <= 0:
+                    problems.append(error("E402", f"the limit of {what} must be above zero",
+                                          index.limit.span))
+                else:
+                    env.limits[index.name] = limit
+        weight = _constant_quantity(env, index.weight, DIMENSIONLESS, f"the weight of {what}",
+                                    problems)
+        if weight is not None:
+            if not 0.0 <= weight <= 1.0:
+                problems.append(error("E401", f"the weight of {what} must lie in [0, 1], got "
+                                      f"{weight:g}", index.weight.span))
+            else:
+                env.weights[index.name] = weight
+        if index.map is not None:
+            mapped = infer_type(index.map, run_scope, problems)
+            if mapped is not None and (mapped.boolean or mapped.axes != ("time",)):
+                problems.append(error("E307", f"the map of {what} must be one quantity per "
+                                      "sample (a time series)", index.map.span,
+                                      "reduce wheels/parts/levels, keep time"))
+            elif mapped is not None and found is not None and mapped.dimension != found.dimension:
+                problems.append(error("E307", f"the map of {what} is "
+                                      f"{describe(mapped.dimension)} but its value is "
+                                      f"{describe(found.dimension)}", index.map.span))
+    return problems
+
+
+def check_chances(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    for chance in env.rulebook.chances:
+        _condition(env, chance.condition, "run", f"chance '{chance.name}'", problems)
+    return problems
+
+
+def check_combine(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    combine = env.rulebook.combine
+    if combine.confidence is not None:
+        value = _constant_quantity(env, combine.confidence, DIMENSIONLESS, "confidence",
+                                   problems)
+        if value is not None:
+            if not 0.5 <= value < 1.0:
+                problems.append(error("E406", "confidence must lie in [50 %, 100 %)",
+                                      combine.confidence.span))
+            else:
+                env.confidence = value
+    return problems
+
+
+def check_prescreens(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    for rule in env.rulebook.prescreens:
+        _condition(env, rule.condition, "prescreen", f"prescreen '{rule.name}'", problems)
+    return problems
+
+
+def check_verdicts(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    for rule in env.rulebook.verdicts:
+        _condition(env, rule.condition, "path", f"verdict '{rule.name}'", problems)
+    return problems
+
+
+def check_ranking(env: _Env) -> list[Diagnostic]:
+    problems: list[Diagnostic] = []
+    for key in env.rulebook.ranking.keys:
+        found = infer_type(key.expr, env.scope("path"), problems)
+        if found is not None and (found.boolean or found.axes):
+            problems.append(error("E304", "a rank key must be a path statistic (a number)",
+                                  key.expr.span))
+    return problems
+
+
+def check_required_sections(env: _Env) -> list[Diagnostic]:
+    rulebook = env.rulebook
+    problems = []
+    if not rulebook.indices:
+        problems.append(error("E501", "the rulebook declares no index", rulebook.header.span,
+                              "add at least one 'index NAME { value = … limit = … weight = … }'"))
+    if not rulebook.verdicts:
+        problems.append(error("E502", "the rulebook declares no verdict rule",
+                              rulebook.header.span,
+                              "add e.g. 'verdict acceptable_risk: require risk <= 70 %'"))
+    return problems
+
+
+def warn_unused_constants(env: _Env) -> list[Diagnostic]:
+    used: set[str] = set()
+    for expr in _all_expressions(env.rulebook):
+        used.update(name.name for name in names_in(expr))
+    return [warning("W601", f"constant '{c.name}' is never used", c.span)
+            for c in env.rulebook.constants if c.name not in used]
+
+
+def warn_zero_weights(env: _Env) -> list[Diagnostic]:
+    return [warning("W602", f"index '{i.name}' has weight 0 and never affects the risk",
+                    i.weight.span)
+            for i in env.rulebook.indices if env.weights.get(i.name) == 0.0]
+
+
+def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
+    for c in rulebook.constants:
+        yield c.value
+    for s in rulebook.settings:
+        yield s.value
+    for level in rulebook.obstacle_levels:
+        if level.below is not None:
+            yield level.below
+        yield level.buffer
+    for r in rulebook.command_rules:
+        yield r.condition
+    for i in rulebook.indices:
+        yield from (i.value, i.limit, i.weight)
+        if i.map is not None:
+            yield i.map
+    for ch in rulebook.chances:
+        yield ch.condition
+    if rulebook.combine.confidence is not None:
+        yield rulebook.combine.confidence
+    for p in rulebook.prescreens:
+        yield p.condition
+    for v in rulebook.verdicts:
+        yield v.condition
+    for key in rulebook.ranking.keys:
+        yield key.expr
+
+
+Check = Callable[[_Env], list[Diagnostic]]
+
+CHECKS: tuple[Check, ...] = (
+    check_header,
+    check_names,
+    check_settings,
+    check_obstacle_levels,
+    check_command_rules,
+    check_indices,
+    check_chances,
+    check_combine,
+    check_prescreens,
+    check_verdicts,
+    check_ranking,
+    check_required_sections,
+)
+
+STRICT_CHECKS: tuple[Check, ...] = (warn_unused_constants, warn_zero_weights)
+
+
+def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
+    """Run every pass; all diagnostics of the file, sorted by position."""
+    env = _Env(rulebook)
+    diagnostics = resolve_constants(env)
+    for check_pass in CHECKS + (STRICT_CHECKS if strict else ()):
+        diagnostics.extend(check_pass(env))
+    diagnostics = _deduplicate(diagnostics)
+    diagnostics.sort(key=lambda d: (d.span.line if d.span else 0,
+                                    d.span.column if d.span else 0))
+    checked = None
+    if not any(d.severity is Severity.ERROR for d in diagnostics):
+        checked = CheckedRulebook(
+            rulebook=rulebook,
+            constants=env.constants,
+            constant_types=env.constant_types,
+            settings=env.settings,
+            obstacle_levels=tuple(env.levels),
+            limits=env.limits,
+            weights=env.weights,
+            index_types=env.index_types,
+            confidence=env.confidence,
+        )
+    return CheckResult(diagnostics, checked)
+
+
+def _deduplicate(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
+    seen = set()
+    out = []
+    for d in diagnostics:
+        key = (d.code, d.message, d.span)
+        if key not in seen:
+            seen.add(key)
+            out.append(d)
+    return out

@@ -1,0 +1,111 @@
+"""Constant folding: the SI value of an expression that reads only constants.
+
+Limits, weights, thresholds, windows and settings are constant expressions; the compiler and
+the checker both need their values. Tables fold to a ``{label: value}`` mapping.
+
+>>> from idefix_rules.rulebook.model import Binary, Name, Number
+>>> fold(Binary("*", Number(2), Name("tol0")), {"tol0": 0.05})
+0.1
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Select, Table, Unary
+from idefix_rules.units import parse_unit
+
+Value = float | dict[str, float]
+
+
+class NotConstant(Exception):
+    """The expression reads something that is not a constant (a signal, an index …)."""
+
+
+def number_si(number: Number) -> float:
+    """A literal's value in SI (the unit was checked already)."""
+    if number.unit is None:
+        return float(number.value)
+    return parse_unit(number.unit).to_si(number.value)
+
+
+def fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
+    """SI value of a constant expression; raises :class:`NotConstant` otherwise."""
+    if isinstance(expr, Number):
+        return number_si(expr)
+    if isinstance(expr, Name):
+        if expr.name not in constants:
+            raise NotConstant(expr.name)
+        return constants[expr.name]
+    if isinstance(expr, Table):
+        out: dict[str, float] = {}
+        for label, value in expr.entries:
+            folded = fold(value, constants)
+            if isinstance(folded, dict):
+                raise NotConstant("nested table")
+            out[label] = folded
+        return out
+    if isinstance(expr, Select):
+        base = fold(expr.operand, constants)
+        if not isinstance(base, dict) or len(expr.labels) != 1:
+            raise NotConstant("selection")
+        return base[expr.labels[0]]
+    if isinstance(expr, Unary):
+        if expr.op != "-":
+            raise NotConstant("condition")
+        return _map(lambda v: -v, fold(expr.operand, constants))
+    if isinstance(expr, Binary):
+        return _binary(expr, constants)
+    if isinstance(expr, Call):
+        args = [fold(arg, constants) for arg in expr.args]
+        return _call(expr.function, args)
+    raise NotConstant(type(expr).__name__)
+
+
+def _map(function, value: Value) -> Value:  # type: ignore[no-untyped-def]
+    if isinstance(value, dict):
+        return {k: function(v) for k, v in value.items()}
+    return function(value)
+
+
+def _zip(function, left: Value, right: Value) -> Value:  # type: ignore[no-untyped-def]
+    if isinstance(left, dict) and isinstance(right, dict):
+        return {k: function(left[k], right[k]) for k in left}
+    if isinstance(left, dict):
+        return {k: function(v, right) for k, v in left.items()}
+    if isinstance(right, dict):
+        return {k: function(left, v) for k, v in right.items()}
+    return function(left, right)
+
+
+_OPS = {
+    "+": lambda a, b: a + b,
+    "-": lambda a, b: a - b,
+    "*": lambda a, b: a * b,
+    "/": lambda a, b: a / b if b != 0 else math.copysign(math.inf, a) if a else math.nan,
+    "^": lambda a, b: a ** b,
+}
+
+
+def _binary(expr: Binary, constants: Mapping[str, Value]) -> Value:
+    if expr.op not in _OPS:
+        raise NotConstant("condition")
+    return _zip(_OPS[expr.op], fold(expr.left, constants), fold(expr.right, constants))
+
+
+def _call(function: str, args: list[Value]) -> Value:
+    if function == "abs":
+        return _map(abs, args[0])
+    if function == "sqrt":
+        return _map(math.sqrt, args[0])
+    if function in ("min", "max"):
+        pick = min if function == "min" else max
+        result = args[0]
+        for arg in args[1:]:
+            result = _zip(lambda a, b, pick=pick: pick(a, b), result, arg)
+        return result
+    if function == "clamp":
+        low = _zip(max, args[0], args[1])
+        return _zip(min, low, args[2])
+    raise NotConstant(function)

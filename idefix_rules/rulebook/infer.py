@@ -1,0 +1,350 @@
+"""Type inference: the dimension, axes and boolean-ness of every expression.
+
+:func:`infer_type` returns the type of an expression in a scope and appends a diagnostic for
+every mistake it finds to ``problems``; it returns ``None`` for a sub-expression it could not
+type, and its parents then stay quiet (one mistake, one message).
+
+>>> from idefix_rules.rulebook.model import Binary, Number
+>>> from idefix_rules.rulebook.types import Scope
+>>> problems = []
+>>> infer_type(Binary("+", Number(5, "cm"), Number(2, "deg")), Scope("constant"), problems)
+>>> problems[0].code
+'E201'
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable
+
+from idefix_rules import signals
+from idefix_rules.errors import Diagnostic, error
+from idefix_rules.rulebook.model import (
+    DOMAIN_AXES,
+    PARAMETRIC_REDUCERS,
+    Binary,
+    Call,
+    Expr,
+    Name,
+    Number,
+    Reduce,
+    Select,
+    Table,
+    Unary,
+)
+from idefix_rules.rulebook.types import (
+    BOOLEAN,
+    ELEMENTWISE_FUNCTIONS,
+    PATH_FUNCTIONS,
+    RATIO,
+    SCOPE_DESCRIPTIONS,
+    ExprType,
+    Scope,
+    axis_of_label,
+)
+from idefix_rules.units import DIMENSIONLESS, TIME, Dimension, UnitError, describe, parse_unit
+
+Problems = list[Diagnostic]
+
+
+def unit_dimension(number: Number, problems: Problems) -> Dimension | None:
+    if number.unit is None:
+        return DIMENSIONLESS
+    try:
+        return parse_unit(number.unit).dimension
+    except UnitError as failure:
+        problems.append(error("E205", str(failure), number.span,
+                              "units are listed in docs/rulebook-language.md"))
+        return None
+
+
+def did_you_mean(name: str, candidates: list[str]) -> str | None:
+    close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else None
+
+
+def infer_type(expr: Expr, scope: Scope, problems: Problems) -> ExprType | None:
+    """The type of ``expr`` in ``scope``; mistakes are appended to ``problems``."""
+    handler = _HANDLERS[type(expr)]
+    return handler(expr, scope, problems)
+
+
+def _number(expr: Number, scope: Scope, problems: Problems) -> ExprType | None:
+    dimension = unit_dimension(expr, problems)
+    return None if dimension is None else ExprType(dimension)
+
+
+def _name(expr: Name, scope: Scope, problems: Problems) -> ExprType | None:
+    found = scope.lookup(expr.name)
+    if found is not None:
+        return found
+    where = SCOPE_DESCRIPTIONS[scope.kind]
+    hint = did_you_mean(expr.name, scope.candidates())
+    if scope.kind != "run" and signals.lookup(expr.name) is not None:
+        message = f"signal '{expr.name}' cannot be used in {where}"
+        hint = "signals are only visible in indices, chances and maps"
+    else:
+        message = f"unknown name '{expr.name}' in {where}"
+    problems.append(error("E101", message, expr.span, hint))
+    return None
+
+
+def _select(expr: Select, scope: Scope, problems: Problems) -> ExprType | None:
+    base = infer_type(expr.operand, scope, problems)
+    if base is None:
+        return None
+    axes = list(base.axes)
+    for label in expr.labels:
+        axis = axis_of_label(label)
+        if axis is None:
+            known = [lab for labels in signals.AXIS_LABELS.values() for lab in labels]
+            problems.append(error("E104", f"unknown label '{label}'", expr.span,
+                                  did_you_mean(label, known) or f"labels are {', '.join(known)}"))
+            return None
+        if axis not in axes:
+            problems.append(error("E104", f"cannot select '{label}': the expression has no "
+                                  f"{axis} axis", expr.span))
+            return None
+        axes.remove(axis)
+    return ExprType(base.dimension, tuple(axes), base.boolean)
+
+
+def _table(expr: Table, scope: Scope, problems: Problems) -> ExprType | None:
+    axis_set = {axis_of_label(label) for label, _ in expr.entries}
+    if None in axis_set or len(axis_set) != 1:
+        problems.append(error("E306", "a table's labels must all name one axis "
+                              "(wheels FL..RR, parts, or levels L1..L3)", expr.span))
+        return None
+    axis = axis_set.pop()
+    assert axis is not None
+    labels = [label for label, _ in expr.entries]
+    expected = signals.AXIS_LABELS[axis]
+    if sorted(labels) != sorted(expected):
+        problems.append(error("E306", f"a {axis} table needs each of {', '.join(expected)} "
+                              f"exactly once, got {', '.join(labels)}", expr.span))
+        return None
+    dimension = None
+    for _, value in expr.entries:
+        entry = infer_type(value, scope, problems)
+        if entry is None:
+            return None
+        if entry.axes or entry.boolean:
+            problems.append(error("E306", "table entries must be plain quantities", value.span))
+            return None
+        if dimension is not None and entry.dimension != dimension:
+            problems.append(error("E201", f"table mixes {describe(dimension)} and "
+                                  f"{describe(entry.dimension)}", value.span))
+            return None
+        dimension = entry.dimension
+    return ExprType(dimension or DIMENSIONLESS, (axis,))
+
+
+def _unary(expr: Unary, scope: Scope, problems: Problems) -> ExprType | None:
+    operand = infer_type(expr.operand, scope, problems)
+    if operand is None:
+        return None
+    if expr.op == "not":
+        if not operand.boolean:
+            problems.append(error("E304", "'not' needs a condition", expr.operand.span))
+            return None
+        return operand
+    if operand.boolean:
+        problems.append(error("E304", "cannot negate a condition; use 'not'", expr.span))
+        return None
+    return operand
+
+
+_ARITHMETIC = {"+", "-", "*", "/", "^"}
+_COMPARISON = {"<", "<=", ">", ">=", "==", "!="}
+
+
+def _binary(expr: Binary, scope: Scope, problems: Problems) -> ExprType | None:
+    left = infer_type(expr.left, scope, problems)
+    right = infer_type(expr.right, scope, problems)
+    if left is None or right is None:
+        return None
+    axes = tuple(set(left.axes) | set(right.axes))
+    if expr.op in ("and", "or"):
+        for side, node in ((left, expr.left), (right, expr.right)):
+            if not side.boolean:
+                problems.append(error("E303", f"'{expr.op}' needs conditions on both sides",
+                                      node.span))
+                return None
+        return ExprType(DIMENSIONLESS, axes, True)
+    for side, node in ((left, expr.left), (right, expr.right)):
+        if side.boolean:
+            problems.append(error("E304", f"a condition cannot be used with '{expr.op}'",
+                                  node.span))
+            return None
+    if expr.op in _COMPARISON or expr.op in ("+", "-"):
+        if left.dimension != right.dimension:
+            verb = "compare" if expr.op in _COMPARISON else (
+                "add" if expr.op == "+" else "subtract")
+            problems.append(error(
+                "E201", f"cannot {verb} {describe(left.dimension)} ({left.dimension}) and "
+                f"{describe(right.dimension)} ({right.dimension})", expr.span))
+            return None
+        return ExprType(left.dimension, axes, expr.op in _COMPARISON)
+    if expr.op == "*":
+        return ExprType(left.dimension * right.dimension, axes)
+    if expr.op == "/":
+        return ExprType(left.dimension / right.dimension, axes)
+    # '^': the exponent is a dimensionless integer literal unless the base is dimensionless
+    exponent = expr.right
+    if right.dimension != DIMENSIONLESS or right.axes:
+        problems.append(error("E202", "an exponent must be a plain number", exponent.span))
+        return None
+    if left.dimension.is_dimensionless:
+        return ExprType(DIMENSIONLESS, axes)
+    if not (isinstance(exponent, Number) and exponent.unit is None
+            and float(exponent.value).is_integer()):
+        problems.append(error("E202", "a quantity with a unit can only be raised to a whole "
+                              "number written in place", exponent.span))
+        return None
+    return ExprType(left.dimension ** int(exponent.value), left.axes)
+
+
+def _call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
+    if scope.kind == "path" and expr.function in PATH_FUNCTIONS:
+        return _path_call(expr, scope, problems)
+    if expr.function not in ELEMENTWISE_FUNCTIONS:
+        known = sorted(ELEMENTWISE_FUNCTIONS | (set(PATH_FUNCTIONS) if scope.kind == "path"
+                                                 else set()))
+        problems.append(error("E105", f"unknown function '{expr.function}'", expr.span,
+                              did_you_mean(expr.function, known)
+                              or f"functions are {', '.join(known)}"))
+        return None
+    arity = {"abs": (1, 1), "sqrt": (1, 1), "clamp": (3, 3), "min": (2, 99), "max": (2, 99)}
+    low, high = arity[expr.function]
+    if not low <= len(expr.args) <= high:
+        wanted = str(low) if low == high else f"at least {low}"
+        hint = None
+        if expr.function in ("min", "max") and len(expr.args) == 1:
+            hint = f"to reduce over time write '{expr.function} over time (…)'"
+        problems.append(error("E106", f"{expr.function}() takes {wanted} argument(s), got "
+                              f"{len(expr.args)}", expr.span, hint))
+        return None
+    types = [infer_type(arg, scope, problems) for arg in expr.args]
+    if any(t is None for t in types):
+        return None
+    typed = [t for t in types if t is not None]
+    for t, arg in zip(typed, expr.args, strict=True):
+        if t.boolean:
+            problems.append(error("E304", f"{expr.function}() needs quantities, not conditions",
+                                  arg.span))
+            return None
+    first = typed[0]
+    axes = tuple(set().union(*(set(t.axes) for t in typed)))
+    if expr.function == "sqrt":
+        exps = first.dimension.exponents()
+        if any(e % 2 for e in exps):
+            problems.append(error("E202", f"cannot take the square root of "
+                                  f"{describe(first.dimension)}", expr.span))
+            return None
+        return ExprType(type(first.dimension)(*(e // 2 for e in exps)), axes)
+    for t, arg in zip(typed[1:], expr.args[1:], strict=True):
+        if t.dimension != first.dimension:
+            problems.append(error("E201", f"{expr.function}() mixes "
+                                  f"{describe(first.dimension)} and {describe(t.dimension)}",
+                                  arg.span))
+            return None
+    return ExprType(first.dimension, axes)
+
+
+def _path_call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
+    kind = PATH_FUNCTIONS[expr.function]
+    if len(expr.args) != 1 or not isinstance(expr.args[0], Name):
+        problems.append(error("E106", f"{expr.function}() takes the name of "
+                              f"{'a chance' if kind == 'chance' else 'an index'}", expr.span))
+        return None
+    name = expr.args[0]
+    assert isinstance(name, Name)
+    known = scope.chances if kind == "chance" else scope.indices
+    if name.name not in known:
+        what = "chance" if kind == "chance" else "index"
+        problems.append(error("E101", f"unknown {what} '{name.name}'", name.span,
+                              did_you_mean(name.name, sorted(known))))
+        return None
+    return RATIO
+
+
+def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
+    operand = infer_type(expr.operand, scope, problems)
+    axis = DOMAIN_AXES[expr.domain]
+    parameter = None
+    if expr.parameter is not None:
+        parameter = infer_type(expr.parameter, scope, problems)
+    if expr.window is not None:
+        window_type = infer_type(expr.window.value, scope, problems)
+        if expr.domain != "time":
+            problems.append(error("E305", f"a window only applies to reductions over time, "
+                                  f"not over {expr.domain}", expr.window.span))
+        elif window_type is not None:
+            wanted = DIMENSIONLESS if expr.window.kind == "command" else TIME
+            if window_type.dimension != wanted or window_type.axes:
+                what = "a command number" if expr.window.kind == "command" else "a duration"
+                problems.append(error("E204", f"'{expr.window.kind}' window needs {what}, got "
+                                      f"{describe(window_type.dimension)}", expr.window.span))
+    if operand is None:
+        return None
+    if axis not in operand.axes:
+        shape = ", ".join(operand.axes) if operand.axes else "a single value per run"
+        problems.append(error(
+            "E301", f"'{expr.reducer} over {expr.domain}' needs a quantity with a {axis} axis; "
+            f"this one has {shape}", expr.span))
+        return None
+    if expr.reducer in ("any", "all", "count"):
+        if not operand.boolean:
+            problems.append(error("E303", f"'{expr.reducer}' needs a condition",
+                                  expr.operand.span))
+            return None
+        result = operand.without(axis)
+        if expr.reducer == "count":
+            return ExprType(DIMENSIONLESS, result.axes)
+        return result
+    if operand.boolean:
+        problems.append(error("E304", f"'{expr.reducer}' needs a quantity, not a condition",
+                              expr.operand.span, "use any/all/count for conditions"))
+        return None
+    if (expr.reducer in PARAMETRIC_REDUCERS) != (expr.parameter is not None):
+        if expr.parameter is None:
+            problems.append(error("E106", f"'{expr.reducer}' needs a parameter", expr.span))
+        else:
+            problems.append(error("E106", f"'{expr.reducer}' takes no parameter",
+                                  expr.parameter.span))
+        return None
+    if expr.reducer in ("integral", "time_above") and expr.domain != "time":
+        problems.append(error("E301", f"'{expr.reducer}' only reduces over time", expr.span))
+        return None
+    if expr.reducer == "percentile" and parameter is not None:
+        value = expr.parameter
+        if parameter.dimension != DIMENSIONLESS or not (
+                isinstance(value, Number) and 0 <= value.value <= 100 and value.unit is None):
+            problems.append(error("E308", "percentile needs a number from 0 to 100",
+                                  expr.parameter.span if expr.parameter else expr.span))
+            return None
+    if expr.reducer == "time_above" and parameter is not None:
+        if parameter.dimension != operand.dimension:
+            problems.append(error("E201", f"time_above compares {describe(operand.dimension)} "
+                                  f"with a threshold that is {describe(parameter.dimension)}",
+                                  expr.parameter.span if expr.parameter else expr.span))
+            return None
+        return ExprType(TIME, operand.without(axis).axes)
+    result = operand.without(axis)
+    if expr.reducer == "integral":
+        return ExprType(result.dimension * TIME, result.axes)
+    return result
+
+
+_HANDLERS: dict[type, Callable[[Expr, Scope, Problems], ExprType | None]] = {
+    Number: _number,  # type: ignore[dict-item]
+    Name: _name,  # type: ignore[dict-item]
+    Select: _select,  # type: ignore[dict-item]
+    Table: _table,  # type: ignore[dict-item]
+    Unary: _unary,  # type: ignore[dict-item]
+    Binary: _binary,  # type: ignore[dict-item]
+    Call: _call,  # type: ignore[dict-item]
+    Reduce: _reduce,  # type: ignore[dict-item]
+}
+
+__all__ = ["BOOLEAN", "did_you_mean", "infer_type"]

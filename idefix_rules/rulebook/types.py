@@ -1,0 +1,143 @@
+"""Static types of rulebook expressions: dimension, named axes, boolean-ness, and scopes.
+
+Every expression has an :class:`ExprType`. Axes are named (``time``, ``wheel``, ``part``,
+``level``) and broadcast by name, so ``collision.hits * f_obs`` multiplies a (part, level)
+signal by a (level,) table. Each context of the language (constants, command rules, run
+indices, the reference-run prescreen, path statistics) has a :class:`Scope` with its names.
+
+>>> from idefix_rules.units import LENGTH
+>>> ExprType(LENGTH, ("wheel", "time")).axes
+('time', 'wheel')
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+from idefix_rules import signals
+from idefix_rules.units import (
+    ANGLE,
+    ANGULAR_RATE,
+    CHARGE,
+    DIMENSIONLESS,
+    LENGTH,
+    TIME,
+    VELOCITY,
+    Dimension,
+)
+
+AXIS_ORDER: tuple[str, ...] = ("time", "wheel", "part", "level")
+
+
+def canonical_axes(axes: tuple[str, ...] | set[str] | frozenset[str]) -> tuple[str, ...]:
+    """Axes in the canonical order (time first, then wheel, part, level)."""
+    present = set(axes)
+    return tuple(axis for axis in AXIS_ORDER if axis in present)
+
+
+@dataclass(frozen=True)
+class ExprType:
+    """What an expression evaluates to, per run."""
+
+    dimension: Dimension = DIMENSIONLESS
+    axes: tuple[str, ...] = ()
+    boolean: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "axes", canonical_axes(self.axes))
+
+    def without(self, axis: str) -> ExprType:
+        return ExprType(self.dimension, tuple(a for a in self.axes if a != axis), self.boolean)
+
+
+BOOLEAN = ExprType(DIMENSIONLESS, (), True)
+RATIO = ExprType(DIMENSIONLESS)
+
+ScopeKind = Literal["constant", "command", "run", "prescreen", "path"]
+
+SCOPE_DESCRIPTIONS: dict[str, str] = {
+    "constant": "a constant",
+    "command": "a command rule",
+    "run": "an index or chance",
+    "prescreen": "a prescreen rule",
+    "path": "a verdict or rank key",
+}
+
+# Quantities of one command, from idefix_rules.commands.command_kinematics.
+COMMAND_NAMES: dict[str, ExprType] = {
+    "max_wheel_rate": ExprType(ANGULAR_RATE),
+    "delta_position": ExprType(LENGTH),
+    "delta_heading": ExprType(ANGLE),
+    "turn_radius": ExprType(LENGTH),
+    "duration": ExprType(TIME),
+    "speed": ExprType(VELOCITY),
+    "yaw_rate": ExprType(ANGULAR_RATE),
+    "wheel_speed": ExprType(VELOCITY),
+    "command_number": ExprType(DIMENSIONLESS),
+}
+
+# Path statistics usable in verdicts and rank keys (besides chance(NAME) and mean(INDEX)).
+PATH_NAMES: dict[str, ExprType] = {
+    "risk": RATIO,
+    "time": ExprType(TIME),
+    "energy": ExprType(CHARGE),
+    "failed": RATIO,
+    "runs": RATIO,
+}
+
+# Functions of the path scope: argument kind → result.
+PATH_FUNCTIONS: dict[str, str] = {"chance": "chance", "mean": "index", "max": "index"}
+
+ELEMENTWISE_FUNCTIONS: frozenset[str] = frozenset({"abs", "min", "max", "sqrt", "clamp"})
+
+SETTINGS: dict[str, tuple[Dimension, float]] = {
+    # name: (dimension, default in SI)
+    "theoretical_slip": (DIMENSIONLESS, 0.0),
+    "tolerance_growth": (LENGTH / ANGLE, 0.0),
+}
+
+
+def signal_type(name: str) -> ExprType | None:
+    """Type of a contract signal (``ref.*`` included), or ``None`` when unknown."""
+    spec = signals.lookup(name)
+    if spec is None:
+        return None
+    return ExprType(spec.dimension, spec.axes)
+
+
+
+@dataclass
+class Scope:
+    """Names visible in one context of the language."""
+
+    kind: ScopeKind
+    constants: dict[str, ExprType] = field(default_factory=dict)
+    extra: dict[str, ExprType] = field(default_factory=dict)
+    chances: frozenset[str] = frozenset()
+    indices: frozenset[str] = frozenset()
+
+    def lookup(self, name: str) -> ExprType | None:
+        if name in self.extra:
+            return self.extra[name]
+        if name in self.constants:
+            return self.constants[name]
+        if self.kind == "run":
+            return signal_type(name)
+        return None
+
+    def candidates(self) -> list[str]:
+        """Every name visible here, for "did you mean" hints."""
+        names = [*self.extra, *self.constants]
+        if self.kind == "run":
+            names += list(signals.SIGNALS)
+            names += [signals.REF_PREFIX + n for n in signals.FMU_SIGNALS]
+        return names
+
+
+def axis_of_label(label: str) -> str | None:
+    """Axis a label belongs to: ``FL`` → ``wheel``, ``L2`` → ``level``."""
+    for axis, labels in signals.AXIS_LABELS.items():
+        if label in labels:
+            return axis
+    return None
