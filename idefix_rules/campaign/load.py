@@ -95,11 +95,9 @@ def _data_loc(data: Any, loc: Sequence[str | int]) -> tuple[tuple[str | int, ...
     node = data
     found = True
     for part in loc:
-        if isinstance(node, dict) and part in node:
-            cleaned.append(part)
-            node = node[part]
-            found = True
-        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+        in_dict = isinstance(node, dict) and part in node
+        in_list = isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
+        if in_dict or in_list:
             cleaned.append(part)
             node = node[part]
             found = True

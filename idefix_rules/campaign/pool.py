@@ -13,6 +13,7 @@ that exceeds the timeout is ended by killing its worker. Workers are forked from
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -48,7 +49,7 @@ def _worker_main(connection: Connection, function: TaskFunction) -> None:
         key, payload = message
         try:
             result = (key, True, function(payload), "")
-        except Exception as failure:  # noqa: BLE001 - every failure of a run is data
+        except Exception as failure:
             reason = f"{type(failure).__name__}: {failure}"
             result = (key, False, None, reason or traceback.format_exc(limit=2))
         try:
@@ -173,10 +174,8 @@ class LocalPool:
     def close(self) -> None:
         for worker in list(self._workers):
             if worker.key is None:
-                try:
+                with contextlib.suppress(OSError, ValueError):
                     worker.connection.send(None)
-                except (OSError, ValueError):
-                    pass
             self._retire(worker, kill=worker.key is not None)
 
 

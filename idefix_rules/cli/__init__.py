@@ -21,6 +21,8 @@ from idefix_rules.errors import IdefixError
 
 # Module names under idefix_rules.cli, in the order --help lists them.
 COMMAND_MODULES: tuple[str, ...] = (
+    "run",
+    "evaluate",
     "check",
     "fmt",
     "explain",

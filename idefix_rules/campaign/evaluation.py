@@ -1,0 +1,378 @@
+"""The evaluation stage: results.h5 + compiled rulebook → per-run indices, statistics, verdicts.
+
+Runs are read chunk by chunk (memory bounded in the number of runs); only complete runs are
+evaluated, failed ones are passed to the rulebook's statistics as ``failed_runs`` so a path with
+failed runs cannot silently pass. When the rulebook reads ``collision.*`` signals the obstacle
+checker runs on the stored poses of each chunk and its results are stored too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
+from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.signals import AXIS_LABELS
+
+POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
+DEFAULT_CHUNK_RUNS = 64
+
+CollisionFunction = Callable[[Mapping[str, np.ndarray]],
+                             tuple[dict[str, np.ndarray], list[dict[str, Any]]]]
+
+
+@dataclass
+class PathResult:
+    """What the evaluation says about one path (the terminal table, JSON and JUnit read it)."""
+
+    name: str
+    index: int
+    status: str
+    reason: str = ""
+    runs: int = 0
+    completed: int = 0
+    failures: dict[int, str] = field(default_factory=dict)
+    statistics: Any = None
+    verdict: Any = None
+    rank: int | None = None
+    dominant_index: str | None = None
+    mean_risk: float | None = None
+    risk_ci: tuple[float, float] | None = None
+    chances: dict[str, float] = field(default_factory=dict)
+    collision_chance: dict[str, float] = field(default_factory=dict)
+    energy: float | None = None
+    time: float | None = None
+    passed: bool | None = None
+    undecided: bool = False
+    verdict_reasons: list[str] = field(default_factory=list)
+
+    @property
+    def failed(self) -> int:
+        return len(self.failures)
+
+    @property
+    def verdict_text(self) -> str:
+        if self.status == "rejected":
+            return "rejected"
+        if self.status == "excluded":
+            return "excluded"
+        if self.status not in ("simulated",) or self.passed is None:
+            return "error"
+        return "pass" if self.passed else "fail"
+
+
+@dataclass
+class CampaignEvaluation:
+    paths: list[PathResult]
+    ranking: list[str]
+    rulebook: dict[str, str]
+    provenance: dict[str, Any]
+
+    def path(self, name: str) -> PathResult:
+        for result in self.paths:
+            if result.name == name:
+                return result
+        raise KeyError(name)
+
+
+# --- adapters to the rulebook's result objects ------------------------------------------------
+
+def _get(obj: Any, *names: str, default: Any = None) -> Any:
+    for name in names:
+        if isinstance(obj, Mapping) and name in obj:
+            return obj[name]
+        if hasattr(obj, name):
+            return getattr(obj, name)
+    return default
+
+
+def as_plain(obj: Any) -> Any:
+    """JSON-ready form of the rulebook's dataclasses (statistics, verdicts)."""
+    to_dict = getattr(obj, "to_dict", None)
+    if callable(to_dict):
+        return as_plain(to_dict())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: as_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, Mapping):
+        return {str(k): as_plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [as_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+# --- collisions -------------------------------------------------------------------------------
+
+def collision_function(environment: Any, evaluator: Any,
+                       ground: Any = None) -> CollisionFunction | None:
+    """The obstacle checker for a campaign environment, or None if the rulebook needs none."""
+    if not getattr(evaluator, "needs_collisions", False):
+        return None
+    from idefix_rules.campaign.environment import obstacle_set
+    from idefix_rules.obstacles import collision_signals
+
+    obstacles = obstacle_set(environment, evaluator, ground)
+
+    def check(poses: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray],
+                                                          list[dict[str, Any]]]:
+        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, obstacles)
+        details = [as_plain(d) for d in result.details]
+        return dict(result.signals), details
+
+    return check
+
+
+# --- evaluation -------------------------------------------------------------------------------
+
+def run_context(chain: Sequence[Command], rover: RoverGeometry, sigma: float,
+                reference: Mapping[str, np.ndarray] | None) -> Any:
+    from idefix_rules.rulebook import RunContext
+
+    return RunContext(chain=tuple(chain), rover=rover, initial_position_sigma=sigma,
+                      reference=reference)
+
+
+def prescreen_reference(evaluator: Any, chain: Sequence[Command], rover: RoverGeometry,
+                        sigma: float, reference: Mapping[str, np.ndarray],
+                        collisions: CollisionFunction | None = None) -> list[Any]:
+    """The rulebook's pre-screen findings on a reference run (empty: go on to Monte Carlo)."""
+    signals = {key: np.asarray(value)[None, ...] for key, value in reference.items()}
+    if collisions is not None:
+        extra, _ = collisions(signals)
+        signals.update(extra)
+    evaluation = evaluator.evaluate(signals, run_context(chain, rover, sigma, reference))
+    return list(evaluator.prescreen(evaluation))
+
+
+def without_samples(evaluation: Any) -> Any:
+    """The evaluation with its per-sample arrays dropped (they are large; chunks are joined)."""
+    empty = {name: np.empty((evaluation.runs, 0)) for name in evaluation.per_sample}
+    return dataclasses.replace(evaluation, per_sample=empty)
+
+
+def concatenate(evaluations: Sequence[Any]) -> Any:
+    """One evaluation over all runs from per-chunk evaluations."""
+    return type(evaluations[0]).concat(list(evaluations))
+
+
+def _chunk_signals(store: ResultStore, name: str, rows: np.ndarray,
+                   required: set[str] | None) -> dict[str, np.ndarray]:
+    keys = None if required is None else sorted(required | set(POSE_SIGNALS) | {"command",
+                                                                              "energy", "t"})
+    start, stop = int(rows[0]), int(rows[-1]) + 1
+    chunk = store.read_runs(name, slice(start, stop), keys)
+    offset = rows - start
+    return {key: values[offset] for key, values in chunk.items()}
+
+
+def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeometry,
+                  sigma: float, collisions: CollisionFunction | None,
+                  chunk_runs: int = DEFAULT_CHUNK_RUNS) -> tuple[Any, dict[str, Any]]:
+    """Evaluate the complete runs of a path chunk by chunk; returns (evaluation, stored)."""
+    group = store.path_group(name)
+    chain = tuple(Command(*row) for row in group["chain"][()])
+    reference = store.reference(name)
+    context = run_context(chain, rover, sigma, reference)
+    status = store.run_status(name)
+    complete = np.flatnonzero(status == STATUS_COMPLETE)
+    required = set(getattr(evaluator, "required_signals", ())) or None
+    parts = []
+    hits, buffers, details = [], [], []
+    for begin in range(0, len(complete), chunk_runs):
+        rows = complete[begin:begin + chunk_runs]
+        signals = _chunk_signals(store, name, rows, required)
+        if collisions is not None:
+            extra, chunk_details = collisions(signals)
+            signals.update(extra)
+            hits.append(extra.get("collision.hits"))
+            buffers.append(extra.get("collision.buffer"))
+            details.extend(chunk_details)
+        parts.append(without_samples(evaluator.evaluate(signals, context)))
+    evaluation = concatenate(parts) if parts else None
+    extra_store = {"rows": complete}
+    if collisions is not None and parts:
+        extra_store["hits"] = np.concatenate([h for h in hits if h is not None]) \
+            if any(h is not None for h in hits) else None
+        extra_store["buffer"] = np.concatenate([b for b in buffers if b is not None]) \
+            if any(b is not None for b in buffers) else None
+        extra_store["details"] = details
+    return evaluation, extra_store
+
+
+def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
+                   collisions: CollisionFunction | None, rulebook_info: dict[str, str],
+                   write: bool = True,
+                   chunk_runs: int = DEFAULT_CHUNK_RUNS) -> CampaignEvaluation:
+    """Score every path of a results file; writes the evaluation groups when ``write``."""
+    results: list[PathResult] = []
+    statistics: dict[str, Any] = {}
+    for name in store.path_names:
+        group = store.path_group(name)
+        result = PathResult(name=name, index=int(group.attrs["index"]),
+                            status=str(group.attrs.get("status", "pending")),
+                            reason=str(group.attrs.get("reason", "")))
+        results.append(result)
+        if result.status != "simulated" or not store.has_runs(name):
+            continue
+        status = store.run_status(name)
+        result.runs = len(status)
+        result.completed = int(np.sum(status == STATUS_COMPLETE))
+        result.failures = store.failures(name)
+        missing = len(status) - result.completed - result.failed
+        evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
+                                          chunk_runs)
+        if evaluation is None:
+            result.passed = False
+            result.verdict_reasons = ["no complete run to evaluate"]
+            continue
+        stats = evaluator.path_statistics(evaluation, failed_runs=result.failed + missing)
+        verdict = evaluator.verdict(stats)
+        statistics[name] = stats
+        _fill(result, evaluation, stats, verdict)
+        if write:
+            _write_path_evaluation(store, name, evaluation, extra, stats, verdict, len(status))
+    ranking = list(evaluator.rank(statistics)) if statistics else []
+    for position, name in enumerate(ranking, start=1):
+        for result in results:
+            if result.name == name:
+                result.rank = position
+    provenance = {key: as_plain(value) for key, value in store.attrs.items()}
+    campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance)
+    if write:
+        root = store.file.require_group("evaluation")
+        for key, value in rulebook_info.items():
+            root.attrs[f"rulebook_{key}"] = value
+        root.attrs["ranking"] = json.dumps(ranking)
+        from idefix_rules.campaign.simulate import now_iso
+
+        root.attrs["evaluated"] = now_iso()
+        store.file.flush()
+    return campaign_eval
+
+
+def _fill(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None:
+    result.statistics = stats
+    result.verdict = verdict
+    risk = stats.risk
+    result.mean_risk = _float(risk.value)
+    result.risk_ci = (float(risk.low), float(risk.high))
+    result.chances = {str(k): float(v.value) for k, v in stats.chances.items()}
+    result.collision_chance = collision_chances(result.chances)
+    result.energy = _float(stats.energy.value)
+    result.time = _float(stats.time.value)
+    counts = dict(getattr(stats, "dominant_counts", {}) or {})
+    result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \
+        else dominant_index(evaluation)
+    result.passed = bool(verdict.passed)
+    result.undecided = not bool(verdict.decided)
+    result.verdict_reasons = [_reason_text(rule) for rule in verdict.rules
+                              if not rule.passed or not rule.decided]
+    if (result.failed or result.completed < result.runs) and result.passed:
+        # The rulebook already counts failed runs; this is the last guard.
+        result.passed = False
+        result.verdict_reasons.append(
+            f"{result.runs - result.completed} of {result.runs} run(s) failed or missing")
+
+
+def _reason_text(rule: Any) -> str:
+    text = f"{rule.name}: {rule.message}"
+    if not rule.decided:
+        text += " (not decided at this number of runs)"
+    return text
+
+
+def _float(value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def collision_chances(chances: Mapping[str, float]) -> dict[str, float]:
+    """Chance of a collision per level, from the rulebook's chances whose name ends in a level.
+
+    ``hit_L2``, ``collision.L2``, ``collision_L2`` all count as the L2 column.
+    """
+    found = {}
+    for name, value in chances.items():
+        for level in AXIS_LABELS["level"]:
+            if name.endswith(level) or name.endswith(level.lower()):
+                found[level] = value
+    return found
+
+
+def dominant_index(evaluation: Any) -> str | None:
+    names = list(getattr(evaluation, "index_names", ()))
+    dominant = np.asarray(getattr(evaluation, "dominant", []))
+    if not names or dominant.size == 0:
+        return None
+    valid = dominant[(dominant >= 0) & (dominant < len(names))]
+    if valid.size == 0:
+        return None
+    counts = np.bincount(valid.astype(int), minlength=len(names))
+    return names[int(np.argmax(counts))]
+
+
+def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
+                           extra: dict[str, Any], stats: Any, verdict: Any, runs: int) -> None:
+    group = store.path_group(name)
+    if "evaluation" in group:
+        del group["evaluation"]
+    target = group.create_group("evaluation")
+    rows = extra["rows"]
+
+    def full(values: np.ndarray, fill: float = np.nan, dtype: Any = np.float64) -> np.ndarray:
+        values = np.asarray(values)
+        out = np.full((runs, *values.shape[1:]), fill, dtype=dtype)
+        out[rows] = values
+        return out
+
+    index_names = list(getattr(evaluation, "index_names", ()))
+    target.attrs["index_names"] = json.dumps(index_names)
+    for section in ("values", "raw"):
+        data = getattr(evaluation, section, {}) or {}
+        sub = target.create_group("indices" if section == "values" else "raw")
+        for key, values in data.items():
+            sub.create_dataset(key, data=full(values))
+    target.create_dataset("i_max", data=full(evaluation.i_max))
+    target.create_dataset("dominant", data=full(evaluation.dominant, -1, np.int16))
+    target.create_dataset("time", data=full(evaluation.time))
+    target.create_dataset("energy", data=full(evaluation.energy))
+    chances = target.create_group("chances")
+    for key, values in (getattr(evaluation, "chances", {}) or {}).items():
+        chances.create_dataset(key, data=full(values, 0, np.int8))
+    if extra.get("hits") is not None:
+        collisions = target.create_group("collisions")
+        collisions.create_dataset("hits", data=full(extra["hits"]))
+        if extra.get("buffer") is not None:
+            collisions.create_dataset("buffer", data=full(extra["buffer"]))
+        texts = [""] * runs
+        for row, record in zip(rows, extra.get("details", []), strict=False):
+            texts[int(row)] = json.dumps(record)
+        collisions.create_dataset("details", data=texts, dtype=h5py.string_dtype("utf-8"))
+    target.attrs["statistics"] = json.dumps(as_plain(stats))
+    target.attrs["verdict"] = json.dumps(as_plain(verdict))
+    store.file.flush()
+
+
+def open_for_evaluation(path: Path) -> ResultStore:
+    return ResultStore.open(path, writable=True)
+
+
+__all__ = ["STATUS_FAILED", "CampaignEvaluation", "PathResult", "evaluate_store",
+           "prescreen_reference"]

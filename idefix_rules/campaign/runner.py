@@ -1,0 +1,188 @@
+"""One campaign end to end: load → simulate → store → evaluate → outputs (the CLI renders).
+
+>>> from idefix_rules.campaign.runner import run_campaign  # doctest: +SKIP
+>>> result = run_campaign(load_campaign("campaigns/rock-detour.yaml"))  # doctest: +SKIP
+>>> result.exit_code  # doctest: +SKIP
+0
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from idefix_rules.campaign import outputs
+from idefix_rules.campaign.environment import ground_function, write_terrain
+from idefix_rules.campaign.evaluation import (
+    CampaignEvaluation,
+    collision_function,
+    evaluate_store,
+)
+from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.schema import CampaignFile
+from idefix_rules.campaign.simulate import (
+    TERRAIN_PARAMETER,
+    Progress,
+    SimulationOptions,
+    initial_position_sigma,
+    rover_geometry,
+    simulate_campaign,
+)
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.validate import check_parameters
+from idefix_rules.campaign.yamlsource import load_yaml
+
+SUMMARY_FILE = "summary.json"
+
+
+@dataclass
+class CampaignResult:
+    """Everything a campaign run produced, as data."""
+
+    results: Path
+    evaluation: CampaignEvaluation
+    expectations: list[outputs.ExpectationResult]
+    summary: dict[str, Any]
+    exit_code: int
+    warnings: list[str] = field(default_factory=list)
+    report: Path | None = None
+
+
+def compile_rulebook_file(path: Path) -> Any:
+    """Load, check and compile a rulebook (UserInputError on any mistake)."""
+    from idefix_rules.rulebook import compile_rulebook, load_rulebook
+
+    return compile_rulebook(load_rulebook(path))
+
+
+def rulebook_info(evaluator: Any, path: Path) -> dict[str, str]:
+    return {"name": str(evaluator.name), "version": str(evaluator.version),
+            "sha256": str(evaluator.source_hash), "path": str(path)}
+
+
+def resolve_fmu(campaign: Campaign) -> Path:
+    if campaign.fmu is not None:
+        return campaign.fmu
+    from idefix_rules.fmu import default_fmu_path
+
+    return Path(default_fmu_path())
+
+
+def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
+                 progress: Progress | None = None, junit: Path | None = None,
+                 report: bool = True) -> CampaignResult:
+    """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked)."""
+    options = options or SimulationOptions()
+    evaluator = compile_rulebook_file(campaign.rulebook)
+    fmu_path = resolve_fmu(campaign)
+    variables = check_parameters(campaign, fmu_path)
+    fixed: dict[str, float | str] = {}
+    terrain_path = None
+    if campaign.fmu is None or TERRAIN_PARAMETER in variables:
+        terrain_path = write_terrain(campaign.model.environment, campaign.dem, campaign.output)
+        fixed[TERRAIN_PARAMETER] = str(terrain_path)
+    simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress)
+    if progress is not None:
+        progress.message("evaluating")
+    collisions = collision_function(campaign.model.environment, evaluator,
+                                    ground_function(terrain_path))
+    store = ResultStore.open(simulation.results, writable=True)
+    try:
+        evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
+                                    initial_position_sigma(campaign), collisions,
+                                    rulebook_info(evaluator, campaign.rulebook))
+        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name)
+    finally:
+        store.close()
+    result.warnings.extend(simulation.warnings)
+    if report:
+        result.report = write_report(result.results, campaign.output)
+    return result
+
+
+def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,
+            output: Path, junit: Path | None, name: str) -> CampaignResult:
+    checks = outputs.check_expectations(model.expect, evaluation)
+    code = outputs.exit_code(evaluation, checks, bool(model.expect))
+    data = outputs.summary(evaluation, checks, code)
+    store.file.require_group("evaluation").attrs["summary"] = json.dumps(data, default=str)
+    store.file.flush()
+    outputs.write_summary(output / SUMMARY_FILE, data)
+    if junit is not None:
+        junit.parent.mkdir(parents=True, exist_ok=True)
+        junit.write_text(outputs.junit_xml(evaluation, checks, name), encoding="utf-8")
+    return CampaignResult(Path(store.file.filename), evaluation, checks, data, code)
+
+
+def write_report(results: Path, output: Path) -> Path | None:
+    """The HTML report, when the report package provides its writer (optional stage)."""
+    if importlib.util.find_spec("idefix_rules.report") is None:
+        return None
+    import idefix_rules.report as report_package
+
+    writer = getattr(report_package, "write_report", None)
+    if writer is None:
+        return None
+    written = writer(results, output)
+    return Path(written) if written is not None else None
+
+
+def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,
+            out: Path | None = None) -> CampaignResult:
+    """Evaluate stored results again, with their own or another rulebook; no simulation."""
+    store = ResultStore.open(results, writable=True)
+    try:
+        campaign_text = store.text("campaign")
+        campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
+        document = load_yaml(campaign_text, campaign_path)
+        model = CampaignFile.model_validate(document.data)
+        base = Path(campaign_path).parent
+        if rulebook is None:
+            text = store.text("rulebook")
+            stored = store.file["provenance"]["rulebook"].attrs
+            rulebook_path = Path(str(stored.get("path", "rulebook.rules")))
+            evaluator = _compile_text(text, rulebook_path)
+        else:
+            rulebook_path = rulebook
+            evaluator = compile_rulebook_file(rulebook)
+        stub = _campaign_stub(model, base, campaign_text, campaign_path)
+        output = out or results.parent
+        terrain = output / "terrain.dem"
+        collisions = collision_function(model.environment, evaluator,
+                                        ground_function(terrain if terrain.exists() else None))
+        evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
+                                    initial_position_sigma(stub), collisions,
+                                    rulebook_info(evaluator, rulebook_path))
+        name = str(store.attrs.get("campaign_name", "campaign"))
+        return _finish(store, evaluation, model, output, junit, name)
+    finally:
+        store.close()
+
+
+def _compile_text(text: str, path: Path) -> Any:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        copy = Path(folder) / path.name
+        copy.write_text(text, encoding="utf-8")
+        return compile_rulebook_file(copy)
+
+
+def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Campaign:
+    """A :class:`Campaign` rebuilt from stored text (for geometry and uncertainty only)."""
+    from idefix_rules.campaign.load import PathSpec
+    from idefix_rules.campaign.yamlsource import SourceMap
+    from idefix_rules.commands import Command
+
+    paths = tuple(PathSpec(name, index, tuple(Command(c.max_wheel_rate, c.delta_position,
+                                                      c.delta_heading) for c in chain))
+                  for index, (name, chain) in enumerate(model.paths.items()))
+    return Campaign(source=Path(path), text=text,
+                    sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(), model=model,
+                    paths=paths, rulebook=base / model.rulebook, output=base / model.output,
+                    fmu=None, dem=None, runs=model.runs, seed=model.uncertainty.seed,
+                    workers=None, locations=SourceMap(path))

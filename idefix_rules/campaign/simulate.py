@@ -1,0 +1,365 @@
+"""The simulation stage: command rules → reference runs → pre-screen → Monte Carlo → results.h5.
+
+:func:`simulate_campaign` chains the stages; evaluation is a separate stage
+(:mod:`idefix_rules.campaign.evaluation`) joined to this one only by the results file.
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import json
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from idefix_rules import __version__
+from idefix_rules.campaign import sampling
+from idefix_rules.campaign.load import Campaign, PathSpec
+from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
+from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.worker import RunTask, simulate
+from idefix_rules.commands import RoverGeometry, chain_duration
+from idefix_rules.errors import UserInputError, error
+
+RESULTS_FILE = "results.h5"
+SEED_DERIVATION = ("monte_carlo: run j of path p uses SeedSequence(seed, spawn_key=(p, j)); "
+                   "latin_hypercube/sobol: the path design uses SeedSequence(seed, "
+                   "spawn_key=(p,)) and run j takes row j")
+
+# Campaign regolith keys are the FMU's soil parameters without their prefix.
+REGOLITH_PREFIX = "soil."
+GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track": "half_track",
+                       "rover.half_wheelbase": "half_wheelbase"}
+INITIAL_POSITION = ("initial.x", "initial.y")
+TERRAIN_PARAMETER = "terrain.file"
+
+
+class Progress(Protocol):
+    """What the simulation reports while it works (the CLI shows it; tests ignore it)."""
+
+    def message(self, text: str) -> None: ...
+
+    def start_path(self, name: str, total: int, done: int) -> None: ...
+
+    def run_finished(self, name: str, ok: bool) -> None: ...
+
+
+class SilentProgress:
+    def message(self, text: str) -> None:
+        pass
+
+    def start_path(self, name: str, total: int, done: int) -> None:
+        pass
+
+    def run_finished(self, name: str, ok: bool) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class SimulationOptions:
+    workers: int | None = None  # None: the campaign's, else all cores
+    run_timeout: float | None = None
+    resume: bool = False
+    scheduler: str | None = None  # Dask scheduler address
+    dask_local: bool = False
+
+
+@dataclass
+class PathPlan:
+    spec: PathSpec
+    stop_time: float
+    samples: int
+    ideal_duration: float
+    status: str = "pending"
+    reason: str = ""
+    reference: dict[str, np.ndarray] | None = None
+
+
+@dataclass
+class SimulationSummary:
+    results: Path
+    plans: list[PathPlan] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def now_iso() -> str:
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
+def file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def rover_geometry(campaign: Campaign) -> RoverGeometry:
+    """Kinematic geometry: defaults, or fixed/nominal values the campaign gives."""
+    values = nominal_parameters(campaign)
+    overrides = {field_name: float(values[name]) for name, field_name in
+                 GEOMETRY_PARAMETERS.items() if name in values}
+    return RoverGeometry(**overrides)
+
+
+def nominal_parameters(campaign: Campaign) -> dict[str, float]:
+    """Parameter values of the reference run: regolith values, then uncertainty nominals."""
+    values = {REGOLITH_PREFIX + key if "." not in key else key: value
+              for key, value in campaign.model.environment.regolith.items()}
+    values.update(sampling.nominal_values(campaign.model.uncertainty.parameters))
+    return values
+
+
+def initial_position_sigma(campaign: Campaign) -> float:
+    """σ of the initial position (the larger of x and y): the starting tolerance radius."""
+    parameters = campaign.model.uncertainty.parameters
+    sigmas = [sampling.standard_deviation(parameters[name]) for name in INITIAL_POSITION
+              if name in parameters]
+    return max(sigmas, default=0.0)
+
+
+def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathPlan:
+    settings = campaign.model.simulation
+    ideal = chain_duration(spec.chain, rover)
+    raw_stop = ideal * settings.duration_margin + settings.extra_time
+    steps = max(1, math.ceil(raw_stop / settings.output_interval - 1e-9))
+    return PathPlan(spec, steps * settings.output_interval, steps + 1, ideal)
+
+
+def _pool(function: Any, options: SimulationOptions, campaign: Campaign) -> Any:
+    if options.scheduler or options.dask_local:
+        return DaskPool(function, address=options.scheduler,
+                        workers=options.workers or campaign.workers)
+    return LocalPool(function, workers=options.workers or campaign.workers,
+                     run_timeout=options.run_timeout)
+
+
+def _map(pool: Any, tasks: list[tuple[Any, RunTask]]) -> Iterator[tuple[Any, Outcome]]:
+    yield from pool.map(tasks)
+
+
+def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
+                      fmu_parameters: Mapping[str, float | str],
+                      options: SimulationOptions | None = None,
+                      progress: Progress | None = None) -> SimulationSummary:
+    """Run every stage up to a complete ``results.h5``; returns what happened per path.
+
+    ``fmu_parameters`` are the run-independent parameters (terrain file, regolith values).
+    """
+    options = options or SimulationOptions()
+    progress = progress or SilentProgress()
+    results = campaign.output / RESULTS_FILE
+    rover = rover_geometry(campaign)
+    summary = SimulationSummary(results)
+    warning = sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs)
+    if warning:
+        summary.warnings.append(warning)
+        progress.message(warning)
+    store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
+    try:
+        store.attrs["state"] = "running"
+        store.file.flush()
+        plans = [plan_path(campaign, spec, rover) for spec in campaign.paths]
+        summary.plans = plans
+        _command_rules(campaign, evaluator, rover, plans, store)
+        _reference_runs(campaign, evaluator, rover, fmu_path, fmu_parameters, plans, store,
+                        options, progress)
+        _monte_carlo(campaign, fmu_path, fmu_parameters, plans, store, options, progress)
+        complete = all(not store.has_runs(p.spec.name)
+                       or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
+                       for p in plans)
+        store.attrs["state"] = "complete" if complete else "interrupted"
+        store.attrs["finished"] = now_iso() if complete else ""
+    except BaseException:
+        if store.file.id.valid:
+            store.attrs["state"] = "interrupted"
+        raise
+    finally:
+        store.close()
+    return summary
+
+
+def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
+                resume: bool) -> ResultStore:
+    fmu_hash = file_sha256(fmu_path)
+    if resume and results.exists():
+        store = ResultStore.open(results, writable=True)
+        expected = {"campaign_sha256": campaign.sha256, "runs": campaign.runs,
+                    "seed": campaign.seed, "fmu_sha256": fmu_hash}
+        for key, value in expected.items():
+            stored = store.attrs.get(key)
+            if stored != value:
+                store.close()
+                raise UserInputError(error(
+                    "H010", f"cannot resume {results}: its {key} is {stored!r}, "
+                            f"this campaign's is {value!r}",
+                    hint="resume with the same campaign file, --runs, --seed and FMU, or "
+                         "choose another --out"))
+        resumed = json.loads(str(store.attrs.get("resumed", "[]")))
+        store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
+        return store
+    rulebook_text = campaign.rulebook.read_text(encoding="utf-8")
+    store = ResultStore.create(results, {
+        "campaign_name": campaign.name,
+        "campaign_path": str(campaign.source),
+        "campaign_sha256": campaign.sha256,
+        "package_version": __version__,
+        "fmu_path": str(fmu_path),
+        "fmu_sha256": fmu_hash,
+        "seed": campaign.seed,
+        "runs": campaign.runs,
+        "sampling": campaign.model.uncertainty.method,
+        "seed_derivation": SEED_DERIVATION,
+        "started": now_iso(),
+        "resumed": "[]",
+        "finished": "",
+        "state": "running",
+        "output_interval": campaign.model.simulation.output_interval,
+    }, {"campaign": campaign.text, "rulebook": rulebook_text})
+    text = store.file["provenance"]["rulebook"]
+    text.attrs["name"] = evaluator.name
+    text.attrs["version"] = evaluator.version
+    text.attrs["sha256"] = evaluator.source_hash
+    text.attrs["path"] = str(campaign.rulebook)
+    store.file.flush()
+    return store
+
+
+def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
+                   plans: list[PathPlan], store: ResultStore) -> None:
+    for plan in plans:
+        name = plan.spec.name
+        if store.has_path(name):
+            group = store.path_group(name)
+            if "reference" not in group and group.attrs.get("status") == "pending":
+                del store.file["paths"][name]  # killed before its reference run was stored
+            else:
+                plan.status = str(group.attrs.get("status", "pending"))
+                plan.reason = str(group.attrs.get("reason", ""))
+                plan.reference = store.reference(name)
+                continue
+        violations = evaluator.check_chain(plan.spec.chain, rover)
+        store.create_path(name, plan.spec.index, plan.spec.chain, {
+            "status": "pending", "reason": "", "stop_time": plan.stop_time,
+            "samples": plan.samples, "ideal_duration": plan.ideal_duration})
+        if violations:
+            plan.status = "rejected"
+            plan.reason = "; ".join(_describe(v) for v in violations)
+            store.set_path_status(name, plan.status, plan.reason)
+
+
+def _describe(item: Any) -> str:
+    """One line for a rule finding (command violation or pre-screen finding)."""
+    for method in ("describe", "message"):
+        value = getattr(item, method, None)
+        if callable(value):
+            return str(value())
+        if isinstance(value, str):
+            return value
+    rule = getattr(item, "rule", None)
+    reason = getattr(item, "reason", None)
+    if rule is not None:
+        return f"{rule}: {reason}" if reason else str(rule)
+    return str(item)
+
+
+def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
+          parameters: Mapping[str, float | str]) -> RunTask:
+    fmu = campaign.model.fmu
+    return RunTask(
+        fmu_path=str(fmu_path),
+        signal_map=tuple(fmu.signals.items()) if fmu.signals is not None else None,
+        parameter_map=tuple(fmu.parameters.items()) if fmu.parameters is not None else None,
+        parameters=tuple(parameters.items()),
+        chain=plan.spec.chain,
+        stop_time=plan.stop_time,
+        output_interval=campaign.model.simulation.output_interval,
+        samples=plan.samples,
+    )
+
+
+def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu_path: Path,
+                    fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
+                    store: ResultStore, options: SimulationOptions, progress: Progress) -> None:
+    from idefix_rules.campaign.evaluation import prescreen_reference
+
+    todo = [p for p in plans if p.status == "pending"]
+    if not todo:
+        return
+    nominal = {**fmu_parameters, **nominal_parameters(campaign)}
+    progress.message(f"reference runs of {len(todo)} path(s)")
+    tasks = [(plan.spec.name, _task(campaign, fmu_path, plan, nominal)) for plan in todo]
+    by_name = {plan.spec.name: plan for plan in todo}
+    pool = _pool(simulate, options, campaign)
+    for name, outcome in _map(pool, tasks):
+        plan = by_name[name]
+        numeric = {k: float(v) for k, v in nominal.items() if not isinstance(v, str)}
+        if not outcome.ok:
+            plan.status, plan.reason = "reference_failed", outcome.reason
+            store.write_reference(name, None, numeric, outcome.reason)
+            store.set_path_status(name, plan.status, plan.reason)
+            continue
+        plan.reference = outcome.value
+        store.write_reference(name, outcome.value, numeric)
+        findings = prescreen_reference(evaluator, plan.spec.chain, rover,
+                                       initial_position_sigma(campaign), outcome.value)
+        if findings:
+            plan.status = "excluded"
+            plan.reason = "; ".join(_describe(f) for f in findings)
+        else:
+            plan.status = "simulated"
+        store.set_path_status(name, plan.status, plan.reason)
+
+
+def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, Any]]:
+    parameters = campaign.model.uncertainty.parameters
+    info = {}
+    for name in names:
+        spec = parameters.get(name)
+        if spec is None:
+            info[name] = {"unit": "", "distribution": json.dumps({"distribution": "fixed"})}
+        else:
+            unit = str(spec.dimension) if not spec.dimension.is_dimensionless else ""
+            info[name] = {"unit": unit, "distribution": spec.model_dump_json()}
+    return info
+
+
+def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str, float | str],
+                 plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
+                 progress: Progress) -> None:
+    tasks: list[tuple[tuple[str, int], RunTask]] = []
+    base = {**fmu_parameters, **nominal_parameters(campaign)}
+    for plan in plans:
+        if plan.status != "simulated" or plan.reference is None:
+            continue
+        name = plan.spec.name
+        sampled = sampling.sample_path(campaign.model.uncertainty.parameters,
+                                       campaign.model.uncertainty.method, campaign.seed,
+                                       plan.spec.index, campaign.runs)
+        if not store.has_runs(name):
+            shapes = {key: tuple(np.shape(value))[1:] for key, value in plan.reference.items()}
+            store.allocate_runs(name, campaign.runs, shapes, sampled,
+                                parameter_info(campaign, list(sampled)))
+        status = store.run_status(name)
+        missing = np.flatnonzero(status == STATUS_MISSING)
+        progress.start_path(name, campaign.runs, campaign.runs - len(missing))
+        for run in missing:
+            parameters = dict(base)
+            parameters.update({key: float(values[run]) for key, values in sampled.items()})
+            tasks.append(((name, int(run)), _task(campaign, fmu_path, plan, parameters)))
+    if not tasks:
+        return
+    # Interleave paths so every progress bar moves from the start.
+    tasks.sort(key=lambda item: (item[0][1], item[0][0]))
+    pool = _pool(simulate, options, campaign)
+    for (name, run), outcome in _map(pool, tasks):
+        if outcome.ok:
+            store.write_run(name, run, outcome.value)
+        else:
+            store.write_failure(name, run, outcome.reason)
+        progress.run_finished(name, outcome.ok)

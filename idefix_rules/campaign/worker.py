@@ -1,0 +1,81 @@
+"""The task a worker executes: one simulation of one command chain.
+
+The same function runs in the local pool and on Dask workers. Each worker process keeps its
+:class:`~idefix_rules.fmu.FmuRunner` (FMU extracted and instantiated once) and reuses it through
+``reset`` for every later run; a failing run drops the instance so the next run starts clean.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.commands import Command
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """Everything one simulation needs; picklable, sent to a worker."""
+
+    fmu_path: str
+    signal_map: tuple[tuple[str, str], ...] | None
+    parameter_map: tuple[tuple[str, str], ...] | None
+    parameters: tuple[tuple[str, float | str], ...]
+    chain: tuple[Command, ...]
+    stop_time: float
+    output_interval: float
+    samples: int
+
+
+_RUNNERS: dict[tuple[Any, ...], Any] = {}
+
+
+def _runner(task: RunTask) -> Any:
+    from idefix_rules.fmu import FmuRunner
+
+    key = (task.fmu_path, task.signal_map, task.parameter_map)
+    runner = _RUNNERS.get(key)
+    if runner is None:
+        for old in _RUNNERS.values():
+            old.close()
+        _RUNNERS.clear()
+        runner = FmuRunner(
+            task.fmu_path,
+            signal_map=dict(task.signal_map) if task.signal_map is not None else None,
+            parameter_map=dict(task.parameter_map) if task.parameter_map is not None else None,
+        )
+        _RUNNERS[key] = runner
+    return runner
+
+
+def simulate(task: RunTask) -> dict[str, np.ndarray]:
+    """Simulate one run; raises on an FMU error or an output that breaks the contract."""
+    runner = _runner(task)
+    try:
+        signals = runner.run(parameters=dict(task.parameters), chain=list(task.chain),
+                             stop_time=task.stop_time, output_interval=task.output_interval)
+    except BaseException:
+        _RUNNERS.clear()
+        with contextlib.suppress(Exception):
+            runner.close()
+        raise
+    return check_outputs(signals, task.samples)
+
+
+def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
+    """Outputs on the expected grid and finite, as float64 arrays; ValueError otherwise."""
+    checked = {}
+    for name, values in signals.items():
+        array = np.asarray(values, dtype=np.float64)
+        if array.shape[:1] != (samples,):
+            raise ValueError(f"signal {name!r} has {array.shape[0] if array.ndim else 0} "
+                             f"samples, expected {samples}")
+        if not np.all(np.isfinite(array)):
+            first = int(np.flatnonzero(~np.isfinite(array.reshape(samples, -1)).any(axis=1))[0])
+            raise ValueError(f"signal {name!r} is not finite from sample {first}")
+        checked[name] = array
+    return checked

@@ -1,0 +1,35 @@
+"""``idefix-verify evaluate results.h5 [--rulebook R]``: re-score stored results."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from idefix_rules.cli.run import print_outcome
+
+NAME = "evaluate"
+HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
+        "it was run with or another one (--rulebook); rewrites its evaluation and "
+        "summary.json. Exit codes as for `run`.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("results", type=Path, help="results.h5 of a campaign")
+    parser.add_argument("--rulebook", type=Path,
+                        help="rulebook to score with (default: the one stored in the results)")
+    parser.add_argument("--junit", type=Path, metavar="FILE", help="write JUnit XML")
+    parser.add_argument("--out", type=Path,
+                        help="folder for summary.json (default: next to results.h5)")
+    parser.add_argument("--quiet", action="store_true", help="accepted for symmetry with run")
+
+
+def run(args: argparse.Namespace) -> int:
+    from idefix_rules.campaign.runner import rescore
+
+    console = Console(highlight=False)
+    result = rescore(args.results, args.rulebook, args.junit, args.out)
+    print_outcome(console, result.evaluation, result.expectations, result.exit_code,
+                  result.warnings)
+    return result.exit_code

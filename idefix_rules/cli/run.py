@@ -1,0 +1,206 @@
+"""``idefix-verify run CAMPAIGN.yaml`` (or just ``idefix-verify CAMPAIGN.yaml``)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+from rich.table import Table
+
+from idefix_rules.campaign.evaluation import CampaignEvaluation
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.outputs import ExpectationResult
+from idefix_rules.campaign.simulate import SimulationOptions
+
+NAME = "run"
+HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
+        "with the rulebook, print pass/fail and the ranking. Exit 0 all expectations hold, "
+        "1 a path or expectation failed, 2 invalid input, 3 infrastructure error.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", type=Path, help="campaign file (YAML)")
+    parser.add_argument("--runs", type=_positive_int, help="Monte Carlo runs per path "
+                        "(overrides the campaign's `runs`)")
+    parser.add_argument("--out", type=Path, help="output folder (overrides `output`)")
+    parser.add_argument("--seed", type=_non_negative_int, help="campaign seed (overrides "
+                        "`uncertainty.seed`)")
+    parser.add_argument("--workers", type=_positive_int,
+                        help="worker processes (default: the campaign's, else all cores)")
+    parser.add_argument("--run-timeout", type=_positive_float, metavar="SECONDS",
+                        help="a run taking longer is killed and recorded as failed")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue an interrupted campaign: simulate only missing runs")
+    parser.add_argument("--junit", type=Path, metavar="FILE",
+                        help="write JUnit XML: one test case per path and per expectation")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress bars (CI logs); the result table is still printed")
+    parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
+    cluster = parser.add_mutually_exclusive_group()
+    cluster.add_argument("--scheduler", metavar="ADDRESS",
+                         help="run on a Dask distributed cluster (scheduler address)")
+    cluster.add_argument("--dask-local", action="store_true",
+                         help="run on a local Dask cluster instead of the process pool")
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
+class RichProgress:
+    """Progress bars with ETA per path (the simulation's :class:`Progress` protocol)."""
+
+    def __init__(self, console: Console, quiet: bool) -> None:
+        self.console = console
+        self.quiet = quiet
+        self.bars: Progress | None = None
+        self.tasks: dict[str, Any] = {}
+
+    def message(self, text: str) -> None:
+        if not self.quiet:
+            self.console.print(f"[dim]{text}[/dim]")
+
+    def start_path(self, name: str, total: int, done: int) -> None:
+        if self.quiet:
+            return
+        if self.bars is None:
+            self.bars = Progress(TextColumn("{task.description:<24}"), BarColumn(),
+                                 MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
+                                 TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                                 console=self.console, transient=False)
+            self.bars.start()
+        self.tasks[name] = self.bars.add_task(name, total=total, completed=done, failed="")
+        self.failed: dict[str, int] = getattr(self, "failed", {})
+        self.failed[name] = 0
+
+    def run_finished(self, name: str, ok: bool) -> None:
+        if self.bars is None or name not in self.tasks:
+            return
+        if not ok:
+            self.failed[name] += 1
+        label = f"[red]{self.failed[name]} failed[/red]" if self.failed[name] else ""
+        self.bars.update(self.tasks[name], advance=1, failed=label)
+
+    def stop(self) -> None:
+        if self.bars is not None:
+            self.bars.stop()
+            self.bars = None
+
+
+def _percent(value: float | None) -> str:
+    return "–" if value is None else f"{100.0 * value:.1f}"
+
+
+def results_table(evaluation: CampaignEvaluation) -> Table:
+    """The paper's Table 1, plus verdict, rank and dominant index."""
+    table = Table(title="Path evaluation", title_justify="left")
+    table.add_column("path")
+    table.add_column("risk %", justify="right")
+    table.add_column("95 % CI", justify="right")
+    for level in ("L1", "L2", "L3"):
+        table.add_column(f"hit {level} %", justify="right")
+    table.add_column("energy mAs", justify="right")
+    table.add_column("time s", justify="right")
+    table.add_column("runs", justify="right")
+    table.add_column("verdict")
+    table.add_column("rank", justify="right")
+    table.add_column("dominant")
+    for path in sorted(evaluation.paths, key=lambda p: (p.rank is None, p.rank or 0, p.index)):
+        verdict = path.verdict_text
+        style = {"pass": "green", "fail": "red"}.get(verdict, "yellow")
+        shown = f"[{style}]{verdict}[/{style}]"
+        if path.undecided:
+            shown += " [yellow](not decided)[/yellow]"
+        ci = f"{_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])}" if path.risk_ci else "–"
+        runs = f"{path.completed}/{path.runs}" if path.runs else "–"
+        if path.failed:
+            runs += f" [red]({path.failed} failed)[/red]"
+        table.add_row(
+            path.name, _percent(path.mean_risk), ci,
+            *(_percent(path.collision_chance.get(level)) for level in ("L1", "L2", "L3")),
+            "–" if path.energy is None else f"{path.energy * 1000.0:.1f}",
+            "–" if path.time is None else f"{path.time:.1f}",
+            runs, shown, "–" if path.rank is None else str(path.rank),
+            path.dominant_index or "–",
+        )
+    return table
+
+
+def print_outcome(console: Console, evaluation: CampaignEvaluation,
+                  expectations: list[ExpectationResult], code: int,
+                  warnings: list[str]) -> None:
+    console.print(results_table(evaluation))
+    for path in evaluation.paths:
+        if path.reason:
+            console.print(f"[yellow]{path.name}[/yellow] {path.status}: {path.reason}")
+        for reason in path.verdict_reasons:
+            console.print(f"  {path.name}: {reason}")
+        for run, reason in sorted(path.failures.items())[:10]:
+            console.print(f"  [red]{path.name} run {run} failed[/red]: {reason}")
+        if path.failed > 10:
+            console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
+    if evaluation.ranking:
+        console.print("ranking: " + " > ".join(evaluation.ranking))
+    for expectation in expectations:
+        mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
+        console.print(f"{mark} expect {expectation.description}: {expectation.message}")
+    for text in warnings:
+        console.print(f"[yellow]warning:[/yellow] {text}")
+    console.print(f"exit code {code}: " + ("verified" if code == 0 else "verification failed"))
+
+
+def run(args: argparse.Namespace) -> int:
+    from idefix_rules.campaign.runner import run_campaign
+
+    console = Console(stderr=False, highlight=False)
+    campaign = load_campaign(args.campaign).with_overrides(
+        runs=args.runs, seed=args.seed,
+        output=args.out.resolve() if args.out else None, workers=args.workers)
+    options = SimulationOptions(workers=args.workers, run_timeout=args.run_timeout,
+                                resume=args.resume, scheduler=args.scheduler,
+                                dask_local=args.dask_local)
+    progress = RichProgress(console, args.quiet)
+    try:
+        result = run_campaign(campaign, options, progress, junit=args.junit,
+                              report=not args.no_report)
+    except KeyboardInterrupt:
+        progress.stop()
+        console.print("[yellow]interrupted[/yellow]: continue with "
+                      f"`idefix-verify {args.campaign} --resume`"
+                      + (f" --out {args.out}" if args.out else ""))
+        raise
+    finally:
+        progress.stop()
+    print_outcome(console, result.evaluation, result.expectations, result.exit_code,
+                  result.warnings)
+    console.print(f"results: {result.results}")
+    if result.report is not None:
+        console.print(f"report: {result.report}")
+    return result.exit_code
