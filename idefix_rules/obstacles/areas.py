@@ -1,0 +1,189 @@
+"""Areas to avoid: steep terrain (from a DEM), unknown terrain (a mask), user polygons.
+
+An area is a region of the ground plane. It becomes python-fcl geometry as vertical prisms that
+reach far above and below any rover pose (``AREA_HALF_HEIGHT`` around the terrain), so a body
+intersects the prism exactly when its footprint overlaps the region, and the fcl distance to the
+prism is the horizontal distance to the region. That keeps one checker (same broad phase,
+clearance, buffer zone) for rocks and areas, instead of a second 2-D code path.
+
+Grid convention (same grid for the DEM and the mask): ``heights[i, j]`` is the terrain height at
+``(origin_x + j * cell, origin_y + i * cell)``; each grid node owns the square cell of side
+``cell`` centred on it. One connected group of flagged cells (8-neighbour) is one obstacle,
+covered by axis-aligned boxes merged from runs of cells.
+
+>>> mask = np.zeros((4, 4), bool); mask[1:3, 1:3] = True
+>>> [o.name for o in unknown_terrain(mask, (0.0, 0.0), 0.5, "L2")]
+['unknown1']
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from idefix_rules.errors import UserInputError, error
+from idefix_rules.obstacles.obstacles import Obstacle, Piece, level_index
+
+AREA_HALF_HEIGHT = 20.0  # m above and below the terrain: taller than any rover pose can reach
+AREA_PARTS: tuple[str, ...] = ("wheel",)
+
+
+def steep_terrain(heights: np.ndarray, origin: Sequence[float], cell: float, max_slope: float,
+                  level: object, name: str = "steep",
+                  parts: tuple[str, ...] = AREA_PARTS) -> list[Obstacle]:
+    """Areas where the DEM's slope (rad, from central differences) exceeds ``max_slope``.
+
+    >>> heights = np.zeros((5, 5)); heights[:, 3:] = [[0.0, 1.0]] * 5
+    >>> [(o.name, o.level_name) for o in steep_terrain(heights, (0, 0), 0.5, 0.3, "L3")]
+    [('steep1', 'L3')]
+    """
+    heights = _grid(heights, cell, "DEM heights", float)
+    if not (math.isfinite(max_slope) and 0.0 < max_slope < math.pi / 2):
+        raise UserInputError(error("E621", f"slope threshold must be in (0, 90) deg, "
+                                           f"got {math.degrees(max_slope):.3g} deg"))
+    if min(heights.shape) < 2:
+        raise UserInputError(error("E620", "a DEM needs at least 2 × 2 heights for a slope"))
+    dz_dy, dz_dx = np.gradient(heights, cell)
+    slope = np.arctan(np.hypot(dz_dx, dz_dy))
+    return _mask_areas(slope > max_slope, heights, origin, cell, level, name, "steep", parts)
+
+
+def unknown_terrain(mask: np.ndarray, origin: Sequence[float], cell: float, level: object,
+                    name: str = "unknown", heights: np.ndarray | None = None,
+                    parts: tuple[str, ...] = AREA_PARTS) -> list[Obstacle]:
+    """Areas where ``mask`` is true (terrain the navigation images do not show)."""
+    mask = _grid(mask, cell, "unknown-terrain mask", bool)
+    ground = np.zeros(mask.shape) if heights is None else _grid(heights, cell, "DEM heights",
+                                                                float)
+    if ground.shape != mask.shape:
+        raise UserInputError(error("E620", f"mask shape {mask.shape} differs from the DEM's "
+                                           f"{ground.shape}"))
+    return _mask_areas(mask, ground, origin, cell, level, name, "unknown", parts)
+
+
+def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
+                 parts: tuple[str, ...] = AREA_PARTS, ground_z: float = 0.0) -> Obstacle:
+    """A user polygon (x, y vertices, any orientation, simple, convex or not) as one obstacle,
+    cut into triangles (ear clipping), each a vertical prism.
+
+    >>> area = polygon_area([(0, 0), (2, 0), (2, 2), (1, 1), (0, 2)], "L1", "keep-out")
+    >>> len(area.pieces)
+    3
+    """
+    points = np.asarray(vertices, float)
+    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3 \
+            or not np.all(np.isfinite(points)):
+        raise UserInputError(error("E622", f"area {name}: a polygon needs at least 3 finite "
+                                           "(x, y) vertices"))
+    area2 = _signed_area2(points)
+    if abs(area2) < 1e-12:
+        raise UserInputError(error("E622", f"area {name}: polygon has no area"))
+    if area2 < 0:
+        points = points[::-1]
+    pieces = tuple(_prism(points[list(tri)], ground_z) for tri in _ear_clip(points, name))
+    return Obstacle(name, "polygon", level_index(level, f"area {name}"), pieces, parts=parts)
+
+
+def _grid(values: np.ndarray, cell: float, what: str, dtype: type) -> np.ndarray:
+    array = np.asarray(values)
+    if array.ndim != 2 or array.size == 0:
+        raise UserInputError(error("E620", f"{what} must be a 2-D grid, got shape {array.shape}"))
+    if not (math.isfinite(cell) and cell > 0):
+        raise UserInputError(error("E620", f"grid cell size must be > 0 m, got {cell!r}"))
+    array = array.astype(dtype)
+    if dtype is float and not np.all(np.isfinite(array)):
+        raise UserInputError(error("E620", f"{what} contain non-finite values"))
+    return array
+
+
+def _mask_areas(mask: np.ndarray, heights: np.ndarray, origin: Sequence[float], cell: float,
+                level: object, name: str, kind: str, parts: tuple[str, ...]) -> list[Obstacle]:
+    from scipy import ndimage
+
+    level_number = level_index(level, f"{kind} terrain")
+    labels, count = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    x0, y0 = float(origin[0]), float(origin[1])
+    out = []
+    for label in range(1, count + 1):
+        component = labels == label
+        z_mid = float(heights[component].mean())
+        pieces = []
+        for row0, row1, col0, col1 in _rectangles(component):
+            lower = np.array([x0 + (col0 - 0.5) * cell, y0 + (row0 - 0.5) * cell])
+            upper = np.array([x0 + (col1 + 0.5) * cell, y0 + (row1 + 0.5) * cell])
+            centre = np.array([*(lower + upper) / 2.0, z_mid])
+            size = (*(upper - lower), 2.0 * AREA_HALF_HEIGHT)
+            pieces.append(Piece("box", tuple(float(v) for v in size), centre, np.eye(3)))
+        out.append(Obstacle(f"{name}{label}", kind, level_number, tuple(pieces), parts=parts))
+    return out
+
+
+def _rectangles(component: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Cover a boolean grid with rectangles (rows r0..r1, cols c0..c1, inclusive): runs of a row
+    are merged with the identical run of the rows below."""
+    open_runs: dict[tuple[int, int], int] = {}
+    done: list[tuple[int, int, int, int]] = []
+    for row in range(component.shape[0] + 1):
+        runs = set(_runs(component[row])) if row < component.shape[0] else set()
+        for run in list(open_runs):
+            if run not in runs:
+                done.append((open_runs.pop(run), row - 1, run[0], run[1]))
+        for run in runs:
+            open_runs.setdefault(run, row)
+    return sorted(done)
+
+
+def _runs(row: np.ndarray) -> list[tuple[int, int]]:
+    padded = np.concatenate([[False], row, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _signed_area2(points: np.ndarray) -> float:
+    x, y = points[:, 0], points[:, 1]
+    return float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _ear_clip(points: np.ndarray, name: str) -> list[tuple[int, int, int]]:
+    """Triangles of a counter-clockwise simple polygon."""
+    remaining = list(range(len(points)))
+    triangles = []
+    guard = 0
+    while len(remaining) > 3:
+        guard += 1
+        if guard > 4 * len(points) ** 2:
+            raise UserInputError(error("E622", f"area {name}: polygon is not simple "
+                                               "(its edges cross)"))
+        n = len(remaining)
+        for k in range(n):
+            i, j, m = remaining[k - 1], remaining[k], remaining[(k + 1) % n]
+            a, b, c = points[i], points[j], points[m]
+            if _cross(a, b, c) <= 1e-15:
+                continue  # reflex or degenerate corner: not an ear
+            if any(_inside(points[p], a, b, c) for p in remaining if p not in (i, j, m)):
+                continue
+            triangles.append((i, j, m))
+            remaining.pop(k)
+            break
+    triangles.append((remaining[0], remaining[1], remaining[2]))
+    return triangles
+
+
+def _cross(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+
+def _inside(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
+    return _cross(a, b, p) >= 0 and _cross(b, c, p) >= 0 and _cross(c, a, p) >= 0
+
+
+def _prism(triangle: np.ndarray, ground_z: float) -> Piece:
+    lo = np.column_stack([triangle, np.full(3, ground_z - AREA_HALF_HEIGHT)])
+    hi = np.column_stack([triangle, np.full(3, ground_z + AREA_HALF_HEIGHT)])
+    vertices = np.vstack([lo, hi])
+    centre = vertices.mean(axis=0)
+    faces = np.array([[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4],
+                      [2, 0, 3], [2, 3, 5]])
+    return Piece("convex", (), centre, np.eye(3), vertices - centre, faces)

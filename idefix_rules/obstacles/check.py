@@ -1,0 +1,404 @@
+"""The collision check: every run's poses against every obstacle, with python-fcl.
+
+Three stages per chunk of runs (``docs/obstacles.md`` has the derivations):
+
+1. **Motion bound.** Between two samples the pose is interpolated linearly (position and the
+   three angles). A point of body ``b`` then moves at most
+   ``|Δp| + (|Δroll| + |Δpitch| + |Δyaw|) · reach_b`` per step, ``reach_b`` bounding the body
+   about the rover centre. Its running sum ``u_b`` is a distance-like coordinate along the run:
+   the fcl distance of ``b`` to any obstacle changes by at most ``|Δu_b|``.
+2. **Broad phase (numpy, all poses at once).** Rover bounding sphere, then body bounding spheres,
+   against each obstacle piece's axis-aligned box, minus the motion of the adjacent steps. Only
+   (run, body, piece) stretches of samples whose lower bound is within the clearance cap go on.
+3. **Narrow phase (fcl, conservative advancement).** Along each stretch, fcl's exact distance
+   ``d`` at an anchor pose holds within ``±Δu`` for the poses that follow. The next anchor is
+   placed where ``Δu`` reaches an allowance chosen so that no contact or buffer decision can flip
+   before it (``|d - tolerance|``, ``|d - margin|``) and the clearance error stays within the
+   resolution; when one step between samples is larger than that, the anchor is an
+   interpolated pose between them. So no obstacle is skipped between samples however fast the
+   rover moves, and slow drives (sub-millimetre steps) need one fcl call per few millimetres.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import fcl
+import numpy as np
+
+from idefix_rules.errors import UserInputError, error
+from idefix_rules.obstacles.bodies import PARTS, Body, RoverBodies, rotation_matrices
+from idefix_rules.obstacles.obstacles import LEVELS, ObstacleSet, Piece
+from idefix_rules.obstacles.result import (
+    CheckSettings,
+    CollisionResult,
+    FirstContact,
+    RunCollisions,
+)
+
+POSE_NAMES = ("t", "x", "y", "z", "roll", "pitch", "yaw")
+_BROAD_BLOCK = 65_536  # poses per block of the (poses × pieces) broad-phase matrix
+
+
+def fcl_body(body: Body) -> fcl.CollisionObject:
+    """A python-fcl object for a rover body (its transform is set per pose)."""
+    if body.shape == "cylinder":
+        geometry = fcl.Cylinder(body.size[0], body.size[1])
+    else:
+        geometry = fcl.Box(*body.size)
+    return fcl.CollisionObject(geometry, fcl.Transform())
+
+
+def fcl_piece(piece: Piece) -> fcl.CollisionObject:
+    """A python-fcl object for an obstacle piece, placed in the world."""
+    if piece.shape == "sphere":
+        geometry = fcl.Sphere(piece.size[0])
+    elif piece.shape == "ellipsoid":
+        geometry = fcl.Ellipsoid(*piece.size)
+    elif piece.shape == "box":
+        geometry = fcl.Box(*piece.size)
+    else:
+        assert piece.vertices is not None and piece.faces is not None
+        faces = np.column_stack([np.full(len(piece.faces), 3), piece.faces]).ravel()
+        geometry = fcl.Convex(np.ascontiguousarray(piece.vertices), len(piece.faces), faces)
+    return fcl.CollisionObject(geometry, fcl.Transform(piece.rotation, piece.centre))
+
+
+def check_poses(poses: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Pose arrays as float64 (runs, samples); ``UserInputError`` naming what is wrong."""
+    problems = []
+    missing = [name for name in POSE_NAMES if name not in poses]
+    if missing:
+        raise UserInputError(error("E630", f"poses lack {', '.join(missing)}",
+                                   hint=f"collision checks need {', '.join(POSE_NAMES)}"))
+    arrays = {name: np.asarray(poses[name], float) for name in POSE_NAMES}
+    shape = arrays["x"].shape
+    if len(shape) != 2 or shape[1] < 1:
+        problems.append(error("E631", f"poses must be shaped (runs, samples), x has {shape}"))
+    for name, array in arrays.items():
+        if array.shape != shape:
+            problems.append(error("E631", f"pose {name} has shape {array.shape}, x has {shape}"))
+        elif not np.all(np.isfinite(array)):
+            problems.append(error("E632", f"pose {name} contains NaN or infinite values"))
+    if problems:
+        raise UserInputError(problems)
+    return arrays
+
+
+@dataclass
+class Tracks:
+    """What a chunk checker accumulates for the runs of one chunk."""
+
+    clearance: np.ndarray  # (runs, samples, bodies)
+    contact: np.ndarray  # (runs, samples, part, level) int8
+    hit: np.ndarray  # (runs, part, obstacle) bool
+    min_part: np.ndarray  # (runs, part, obstacle) min clearance
+    first: dict[tuple[int, int, int], FirstContact]  # (run, part, level) →
+
+    @classmethod
+    def empty(cls, runs: int, samples: int, bodies: int, obstacles: int, cap: float) -> Tracks:
+        return cls(clearance=np.full((runs, samples, bodies), cap),
+                   contact=np.zeros((runs, samples, len(PARTS), len(LEVELS)), np.int8),
+                   hit=np.zeros((runs, len(PARTS), obstacles), bool),
+                   min_part=np.full((runs, len(PARTS), obstacles), cap),
+                   first={})
+
+    def note_contact(self, contact: FirstContact, run: int) -> None:
+        """Keep ``contact`` if it is the earliest of its run, part and level."""
+        key = (run, PARTS.index(contact.part), LEVELS.index(contact.level))
+        known = self.first.get(key)
+        if known is None or contact.time < known.time:
+            self.first[key] = contact
+
+
+def collision_signals(poses: Mapping[str, np.ndarray], obstacles: ObstacleSet,
+                      bodies: RoverBodies = RoverBodies(),  # noqa: B008 - frozen, immutable
+                      settings: CheckSettings = CheckSettings(),  # noqa: B008
+                      first_run: int = 0) -> CollisionResult:
+    """Collision signals of runs of poses against an obstacle set.
+
+    ``poses``: ``t, x, y, z, roll, pitch, yaw`` shaped (runs, samples), SI. ``first_run`` numbers
+    the runs in ``details`` (the campaign calls this per chunk of runs).
+
+    >>> from idefix_rules.obstacles import ObstacleSet
+    >>> t = np.linspace(0.0, 100.0, 201)[None, :]
+    >>> poses = dict(t=t, x=0.005 * t, y=0 * t, z=0 * t + 0.3, roll=0 * t, pitch=0 * t,
+    ...              yaw=0 * t)
+    >>> rock = {"name": "r", "x": 0.4, "y": -0.26, "z": 0.0, "radius": 0.06, "level": "L2"}
+    >>> result = collision_signals(poses, ObstacleSet.from_rocks([rock]))
+    >>> result.signals["collision.hits"][0].tolist()  # part × level
+    [[0, 1, 0], [0, 0, 0], [0, 0, 0]]
+    """
+    return collect(check_poses(poses), obstacles, bodies, settings, first_run, _check_chunk)
+
+
+ChunkChecker = Callable[[dict[str, np.ndarray], ObstacleSet, tuple[Body, ...], list[Piece],
+                         np.ndarray, CheckSettings, float], "Tracks"]
+
+
+def collect(arrays: dict[str, np.ndarray], obstacles: ObstacleSet, bodies: RoverBodies,
+            settings: CheckSettings, first_run: int, checker: ChunkChecker) -> CollisionResult:
+    """Run ``checker`` chunk by chunk and turn its :class:`Tracks` into the signals."""
+    runs, samples = arrays["x"].shape
+    body_list = bodies.bodies()
+    n_obstacles = len(obstacles.obstacles)
+    cap = settings.cap(obstacles.buffer_margins)
+    clearance = np.full((runs, samples, len(PARTS)), cap)
+    contact = np.zeros((runs, samples, len(PARTS), len(LEVELS)), np.int8)
+    hits = np.zeros((runs, len(PARTS), len(LEVELS)), np.int64)
+    buffers = np.zeros_like(hits)
+    details: list[RunCollisions] = []
+    pieces, piece_owner = _pieces(obstacles)
+    levels = np.array([o.level for o in obstacles.obstacles], int)
+    margins = np.array(obstacles.buffer_margins)[levels] if n_obstacles else np.zeros(0)
+    runs_per_chunk = max(1, settings.chunk_poses // samples)
+    for start in range(0, runs, runs_per_chunk):
+        stop = min(runs, start + runs_per_chunk)
+        chunk = {name: array[start:stop] for name, array in arrays.items()}
+        tracks = checker(chunk, obstacles, body_list, pieces, piece_owner, settings, cap)
+        for part in range(len(PARTS)):
+            members = [i for i, b in enumerate(body_list) if b.part == part]
+            clearance[start:stop, :, part] = tracks.clearance[:, :, members].min(axis=2)
+        contact[start:stop] = tracks.contact
+        entered = (tracks.min_part < margins[None, None, :]) & ~tracks.hit
+        for level in range(len(LEVELS)):
+            of_level = levels == level
+            hits[start:stop, :, level] = tracks.hit[:, :, of_level].sum(axis=2)
+            buffers[start:stop, :, level] = entered[:, :, of_level].sum(axis=2)
+        details.extend(_details(tracks, entered, obstacles, start, first_run, cap))
+    signals = {"collision.hits": hits, "collision.buffer": buffers,
+               "collision.contact": contact, "collision.clearance": clearance}
+    return CollisionResult(signals, details, cap)
+
+
+def _pieces(obstacles: ObstacleSet) -> tuple[list[Piece], np.ndarray]:
+    pieces, owner = [], []
+    for index, obstacle in enumerate(obstacles.obstacles):
+        pieces.extend(obstacle.pieces)
+        owner.extend([index] * len(obstacle.pieces))
+    return pieces, np.array(owner, int)
+
+
+def _details(tracks: Tracks, entered: np.ndarray, obstacles: ObstacleSet, start: int,
+             first_run: int, cap: float) -> list[RunCollisions]:
+    names = obstacles.names
+    out = []
+    for local in range(tracks.hit.shape[0]):
+        run = start + local
+        contacts = tuple(tracks.first[key] for key in sorted(tracks.first) if key[0] == local)
+        hit = {PARTS[p]: tuple(names[o] for o in np.flatnonzero(tracks.hit[local, p]))
+               for p in range(len(PARTS))}
+        buffer = {PARTS[p]: tuple(names[o] for o in np.flatnonzero(entered[local, p]))
+                  for p in range(len(PARTS))}
+        nearest = tracks.min_part[local].min(axis=0) if len(PARTS) else np.zeros(0)
+        out.append(RunCollisions(first_run + run, contacts, hit, buffer,
+                                 {name: float(v) for name, v in zip(names, nearest, strict=True)},
+                                 cap))
+    return out
+
+
+def _check_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet, body_list: tuple[Body, ...],
+                 pieces: list[Piece], piece_owner: np.ndarray, settings: CheckSettings,
+                 cap: float) -> Tracks:
+    runs, samples = chunk["x"].shape
+    n_obstacles = len(obstacles.obstacles)
+    tracks = Tracks.empty(runs, samples, len(body_list), n_obstacles, cap)
+    if not pieces:
+        return tracks
+    rotation = rotation_matrices(chunk["roll"], chunk["pitch"], chunk["yaw"])
+    position = np.stack([chunk["x"], chunk["y"], chunk["z"]], axis=-1)
+    reach = np.array([b.reach for b in body_list])
+    rover_reach = float(reach.max())
+    step_move = np.linalg.norm(np.diff(position, axis=1), axis=2)
+    step_turn = sum(np.abs(np.diff(chunk[a], axis=1)) for a in ("roll", "pitch", "yaw"))
+    cum = np.zeros((runs, samples, len(body_list)))
+    cum[:, 1:] = np.cumsum(step_move[..., None] + step_turn[..., None] * reach, axis=1)
+    # Largest motion of any rover point over the steps next to each sample.
+    rover_step = step_move + step_turn * rover_reach
+    near_move = np.zeros((runs, samples))
+    near_move[:, :-1] = rover_step
+    near_move[:, 1:] = np.maximum(near_move[:, 1:], rover_step)
+    candidates = _broad_phase(position, rotation, near_move, body_list, pieces, piece_owner,
+                              obstacles, cap)
+    walker = _Walker(chunk, rotation, position, cum, body_list, pieces, piece_owner, obstacles,
+                     settings, cap, tracks)
+    for run, body, piece, first, last in candidates:
+        walker.walk(run, body, piece, first, last)
+    return tracks
+
+
+def _aabb_gap(points: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Distance from points (..., 3) to boxes (lower/upper broadcastable)."""
+    gap = np.maximum(np.maximum(lower - points, points - upper), 0.0)
+    return np.sqrt((gap * gap).sum(axis=-1))
+
+
+def _broad_phase(position: np.ndarray, rotation: np.ndarray, near_move: np.ndarray,
+                 body_list: tuple[Body, ...], pieces: list[Piece], piece_owner: np.ndarray,
+                 obstacles: ObstacleSet, cap: float) -> list[tuple[int, int, int, int, int]]:
+    """Stretches ``(run, body, piece, first sample, last sample)`` that need fcl."""
+    _runs, samples = position.shape[:2]
+    lower = np.array([p.lower for p in pieces])
+    upper = np.array([p.upper for p in pieces])
+    rover_reach = max(b.reach for b in body_list)
+    flat_position = position.reshape(-1, 3)
+    flat_move = near_move.ravel()
+    pose_idx, piece_idx = [], []
+    for begin in range(0, len(flat_position), _BROAD_BLOCK):
+        block = flat_position[begin:begin + _BROAD_BLOCK, None, :]
+        bound = _aabb_gap(block, lower[None], upper[None])
+        bound -= rover_reach + flat_move[begin:begin + _BROAD_BLOCK, None]
+        p, m = np.nonzero(bound <= cap)
+        pose_idx.append(p + begin)
+        piece_idx.append(m)
+    pose = np.concatenate(pose_idx)
+    piece = np.concatenate(piece_idx)
+    if len(pose) == 0:
+        return []
+    allowed = np.array([[PARTS[b.part] in obstacles.obstacles[o].parts for o in range(
+        len(obstacles.obstacles))] for b in body_list])
+    flat_rotation = rotation.reshape(-1, 3, 3)
+    keys, sample_of = [], []
+    for b, body in enumerate(body_list):
+        ok = allowed[b, piece_owner[piece]]
+        p, m = pose[ok], piece[ok]
+        centre = flat_position[p] + flat_rotation[p] @ body.offset
+        bound = _aabb_gap(centre, lower[m], upper[m]) - body.radius - flat_move[p]
+        near = bound <= cap
+        p, m = p[near], m[near]
+        run, sample = np.divmod(p, samples)
+        keys.append((run * len(body_list) + b) * len(pieces) + m)
+        sample_of.append(sample)
+    key = np.concatenate(keys)
+    sample = np.concatenate(sample_of)
+    order = np.lexsort((sample, key))
+    key, sample = key[order], sample[order]
+    # A new stretch where the track changes or samples are not consecutive.
+    breaks = np.flatnonzero((np.diff(key) != 0) | (np.diff(sample) > 2)) + 1
+    starts = np.concatenate([[0], breaks])
+    ends = np.concatenate([breaks - 1, [len(key) - 1]])
+    out = []
+    for s, e in zip(starts.tolist(), ends.tolist(), strict=True):
+        track = int(key[s])
+        run_body, m = divmod(track, len(pieces))
+        run, b = divmod(run_body, len(body_list))
+        # One sample of margin each side covers the motion into and out of the stretch.
+        out.append((run, b, m, max(0, int(sample[s]) - 1), min(samples - 1, int(sample[e]) + 1)))
+    return out
+
+
+class _Walker:
+    """Conservative advancement along one (run, body, piece) stretch, writing into tracks."""
+
+    def __init__(self, chunk: dict[str, np.ndarray], rotation: np.ndarray, position: np.ndarray,
+                 cum: np.ndarray, body_list: tuple[Body, ...], pieces: list[Piece],
+                 piece_owner: np.ndarray, obstacles: ObstacleSet, settings: CheckSettings,
+                 cap: float, tracks: Tracks) -> None:
+        self.chunk, self.rotation, self.position, self.cum = chunk, rotation, position, cum
+        self.body_list, self.piece_owner = body_list, piece_owner
+        self.obstacles, self.settings, self.cap, self.tracks = obstacles, settings, cap, tracks
+        self.body_objects = [fcl_body(b) for b in body_list]
+        self.piece_objects = [fcl_piece(p) for p in pieces]
+        self.request = fcl.DistanceRequest()
+
+    def _body_pose(self, body: Body, rotation: np.ndarray, position: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        return rotation @ body.rotation, position + rotation @ body.offset
+
+    def _interpolated(self, run: int, sample: int, frac: float) -> tuple[np.ndarray, np.ndarray]:
+        values = {name: (1.0 - frac) * self.chunk[name][run, sample]
+                  + frac * self.chunk[name][run, sample + 1] for name in POSE_NAMES}
+        rotation = rotation_matrices(np.array(values["roll"]), np.array(values["pitch"]),
+                                     np.array(values["yaw"]))
+        return rotation, np.array([values["x"], values["y"], values["z"]])
+
+    def walk(self, run: int, b: int, m: int, first: int, last: int) -> None:
+        settings, tol = self.settings, self.settings.contact_tolerance
+        body, body_object = self.body_list[b], self.body_objects[b]
+        piece_object = self.piece_objects[m]
+        owner = int(self.piece_owner[m])
+        obstacle = self.obstacles.obstacles[owner]
+        margin = self.obstacles.buffer_margins[obstacle.level]
+        cum = self.cum[run, first:last + 1, b].tolist()
+        rotations = self.rotation[run, first:last + 1] @ body.rotation
+        positions = self.position[run, first:last + 1] + self.rotation[run, first:last + 1] \
+            @ body.offset
+        end = last - first
+        values: list[float] = []
+        counts: list[int] = []
+        between: list[int] = []  # samples marked for contacts found between two samples
+        first_contact: tuple[int, float] | None = None
+        j, frac = 0, 0.0
+        while True:
+            if frac == 0.0:
+                body_object.setRotation(rotations[j])
+                body_object.setTranslation(positions[j])
+                u = cum[j]
+            else:
+                rotation, position = self._interpolated(run, first + j, frac)
+                body_rotation, body_position = self._body_pose(body, rotation, position)
+                body_object.setRotation(body_rotation)
+                body_object.setTranslation(body_position)
+                u = cum[j] + frac * (cum[j + 1] - cum[j])
+            distance = fcl.distance(body_object, piece_object, self.request, fcl.DistanceResult())
+            in_contact = distance <= tol
+            if in_contact:
+                distance = max(distance, 0.0)  # fcl reports -1 for overlap: depth unknown
+                allowance = tol - distance
+                value = 0.0
+                if first_contact is None:
+                    first_contact = (j, frac)
+            else:
+                allowance = distance - tol
+                if margin > tol:
+                    allowance = min(allowance, abs(distance - margin))
+                resolution = max(settings.clearance_resolution,
+                                 settings.clearance_relative * distance)
+                if distance >= self.cap:
+                    resolution = max(resolution, distance - self.cap)
+                allowance = min(allowance, resolution)
+                value = min(distance, self.cap)
+            target = u + max(allowance, settings.min_step)
+            k = min(bisect_right(cum, target) - 1, end)
+            covered_from = j if frac == 0.0 else j + 1
+            if k >= end:
+                values.append(value)
+                counts.append(end - covered_from + 1)
+                break
+            count = max(k, j + 1) - covered_from
+            values.append(value)
+            counts.append(count)
+            if in_contact and count == 0:
+                between.append(j if frac < 0.5 else j + 1)
+            if k > j:
+                j, frac = k, 0.0
+            else:  # the next sample is beyond the allowance: next anchor between samples
+                frac = (target - cum[j]) / (cum[j + 1] - cum[j])
+        self._record(run, b, owner, first, np.repeat(values, counts), between, first_contact)
+
+    def _record(self, run: int, b: int, owner: int, first: int, per_sample: np.ndarray,
+                between: list[int], first_contact: tuple[int, float] | None) -> None:
+        tracks = self.tracks
+        body = self.body_list[b]
+        span = slice(first, first + len(per_sample))
+        np.minimum(tracks.clearance[run, span, b], per_sample, out=tracks.clearance[run, span, b])
+        part = body.part
+        tracks.min_part[run, part, owner] = min(tracks.min_part[run, part, owner],
+                                                float(per_sample.min()))
+        if first_contact is None:
+            return
+        level = self.obstacles.obstacles[owner].level
+        touching = np.flatnonzero(per_sample == 0.0) + first
+        tracks.contact[run, touching, part, level] = 1
+        tracks.contact[run, np.array(between, int) + first, part, level] = 1
+        tracks.hit[run, part, owner] = True
+        j, frac = first_contact
+        sample = first + j
+        nxt = min(sample + 1, self.chunk["t"].shape[1] - 1)
+        pose = {name: (1 - frac) * float(self.chunk[name][run, sample])
+                + frac * float(self.chunk[name][run, nxt]) for name in ("t", "x", "y", "z")}
+        tracks.note_contact(FirstContact(PARTS[part], LEVELS[level], pose["t"], pose["x"],
+                                         pose["y"], pose["z"], body.name,
+                                         self.obstacles.obstacles[owner].name), run)
