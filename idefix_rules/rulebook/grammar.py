@@ -1,0 +1,91 @@
+"""Loading the rulebook grammar (``grammar/rulebook.lark``) once per process.
+
+The grammar ships as package data of ``idefix_rules.grammar`` (pyproject maps that package to
+the repository's top-level ``grammar/`` directory), so an installed wheel finds it; a source
+checkout that is not installed falls back to ``<repo>/grammar/rulebook.lark``.
+
+>>> parser = rulebook_parser()
+>>> parser is rulebook_parser()
+True
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import functools
+import importlib.resources
+from collections.abc import Iterator
+from pathlib import Path
+
+import lark
+
+GRAMMAR_FILE = "rulebook.lark"
+_SOURCE_TREE_GRAMMAR = Path(__file__).resolve().parents[2] / "grammar" / GRAMMAR_FILE
+
+
+def grammar_text() -> str:
+    """The text of ``rulebook.lark``: from the installed package, else from the source tree."""
+    try:
+        resource = importlib.resources.files("idefix_rules.grammar").joinpath(GRAMMAR_FILE)
+        if resource.is_file():
+            return resource.read_text(encoding="utf-8")
+    except ModuleNotFoundError:
+        pass
+    return _SOURCE_TREE_GRAMMAR.read_text(encoding="utf-8")
+
+
+# Comments are ignored by the grammar; the lexer hands each one to the list of the parse
+# running in this context (see collecting_comments), so the parser can keep them.
+_COMMENT_SINK: contextvars.ContextVar[list[lark.Token] | None] = contextvars.ContextVar(
+    "rulebook_comment_sink", default=None)
+
+
+def _keep_comment(token: lark.Token) -> lark.Token:
+    sink = _COMMENT_SINK.get()
+    if sink is not None:
+        sink.append(token)
+    return token
+
+
+@contextlib.contextmanager
+def collecting_comments(sink: list[lark.Token]) -> Iterator[list[lark.Token]]:
+    """Within the block, every comment the lexer meets is appended to ``sink``."""
+    reset = _COMMENT_SINK.set(sink)
+    try:
+        yield sink
+    finally:
+        _COMMENT_SINK.reset(reset)
+
+
+@functools.cache
+def rulebook_parser() -> lark.Lark:
+    """The LALR parser (contextual lexer, positions on every tree node), built once."""
+    return lark.Lark(
+        grammar_text(),
+        parser="lalr",
+        lexer="contextual",
+        propagate_positions=True,
+        maybe_placeholders=True,
+        start="start",
+        lexer_callbacks={"COMMENT": _keep_comment},
+    )
+
+
+@functools.cache
+def terminal_words() -> dict[str, str]:
+    """Terminal name → how a message names it (``'const'``, ``a name``, ``a number``)."""
+    words = {
+        "NAME": "a name",
+        "QUANTITY": "a number",
+        "STRING": 'a string ("…")',
+        "COMPARE": "a comparison (<, <=, >, >=, ==, !=)",
+        "$END": "the end of the file",
+    }
+    for terminal in rulebook_parser().terminals:
+        if terminal.name in words:
+            continue
+        pattern = terminal.pattern
+        if isinstance(pattern, lark.lexer.PatternStr):
+            words[terminal.name] = f"'{pattern.value}'"
+    return words

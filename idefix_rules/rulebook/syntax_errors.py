@@ -1,0 +1,164 @@
+"""Syntax errors of a rulebook as diagnostics, and recovery to find more than one per file.
+
+Lark's LALR parser stops at the first error. To report the others in the same run, the parser
+blanks out the top-level declaration that holds the error (spaces keep every line and column
+where it was) and parses again; :func:`blank_failed_declaration` does that blanking. Each
+diagnostic names what was found and what was expected, in words.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+import lark
+
+from idefix_rules.errors import Diagnostic, Span, error
+from idefix_rules.rulebook.grammar import terminal_words
+
+SYNTAX_ERROR = "E001"
+UNEXPECTED_CHARACTER = "E002"
+
+# Words that start a top-level declaration; a line starting with one starts a new chunk.
+TOP_LEVEL_KEYWORDS = frozenset({
+    "rulebook", "const", "settings", "obstacles", "command", "index", "chance", "combine",
+    "prescreen", "verdict", "rank",
+})
+
+_EXPRESSION_START = frozenset({
+    "NAME", "QUANTITY", "LPAR", "LBRACE", "MINUS", "NOT", "MAX", "MIN", "MEAN", "FINAL",
+    "INITIAL", "RMS", "SUM", "INTEGRAL", "ANY", "ALL", "COUNT", "PERCENTILE", "TIME_ABOVE",
+})
+_OPERATORS = frozenset({"PLUS", "MINUS", "STAR", "SLASH", "CARET", "COMPARE", "AND", "OR"})
+
+
+def describe_expected(expected: Iterable[str]) -> str:
+    """``'=' or a name``; expression starts fold into "an expression", operators likewise."""
+    names = set(expected)
+    words: list[str] = []
+    if {"NAME", "QUANTITY", "LPAR"} <= names:
+        names -= _EXPRESSION_START
+        words.append("an expression")
+    if len(names & _OPERATORS) >= 4:
+        names -= _OPERATORS
+        words.append("an operator")
+    vocabulary = terminal_words()
+    words.extend(sorted(vocabulary.get(name, name) for name in names))
+    if not words:
+        return "nothing more"
+    if len(words) == 1:
+        return words[0]
+    return ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def _describe_token(token: lark.Token) -> str:
+    if token.type == "$END":
+        return "the end of the file"
+    if token.type == "NAME":
+        return f"name '{token}'"
+    if token.type == "QUANTITY":
+        return f"number '{token}'"
+    if token.type == "STRING":
+        return "a string"
+    return f"'{token}'"
+
+
+def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
+                      path: str) -> Diagnostic:
+    """One diagnostic for a lark syntax error, at the offending token or character."""
+    if isinstance(failure, lark.exceptions.UnexpectedCharacters):
+        char = text[failure.pos_in_stream] if failure.pos_in_stream < len(text) else ""
+        span = Span(path, failure.line, failure.column, failure.line, failure.column + 1)
+        hint = None
+        if char == '"':
+            hint = 'a string ends with " on the same line it starts'
+        elif char in "!=&|" and failure.allowed:
+            hint = "comparisons are <, <=, >, >=, ==, !=; logic is and, or, not"
+        shown = repr(char)[1:-1] if char.isprintable() else f"\\u{ord(char or ' '):04x}"
+        message = f"unexpected character '{shown}'"
+        if failure.allowed:
+            message += f"; expected {describe_expected(failure.allowed)}"
+        return error(UNEXPECTED_CHARACTER, message, span, hint)
+    if isinstance(failure, lark.exceptions.UnexpectedToken):
+        token = failure.token
+        expected = set(failure.expected or ())
+        if token.type == "$END":
+            line, column = _end_position(text)
+            span = Span(path, line, column, line, column + 1)
+        else:
+            span = Span(path, token.line or 1, token.column or 1,
+                        token.end_line or token.line or 1,
+                        token.end_column or (token.column or 1) + 1)
+        message = f"unexpected {_describe_token(token)}; expected {describe_expected(expected)}"
+        return error(SYNTAX_ERROR, message, span, _hint(token, expected))
+    line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
+    return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
+
+
+def _hint(token: lark.Token, expected: set[str]) -> str | None:
+    if token.type == "EQUAL" and "COMPARE" in expected:
+        return "use '==' to compare"
+    if token.type == "REQUIRE" and "COLON" in expected:
+        return "a rule is written `command NAME: require CONDITION`"
+    if token.type in {"NAME", "QUANTITY"} and expected & _OPERATORS:
+        return ("is an operator missing? A unit follows its number on the same line, "
+                "without spaces inside it: 5 cm/s")
+    if token.type == "NAME" and "EQUAL" not in expected:
+        keyword_words = [word.strip("'") for name, word in terminal_words().items()
+                         if name in expected and word.startswith("'")]
+        close = difflib.get_close_matches(str(token), keyword_words, n=1)
+        if close:
+            return f"did you mean '{close[0]}'?"
+    if token.type == "$END" and "RBRACE" in expected:
+        return "a block opened with '{' is not closed"
+    return None
+
+
+def _end_position(text: str) -> tuple[int, int]:
+    lines = text.splitlines() or [""]
+    # The last line that holds something: an error "at the end" points just after it.
+    for number in range(len(lines), 0, -1):
+        stripped = lines[number - 1].split("#", 1)[0].rstrip()
+        if stripped:
+            return number, len(stripped) + 1
+    return 1, 1
+
+
+def error_line(failure: lark.exceptions.UnexpectedInput, text: str) -> tuple[int, int]:
+    """Line and column of a syntax error (the end of the text for 'unexpected end')."""
+    if isinstance(failure, lark.exceptions.UnexpectedToken) and failure.token.type == "$END":
+        return _end_position(text)
+    return (getattr(failure, "line", 1) or 1), (getattr(failure, "column", 1) or 1)
+
+
+def _chunk_starts(lines: list[str]) -> list[int]:
+    """0-based numbers of the lines that start a top-level declaration."""
+    starts = []
+    for number, line in enumerate(lines):
+        words = line.split(None, 1)
+        if words and words[0] in TOP_LEVEL_KEYWORDS:
+            starts.append(number)
+    return starts
+
+
+def blank_failed_declaration(text: str, line: int, column: int) -> str:
+    """The text with the declaration around ``line`` replaced by spaces (newlines kept).
+
+    When the error sits on the first word of a declaration, the declaration before it is the
+    one left unfinished, so that one is blanked.
+    """
+    lines = text.split("\n")
+    index = min(max(line - 1, 0), len(lines) - 1)
+    starts = _chunk_starts(lines)
+    before = [start for start in starts if start <= index]
+    start = before[-1] if before else 0
+    first_word_column = len(lines[start]) - len(lines[start].lstrip()) + 1
+    if before and start == index and column <= first_word_column and len(before) > 1:
+        start = before[-2]
+    after = [s for s in starts if s > start]
+    end = after[0] if after else len(lines)
+    if start == index and end == start:
+        end = start + 1
+    for number in range(start, max(end, start + 1)):
+        lines[number] = " " * len(lines[number])
+    return "\n".join(lines)
