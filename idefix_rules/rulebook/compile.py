@@ -1,0 +1,294 @@
+"""The compiled rulebook: a checked rule model turned into numpy closures, vectorised over runs.
+
+>>> from idefix_rules.rulebook import load_rulebook, compile_rulebook, RunContext  # doctest: +SKIP
+>>> evaluator = compile_rulebook(load_rulebook("rulebooks/idefix-ops.rules"))  # doctest: +SKIP
+>>> context = RunContext(chain, rover, 0.02, reference)  # doctest: +SKIP
+>>> evaluation = evaluator.evaluate(signals, context)  # doctest: +SKIP
+
+``evaluate`` takes signals keyed by contract name, axis 0 = runs, and a :class:`RunContext`
+(the explicit input derived signals need) and returns a :class:`RunEvaluation`. Index
+semantics: ``clamp(value / limit, 0, 1)``; the per-sample value is the ``map`` when given, else
+the value with every time reduction replaced by its operand (:func:`.semantics.per_sample_form`),
+normalised the same way; I_max = max over indices of weight × value (eq. 1). Non-finite data
+makes an index 1 (see :mod:`.semantics`). Nothing of the rulebook text is executed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.commands import Command, RoverGeometry, command_kinematics
+from idefix_rules.errors import UserInputError
+from idefix_rules.rulebook import statistics
+from idefix_rules.rulebook.check import CheckedRulebook, ObstacleLevelSpec, check
+from idefix_rules.rulebook.derived import (
+    DerivedSettings,
+    DerivedSignals,
+    RunContext,
+    inputs_of,
+)
+from idefix_rules.rulebook.expressions import (
+    Closure,
+    ExpressionCompiler,
+    Frame,
+    layout,
+    per_run,
+    per_run_sample,
+    signal_closure,
+)
+from idefix_rules.rulebook.model import Expr, Rulebook
+from idefix_rules.rulebook.results import (
+    CommandViolation,
+    PathStatistics,
+    PrescreenFinding,
+    RunEvaluation,
+    Verdict,
+)
+from idefix_rules.rulebook.semantics import names_in, per_sample_form
+from idefix_rules.signals import AXIS_LABELS, lookup
+
+
+def checked_model(rulebook: Rulebook | CheckedRulebook) -> CheckedRulebook:
+    """The checked model; a plain rule model is checked first (errors → ``UserInputError``)."""
+    if isinstance(rulebook, CheckedRulebook):
+        return rulebook
+    result = check(rulebook)
+    if result.checked is None:
+        raise UserInputError(result.errors, {rulebook.path: rulebook.source})
+    return result.checked
+
+
+def command_quantities(command: Command, number: int, rover: RoverGeometry) -> dict[str, float]:
+    """The names a command rule reads, SI, from :func:`command_kinematics`."""
+    k = command_kinematics(command, rover)
+    return {
+        "max_wheel_rate": command.max_wheel_rate,
+        "delta_position": command.delta_position,
+        "delta_heading": command.delta_heading,
+        "turn_radius": k.turn_radius,
+        "duration": k.duration,
+        "speed": k.speed,
+        "yaw_rate": k.yaw_rate,
+        "wheel_speed": max(abs(rate) for rate in k.wheel_rates) * rover.wheel_radius,
+        "command_number": float(number),
+    }
+
+
+def layout_constants(constants: Mapping[str, Any]) -> dict[str, Any]:
+    """Checked constants (floats, ``{label: value}`` tables) in the compiled layout."""
+    out: dict[str, Any] = {}
+    for name, value in constants.items():
+        if isinstance(value, dict):
+            axis = next(a for a, labels in AXIS_LABELS.items() if next(iter(value)) in labels)
+            row = np.array([[value[label] for label in AXIS_LABELS[axis]]])
+            out[name] = layout(row, (axis,))
+        else:
+            out[name] = float(value)
+    return out
+
+
+@dataclass(frozen=True)
+class _Index:
+    name: str
+    limit: float
+    weight: float
+    value: Closure
+    per_sample: Closure
+    reads: tuple[str, ...]  # signal names, for the non-finite rule
+
+
+@dataclass(frozen=True)
+class _Condition:
+    name: str
+    test: Closure
+    reads: tuple[str, ...]
+    rationale: str | None
+    expr: Expr
+
+
+class CompiledRulebook:
+    """Evaluator of one rulebook; see the module docstring and ``docs/architecture.md``."""
+
+    def __init__(self, rulebook: Rulebook | CheckedRulebook) -> None:
+        self.checked = checked_model(rulebook)
+        model = self.checked.rulebook
+        self.rulebook: Rulebook = model
+        self.name = model.header.name
+        self.version = model.header.version
+        self.source_hash = hashlib.sha256(model.source.encode("utf-8")).hexdigest()
+        self.obstacle_levels: tuple[ObstacleLevelSpec, ...] = self.checked.obstacle_levels
+        self.confidence = self.checked.confidence
+        self.derived_settings = DerivedSettings(
+            theoretical_slip=self.checked.settings.get("theoretical_slip", 0.0),
+            tolerance_growth=self.checked.settings.get("tolerance_growth", 0.0))
+        self.constants = layout_constants(self.checked.constants)
+        self.index_names = tuple(i.name for i in model.indices)
+        self.chance_names = tuple(c.name for c in model.chances)
+
+        run = ExpressionCompiler(self.constants, signal_closure)
+        forms = [(i.value, i.map if i.map is not None else per_sample_form(i.value))
+                 for i in model.indices]
+        run.share([e for pair in forms for e in pair] + [c.condition for c in model.chances])
+        self._indices = tuple(
+            _Index(i.name, self.checked.limits[i.name], self.checked.weights[i.name],
+                   run.compile(value), run.compile(sample),
+                   self._signals_read(value, sample))
+            for i, (value, sample) in zip(model.indices, forms, strict=True))
+        self._chances = tuple(
+            _Condition(c.name, run.compile(c.condition), self._signals_read(c.condition),
+                       c.rationale, c.condition)
+            for c in model.chances)
+
+        scoped = ExpressionCompiler(self.constants, _scope_closure)
+        self._command_rules = tuple(
+            _Condition(r.name, scoped.compile(r.condition), (), r.rationale, r.condition)
+            for r in model.command_rules)
+        self._prescreens = tuple(
+            _Condition(p.name, scoped.compile(p.condition), (), p.rationale, p.condition)
+            for p in model.prescreens)
+
+        read = set().union(*(set(i.reads) for i in self._indices),
+                           *(set(c.reads) for c in self._chances))
+        provided = set().union(*(inputs_of(name) for name in read)) if read else set()
+        self.required_signals: frozenset[str] = frozenset(provided | {"t", "command", "energy"})
+        self.needs_collisions = any(name.startswith("collision.") for name in provided)
+
+    def _signals_read(self, *expressions: Expr) -> tuple[str, ...]:
+        names: set[str] = set()
+        for expr in expressions:
+            names |= {n for n in names_in(expr)
+                      if n not in self.constants and lookup(n) is not None}
+        return tuple(sorted(names))
+
+    # ------------------------------------------------------------------ command rules
+    def check_chain(self, chain: Sequence[Command], rover: RoverGeometry | None = None
+                    ) -> list[CommandViolation]:
+        """Every command rule on every command (1-based numbers); the violations found."""
+        rover = rover or RoverGeometry()
+        violations = []
+        for number, command in enumerate(chain, start=1):
+            quantities = command_quantities(command, number, rover)
+            frame = Frame(scope=quantities)
+            for rule in self._command_rules:
+                if bool(np.all(rule.test(frame))):
+                    continue
+                values = {n: quantities[n] for n in sorted(names_in(rule.expr))
+                          if n in quantities}
+                shown = ", ".join(f"{n} = {v:.6g}" for n, v in values.items())
+                violations.append(CommandViolation(
+                    rule.name, number, values, rule.rationale,
+                    f"command {number} breaks rule '{rule.name}'" + (f" ({shown})" if shown
+                                                                     else ""),
+                    rule.expr.span))
+        return violations
+
+    # ------------------------------------------------------------------ runs
+    def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext) -> RunEvaluation:
+        """Every index, I_max, dominant index and sample, chances, time and energy per run."""
+        source = DerivedSignals(signals, context, self.derived_settings)
+        runs, samples = source.runs, source.samples
+        frame = Frame(source=source)
+        finite: dict[str, np.ndarray] = {}
+
+        def bad_runs(names: tuple[str, ...]) -> np.ndarray:
+            flags = np.zeros(runs, dtype=bool)
+            for name in names:
+                if name not in finite:
+                    array = np.asarray(source.get(name))
+                    if array.dtype == bool:
+                        finite[name] = np.ones(array.shape[0], dtype=bool)
+                    else:
+                        total = array.reshape(array.shape[0], -1).sum(axis=1)
+                        finite[name] = np.isfinite(total)
+                flags |= ~finite[name]
+            return flags
+
+        values, raw, per_sample, weighted = {}, {}, {}, {}
+        with np.errstate(all="ignore"):
+            for index in self._indices:
+                value = per_run(index.value(frame), runs)
+                bad = bad_runs(index.reads) | np.isnan(value)
+                raw[index.name] = np.where(bad, np.nan, value)
+                values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit))
+                sample = per_run_sample(index.per_sample(frame), runs, samples)
+                per_sample[index.name] = _normalise(sample, index.limit)
+                weighted[index.name] = index.weight * values[index.name]
+            chances = {c.name: per_run(c.test(frame), runs).astype(bool) | bad_runs(c.reads)
+                       for c in self._chances}
+        frame.memo.clear()
+        stacked = np.stack([weighted[n] for n in self.index_names])
+        dominant = np.argmax(stacked, axis=0)
+        dominant_sample = np.zeros(runs, dtype=int)
+        for position, name in enumerate(self.index_names):
+            chosen = dominant == position
+            if chosen.any():
+                dominant_sample[chosen] = np.argmax(per_sample[name][chosen], axis=1)
+        time, energy = self._time_energy(source, runs)
+        return RunEvaluation(
+            index_names=self.index_names, values=values, raw=raw, per_sample=per_sample,
+            weighted=weighted, i_max=stacked.max(axis=0), dominant=dominant,
+            dominant_sample=dominant_sample, chance_names=self.chance_names, chances=chances,
+            time=time, energy=energy)
+
+    @staticmethod
+    def _time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
+        command = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples))
+        done = command == -1
+        sample = np.where(done.any(axis=1), np.argmax(done, axis=1), source.samples - 1)
+        energy = np.broadcast_to(source.get("energy"), (runs, source.samples))
+        return source.t[sample], energy[np.arange(runs), sample]
+
+    # ------------------------------------------------------------------ reference run
+    def prescreen(self, reference: RunEvaluation) -> list[PrescreenFinding]:
+        """Prescreen rules on the reference run's evaluation; the rules it fails."""
+        scope: dict[str, Any] = {"risk": reference.i_max}
+        scope.update(reference.values)
+        scope.update(reference.chances)
+        frame = Frame(scope=scope)
+        findings = []
+        for rule in self._prescreens:
+            holds = per_run(rule.test(frame), reference.runs).astype(bool)
+            if holds.all():
+                continue
+            run = int(np.argmin(holds))
+            values = {n: float(np.asarray(scope[n])[run]) for n in sorted(names_in(rule.expr))
+                      if n in scope}
+            shown = ", ".join(f"{n} = {v:.3g}" for n, v in values.items())
+            findings.append(PrescreenFinding(
+                rule.name, values, rule.rationale,
+                f"the reference run fails prescreen '{rule.name}'"
+                + (f" ({shown})" if shown else ""), rule.expr.span))
+        return findings
+
+    # ------------------------------------------------------------------ paths
+    def path_statistics(self, evaluation: RunEvaluation, failed_runs: int = 0) -> PathStatistics:
+        return statistics.path_statistics(evaluation, self.confidence, failed_runs)
+
+    def verdict(self, stats: PathStatistics) -> Verdict:
+        return statistics.verdict(self.rulebook, self.checked.constants, stats)
+
+    def rank(self, stats_by_path: Mapping[str, PathStatistics]) -> list[str]:
+        return statistics.rank(self.rulebook, self.checked.constants, stats_by_path)
+
+
+def _normalise(value: np.ndarray, limit: float) -> np.ndarray:
+    """``clamp(value / limit, 0, 1)``, NaN → 1."""
+    normalised = np.clip(value / limit, 0.0, 1.0)
+    return np.where(np.isnan(normalised), 1.0, normalised)
+
+
+def _scope_closure(name: str) -> Closure:
+    def run(frame: Frame) -> Any:
+        value = frame.scope[name]
+        return value if np.ndim(value) == 0 else layout(np.asarray(value), ())
+    return run
+
+
+def compile_rulebook(rulebook: Rulebook | CheckedRulebook) -> CompiledRulebook:
+    """Compile a rulebook (checked first when given as a plain rule model)."""
+    return CompiledRulebook(rulebook)

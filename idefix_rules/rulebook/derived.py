@@ -1,0 +1,257 @@
+"""Derived signals: what the evaluator computes from a run's fmu signals and its context.
+
+Rulebooks read these names like any other signal (``idefix_rules.signals.DERIVED_SIGNALS`` and
+``ref.*``). Arrays are vectorised across runs: axis 0 is the run, axis 1 the sample. All runs of
+a chain share one time grid ``t`` (row 0 of the ``t`` signal is used).
+
+Formulas (``docs/derived-signals.md`` has the same list with figures of speech):
+
+* ``ref.<s>`` — the reference run's signal ``<s>`` (``RunContext.reference``), same time grid,
+  broadcast over the runs.
+* ``theory.x``, ``theory.y``, ``theory.yaw`` — the commanded path with the fixed slip
+  ``theoretical_slip`` (rulebook setting): :func:`idefix_rules.commands.ideal_poses` with
+  ``scale = 1 - theoretical_slip``, one command at a time, command *k* (0-based) starting at the
+  first sample where the run's own ``command`` signal equals *k*, so the theoretical timeline
+  follows the run's command timing. Within a command the ideal progress runs at the ideal speed
+  and stops at the command's end pose; once a later command (or the end, ``command == -1``) is
+  reached, the command counts as complete. The path starts at the reference run's initial pose
+  (``ref.x[0]``, ``ref.y[0]``, ``ref.yaw[0]``), or at each run's own initial pose when no
+  reference is given.
+* ``local_error`` = ``hypot(x - theory.x, y - theory.y)`` (accuracy, planar).
+* ``global_error`` = ``sqrt((x - ref.x)² + (y - ref.y)² + (z - ref.z)²)`` (spread, 3-D).
+* ``tolerance_radius`` = ``initial_position_sigma + tolerance_growth · turned``, where
+  ``turned`` is the absolute heading change accumulated so far along the theoretical path
+  (``Σ |delta_heading_k| · (1 - theoretical_slip) · progress_k``): constant while the path goes
+  straight, growing while it turns (paper, Fig. 4).
+* ``heading_error`` = ``yaw - ref.yaw`` wrapped to [-π, π).
+* ``speed`` = ``hypot(dx/dt, dy/dt)`` with ``numpy.gradient`` along ``t`` (central differences
+  inside, one-sided at the ends); 0 when a run has a single sample.
+* ``acceleration`` = ``d speed / dt``, the same way.
+
+>>> import numpy as np
+>>> from idefix_rules.commands import Command
+>>> t = np.arange(4.0)
+>>> signals = {"t": np.tile(t, (1, 1)), "x": np.array([[0.0, 1.0, 2.0, 3.0]]),
+...            "y": np.zeros((1, 4)), "command": np.array([[0, 0, 0, -1]])}
+>>> source = DerivedSignals(signals, RunContext(chain=(Command(1.0, 0.3, 0.0),)))
+>>> source.get("speed").tolist()
+[[1.0, 1.0, 1.0, 1.0]]
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
+from idefix_rules.errors import UserInputError, error
+from idefix_rules.signals import DERIVED_SIGNALS, REF_PREFIX, lookup
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What derived signals need besides a run's own signals.
+
+    ``chain``: the command chain the runs executed (theoretical path, tolerance growth);
+    ``rover``: geometry for the kinematics; ``initial_position_sigma``: σ of the initial position
+    uncertainty in m (the starting tolerance radius); ``reference``: the reference run's fmu
+    signals by contract name, *without* the run axis, on the runs' time grid (needed by
+    ``ref.*``, ``global_error``, ``heading_error`` and the theoretical path's start pose).
+    """
+
+    chain: tuple[Command, ...] = ()
+    rover: RoverGeometry = field(default_factory=RoverGeometry)
+    initial_position_sigma: float = 0.0
+    reference: Mapping[str, np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class DerivedSettings:
+    """Rulebook settings that shape derived signals (SI)."""
+
+    theoretical_slip: float = 0.0
+    tolerance_growth: float = 0.0
+
+
+# Contract names each derived signal reads (for ``required_signals``); ``ref.*`` read the
+# reference run's signals of the same name.
+DERIVED_INPUTS: dict[str, frozenset[str]] = {
+    "theory.x": frozenset({"t", "command"}),
+    "theory.y": frozenset({"t", "command"}),
+    "theory.yaw": frozenset({"t", "command"}),
+    "local_error": frozenset({"t", "command", "x", "y"}),
+    "global_error": frozenset({"x", "y", "z"}),
+    "tolerance_radius": frozenset({"t", "command"}),
+    "heading_error": frozenset({"yaw"}),
+    "speed": frozenset({"t", "x", "y"}),
+    "acceleration": frozenset({"t", "x", "y"}),
+}
+
+
+def inputs_of(name: str) -> frozenset[str]:
+    """Contract names of provided signals (fmu, collision) that reading ``name`` needs."""
+    if name.startswith(REF_PREFIX):
+        return frozenset({name[len(REF_PREFIX):]})
+    return DERIVED_INPUTS.get(name, frozenset({name}))
+
+
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """Wrap to [-π, π)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class DerivedSignals:
+    """The signals of one evaluation call: given ones, ``ref.*`` and derived, each computed once.
+
+    ``get(name)`` returns an array shaped (runs or 1, samples, …) following the signal's axes;
+    ``ref.*`` arrays have a run axis of length 1 (they broadcast).
+    """
+
+    def __init__(self, signals: Mapping[str, np.ndarray], context: RunContext,
+                 settings: DerivedSettings | None = None) -> None:
+        self._signals = signals
+        self.context = context
+        self.settings = settings or DerivedSettings()
+        self._cache: dict[str, np.ndarray] = {}
+        self._command_cache: tuple[np.ndarray, np.ndarray] | None = None
+        if "t" not in signals:
+            raise UserInputError(error("E501", "the run signals lack the time signal 't'"))
+        t_all = np.asarray(signals["t"], dtype=float)
+        self.t: np.ndarray = t_all[0] if t_all.ndim == 2 else t_all
+        self.runs = int(t_all.shape[0]) if t_all.ndim == 2 else 1
+        self.samples = int(self.t.shape[0])
+
+    def get(self, name: str) -> np.ndarray:
+        cached = self._cache.get(name)
+        if cached is None:
+            cached = self._compute(name)
+            self._cache[name] = cached
+        return cached
+
+    # ------------------------------------------------------------------ sources
+    def _given(self, name: str) -> np.ndarray:
+        if name not in self._signals:
+            raise UserInputError(error("E501", f"the run signals lack {name!r}",
+                                       hint="the rulebook reads it; map it in the campaign"))
+        array = np.asarray(self._signals[name])
+        return array if array.dtype == bool else array.astype(float, copy=False)
+
+    def _reference(self, name: str) -> np.ndarray:
+        reference = self.context.reference
+        if reference is None or name not in reference:
+            raise UserInputError(error(
+                "E502", f"the reference run's signal {name!r} is needed but not given",
+                hint="pass RunContext(reference=...) with the reference run's signals"))
+        array = np.asarray(reference[name], dtype=float)
+        if array.shape[:1] != (self.samples,):
+            raise UserInputError(error(
+                "E503", f"reference signal {name!r} has {array.shape[0] if array.ndim else 0} "
+                        f"samples, the runs have {self.samples}"))
+        return array[np.newaxis]
+
+    def _compute(self, name: str) -> np.ndarray:
+        if name.startswith(REF_PREFIX):
+            return self._reference(name[len(REF_PREFIX):])
+        if name not in DERIVED_SIGNALS:
+            if lookup(name) is None:
+                raise UserInputError(error("E504", f"unknown signal {name!r}"))
+            return self._given(name)
+        if name in ("theory.x", "theory.y", "theory.yaw"):
+            x, y, yaw = self._theory()
+            self._cache["theory.x"], self._cache["theory.y"], self._cache["theory.yaw"] = x, y, yaw
+            return self._cache[name]
+        if name == "local_error":
+            return np.hypot(self.get("x") - self.get("theory.x"),
+                            self.get("y") - self.get("theory.y"))
+        if name == "global_error":
+            dx = self.get("x") - self.get("ref.x")
+            dy = self.get("y") - self.get("ref.y")
+            dz = self.get("z") - self.get("ref.z")
+            return np.sqrt(dx * dx + dy * dy + dz * dz)
+        if name == "tolerance_radius":
+            turned = self._progress()[1]
+            return self.context.initial_position_sigma + self.settings.tolerance_growth * turned
+        if name == "heading_error":
+            return wrap_angle(self.get("yaw") - self.get("ref.yaw"))
+        if name == "speed":
+            return np.hypot(self._rate(self.get("x")), self._rate(self.get("y")))
+        if name == "acceleration":
+            return self._rate(self.get("speed"))
+        raise AssertionError(f"derived signal {name!r} has no formula")  # pragma: no cover
+
+    def _rate(self, values: np.ndarray) -> np.ndarray:
+        if self.samples < 2:
+            return np.zeros(np.broadcast_shapes(values.shape, (self.runs, self.samples)))
+        return np.gradient(values, self.t, axis=1)
+
+    # ------------------------------------------------------------------ theoretical path
+    def _command_progress(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample: the active command (-1 before the first, len(chain) after the last) and
+        the time since that command started."""
+        if self._command_cache is not None:
+            return self._command_cache
+        command = np.rint(self._given("command")).astype(int)
+        command = np.broadcast_to(command, (self.runs, self.samples))
+        n = len(self.context.chain)
+        started = np.maximum.accumulate(command >= 0, axis=1)
+        active = np.where(command >= 0, np.minimum(command, n), np.where(started, n, -1))
+        # Start time of every command (and of the end) per run: first sample reaching it.
+        starts = np.empty((self.runs, n + 2))
+        starts[:, 0] = self.t[0]  # the "before" phase
+        for k in range(n + 1):
+            reached = active >= k
+            first = np.argmax(reached, axis=1)
+            starts[:, k + 1] = np.where(reached.any(axis=1), self.t[first], np.inf)
+        since = self.t[np.newaxis] - np.take_along_axis(starts, active + 1, axis=1)
+        self._command_cache = (active, since)
+        return active, since
+
+    def _progress(self) -> tuple[np.ndarray, np.ndarray]:
+        """Active command and absolute heading turned so far along the theoretical path."""
+        active, since = self._command_progress()
+        scale = 1.0 - self.settings.theoretical_slip
+        chain = self.context.chain
+        durations = np.array([command_kinematics(c, self.context.rover).duration
+                              for c in chain] + [0.0])
+        turns = np.array([abs(c.delta_heading) * scale
+                          if command_kinematics(c, self.context.rover).duration > 0 else 0.0
+                          for c in chain] + [0.0])
+        turned_before = np.concatenate([[0.0], np.cumsum(turns)])  # before command k
+        index = np.maximum(active, 0)
+        duration = durations[index]
+        fraction = np.clip(np.divide(since, duration, out=np.ones_like(since),
+                                     where=duration > 0), 0.0, 1.0)
+        turned = np.where(active >= 0, turned_before[index] + turns[index] * fraction, 0.0)
+        return active, turned
+
+    def _start_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.context.reference is not None:
+            return (self.get("ref.x")[:, :1], self.get("ref.y")[:, :1],
+                    self.get("ref.yaw")[:, :1])
+        return self.get("x")[:, :1], self.get("y")[:, :1], self.get("yaw")[:, :1]
+
+    def _theory(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        active, since = self._command_progress()
+        chain, rover = self.context.chain, self.context.rover
+        scale = 1.0 - self.settings.theoretical_slip
+        # Start pose of every command in the path's own frame (start at the origin).
+        ideal_starts = np.cumsum([0.0] + [command_kinematics(c, rover).duration for c in chain])
+        command_starts = ideal_poses(chain, rover, ideal_starts, scale=scale)
+        local = np.empty((3, self.runs, self.samples))
+        local[:, active < 0] = 0.0
+        for k, command in enumerate(chain):
+            mask = active == k
+            if mask.any():
+                start = (float(command_starts[k, 0]), float(command_starts[k, 1]),
+                         float(command_starts[k, 2]))
+                poses = ideal_poses((command,), rover, since[mask], scale=scale, start=start)
+                local[:, mask] = poses.T
+        done = active >= len(chain)
+        local[:, done] = command_starts[len(chain)][:, np.newaxis]
+        x0, y0, yaw0 = self._start_pose()
+        cos, sin = np.cos(yaw0), np.sin(yaw0)
+        return (x0 + cos * local[0] - sin * local[1], y0 + sin * local[0] + cos * local[1],
+                yaw0 + local[2])

@@ -1,0 +1,147 @@
+"""Vectorised reducers of the compiled evaluator (semantics: :mod:`.semantics`).
+
+Arrays are laid out (runs, time, wheel, part, level), size-1 where a value does not vary
+along an axis; reductions keep the reduced axis with size 1. ``mask`` (same layout, boolean,
+broadcastable) marks the window of a time reduction; ``None`` means every sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _full(x: np.ndarray, axis: int, size: int) -> np.ndarray:
+    shape = list(x.shape)
+    shape[axis] = size
+    return np.broadcast_to(x, tuple(shape))
+
+
+def _as_float(x: np.ndarray) -> np.ndarray:
+    return x.astype(float) if x.dtype == bool else x
+
+
+def _truth(x: np.ndarray) -> np.ndarray:
+    return x if x.dtype == bool else x != 0
+
+
+def reduce(reducer: str, x: np.ndarray, axis: int, size: int, mask: np.ndarray | None = None,
+           parameter: np.ndarray | float | None = None,
+           t: np.ndarray | None = None) -> np.ndarray:
+    """Reduce ``x`` along ``axis`` (length ``size`` once broadcast), keeping the axis."""
+    x = _full(np.asarray(x), axis, size)
+    if size == 0:
+        empty = {"any": False, "all": True}.get(reducer, 0.0)
+        shape = list(x.shape)
+        shape[axis] = 1
+        return np.full(tuple(shape), empty)
+    if reducer in ("any", "all", "count"):
+        truth = _truth(x)
+        if reducer == "any":
+            return (truth if mask is None else truth & mask).any(axis=axis, keepdims=True)
+        if reducer == "all":
+            return (truth if mask is None else truth | ~mask).all(axis=axis, keepdims=True)
+        counted = truth if mask is None else truth & mask
+        return counted.sum(axis=axis, keepdims=True).astype(float)
+    x = _as_float(x)
+    if mask is None:
+        return _unmasked(reducer, x, axis, size, parameter, t)
+    count = mask.sum(axis=axis, keepdims=True)
+    empty = count == 0
+    if reducer == "max":
+        value = np.where(mask, x, -np.inf).max(axis=axis, keepdims=True)
+    elif reducer == "min":
+        value = np.where(mask, x, np.inf).min(axis=axis, keepdims=True)
+    elif reducer == "sum":
+        value = np.where(mask, x, 0.0).sum(axis=axis, keepdims=True)
+    elif reducer == "mean":
+        value = np.where(mask, x, 0.0).sum(axis=axis, keepdims=True) / np.maximum(count, 1)
+    elif reducer == "rms":
+        value = np.sqrt(np.where(mask, x * x, 0.0).sum(axis=axis, keepdims=True)
+                        / np.maximum(count, 1))
+    elif reducer in ("final", "initial"):
+        full_mask = _full(mask, axis, size)
+        if reducer == "final":
+            position = size - 1 - np.argmax(np.flip(full_mask, axis=axis), axis=axis)
+        else:
+            position = np.argmax(full_mask, axis=axis)
+        value = _take(x, np.expand_dims(position, axis), axis)
+    elif reducer == "integral":
+        value = _integral(x, axis, t, mask)
+    elif reducer == "time_above":
+        value = _time_above(x, axis, t, mask, parameter)
+    elif reducer == "percentile":
+        value = _percentile(np.where(mask, x, np.inf), count, axis, parameter)
+    else:  # pragma: no cover - the checker admits only the reducers above
+        raise AssertionError(f"unknown reducer {reducer!r}")
+    return np.where(empty, 0.0, value)
+
+
+def _unmasked(reducer: str, x: np.ndarray, axis: int, size: int,
+              parameter: np.ndarray | float | None, t: np.ndarray | None) -> np.ndarray:
+    if reducer == "max":
+        return x.max(axis=axis, keepdims=True)
+    if reducer == "min":
+        return x.min(axis=axis, keepdims=True)
+    if reducer == "sum":
+        return x.sum(axis=axis, keepdims=True)
+    if reducer == "mean":
+        return x.mean(axis=axis, keepdims=True)
+    if reducer == "rms":
+        return np.sqrt((x * x).mean(axis=axis, keepdims=True))
+    if reducer == "final":
+        return np.take(x, [size - 1], axis=axis)
+    if reducer == "initial":
+        return np.take(x, [0], axis=axis)
+    if reducer == "integral":
+        return _integral(x, axis, t, None)
+    if reducer == "time_above":
+        return _time_above(x, axis, t, None, parameter)
+    if reducer == "percentile":
+        count = np.full((1,) * x.ndim, size)
+        return _percentile(x, count, axis, parameter)
+    raise AssertionError(f"unknown reducer {reducer!r}")  # pragma: no cover
+
+
+def _take(x: np.ndarray, position: np.ndarray, axis: int) -> np.ndarray:
+    shape = np.broadcast_shapes((*x.shape[:axis], 1, *x.shape[axis + 1:]), position.shape)
+    x = np.broadcast_to(x, (*shape[:axis], x.shape[axis], *shape[axis + 1:]))
+    return np.take_along_axis(x, np.broadcast_to(position, shape), axis=axis)
+
+
+def _time_shape(values: np.ndarray, ndim: int) -> np.ndarray:
+    return values.reshape((1, -1) + (1,) * (ndim - 2))
+
+
+def _integral(x: np.ndarray, axis: int, t: np.ndarray | None,
+              mask: np.ndarray | None) -> np.ndarray:
+    assert axis == 1 and t is not None, "integral is a time reduction"
+    dt = _time_shape(np.diff(t), x.ndim)
+    pieces = 0.5 * (x[:, 1:] + x[:, :-1]) * dt
+    if mask is not None:
+        pieces = np.where(mask[:, 1:] & mask[:, :-1], pieces, 0.0)
+    return pieces.sum(axis=1, keepdims=True)
+
+
+def _time_above(x: np.ndarray, axis: int, t: np.ndarray | None, mask: np.ndarray | None,
+                threshold: np.ndarray | float | None) -> np.ndarray:
+    assert axis == 1 and t is not None and threshold is not None, "time_above is over time"
+    hold = _time_shape(np.append(np.diff(t), 0.0), x.ndim)
+    above = x > threshold
+    if mask is not None:
+        above = above & mask
+    return np.where(above, hold, 0.0).sum(axis=1, keepdims=True)
+
+
+def _percentile(x: np.ndarray, count: np.ndarray, axis: int,
+                parameter: np.ndarray | float | None) -> np.ndarray:
+    """Linear percentile of the first ``count`` sorted values along ``axis`` (out-of-window
+    entries were set to +inf so they sort last)."""
+    assert parameter is not None
+    ordered = np.sort(x, axis=axis)
+    rank = float(np.asarray(parameter).reshape(-1)[0]) / 100.0 * (np.maximum(count, 1) - 1)
+    low = np.floor(rank).astype(int)
+    high = np.minimum(low + 1, np.maximum(count, 1) - 1)
+    fraction = rank - low
+    below, above = _take(ordered, low, axis), _take(ordered, high, axis)
+    with np.errstate(invalid="ignore"):
+        return np.where(fraction == 0, below, below + (above - below) * fraction)

@@ -1,0 +1,123 @@
+"""Meaning shared by both evaluators (the numpy compiler and the per-run interpreter).
+
+Definitions that are semantics rather than implementation live here once, so the two evaluators
+differ only in *how* they compute, never in *what*:
+
+* the per-sample form of an index (every time reduction replaced by its operand, samples outside
+  the reduction's window set to 0 — the result map's quantity);
+* which labels belong to which axis, and axis sizes;
+* the names an expression reads.
+
+Reduction semantics (both evaluators implement exactly these; the window is the set of samples a
+time reduction looks at, all samples when there is none):
+
+====================  =========================================================  ============
+reducer               value                                                      empty window
+====================  =========================================================  ============
+``final``/``initial``  last / first sample in the window                          0
+``max``/``min``        largest / smallest                                         0
+``sum``                sum                                                        0
+``mean``               arithmetic mean of the samples (not time-weighted)         0
+``rms``                ``sqrt(mean(x²))``                                         0
+``count``              number of samples where the operand is true (non-zero)     0
+``any``/``all``        some / every sample true                                   false / true
+``integral``           trapezoid ``Σ ½(xᵢ+xᵢ₊₁)(tᵢ₊₁-tᵢ)`` over consecutive window samples  0
+``time_above T``       ``Σ (tᵢ₊₁-tᵢ)`` over window samples with ``xᵢ > T`` (last: 0)    0
+``percentile P``       sorted window samples ``s``, ``r = P/100·(n-1)``,                0
+                       ``s[⌊r⌋] + (s[⌈r⌉]-s[⌊r⌋])·(r-⌊r⌋)`` (numpy's ``linear``)
+====================  =========================================================  ============
+
+Over ``wheels``/``parts``/``levels`` the same reducers apply to the axis's labels in contract
+order (``final`` = the last label). An operand without the reduced axis counts as constant along
+it (``sum over wheels (1)`` is 4). Windows: ``during command K`` ⇔ ``command == K - 1``;
+``after Q`` ⇔ ``t >= Q``; ``before Q`` ⇔ ``t < Q`` (simulation time, which starts at 0).
+
+Non-finite data: an index whose signals hold NaN or ±inf in a run is 1 (critical) for that run,
+and so is an index whose raw value is NaN (e.g. 0/0); a chance whose signals hold non-finite
+values in a run counts as holding. Normalised values and per-sample values are always finite
+in [0, 1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, is_dataclass
+
+from idefix_rules.rulebook.model import (
+    Binary,
+    Call,
+    Expr,
+    Name,
+    Reduce,
+    Select,
+    Table,
+    Unary,
+    Window,
+)
+from idefix_rules.signals import AXIS_LABELS
+
+# Axes after the run axis, in the order the compiled evaluator lays arrays out.
+AXES: tuple[str, ...] = ("time", "wheel", "part", "level")
+LABEL_AXIS: dict[str, tuple[str, int]] = {
+    label: (axis, position)
+    for axis, labels in AXIS_LABELS.items()
+    for position, label in enumerate(labels)
+}
+TIME_ONLY_REDUCERS = frozenset({"integral", "time_above"})
+BOOLEAN_REDUCERS = frozenset({"any", "all"})
+
+
+
+@dataclass(frozen=True)
+class Masked:
+    """Internal node of the per-sample form: ``operand`` where ``window`` holds, 0 elsewhere."""
+
+    operand: Expr
+    window: Window
+
+
+def per_sample_form(expr: Expr) -> Expr:
+    """The index value with every time reduction replaced by its (window-masked) operand.
+
+    >>> from idefix_rules.rulebook.model import Name, Reduce
+    >>> per_sample_form(Reduce("max", "time", Name("pitch")))
+    Name(name='pitch')
+    """
+    if isinstance(expr, Reduce):
+        operand = per_sample_form(expr.operand)
+        if expr.domain == "time":
+            return operand if expr.window is None else Masked(operand, expr.window)  # type: ignore[return-value]
+        return Reduce(expr.reducer, expr.domain, operand, expr.parameter, expr.window)
+    if isinstance(expr, Unary):
+        return Unary(expr.op, per_sample_form(expr.operand))
+    if isinstance(expr, Binary):
+        return Binary(expr.op, per_sample_form(expr.left), per_sample_form(expr.right))
+    if isinstance(expr, Call):
+        return Call(expr.function, tuple(per_sample_form(a) for a in expr.args))
+    if isinstance(expr, Select):
+        return Select(per_sample_form(expr.operand), expr.labels)
+    return expr
+
+
+def names_in(expr: object) -> set[str]:
+    """Every name an expression reads (signals, constants, scope names), ``chance(x)``'s
+    argument included."""
+    found: set[str] = set()
+
+    def walk(node: object) -> None:
+        if isinstance(node, Name):
+            found.add(node.name)
+        elif isinstance(node, tuple):
+            for item in node:
+                walk(item)
+        elif is_dataclass(node) and not isinstance(node, type):
+            for f in fields(node):
+                if f.name != "span":
+                    walk(getattr(node, f.name))
+
+    walk(expr)
+    return found
+
+
+def table_axis(table: Table) -> str:
+    """The axis a table's labels belong to."""
+    return LABEL_AXIS[table.entries[0][0]][0]

@@ -1,0 +1,311 @@
+"""Path statistics, the verdict and the ranking.
+
+* Path risk (eq. 2): mean of I_max over the evaluated runs, with a Student-t interval at the
+  rulebook's ``confidence`` (``mean ± t · s / √n``, clipped to [0, 1]; with one run the interval
+  is the whole [0, 1]). Index means get the same interval; mean time and energy a Student-t
+  interval (unclipped; a single run gives (-inf, inf)).
+* Chances: the fraction of runs where the condition holds, with a Wilson score interval.
+* Verdict rules are evaluated twice: on the point estimates (pass/fail) and on the intervals
+  (three-valued: a comparison is *decided* when it holds, or fails, for every value in the
+  intervals of the statistics it reads). A rule whose threshold lies strictly inside its
+  statistic's interval is "not decided at this number of runs".
+* Failed runs: unless a verdict rule reads ``failed`` itself, the verdict carries an extra rule
+  ``no_failed_runs`` that fails when any run of the path failed, so a path with failed
+  simulations never passes silently.
+* Ranking: paths that pass come first, then the rest; within each group by the rulebook's keys
+  (``rank by risk, time, energy`` by default; ``desc`` reverses a key), then by path name.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+from scipy import stats as scipy_stats
+
+from idefix_rules.rulebook.fold import number_si
+from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Rulebook, Unary
+from idefix_rules.rulebook.results import (
+    Estimate,
+    PathStatistics,
+    RuleResult,
+    RunEvaluation,
+    Verdict,
+)
+from idefix_rules.rulebook.semantics import names_in
+
+Interval = tuple[float, float]
+
+
+def student_interval(samples: np.ndarray, confidence: float, bounds: Interval | None = None
+                     ) -> Estimate:
+    """Mean with a Student-t interval; ``bounds`` clips it (and stands in when n < 2)."""
+    n = samples.size
+    if n == 0:
+        low, high = bounds or (-math.inf, math.inf)
+        return Estimate(math.nan, low, high)
+    mean = float(samples.mean())
+    if n < 2:
+        low, high = bounds or (-math.inf, math.inf)
+        return Estimate(mean, low, high)
+    half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)
+                 * samples.std(ddof=1) / math.sqrt(n))
+    low, high = mean - half, mean + half
+    if bounds is not None:
+        low, high = max(low, bounds[0]), min(high, bounds[1])
+    return Estimate(mean, low, high)
+
+
+def wilson_interval(successes: int, n: int, confidence: float) -> Estimate:
+    """Fraction with its Wilson score interval; (nan, 0, 1) when there are no runs."""
+    if n == 0:
+        return Estimate(math.nan, 0.0, 1.0)
+    z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
+    p = successes / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return Estimate(p, max(0.0, centre - half), min(1.0, centre + half))
+
+
+def path_statistics(evaluation: RunEvaluation, confidence: float,
+                    failed_runs: int = 0) -> PathStatistics:
+    """Statistics of one path from the evaluation of its Monte Carlo runs."""
+    n = evaluation.runs
+    unit = (0.0, 1.0)
+    names = evaluation.index_names
+    counts = np.bincount(evaluation.dominant.astype(int), minlength=len(names)) if n else \
+        np.zeros(len(names), dtype=int)
+    return PathStatistics(
+        runs=n,
+        failed_runs=int(failed_runs),
+        confidence=confidence,
+        risk=student_interval(evaluation.i_max, confidence, unit),
+        risk_std=float(evaluation.i_max.std(ddof=1)) if n > 1 else 0.0,
+        index_mean={k: student_interval(evaluation.values[k], confidence, unit) for k in names},
+        index_max={k: float(evaluation.values[k].max()) if n else math.nan for k in names},
+        chances={k: wilson_interval(int(evaluation.chances[k].sum()), n, confidence)
+                 for k in evaluation.chance_names},
+        time=student_interval(evaluation.time, confidence),
+        energy=student_interval(evaluation.energy, confidence),
+        dominant_counts={k: int(c) for k, c in zip(names, counts, strict=True)},
+    )
+
+
+# ----------------------------------------------------------------------------- path scope
+
+def _statistic(expr: Expr, stats: PathStatistics) -> tuple[str, Estimate] | None:
+    """The path statistic an expression names, with its interval (None: not a statistic)."""
+    if isinstance(expr, Name):
+        if expr.name == "risk":
+            return "risk", stats.risk
+        if expr.name == "time":
+            return "time", stats.time
+        if expr.name == "energy":
+            return "energy", stats.energy
+        if expr.name == "failed":
+            f = stats.failed_fraction
+            return "failed", Estimate(f, f, f)
+        if expr.name == "runs":
+            return "runs", Estimate(stats.runs, stats.runs, stats.runs)
+        return None
+    if isinstance(expr, Call) and len(expr.args) == 1 and isinstance(expr.args[0], Name):
+        arg = expr.args[0].name
+        if expr.function == "chance" and arg in stats.chances:
+            return f"chance({arg})", stats.chances[arg]
+        if expr.function == "mean" and arg in stats.index_mean:
+            return f"mean({arg})", stats.index_mean[arg]
+        if expr.function == "max" and arg in stats.index_max:
+            value = stats.index_max[arg]
+            return f"max({arg})", Estimate(value, value, value)
+    return None
+
+
+_Value = Any  # float, bool, Interval or bool | None
+
+
+def _evaluate(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any],
+              interval: bool) -> _Value:
+    """Point (``interval=False``) or interval/three-valued evaluation of a path expression."""
+    found = _statistic(expr, stats)
+    if found is not None:
+        estimate = found[1]
+        return (estimate.low, estimate.high) if interval else estimate.value
+    if isinstance(expr, Number):
+        value = number_si(expr)
+        return (value, value) if interval else value
+    if isinstance(expr, Name):
+        value = float(constants[expr.name])
+        return (value, value) if interval else value
+    def recurse(e: Expr) -> _Value:
+        return _evaluate(e, stats, constants, interval)
+    if isinstance(expr, Unary):
+        operand = recurse(expr.operand)
+        if expr.op == "not":
+            return None if operand is None else not operand
+        return (-operand[1], -operand[0]) if interval else -operand
+    if isinstance(expr, Call):
+        args = [recurse(a) for a in expr.args]
+        return _call(expr.function, args, interval)
+    if isinstance(expr, Binary):
+        left, right = recurse(expr.left), recurse(expr.right)
+        return _binary(expr.op, left, right, interval)
+    raise ValueError(f"cannot evaluate {type(expr).__name__} on path statistics")
+
+
+def _call(function: str, args: list[_Value], interval: bool) -> _Value:
+    if not interval:
+        if function == "abs":
+            return abs(args[0])
+        if function == "sqrt":
+            return math.sqrt(args[0]) if args[0] >= 0 else math.nan
+        if function == "min":
+            return min(args)
+        if function == "max":
+            return max(args)
+        if function == "clamp":
+            return min(max(args[0], args[1]), args[2])
+    else:
+        lows, highs = [a[0] for a in args], [a[1] for a in args]
+        if function == "abs":
+            low, high = args[0]
+            return (0.0 if low <= 0 <= high else min(abs(low), abs(high)),
+                    max(abs(low), abs(high)))
+        if function == "sqrt":
+            return (math.sqrt(max(lows[0], 0.0)), math.sqrt(max(highs[0], 0.0)))
+        if function == "min":
+            return (min(lows), min(highs))
+        if function == "max":
+            return (max(lows), max(highs))
+        if function == "clamp":
+            return (min(max(lows[0], lows[1]), lows[2]), min(max(highs[0], highs[1]), highs[2]))
+    raise ValueError(f"unknown function {function}")
+
+
+def _binary(op: str, left: _Value, right: _Value, interval: bool) -> _Value:
+    if op == "and":
+        if not interval:
+            return bool(left) and bool(right)
+        if left is False or right is False:
+            return False
+        return None if left is None or right is None else True
+    if op == "or":
+        if not interval:
+            return bool(left) or bool(right)
+        if left is True or right is True:
+            return True
+        return None if left is None or right is None else False
+    if not interval:
+        return _POINT[op](left, right)
+    (a, b), (c, d) = left, right
+    if op == "+":
+        return (a + c, b + d)
+    if op == "-":
+        return (a - d, b - c)
+    if op in ("*", "/", "^"):
+        corners = [_POINT[op](x, y) for x in (a, b) for y in (c, d)]
+        corners = [v for v in corners if not math.isnan(v)] or [math.nan]
+        if op == "/" and c <= 0 <= d and c != d:
+            return (-math.inf, math.inf)
+        return (min(corners), max(corners))
+    # comparisons: decided when every value of the intervals gives the same answer
+    always = _POINT[op](b, c) if op in ("<", "<=") else _POINT[op](a, d)
+    never_op = {"<": ">=", "<=": ">", ">": "<=", ">=": "<"}.get(op)
+    if never_op is not None:
+        never = _POINT[never_op](a, d) if op in ("<", "<=") else _POINT[never_op](b, c)
+        if always:
+            return True
+        return False if never else None
+    if op == "==":
+        if a == b == c == d:
+            return True
+        return False if (b < c or d < a) else None
+    if a == b == c == d:
+        return False
+    return True if (b < c or d < a) else None
+
+
+def _divide(a: float, b: float) -> float:
+    if b == 0:
+        return math.copysign(math.inf, a) if a else math.nan
+    return a / b
+
+
+def _power(a: float, b: float) -> float:
+    try:
+        return float(a ** b) if not (a < 0 and not float(b).is_integer()) else math.nan
+    except (OverflowError, ZeroDivisionError):
+        return math.inf
+
+
+_POINT: dict[str, Callable[[float, float], Any]] = {
+    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
+    "/": _divide, "^": _power,
+    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
+    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,
+}
+
+
+def _explain(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any]
+             ) -> tuple[str | None, float | None, Interval | None, float | None]:
+    """For ``statistic OP threshold`` (either side): names and numbers for the report."""
+    if isinstance(expr, Binary) and expr.op in ("<", "<=", ">", ">=", "==", "!="):
+        for side, other in ((expr.left, expr.right), (expr.right, expr.left)):
+            found = _statistic(side, stats)
+            if found is not None and _statistic(other, stats) is None:
+                name, estimate = found
+                threshold = _evaluate(other, stats, constants, interval=False)
+                return name, estimate.value, (estimate.low, estimate.high), float(threshold)
+    return None, None, None, None
+
+
+def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatistics) -> Verdict:
+    """Every verdict rule on one path's statistics (plus ``no_failed_runs``, see module doc)."""
+    results = []
+    for rule in rulebook.verdicts:
+        passed = bool(_evaluate(rule.condition, stats, constants, interval=False))
+        three_valued = _evaluate(rule.condition, stats, constants, interval=True)
+        decided = three_valued is not None
+        name, value, interval, threshold = _explain(rule.condition, stats, constants)
+        state = "passes" if passed else "fails"
+        message = f"verdict '{rule.name}' {state}"
+        if name is not None and value is not None:
+            message += f": {name} = {value:.4g}"
+            if interval is not None:
+                message += f" [{interval[0]:.4g}, {interval[1]:.4g}]"
+            message += f", threshold {threshold:.4g}"
+        if not decided:
+            message += f" (not decided at {stats.runs} runs: the threshold lies inside the " \
+                       f"{stats.confidence:.0%} confidence interval)"
+        results.append(RuleResult(rule.name, passed, decided, name, value, interval, threshold,
+                                  rule.rationale, message, rule.condition.span))
+    reads_failed = any("failed" in names_in(rule.condition) for rule in rulebook.verdicts)
+    if not reads_failed:
+        passed = stats.failed_runs == 0
+        results.append(RuleResult(
+            "no_failed_runs", passed, True, "failed", stats.failed_fraction, None, 0.0,
+            "A path whose simulations failed cannot pass without the rulebook saying so",
+            f"{stats.failed_runs} of {stats.runs + stats.failed_runs} runs failed"
+            if not passed else "no run failed"))
+    return Verdict(passed=all(r.passed for r in results),
+                   decided=all(r.decided for r in results), rules=tuple(results))
+
+
+def rank(rulebook: Rulebook, constants: Mapping[str, Any],
+         stats_by_path: Mapping[str, PathStatistics]) -> list[str]:
+    """Path names, best first: passing paths, then the others; each by the rank keys."""
+    def key(path: str) -> tuple[Any, ...]:
+        stats = stats_by_path[path]
+        values = []
+        for rank_key in rulebook.ranking.keys:
+            value = float(_evaluate(rank_key.expr, stats, constants, interval=False))
+            if math.isnan(value):
+                values.append(math.inf)  # unknown statistics rank last either way
+            else:
+                values.append(-value if rank_key.descending else value)
+        passed = verdict(rulebook, constants, stats).passed
+        return (0 if passed else 1, *values, path)
+
+    return sorted(stats_by_path, key=key)
