@@ -1,0 +1,149 @@
+/* IDEFIX-like rover: shared types. All state lives in Instance; there are no globals. */
+#ifndef IDEFIX_H
+#define IDEFIX_H
+
+#include <stddef.h>
+#include "variables.h"
+
+#define N_WHEELS 4
+#define MAX_ROCKS 4096
+#define MAX_GRID_CELLS 4000000L
+
+/* ---------------------------------------------------------------- terrain.c */
+typedef struct {
+    double x, y, z;    /* ellipsoid centre, m (z above the terrain datum) */
+    double a, b, c;    /* semi-axes along x, y, z, m (axis-aligned) */
+} Rock;
+
+typedef struct {
+    int loaded;        /* 0: flat ground z = 0, no rocks */
+    char *path;        /* file the data came from (cache key with mtime and size) */
+    long mtime, size;
+    long nx, ny;
+    double x0, y0, cell;
+    double *height;    /* ny rows of nx heights, row j at y0 + j*cell */
+    int n_rocks;
+    Rock *rocks;
+} Terrain;
+
+int terrain_load(Terrain *t, const char *path, char *message, size_t message_size);
+void terrain_free(Terrain *t);
+double terrain_height(const Terrain *t, double x, double y);
+/* Height of the highest rock surface at (x, y), or -1e300 if no rock is there. */
+double rock_top(const Terrain *t, double x, double y);
+/* Wheel-centre height needed to clear the rocks (disc of radius r, width w, heading (hx, hy)).
+ * Returns -1e300 when no rock is near. *contact_d: signed distance of the contact ahead of the
+ * axle, *contact_z: height of the contact point. */
+double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
+                         double w, double *contact_d, double *contact_z);
+
+/* ---------------------------------------------------------------- soil.c */
+typedef struct {
+    double cell, x0, y0;
+    long nx, ny;
+    float *sinkage;          /* plastic sinkage (rut depth), m */
+    float *mark_time;        /* time the cell was last run over, s */
+    unsigned char *owner;    /* wheel index + 1 that last ran over the cell, 0: undisturbed */
+    long dirty_i0, dirty_i1, dirty_j0, dirty_j1;   /* touched cells, cleared on reset */
+} SoilGrid;
+
+typedef struct {
+    double k_c, k_phi, n, cohesion, friction_angle, K, rut_cohesion_factor, self_rut_time,
+        multipass_factor;
+} SoilParameters;
+
+typedef struct {
+    double rut_depth;        /* mean plastic sinkage under the patch, m */
+    double disturbed;        /* fraction of the patch already sheared by a wheel */
+} RutState;
+
+int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double y_max,
+                   double cell);
+void soil_grid_free(SoilGrid *g);
+void soil_grid_clear(SoilGrid *g);
+RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
+                    double width, int wheel, double now, double self_time);
+void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
+               double width, double sinkage, int wheel, double now);
+double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width);
+double slip_sinkage(double static_sinkage, double slip);
+double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,
+                             double width);
+double janosi_mobilisation(double displacement, double K);
+
+/* ---------------------------------------------------------------- wheel.c */
+typedef struct {
+    /* geometry and soil state for the current step */
+    double px, py;           /* position in the body frame, m */
+    double wx, wy;           /* contact position in the world, m */
+    double centre_z;         /* wheel-centre height, m */
+    double grade;            /* local grade of the wheel path relative to the body plane, rad */
+    int on_rock;
+    int blocked;             /* a rock face above the axle in the driving direction */
+    double load;             /* normal load, N */
+    double sinkage;          /* below the undisturbed surface, m */
+    double contact_length;   /* m */
+    double capacity;         /* shear strength of the patch (soil) or mu*N (rock), N */
+    double shear_K;          /* m */
+    double resistance;       /* compaction resistance, N */
+    double rut_depth, disturbed;
+    /* results of the force balance */
+    double rate;             /* wheel angular rate, rad/s */
+    double fx, fy;           /* force on the body from this wheel, body frame, N */
+    double thrust;           /* shear force along the wheel rim (for the torque), N */
+    double slip, slip_angle, current;
+    double prev_centre_z;
+} Wheel;
+
+void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, double omega,
+                  double v_eps, double *fx, double *fy, double *thrust);
+
+/* ---------------------------------------------------------------- controller.c */
+typedef struct {
+    int count;
+    int active;              /* index of the active command, -1 when done */
+    double elapsed;          /* time in the active command, s */
+    double duration;         /* ideal duration of the active command, s */
+    double target_angle;     /* fastest wheel's commanded rotation, rad */
+    double angle;            /* fastest wheel's odometry in this command, rad */
+    int fastest;             /* wheel index with the largest commanded rate */
+    double rates[N_WHEELS];  /* commanded wheel rates, rad/s */
+    double commanded_speed;  /* ideal body speed of the active command, m/s */
+    double commanded_yaw_rate;
+    int stalled[N_WHEELS];
+    /* stuck observer: ring of progress samples */
+    double window_progress, window_commanded;
+    int stuck;
+} Controller;
+
+/* ---------------------------------------------------------------- instance */
+typedef struct {
+    char *instance_name;
+    void (*logger)(void);    /* fmi2CallbackLogger, cast back before the call */
+    void *env;               /* fmi2ComponentEnvironment */
+    int logging;
+    double r[N_REAL];        /* every Real: parameters and outputs, indexed by value reference */
+    int chain_count;
+    char *terrain_file;
+    Terrain terrain;
+    SoilGrid grid;
+    SoilParameters soil;
+    Wheel wheels[N_WHEELS];
+    Controller ctrl;
+    double time;
+    double x, y, yaw, z, roll, pitch;
+    double gx, gy;           /* in-plane gravity, body frame, m/s^2 */
+    double u, v, omega;      /* body velocity in the body plane (warm start) */
+    double energy;
+    int initialised;
+} Instance;
+
+void controller_start(Instance *inst);
+void controller_step(Instance *inst, double dt);
+void controller_after_step(Instance *inst, double dt, double progress);
+
+int rover_initialise(Instance *inst, char *message, size_t message_size);
+void rover_step(Instance *inst, double dt);
+void rover_write_outputs(Instance *inst);
+
+#endif

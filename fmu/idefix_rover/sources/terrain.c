@@ -1,0 +1,207 @@
+/* Terrain: DEM heightmap and rigid rocks read from a terrain file (docs/terrain-format.md). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "idefix.h"
+
+#define NO_ROCK (-1e300)
+
+void terrain_free(Terrain *t)
+{
+    free(t->height);
+    free(t->rocks);
+    free(t->path);
+    memset(t, 0, sizeof(*t));
+}
+
+static int fail(char *message, size_t size, const char *path, int line, const char *what)
+{
+    snprintf(message, size, "%s:%d: %s", path, line, what);
+    return -1;
+}
+
+static int read_line(FILE *f, char *buffer, int size, int *line)
+{
+    if (!fgets(buffer, size, f)) return 0;
+    (*line)++;
+    return 1;
+}
+
+int terrain_load(Terrain *t, const char *path, char *message, size_t message_size)
+{
+    struct stat info;
+    char line_text[512];
+    int line = 0;
+    long nx = 0, ny = 0, n_rocks = 0, i;
+    double x0 = 0.0, y0 = 0.0, cell = 0.0;
+    FILE *f;
+    Terrain fresh;
+
+    if (path == NULL || path[0] == '\0') {
+        terrain_free(t);
+        return 0;
+    }
+    if (stat(path, &info) != 0) return fail(message, message_size, path, 0, "cannot open");
+    if (t->loaded && t->path && strcmp(t->path, path) == 0 && t->mtime == (long)info.st_mtime &&
+        t->size == (long)info.st_size)
+        return 0;  /* cached across resets: same file, unchanged */
+
+    f = fopen(path, "rb");
+    if (!f) return fail(message, message_size, path, 0, "cannot open");
+    memset(&fresh, 0, sizeof(fresh));
+    if (!read_line(f, line_text, sizeof(line_text), &line) ||
+        strncmp(line_text, "IDEFIX-TERRAIN 1", 16) != 0) {
+        fclose(f);
+        return fail(message, message_size, path, 1, "expected header 'IDEFIX-TERRAIN 1'");
+    }
+    for (;;) {
+        char key[32];
+        if (!read_line(f, line_text, sizeof(line_text), &line)) {
+            fclose(f);
+            free(fresh.rocks);
+            return fail(message, message_size, path, line, "missing 'heights' line");
+        }
+        if (sscanf(line_text, "%31s", key) != 1) continue;
+        if (strcmp(key, "nx") == 0 && sscanf(line_text, "%*s %ld", &nx) == 1) continue;
+        if (strcmp(key, "ny") == 0 && sscanf(line_text, "%*s %ld", &ny) == 1) continue;
+        if (strcmp(key, "origin") == 0 && sscanf(line_text, "%*s %lf %lf", &x0, &y0) == 2) continue;
+        if (strcmp(key, "cell") == 0 && sscanf(line_text, "%*s %lf", &cell) == 1) continue;
+        if (strcmp(key, "rocks") == 0 && sscanf(line_text, "%*s %ld", &n_rocks) == 1) {
+            if (n_rocks < 0 || n_rocks > MAX_ROCKS || fresh.rocks) {
+                fclose(f);
+                return fail(message, message_size, path, line, "bad rock count");
+            }
+            fresh.rocks = (Rock *)calloc((size_t)(n_rocks > 0 ? n_rocks : 1), sizeof(Rock));
+            for (i = 0; i < n_rocks; i++) {
+                Rock *r = &fresh.rocks[i];
+                if (!read_line(f, line_text, sizeof(line_text), &line) ||
+                    sscanf(line_text, "rock %lf %lf %lf %lf %lf %lf", &r->x, &r->y, &r->z, &r->a,
+                           &r->b, &r->c) != 6 || r->a <= 0 || r->b <= 0 || r->c <= 0) {
+                    fclose(f);
+                    free(fresh.rocks);
+                    return fail(message, message_size, path, line,
+                                "expected 'rock x y z a b c' with positive semi-axes");
+                }
+            }
+            fresh.n_rocks = (int)n_rocks;
+            continue;
+        }
+        if (strcmp(key, "heights") == 0) break;
+        fclose(f);
+        free(fresh.rocks);
+        return fail(message, message_size, path, line, "unknown or malformed header line");
+    }
+    if (nx < 2 || ny < 2 || cell <= 0.0 || !isfinite(x0) || !isfinite(y0) ||
+        nx * ny > 16000000L) {
+        fclose(f);
+        free(fresh.rocks);
+        return fail(message, message_size, path, line, "need nx >= 2, ny >= 2, cell > 0");
+    }
+    fresh.height = (double *)malloc((size_t)(nx * ny) * sizeof(double));
+    if (!fresh.height || fread(fresh.height, sizeof(double), (size_t)(nx * ny), f) !=
+                             (size_t)(nx * ny)) {
+        fclose(f);
+        free(fresh.height);
+        free(fresh.rocks);
+        return fail(message, message_size, path, line, "height grid shorter than nx*ny doubles");
+    }
+    fclose(f);
+    for (i = 0; i < nx * ny; i++) {
+        if (!isfinite(fresh.height[i])) {
+            free(fresh.height);
+            free(fresh.rocks);
+            return fail(message, message_size, path, line, "height grid holds NaN or inf");
+        }
+    }
+    terrain_free(t);
+    *t = fresh;
+    t->loaded = 1;
+    t->nx = nx;
+    t->ny = ny;
+    t->x0 = x0;
+    t->y0 = y0;
+    t->cell = cell;
+    t->mtime = (long)info.st_mtime;
+    t->size = (long)info.st_size;
+    t->path = (char *)malloc(strlen(path) + 1);
+    if (t->path) strcpy(t->path, path);
+    return 0;
+}
+
+/* Bilinear interpolation; outside the grid the edge values continue. */
+double terrain_height(const Terrain *t, double x, double y)
+{
+    double fx, fy, tx, ty;
+    long i, j;
+    const double *h;
+    if (!t->loaded) return 0.0;
+    fx = (x - t->x0) / t->cell;
+    fy = (y - t->y0) / t->cell;
+    if (fx < 0.0) fx = 0.0;
+    if (fy < 0.0) fy = 0.0;
+    if (fx > (double)(t->nx - 1)) fx = (double)(t->nx - 1);
+    if (fy > (double)(t->ny - 1)) fy = (double)(t->ny - 1);
+    i = (long)fx;
+    j = (long)fy;
+    if (i > t->nx - 2) i = t->nx - 2;
+    if (j > t->ny - 2) j = t->ny - 2;
+    tx = fx - (double)i;
+    ty = fy - (double)j;
+    h = t->height + j * t->nx + i;
+    return (1 - ty) * ((1 - tx) * h[0] + tx * h[1]) + ty * ((1 - tx) * h[t->nx] + tx * h[t->nx + 1]);
+}
+
+double rock_top(const Terrain *t, double x, double y)
+{
+    double best = NO_ROCK;
+    int k;
+    for (k = 0; k < t->n_rocks; k++) {
+        const Rock *r = &t->rocks[k];
+        double ex = (x - r->x) / r->a, ey = (y - r->y) / r->b, q = ex * ex + ey * ey;
+        if (q < 1.0) {
+            double top = r->z + r->c * sqrt(1.0 - q);
+            if (top > best) best = top;
+        }
+    }
+    return best;
+}
+
+/* The wheel is a disc of radius r in the vertical plane of its heading, of width w. Over a
+ * rock its centre must sit at max over the rim of (rock surface + sqrt(r^2 - d^2)): the
+ * envelope of the disc rolling over the rock. Sampled at 13 points along and 3 across. */
+double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
+                         double w, double *contact_d, double *contact_z)
+{
+    enum { NA = 13, NW = 3 };
+    double best = NO_ROCK, reach = r + 0.5 * w;
+    int k, ia, iw, near = 0;
+    *contact_d = 0.0;
+    *contact_z = NO_ROCK;
+    for (k = 0; k < t->n_rocks; k++) {
+        const Rock *rk = &t->rocks[k];
+        double dx = x - rk->x, dy = y - rk->y, big = rk->a > rk->b ? rk->a : rk->b;
+        if (dx * dx + dy * dy < (big + reach) * (big + reach)) {
+            near = 1;
+            break;
+        }
+    }
+    if (!near) return NO_ROCK;
+    for (ia = 0; ia < NA; ia++) {
+        double d = -r + 2.0 * r * (double)ia / (double)(NA - 1);
+        double lift = sqrt(fmax(r * r - d * d, 0.0));
+        for (iw = 0; iw < NW; iw++) {
+            double e = -0.5 * w + w * (double)iw / (double)(NW - 1);
+            double px = x + d * hx - e * hy, py = y + d * hy + e * hx;
+            double top = rock_top(t, px, py);
+            if (top > NO_ROCK && top + lift > best) {
+                best = top + lift;
+                *contact_d = d;
+                *contact_z = top;
+            }
+        }
+    }
+    return best;
+}

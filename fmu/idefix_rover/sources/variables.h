@@ -1,0 +1,254 @@
+/* Generated from idefix_rules/fmu/variables.py; do not edit by hand. */
+#ifndef IDEFIX_VARIABLES_H
+#define IDEFIX_VARIABLES_H
+
+#define MAX_COMMANDS 32
+#define N_REAL 161
+#define VR_CHAIN_COUNT 0 /* Integer */
+#define VR_TERRAIN_FILE 0 /* String */
+
+/* Real value references */
+#define VR_ROVER_MASS 0
+#define VR_ROVER_GRAVITY 1
+#define VR_ROVER_WHEEL_RADIUS 2
+#define VR_ROVER_WHEEL_WIDTH 3
+#define VR_ROVER_HALF_TRACK 4
+#define VR_ROVER_HALF_WHEELBASE 5
+#define VR_ROVER_COG_HEIGHT 6
+#define VR_ROVER_BODY_CENTRE_HEIGHT 7
+#define VR_SOIL_K_C 8
+#define VR_SOIL_K_PHI 9
+#define VR_SOIL_N 10
+#define VR_SOIL_COHESION 11
+#define VR_SOIL_FRICTION_ANGLE 12
+#define VR_SOIL_SHEAR_MODULUS_K 13
+#define VR_SOIL_RUT_COHESION_FACTOR 14
+#define VR_SOIL_MULTIPASS_FACTOR 15
+#define VR_SOIL_GRID_CELL 16
+#define VR_SOIL_SELF_RUT_TIME 17
+#define VR_ROCK_FRICTION_COEFFICIENT 18
+#define VR_ROCK_SHEAR_K 19
+#define VR_MOTOR_NO_LOAD_CURRENT 20
+#define VR_MOTOR_TORQUE_CONSTANT 21
+#define VR_MOTOR_MAX_TORQUE 22
+#define VR_CONTROLLER_TIMEOUT_FACTOR 23
+#define VR_CONTROLLER_STUCK_TIME 24
+#define VR_CONTROLLER_STUCK_PROGRESS 25
+#define VR_INITIAL_X 26
+#define VR_INITIAL_Y 27
+#define VR_INITIAL_YAW 28
+#define VR_SOLVER_STEP 29
+#define VR_SOLVER_VELOCITY_EPSILON 30
+#define VR_CHAIN_MAX_WHEEL_RATE 31
+#define VR_CHAIN_DELTA_POSITION 63
+#define VR_CHAIN_DELTA_HEADING 95
+#define VR_T 127
+#define VR_X 128
+#define VR_Y 129
+#define VR_Z 130
+#define VR_ROLL 131
+#define VR_PITCH 132
+#define VR_YAW 133
+#define VR_WHEEL_FL_RATE 134
+#define VR_WHEEL_FR_RATE 135
+#define VR_WHEEL_RL_RATE 136
+#define VR_WHEEL_RR_RATE 137
+#define VR_WHEEL_FL_SLIP 138
+#define VR_WHEEL_FR_SLIP 139
+#define VR_WHEEL_RL_SLIP 140
+#define VR_WHEEL_RR_SLIP 141
+#define VR_WHEEL_FL_SLIP_ANGLE 142
+#define VR_WHEEL_FR_SLIP_ANGLE 143
+#define VR_WHEEL_RL_SLIP_ANGLE 144
+#define VR_WHEEL_RR_SLIP_ANGLE 145
+#define VR_WHEEL_FL_SINKAGE 146
+#define VR_WHEEL_FR_SINKAGE 147
+#define VR_WHEEL_RL_SINKAGE 148
+#define VR_WHEEL_RR_SINKAGE 149
+#define VR_WHEEL_FL_CURRENT 150
+#define VR_WHEEL_FR_CURRENT 151
+#define VR_WHEEL_RL_CURRENT 152
+#define VR_WHEEL_RR_CURRENT 153
+#define VR_WHEEL_FL_LOAD 154
+#define VR_WHEEL_FR_LOAD 155
+#define VR_WHEEL_RL_LOAD 156
+#define VR_WHEEL_RR_LOAD 157
+#define VR_ENERGY 158
+#define VR_COMMAND 159
+#define VR_STUCK 160
+
+/* per-wheel outputs: base + wheel index (FL, FR, RL, RR) */
+#define VR_WHEEL_RATE 134
+#define VR_WHEEL_SLIP 138
+#define VR_WHEEL_SLIP_ANGLE 142
+#define VR_WHEEL_SINKAGE 146
+#define VR_WHEEL_CURRENT 150
+#define VR_WHEEL_LOAD 154
+
+/* start values of every Real, indexed by value reference */
+#define REAL_DEFAULTS { \
+    25.0, /* rover.mass */ \
+    0.0057, /* rover.gravity */ \
+    0.1, /* rover.wheel_radius */ \
+    0.05, /* rover.wheel_width */ \
+    0.26, /* rover.half_track */ \
+    0.2, /* rover.half_wheelbase */ \
+    0.2, /* rover.cog_height */ \
+    0.2, /* rover.body_centre_height */ \
+    1400.0, /* soil.k_c */ \
+    820000.0, /* soil.k_phi */ \
+    1.0, /* soil.n */ \
+    250.0, /* soil.cohesion */ \
+    0.6108652381980153, /* soil.friction_angle */ \
+    0.012, /* soil.shear_modulus_K */ \
+    0.5, /* soil.rut_cohesion_factor */ \
+    0.3, /* soil.multipass_factor */ \
+    0.01, /* soil.grid_cell */ \
+    20.0, /* soil.self_rut_time */ \
+    0.6, /* rock.friction_coefficient */ \
+    0.001, /* rock.shear_K */ \
+    0.0003, /* motor.no_load_current */ \
+    2.0, /* motor.torque_constant */ \
+    0.2, /* motor.max_torque */ \
+    2.0, /* controller.timeout_factor */ \
+    10.0, /* controller.stuck_time */ \
+    0.1, /* controller.stuck_progress */ \
+    0.0, /* initial.x */ \
+    0.0, /* initial.y */ \
+    0.0, /* initial.yaw */ \
+    0.05, /* solver.step */ \
+    1e-05, /* solver.velocity_epsilon */ \
+    0.0, /* chain.max_wheel_rate[0] */ \
+    0.0, /* chain.max_wheel_rate[1] */ \
+    0.0, /* chain.max_wheel_rate[2] */ \
+    0.0, /* chain.max_wheel_rate[3] */ \
+    0.0, /* chain.max_wheel_rate[4] */ \
+    0.0, /* chain.max_wheel_rate[5] */ \
+    0.0, /* chain.max_wheel_rate[6] */ \
+    0.0, /* chain.max_wheel_rate[7] */ \
+    0.0, /* chain.max_wheel_rate[8] */ \
+    0.0, /* chain.max_wheel_rate[9] */ \
+    0.0, /* chain.max_wheel_rate[10] */ \
+    0.0, /* chain.max_wheel_rate[11] */ \
+    0.0, /* chain.max_wheel_rate[12] */ \
+    0.0, /* chain.max_wheel_rate[13] */ \
+    0.0, /* chain.max_wheel_rate[14] */ \
+    0.0, /* chain.max_wheel_rate[15] */ \
+    0.0, /* chain.max_wheel_rate[16] */ \
+    0.0, /* chain.max_wheel_rate[17] */ \
+    0.0, /* chain.max_wheel_rate[18] */ \
+    0.0, /* chain.max_wheel_rate[19] */ \
+    0.0, /* chain.max_wheel_rate[20] */ \
+    0.0, /* chain.max_wheel_rate[21] */ \
+    0.0, /* chain.max_wheel_rate[22] */ \
+    0.0, /* chain.max_wheel_rate[23] */ \
+    0.0, /* chain.max_wheel_rate[24] */ \
+    0.0, /* chain.max_wheel_rate[25] */ \
+    0.0, /* chain.max_wheel_rate[26] */ \
+    0.0, /* chain.max_wheel_rate[27] */ \
+    0.0, /* chain.max_wheel_rate[28] */ \
+    0.0, /* chain.max_wheel_rate[29] */ \
+    0.0, /* chain.max_wheel_rate[30] */ \
+    0.0, /* chain.max_wheel_rate[31] */ \
+    0.0, /* chain.delta_position[0] */ \
+    0.0, /* chain.delta_position[1] */ \
+    0.0, /* chain.delta_position[2] */ \
+    0.0, /* chain.delta_position[3] */ \
+    0.0, /* chain.delta_position[4] */ \
+    0.0, /* chain.delta_position[5] */ \
+    0.0, /* chain.delta_position[6] */ \
+    0.0, /* chain.delta_position[7] */ \
+    0.0, /* chain.delta_position[8] */ \
+    0.0, /* chain.delta_position[9] */ \
+    0.0, /* chain.delta_position[10] */ \
+    0.0, /* chain.delta_position[11] */ \
+    0.0, /* chain.delta_position[12] */ \
+    0.0, /* chain.delta_position[13] */ \
+    0.0, /* chain.delta_position[14] */ \
+    0.0, /* chain.delta_position[15] */ \
+    0.0, /* chain.delta_position[16] */ \
+    0.0, /* chain.delta_position[17] */ \
+    0.0, /* chain.delta_position[18] */ \
+    0.0, /* chain.delta_position[19] */ \
+    0.0, /* chain.delta_position[20] */ \
+    0.0, /* chain.delta_position[21] */ \
+    0.0, /* chain.delta_position[22] */ \
+    0.0, /* chain.delta_position[23] */ \
+    0.0, /* chain.delta_position[24] */ \
+    0.0, /* chain.delta_position[25] */ \
+    0.0, /* chain.delta_position[26] */ \
+    0.0, /* chain.delta_position[27] */ \
+    0.0, /* chain.delta_position[28] */ \
+    0.0, /* chain.delta_position[29] */ \
+    0.0, /* chain.delta_position[30] */ \
+    0.0, /* chain.delta_position[31] */ \
+    0.0, /* chain.delta_heading[0] */ \
+    0.0, /* chain.delta_heading[1] */ \
+    0.0, /* chain.delta_heading[2] */ \
+    0.0, /* chain.delta_heading[3] */ \
+    0.0, /* chain.delta_heading[4] */ \
+    0.0, /* chain.delta_heading[5] */ \
+    0.0, /* chain.delta_heading[6] */ \
+    0.0, /* chain.delta_heading[7] */ \
+    0.0, /* chain.delta_heading[8] */ \
+    0.0, /* chain.delta_heading[9] */ \
+    0.0, /* chain.delta_heading[10] */ \
+    0.0, /* chain.delta_heading[11] */ \
+    0.0, /* chain.delta_heading[12] */ \
+    0.0, /* chain.delta_heading[13] */ \
+    0.0, /* chain.delta_heading[14] */ \
+    0.0, /* chain.delta_heading[15] */ \
+    0.0, /* chain.delta_heading[16] */ \
+    0.0, /* chain.delta_heading[17] */ \
+    0.0, /* chain.delta_heading[18] */ \
+    0.0, /* chain.delta_heading[19] */ \
+    0.0, /* chain.delta_heading[20] */ \
+    0.0, /* chain.delta_heading[21] */ \
+    0.0, /* chain.delta_heading[22] */ \
+    0.0, /* chain.delta_heading[23] */ \
+    0.0, /* chain.delta_heading[24] */ \
+    0.0, /* chain.delta_heading[25] */ \
+    0.0, /* chain.delta_heading[26] */ \
+    0.0, /* chain.delta_heading[27] */ \
+    0.0, /* chain.delta_heading[28] */ \
+    0.0, /* chain.delta_heading[29] */ \
+    0.0, /* chain.delta_heading[30] */ \
+    0.0, /* chain.delta_heading[31] */ \
+    0.0, /* t */ \
+    0.0, /* x */ \
+    0.0, /* y */ \
+    0.0, /* z */ \
+    0.0, /* roll */ \
+    0.0, /* pitch */ \
+    0.0, /* yaw */ \
+    0.0, /* wheel.FL.rate */ \
+    0.0, /* wheel.FR.rate */ \
+    0.0, /* wheel.RL.rate */ \
+    0.0, /* wheel.RR.rate */ \
+    0.0, /* wheel.FL.slip */ \
+    0.0, /* wheel.FR.slip */ \
+    0.0, /* wheel.RL.slip */ \
+    0.0, /* wheel.RR.slip */ \
+    0.0, /* wheel.FL.slip_angle */ \
+    0.0, /* wheel.FR.slip_angle */ \
+    0.0, /* wheel.RL.slip_angle */ \
+    0.0, /* wheel.RR.slip_angle */ \
+    0.0, /* wheel.FL.sinkage */ \
+    0.0, /* wheel.FR.sinkage */ \
+    0.0, /* wheel.RL.sinkage */ \
+    0.0, /* wheel.RR.sinkage */ \
+    0.0, /* wheel.FL.current */ \
+    0.0, /* wheel.FR.current */ \
+    0.0, /* wheel.RL.current */ \
+    0.0, /* wheel.RR.current */ \
+    0.0, /* wheel.FL.load */ \
+    0.0, /* wheel.FR.load */ \
+    0.0, /* wheel.RL.load */ \
+    0.0, /* wheel.RR.load */ \
+    0.0, /* energy */ \
+    0.0, /* command */ \
+    0.0, /* stuck */ \
+}
+#define FIRST_OUTPUT_VR 127
+
+#endif

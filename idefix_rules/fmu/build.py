@@ -1,0 +1,134 @@
+"""Build the rover FMU from its C sources for the current platform, cached by source hash.
+
+The sources ship inside the package (``idefix_rules.fmu_sources``, the repository's ``fmu/``).
+The build compiles them with the system C compiler (``$CC``, else ``cc``/``gcc``/``clang``)
+against fmpy's FMI 2.0 headers, or, when no compiler is on the path, through fmpy's CMake
+project (:func:`fmpy.build.build_platform_binary`). The ``.fmu`` lands in
+``$IDEFIX_CACHE`` (default ``~/.cache/idefix-rules``) as ``idefix_rover-<hash>.fmu``: written
+to a temporary file, then renamed, so concurrent builds are safe.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import zipfile
+from importlib import resources
+from pathlib import Path
+
+from idefix_rules.errors import InfrastructureError
+
+MODEL_IDENTIFIER = "idefix_rover"
+_SOURCE_SUFFIXES = (".c", ".h")
+
+
+def source_dir() -> Path:
+    """Directory holding modelDescription.xml and sources/ (installed package or checkout)."""
+    try:
+        packaged = Path(str(resources.files("idefix_rules.fmu_sources") / MODEL_IDENTIFIER))
+        if (packaged / "modelDescription.xml").is_file():
+            return packaged
+    except (ModuleNotFoundError, TypeError):
+        pass
+    checkout = Path(__file__).resolve().parents[2] / "fmu" / MODEL_IDENTIFIER
+    if (checkout / "modelDescription.xml").is_file():
+        return checkout
+    raise InfrastructureError("rover FMU sources not found (idefix_rules.fmu_sources or fmu/)")
+
+
+def cache_dir() -> Path:
+    root = os.environ.get("IDEFIX_CACHE")
+    base = Path(root) if root else Path.home() / ".cache" / "idefix-rules"
+    return base / "fmu"
+
+
+def _source_files(src: Path) -> list[Path]:
+    files = [src / "modelDescription.xml"]
+    files += sorted(p for p in (src / "sources").iterdir() if p.suffix in _SOURCE_SUFFIXES)
+    files += sorted(src.glob("*.json"))
+    return files
+
+
+def source_hash(src: Path | None = None) -> str:
+    """sha256 over the FMU's sources, the platform and the compiler choice."""
+    import fmpy
+
+    src = src or source_dir()
+    digest = hashlib.sha256()
+    for path in _source_files(src):
+        digest.update(path.relative_to(src).as_posix().encode())
+        digest.update(b"\0")
+        digest.update(path.read_bytes())
+        digest.update(b"\0")
+    digest.update(f"{fmpy.platform}|{_compiler() or 'cmake'}".encode())
+    return digest.hexdigest()
+
+
+def _compiler() -> str | None:
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name and shutil.which(name):
+            return name
+    return None
+
+
+def _fmi_headers() -> Path:
+    import fmpy
+
+    return Path(fmpy.__file__).parent / "c-code"
+
+
+def _compile(unzipdir: Path) -> None:
+    """Put the platform binary into ``unzipdir/binaries/<platform>/``."""
+    import fmpy
+
+    compiler = _compiler()
+    if compiler is None or fmpy.system == "windows":
+        from fmpy.build import build_platform_binary
+
+        build_platform_binary(unzipdir)
+        return
+    target = unzipdir / "binaries" / fmpy.platform
+    target.mkdir(parents=True, exist_ok=True)
+    sources = sorted(str(p) for p in (unzipdir / "sources").glob("*.c"))
+    command = [compiler, "-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=default",
+               f"-I{_fmi_headers()}", f"-I{unzipdir / 'sources'}", *sources,
+               "-o", str(target / (MODEL_IDENTIFIER + fmpy.sharedLibraryExtension)), "-lm"]
+    result = subprocess.run(command, capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        raise InfrastructureError(f"building the rover FMU failed ({' '.join(command[:2])} ...):\n"
+                                  f"{result.stderr.strip()}")
+
+
+def build_fmu(force: bool = False, output: Path | None = None) -> Path:
+    """Build (or find in the cache) the rover FMU and return the path of the ``.fmu``."""
+    src = source_dir()
+    target = output or cache_dir() / f"{MODEL_IDENTIFIER}-{source_hash(src)[:16]}.fmu"
+    if target.is_file() and not force:
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="idefix-fmu-") as tmp:
+        unzipdir = Path(tmp) / "fmu"
+        (unzipdir / "sources").mkdir(parents=True)
+        for path in _source_files(src):
+            shutil.copyfile(path, unzipdir / path.relative_to(src))
+        _compile(unzipdir)
+        fd, partial = tempfile.mkstemp(prefix=target.name, suffix=".part", dir=target.parent)
+        os.close(fd)
+        try:
+            with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as archive:
+                for path in sorted(unzipdir.rglob("*")):
+                    if path.is_file():
+                        archive.write(path, path.relative_to(unzipdir).as_posix())
+            os.replace(partial, target)
+        finally:
+            if os.path.exists(partial):
+                os.unlink(partial)
+    return target
+
+
+def default_fmu_path() -> Path:
+    """The built-in rover FMU, built on first use."""
+    return build_fmu(force=False)

@@ -1,0 +1,279 @@
+"""Run an FMI 2.0 co-simulation FMU many times, cheaply: :class:`FmuRunner`.
+
+One runner per process: the FMU is extracted once and instantiated once; every run resets the
+instance, applies start values (with units), and steps it on the caller's time grid, reading
+all outputs with one ``fmi2GetReal`` per communication step straight into a numpy array.
+
+>>> from idefix_rules.commands import Command
+>>> runner = FmuRunner(default_fmu_path())                      # doctest: +SKIP
+>>> out = runner.run({"soil.cohesion": "300 Pa"}, [Command(0.05, 0.2, 0.0)], 60.0, 0.1)
+...                                                               # doctest: +SKIP
+>>> out["wheel.slip"].shape                                       # doctest: +SKIP
+(601, 4)
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import math
+import re
+import shutil
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.commands import Command
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.signals import AXIS_LABELS, FMU_SIGNALS
+from idefix_rules.units import UnitError, parse_quantity, parse_unit
+
+SIGNAL_MAP_FILE = "signal_map.json"
+CHAIN_COUNT = "chain.count"
+CHAIN_ARRAYS = ("chain.max_wheel_rate", "chain.delta_position", "chain.delta_heading")
+_INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
+_OK_STATUSES = (0, 1)  # fmi2OK, fmi2Warning
+
+
+class FmuRunner:
+    """Runs one FMU repeatedly in this process (see the module docstring)."""
+
+    def __init__(self, fmu_path: str | Path, signal_map: Mapping[str, str] | None = None,
+                 parameter_map: Mapping[str, str] | None = None,
+                 extra_outputs: Sequence[str] = ()) -> None:
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        self.fmu_path = Path(fmu_path)
+        if not self.fmu_path.exists():
+            raise UserInputError(error("F101", "FMU file not found", Span(str(self.fmu_path))))
+        try:
+            description = read_model_description(str(self.fmu_path), validate=False)
+        except Exception as exc:  # fmpy raises plain exceptions for unreadable archives
+            raise UserInputError(error("F102", f"not a readable FMU: {exc}",
+                                       Span(str(self.fmu_path)))) from None
+        if description.coSimulation is None:
+            raise UserInputError(error("F103", "the FMU has no co-simulation interface",
+                                       Span(str(self.fmu_path))))
+        self._unzipdir = Path(extract(str(self.fmu_path)))
+        self._variables = {v.name: v for v in description.modelVariables}
+        self._units = {u.name for u in description.unitDefinitions}
+        if signal_map is None:
+            signal_map = self._default_signal_map()
+        self.signal_map = dict(signal_map)
+        self.parameter_map = dict(parameter_map or {})
+        self._plan_outputs(list(extra_outputs))
+        self._slave = FMU2Slave(guid=description.guid, unzipDirectory=str(self._unzipdir),
+                                modelIdentifier=description.coSimulation.modelIdentifier,
+                                instanceName="idefix")
+        self._slave.instantiate()
+        dll = self._slave.dll
+        self._do_step = dll.fmi2DoStep
+        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
+        self._do_step.restype = ctypes.c_int
+        self._get_real = dll.fmi2GetReal
+        self._get_real.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t,
+                                   ctypes.c_void_p]
+        self._get_real.restype = ctypes.c_int
+        self._runs = 0
+        self._closed = False
+
+    # ------------------------------------------------------------------ set-up
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """Names of all variables of the FMU."""
+        return tuple(self._variables)
+
+    def _default_signal_map(self) -> dict[str, str]:
+        shipped = self._unzipdir / SIGNAL_MAP_FILE
+        if shipped.is_file():
+            return dict(json.loads(shipped.read_text(encoding="utf-8")))
+        return {name: name for name in FMU_SIGNALS if name in self._variables}
+
+    def _missing(self, name: str, role: str) -> UserInputError:
+        return UserInputError(error(
+            "F104", f"{role} variable '{name}' does not exist in the FMU",
+            Span(str(self.fmu_path)), hint="check the signal/parameter map against "
+            "`fmpy info` of the FMU"))
+
+    def _plan_outputs(self, extra: list[str]) -> None:
+        """Value references and destination (signal, column) of every mapped output."""
+        refs: list[int] = []
+        slots: list[tuple[str, int | None]] = []
+        for fmu_name, contract in self.signal_map.items():
+            variable = self._variables.get(fmu_name)
+            if variable is None:
+                raise self._missing(fmu_name, "mapped")
+            match = _INDEXED.match(contract)
+            base, column = (match["name"], match["index"]) if match else (contract, None)
+            spec = FMU_SIGNALS.get(base)
+            if spec is None:
+                raise UserInputError(error("F105", f"'{contract}' is not an fmu signal of the "
+                                           "contract", Span(str(self.fmu_path))))
+            index = None
+            if "wheel" in spec.axes:
+                labels = AXIS_LABELS["wheel"]
+                if column is None or (column not in labels and not column.isdigit()):
+                    raise UserInputError(error("F105", f"'{contract}' needs a wheel, e.g. "
+                                               f"{base}[FL]", Span(str(self.fmu_path))))
+                index = labels.index(column) if column in labels else int(column)
+            refs.append(variable.valueReference)
+            slots.append((base, index))
+        for name in extra:
+            variable = self._variables.get(name)
+            if variable is None:
+                raise self._missing(name, "requested")
+            refs.append(variable.valueReference)
+            slots.append((name, None))
+        self._output_refs = (ctypes.c_uint * len(refs))(*refs)
+        self._slots = slots
+        self._wheel_columns: dict[str, list[tuple[int, int]]] = {}
+        self._scalar_columns: dict[str, int] = {}
+        for position, (name, index) in enumerate(slots):
+            if index is None:
+                self._scalar_columns[name] = position
+            else:
+                self._wheel_columns.setdefault(name, []).append((index, position))
+
+    def _fmu_name(self, name: str) -> str:
+        return self.parameter_map.get(name, name)
+
+    def _value_in_fmu_unit(self, name: str, variable: Any, value: float | str) -> float:
+        unit = variable.declaredType.unit if variable.unit is None and variable.declaredType \
+            else variable.unit
+        target = None
+        if unit:
+            try:
+                target = parse_unit(unit.replace(".", "*"))
+            except UnitError:
+                target = None
+        if isinstance(value, str):
+            try:
+                quantity = parse_quantity(value)
+            except UnitError as exc:
+                raise UserInputError(error("F106", f"parameter '{name}': {exc}")) from None
+            if target is None:
+                if quantity.dimension != parse_unit("1").dimension:
+                    raise UserInputError(error("F106", f"parameter '{name}' has no unit the tool "
+                                               f"knows ({unit!r}); give a plain number"))
+                return float(quantity.value)
+            if quantity.dimension != target.dimension:
+                raise UserInputError(error("F107", f"parameter '{name}' expects {unit}, "
+                                           f"got {value!r}"))
+            return float(target.from_si(quantity.value))
+        # plain numbers are SI (the project's convention inside), converted to the FMU's unit
+        return float(target.from_si(float(value))) if target is not None else float(value)
+
+    def _apply(self, parameters: Mapping[str, float | str], chain: Sequence[Command]) -> None:
+        reals: dict[int, float] = {}
+        integers: dict[int, int] = {}
+        strings: dict[int, str] = {}
+        for name, value in parameters.items():
+            fmu_name = self._fmu_name(name)
+            variable = self._variables.get(fmu_name)
+            if variable is None:
+                raise self._missing(fmu_name, "parameter")
+            if variable.type == "String":
+                strings[variable.valueReference] = str(value)
+            elif variable.type in ("Integer", "Enumeration"):
+                integers[variable.valueReference] = int(value)  # type: ignore[arg-type]
+            elif variable.type == "Boolean":
+                raise UserInputError(error("F108", f"Boolean parameter '{name}' not supported"))
+            else:
+                reals[variable.valueReference] = self._value_in_fmu_unit(name, variable, value)
+        if chain:
+            count = self._variables.get(self._fmu_name(CHAIN_COUNT))
+            if count is None:
+                raise self._missing(self._fmu_name(CHAIN_COUNT), "chain")
+            integers[count.valueReference] = len(chain)
+            for array, field in zip(CHAIN_ARRAYS, ("max_wheel_rate", "delta_position",
+                                                   "delta_heading"), strict=True):
+                for i, command in enumerate(chain):
+                    name = self._fmu_name(f"{array}[{i}]")
+                    variable = self._variables.get(name)
+                    if variable is None:
+                        raise self._missing(name, "chain")
+                    reals[variable.valueReference] = self._value_in_fmu_unit(
+                        name, variable, float(getattr(command, field)))
+        slave = self._slave
+        if reals:
+            slave.setReal(list(reals), list(reals.values()))
+        if integers:
+            slave.setInteger(list(integers), list(integers.values()))
+        if strings:
+            slave.setString(list(strings), list(strings.values()))
+
+    # ------------------------------------------------------------------ running
+    def run(self, parameters: Mapping[str, float | str], chain: Sequence[Command],
+            stop_time: float, output_interval: float) -> dict[str, np.ndarray]:
+        """Simulate one run and return its signals by contract name.
+
+        Samples are at ``k * output_interval`` for ``k = 0 .. round(stop_time /
+        output_interval)``; time signals have shape (samples,), wheel signals (samples, 4).
+        """
+        if self._closed:
+            raise InfrastructureError("FmuRunner used after close()")
+        if not (output_interval > 0 and stop_time >= 0 and math.isfinite(stop_time)):
+            raise UserInputError(error("F109", "need output_interval > 0 and stop_time >= 0"))
+        from fmpy.fmi1 import FMICallException
+
+        slave = self._slave
+        steps = round(stop_time / output_interval)
+        out = np.empty((steps + 1, len(self._slots)), dtype=np.float64)
+        try:
+            if self._runs:
+                slave.reset()
+            self._runs += 1
+            slave.setupExperiment(startTime=0.0, stopTime=steps * output_interval)
+            slave.enterInitializationMode()
+            self._apply(parameters, chain)
+            slave.exitInitializationMode()
+        except FMICallException as exc:
+            raise InfrastructureError(f"{self.fmu_path.name}: initialisation failed ({exc}); "
+                                      "see the FMU's log for the reason") from None
+        component = slave.component
+        refs, n = self._output_refs, len(self._slots)
+        row_bytes = out.strides[0]
+        base = out.ctypes.data
+        if self._get_real(component, refs, n, base) not in _OK_STATUSES:
+            raise InfrastructureError(f"{self.fmu_path.name}: fmi2GetReal failed")
+        do_step, get_real = self._do_step, self._get_real
+        for k in range(steps):
+            status = do_step(component, k * output_interval, output_interval, 1)
+            if status not in _OK_STATUSES:
+                raise InfrastructureError(f"{self.fmu_path.name}: fmi2DoStep failed at "
+                                          f"t = {k * output_interval:g} s (status {status})")
+            get_real(component, refs, n, base + (k + 1) * row_bytes)
+        return self._collect(out, steps, output_interval)
+
+    def _collect(self, out: np.ndarray, steps: int, interval: float) -> dict[str, np.ndarray]:
+        signals: dict[str, np.ndarray] = {}
+        for name, position in self._scalar_columns.items():
+            signals[name] = out[:, position].copy()
+        for name, columns in self._wheel_columns.items():
+            array = np.full((out.shape[0], len(AXIS_LABELS["wheel"])), np.nan)
+            for index, position in columns:
+                array[:, index] = out[:, position]
+            signals[name] = array
+        if "t" not in signals:
+            signals["t"] = np.arange(steps + 1) * interval
+        return signals
+
+    def close(self) -> None:
+        """Free the instance and remove the extracted files."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._slave.terminate()
+            self._slave.freeInstance()
+        finally:
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
+
+    def __enter__(self) -> FmuRunner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,282 @@
+"""Terrain for the rover FMU: a DEM heightmap plus rigid rocks, and the file the FMU reads.
+
+The format is documented in ``docs/terrain-format.md``. The obstacle checker builds its
+geometry from the same :class:`Rock` records, so both see identical rocks.
+
+>>> t = synthetic_terrain(size=2.0, cell=0.05, slope=0.1, seed=1)
+>>> t.heights.shape
+(41, 41)
+>>> round(float(t.height_at(0.5, 0.0) - t.height_at(-0.5, 0.0)), 3)  # downhill along +x
+-0.1
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from idefix_rules.errors import Span, UserInputError, error
+
+MAGIC = "IDEFIX-TERRAIN 1"
+MAX_ROCKS = 4096
+
+
+@dataclass(frozen=True)
+class Rock:
+    """A rigid rock: an axis-aligned ellipsoid, SI units.
+
+    ``z`` is the centre height above the terrain datum; ``None`` places the rock on the ground
+    at (x, y) sunk by ``embedded`` metres (resolved by :class:`Terrain`). ``level`` is the
+    obstacle level ("L1", "L2", "L3") when known.
+    """
+
+    x: float
+    y: float
+    a: float
+    b: float
+    c: float
+    z: float | None = None
+    embedded: float = 0.0
+    level: str | None = None
+
+    @property
+    def top(self) -> float:
+        """Height of the rock's highest point (needs a resolved ``z``)."""
+        if self.z is None:
+            raise ValueError("rock height not resolved; build it through a Terrain")
+        return self.z + self.c
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """Heights (ny, nx) in m on a regular grid, row j at ``origin[1] + j*cell``, plus rocks."""
+
+    heights: np.ndarray
+    origin: tuple[float, float] = (0.0, 0.0)
+    cell: float = 0.02
+    rocks: tuple[Rock, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        heights = np.ascontiguousarray(self.heights, dtype=np.float64)
+        if heights.ndim != 2 or min(heights.shape) < 2:
+            raise ValueError("heights must be a 2-D array of at least 2 x 2")
+        object.__setattr__(self, "heights", heights)
+        object.__setattr__(self, "origin", (float(self.origin[0]), float(self.origin[1])))
+        resolved = tuple(
+            rock if rock.z is not None else replace(
+                rock, z=float(self.height_at(rock.x, rock.y)) + rock.c - rock.embedded)
+            for rock in self.rocks
+        )
+        object.__setattr__(self, "rocks", resolved)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape  # type: ignore[return-value]
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the grid."""
+        ny, nx = self.heights.shape
+        x0, y0 = self.origin
+        return x0, x0 + (nx - 1) * self.cell, y0, y0 + (ny - 1) * self.cell
+
+    def height_at(self, x: float | np.ndarray, y: float | np.ndarray) -> np.ndarray:
+        """Bilinear ground height (rocks excluded); edge values continue outside the grid."""
+        ny, nx = self.heights.shape
+        fx = np.clip((np.asarray(x, dtype=float) - self.origin[0]) / self.cell, 0, nx - 1)
+        fy = np.clip((np.asarray(y, dtype=float) - self.origin[1]) / self.cell, 0, ny - 1)
+        i = np.minimum(fx.astype(int), nx - 2)
+        j = np.minimum(fy.astype(int), ny - 2)
+        tx, ty = fx - i, fy - j
+        h = self.heights
+        return ((1 - ty) * ((1 - tx) * h[j, i] + tx * h[j, i + 1])
+                + ty * ((1 - tx) * h[j + 1, i] + tx * h[j + 1, i + 1]))
+
+
+def flat_terrain(size: float = 6.0, cell: float = 0.05) -> Terrain:
+    """Level ground at z = 0 centred on the origin."""
+    return synthetic_terrain(size=size, cell=cell)
+
+
+def synthetic_terrain(size: float | tuple[float, float] = 6.0, cell: float = 0.02,
+                      slope: float = 0.0, slope_direction: float = 0.0,
+                      roughness: float = 0.0, seed: int = 0,
+                      rocks: Iterable[Rock] = (), correlation_length: float = 0.1,
+                      centre: tuple[float, float] = (0.0, 0.0)) -> Terrain:
+    """A generated terrain centred on ``centre``.
+
+    ``slope`` (rad) descends towards ``slope_direction`` (rad from +x); ``roughness`` is the
+    RMS height (m) of Gaussian-correlated noise with ``correlation_length`` (m), reproducible
+    from ``seed``. Rocks with ``z=None`` are placed on the generated ground.
+    """
+    sx, sy = (size, size) if isinstance(size, (int, float)) else size
+    if cell <= 0 or sx <= cell or sy <= cell:
+        raise UserInputError(error("F201", f"terrain size {size} and cell {cell} must be "
+                                   "positive with size > cell"))
+    nx, ny = round(sx / cell) + 1, round(sy / cell) + 1
+    x0, y0 = centre[0] - (nx - 1) * cell / 2, centre[1] - (ny - 1) * cell / 2
+    xs = x0 + cell * np.arange(nx)
+    ys = y0 + cell * np.arange(ny)
+    gx, gy = np.meshgrid(xs - centre[0], ys - centre[1])
+    gradient = math.tan(slope)
+    heights = -gradient * (gx * math.cos(slope_direction) + gy * math.sin(slope_direction))
+    if roughness > 0.0:
+        from scipy.ndimage import gaussian_filter
+
+        noise = np.random.default_rng(seed).standard_normal((ny, nx))
+        noise = gaussian_filter(noise, sigma=max(correlation_length / cell, 0.5), mode="wrap")
+        noise *= roughness / max(float(noise.std()), 1e-12)
+        heights = heights + noise
+    return Terrain(heights, (x0, y0), cell, tuple(rocks))
+
+
+def write_terrain(path: str | Path, terrain: Terrain) -> Path:
+    """Write ``terrain`` in the FMU's format (text header, then little-endian float64 rows)."""
+    path = Path(path)
+    ny, nx = terrain.heights.shape
+    if len(terrain.rocks) > MAX_ROCKS:
+        raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS}"))
+    lines = [MAGIC, f"nx {nx}", f"ny {ny}",
+             f"origin {terrain.origin[0]!r} {terrain.origin[1]!r}", f"cell {terrain.cell!r}",
+             f"rocks {len(terrain.rocks)}"]
+    for rock in terrain.rocks:
+        lines.append(f"rock {rock.x!r} {rock.y!r} {rock.z!r} {rock.a!r} {rock.b!r} {rock.c!r}"
+                     + (f" {rock.level}" if rock.level else ""))
+    lines.append("heights")
+    data = ("\n".join(lines) + "\n").encode("ascii")
+    data += terrain.heights.astype("<f8").tobytes(order="C")
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    tmp.replace(path)
+    return path
+
+
+def read_terrain(path: str | Path) -> Terrain:
+    """Read a terrain file written by :func:`write_terrain` (or by hand, same format)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise UserInputError(error("F203", f"cannot read terrain file: {exc.strerror}",
+                                   Span(str(path)))) from None
+    header: dict[str, list[str]] = {}
+    rocks: list[Rock] = []
+    offset, line_number = 0, 0
+
+    def fail(message: str) -> UserInputError:
+        return UserInputError(error("F204", message, Span(str(path), line_number, 1)))
+
+    while True:
+        end = data.find(b"\n", offset)
+        if end < 0:
+            line_number += 1
+            raise fail("missing 'heights' line")
+        line_number += 1
+        try:
+            text = data[offset:end].decode("ascii").strip()
+        except UnicodeDecodeError:
+            raise fail("header line is not ASCII text") from None
+        offset = end + 1
+        if line_number == 1:
+            if text != MAGIC:
+                raise fail(f"expected '{MAGIC}' as the first line")
+            continue
+        if not text:
+            continue
+        key, *values = text.split()
+        if key == "heights":
+            break
+        if key == "rock":
+            try:
+                x, y, z, a, b, c = (float(v) for v in values[:6])
+            except ValueError:
+                raise fail("expected 'rock x y z a b c [level]'") from None
+            if len(values) not in (6, 7) or min(a, b, c) <= 0:
+                raise fail("expected 'rock x y z a b c [level]' with positive semi-axes")
+            rocks.append(Rock(x, y, a, b, c, z=z, level=values[6] if len(values) == 7 else None))
+            continue
+        if key not in ("nx", "ny", "origin", "cell", "rocks"):
+            raise fail(f"unknown header line '{key}'")
+        header[key] = values
+    try:
+        nx, ny = int(header["nx"][0]), int(header["ny"][0])
+        x0, y0 = (float(v) for v in header["origin"][:2])
+        cell = float(header["cell"][0])
+        count = int(header.get("rocks", ["0"])[0])
+    except (KeyError, IndexError, ValueError):
+        raise fail("header needs 'nx N', 'ny N', 'origin X Y', 'cell C'") from None
+    if nx < 2 or ny < 2 or cell <= 0:
+        raise fail("need nx >= 2, ny >= 2 and cell > 0")
+    if count != len(rocks):
+        raise fail(f"'rocks {count}' but {len(rocks)} rock lines")
+    expected = nx * ny * 8
+    if len(data) - offset != expected:
+        raise fail(f"height grid holds {len(data) - offset} bytes, expected {expected} "
+                   f"({nx} x {ny} float64)")
+    heights = np.frombuffer(data, dtype="<f8", count=nx * ny, offset=offset).reshape(ny, nx)
+    if not np.all(np.isfinite(heights)):
+        raise fail("height grid holds NaN or infinite values")
+    return Terrain(heights.copy(), (x0, y0), cell, tuple(rocks))
+
+
+def load_dem(path: str | Path, cell: float | None = None,
+             origin: tuple[float, float] | None = None, rocks: Sequence[Rock] = ()) -> Terrain:
+    """A user DEM: our terrain format, a ``.npy`` 2-D array, or a ``.csv`` grid of heights.
+
+    For ``.npy`` and ``.csv`` row j is y = origin[1] + j*cell and column i is
+    x = origin[0] + i*cell; ``cell`` is required, ``origin`` defaults to centring the grid on
+    (0, 0). Rocks given here are added to the file's own.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".npy", ".csv"):
+        terrain = read_terrain(path)
+        return replace(terrain, rocks=terrain.rocks + tuple(rocks)) if rocks else terrain
+    if cell is None or cell <= 0:
+        raise UserInputError(error("F205", "a .npy or .csv DEM needs a positive cell size",
+                                   Span(str(path))))
+    if suffix == ".npy":
+        try:
+            heights = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) \
+                from None
+    else:
+        heights = _read_csv(path)
+    heights = np.asarray(heights, dtype=float)
+    if heights.ndim != 2 or min(heights.shape) < 2 or not np.all(np.isfinite(heights)):
+        raise UserInputError(error("F206", "DEM must be a finite 2-D grid of at least 2 x 2",
+                                   Span(str(path))))
+    ny, nx = heights.shape
+    if origin is None:
+        origin = (-(nx - 1) * cell / 2, -(ny - 1) * cell / 2)
+    return Terrain(heights, origin, cell, tuple(rocks))
+
+
+def _read_csv(path: Path) -> np.ndarray:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) from None
+    rows: list[list[float]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        cells = line.replace(";", ",").split(",")
+        row = []
+        for column, cell_text in enumerate(cells):
+            try:
+                row.append(float(cell_text))
+            except ValueError:
+                col = sum(len(c) + 1 for c in cells[:column]) + 1
+                raise UserInputError(error("F207", f"not a number: {cell_text.strip()!r}",
+                                           Span(str(path), number, col))) from None
+        if rows and len(row) != len(rows[0]):
+            raise UserInputError(error("F208", f"row has {len(row)} values, the first row has "
+                                       f"{len(rows[0])}", Span(str(path), number, 1)))
+        rows.append(row)
+    return np.array(rows, dtype=float)
