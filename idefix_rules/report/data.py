@@ -1,0 +1,346 @@
+"""What a report shows, read from ``results.h5`` (layout: ``docs/results-format.md``).
+
+Plain data, no drawing: the header (provenance and hashes), one :class:`PathReport` per path with
+its Table 1 row, per-run index values and sampled parameters, and the "why" sections derived from
+them (dominant index counts, worst runs, rule coverage). Figures are drawn from these objects by
+:mod:`idefix_rules.report.figures`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import h5py
+import numpy as np
+
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
+
+LEVELS = ("L1", "L2", "L3")
+# An index "came near its limit" in a campaign when some run reached this share of it.
+NEAR_LIMIT = 0.5
+# Worst runs listed per path.
+WORST_RUNS = 5
+
+
+@dataclass(frozen=True)
+class Header:
+    """Provenance printed at the top of every report."""
+
+    campaign_name: str
+    campaign_path: str
+    campaign_sha256: str
+    rulebook_name: str
+    rulebook_version: str
+    rulebook_sha256: str
+    fmu_path: str
+    fmu_sha256: str
+    package_version: str
+    runs: int
+    seed: int
+    sampling: str
+    started: str
+    finished: str
+    state: str
+    evaluated: str
+
+
+@dataclass(frozen=True)
+class TableRow:
+    """One row of Table 1 (paper): units are those of the table (%, mAs, s)."""
+
+    path: str
+    status: str
+    runs: int
+    completed_runs: int
+    failed_runs: int
+    mean_risk: float | None
+    risk_ci95: tuple[float, float] | None
+    chances: dict[str, float]
+    energy_mAs: float | None
+    time_s: float | None
+    verdict: str
+    undecided: bool
+    rank: int | None
+    dominant_index: str | None
+    verdict_reasons: tuple[str, ...] = ()
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class WorstRun:
+    """A run with a high risk, and what it was made of."""
+
+    run: int
+    i_max: float
+    dominant: str | None
+    indices: dict[str, float]
+    parameters: dict[str, float]
+
+
+@dataclass
+class PathReport:
+    """One path's data for the report."""
+
+    name: str
+    index: int
+    status: str
+    reason: str
+    row: TableRow
+    index_names: list[str] = field(default_factory=list)
+    status_codes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    complete: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    i_max: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    dominant: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int16))
+    indices: dict[str, np.ndarray] = field(default_factory=dict)
+    chances: dict[str, np.ndarray] = field(default_factory=dict)
+    parameters: dict[str, np.ndarray] = field(default_factory=dict)
+    parameter_units: dict[str, str] = field(default_factory=dict)
+    # Filled by the preparation of the box plots (m and rad), complete runs only.
+    final_local_error: np.ndarray | None = None
+    final_heading_error: np.ndarray | None = None
+
+    @property
+    def evaluated(self) -> bool:
+        return bool(self.index_names) and self.i_max.size > 0
+
+    def dominance(self) -> list[tuple[str, int]]:
+        """How often each index gave I_max among complete runs, most frequent first."""
+        counts: dict[str, int] = {}
+        for position in self.dominant[self.complete]:
+            name = self.index_names[position] if 0 <= position < len(self.index_names) else "none"
+            counts[name] = counts.get(name, 0) + 1
+        return sorted(counts.items(), key=lambda item: (-item[1], item[0]))
+
+    def worst_runs(self, count: int = WORST_RUNS) -> list[WorstRun]:
+        """The complete runs with the highest I_max, with their indices and parameters."""
+        runs = np.flatnonzero(self.complete)
+        if runs.size == 0:
+            return []
+        order = runs[np.argsort(-self.i_max[runs], kind="stable")][:count]
+        worst = []
+        for run in order:
+            position = int(self.dominant[run])
+            dominant = (self.index_names[position]
+                        if 0 <= position < len(self.index_names) else None)
+            worst.append(WorstRun(
+                run=int(run), i_max=float(self.i_max[run]), dominant=dominant,
+                indices={name: float(values[run]) for name, values in self.indices.items()},
+                parameters={name: float(values[run]) for name, values in self.parameters.items()},
+            ))
+        return worst
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """How close a rule came to its limit over the whole campaign."""
+
+    name: str
+    kind: str  # "index" or "chance"
+    highest: float  # index: largest normalised value (1 = limit); chance: largest chance
+    where: str  # path of the highest value ("" when nothing ran)
+    near: bool
+
+
+@dataclass
+class ReportData:
+    header: Header
+    paths: list[PathReport]
+    ranking: list[str]
+    expectations: list[dict[str, Any]]
+
+    @property
+    def evaluated_paths(self) -> list[PathReport]:
+        return [path for path in self.paths if path.evaluated]
+
+    def coverage(self) -> list[Coverage]:
+        """Per index and chance: the largest value any complete run reached, and where."""
+        result: list[Coverage] = []
+        names: list[str] = []
+        for path in self.evaluated_paths:
+            names += [n for n in path.index_names if n not in names]
+        for name in names:
+            best, where = 0.0, ""
+            for path in self.evaluated_paths:
+                values = path.indices.get(name)
+                if values is None or not path.complete.any():
+                    continue
+                highest = float(np.nanmax(values[path.complete]))
+                if highest > best or not where:
+                    best, where = highest, path.name
+            result.append(Coverage(name, "index", best, where, best >= NEAR_LIMIT))
+        chance_names: list[str] = []
+        for path in self.evaluated_paths:
+            chance_names += [n for n in path.chances if n not in chance_names]
+        for name in chance_names:
+            best, where = 0.0, ""
+            for path in self.evaluated_paths:
+                values = path.chances.get(name)
+                if values is None or not path.complete.any():
+                    continue
+                share = float(np.mean(values[path.complete] > 0))
+                if share > best or not where:
+                    best, where = share, path.name
+            result.append(Coverage(name, "chance", best, where, best > 0.0))
+        return result
+
+
+def _text(value: Any) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return "" if value is None else str(value)
+
+
+def _json(value: Any, default: Any) -> Any:
+    if value is None:
+        return default
+    try:
+        return json.loads(_text(value))
+    except (TypeError, ValueError):
+        return default
+
+
+def _float_or_none(value: Any) -> float | None:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return number if np.isfinite(number) else None
+
+
+def read_header(file: h5py.File) -> Header:
+    attrs = file.attrs
+    evaluation = file.get("evaluation")
+    rulebook_attrs: Mapping[str, Any] = {}
+    provenance = file.get("provenance")
+    if provenance is not None and "rulebook" in provenance:
+        rulebook_attrs = provenance["rulebook"].attrs
+    ev_attrs: Mapping[str, Any] = evaluation.attrs if evaluation is not None else {}
+
+    def rulebook(key: str) -> str:
+        return _text(ev_attrs.get(f"rulebook_{key}", rulebook_attrs.get(key, "")))
+
+    return Header(
+        campaign_name=_text(attrs.get("campaign_name", "")),
+        campaign_path=_text(attrs.get("campaign_path", "")),
+        campaign_sha256=_text(attrs.get("campaign_sha256", "")),
+        rulebook_name=rulebook("name"),
+        rulebook_version=rulebook("version"),
+        rulebook_sha256=rulebook("sha256"),
+        fmu_path=_text(attrs.get("fmu_path", "")),
+        fmu_sha256=_text(attrs.get("fmu_sha256", "")),
+        package_version=_text(attrs.get("package_version", "")),
+        runs=int(attrs.get("runs", 0)),
+        seed=int(attrs.get("seed", 0)),
+        sampling=_text(attrs.get("sampling", "")),
+        started=_text(attrs.get("started", "")),
+        finished=_text(attrs.get("finished", "")),
+        state=_text(attrs.get("state", "")),
+        evaluated=_text(ev_attrs.get("evaluated", "")),
+    )
+
+
+def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
+    ci = entry.get("risk_ci95")
+    rank = entry.get("rank")
+    return TableRow(
+        path=str(entry.get("name", "")),
+        status=str(entry.get("status", "")),
+        runs=int(entry.get("runs") or 0),
+        completed_runs=int(entry.get("completed_runs") or 0),
+        failed_runs=int(entry.get("failed_runs") or 0),
+        mean_risk=_float_or_none(entry.get("mean_risk")),
+        risk_ci95=(float(ci[0]), float(ci[1])) if ci and None not in ci[:2] else None,
+        chances={str(k): float(v) for k, v in (entry.get("chances") or {}).items()
+                 if _float_or_none(v) is not None},
+        energy_mAs=_float_or_none(entry.get("energy_mAs")),
+        time_s=_float_or_none(entry.get("time_s")),
+        verdict=str(entry.get("verdict", "")),
+        undecided=bool(entry.get("undecided", False)),
+        rank=int(rank) if isinstance(rank, int | float) else None,
+        dominant_index=entry.get("dominant_index") or None,
+        verdict_reasons=tuple(str(r) for r in entry.get("verdict_reasons") or ()),
+        reason=str(entry.get("reason", "")),
+    )
+
+
+def _row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
+    """Table 1 row when ``summary.json`` is not stored: means over the complete runs."""
+    evaluation = group.get("evaluation")
+    complete = path.complete
+    stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
+    verdict = _json(evaluation.attrs.get("verdict"), {}) if evaluation is not None else {}
+    mean_risk = float(np.mean(path.i_max[complete])) if complete.any() else None
+    energy = time = None
+    if evaluation is not None and complete.any():
+        if "energy" in evaluation:
+            energy = float(np.mean(evaluation["energy"][()][complete])) * 1000.0
+        if "time" in evaluation:
+            time = float(np.mean(evaluation["time"][()][complete]))
+    ci = stats.get("risk_ci95") or stats.get("mean_risk_ci")
+    passed = verdict.get("passed")
+    status = _text(group.attrs.get("status", ""))
+    return TableRow(
+        path=name, status=status, runs=int(complete.size), completed_runs=int(complete.sum()),
+        failed_runs=int(np.sum(path.status_codes == STATUS_FAILED)),
+        mean_risk=mean_risk,
+        risk_ci95=(float(ci[0]), float(ci[1])) if isinstance(ci, list | tuple) else None,
+        chances={key: float(np.mean(values[complete] > 0)) for key, values in path.chances.items()}
+        if complete.any() else {},
+        energy_mAs=energy, time_s=time,
+        verdict={True: "pass", False: "fail"}.get(passed, status) if passed is not None
+        else status,
+        undecided=not bool(verdict.get("decided", True)), rank=None,
+        dominant_index=(path.dominance()[0][0] if path.evaluated and complete.any() else None),
+        reason=_text(group.attrs.get("reason", "")),
+    )
+
+
+def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]) -> PathReport:
+    status = _text(group.attrs.get("status", ""))
+    placeholder = TableRow(path=name, status=status, runs=0, completed_runs=0, failed_runs=0,
+                           mean_risk=None, risk_ci95=None, chances={}, energy_mAs=None,
+                           time_s=None, verdict=status, undecided=False, rank=None,
+                           dominant_index=None, reason=_text(group.attrs.get("reason", "")))
+    path = PathReport(name=name, index=int(group.attrs.get("index", 0)), status=status,
+                      reason=_text(group.attrs.get("reason", "")), row=placeholder)
+    runs = group.get("runs")
+    if runs is not None and "status" in runs:
+        codes = np.asarray(runs["status"][()])
+        path.status_codes = codes
+        path.complete = codes == STATUS_COMPLETE
+        for key, dataset in runs.get("parameters", {}).items():
+            path.parameters[key] = np.asarray(dataset[()], dtype=float)
+            path.parameter_units[key] = _text(dataset.attrs.get("unit", ""))
+    evaluation = group.get("evaluation")
+    if evaluation is not None and "i_max" in evaluation:
+        path.index_names = list(_json(evaluation.attrs.get("index_names"), []))
+        path.i_max = np.asarray(evaluation["i_max"][()], dtype=float)
+        count = path.i_max.size
+        if path.complete.size != count:
+            path.complete = np.isfinite(path.i_max)
+        path.complete = path.complete & np.isfinite(path.i_max)
+        path.dominant = (np.asarray(evaluation["dominant"][()]) if "dominant" in evaluation
+                         else np.full(count, -1, dtype=np.int16))
+        for key, dataset in evaluation.get("indices", {}).items():
+            path.indices[key] = np.asarray(dataset[()], dtype=float)
+        for key, dataset in evaluation.get("chances", {}).items():
+            path.chances[key] = np.asarray(dataset[()])
+    path.row = summary_rows.get(name) or _row_from_arrays(name, group, path)
+    return path
+
+
+def read_report_data(store: ResultStore) -> ReportData:
+    """Everything the report shows except the figures' derived data (maps, box plots)."""
+    file = store.file
+    evaluation = file.get("evaluation")
+    summary = _json(evaluation.attrs.get("summary"), {}) if evaluation is not None else {}
+    rows = {str(entry.get("name")): _row_from_summary(entry)
+            for entry in summary.get("paths", []) if isinstance(entry, Mapping)}
+    paths = [read_path(name, store.path_group(name), rows) for name in store.path_names]
+    ranking = summary.get("ranking") or (_json(evaluation.attrs.get("ranking"), [])
+                                         if evaluation is not None else [])
+    return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
+                      expectations=list(summary.get("expectations", [])))

@@ -1,0 +1,166 @@
+"""Every figure of the report, drawn with matplotlib's object API on the Agg canvas.
+
+Drawing only: the data arrive prepared (:mod:`idefix_rules.report.riskmap`,
+:mod:`idefix_rules.report.prepare`). No pyplot, so no global figure state and no GUI backend.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse, Polygon
+
+from idefix_rules.report.environment import MapEnvironment, buffer_mask
+from idefix_rules.report.riskmap import RiskGrid
+
+RISK_COLOURS = "RdYlGn_r"  # green = safe, red = critical, like the paper's Fig. 8
+LEVEL_COLOURS = {"L1": "#1f77b4", "L2": "#ff7f0e", "L3": "#d62728", "?": "#7f7f7f"}
+PATH_COLOURS = ("#1f4e9c", "#6a3d9a", "#00897b", "#c2185b", "#5d4037", "#455a64")
+DPI = 110
+
+
+def path_colour(position: int) -> str:
+    return PATH_COLOURS[position % len(PATH_COLOURS)]
+
+
+def _figure(width: float, height: float) -> Figure:
+    figure = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(figure)
+    return figure
+
+
+def png_bytes(figure: Figure) -> bytes:
+    """The figure as PNG."""
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=DPI)
+    return buffer.getvalue()
+
+
+def save_png(figure: Figure, target: Path) -> bytes:
+    """Write the figure as PNG and return the bytes (for embedding)."""
+    data = png_bytes(figure)
+    target.write_bytes(data)
+    return data
+
+
+def _draw_environment(axes: object, environment: MapEnvironment, step: float) -> None:
+    from matplotlib.axes import Axes
+
+    assert isinstance(axes, Axes)
+    for area in environment.areas:
+        colour = LEVEL_COLOURS.get(area.level, LEVEL_COLOURS["?"])
+        axes.add_patch(Polygon(area.polygon, closed=True, facecolor=colour, alpha=0.25,
+                               edgecolor=colour, hatch="//", linewidth=1.2, zorder=3))
+        if area.buffer > 0:
+            xs, ys, mask = buffer_mask(area, step)
+            axes.contour(xs, ys, mask, levels=[0.5], colors=[colour], linestyles="--",
+                         linewidths=1.0, zorder=3)
+        axes.annotate(f"{area.name} ({area.level})", area.polygon.mean(axis=0), fontsize=7,
+                      ha="center", color=colour, zorder=6)
+    for rock in environment.rocks:
+        colour = LEVEL_COLOURS.get(rock.level, LEVEL_COLOURS["?"])
+        axes.add_patch(Ellipse((rock.x, rock.y), 2 * rock.a, 2 * rock.b, facecolor="#8d8d8d",
+                               edgecolor=colour, linewidth=1.5, zorder=4))
+        if rock.buffer > 0:
+            axes.add_patch(Ellipse((rock.x, rock.y), 2 * (rock.a + rock.buffer),
+                                   2 * (rock.b + rock.buffer), fill=False, edgecolor=colour,
+                                   linestyle="--", linewidth=1.0, zorder=4))
+        axes.annotate(f"{rock.name} ({rock.level})", (rock.x, rock.y + rock.b + rock.buffer),
+                      fontsize=7, ha="center", va="bottom", color=colour, zorder=6)
+
+
+def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironment,
+                    references: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                    path_order: Sequence[str], title: str, cell_note: str,
+                    highlight: str | None = None) -> Figure:
+    """The result map (paper Fig. 8): risk per cell, obstacles, buffers and reference tracks."""
+    figure = _figure(7.5, 6.0)
+    axes = figure.add_subplot()
+    cmap = colormaps[RISK_COLOURS].copy()
+    cmap.set_bad((1.0, 1.0, 1.0, 0.0))
+    image = axes.imshow(np.ma.masked_invalid(values), origin="lower", extent=grid.extent,
+                        cmap=cmap, norm=Normalize(0.0, 1.0), interpolation="nearest", zorder=2)
+    _draw_environment(axes, environment, grid.cell / 4)
+    for position, name in enumerate(path_order):
+        track = references.get(name)
+        if track is None:
+            continue
+        strong = highlight is None or name == highlight
+        axes.plot(track[0], track[1], color=path_colour(position), linewidth=1.6 if strong
+                  else 0.8, alpha=1.0 if strong else 0.45, label=f"{name} (reference run)",
+                  zorder=5)
+    axes.plot([0.0], [0.0], marker="o", color="black", markersize=4, zorder=6, label="start")
+    left, right, bottom, top = grid.extent
+    axes.set_xlim(left, right)
+    axes.set_ylim(bottom, top)
+    axes.set_aspect("equal")
+    axes.set_xlabel("x [m] (rover start frame, forward)")
+    axes.set_ylabel("y [m] (left)")
+    axes.set_title(title, fontsize=11)
+    axes.grid(True, linewidth=0.3, alpha=0.5, zorder=1)
+    axes.legend(loc="best", fontsize=7, framealpha=0.8)
+    bar = figure.colorbar(image, ax=axes, shrink=0.85)
+    bar.set_label("risk (0 safe … 1 critical)")
+    axes.text(0.01, 0.01, cell_note, transform=axes.transAxes, fontsize=7, color="#333333",
+              bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none", "pad": 2},
+              zorder=7)
+    return figure
+
+
+def box_plot_figure(series: Mapping[str, np.ndarray], path_order: Sequence[str],
+                    ylabel: str, title: str, scale: float = 1.0) -> Figure:
+    """A box plot per path (paper Fig. 9): median, quartiles, whiskers at 1.5 IQR, outliers."""
+    figure = _figure(7.0, 4.2)
+    axes = figure.add_subplot()
+    names = [name for name in path_order if name in series and np.isfinite(series[name]).any()]
+    data = [np.asarray(series[name])[np.isfinite(series[name])] * scale for name in names]
+    if data:
+        boxes = axes.boxplot(data, tick_labels=names, patch_artist=True, showmeans=True,
+                             meanprops={"marker": "^", "markerfacecolor": "white",
+                                        "markeredgecolor": "black", "markersize": 5})
+        for position, patch in enumerate(boxes["boxes"]):
+            patch.set_facecolor(path_colour(path_order.index(names[position])))
+            patch.set_alpha(0.55)
+        for position, values in enumerate(data, start=1):
+            axes.annotate(f"n={values.size}", (position, 0), xycoords=("data", "axes fraction"),
+                          xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7)
+    else:
+        axes.text(0.5, 0.5, "no complete runs", ha="center", va="center",
+                  transform=axes.transAxes)
+    axes.set_ylabel(ylabel)
+    axes.set_title(title, fontsize=11)
+    axes.grid(True, axis="y", linewidth=0.3, alpha=0.6)
+    return figure
+
+
+def dominance_figure(counts: Mapping[str, Sequence[tuple[str, int]]],
+                     path_order: Sequence[str]) -> Figure:
+    """Stacked bars: per path, the share of runs each index dominated I_max."""
+    figure = _figure(7.0, 3.6)
+    axes = figure.add_subplot()
+    names = [name for name in path_order if counts.get(name)]
+    indices: list[str] = []
+    for name in names:
+        indices += [index for index, _ in counts[name] if index not in indices]
+    bottom = np.zeros(len(names))
+    palette = colormaps["tab10"]
+    for position, index in enumerate(indices):
+        shares = np.array([dict(counts[name]).get(index, 0) / max(1, sum(
+            c for _, c in counts[name])) for name in names]) * 100.0
+        axes.barh(names, shares, left=bottom, color=palette(position % 10), label=index)
+        bottom += shares
+    axes.set_xlim(0, 100)
+    axes.set_xlabel("runs in which the index set I_max [%]")
+    axes.invert_yaxis()
+    axes.set_title("Which index dominated the run risk", fontsize=11)
+    if indices:
+        axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.25), ncol=min(6, len(indices)),
+                    fontsize=8)
+    return figure

@@ -1,0 +1,257 @@
+"""Data the figures need that the results file does not hold directly: risk maps, final errors.
+
+The results file keeps per-run index values, not per-sample ones. For the result map the
+stored runs of each path are evaluated again, chunk by chunk, with the rulebook stored in
+``/provenance/rulebook`` (the one the evaluation used), the same run context and the same
+collision checker as the campaign's evaluation, and the per-sample run risk (max over indices
+of weight × per-sample value) is binned on the map grid (:mod:`idefix_rules.report.riskmap`).
+The same pass computes each run's final local error and final heading error (box plots, paper
+Fig. 9) with the rulebook's derived signals.
+
+If the stored rulebook cannot be compiled by this version of the tool, the map falls back to
+each run's stored I_max along its whole track and the report says so.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.report.data import PathReport, ReportData
+from idefix_rules.report.environment import MapEnvironment, map_environment
+from idefix_rules.report.riskmap import (
+    RiskAccumulator,
+    RiskGrid,
+    cell_size_for,
+    grid_covering,
+    per_sample_risk,
+)
+
+CHUNK_RUNS = 64
+POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
+ERROR_SIGNALS = ("t", "x", "y", "yaw", "command")
+
+
+@dataclass
+class Setup:
+    """How the stored runs are evaluated again (mirrors the campaign's evaluation)."""
+
+    checked: Any | None = None  # CheckedRulebook of the stored rulebook
+    evaluator: Any | None = None  # compiled rulebook, None when it cannot be compiled
+    rover: RoverGeometry = field(default_factory=RoverGeometry)
+    sigma: float = 0.0
+    collisions: Any | None = None
+    environment: MapEnvironment = field(default_factory=MapEnvironment)
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class MapSet:
+    """Per-path accumulators on one grid, and the combined one."""
+
+    grid: RiskGrid
+    cell_reason: str
+    per_path: dict[str, RiskAccumulator]
+    combined: RiskAccumulator
+    per_sample: bool  # False: the fallback (stored I_max along the whole track)
+    reference_tracks: dict[str, tuple[np.ndarray, np.ndarray]]
+
+
+def _campaign_model(text: str, path: str) -> Any:
+    from idefix_rules.campaign.schema import CampaignFile
+    from idefix_rules.campaign.yamlsource import load_yaml
+
+    return CampaignFile.model_validate(load_yaml(text, path).data)
+
+
+def setup_from_store(store: ResultStore) -> Setup:
+    """Compile the stored rulebook and rebuild the campaign's run context and collisions."""
+    setup = Setup()
+    try:
+        rulebook_text = store.text("rulebook")
+        stored = store.file["provenance"]["rulebook"].attrs
+        rulebook_path = str(stored.get("path", "rulebook.rules"))
+    except KeyError:
+        setup.notes.append("the results file holds no rulebook text: no per-sample risk")
+        rulebook_text, rulebook_path = "", ""
+    if rulebook_text:
+        try:
+            from idefix_rules.rulebook import check_text
+
+            result = check_text(rulebook_text, rulebook_path)
+            setup.checked = result.checked
+            if setup.checked is None:
+                setup.notes.append("the stored rulebook does not pass this version's checks")
+        except Exception as failure:
+            setup.notes.append(f"the stored rulebook could not be read: {failure}")
+    if setup.checked is not None:
+        try:
+            from idefix_rules.rulebook import compile_rulebook  # type: ignore[attr-defined]
+
+            setup.evaluator = compile_rulebook(setup.checked)
+        except Exception as failure:
+            setup.notes.append(f"the stored rulebook could not be compiled "
+                               f"({type(failure).__name__}: {failure})")
+    campaign_text = store.text("campaign") if "campaign" in store.file["provenance"] else ""
+    setup.environment, notes = map_environment(campaign_text, setup.checked)
+    setup.notes += notes
+    if campaign_text:
+        _campaign_context(store, campaign_text, setup)
+    return setup
+
+
+def _campaign_context(store: ResultStore, text: str, setup: Setup) -> None:
+    """Rover geometry, initial-position σ and the collision checker, as the campaign had them."""
+    campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
+    try:
+        model = _campaign_model(text, campaign_path)
+        from idefix_rules.campaign.load import Campaign, PathSpec
+        from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
+        from idefix_rules.campaign.yamlsource import SourceMap
+
+        base = Path(campaign_path).parent
+        paths = tuple(PathSpec(name, index, ()) for index, name in enumerate(model.paths))
+        campaign = Campaign(source=Path(campaign_path), text=text,
+                            sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(),
+                            model=model, paths=paths, rulebook=base / model.rulebook,
+                            output=base / model.output, fmu=None, dem=None, runs=model.runs,
+                            seed=model.uncertainty.seed, workers=None,
+                            locations=SourceMap(campaign_path))
+        setup.rover = rover_geometry(campaign)
+        setup.sigma = initial_position_sigma(campaign)
+    except Exception as failure:
+        setup.notes.append(f"campaign geometry not rebuilt ({type(failure).__name__}): "
+                           "default rover geometry used")
+        return
+    if setup.evaluator is not None and getattr(setup.evaluator, "needs_collisions", False):
+        try:
+            from idefix_rules.campaign.environment import ground_function
+            from idefix_rules.campaign.evaluation import collision_function
+
+            terrain = Path(store.file.filename).parent / "terrain.dem"
+            setup.collisions = collision_function(
+                model.environment, setup.evaluator,
+                ground_function(terrain if terrain.exists() else None))
+        except Exception as failure:
+            setup.notes.append(f"collision signals not rebuilt ({type(failure).__name__}): "
+                               "the map shows no per-sample collision risk")
+            setup.evaluator = None
+
+
+def _complete_rows(store: ResultStore, name: str) -> np.ndarray:
+    if not store.has_runs(name):
+        return np.zeros(0, dtype=np.int64)
+    return np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
+
+
+def _chunks(store: ResultStore, name: str, keys: list[str] | None,
+            chunk_runs: int = CHUNK_RUNS) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
+    rows = _complete_rows(store, name)
+    for begin in range(0, rows.size, chunk_runs):
+        chunk = rows[begin:begin + chunk_runs]
+        data = store.read_runs(name, slice(int(chunk[0]), int(chunk[-1]) + 1), keys)
+        offset = chunk - chunk[0]
+        yield chunk, {key: values[offset] for key, values in data.items()}
+
+
+def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[RiskGrid, str]:
+    """A grid covering every complete run's track (and nearby obstacles), cell from the rover."""
+    bounds = [np.inf, -np.inf, np.inf, -np.inf]
+    for path in data.paths:
+        for _, chunk in _chunks(store, path.name, ["x", "y"], 256):
+            x, y = chunk["x"], chunk["y"]
+            if np.isfinite(x).any():
+                bounds = [min(bounds[0], np.nanmin(x)), max(bounds[1], np.nanmax(x)),
+                          min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
+    obstacle_bounds = setup.environment.bounds()
+    if obstacle_bounds is not None and np.isfinite(bounds).all():
+        # Obstacles near the tracks widen the map; far-away areas are clipped.
+        reach = 1.0
+        bounds = [max(min(bounds[0], obstacle_bounds[0]), bounds[0] - reach),
+                  min(max(bounds[1], obstacle_bounds[1]), bounds[1] + reach),
+                  max(min(bounds[2], obstacle_bounds[2]), bounds[2] - reach),
+                  min(max(bounds[3], obstacle_bounds[3]), bounds[3] + reach)]
+    cell = cell_size_for(setup.rover)
+    track = 2.0 * setup.rover.half_track
+    grid = grid_covering(*(float(b) for b in bounds), cell=cell, margin=setup.rover.half_track)
+    reason = (f"{grid.cell * 100:.1f} cm cells: 1/20 of the rover's track width "
+              f"({track:.2f} m), rounded to 5 mm")
+    if grid.cell != cell:
+        reason += f", doubled until the map has at most {max(grid.nx, grid.ny)} cells a side"
+    return grid, reason
+
+
+def _risk_of_chunk(setup: Setup, path: PathReport, rows: np.ndarray,
+                   signals: dict[str, np.ndarray], context: Any) -> np.ndarray:
+    if setup.evaluator is None:
+        return np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
+    if setup.collisions is not None:
+        extra, _ = setup.collisions(signals)
+        signals.update(extra)
+    evaluation = setup.evaluator.evaluate(signals, context)
+    shape = signals["x"].shape
+    per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
+                  for name, values in evaluation.per_sample.items()}
+    return per_sample_risk(per_sample, setup.checked.weights)
+
+
+def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
+                  context: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    try:
+        from idefix_rules.rulebook.derived import DerivedSettings, DerivedSignals
+    except ImportError:
+        return None
+    settings = getattr(setup.checked, "settings", {}) or {}
+    derived = DerivedSignals(signals, context, DerivedSettings(
+        theoretical_slip=float(settings.get("theoretical_slip", 0.0)),
+        tolerance_growth=float(settings.get("tolerance_growth", 0.0))))
+    return (np.asarray(derived.get("local_error"))[:, -1],
+            np.asarray(derived.get("heading_error"))[:, -1])
+
+
+def _context(store: ResultStore, name: str, setup: Setup) -> Any:
+    from idefix_rules.rulebook.derived import RunContext
+
+    chain = tuple(Command(*map(float, row)) for row in store.path_group(name)["chain"][()])
+    return RunContext(chain=chain, rover=setup.rover, initial_position_sigma=setup.sigma,
+                      reference=store.reference(name))
+
+
+def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
+    """Fill the risk maps and each path's final errors in one chunked pass over the runs."""
+    grid, reason = choose_grid(store, data, setup)
+    per_path: dict[str, RiskAccumulator] = {}
+    references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    required = sorted(set(getattr(setup.evaluator, "required_signals", ()) or ())
+                      | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"})
+    for path in data.paths:
+        reference = store.reference(path.name)
+        if reference is not None and "x" in reference:
+            references[path.name] = (np.asarray(reference["x"]), np.asarray(reference["y"]))
+        if not path.evaluated or not path.complete.any():
+            continue
+        accumulator = RiskAccumulator(grid)
+        context = _context(store, path.name, setup) if reference is not None else None
+        local, heading = [], []
+        for rows, signals in _chunks(store, path.name, required):
+            risk = _risk_of_chunk(setup, path, rows, signals, context)
+            accumulator.add(signals["x"], signals["y"], risk)
+            errors = _final_errors(setup, signals, context) if context is not None else None
+            if errors is not None:
+                local.append(errors[0])
+                heading.append(errors[1])
+        per_path[path.name] = accumulator
+        if local:
+            path.final_local_error = np.concatenate(local)
+            path.final_heading_error = np.concatenate(heading)
+    combined = RiskAccumulator(grid)
+    for accumulator in per_path.values():
+        combined.merge(accumulator)
+    return MapSet(grid, reason, per_path, combined, setup.evaluator is not None, references)
