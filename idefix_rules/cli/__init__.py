@@ -26,6 +26,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "check",
     "fmt",
     "explain",
+    "report",
 )
 
 DEFAULT_COMMAND = "run"

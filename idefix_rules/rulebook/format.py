@@ -176,15 +176,21 @@ def _leading(comments: _Comments, indent: str = "") -> list[_Line]:
 
 # ----------------------------------------------------------------------------- declarations
 
-def _with_rationale(text: str, rationale: str | None, pad_to: int = 0) -> list[str]:
-    """``text because "…"`` on one line, or the rationale on a continuation line if too long."""
+def _with_rationale(text: str, rationale: str | None, pad_to: int,
+                    split: bool) -> list[str]:
+    """``text because "…"`` on one line, or (``split``) the rationale on a continuation line."""
     if rationale is None:
         return [text]
     because = f"because {format_string(rationale)}"
-    one_line = f"{text.ljust(pad_to)} {because}"
-    if len(one_line) <= LINE_WIDTH:
-        return [one_line]
-    return [text, INDENT + because]
+    if split:
+        return [text, INDENT + because]
+    return [f"{text.ljust(pad_to)} {because}"]
+
+
+def _fits(text: str, rationale: str | None, pad_to: int) -> bool:
+    if rationale is None:
+        return True
+    return len(text.ljust(pad_to)) + len(format_string(rationale)) + 9 <= LINE_WIDTH
 
 
 def _value_column(values: Iterable[str]) -> int:
@@ -209,14 +215,16 @@ def _simple_section(entries: Sequence[tuple[object, str, str | None]],
                     indent: str = "") -> list[str]:
     """One declaration a line (or two): ``(node, text, rationale)``; leading comments above,
     a blank line before a commented declaration that is not the first."""
-    column = _value_column(text for _, text, _ in entries)
+    column = len(indent) + _value_column(text for _, text, _ in entries)
+    # One layout per section: when one rationale does not fit on its line, all go below.
+    split = not all(_fits(indent + text, rationale, column) for _, text, rationale in entries)
     lines: list[_Line] = []
     for position, (node, text, rationale) in enumerate(entries):
         comments = _Comments.of(node)
         if comments.leading and position > 0:
             lines.append(_Line(""))
         lines += [_Line(indent + text_) for text_ in comments.leading]
-        printed = _with_rationale(indent + text, rationale, len(indent) + column)
+        printed = _with_rationale(indent + text, rationale, column, split)
         for number, line_text in enumerate(printed):
             last = number == len(printed) - 1
             lines.append(_Line(line_text, comments.rest_inline() if last else ""))

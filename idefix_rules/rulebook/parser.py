@@ -32,7 +32,6 @@ Number(value=70.0, unit='%')
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import re
 from collections.abc import Sequence
@@ -44,6 +43,7 @@ from lark import Token, Transformer, v_args
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.rulebook import model
 from idefix_rules.rulebook.grammar import collecting_comments, rulebook_parser
+from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.syntax_errors import (
     blank_failed_declaration,
     error_line,
@@ -52,7 +52,7 @@ from idefix_rules.rulebook.syntax_errors import (
 
 NUMBER_OUT_OF_RANGE = "E003"
 REPEATED_SECTION = "E004"
-MISSING_HEADER = "E005"
+MISSING_HEADER = "E500"
 INDEX_ITEM = "E006"
 UNKNOWN_DOMAIN = "E007"
 UNKNOWN_COMBINATION = "E008"
@@ -237,8 +237,7 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
         domain_text = str(domain)
         if domain_text not in model.DOMAIN_AXES:
             known = list(model.DOMAIN_AXES)
-            close = difflib.get_close_matches(domain_text, known, n=1)
-            hint = f"did you mean '{close[0]}'?" if close else None
+            hint = did_you_mean(domain_text, known)
             self.diagnostics.append(error(
                 UNKNOWN_DOMAIN, f"unknown domain '{domain_text}' after 'over'; "
                 f"expected {', '.join(known[:-1])} or {known[-1]}",
@@ -514,7 +513,7 @@ def _inside_comment(node: Any, body: str, line: int, own_line: bool, lines: list
         words = lines[number - 1].split(None, 1) if 0 < number <= len(lines) else []
         word = words[0] if words else ""
         for anchor in anchors:
-            if word == anchor or word.startswith(anchor) and anchor == "}":
+            if word == anchor or (word.startswith(anchor) and anchor == "}"):
                 return anchor
         return None
 

@@ -8,16 +8,15 @@ diagnostic names what was found and what was expected, in words.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 
 import lark
 
 from idefix_rules.errors import Diagnostic, Span, error
 from idefix_rules.rulebook.grammar import terminal_words
+from idefix_rules.rulebook.infer import did_you_mean
 
-SYNTAX_ERROR = "E001"
-UNEXPECTED_CHARACTER = "E002"
+SYNTAX_ERROR = "E001"  # an unexpected token or character
 
 # Words that start a top-level declaration; a line starting with one starts a new chunk.
 TOP_LEVEL_KEYWORDS = frozenset({
@@ -78,7 +77,7 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         message = f"unexpected character '{shown}'"
         if failure.allowed:
             message += f"; expected {describe_expected(failure.allowed)}"
-        return error(UNEXPECTED_CHARACTER, message, span, hint)
+        return error(SYNTAX_ERROR, message, span, hint)
     if isinstance(failure, lark.exceptions.UnexpectedToken):
         token = failure.token
         expected = set(failure.expected or ())
@@ -106,9 +105,7 @@ def _hint(token: lark.Token, expected: set[str]) -> str | None:
     if token.type == "NAME" and "EQUAL" not in expected:
         keyword_words = [word.strip("'") for name, word in terminal_words().items()
                          if name in expected and word.startswith("'")]
-        close = difflib.get_close_matches(str(token), keyword_words, n=1)
-        if close:
-            return f"did you mean '{close[0]}'?"
+        return did_you_mean(str(token), keyword_words)
     if token.type == "$END" and "RBRACE" in expected:
         return "a block opened with '{' is not closed"
     return None

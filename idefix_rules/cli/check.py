@@ -1,0 +1,104 @@
+"""``idefix-verify check RULEBOOK…``: parse and check rulebooks, print every diagnostic.
+
+Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--strict``, warnings
+about unused constants and zero-weight indices count too). ``--format json`` prints the
+diagnostics' ``to_dict()`` records instead of text.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+
+from idefix_rules.errors import Diagnostic, Severity, UserInputError, render_diagnostics
+from idefix_rules.rulebook import check_text, read_source
+
+NAME = "check"
+HELP = ("Check rulebooks: syntax, names, units and dimensions, weights, required sections. "
+        "Exit 0 when all are valid, 2 otherwise (every problem of every file is printed as "
+        "path:line:col with the source line).")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("rulebooks", nargs="+", type=Path, metavar="RULEBOOK",
+                        help="rulebook files (.rules)")
+    parser.add_argument("--strict", action="store_true",
+                        help="also warn about unused constants and indices with zero weight; "
+                             "warnings then fail the check (exit 2)")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="text (default) or json: a list of diagnostics (code, severity, "
+                             "message, path, line, column, hint)")
+
+
+@dataclass(frozen=True)
+class FileReport:
+    """The outcome of checking one file: its diagnostics and its text (for carets)."""
+
+    path: str
+    diagnostics: tuple[Diagnostic, ...]
+    source: str
+
+    @property
+    def errors(self) -> int:
+        return sum(d.severity is Severity.ERROR for d in self.diagnostics)
+
+    @property
+    def warnings(self) -> int:
+        return sum(d.severity is Severity.WARNING for d in self.diagnostics)
+
+
+def check_file(path: str | Path, strict: bool = False) -> FileReport:
+    """Read, parse and check one rulebook; never raises for a user mistake."""
+    name = str(path)
+    try:
+        source = read_source(path)
+    except UserInputError as failure:
+        return FileReport(name, tuple(failure.diagnostics), "")
+    try:
+        result = check_text(source, name, strict=strict)
+    except UserInputError as failure:
+        return FileReport(name, tuple(failure.diagnostics), source)
+    return FileReport(name, tuple(result.diagnostics), source)
+
+
+def render_report(report: FileReport) -> str:
+    """Diagnostics as ``path:line:col: severity[code]: message`` + source line + caret, then a
+    summary line for the file."""
+    lines = []
+    if report.diagnostics:
+        lines.append(render_diagnostics(report.diagnostics, {report.path: report.source}))
+    if report.errors or report.warnings:
+        counts = [f"{report.errors} error{'s' if report.errors != 1 else ''}"]
+        if report.warnings:
+            counts.append(f"{report.warnings} warning{'s' if report.warnings != 1 else ''}")
+        lines.append(f"{report.path}: {', '.join(counts)}")
+    else:
+        lines.append(f"{report.path}: ok")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    reports = [check_file(path, strict=args.strict) for path in args.rulebooks]
+    failed = _failed(reports)
+    if args.format == "json":
+        records = [d.to_dict() for report in reports for d in report.diagnostics]
+        print(json.dumps(records, indent=2, ensure_ascii=False))
+        return 2 if failed else 0
+    console = Console(highlight=False, soft_wrap=True)
+    for report in reports:
+        style = "red" if report.errors else "yellow" if report.warnings else "green"
+        text = render_report(report)
+        body, _, summary = text.rpartition("\n")
+        if body:
+            console.print(body, markup=False)
+        console.print(summary, style=style, markup=False)
+    return 2 if failed else 0
+
+
+def _failed(reports: Sequence[FileReport]) -> bool:
+    return any(report.diagnostics for report in reports)

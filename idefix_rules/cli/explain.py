@@ -1,0 +1,130 @@
+"""``idefix-verify explain RULEBOOK``: a table of the checked rules.
+
+One row per rule: kind, name, formula (printed by the formatter), unit of the value (SI),
+threshold (the limit, with its SI value), weight and rationale. Command rules, indices,
+chances, prescreens and verdicts are all listed; settings, obstacle levels, the combination
+and the ranking follow below the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterator
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from idefix_rules.rulebook import load_checked
+from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.fold import NotConstant
+from idefix_rules.rulebook.format import format_expr, format_number
+from idefix_rules.rulebook.infer import infer_type
+from idefix_rules.rulebook.model import Binary, Expr, Number
+from idefix_rules.units import Dimension
+
+NAME = "explain"
+HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, threshold, "
+        "weight, rationale). Exit 2 when the rulebook is invalid.")
+
+_COMPARISONS = {"<", "<=", ">", ">=", "==", "!="}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("rulebook", type=Path, metavar="RULEBOOK", help="rulebook file (.rules)")
+
+
+def _si(value: float, dimension: Dimension | None) -> str:
+    unit = "" if dimension is None or dimension.is_dimensionless else f" {dimension}"
+    return f"{format_number(float(f'{value:.6g}'))}{unit}"
+
+
+def _threshold(checked: CheckedRulebook, expr: Expr, dimension: Dimension | None) -> str:
+    """The limit as written, with its SI value when the text is not already that."""
+    written = format_expr(expr)
+    try:
+        value = checked.value(expr)
+    except (NotConstant, KeyError, ValueError, TypeError, ZeroDivisionError):
+        return written
+    if not isinstance(value, int | float):
+        return written
+    if isinstance(expr, Number) and expr.unit is None:
+        return written
+    return f"{written} (= {_si(float(value), dimension)})"
+
+
+def _condition_threshold(checked: CheckedRulebook, condition: Expr, scope: str) -> str:
+    """For ``x <= 90 deg`` the threshold is ``<= 90 deg (= 1.5708 rad)``; else empty."""
+    if isinstance(condition, Binary) and condition.op in _COMPARISONS:
+        limit_type = infer_type(condition.right, checked.scope(scope), [])
+        dimension = limit_type.dimension if limit_type is not None else None
+        return f"{condition.op} {_threshold(checked, condition.right, dimension)}"
+    return ""
+
+
+def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
+    """(kind, name, formula, unit, threshold, weight, rationale) per rule, in canonical order."""
+    rulebook = checked.rulebook
+    for rule in rulebook.command_rules:
+        yield ("command", rule.name, format_expr(rule.condition), "condition",
+               _condition_threshold(checked, rule.condition, "command"), "", rule.rationale or "")
+    for index in rulebook.indices:
+        value_type = checked.index_types.get(index.name)
+        dimension = value_type.dimension if value_type is not None else None
+        formula = format_expr(index.value)
+        if index.map is not None:
+            formula += f"\nmap: {format_expr(index.map)}"
+        title = f"{index.name}\n{index.title}" if index.title else index.name
+        yield ("index", title, formula, str(dimension) if dimension is not None else "",
+               _threshold(checked, index.limit, dimension),
+               format_number(checked.weights.get(index.name, float("nan"))),
+               index.rationale or "")
+    for chance in rulebook.chances:
+        yield ("chance", chance.name, format_expr(chance.condition), "fraction of runs", "", "",
+               chance.rationale or "")
+    for prescreen in rulebook.prescreens:
+        yield ("prescreen", prescreen.name, format_expr(prescreen.condition), "condition",
+               _condition_threshold(checked, prescreen.condition, "prescreen"), "",
+               prescreen.rationale or "")
+    for verdict in rulebook.verdicts:
+        yield ("verdict", verdict.name, format_expr(verdict.condition), "condition",
+               _condition_threshold(checked, verdict.condition, "path"), "",
+               verdict.rationale or "")
+
+
+def run(args: argparse.Namespace) -> int:
+    checked = load_checked(args.rulebook)
+    rulebook = checked.rulebook
+    header = rulebook.header
+    console = Console(highlight=False)
+    table = Table(title=f"{header.name} {header.version} — {header.purpose}",
+                  show_lines=True, expand=False)
+    for column, style in (("kind", "cyan"), ("name", "bold")):
+        table.add_column(column, style=style, no_wrap=True)
+    for column, ratio in (("formula", 3), ("unit", 1), ("threshold", 2), ("weight", 1),
+                          ("rationale", 3)):
+        table.add_column(column, ratio=ratio, overflow="fold",
+                         style="dim" if column == "rationale" else None)
+    for row in rows(checked):
+        table.add_row(*row)
+    console.print(table)
+    for line in _footer(checked):
+        console.print(line, markup=False)
+    return 0
+
+
+def _footer(checked: CheckedRulebook) -> Iterator[str]:
+    rulebook = checked.rulebook
+    settings = ", ".join(f"{name} = {format_number(value)}"
+                         for name, value in sorted(checked.settings.items()))
+    if settings:
+        yield f"settings (SI): {settings}"
+    for level in checked.obstacle_levels:
+        below = f"below {format_number(level.below)} m, " if level.below is not None else ""
+        yield f"obstacle level {level.level}: {below}buffer {format_number(level.buffer)} m"
+    combine = rulebook.combine
+    yield (f"run risk: {combine.run} (eq. 1); path risk: {combine.path} of runs (eq. 2); "
+           f"confidence {format_number(checked.confidence * 100)} %")
+    keys = ", ".join(format_expr(key.expr) + (" desc" if key.descending else "")
+                     for key in rulebook.ranking.keys)
+    yield f"rank by {keys}"

@@ -1,0 +1,80 @@
+"""``idefix-verify fmt RULEBOOK…``: rewrite rulebooks in canonical form, in place.
+
+The formatter keeps comments; the formatted text parses to the same rule model (checked before
+anything is written). ``--check`` writes nothing and exits 1 when a file would change (for CI);
+``--diff`` prints what would change.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+from pathlib import Path
+
+from rich.console import Console
+
+from idefix_rules.errors import InfrastructureError, UserInputError
+from idefix_rules.rulebook import read_source
+from idefix_rules.rulebook.format import format_rulebook
+from idefix_rules.rulebook.parser import parse_rulebook
+
+NAME = "fmt"
+HELP = ("Format rulebooks in place (canonical order and layout, comments kept). With --check, "
+        "write nothing: list the files that would change and exit 1 if any would "
+        "(0 if all are formatted). Exit 2 when a file cannot be parsed.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("rulebooks", nargs="+", type=Path, metavar="RULEBOOK",
+                        help="rulebook files (.rules)")
+    parser.add_argument("--check", action="store_true",
+                        help="do not write; exit 1 and name the files that would be reformatted")
+    parser.add_argument("--diff", action="store_true",
+                        help="print a unified diff of the changes (with --check: nothing is "
+                             "written)")
+
+
+def formatted_text(source: str, path: str) -> str:
+    """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors."""
+    rulebook = parse_rulebook(source, path)
+    text = format_rulebook(rulebook)
+    if parse_rulebook(text, path) != rulebook:  # never write a file that means something else
+        raise InfrastructureError(f"{path}: the formatter changed the rule model; "
+                                  "file left untouched (please report)")
+    return text
+
+
+def run(args: argparse.Namespace) -> int:
+    console = Console(highlight=False, soft_wrap=True)
+    invalid: list[UserInputError] = []
+    changed = []
+    for path in args.rulebooks:
+        name = str(path)
+        try:
+            source = read_source(path)
+            text = formatted_text(source, name)
+        except UserInputError as failure:
+            invalid.append(failure)
+            continue
+        if text == source:
+            continue
+        changed.append(name)
+        if args.diff:
+            diff = difflib.unified_diff(source.splitlines(keepends=True),
+                                        text.splitlines(keepends=True),
+                                        fromfile=name, tofile=f"{name} (formatted)")
+            console.print("".join(diff), markup=False, end="")
+        if args.check:
+            console.print(f"would reformat {name}", markup=False)
+        else:
+            path.write_text(text, encoding="utf-8")
+            console.print(f"reformatted {name}", markup=False)
+    for failure in invalid:
+        console.print(failure.render(), markup=False)
+    if invalid:
+        return 2
+    unchanged = len(args.rulebooks) - len(changed)
+    verb = "would be reformatted" if args.check else "reformatted"
+    console.print(f"{len(changed)} file(s) {verb}, {unchanged} unchanged", markup=False,
+                  style="yellow" if changed else "green")
+    return 1 if args.check and changed else 0
