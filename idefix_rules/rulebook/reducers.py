@@ -71,6 +71,7 @@ def reduce(reducer: str, x: np.ndarray, axis: int, size: int, mask: np.ndarray |
         value = _time_above(x, axis, t, mask, parameter)
     elif reducer == "percentile":
         value = _percentile(np.where(mask, x, np.inf), count, axis, parameter)
+        value = np.where((np.isnan(x) & mask).any(axis=axis, keepdims=True), np.nan, value)
     else:  # pragma: no cover - the checker admits only the reducers above
         raise AssertionError(f"unknown reducer {reducer!r}")
     return np.where(empty, 0.0, value)
@@ -98,7 +99,8 @@ def _unmasked(reducer: str, x: np.ndarray, axis: int, size: int,
         return _time_above(x, axis, t, None, parameter)
     if reducer == "percentile":
         count = np.full((1,) * x.ndim, size)
-        return _percentile(x, count, axis, parameter)
+        value = _percentile(x, count, axis, parameter)
+        return np.where(np.isnan(x).any(axis=axis, keepdims=True), np.nan, value)
     raise AssertionError(f"unknown reducer {reducer!r}")  # pragma: no cover
 
 
