@@ -39,7 +39,7 @@ from idefix_rules.obstacles.result import (
 )
 
 POSE_NAMES = ("t", "x", "y", "z", "roll", "pitch", "yaw")
-_BROAD_BLOCK = 65_536  # poses per block of the (poses × pieces) broad-phase matrix
+_TIME_BLOCK = 32  # samples per block of the broad phase
 
 
 def fcl_body(body: Body) -> fcl.CollisionObject:
@@ -210,17 +210,11 @@ def _check_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet, body_list
     rotation = rotation_matrices(chunk["roll"], chunk["pitch"], chunk["yaw"])
     position = np.stack([chunk["x"], chunk["y"], chunk["z"]], axis=-1)
     reach = np.array([b.reach for b in body_list])
-    rover_reach = float(reach.max())
     step_move = np.linalg.norm(np.diff(position, axis=1), axis=2)
     step_turn = sum(np.abs(np.diff(chunk[a], axis=1)) for a in ("roll", "pitch", "yaw"))
     cum = np.zeros((runs, samples, len(body_list)))
     cum[:, 1:] = np.cumsum(step_move[..., None] + step_turn[..., None] * reach, axis=1)
-    # Largest motion of any rover point over the steps next to each sample.
-    rover_step = step_move + step_turn * rover_reach
-    near_move = np.zeros((runs, samples))
-    near_move[:, :-1] = rover_step
-    near_move[:, 1:] = np.maximum(near_move[:, 1:], rover_step)
-    candidates = _broad_phase(position, rotation, near_move, body_list, pieces, piece_owner,
+    candidates = _broad_phase(position, rotation, cum, body_list, pieces, piece_owner,
                               obstacles, cap)
     walker = _Walker(chunk, rotation, position, cum, body_list, pieces, piece_owner, obstacles,
                      settings, cap, tracks)
@@ -235,57 +229,52 @@ def _aabb_gap(points: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.nd
     return np.sqrt((gap * gap).sum(axis=-1))
 
 
-def _broad_phase(position: np.ndarray, rotation: np.ndarray, near_move: np.ndarray,
+def _broad_phase(position: np.ndarray, rotation: np.ndarray, cum: np.ndarray,
                  body_list: tuple[Body, ...], pieces: list[Piece], piece_owner: np.ndarray,
                  obstacles: ObstacleSet, cap: float) -> list[tuple[int, int, int, int, int]]:
-    """Stretches ``(run, body, piece, first sample, last sample)`` that need fcl."""
-    _runs, samples = position.shape[:2]
+    """Stretches ``(run, body, piece, first sample, last sample)`` that need fcl.
+
+    Conservative, on blocks of ``_TIME_BLOCK`` samples: each body's bounding sphere at the
+    block's first pose, grown by how far any point of the body can move within the block and the
+    steps just outside it, against each piece's axis-aligned box. Consecutive blocks within the
+    clearance cap form one stretch.
+    """
+    samples = position.shape[1]
     lower = np.array([p.lower for p in pieces])
     upper = np.array([p.upper for p in pieces])
-    rover_reach = max(b.reach for b in body_list)
-    flat_position = position.reshape(-1, 3)
-    flat_move = near_move.ravel()
-    pose_idx, piece_idx = [], []
-    for begin in range(0, len(flat_position), _BROAD_BLOCK):
-        block = flat_position[begin:begin + _BROAD_BLOCK, None, :]
-        bound = _aabb_gap(block, lower[None], upper[None])
-        bound -= rover_reach + flat_move[begin:begin + _BROAD_BLOCK, None]
-        p, m = np.nonzero(bound <= cap)
-        pose_idx.append(p + begin)
-        piece_idx.append(m)
-    pose = np.concatenate(pose_idx)
-    piece = np.concatenate(piece_idx)
-    if len(pose) == 0:
+    starts = np.arange(0, samples, _TIME_BLOCK)
+    stops = np.minimum(starts + _TIME_BLOCK, samples) - 1
+    offsets = np.array([body.offset for body in body_list])
+    # Body centres at the first sample of each block: (runs, blocks, bodies, 3).
+    centres = position[:, starts, None, :] + np.einsum("rkij,bj->rkbi", rotation[:, starts],
+                                                       offsets)
+    # How far any point of a body can move from there within the block and its outer steps.
+    growth = (cum[:, np.minimum(stops + 1, samples - 1)] - cum[:, np.maximum(starts - 1, 0)])
+    radius = np.array([body.radius for body in body_list])
+    allowed = np.array([[PARTS[b.part] in o.parts for o in obstacles.obstacles]
+                        for b in body_list])[:, piece_owner]  # (bodies, pieces)
+    hits = []
+    for m in range(len(pieces)):
+        bound = _aabb_gap(centres, lower[m], upper[m]) - radius - growth  # (runs, blocks, bodies)
+        run, block, body = np.nonzero((bound <= cap) & allowed[None, None, :, m])
+        hits.append(((run * len(body_list) + body) * len(pieces) + m, block))
+    key = np.concatenate([h[0] for h in hits])
+    block = np.concatenate([h[1] for h in hits])
+    if len(key) == 0:
         return []
-    allowed = np.array([[PARTS[b.part] in obstacles.obstacles[o].parts for o in range(
-        len(obstacles.obstacles))] for b in body_list])
-    flat_rotation = rotation.reshape(-1, 3, 3)
-    keys, sample_of = [], []
-    for b, body in enumerate(body_list):
-        ok = allowed[b, piece_owner[piece]]
-        p, m = pose[ok], piece[ok]
-        centre = flat_position[p] + flat_rotation[p] @ body.offset
-        bound = _aabb_gap(centre, lower[m], upper[m]) - body.radius - flat_move[p]
-        near = bound <= cap
-        p, m = p[near], m[near]
-        run, sample = np.divmod(p, samples)
-        keys.append((run * len(body_list) + b) * len(pieces) + m)
-        sample_of.append(sample)
-    key = np.concatenate(keys)
-    sample = np.concatenate(sample_of)
-    order = np.lexsort((sample, key))
-    key, sample = key[order], sample[order]
-    # A new stretch where the track changes or samples are not consecutive.
-    breaks = np.flatnonzero((np.diff(key) != 0) | (np.diff(sample) > 2)) + 1
-    starts = np.concatenate([[0], breaks])
-    ends = np.concatenate([breaks - 1, [len(key) - 1]])
+    order = np.lexsort((block, key))
+    key, block = key[order], block[order]
+    # A new stretch where the track changes or blocks are not consecutive.
+    breaks = np.flatnonzero((np.diff(key) != 0) | (np.diff(block) > 1)) + 1
+    stretch_starts = np.concatenate([[0], breaks])
+    stretch_ends = np.concatenate([breaks - 1, [len(key) - 1]])
     out = []
-    for s, e in zip(starts.tolist(), ends.tolist(), strict=True):
-        track = int(key[s])
-        run_body, m = divmod(track, len(pieces))
-        run, b = divmod(run_body, len(body_list))
+    for s, e in zip(stretch_starts.tolist(), stretch_ends.tolist(), strict=True):
+        run_body, m = divmod(int(key[s]), len(pieces))
+        r, b = divmod(run_body, len(body_list))
         # One sample of margin each side covers the motion into and out of the stretch.
-        out.append((run, b, m, max(0, int(sample[s]) - 1), min(samples - 1, int(sample[e]) + 1)))
+        out.append((r, b, m, max(0, int(starts[block[s]]) - 1),
+                    min(samples - 1, int(stops[block[e]]) + 1)))
     return out
 
 
@@ -330,51 +319,63 @@ class _Walker:
         counts: list[int] = []
         between: list[int] = []  # samples marked for contacts found between two samples
         first_contact: tuple[int, float] | None = None
+        # Local names: this loop runs once per fcl call and dominates the check's time.
+        distance_of, new_result, request = fcl.distance, fcl.DistanceResult, self.request
+        set_rotation, set_translation = body_object.setRotation, body_object.setTranslation
+        cap, min_step = self.cap, settings.min_step
+        resolution, relative = settings.clearance_resolution, settings.clearance_relative
+        check_margin = margin > tol
         j, frac = 0, 0.0
         while True:
             if frac == 0.0:
-                body_object.setRotation(rotations[j])
-                body_object.setTranslation(positions[j])
+                set_rotation(rotations[j])
+                set_translation(positions[j])
                 u = cum[j]
             else:
                 rotation, position = self._interpolated(run, first + j, frac)
                 body_rotation, body_position = self._body_pose(body, rotation, position)
-                body_object.setRotation(body_rotation)
-                body_object.setTranslation(body_position)
+                set_rotation(body_rotation)
+                set_translation(body_position)
                 u = cum[j] + frac * (cum[j + 1] - cum[j])
-            distance = fcl.distance(body_object, piece_object, self.request, fcl.DistanceResult())
+            distance = distance_of(body_object, piece_object, request, new_result())
             in_contact = distance <= tol
             if in_contact:
-                distance = max(distance, 0.0)  # fcl reports -1 for overlap: depth unknown
-                allowance = tol - distance
+                # fcl reports -1 for overlap: the depth is unknown, so assume none.
+                allowance = tol - distance if distance > 0.0 else tol
                 value = 0.0
                 if first_contact is None:
                     first_contact = (j, frac)
             else:
+                # Keep the contact and buffer decisions, bound the clearance error.
                 allowance = distance - tol
-                if margin > tol:
-                    allowance = min(allowance, abs(distance - margin))
-                resolution = max(settings.clearance_resolution,
-                                 settings.clearance_relative * distance)
-                if distance >= self.cap:
-                    resolution = max(resolution, distance - self.cap)
-                allowance = min(allowance, resolution)
-                value = min(distance, self.cap)
-            target = u + max(allowance, settings.min_step)
-            k = min(bisect_right(cum, target) - 1, end)
+                if check_margin:
+                    to_margin = distance - margin if distance > margin else margin - distance
+                    if to_margin < allowance:
+                        allowance = to_margin
+                error_bound = relative * distance
+                if error_bound < resolution:
+                    error_bound = resolution
+                if distance - cap > error_bound:
+                    error_bound = distance - cap
+                if error_bound < allowance:
+                    allowance = error_bound
+                value = distance if distance < cap else cap
+            target = u + (allowance if allowance > min_step else min_step)
+            k = bisect_right(cum, target) - 1
             covered_from = j if frac == 0.0 else j + 1
+            values.append(value)
             if k >= end:
-                values.append(value)
                 counts.append(end - covered_from + 1)
                 break
-            count = max(k, j + 1) - covered_from
-            values.append(value)
-            counts.append(count)
-            if in_contact and count == 0:
-                between.append(j if frac < 0.5 else j + 1)
             if k > j:
+                counts.append(k - covered_from)
+                if in_contact and k == covered_from:
+                    between.append(j if frac < 0.5 else j + 1)
                 j, frac = k, 0.0
             else:  # the next sample is beyond the allowance: next anchor between samples
+                counts.append(1 if frac == 0.0 else 0)
+                if in_contact and frac > 0.0:
+                    between.append(j if frac < 0.5 else j + 1)
                 frac = (target - cum[j]) / (cum[j + 1] - cum[j])
         self._record(run, b, owner, first, np.repeat(values, counts), between, first_contact)
 

@@ -28,9 +28,9 @@ class CheckSettings:
     """
 
     contact_tolerance: float = 0.005
-    clearance_cutoff: float = 1.0
-    clearance_resolution: float = 0.002
-    clearance_relative: float = 0.05
+    clearance_cutoff: float = 0.3
+    clearance_resolution: float = 0.005
+    clearance_relative: float = 0.1
     min_step: float = 1e-4
     chunk_poses: int = 300_000
 
