@@ -27,6 +27,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "fmt",
     "explain",
     "report",
+    "build_fmu",
 )
 
 DEFAULT_COMMAND = "run"

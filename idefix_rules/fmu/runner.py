@@ -27,11 +27,13 @@ import numpy as np
 
 from idefix_rules.commands import Command
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.fmu.terrain import read_terrain
 from idefix_rules.signals import AXIS_LABELS, FMU_SIGNALS
 from idefix_rules.units import UnitError, parse_quantity, parse_unit
 
 SIGNAL_MAP_FILE = "signal_map.json"
 CHAIN_COUNT = "chain.count"
+TERRAIN_FILE = "terrain.file"
 CHAIN_ARRAYS = ("chain.max_wheel_rate", "chain.delta_position", "chain.delta_heading")
 _INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
 _OK_STATUSES = (0, 1)  # fmi2OK, fmi2Warning
@@ -79,6 +81,7 @@ class FmuRunner:
         self._get_real.restype = ctypes.c_int
         self._runs = 0
         self._closed = False
+        self._checked_terrain: tuple[str, int, int] | None = None
 
     # ------------------------------------------------------------------ set-up
     @property
@@ -166,6 +169,17 @@ class FmuRunner:
         # plain numbers are SI (the project's convention inside), converted to the FMU's unit
         return float(target.from_si(float(value))) if target is not None else float(value)
 
+    def _check_terrain(self, path: str) -> None:
+        """A bad terrain file is a user error with file and line, not an FMU failure."""
+        try:
+            stat = Path(path).stat()
+        except OSError:
+            raise UserInputError(error("F203", "terrain file not found", Span(path))) from None
+        key = (path, stat.st_mtime_ns, stat.st_size)
+        if key != self._checked_terrain:
+            read_terrain(path)
+            self._checked_terrain = key
+
     def _apply(self, parameters: Mapping[str, float | str], chain: Sequence[Command]) -> None:
         reals: dict[int, float] = {}
         integers: dict[int, int] = {}
@@ -176,6 +190,8 @@ class FmuRunner:
             if variable is None:
                 raise self._missing(fmu_name, "parameter")
             if variable.type == "String":
+                if fmu_name == TERRAIN_FILE and value:
+                    self._check_terrain(str(value))
                 strings[variable.valueReference] = str(value)
             elif variable.type in ("Integer", "Enumeration"):
                 integers[variable.valueReference] = int(value)  # type: ignore[arg-type]

@@ -1,0 +1,25 @@
+"""Shared fixtures of the rover FMU tests: one built FMU and one runner per session."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.fmu import FmuRunner, build_fmu
+
+
+@pytest.fixture(scope="session")
+def rover_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The rover FMU built from the current sources (into a session cache)."""
+    return build_fmu(output=tmp_path_factory.mktemp("fmu") / "idefix_rover.fmu", force=True)
+
+
+@pytest.fixture(scope="session")
+def rover(rover_fmu: Path) -> Iterator[FmuRunner]:
+    """A runner of the rover FMU with the per-wheel normal loads as extra outputs."""
+    runner = FmuRunner(rover_fmu, extra_outputs=[f"wheel.{w}.load" for w in ("FL", "FR", "RL",
+                                                                              "RR")])
+    yield runner
+    runner.close()

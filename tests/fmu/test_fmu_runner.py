@@ -1,0 +1,93 @@
+"""FmuRunner: contract-shaped outputs, reset between runs, units, maps and clear errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from idefix_rules.commands import Command, RoverGeometry, command_kinematics
+from idefix_rules.errors import UserInputError
+from idefix_rules.fmu import FmuRunner, synthetic_terrain, write_terrain
+from idefix_rules.signals import FMU_SIGNALS
+
+
+def test_outputs_are_keyed_by_contract_names_with_contract_shapes(rover: FmuRunner) -> None:
+    out = rover.run({}, [Command(0.05, 0.1, 0.0)], stop_time=30.0, output_interval=0.1)
+    for name, spec in FMU_SIGNALS.items():
+        assert name in out, name
+        expected = (301, 4) if "wheel" in spec.axes else (301,)
+        assert out[name].shape == expected, name
+    np.testing.assert_allclose(out["t"], np.arange(301) * 0.1, atol=1e-9)
+    assert out["wheel.FL.load"].shape == (301,)  # extra outputs keep their FMU names
+
+
+def test_runs_after_reset_are_identical_and_leave_no_ruts(rover: FmuRunner) -> None:
+    chain = [Command(0.05, 0.3, 0.3), Command(0.05, -0.2, 0.0)]
+    first = rover.run({}, chain, 150.0, 0.1)
+    rover.run({"soil.cohesion": 80.0, "initial.x": 0.05}, [Command(0.05, 0.4, -0.4)], 150.0, 0.1)
+    again = rover.run({}, chain, 150.0, 0.1)
+    for name in FMU_SIGNALS:
+        np.testing.assert_array_equal(first[name], again[name], err_msg=name)
+
+
+def test_commanded_wheel_rates_equal_the_shared_kinematics(rover: FmuRunner) -> None:
+    geometry = RoverGeometry()
+    for command in (Command(0.05, 0.2, 0.0), Command(0.04, 0.3, 0.5), Command(0.05, 0.0, -0.8),
+                    Command(0.03, -0.2, 0.3)):
+        expected = command_kinematics(command, geometry)
+        out = rover.run({}, [command], expected.duration + 5.0, 0.1)
+        middle = int(expected.duration / 2 / 0.1)
+        np.testing.assert_allclose(out["wheel.rate"][middle], expected.wheel_rates, rtol=1e-12)
+        finished = int(np.argmax(out["command"] < 0))
+        assert finished * 0.1 == pytest.approx(expected.duration, abs=0.1 + 1e-9)
+
+
+def test_parameters_accept_units_and_reject_wrong_dimensions(rover: FmuRunner) -> None:
+    chain = [Command(0.05, 0.2, 0.0)]
+    in_degrees = rover.run({"soil.friction_angle": "30 deg"}, chain, 50.0, 0.1)
+    in_radians = rover.run({"soil.friction_angle": math.radians(30.0)}, chain, 50.0, 0.1)
+    np.testing.assert_allclose(in_degrees["x"], in_radians["x"], rtol=0, atol=1e-12)
+    with pytest.raises(UserInputError, match="soil.cohesion"):
+        rover.run({"soil.cohesion": "3 m"}, chain, 10.0, 0.1)
+    with pytest.raises(UserInputError, match="no_such"):
+        rover.run({"soil.no_such": 1.0}, chain, 10.0, 0.1)
+
+
+def test_missing_mapped_variable_is_a_user_error_naming_variable_and_fmu(rover_fmu: Path) -> None:
+    with pytest.raises(UserInputError) as caught:
+        FmuRunner(rover_fmu, signal_map={"body.x": "x"})
+    assert caught.value.exit_code == 2
+    diagnostic = caught.value.diagnostics[0]
+    assert "body.x" in diagnostic.message
+    assert diagnostic.span is not None and diagnostic.span.path == str(rover_fmu)
+
+
+def test_parameter_map_renames_user_names_to_fmu_variables(rover_fmu: Path) -> None:
+    with FmuRunner(rover_fmu, parameter_map={"c": "soil.cohesion"}) as runner:
+        soft = runner.run({"c": 50.0}, [Command(0.05, 0.3, 0.0)], 80.0, 0.1)
+        firm = runner.run({"c": 600.0}, [Command(0.05, 0.3, 0.0)], 80.0, 0.1)
+    assert soft["x"][-1] < firm["x"][-1]
+
+
+def test_bad_terrain_file_is_a_user_error_with_its_name(rover: FmuRunner, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.terrain"
+    bad.write_bytes(b"IDEFIX-TERRAIN 1\nnx 2\n")
+    with pytest.raises(UserInputError) as caught:
+        rover.run({"terrain.file": str(bad)}, [Command(0.05, 0.1, 0.0)], 10.0, 0.1)
+    assert caught.value.diagnostics[0].span.path == str(bad)  # type: ignore[union-attr]
+    good = write_terrain(tmp_path / "good.terrain", synthetic_terrain(size=3.0, cell=0.05))
+    out = rover.run({"terrain.file": str(good)}, [Command(0.05, 0.1, 0.0)], 10.0, 0.1)
+    assert np.isfinite(out["x"]).all()
+
+
+def test_rover_stands_still_with_motors_off_after_the_chain(rover: FmuRunner) -> None:
+    out = rover.run({}, [Command(0.05, 0.1, 0.0)], 60.0, 0.1)
+    done = out["command"] < 0
+    assert done[-1] and not done[0]
+    after = np.argmax(done)
+    assert np.all(out["wheel.rate"][after + 1:] == 0.0)
+    assert np.ptp(out["x"][after + 1:]) == 0.0 and np.ptp(out["yaw"][after + 1:]) == 0.0
+    assert np.all(np.diff(out["energy"][after + 1:]) == 0.0)

@@ -1,0 +1,94 @@
+"""Terrain files: round trip, generator, user DEMs, and errors that name file and line."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from idefix_rules.errors import UserInputError
+from idefix_rules.fmu.terrain import (
+    Rock,
+    Terrain,
+    load_dem,
+    read_terrain,
+    synthetic_terrain,
+    write_terrain,
+)
+
+
+def test_round_trip_keeps_heights_and_rocks(tmp_path: Path) -> None:
+    terrain = synthetic_terrain(size=(2.0, 1.0), cell=0.1, roughness=0.01, seed=4,
+                                rocks=[Rock(0.2, 0.1, 0.05, 0.04, 0.03, level="L2")])
+    back = read_terrain(write_terrain(tmp_path / "t.terrain", terrain))
+    assert back.heights.shape == (11, 21)
+    np.testing.assert_array_equal(back.heights, terrain.heights)
+    assert back.origin == terrain.origin and back.cell == terrain.cell
+    assert back.rocks == terrain.rocks
+
+
+def test_rock_without_height_rests_on_the_ground_sunk_by_its_embedding() -> None:
+    terrain = synthetic_terrain(size=2.0, cell=0.05, slope=0.2, slope_direction=0.0,
+                                rocks=[Rock(0.5, 0.0, 0.1, 0.1, 0.05, embedded=0.02)])
+    rock = terrain.rocks[0]
+    assert rock.z == pytest.approx(-math.tan(0.2) * 0.5 + 0.05 - 0.02)
+    assert rock.top == pytest.approx(rock.z + 0.05)
+
+
+def test_slope_descends_towards_its_direction_and_roughness_is_seeded() -> None:
+    down_y = synthetic_terrain(size=2.0, cell=0.05, slope=0.1, slope_direction=-math.pi / 2)
+    assert down_y.height_at(0.0, -0.5) < down_y.height_at(0.0, 0.5)
+    a = synthetic_terrain(size=2.0, cell=0.05, roughness=0.01, seed=1)
+    b = synthetic_terrain(size=2.0, cell=0.05, roughness=0.01, seed=1)
+    c = synthetic_terrain(size=2.0, cell=0.05, roughness=0.01, seed=2)
+    np.testing.assert_array_equal(a.heights, b.heights)
+    assert not np.array_equal(a.heights, c.heights)
+    assert float(a.heights.std()) == pytest.approx(0.01, rel=1e-6)
+
+
+def test_bad_header_names_file_and_line(tmp_path: Path) -> None:
+    path = tmp_path / "bad.terrain"
+    path.write_bytes(b"IDEFIX-TERRAIN 1\nnx 2\nny 2\nwidth 3\nheights\n")
+    with pytest.raises(UserInputError) as caught:
+        read_terrain(path)
+    span = caught.value.diagnostics[0].span
+    assert span is not None and span.path == str(path) and span.line == 4
+    assert "width" in caught.value.diagnostics[0].message
+
+
+def test_short_height_grid_is_reported(tmp_path: Path) -> None:
+    path = tmp_path / "short.terrain"
+    path.write_bytes(b"IDEFIX-TERRAIN 1\nnx 3\nny 2\norigin 0 0\ncell 0.1\nrocks 0\nheights\n"
+                     + np.zeros(5).tobytes())
+    with pytest.raises(UserInputError, match="expected 48"):
+        read_terrain(path)
+
+
+def test_csv_dem_error_points_at_line_and_column(tmp_path: Path) -> None:
+    path = tmp_path / "dem.csv"
+    path.write_text("0.0,0.1,0.2\n0.0,x,0.2\n", encoding="utf-8")
+    with pytest.raises(UserInputError) as caught:
+        load_dem(path, cell=0.1)
+    span = caught.value.diagnostics[0].span
+    assert span is not None and (span.line, span.column) == (2, 5)
+
+
+def test_npy_and_csv_dems_load_with_their_cell(tmp_path: Path) -> None:
+    grid = np.arange(12, dtype=float).reshape(3, 4) * 0.01
+    np.save(tmp_path / "dem.npy", grid)
+    (tmp_path / "dem.csv").write_text("\n".join(",".join(str(v) for v in row) for row in grid),
+                                      encoding="utf-8")
+    for name in ("dem.npy", "dem.csv"):
+        terrain = load_dem(tmp_path / name, cell=0.5)
+        np.testing.assert_allclose(terrain.heights, grid)
+        assert terrain.extent == (-0.75, 0.75, -0.5, 0.5)
+    with pytest.raises(UserInputError, match="cell"):
+        load_dem(tmp_path / "dem.npy")
+
+
+def test_height_at_interpolates_bilinearly() -> None:
+    terrain = Terrain(np.array([[0.0, 1.0], [2.0, 3.0]]), (0.0, 0.0), 1.0)
+    assert float(terrain.height_at(0.5, 0.5)) == pytest.approx(1.5)
+    assert float(terrain.height_at(5.0, -5.0)) == pytest.approx(1.0)  # edge continues
