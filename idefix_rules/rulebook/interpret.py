@@ -323,7 +323,9 @@ def interpret(rulebook: CheckedRulebook, signals: Mapping[str, np.ndarray],
         one = {k: np.asarray(v)[run:run + 1] for k, v in signals.items()}
         source = DerivedSignals(one, context, settings)
         evaluator = _Run(source, constants)
-        rows.append(_evaluate_run(model, rulebook, evaluator, constants, names, chance_names))
+        with np.errstate(all="ignore"):  # IEEE results (inf, NaN) are the semantics
+            rows.append(_evaluate_run(model, rulebook, evaluator, constants, names,
+                                      chance_names))
     return _stack(rows, names, chance_names)
 
 

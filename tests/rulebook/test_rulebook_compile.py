@@ -1,0 +1,270 @@
+"""Golden cases of the compiled evaluator, each also run through the per-run interpreter."""
+
+import math
+
+import numpy as np
+import pytest
+
+from idefix_rules.commands import Command
+from idefix_rules.errors import UserInputError
+from idefix_rules.rulebook.check import check
+from idefix_rules.rulebook.compile import compile_rulebook
+from idefix_rules.rulebook.derived import RunContext
+from idefix_rules.rulebook.interpret import interpret
+from idefix_rules.rulebook.parser import parse_rulebook
+from idefix_rules.rulebook.results import RunEvaluation
+
+HEADER = 'rulebook "t" version "1.0.0"\npurpose "test"\n'
+FOOTER = "\nverdict ok: require risk <= 70 %\n"
+CHAIN = (Command(0.1, 0.2, 0.0), Command(0.1, 0.1, 0.0))
+
+
+def rulebook(body: str):
+    result = check(parse_rulebook(HEADER + body + FOOTER, "t.rules"))
+    assert result.checked is not None, [d.format() for d in result.errors]
+    return result.checked
+
+
+def batch(runs: int = 2, samples: int = 6, **overrides):
+    """t = 0..5 s; commands 0,0,1,1,-1,-1; every other signal 0 unless overridden."""
+    t = np.arange(samples, dtype=float)
+    command = np.array([0, 0, 1, 1, -1, -1][:samples] + [-1] * max(0, samples - 6), dtype=float)
+    signals = {"t": np.tile(t, (runs, 1)), "command": np.tile(command, (runs, 1))}
+    for name in ("x", "y", "z", "roll", "pitch", "yaw", "energy"):
+        signals[name] = np.zeros((runs, samples))
+    for name in ("wheel.slip", "wheel.sinkage", "wheel.slip_angle", "wheel.rate"):
+        signals[name] = np.zeros((runs, samples, 4))
+    signals["collision.hits"] = np.zeros((runs, 3, 3))
+    signals["collision.contact"] = np.zeros((runs, samples, 3, 3))
+    for name, value in overrides.items():
+        signals[name.replace("__", ".")] = np.asarray(value, dtype=float)
+    reference = {k: v[0] * 0 for k, v in signals.items() if not k.startswith("collision")}
+    reference["t"], reference["command"] = t, command
+    return signals, RunContext(CHAIN, initial_position_sigma=0.1, reference=reference)
+
+
+def evaluate(checked, signals, context) -> RunEvaluation:
+    """Compiled evaluation, asserted equal to the interpreter's."""
+    compiled = compile_rulebook(checked).evaluate(signals, context)
+    slow = interpret(checked, signals, context)
+    for name in compiled.index_names:
+        for field in ("values", "raw", "per_sample", "weighted"):
+            np.testing.assert_allclose(getattr(compiled, field)[name],
+                                       getattr(slow, field)[name], rtol=1e-12, atol=1e-15,
+                                       err_msg=f"{field}[{name}]")
+    for name in compiled.chance_names:
+        np.testing.assert_array_equal(compiled.chances[name], slow.chances[name])
+    for field in ("i_max", "dominant", "dominant_sample", "time", "energy"):
+        np.testing.assert_allclose(getattr(compiled, field), getattr(slow, field),
+                                   err_msg=field)
+    return compiled
+
+
+PITCH = [[0.0, 0.1, -0.3, 0.2, 0.0, 0.05], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]]
+
+
+@pytest.mark.parametrize(("value", "expected"), [
+    ("max over time (abs(pitch))", 0.3),
+    ("min over time (pitch)", -0.3),
+    ("final over time (pitch)", 0.05),
+    ("initial over time (pitch + 1 rad)", 1.0),
+    ("sum over time (pitch)", 0.05),
+    ("mean over time (pitch)", 0.05 / 6),
+    ("rms over time (pitch)", math.sqrt((0.01 + 0.09 + 0.04 + 0.0025) / 6)),
+    ("integral over time (abs(pitch))", 0.05 + 0.2 + 0.25 + 0.1 + 0.025),
+    ("time_above 0.09 rad over time (abs(pitch))", 3.0),  # samples 1, 2, 3 hold 1 s each
+    ("percentile 50 over time (pitch)", 0.025),
+    ("percentile 100 over time (pitch)", 0.2),
+    ("max over time during command 2 (abs(pitch))", 0.3),
+    ("max over time during command 1 (abs(pitch))", 0.1),
+    ("max over time during command 3 (abs(pitch))", 0.0),  # empty window → 0
+    ("final over time before 2 s (pitch)", 0.1),
+    ("sum over time after 3 s (pitch)", 0.25),
+    ("integral over time during command 2 (pitch)", -0.05),
+])
+def test_time_reducers_and_windows(value, expected):
+    limit = "10 rad*s" if "integral" in value else "10 s" if "time_above" in value else "10 rad"
+    checked = rulebook(f"index I {{ value = {value} limit = {limit} weight = 1 }}")
+    result = evaluate(checked, *batch(pitch=PITCH))
+    assert result.raw["I"][0] == pytest.approx(expected, abs=1e-12)
+
+
+def test_values_are_normalised_by_the_limit_and_clamped():
+    checked = rulebook("""
+index I_low  { value = max over time (pitch) limit = 0.4 rad weight = 1 }
+index I_high { value = max over time (abs(pitch)) limit = 0.1 rad weight = 0.5 }
+index I_neg  { value = min over time (pitch) limit = 1 rad weight = 1 }
+""")
+    result = evaluate(checked, *batch(pitch=PITCH))
+    assert result.values["I_low"][0] == pytest.approx(0.5)
+    assert result.values["I_high"][0] == 1.0  # 0.3 / 0.1 clamped
+    assert result.values["I_neg"][0] == 0.0  # negative clamped
+    assert result.weighted["I_high"][0] == 0.5
+    assert result.i_max[0] == pytest.approx(0.5)
+    assert result.index_names[result.dominant[0]] == "I_low"  # first of the tied maxima
+    assert result.dominant_sample[0] == 3  # where pitch peaks (0.2)
+
+
+def test_per_sample_value_replaces_time_reductions_by_their_operand():
+    checked = rulebook("""
+index I { value = max over time after 2 s (abs(pitch)) limit = 0.4 rad weight = 1 }
+""")
+    result = evaluate(checked, *batch(pitch=PITCH))
+    # outside the window the per-sample value is 0; inside |pitch| / 0.4
+    np.testing.assert_allclose(result.per_sample["I"][0], [0, 0, 0.75, 0.5, 0, 0.125])
+
+
+def test_wheel_quantifiers_and_selection():
+    slip = np.zeros((2, 6, 4))
+    slip[0, 2] = [0.1, -0.8, 0.3, 0.2]
+    slip[1, 4] = [0.35, 0, 0, 0]
+    checked = rulebook("""
+const critical_slip = 70 %
+index I_s  { value = max over time (max over wheels (abs(wheel.slip))) limit = critical_slip
+             weight = 1 }
+index I_fl { value = max over time (wheel.slip[FL]) limit = 70 % weight = 0.2 }
+chance any_high = any over wheels (max over time (abs(wheel.slip)) > 50 %)
+chance all_low = all over wheels (max over time (wheel.slip) < 50 %)
+""")
+    result = evaluate(checked, *batch(wheel__slip=slip))
+    np.testing.assert_allclose(result.values["I_s"], [1.0, 0.5])
+    np.testing.assert_allclose(result.raw["I_fl"], [0.1, 0.35])
+    assert result.chances["any_high"].tolist() == [True, False]
+    assert result.chances["all_low"].tolist() == [True, True]
+
+
+def test_obstacle_index_with_level_factors():
+    hits = np.zeros((2, 3, 3))
+    hits[0, 0, 1] = 1  # wheel hits an L2 rock
+    hits[0, 2, 0] = 2  # chassis hits two L1 rocks
+    contact = np.zeros((2, 6, 3, 3))
+    contact[0, 3, 0, 1] = 1
+    checked = rulebook("""
+const f_obs = {L1: 0.2, L2: 0.6, L3: 1.0}
+index I_obs {
+  value = sum over parts (sum over levels (collision.hits * f_obs))
+  limit = 1
+  weight = 1
+  map = max over parts (max over levels (collision.contact * f_obs))
+}
+chance hit_L2 = any over parts (collision.hits[L2] > 0)
+""")
+    evaluator = compile_rulebook(checked)
+    assert evaluator.needs_collisions
+    assert {"collision.hits", "collision.contact"} <= evaluator.required_signals
+    result = evaluate(checked, *batch(collision__hits=hits, collision__contact=contact))
+    np.testing.assert_allclose(result.raw["I_obs"], [1.0, 0.0])
+    np.testing.assert_allclose(result.per_sample["I_obs"][0], [0, 0, 0, 0.6, 0, 0])
+    assert result.dominant_sample[0] == 3
+    assert result.chances["hit_L2"].tolist() == [True, False]
+
+
+def test_non_finite_signal_makes_the_index_critical():
+    pitch = np.array(PITCH)
+    pitch[1, 0] = np.nan  # the first sample: not the one final reads
+    checked = rulebook("""
+index I { value = final over time (pitch) limit = 1 rad weight = 0.5 }
+index J { value = max over time (abs(roll)) limit = 1 rad weight = 1 }
+chance tilted = max over time (abs(pitch)) > 1 rad
+""")
+    result = evaluate(checked, *batch(pitch=pitch))
+    assert result.values["I"].tolist() == [0.05, 1.0]
+    assert math.isnan(result.raw["I"][1])
+    assert result.per_sample["I"][1, 0] == 1.0
+    assert np.isfinite(result.per_sample["I"]).all()
+    assert result.chances["tilted"].tolist() == [False, True]
+    assert result.i_max.tolist() == [0.025, 0.5]
+
+
+def test_zero_over_zero_is_critical_not_nan():
+    checked = rulebook("index I { value = final over time (pitch / roll) limit = 1 weight = 1 }")
+    result = evaluate(checked, *batch())
+    assert result.values["I"].tolist() == [1.0, 1.0]
+
+
+def test_time_and_energy_at_the_end_of_the_chain():
+    energy = np.tile([0.0, 0.1, 0.2, 0.3, 0.4, 0.4], (2, 1))
+    command = np.array([[0, 0, 1, 1, -1, -1], [0, 0, 1, 1, 1, 1]], dtype=float)
+    checked = rulebook("index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }")
+    result = evaluate(checked, *batch(energy=energy, command=command))
+    assert result.time.tolist() == [4.0, 5.0]
+    np.testing.assert_allclose(result.energy, [0.4, 0.4])
+
+
+def test_required_signals_follow_derived_inputs():
+    checked = rulebook("""
+settings { tolerance_growth = 5 cm/rad }
+index I_pos { value = final over time (global_error / tolerance_radius) limit = 1 weight = 1 }
+""")
+    evaluator = compile_rulebook(checked)
+    assert evaluator.required_signals == {"t", "command", "energy", "x", "y", "z"}
+    assert not evaluator.needs_collisions
+    assert evaluator.name == "t" and evaluator.version == "1.0.0"
+    assert len(evaluator.source_hash) == 64
+
+
+def test_plain_rule_model_is_checked_before_compiling():
+    model = parse_rulebook(HEADER + "index I { value = max over time (pitch) limit = 5 cm "
+                                    "weight = 1 }" + FOOTER, "bad.rules")
+    with pytest.raises(UserInputError) as caught:
+        compile_rulebook(model)
+    assert caught.value.diagnostics[0].span.path == "bad.rules"
+
+
+def test_check_chain_reports_rule_command_number_and_values():
+    checked = rulebook("""
+command max_turn: require abs(delta_heading) <= 90 deg because "Largest turn"
+command min_motion: require delta_position >= 5 cm or abs(delta_heading) >= 10 deg
+index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }
+""")
+    chain = [Command(0.1, 0.5, 0.0), Command(0.1, 0.0, 2.0), Command(0.1, 0.01, 0.0)]
+    violations = compile_rulebook(checked).check_chain(chain)
+    assert [(v.rule, v.command_number) for v in violations] == [("max_turn", 2),
+                                                                 ("min_motion", 3)]
+    assert violations[0].values == {"delta_heading": 2.0}
+    assert violations[0].rationale == "Largest turn"
+    assert violations[1].to_dict()["values"] == {"delta_heading": 0.0, "delta_position": 0.01}
+
+
+def test_prescreen_on_the_reference_run():
+    checked = rulebook("""
+index I { value = max over time (abs(pitch)) limit = 0.3 rad weight = 1 }
+chance tilted = max over time (abs(pitch)) > 0.25 rad
+prescreen calm: require I < 1 because "Reference run already critical"
+prescreen upright: require not tilted
+prescreen low_risk: require risk < 2
+""")
+    evaluator = compile_rulebook(checked)
+    signals, context = batch(pitch=PITCH)
+    findings = evaluator.prescreen(evaluator.evaluate(signals, context))
+    assert [f.rule for f in findings] == ["calm", "upright"]
+    assert findings[0].values == {"I": 1.0}
+    assert findings[0].rationale == "Reference run already critical"
+    quiet, _ = batch()
+    assert evaluator.prescreen(evaluator.evaluate(quiet, context)) == []
+
+
+def test_chunks_concatenate_and_rows_are_plain():
+    checked = rulebook("index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }"
+                       "\nchance c = max over time (pitch) > 0.1 rad")
+    evaluator = compile_rulebook(checked)
+    signals, context = batch(pitch=PITCH)
+    whole = evaluator.evaluate(signals, context)
+    parts = [evaluator.evaluate({k: v[i:i + 1] for k, v in signals.items()}, context)
+             for i in range(2)]
+    joined = RunEvaluation.concat(parts)
+    np.testing.assert_array_equal(joined.i_max, whole.i_max)
+    np.testing.assert_array_equal(joined.per_sample["I"], whole.per_sample["I"])
+    row = joined.row(0)
+    assert row.dominant == "I" and row.chances == {"c": True}
+    assert row.to_dict()["values"] == {"I": 0.3}
+    assert whole.to_dict()["dominant"] == ["I", "I"]
+    assert "per_sample" in whole.to_dict(per_sample=True)
+
+
+def test_missing_signal_is_a_user_error():
+    checked = rulebook("index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }")
+    signals, context = batch()
+    del signals["pitch"]
+    with pytest.raises(UserInputError, match="pitch"):
+        compile_rulebook(checked).evaluate(signals, context)
