@@ -93,16 +93,16 @@ class Tracks:
 
     clearance: np.ndarray  # (runs, samples, bodies)
     contact: np.ndarray  # (runs, samples, part, level) int8
-    hit: np.ndarray  # (runs, part, obstacle) bool
-    min_part: np.ndarray  # (runs, part, obstacle) min clearance
+    hit: np.ndarray  # (runs, bodies, obstacles) bool
+    nearest: np.ndarray  # (runs, bodies, obstacles) min clearance over the run
     first: dict[tuple[int, int, int], FirstContact]  # (run, part, level) →
 
     @classmethod
     def empty(cls, runs: int, samples: int, bodies: int, obstacles: int, cap: float) -> Tracks:
         return cls(clearance=np.full((runs, samples, bodies), cap),
                    contact=np.zeros((runs, samples, len(PARTS), len(LEVELS)), np.int8),
-                   hit=np.zeros((runs, len(PARTS), obstacles), bool),
-                   min_part=np.full((runs, len(PARTS), obstacles), cap),
+                   hit=np.zeros((runs, bodies, obstacles), bool),
+                   nearest=np.full((runs, bodies, obstacles), cap),
                    first={})
 
     def note_contact(self, contact: FirstContact, run: int) -> None:
@@ -158,16 +158,21 @@ def collect(arrays: dict[str, np.ndarray], obstacles: ObstacleSet, bodies: Rover
         stop = min(runs, start + runs_per_chunk)
         chunk = {name: array[start:stop] for name, array in arrays.items()}
         tracks = checker(chunk, obstacles, body_list, pieces, piece_owner, settings, cap)
+        part_hit = np.zeros((stop - start, len(PARTS), n_obstacles), bool)
+        part_nearest = np.full(part_hit.shape, cap)
         for part in range(len(PARTS)):
             members = [i for i, b in enumerate(body_list) if b.part == part]
             clearance[start:stop, :, part] = tracks.clearance[:, :, members].min(axis=2)
+            part_hit[:, part] = tracks.hit[:, members].any(axis=1)
+            part_nearest[:, part] = tracks.nearest[:, members].min(axis=1)
         contact[start:stop] = tracks.contact
-        entered = (tracks.min_part < margins[None, None, :]) & ~tracks.hit
+        entered = (part_nearest < margins[None, None, :]) & ~part_hit
         for level in range(len(LEVELS)):
             of_level = levels == level
-            hits[start:stop, :, level] = tracks.hit[:, :, of_level].sum(axis=2)
+            hits[start:stop, :, level] = part_hit[:, :, of_level].sum(axis=2)
             buffers[start:stop, :, level] = entered[:, :, of_level].sum(axis=2)
-        details.extend(_details(tracks, entered, obstacles, start, first_run, cap))
+        details.extend(_details(tracks, part_hit, entered, body_list, obstacles, start,
+                                first_run, cap))
     signals = {"collision.hits": hits, "collision.buffer": buffers,
                "collision.contact": contact, "collision.clearance": clearance}
     return CollisionResult(signals, details, cap)
@@ -181,21 +186,28 @@ def _pieces(obstacles: ObstacleSet) -> tuple[list[Piece], np.ndarray]:
     return pieces, np.array(owner, int)
 
 
-def _details(tracks: Tracks, entered: np.ndarray, obstacles: ObstacleSet, start: int,
-             first_run: int, cap: float) -> list[RunCollisions]:
+def _details(tracks: Tracks, part_hit: np.ndarray, entered: np.ndarray,
+             body_list: tuple[Body, ...], obstacles: ObstacleSet, start: int, first_run: int,
+             cap: float) -> list[RunCollisions]:
     names = obstacles.names
+
+    def named(flags: np.ndarray) -> tuple[str, ...]:
+        return tuple(names[o] for o in np.flatnonzero(flags))
+
     out = []
-    for local in range(tracks.hit.shape[0]):
-        run = start + local
+    for local in range(part_hit.shape[0]):
         contacts = tuple(tracks.first[key] for key in sorted(tracks.first) if key[0] == local)
-        hit = {PARTS[p]: tuple(names[o] for o in np.flatnonzero(tracks.hit[local, p]))
-               for p in range(len(PARTS))}
-        buffer = {PARTS[p]: tuple(names[o] for o in np.flatnonzero(entered[local, p]))
-                  for p in range(len(PARTS))}
-        nearest = tracks.min_part[local].min(axis=0) if len(PARTS) else np.zeros(0)
-        out.append(RunCollisions(first_run + run, contacts, hit, buffer,
-                                 {name: float(v) for name, v in zip(names, nearest, strict=True)},
-                                 cap))
+        nearest = tracks.nearest[local].min(axis=0)
+        out.append(RunCollisions(
+            run=first_run + start + local,
+            first_contacts=contacts,
+            hits={PARTS[p]: named(part_hit[local, p]) for p in range(len(PARTS))},
+            buffers={PARTS[p]: named(entered[local, p]) for p in range(len(PARTS))},
+            min_clearance={name: float(v) for name, v in zip(names, nearest, strict=True)},
+            clearance_cap=cap,
+            body_hits={body.name: named(tracks.hit[local, b])
+                       for b, body in enumerate(body_list)},
+        ))
     return out
 
 
@@ -386,15 +398,15 @@ class _Walker:
         span = slice(first, first + len(per_sample))
         np.minimum(tracks.clearance[run, span, b], per_sample, out=tracks.clearance[run, span, b])
         part = body.part
-        tracks.min_part[run, part, owner] = min(tracks.min_part[run, part, owner],
-                                                float(per_sample.min()))
+        tracks.nearest[run, b, owner] = min(tracks.nearest[run, b, owner],
+                                            float(per_sample.min()))
         if first_contact is None:
             return
         level = self.obstacles.obstacles[owner].level
-        touching = np.flatnonzero(per_sample == 0.0) + first
-        tracks.contact[run, touching, part, level] = 1
-        tracks.contact[run, np.array(between, int) + first, part, level] = 1
-        tracks.hit[run, part, owner] = True
+        touching = np.concatenate([np.flatnonzero(per_sample == 0.0), between]).astype(int)
+        tracks.contact[run, touching + first, part, level] = 1
+        tracks.clearance[run, touching + first, b] = 0.0
+        tracks.hit[run, b, owner] = True
         j, frac = first_contact
         sample = first + j
         nxt = min(sample + 1, self.chunk["t"].shape[1] - 1)

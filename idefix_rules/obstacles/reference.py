@@ -54,11 +54,10 @@ def _exhaustive_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet,
                     value = 0.0 if distance <= tol else min(distance, cap)
                     tracks.clearance[run, sample, b] = min(tracks.clearance[run, sample, b],
                                                            value)
-                    tracks.min_part[run, body.part, owner] = min(
-                        tracks.min_part[run, body.part, owner], value)
+                    tracks.nearest[run, b, owner] = min(tracks.nearest[run, b, owner], value)
                     if distance <= tol:
                         tracks.contact[run, sample, body.part, obstacle.level] = 1
-                        tracks.hit[run, body.part, owner] = True
+                        tracks.hit[run, b, owner] = True
                         tracks.note_contact(FirstContact(
                             PARTS[body.part], LEVELS[obstacle.level],
                             float(chunk["t"][run, sample]), float(chunk["x"][run, sample]),

@@ -60,15 +60,16 @@ class FirstContact:
 @dataclass(frozen=True)
 class RunCollisions:
     """Details of one run: first contacts per part and level, obstacles hit and buffer zones
-    entered per part, the minimum clearance (m) to each obstacle over the run and all parts it is
-    checked against (the clearance cap means "at least the cap")."""
+    entered per part, obstacles hit per body (FL … panel_right), the minimum clearance (m) to
+    each obstacle over the run and all bodies (the clearance cap means "at least the cap")."""
 
     run: int
     first_contacts: tuple[FirstContact, ...]
     hits: dict[str, tuple[str, ...]]
     buffers: dict[str, tuple[str, ...]]
     min_clearance: dict[str, float]
-    clearance_cap: float = field(default=math.inf)
+    clearance_cap: float = math.inf
+    body_hits: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {"run": self.run,
@@ -76,7 +77,8 @@ class RunCollisions:
                 "hits": {part: list(names) for part, names in self.hits.items()},
                 "buffers": {part: list(names) for part, names in self.buffers.items()},
                 "min_clearance": dict(self.min_clearance),
-                "clearance_cap": self.clearance_cap}
+                "clearance_cap": self.clearance_cap,
+                "body_hits": {body: list(names) for body, names in self.body_hits.items()}}
 
 
 @dataclass
