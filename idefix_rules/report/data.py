@@ -269,7 +269,7 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
 def _row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
     """Table 1 row when ``summary.json`` is not stored: means over the complete runs."""
     evaluation = group.get("evaluation")
-    complete = path.complete
+    complete = path.complete if path.evaluated else np.zeros(0, dtype=bool)
     stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
     verdict = _json(evaluation.attrs.get("verdict"), {}) if evaluation is not None else {}
     mean_risk = float(np.mean(path.i_max[complete])) if complete.any() else None
@@ -283,7 +283,8 @@ def _row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow
     passed = verdict.get("passed")
     status = _text(group.attrs.get("status", ""))
     return TableRow(
-        path=name, status=status, runs=int(complete.size), completed_runs=int(complete.sum()),
+        path=name, status=status, runs=int(path.status_codes.size),
+        completed_runs=int(np.sum(path.status_codes == STATUS_COMPLETE)),
         failed_runs=int(np.sum(path.status_codes == STATUS_FAILED)),
         mean_risk=mean_risk,
         risk_ci95=(float(ci[0]), float(ci[1])) if isinstance(ci, list | tuple) else None,

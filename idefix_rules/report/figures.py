@@ -83,8 +83,7 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     """The result map (paper Fig. 8): risk per cell, obstacles, buffers and reference tracks."""
     figure = _figure(7.5, 6.0)
     axes = figure.add_subplot()
-    cmap = colormaps[RISK_COLOURS].copy()
-    cmap.set_bad((1.0, 1.0, 1.0, 0.0))
+    cmap = colormaps[RISK_COLOURS].with_extremes(bad=(1.0, 1.0, 1.0, 0.0))
     image = axes.imshow(np.ma.masked_invalid(values), origin="lower", extent=grid.extent,
                         cmap=cmap, norm=Normalize(0.0, 1.0), interpolation="nearest", zorder=2)
     _draw_environment(axes, environment, grid.cell / 4)

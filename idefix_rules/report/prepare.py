@@ -180,7 +180,8 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
                   min(max(bounds[3], obstacle_bounds[3]), bounds[3] + reach)]
     cell = cell_size_for(setup.rover)
     track = 2.0 * setup.rover.half_track
-    grid = grid_covering(*(float(b) for b in bounds), cell=cell, margin=setup.rover.half_track)
+    xmin, xmax, ymin, ymax = (float(b) for b in bounds)
+    grid = grid_covering(xmin, xmax, ymin, ymax, cell=cell, margin=setup.rover.half_track)
     reason = (f"{grid.cell * 100:.1f} cm cells: 1/20 of the rover's track width "
               f"({track:.2f} m), rounded to 5 mm")
     if grid.cell != cell:
@@ -190,7 +191,7 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
 
 def _risk_of_chunk(setup: Setup, path: PathReport, rows: np.ndarray,
                    signals: dict[str, np.ndarray], context: Any) -> np.ndarray:
-    if setup.evaluator is None:
+    if setup.evaluator is None or setup.checked is None:
         return np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
     if setup.collisions is not None:
         extra, _ = setup.collisions(signals)

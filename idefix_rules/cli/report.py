@@ -1,0 +1,36 @@
+"""``idefix-verify report results.h5 [-o DIR]``: the HTML report of a stored campaign.
+
+Writes ``report.html`` (self-contained: figures embedded, no script, no network) and the figures
+as PNG into ``DIR`` (default: the folder of the results file). Exit 0 when written, 2 when the
+results file is missing or not a results file.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from idefix_rules.report import write_report
+
+NAME = "report"
+HELP = ("Write the HTML report of a results file: Table 1, the result map per path and "
+        "combined, the final-error box plots, what drove the risk, rule coverage; "
+        "report.html plus the figures as PNG.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("results", type=Path, metavar="RESULTS_H5",
+                        help="results file written by a campaign run (results.h5)")
+    parser.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
+                        help="output folder (default: the results file's folder)")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = args.out if args.out is not None else args.results.resolve().parent
+    console = Console(stderr=True)
+    with console.status("writing the report"):
+        page = write_report(args.results, out)
+    Console().print(f"report written: [bold]{page}[/bold]")
+    return 0

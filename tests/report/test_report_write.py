@@ -1,0 +1,83 @@
+"""A report is produced from a small results file: files, content, self-containment, CLI."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import h5py
+import pytest
+from conftest import write_results
+
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.cli import main
+from idefix_rules.errors import UserInputError
+from idefix_rules.report import write_report
+from idefix_rules.report.data import read_report_data
+
+
+def test_report_files_and_header(synthetic_results: Path, tmp_path: Path) -> None:
+    page = write_report(synthetic_results, tmp_path / "out")
+    assert page == tmp_path / "out" / "report.html"
+    names = {p.name for p in (tmp_path / "out").iterdir()}
+    assert {"risk_map_all.png", "risk_map_straight.png", "risk_map_detour.png",
+            "box_local_error.png", "box_heading_error.png", "dominant_index.png"} <= names
+    for png in (tmp_path / "out").glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = page.read_text(encoding="utf-8")
+    assert "report-test 0.1.0" in text
+    assert "r" * 64 in text and "c" * 64 in text and "f" * 64 in text
+    # Table 1: risk of 'straight' with its CI, the L2 chance, energy and time columns.
+    assert "95 % CI of the risk" in text and "Energy [mAs]" in text and "Time [s]" in text
+    assert "not decided at this number of runs" in text
+
+
+def test_report_is_self_contained_and_escaped(synthetic_results: Path, tmp_path: Path) -> None:
+    text = write_report(synthetic_results, tmp_path).read_text(encoding="utf-8")
+    assert "<script" not in text  # the verdict reason in the file holds a <script> tag
+    assert "&lt;script&gt;" in text
+    assert not re.search(r"(src|href)=\"(?!data:)", text)
+    assert "http://" not in text and "https://" not in text
+    assert text.count('src="data:image/png;base64,') == 6
+
+
+def test_why_sections_name_worst_runs_and_unexercised_rules(synthetic_results: Path,
+                                                            tmp_path: Path) -> None:
+    store = ResultStore.open(synthetic_results)
+    try:
+        data = read_report_data(store)
+    finally:
+        store.close()
+    detour = next(p for p in data.paths if p.name == "detour")
+    worst = detour.worst_runs()
+    assert [run.run for run in worst] == sorted(
+        [0, 1, 2], key=lambda j: -detour.i_max[j])  # failed run 3 never listed
+    assert set(worst[0].parameters) == {"soil.slip_scale", "initial.y"}
+    assert sum(count for _, count in detour.dominance()) == 3
+    coverage = {item.name: item for item in data.coverage()}
+    assert coverage["collision.L2"].near
+    text = write_report(synthetic_results, tmp_path).read_text(encoding="utf-8")
+    assert "Worst runs" in text and "soil.slip_scale" in text and "Rule coverage" in text
+
+
+def test_unevaluated_results_still_give_a_report(tmp_path: Path) -> None:
+    results = write_results(tmp_path / "plain.h5", evaluated=False)
+    text = write_report(results, tmp_path / "out").read_text(encoding="utf-8")
+    assert "no path has an evaluation" in text
+
+
+def test_a_file_that_is_not_a_results_file_is_a_user_error(tmp_path: Path) -> None:
+    with h5py.File(tmp_path / "other.h5", "w") as file:
+        file.attrs["format"] = "something-else"
+    with pytest.raises(UserInputError):
+        write_report(tmp_path / "other.h5", tmp_path)
+    assert main(["report", str(tmp_path / "missing.h5")]) == 2
+
+
+def test_cli_writes_next_to_the_results_or_into_out(synthetic_results: Path, tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["report", str(synthetic_results), "-o", str(tmp_path / "cli")]) == 0
+    assert (tmp_path / "cli" / "report.html").exists()
+    assert "report written" in capsys.readouterr().out
+    assert main(["report", str(synthetic_results)]) == 0
+    assert (synthetic_results.parent / "report.html").exists()
