@@ -82,7 +82,8 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("motor.no_load_current", "A", 0.0003, "current of a turning motor without load"),
     _p("motor.torque_constant", "N.m/A", 2.0, "wheel torque per ampere (motor and gear)"),
     _p("motor.max_torque", "N.m", 0.2, "largest wheel torque; above it the wheel stalls"),
-    _p("controller.timeout_factor", "1", 2.0, "command timeout as a multiple of its ideal duration"),
+    _p("controller.timeout_factor", "1", 2.0,
+       "command timeout as a multiple of its ideal duration"),
     _p("controller.stuck_time", "s", 10.0, "window of the stuck observer"),
     _p("controller.stuck_progress", "1", 0.1,
        "stuck when progress over the window is below this fraction of the commanded"),
@@ -189,7 +190,8 @@ def render_model_description() -> str:
         '(quasi-static, see docs/rover-model.md)"',
         '  generationTool="idefix-rules" variableNamingConvention="structured"'
         ' numberOfEventIndicators="0">',
-        '  <CoSimulation modelIdentifier="idefix_rover" canHandleVariableCommunicationStepSize="true"'
+        '  <CoSimulation modelIdentifier="idefix_rover"'
+        ' canHandleVariableCommunicationStepSize="true"'
         ' canNotUseMemoryManagementFunctions="true">',
         "    <SourceFiles>",
         *(f'      <File name="{name}"/>' for name in SOURCE_FILES),

@@ -50,7 +50,7 @@ def test_parameters_accept_units_and_reject_wrong_dimensions(rover: FmuRunner) -
     in_degrees = rover.run({"soil.friction_angle": "30 deg"}, chain, 50.0, 0.1)
     in_radians = rover.run({"soil.friction_angle": math.radians(30.0)}, chain, 50.0, 0.1)
     np.testing.assert_allclose(in_degrees["x"], in_radians["x"], rtol=0, atol=1e-12)
-    with pytest.raises(UserInputError, match="soil.cohesion"):
+    with pytest.raises(UserInputError, match=r"soil\.cohesion"):
         rover.run({"soil.cohesion": "3 m"}, chain, 10.0, 0.1)
     with pytest.raises(UserInputError, match="no_such"):
         rover.run({"soil.no_such": 1.0}, chain, 10.0, 0.1)

@@ -44,6 +44,8 @@ typedef struct {
     float *sinkage;          /* plastic sinkage (rut depth), m */
     float *mark_time;        /* time the cell was last run over, s */
     unsigned char *owner;    /* wheel index + 1 that last ran over the cell, 0: undisturbed */
+    float *prior_sinkage;    /* the cell as its last wheel found it: rut depth ... */
+    unsigned char *prior_disturbed;  /* ... and whether another wheel had run over it */
     long dirty_i0, dirty_i1, dirty_j0, dirty_j1;   /* touched cells, cleared on reset */
 } SoilGrid;
 
@@ -64,7 +66,7 @@ void soil_grid_clear(SoilGrid *g);
 RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
                     double width, int wheel, double now, double self_time);
 void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-               double width, double sinkage, int wheel, double now);
+               double width, double sinkage, int wheel, double now, double self_time);
 double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width);
 double slip_sinkage(double static_sinkage, double slip);
 double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,

@@ -27,8 +27,9 @@ static double centre_height(const Instance *inst, const Wheel *w, double x, doub
     double soil = terrain_height(&inst->terrain, x, y) - w->sinkage + radius;
     double rock = rock_wheel_centre(&inst->terrain, x, y, hx, hy, radius, width, contact_d,
                                     contact_z);
-    *on_rock = rock > soil;
-    return rock > soil ? rock : soil;
+    /* a rock point above the axle is a face the wheel runs into, not a support */
+    *on_rock = rock > soil && *contact_z <= soil;
+    return *on_rock ? rock : soil;
 }
 
 static void wheel_position(const Instance *inst, const Pose *p, const Wheel *w, double *wx,
@@ -355,10 +356,10 @@ void rover_step(Instance *inst, double dt)
         w->current = (w->rate != 0.0 ? i0 : 0.0) + fabs(w->thrust * radius) / kt;
         inst->energy += w->current * dt;
     }
-    progress = (inst->ctrl.commanded_speed >= 0.0 ? inst->u : -inst->u) * dt;
-    progress = progress > 0.0 ? progress : 0.0;
-    if (inst->omega * inst->ctrl.commanded_yaw_rate > 0.0)
-        progress += fabs(inst->omega) * inst->r[VR_ROVER_HALF_TRACK] * dt;
+    /* net progress along the commanded motion (backward motion counts against it) */
+    progress = (inst->ctrl.commanded_speed >= 0.0 ? inst->u : -inst->u) * dt +
+               (inst->ctrl.commanded_yaw_rate >= 0.0 ? inst->omega : -inst->omega) *
+               inst->r[VR_ROVER_HALF_TRACK] * dt;
     controller_after_step(inst, dt, progress);
 
     update_geometry(inst);
@@ -368,7 +369,7 @@ void rover_step(Instance *inst, double dt)
         Wheel *w = &inst->wheels[i];
         if (!w->on_rock && w->load > 0.0)
             soil_mark(&inst->grid, w->wx, w->wy, hx, hy, w->contact_length, width, w->sinkage, i,
-                      inst->time);
+                      inst->time, inst->soil.self_rut_time);
     }
 }
 

@@ -27,7 +27,9 @@ int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double
     g->sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->mark_time = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->owner = (unsigned char *)calloc((size_t)(nx * ny), 1);
-    if (!g->sinkage || !g->mark_time || !g->owner) {
+    g->prior_sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
+    g->prior_disturbed = (unsigned char *)calloc((size_t)(nx * ny), 1);
+    if (!g->sinkage || !g->mark_time || !g->owner || !g->prior_sinkage || !g->prior_disturbed) {
         soil_grid_free(g);
         return -1;
     }
@@ -43,6 +45,8 @@ void soil_grid_free(SoilGrid *g)
     free(g->sinkage);
     free(g->mark_time);
     free(g->owner);
+    free(g->prior_sinkage);
+    free(g->prior_disturbed);
     memset(g, 0, sizeof(*g));
 }
 
@@ -56,6 +60,8 @@ void soil_grid_clear(SoilGrid *g)
         memset(g->sinkage + start, 0, (size_t)count * sizeof(float));
         memset(g->mark_time + start, 0, (size_t)count * sizeof(float));
         memset(g->owner + start, 0, (size_t)count);
+        memset(g->prior_sinkage + start, 0, (size_t)count * sizeof(float));
+        memset(g->prior_disturbed + start, 0, (size_t)count);
     }
     g->dirty_i0 = g->nx;
     g->dirty_j0 = g->ny;
@@ -100,8 +106,12 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
         long k = cells[s];
         /* A wheel's own marks under its moving patch are not a rut it meets: skip them while
          * they are younger than self_time. */
-        if (k >= 0 && g->owner[k] &&
-            !(g->owner[k] == wheel + 1 && now - g->mark_time[k] < self_time)) {
+        if (k < 0) continue;
+        if (g->owner[k] == wheel + 1 && now - g->mark_time[k] < self_time) {
+            /* under this wheel's own moving patch: the soil as the wheel found it */
+            state.rut_depth += g->prior_sinkage[k];
+            state.disturbed += g->prior_disturbed[k];
+        } else if (g->owner[k]) {
             state.rut_depth += g->sinkage[k];
             state.disturbed += 1.0;
         }
@@ -114,7 +124,7 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
 }
 
 void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-               double width, double sinkage, int wheel, double now)
+               double width, double sinkage, int wheel, double now, double self_time)
 {
     long cells[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
     int n, s;
@@ -125,6 +135,11 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
         if (k < 0) continue;
         i = k % g->nx;
         j = k / g->nx;
+        if (!(g->owner[k] == wheel + 1 && now - g->mark_time[k] < self_time)) {
+            /* a new pass over this cell: remember the soil as this wheel finds it */
+            g->prior_sinkage[k] = g->sinkage[k];
+            g->prior_disturbed[k] = g->owner[k] != 0;
+        }
         g->owner[k] = (unsigned char)(wheel + 1);
         g->mark_time[k] = (float)now;
         if ((float)sinkage > g->sinkage[k]) g->sinkage[k] = (float)sinkage;

@@ -4,7 +4,7 @@
 
 #include "idefix.h"
 
-#define WALL_DAMPING 1e4   /* N/(m/s): a rock face above the axle stops the wheel */
+#define WALL_DAMPING 1e6   /* N/(m/s): a rock face above the axle stops the wheel */
 
 void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, double omega,
                   double v_eps, double *fx, double *fy, double *thrust)

@@ -1,0 +1,139 @@
+"""Plausibility of the rover model: each test is one physical statement (docs/rover-model.md)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from idefix_rules.commands import Command
+from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
+
+FL, FR, RL, RR = range(4)
+STRAIGHT = [Command(0.05, 1.0, 0.0)]  # 200 s at 5 mm/s
+
+
+def test_flat_straight_drive_covers_commanded_distance_times_one_minus_slip(
+        rover: FmuRunner) -> None:
+    out = rover.run({}, STRAIGHT, 210.0, 0.1)
+    driving = out["command"] == 0
+    slip = float(out["wheel.slip"][driving].mean())
+    assert 0.005 < slip < 0.2  # default soil: a few percent in milli-g
+    assert out["x"][-1] == pytest.approx(1.0 * (1.0 - slip), rel=0.01)
+    assert abs(out["y"][-1]) < 1e-9 and abs(out["yaw"][-1]) < 1e-9
+
+
+def test_point_turn_ends_near_the_skid_steering_yaw(rover: FmuRunner) -> None:
+    # Isotropic shear on four wheels at (±a, ±b): the body turns at b²/(a²+b²) of the
+    # commanded yaw rate (docs/rover-model.md, "Skid steering"); for a = 0.20, b = 0.26: 0.63.
+    commanded = math.pi / 2
+    out = rover.run({}, [Command(0.05, 0.0, commanded)], 100.0, 0.1)
+    efficiency = out["yaw"][-1] / commanded
+    predicted = 0.26**2 / (0.20**2 + 0.26**2)
+    assert efficiency == pytest.approx(predicted, rel=0.12)
+    assert math.hypot(out["x"][-1], out["y"][-1]) < 1e-3  # turns on the spot
+    turning = out["command"] == 0
+    assert np.all(np.abs(out["wheel.slip_angle"][turning][10:]) > 0.3)  # lateral skid
+
+
+def test_drive_across_a_slope_drifts_downhill(rover: FmuRunner, tmp_path: Path) -> None:
+    slope = write_terrain(tmp_path / "slope.terrain", synthetic_terrain(
+        size=5.0, cell=0.05, slope=math.radians(10), slope_direction=-math.pi / 2))
+    out = rover.run({"terrain.file": str(slope)}, STRAIGHT, 210.0, 0.1)
+    assert out["y"][-1] < -0.02  # downhill is -y
+    assert out["roll"][-1] == pytest.approx(math.radians(10), abs=1e-3)  # left side up
+    assert np.all(out["wheel.slip_angle"][1000] < 0)  # wheels slide towards -y
+
+
+def test_rock_under_the_right_wheels_rolls_the_rover_and_spikes_their_slip(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    rock = Rock(x=0.6, y=-0.26, a=0.06, b=0.06, c=0.04)
+    terrain = write_terrain(tmp_path / "rock.terrain",
+                            synthetic_terrain(size=4.0, cell=0.02, rocks=[rock]))
+    flat = rover.run({}, STRAIGHT, 210.0, 0.1)
+    out = rover.run({"terrain.file": str(terrain)}, STRAIGHT, 210.0, 0.1)
+    assert out["roll"].min() < math.radians(-3)  # right side up: negative roll
+    assert out["roll"].max() < math.radians(0.1)
+    flat_slip = float(flat["wheel.slip"][1000, FR])
+    assert out["wheel.slip"][:, FR].max() > 3 * flat_slip
+    assert out["wheel.slip"][:, FR].max() > out["wheel.slip"][:, FL].max()
+    assert out["z"].max() > flat["z"].max() + 0.01
+
+
+def test_softer_soil_sinks_and_slips_more(rover: FmuRunner) -> None:
+    firm = rover.run({}, STRAIGHT, 100.0, 0.1)
+    soft = rover.run({"soil.k_phi": 200e3, "soil.cohesion": 60.0}, STRAIGHT, 100.0, 0.1)
+    assert soft["wheel.sinkage"][500].min() > 1.5 * firm["wheel.sinkage"][500].max()
+    assert soft["wheel.slip"][500].min() > 1.5 * firm["wheel.slip"][500].max()
+    assert soft["x"][-1] < firm["x"][-1]
+
+
+def test_rear_wheels_in_the_front_wheels_ruts_differ(rover: FmuRunner) -> None:
+    # the rear wheels reach the front wheels' first ruts after 0.4 m (about 83 s)
+    out = rover.run({}, STRAIGHT, 160.0, 0.1)
+    sinkage, current = out["wheel.sinkage"][1500], out["wheel.current"][1500]
+    assert sinkage[RL] > 1.1 * sinkage[FL] and sinkage[RR] > 1.1 * sinkage[FR]
+    assert current[RL] != pytest.approx(current[FL], rel=1e-3)
+    early = out["wheel.sinkage"][500]
+    assert early[RL] == pytest.approx(early[FL], rel=1e-9)  # not yet in a rut
+
+
+def test_energy_grows_with_distance_and_more_with_turning(rover: FmuRunner) -> None:
+    one = rover.run({}, [Command(0.05, 0.5, 0.0)], 300.0, 0.1)["energy"][-1]
+    two = rover.run({}, [Command(0.05, 1.0, 0.0)], 300.0, 0.1)["energy"][-1]
+    assert two > 1.8 * one
+    # same wheel travel on the outer side, but turning: more charge per second of driving
+    arc = rover.run({}, [Command(0.05, 0.5, 0.6)], 300.0, 0.1)
+    straight = rover.run({}, [Command(0.05, 0.5 + 0.26 * 0.6, 0.0)], 300.0, 0.1)
+    assert arc["energy"][-1] > 1.1 * straight["energy"][-1]
+
+
+def test_nothing_goes_nan_on_rough_rocky_terrain(rover: FmuRunner, tmp_path: Path) -> None:
+    rocks = [Rock(x, y, 0.04 + 0.02 * k % 3, 0.05, 0.03 + 0.01 * (k % 4))
+             for k, (x, y) in enumerate([(0.3, 0.2), (0.5, -0.25), (0.8, 0.0), (0.2, -0.3),
+                                         (1.0, 0.3), (0.6, 0.26), (0.1, 0.5)])]
+    rough = write_terrain(tmp_path / "rough.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, roughness=0.02, correlation_length=0.05, seed=7, slope=0.2,
+        slope_direction=2.0, rocks=rocks))
+    chain = [Command(0.05, 0.6, 0.5), Command(0.08, 0.0, -1.2), Command(0.05, -0.3, 0.4),
+             Command(0.05, 0.5, 0.0)]
+    out = rover.run({"terrain.file": str(rough), "soil.cohesion": 50.0}, chain, 500.0, 0.1)
+    for name, values in out.items():
+        assert np.all(np.isfinite(values)), name
+
+
+def test_halving_the_internal_step_changes_the_final_pose_by_less_than_2_mm(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    terrain = write_terrain(tmp_path / "conv.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, roughness=0.005, seed=3, slope=0.15, slope_direction=1.0,
+        rocks=[Rock(0.4, -0.2, 0.05, 0.05, 0.03)]))
+    chain = [Command(0.05, 0.5, 0.4), Command(0.05, 0.0, -1.0), Command(0.04, 0.6, -0.3)]
+    poses = []
+    for step in (0.05, 0.025):
+        out = rover.run({"terrain.file": str(terrain), "solver.step": step}, chain, 450.0, 0.1)
+        poses.append((out["x"][-1], out["y"][-1], out["yaw"][-1]))
+    (x1, y1, yaw1), (x2, y2, yaw2) = poses
+    assert math.hypot(x1 - x2, y1 - y2) < 0.002
+    assert abs(yaw1 - yaw2) < 0.002
+
+
+def test_rock_taller_than_the_wheel_blocks_and_reports_stuck(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    wall = [Rock(0.45, y, 0.05, 0.08, 0.3, z=0.15) for y in (-0.3, -0.15, 0.0, 0.15, 0.3)]
+    terrain = write_terrain(tmp_path / "wall.terrain",
+                            synthetic_terrain(size=4.0, cell=0.02, rocks=wall))
+    out = rover.run({"terrain.file": str(terrain)}, STRAIGHT, 210.0, 0.1)
+    # front wheel rims stop at the rock face: x + 0.20 + 0.10 <= 0.45 - 0.05
+    assert out["x"].max() < 0.45 - 0.05 - 0.30 + 0.002
+    assert out["stuck"].max() == 1.0
+    assert out["wheel.slip"][1500].min() > 0.9
+
+
+def test_a_stalled_motor_ends_the_command_by_timeout(rover: FmuRunner) -> None:
+    out = rover.run({"motor.max_torque": 1e-6, "controller.timeout_factor": 1.5}, STRAIGHT,
+                    400.0, 0.1)
+    finished = int(np.argmax(out["command"] < 0)) * 0.1
+    assert finished == pytest.approx(1.5 * 200.0, abs=0.2)
+    assert out["x"][-1] < 0.05
