@@ -193,6 +193,18 @@ class ObstacleSet:
             raise UserInputError(problems)
         return cls(tuple(obstacles), buffer_margins_tuple(buffer_margins))
 
+    @classmethod
+    def from_terrain(cls, terrain: Any, thresholds: LevelThresholds | None = None,
+                     buffer_margins: Mapping[str, float] | Sequence[float] | None = None
+                     ) -> ObstacleSet:
+        """The rocks of an :class:`idefix_rules.fmu.terrain.Terrain` (its resolved rock list),
+        sized against its DEM: the same rocks the rover FMU drives over."""
+
+        def ground(x: float, y: float) -> float:
+            return float(terrain.height_at(x, y))
+
+        return cls.from_rocks(terrain.rocks, thresholds, buffer_margins, ground)
+
     def extended(self, obstacles: Iterable[Obstacle]) -> ObstacleSet:
         """The same set with more obstacles (e.g. areas) added."""
         return ObstacleSet((*self.obstacles, *obstacles), self.buffer_margins)

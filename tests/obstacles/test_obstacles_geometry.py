@@ -199,3 +199,17 @@ def test_results_are_plain_data_and_chunks_number_runs(drive):
     assert summary["details"][0]["first_contacts"][0]["obstacle"] == "rock1"
     assert chunked.signals["collision.contact"].dtype == np.int8
     assert chunked.signals["collision.hits"].dtype == np.int64
+
+
+def test_rocks_of_the_fmu_terrain_are_the_same_obstacles():
+    from idefix_rules.fmu.terrain import Rock, synthetic_terrain
+
+    terrain = synthetic_terrain(size=2.0, cell=0.05, slope=0.1, seed=1,
+                                rocks=[Rock(x=0.5, y=-0.26, a=0.08, b=0.06, c=0.05, level="L2"),
+                                       Rock(x=-0.5, y=0.3, a=0.1, b=0.1, c=0.1)])
+    obstacles = ObstacleSet.from_terrain(terrain, LevelThresholds(0.05, 0.15))
+    first, second = obstacles.obstacles
+    assert first.level_name == "L2"
+    rock = terrain.rocks[1]
+    assert second.size == pytest.approx(rock.z + rock.c - float(terrain.height_at(-0.5, 0.3)))
+    assert second.pieces[0].centre.tolist() == pytest.approx([-0.5, 0.3, rock.z])
