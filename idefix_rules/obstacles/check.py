@@ -173,13 +173,15 @@ def collect(arrays: dict[str, np.ndarray], obstacles: ObstacleSet, bodies: Rover
             buffers[start:stop, :, level] = entered[:, :, of_level].sum(axis=2)
         details.extend(_details(tracks, part_hit, entered, body_list, obstacles, start,
                                 first_run, cap))
-    signals = {"collision.hits": hits, "collision.buffer": buffers,
-               "collision.contact": contact, "collision.clearance": clearance}
+    signals: dict[str, np.ndarray] = {
+        "collision.hits": hits, "collision.buffer": buffers, "collision.contact": contact,
+        "collision.clearance": clearance}
     return CollisionResult(signals, details, cap)
 
 
 def _pieces(obstacles: ObstacleSet) -> tuple[list[Piece], np.ndarray]:
-    pieces, owner = [], []
+    pieces: list[Piece] = []
+    owner: list[int] = []
     for index, obstacle in enumerate(obstacles.obstacles):
         pieces.extend(obstacle.pieces)
         owner.extend([index] * len(obstacle.pieces))
@@ -223,7 +225,8 @@ def _check_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet, body_list
     position = np.stack([chunk["x"], chunk["y"], chunk["z"]], axis=-1)
     reach = np.array([b.reach for b in body_list])
     step_move = np.linalg.norm(np.diff(position, axis=1), axis=2)
-    step_turn = sum(np.abs(np.diff(chunk[a], axis=1)) for a in ("roll", "pitch", "yaw"))
+    step_turn = (np.abs(np.diff(chunk["roll"], axis=1)) + np.abs(np.diff(chunk["pitch"], axis=1))
+                 + np.abs(np.diff(chunk["yaw"], axis=1)))
     cum = np.zeros((runs, samples, len(body_list)))
     cum[:, 1:] = np.cumsum(step_move[..., None] + step_turn[..., None] * reach, axis=1)
     candidates = _broad_phase(position, rotation, cum, body_list, pieces, piece_owner,
@@ -238,7 +241,8 @@ def _check_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet, body_list
 def _aabb_gap(points: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Distance from points (..., 3) to boxes (lower/upper broadcastable)."""
     gap = np.maximum(np.maximum(lower - points, points - upper), 0.0)
-    return np.sqrt((gap * gap).sum(axis=-1))
+    distance: np.ndarray = np.sqrt((gap * gap).sum(axis=-1))
+    return distance
 
 
 def _broad_phase(position: np.ndarray, rotation: np.ndarray, cum: np.ndarray,

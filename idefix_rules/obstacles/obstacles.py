@@ -91,23 +91,24 @@ class Piece:
 
     @property
     def lower(self) -> np.ndarray:
-        return self.centre - self._half_extent()
+        return np.asarray(self.centre - self._half_extent(), float)
 
     @property
     def upper(self) -> np.ndarray:
-        return self.centre + self._half_extent()
+        return np.asarray(self.centre + self._half_extent(), float)
 
     def _half_extent(self) -> np.ndarray:
+        extent: np.ndarray
         if self.shape == "sphere":
-            return np.full(3, self.size[0])
-        if self.shape == "convex":
+            extent = np.full(3, self.size[0])
+        elif self.shape == "convex":
             assert self.vertices is not None
-            return np.abs(self.vertices @ self.rotation.T).max(axis=0)
-        half = np.asarray(self.size, float) * (0.5 if self.shape == "box" else 1.0)
-        # Extent of a rotated box/ellipsoid along each world axis.
-        if self.shape == "box":
-            return np.abs(self.rotation) @ half
-        return np.sqrt((self.rotation ** 2) @ (half ** 2))
+            extent = np.abs(self.vertices @ self.rotation.T).max(axis=0)
+        elif self.shape == "box":  # extent of a rotated box along each world axis
+            extent = np.abs(self.rotation) @ (0.5 * np.asarray(self.size, float))
+        else:  # ellipsoid: support along each world axis
+            extent = np.sqrt((self.rotation ** 2) @ (np.asarray(self.size, float) ** 2))
+        return extent
 
 
 @dataclass(frozen=True, eq=False)
