@@ -241,7 +241,7 @@ static void solve_balance(Instance *inst, double gx, double gy, double q[3])
     }
     for (iteration = 0; iteration < 40; iteration++) {
         double jac[3][3], dq[3], rn = norm3(r, arm), trial[3], rt[3], lambda = 1.0;
-        if (rn < 1e-12) break;
+        if (rn < 1e-10) break;  /* N: forces are of order 0.01-0.1 N */
         for (k = 0; k < 3; k++) {
             double qp[3], rp[3];
             memcpy(qp, q, sizeof(qp));
@@ -267,7 +267,7 @@ static void solve_balance(Instance *inst, double gx, double gy, double q[3])
         if (k == 10) break;
         memcpy(q, trial, sizeof(trial));
         memcpy(r, rt, sizeof(rt));
-        if (fabs(lambda * dq[0]) + fabs(lambda * dq[1]) + fabs(lambda * dq[2] * arm) < 1e-12) break;
+        if (fabs(lambda * dq[0]) + fabs(lambda * dq[1]) + fabs(lambda * dq[2] * arm) < 1e-11) break;
     }
     for (i = 0; i < 3; i++) {
         double limit = i == 2 ? cap / arm : cap;

@@ -154,52 +154,54 @@ double terrain_height(const Terrain *t, double x, double y)
     return (1 - ty) * ((1 - tx) * h[0] + tx * h[1]) + ty * ((1 - tx) * h[t->nx] + tx * h[t->nx + 1]);
 }
 
+static double top_of(const Rock *r, double x, double y)
+{
+    double ex = (x - r->x) / r->a, ey = (y - r->y) / r->b, q = ex * ex + ey * ey;
+    return q < 1.0 ? r->z + r->c * sqrt(1.0 - q) : NO_ROCK;
+}
+
 double rock_top(const Terrain *t, double x, double y)
 {
     double best = NO_ROCK;
     int k;
     for (k = 0; k < t->n_rocks; k++) {
-        const Rock *r = &t->rocks[k];
-        double ex = (x - r->x) / r->a, ey = (y - r->y) / r->b, q = ex * ex + ey * ey;
-        if (q < 1.0) {
-            double top = r->z + r->c * sqrt(1.0 - q);
-            if (top > best) best = top;
-        }
+        double top = top_of(&t->rocks[k], x, y);
+        if (top > best) best = top;
     }
     return best;
 }
 
 /* The wheel is a disc of radius r in the vertical plane of its heading, of width w. Over a
  * rock its centre must sit at max over the rim of (rock surface + sqrt(r^2 - d^2)): the
- * envelope of the disc rolling over the rock. Sampled at 13 points along and 3 across. */
+ * envelope of the disc rolling over the rock. Sampled at 13 points along and 3 across, against
+ * the rocks within reach only. */
 double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
                          double w, double *contact_d, double *contact_z)
 {
-    enum { NA = 13, NW = 3 };
+    enum { NA = 13, NW = 3, NEAR = 16 };
     double best = NO_ROCK, reach = r + 0.5 * w;
-    int k, ia, iw, near = 0;
+    int k, ia, iw, n_near = 0, near[NEAR];
     *contact_d = 0.0;
     *contact_z = NO_ROCK;
-    for (k = 0; k < t->n_rocks; k++) {
+    for (k = 0; k < t->n_rocks && n_near < NEAR; k++) {
         const Rock *rk = &t->rocks[k];
         double dx = x - rk->x, dy = y - rk->y, big = rk->a > rk->b ? rk->a : rk->b;
-        if (dx * dx + dy * dy < (big + reach) * (big + reach)) {
-            near = 1;
-            break;
-        }
+        if (dx * dx + dy * dy < (big + reach) * (big + reach)) near[n_near++] = k;
     }
-    if (!near) return NO_ROCK;
+    if (n_near == 0) return NO_ROCK;
     for (ia = 0; ia < NA; ia++) {
         double d = -r + 2.0 * r * (double)ia / (double)(NA - 1);
         double lift = sqrt(fmax(r * r - d * d, 0.0));
         for (iw = 0; iw < NW; iw++) {
             double e = -0.5 * w + w * (double)iw / (double)(NW - 1);
             double px = x + d * hx - e * hy, py = y + d * hy + e * hx;
-            double top = rock_top(t, px, py);
-            if (top > NO_ROCK && top + lift > best) {
-                best = top + lift;
-                *contact_d = d;
-                *contact_z = top;
+            for (k = 0; k < n_near; k++) {
+                double top = top_of(&t->rocks[near[k]], px, py);
+                if (top > NO_ROCK && top + lift > best) {
+                    best = top + lift;
+                    *contact_d = d;
+                    *contact_z = top;
+                }
             }
         }
     }
