@@ -74,6 +74,7 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
         raise UserInputError(error("E000", "a rulebook must be text", Span(path)))
     tree, comments, diagnostics = _parse_tree(text, path)
     if diagnostics or tree is None:
+        diagnostics.sort(key=_position)
         raise UserInputError(diagnostics, sources={path: text})
     lowering = _Lowering(path)
     try:

@@ -27,14 +27,25 @@ TOP_LEVEL_KEYWORDS = frozenset({
 _EXPRESSION_START = frozenset({
     "NAME", "QUANTITY", "LPAR", "LBRACE", "MINUS", "NOT", "MAX", "MIN", "MEAN", "FINAL",
     "INITIAL", "RMS", "SUM", "INTEGRAL", "ANY", "ALL", "COUNT", "PERCENTILE", "TIME_ABOVE",
+    "CHANCE",
 })
 _OPERATORS = frozenset({"PLUS", "MINUS", "STAR", "SLASH", "CARET", "COMPARE", "AND", "OR"})
 
 
+_DECLARATION_START = frozenset({
+    "RULEBOOK", "CONST", "SETTINGS", "OBSTACLES", "COMMAND", "INDEX", "CHANCE", "COMBINE",
+    "PRESCREEN", "VERDICT", "RANK",
+})
+
+
 def describe_expected(expected: Iterable[str]) -> str:
-    """``'=' or a name``; expression starts fold into "an expression", operators likewise."""
+    """``'=' or a name``; expression starts fold into "an expression", operators and the
+    words that start a declaration likewise."""
     names = set(expected)
     words: list[str] = []
+    if len(names & _DECLARATION_START) >= 4:
+        names -= _DECLARATION_START
+        words.append("a new declaration")
     if {"NAME", "QUANTITY", "LPAR"} <= names:
         names -= _EXPRESSION_START
         words.append("an expression")
@@ -42,7 +53,11 @@ def describe_expected(expected: Iterable[str]) -> str:
         names -= _OPERATORS
         words.append("an operator")
     vocabulary = terminal_words()
+    end = "$END" in names
+    names.discard("$END")
     words.extend(sorted(vocabulary.get(name, name) for name in names))
+    if end:
+        words.append("the end of the file")
     if not words:
         return "nothing more"
     if len(words) == 1:
@@ -52,7 +67,7 @@ def describe_expected(expected: Iterable[str]) -> str:
 
 def _describe_token(token: lark.Token) -> str:
     if token.type == "$END":
-        return "the end of the file"
+        return "end of file"
     if token.type == "NAME":
         return f"name '{token}'"
     if token.type == "QUANTITY":
@@ -76,11 +91,12 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         shown = repr(char)[1:-1] if char.isprintable() else f"\\u{ord(char or ' '):04x}"
         message = f"unexpected character '{shown}'"
         if failure.allowed:
-            message += f"; expected {describe_expected(failure.allowed)}"
+            allowed = acceptable(getattr(failure, "state", None), set(failure.allowed))
+            message += f"; expected {describe_expected(allowed)}"
         return error(SYNTAX_ERROR, message, span, hint)
     if isinstance(failure, lark.exceptions.UnexpectedToken):
         token = failure.token
-        expected = set(failure.expected or ())
+        expected = acceptable(failure.state, set(failure.expected or ()))
         if token.type == "$END":
             line, column = _end_position(text)
             span = Span(path, line, column, line, column + 1)
@@ -94,9 +110,36 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
 
 
+def acceptable(state: object, candidates: set[str]) -> set[str]:
+    """The candidates the parser would really accept next.
+
+    LALR merges states, so lark's ``expected`` holds terminals that only fit elsewhere; feed
+    each one to a copy of the parser state, as lark's ``InteractiveParser.accepts`` does.
+    """
+    copy = getattr(state, "copy", None)
+    if copy is None:
+        return candidates
+    accepted = set()
+    for name in candidates:
+        trial = copy()
+        try:
+            trial.feed_token(lark.Token(name, ""), is_end=name == "$END")
+        except lark.exceptions.UnexpectedInput:
+            continue
+        except Exception:  # noqa: BLE001 - a trial that cannot run: keep the candidate
+            pass
+        accepted.add(name)
+    return accepted or candidates
+
+
 def _hint(token: lark.Token, expected: set[str]) -> str | None:
     if token.type == "EQUAL" and "COMPARE" in expected:
         return "use '==' to compare"
+    if token.type in _DECLARATION_START and token.column == 1 \
+            and len(expected & _DECLARATION_START) < 4:
+        return "the declaration before this line is not finished"
+    if token.type == "COMPARE" and "COMPARE" not in expected:
+        return "comparisons do not chain: write `0 < x and x < 1`"
     if token.type == "REQUIRE" and "COLON" in expected:
         return "a rule is written `command NAME: require CONDITION`"
     if token.type in {"NAME", "QUANTITY"} and expected & _OPERATORS:
