@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.rulebook.derived import RunContext
@@ -284,9 +285,8 @@ def chains(max_commands: int = 3) -> st.SearchStrategy[tuple[Command, ...]]:
 
 def _dyadic(draw: Any, shape: tuple[int, ...], low: int = -64, high: int = 64,
             denominator: int = 16) -> np.ndarray:
-    size = int(np.prod(shape)) if shape else 1
-    values = draw(st.lists(st.integers(low, high), min_size=size, max_size=size))
-    return np.array(values, dtype=float).reshape(shape) / denominator
+    values = draw(arrays(np.int16, shape, elements=st.integers(low, high)))
+    return values.astype(float) / denominator
 
 
 @st.composite
