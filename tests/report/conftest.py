@@ -77,7 +77,8 @@ def _signals(chain: tuple[Command, ...], t: np.ndarray, slip: float, dy: float,
     return {
         "t": t, "x": poses[:, 0], "y": poses[:, 1] + dy, "z": np.full(samples, 0.3),
         "roll": np.full(samples, roll), "pitch": np.zeros(samples), "yaw": poses[:, 2],
-        "wheel.slip": np.full((samples, 4), slip), "energy": 0.01 * t, "command": command,
+        "wheel.slip": np.repeat((slip * t / t[-1])[:, None], 4, axis=1),
+        "energy": 0.01 * t, "command": command,
     }
 
 

@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 from conftest import write_results
 
@@ -16,13 +17,20 @@ from idefix_rules.report import write_report
 from idefix_rules.report.data import read_report_data
 
 
-def test_report_files_and_header(synthetic_results: Path, tmp_path: Path) -> None:
-    page = write_report(synthetic_results, tmp_path / "out")
-    assert page == tmp_path / "out" / "report.html"
-    names = {p.name for p in (tmp_path / "out").iterdir()}
+@pytest.fixture(scope="module")
+def written(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One report of the synthetic results, shared by the read-only tests below."""
+    folder = tmp_path_factory.mktemp("report")
+    return write_report(write_results(folder / "results.h5"), folder / "out")
+
+
+def test_report_files_and_header(written: Path) -> None:
+    page = written
+    assert page == page.parent.parent / "out" / "report.html"
+    names = {p.name for p in page.parent.iterdir()}
     assert {"risk_map_all.png", "risk_map_straight.png", "risk_map_detour.png",
             "box_local_error.png", "box_heading_error.png", "dominant_index.png"} <= names
-    for png in (tmp_path / "out").glob("*.png"):
+    for png in page.parent.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = page.read_text(encoding="utf-8")
     assert "report-test 0.1.0" in text
@@ -32,8 +40,8 @@ def test_report_files_and_header(synthetic_results: Path, tmp_path: Path) -> Non
     assert "not decided at this number of runs" in text
 
 
-def test_report_is_self_contained_and_escaped(synthetic_results: Path, tmp_path: Path) -> None:
-    text = write_report(synthetic_results, tmp_path).read_text(encoding="utf-8")
+def test_report_is_self_contained_and_escaped(written: Path) -> None:
+    text = written.read_text(encoding="utf-8")
     assert "<script" not in text  # the verdict reason in the file holds a <script> tag
     assert "&lt;script&gt;" in text
     assert not re.search(r"(src|href)=\"(?!data:)", text)
@@ -42,7 +50,7 @@ def test_report_is_self_contained_and_escaped(synthetic_results: Path, tmp_path:
 
 
 def test_why_sections_name_worst_runs_and_unexercised_rules(synthetic_results: Path,
-                                                            tmp_path: Path) -> None:
+                                                            written: Path) -> None:
     store = ResultStore.open(synthetic_results)
     try:
         data = read_report_data(store)
@@ -56,7 +64,7 @@ def test_why_sections_name_worst_runs_and_unexercised_rules(synthetic_results: P
     assert sum(count for _, count in detour.dominance()) == 3
     coverage = {item.name: item for item in data.coverage()}
     assert coverage["collision.L2"].near
-    text = write_report(synthetic_results, tmp_path).read_text(encoding="utf-8")
+    text = written.read_text(encoding="utf-8")
     assert "Worst runs" in text and "soil.slip_scale" in text and "Rule coverage" in text
 
 
@@ -81,3 +89,33 @@ def test_cli_writes_next_to_the_results_or_into_out(synthetic_results: Path, tmp
     assert "report written" in capsys.readouterr().out
     assert main(["report", str(synthetic_results)]) == 0
     assert (synthetic_results.parent / "report.html").exists()
+
+
+def test_maps_use_the_per_sample_risk_of_the_stored_rulebook(synthetic_results: Path) -> None:
+    from idefix_rules.report.prepare import prepare, setup_from_store
+
+    store = ResultStore.open(synthetic_results)
+    try:
+        data = read_report_data(store)
+        setup = setup_from_store(store)
+        maps = prepare(store, data, setup)
+    finally:
+        store.close()
+    assert maps.per_sample and setup.notes == []
+    straight = next(p for p in data.paths if p.name == "straight")
+    values = maps.per_path["straight"].values()
+    # The fixture's slip grows from 0 at the start to its final value: near the start the
+    # per-sample risk is the roll index (0.8 × I_roll, constant in time), far below the runs'
+    # I_max (set by the final slip); a map of I_max would show those here.
+    xs, _ = maps.grid.centres()
+    start = values[(xs < 0.02) & np.isfinite(values)]
+    roll = 0.8 * straight.indices["I_roll"]
+    assert start.size > 0
+    assert start.max() <= roll.max() + 0.01 and start.min() >= roll.min() - 0.01
+    # Cell values are means of run maxima: never above the largest I_max, and towards the end
+    # (high slip) above anything the roll index alone gives.
+    assert roll.max() + 0.05 < np.nanmax(values) <= np.nanmax(straight.i_max) + 1e-12
+    assert maps.combined.runs == 7
+    # Box plots: final local error of every complete run, finite and non-negative.
+    assert straight.final_local_error is not None and straight.final_local_error.size == 4
+    assert (straight.final_local_error >= 0).all()
