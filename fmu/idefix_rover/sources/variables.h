@@ -90,11 +90,11 @@
     25.0, /* rover.mass */ \
     0.0057, /* rover.gravity */ \
     0.1, /* rover.wheel_radius */ \
-    0.05, /* rover.wheel_width */ \
+    0.06, /* rover.wheel_width */ \
     0.26, /* rover.half_track */ \
     0.2, /* rover.half_wheelbase */ \
-    0.2, /* rover.cog_height */ \
-    0.2, /* rover.body_centre_height */ \
+    0.25, /* rover.cog_height */ \
+    0.3, /* rover.body_centre_height */ \
     1400.0, /* soil.k_c */ \
     820000.0, /* soil.k_phi */ \
     1.0, /* soil.n */ \
