@@ -58,6 +58,29 @@ def rotation_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> n
     return out
 
 
+def quaternions(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(w, x, y, z)`` of the same rotations as :func:`rotation_matrices`,
+    shape ``angles.shape + (4,)`` (python-fcl takes rotations fastest in this form)."""
+    hr, hp, hy = np.asarray(roll, float) / 2, np.asarray(pitch, float) / 2, \
+        np.asarray(yaw, float) / 2
+    cr, sr, cp, sp, cy, sy = np.cos(hr), np.sin(hr), np.cos(hp), np.sin(hp), np.cos(hy), \
+        np.sin(hy)
+    return np.stack([cy * cp * cr + sy * sp * sr,
+                     cy * cp * sr - sy * sp * cr,
+                     cy * sp * cr + sy * cp * sr,
+                     sy * cp * cr - cy * sp * sr], axis=-1)
+
+
+def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a ⊗ b`` (rotation ``a`` after ``b``) of quaternion arrays."""
+    w1, x1, y1, z1 = np.moveaxis(np.asarray(a, float), -1, 0)
+    w2, x2, y2, z2 = np.moveaxis(np.asarray(b, float), -1, 0)
+    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=-1)
+
+
 def _rot_x(angle: float) -> np.ndarray:
     return rotation_matrices(np.array(angle), np.array(0.0), np.array(0.0))
 
@@ -78,6 +101,11 @@ class Body:
     size: tuple[float, ...]
     offset: np.ndarray
     rotation: np.ndarray
+    tilt: float = 0.0  # the rotation as an angle about the body x axis
+
+    @property
+    def quaternion(self) -> np.ndarray:
+        return quaternions(np.array(self.tilt), np.array(0.0), np.array(0.0))
 
     @property
     def radius(self) -> float:
@@ -154,7 +182,7 @@ class RoverBodies:
             out.append(Body(name, PARTS.index("wheel"), "cylinder",
                             (self.wheel_radius, self.wheel_width),
                             np.array([sx * self.half_wheelbase, sy * self.half_track, axle_z]),
-                            wheel_rotation))
+                            wheel_rotation, math.pi / 2.0))
         out.append(Body("chassis", PARTS.index("chassis"), "box",
                         (self.chassis_length, self.chassis_width, self.chassis_height),
                         np.zeros(3), np.eye(3)))
@@ -167,7 +195,7 @@ class RoverBodies:
                                                   -self.panel_thickness / 2.0])
             out.append(Body(name, PARTS.index("solar_panel"), "box",
                             (self.panel_length, self.panel_span, self.panel_thickness),
-                            centre, rotation))
+                            centre, rotation, -side * self.panel_droop))
         return tuple(out)
 
     @property

@@ -29,7 +29,14 @@ import fcl
 import numpy as np
 
 from idefix_rules.errors import UserInputError, error
-from idefix_rules.obstacles.bodies import PARTS, Body, RoverBodies, rotation_matrices
+from idefix_rules.obstacles.bodies import (
+    PARTS,
+    Body,
+    RoverBodies,
+    quaternion_product,
+    quaternions,
+    rotation_matrices,
+)
 from idefix_rules.obstacles.obstacles import LEVELS, ObstacleSet, Piece
 from idefix_rules.obstacles.result import (
     CheckSettings,
@@ -308,16 +315,16 @@ class _Walker:
         self.piece_objects = [fcl_piece(p) for p in pieces]
         self.request = fcl.DistanceRequest()
 
-    def _body_pose(self, body: Body, rotation: np.ndarray, position: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
-        return rotation @ body.rotation, position + rotation @ body.offset
-
-    def _interpolated(self, run: int, sample: int, frac: float) -> tuple[np.ndarray, np.ndarray]:
+    def _interpolated(self, body: Body, run: int, sample: int, frac: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Quaternion and position of ``body`` at the pose interpolated linearly between two
+        samples (the motion bound assumes exactly this interpolation)."""
         values = {name: (1.0 - frac) * self.chunk[name][run, sample]
                   + frac * self.chunk[name][run, sample + 1] for name in POSE_NAMES}
-        rotation = rotation_matrices(np.array(values["roll"]), np.array(values["pitch"]),
-                                     np.array(values["yaw"]))
-        return rotation, np.array([values["x"], values["y"], values["z"]])
+        angles = (np.array(values["roll"]), np.array(values["pitch"]), np.array(values["yaw"]))
+        rotation = rotation_matrices(*angles)
+        position = np.array([values["x"], values["y"], values["z"]]) + rotation @ body.offset
+        return quaternion_product(quaternions(*angles), body.quaternion), position
 
     def walk(self, run: int, b: int, m: int, first: int, last: int) -> None:
         settings, tol = self.settings, self.settings.contact_tolerance
@@ -327,7 +334,10 @@ class _Walker:
         obstacle = self.obstacles.obstacles[owner]
         margin = self.obstacles.buffer_margins[obstacle.level]
         cum = self.cum[run, first:last + 1, b].tolist()
-        rotations = self.rotation[run, first:last + 1] @ body.rotation
+        span = slice(first, last + 1)
+        rotations = quaternion_product(
+            quaternions(self.chunk["roll"][run, span], self.chunk["pitch"][run, span],
+                        self.chunk["yaw"][run, span]), body.quaternion)
         positions = self.position[run, first:last + 1] + self.rotation[run, first:last + 1] \
             @ body.offset
         end = last - first
@@ -337,7 +347,7 @@ class _Walker:
         first_contact: tuple[int, float] | None = None
         # Local names: this loop runs once per fcl call and dominates the check's time.
         distance_of, new_result, request = fcl.distance, fcl.DistanceResult, self.request
-        set_rotation, set_translation = body_object.setRotation, body_object.setTranslation
+        set_rotation, set_translation = body_object.setQuatRotation, body_object.setTranslation
         cap, min_step = self.cap, settings.min_step
         resolution, relative = settings.clearance_resolution, settings.clearance_relative
         check_margin = margin > tol
@@ -348,8 +358,7 @@ class _Walker:
                 set_translation(positions[j])
                 u = cum[j]
             else:
-                rotation, position = self._interpolated(run, first + j, frac)
-                body_rotation, body_position = self._body_pose(body, rotation, position)
+                body_rotation, body_position = self._interpolated(body, run, first + j, frac)
                 set_rotation(body_rotation)
                 set_translation(body_position)
                 u = cum[j] + frac * (cum[j + 1] - cum[j])

@@ -213,3 +213,20 @@ def test_rocks_of_the_fmu_terrain_are_the_same_obstacles():
     rock = terrain.rocks[1]
     assert second.size == pytest.approx(rock.z + rock.c - float(terrain.height_at(-0.5, 0.3)))
     assert second.pieces[0].centre.tolist() == pytest.approx([-0.5, 0.3, rock.z])
+
+
+def test_quaternions_are_the_same_rotations_as_the_matrices():
+    import fcl
+
+    from idefix_rules.obstacles.bodies import quaternion_product, quaternions
+
+    rng = np.random.default_rng(0)
+    angles = rng.uniform(-3, 3, (3, 5))
+    body = fcl.CollisionObject(fcl.Box(1, 1, 1), fcl.Transform())
+    matrices = rotation_matrices(*angles)
+    tilt = 0.4
+    q = quaternion_product(quaternions(*angles), quaternions(np.array(tilt), np.array(0.0),
+                                                             np.array(0.0)))
+    for k in range(5):
+        body.setQuatRotation(q[k])
+        assert np.allclose(body.getRotation(), matrices[k] @ _axis(0, tilt))
