@@ -67,19 +67,24 @@ def _box_images(data: ReportData, out_dir: Path) -> list[html.Image]:
     return images
 
 
+def prepare_report(results_h5: Path) -> tuple[ReportData, Setup, MapSet]:
+    """Everything the report shows, as data: read, evaluate per sample, bin (no drawing)."""
+    store = ResultStore.open(results_h5)
+    try:
+        data = read_report_data(store)
+        setup = setup_from_store(store)
+        return data, setup, prepare(store, data, setup)
+    finally:
+        store.close()
+
+
 def write_report(results_h5: Path, out_dir: Path) -> Path:
     """Write ``report.html`` and the figures as PNG into ``out_dir``; returns the HTML path.
 
     A missing or foreign results file raises :class:`~idefix_rules.errors.UserInputError`.
     """
-    results_h5, out_dir = Path(results_h5), Path(out_dir)
-    store = ResultStore.open(results_h5)
-    try:
-        data = read_report_data(store)
-        setup = setup_from_store(store)
-        maps = prepare(store, data, setup)
-    finally:
-        store.close()
+    data, setup, maps = prepare_report(Path(results_h5))
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     map_images = _map_images(data, maps, setup, out_dir)
     box_images = _box_images(data, out_dir)
@@ -104,4 +109,4 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
     return target
 
 
-__all__ = ["REPORT_FILE", "write_report"]
+__all__ = ["REPORT_FILE", "prepare_report", "write_report"]

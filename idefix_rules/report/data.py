@@ -9,7 +9,7 @@ them (dominant index counts, worst runs, rule coverage). Figures are drawn from 
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -157,33 +157,34 @@ class ReportData:
 
     def coverage(self) -> list[Coverage]:
         """Per index and chance: the largest value any complete run reached, and where."""
-        result: list[Coverage] = []
+        def index_peak(values: np.ndarray) -> float:
+            return float(np.nanmax(values))
+
+        def chance_share(values: np.ndarray) -> float:
+            return float(np.mean(values > 0))
+
+        indices = self._highest("indices", "index", index_peak)
+        chances = self._highest("chances", "chance", chance_share)
+        return ([Coverage(n, "index", v, w, v >= NEAR_LIMIT) for n, v, w in indices]
+                + [Coverage(n, "chance", v, w, v > 0.0) for n, v, w in chances])
+
+    def _highest(self, attribute: str, kind: str,
+                 measure: Callable[[np.ndarray], float]) -> list[tuple[str, float, str]]:
+        """(name, highest measure over the paths' complete runs, path where) per name."""
         names: list[str] = []
         for path in self.evaluated_paths:
-            names += [n for n in path.index_names if n not in names]
+            names += [n for n in getattr(path, attribute) if n not in names]
+        result = []
         for name in names:
             best, where = 0.0, ""
             for path in self.evaluated_paths:
-                values = path.indices.get(name)
+                values = getattr(path, attribute).get(name)
                 if values is None or not path.complete.any():
                     continue
-                highest = float(np.nanmax(values[path.complete]))
-                if highest > best or not where:
-                    best, where = highest, path.name
-            result.append(Coverage(name, "index", best, where, best >= NEAR_LIMIT))
-        chance_names: list[str] = []
-        for path in self.evaluated_paths:
-            chance_names += [n for n in path.chances if n not in chance_names]
-        for name in chance_names:
-            best, where = 0.0, ""
-            for path in self.evaluated_paths:
-                values = path.chances.get(name)
-                if values is None or not path.complete.any():
-                    continue
-                share = float(np.mean(values[path.complete] > 0))
-                if share > best or not where:
-                    best, where = share, path.name
-            result.append(Coverage(name, "chance", best, where, best > 0.0))
+                value = measure(values[path.complete])
+                if value > best or not where:
+                    best, where = value, path.name
+            result.append((name, best, where))
         return result
 
 

@@ -13,7 +13,7 @@ from conftest import write_results
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
-from idefix_rules.report import write_report
+from idefix_rules.report import prepare_report, write_report
 from idefix_rules.report.data import read_report_data
 
 
@@ -92,15 +92,7 @@ def test_cli_writes_next_to_the_results_or_into_out(synthetic_results: Path, tmp
 
 
 def test_maps_use_the_per_sample_risk_of_the_stored_rulebook(synthetic_results: Path) -> None:
-    from idefix_rules.report.prepare import prepare, setup_from_store
-
-    store = ResultStore.open(synthetic_results)
-    try:
-        data = read_report_data(store)
-        setup = setup_from_store(store)
-        maps = prepare(store, data, setup)
-    finally:
-        store.close()
+    data, setup, maps = prepare_report(synthetic_results)
     assert maps.per_sample and setup.notes == []
     straight = next(p for p in data.paths if p.name == "straight")
     values = maps.per_path["straight"].values()
