@@ -40,3 +40,12 @@ def test_default_signal_map_covers_the_fmu_part_of_the_contract() -> None:
     mapping = json.loads((source_dir() / "signal_map.json").read_text(encoding="utf-8"))
     covered = {name.split("[")[0] for name in mapping.values()}
     assert covered == set(FMU_SIGNALS)
+
+
+def test_rover_model_doc_documents_every_parameter() -> None:
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "rover-model.md").read_text(
+        encoding="utf-8")
+    for variable in VARIABLES:
+        if variable.causality == "parameter":
+            name = variable.name.split("[")[0] + ("[i]" if "[" in variable.name else "")
+            assert f"`{name}`" in doc, name
