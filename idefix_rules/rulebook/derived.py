@@ -100,7 +100,8 @@ def inputs_of(name: str) -> frozenset[str]:
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap to [-π, π)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+    turns = np.floor((angle + math.pi) * (1.0 / (2.0 * math.pi)))
+    return angle - (2.0 * math.pi) * turns
 
 
 class DerivedSignals:
@@ -167,10 +168,11 @@ class DerivedSignals:
             return np.hypot(self.get("x") - self.get("theory.x"),
                             self.get("y") - self.get("theory.y"))
         if name == "global_error":
-            dx = self.get("x") - self.get("ref.x")
-            dy = self.get("y") - self.get("ref.y")
-            dz = self.get("z") - self.get("ref.z")
-            return np.sqrt(dx * dx + dy * dy + dz * dz)
+            total = np.square(self.get("x") - self.get("ref.x"))
+            for axis in ("y", "z"):
+                difference = self.get(axis) - self.get(f"ref.{axis}")
+                total += np.square(difference, out=difference)
+            return np.sqrt(total, out=total)
         if name == "tolerance_radius":
             turned = self._progress()[1]
             return self.context.initial_position_sigma + self.settings.tolerance_growth * turned
@@ -185,6 +187,9 @@ class DerivedSignals:
     def _rate(self, values: np.ndarray) -> np.ndarray:
         if self.samples < 2:
             return np.zeros(np.broadcast_shapes(values.shape, (self.runs, self.samples)))
+        step = np.diff(self.t)
+        if np.allclose(step, step[0], rtol=1e-9, atol=0.0):  # uniform grid: cheaper formula
+            return np.gradient(values, float(step[0]), axis=1)
         return np.gradient(values, self.t, axis=1)
 
     # ------------------------------------------------------------------ theoretical path
