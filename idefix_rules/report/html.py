@@ -11,6 +11,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from html import escape
 
+import numpy as np
+
 from idefix_rules.report.data import LEVELS, NEAR_LIMIT, ReportData, TableRow
 
 CSS = """
@@ -61,6 +63,13 @@ def _number(value: float | None, digits: int = 1, scale: float = 1.0) -> str:
     if value is None or not math.isfinite(value):
         return "–"
     return f"{value * scale:.{digits}f}"
+
+
+def _mean(values: np.ndarray | None, digits: int, scale: float = 1.0) -> str:
+    """Mean of the finite values (absolute for signed errors), '–' when there are none."""
+    if values is None or not np.isfinite(values).any():
+        return "–"
+    return _number(float(np.mean(np.abs(values[np.isfinite(values)]))), digits, scale)
 
 
 def _verdict_class(verdict: str) -> str:
@@ -122,7 +131,8 @@ def header_html(data: ReportData) -> str:
 
 def table_one_html(data: ReportData) -> str:
     head = ("Path", "Risk [%]", "95 % CI of the risk [%]", "L1 hit [%]", "L2 hit [%]",
-            "L3 hit [%]", "Energy [mAs]", "Time [s]", "Verdict", "Rank", "Runs (failed)")
+            "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
+            "Energy [mAs]", "Time [s]", "Verdict", "Rank", "Runs (failed)")
     rows = []
     for path in data.paths:
         row = path.row
@@ -134,12 +144,14 @@ def table_one_html(data: ReportData) -> str:
         rows.append((
             escape(path.name), _number(row.mean_risk, 1, 100), ci,
             *(_number(level_chance(row, level), 1, 100) for level in LEVELS),
+            _mean(path.final_local_error, 3), _mean(path.final_heading_error, 2,
+                                                     180.0 / math.pi),
             _number(row.energy_mAs, 1), _number(row.time_s, 1),
             f"<span class=\"{_verdict_class(row.verdict)}\">{verdict}</span>",
             str(row.rank) if row.rank is not None else "–",
             f"{row.completed_runs} ({row.failed_runs})",
         ))
-    table = _table(head, rows, numeric={1, 2, 3, 4, 5, 6, 7, 9}, raw=True)
+    table = _table(head, rows, numeric={1, 2, 3, 4, 5, 6, 7, 8, 9, 11}, raw=True)
     reasons = []
     for path in data.paths:
         lines = list(path.row.verdict_reasons) or ([path.reason] if path.reason else [])
@@ -150,7 +162,8 @@ def table_one_html(data: ReportData) -> str:
     return (f"<section><h2>Table 1: path evaluation</h2>{table}"
             f"<p>Ranking, best first: {ranking}. Risk is the mean run risk I_max (eq. 2) "
             f"with its 95 % confidence interval; hit chances are the share of runs that hit an "
-            f"obstacle of that level.</p>{''.join(reasons)}</section>")
+            f"obstacle of that level; final errors are means of the absolute values at the end "
+            f"of the runs (distributions in the box plots below).</p>{''.join(reasons)}</section>")
 
 
 def figures_html(title: str, images: Sequence[Image], text: str = "") -> str:

@@ -165,6 +165,18 @@ def write_results(target: Path, evaluated: bool = True) -> Path:
                 "verdict_reasons": [f"acceptable_risk <script>alert('{name}')</script>"],
                 "rank": index + 1,
             })
+        rejected = file.create_group("paths/too-sharp")
+        rejected.attrs.update({"index": len(PATHS), "status": "rejected",
+                               "reason": "max_turn_angle: command 1 turns 120 deg > 90 deg",
+                               "stop_time": 0.0, "samples": 0, "ideal_duration": 0.0})
+        rejected.create_dataset("chain", data=np.array([[0.5, 0.1, 2.1]]))
+        summary_paths.append({"name": "too-sharp", "index": len(PATHS), "status": "rejected",
+                              "reason": "max_turn_angle: command 1 turns 120 deg > 90 deg",
+                              "runs": 0, "completed_runs": 0, "failed_runs": 0,
+                              "mean_risk": None, "risk_ci95": None, "chances": {},
+                              "energy_mAs": None, "time_s": None, "dominant_index": None,
+                              "verdict": "rejected", "undecided": False,
+                              "verdict_reasons": [], "rank": None})
         if evaluated:
             root = file.create_group("evaluation")
             root.attrs.update({"rulebook_name": "report-test", "rulebook_version": "0.1.0",

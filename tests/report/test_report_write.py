@@ -38,6 +38,9 @@ def test_report_files_and_header(written: Path) -> None:
     # Table 1: risk of 'straight' with its CI, the L2 chance, energy and time columns.
     assert "95 % CI of the risk" in text and "Energy [mAs]" in text and "Time [s]" in text
     assert "not decided at this number of runs" in text
+    # A path rejected by the command rules is listed with its reason, without figures.
+    assert "too-sharp" in text and "max_turn_angle: command 1 turns 120 deg" in text
+    assert "risk_map_too-sharp.png" not in names
 
 
 def test_report_is_self_contained_and_escaped(written: Path) -> None:
