@@ -30,7 +30,7 @@ class Rock:
     """A rigid rock: an axis-aligned ellipsoid, SI units.
 
     ``z`` is the centre height above the terrain datum; ``None`` places the rock on the ground
-    at (x, y) sunk by ``embedded`` metres (resolved by :class:`Terrain`). ``level`` is the
+    at (x, y) with its bottom ``embed`` metres deep (resolved by :class:`Terrain`). ``level`` is the
     obstacle level ("L1", "L2", "L3") when known.
     """
 
@@ -40,7 +40,7 @@ class Rock:
     b: float
     c: float
     z: float | None = None
-    embedded: float = 0.0
+    embed: float = 0.0
     level: str | None = None
 
     @property
@@ -68,7 +68,7 @@ class Terrain:
         object.__setattr__(self, "origin", (float(self.origin[0]), float(self.origin[1])))
         resolved = tuple(
             rock if rock.z is not None else replace(
-                rock, z=float(self.height_at(rock.x, rock.y)) + rock.c - rock.embedded)
+                rock, z=float(self.height_at(rock.x, rock.y)) + rock.c - rock.embed)
             for rock in self.rocks
         )
         object.__setattr__(self, "rocks", resolved)

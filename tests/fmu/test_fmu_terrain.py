@@ -31,7 +31,7 @@ def test_round_trip_keeps_heights_and_rocks(tmp_path: Path) -> None:
 
 def test_rock_without_height_rests_on_the_ground_sunk_by_its_embedding() -> None:
     terrain = synthetic_terrain(size=2.0, cell=0.05, slope=0.2, slope_direction=0.0,
-                                rocks=[Rock(0.5, 0.0, 0.1, 0.1, 0.05, embedded=0.02)])
+                                rocks=[Rock(0.5, 0.0, 0.1, 0.1, 0.05, embed=0.02)])
     rock = terrain.rocks[0]
     assert rock.z == pytest.approx(-math.tan(0.2) * 0.5 + 0.05 - 0.02)
     assert rock.top == pytest.approx(rock.z + 0.05)
