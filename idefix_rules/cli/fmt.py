@@ -69,8 +69,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             path.write_text(text, encoding="utf-8")
             console.print(f"reformatted {name}", markup=False)
-    for failure in invalid:
-        console.print(failure.render(), markup=False)
+    for problem in invalid:
+        console.print(problem.render(), markup=False)
     if invalid:
         return 2
     unchanged = len(args.rulebooks) - len(changed)

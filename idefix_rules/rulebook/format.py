@@ -100,7 +100,7 @@ def format_expr(expr: model.Expr) -> str:
     if isinstance(expr, model.Call):
         return f"{expr.function}({', '.join(format_expr(arg) for arg in expr.args)})"
     if isinstance(expr, model.Reduce):
-        parts = [expr.reducer]
+        parts: list[str] = [expr.reducer]
         if expr.parameter is not None:
             parts.append(_simple(expr.parameter))
         parts += ["over", expr.domain]

@@ -45,6 +45,7 @@ from idefix_rules.rulebook import model
 from idefix_rules.rulebook.grammar import collecting_comments, rulebook_parser
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.syntax_errors import (
+    SYNTAX_ERROR,
     blank_failed_declaration,
     error_line,
     syntax_diagnostic,
@@ -79,7 +80,14 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
     lowering = _Lowering(path)
     try:
         declarations = lowering.transform(tree)
+    except RecursionError:
+        raise UserInputError(error(SYNTAX_ERROR, "expression nested too deeply",
+                                   Span(path, 1, 1, 1, 2)), sources={path: text}) from None
     except lark.exceptions.VisitError as failure:  # only our own mistakes can land here
+        if isinstance(failure.orig_exc, RecursionError):
+            raise UserInputError(error(SYNTAX_ERROR, "expression nested too deeply",
+                                       _span(path, getattr(failure.obj, "meta", None))),
+                                 sources={path: text}) from None
         raise failure.orig_exc from None
     rulebook = _assemble(declarations, comments, text, path, lowering.diagnostics)
     if lowering.diagnostics:
@@ -119,7 +127,7 @@ def _parse_tree(text: str, path: str) -> tuple[lark.Tree | None, list[Token], li
             continue
         except RecursionError:
             line = 1
-            diagnostics.append(error("E001", "expression nested too deeply",
+            diagnostics.append(error(SYNTAX_ERROR, "expression nested too deeply",
                                      Span(path, line, 1, line, 2)))
             return None, [], diagnostics
         return tree, comments, diagnostics
@@ -369,7 +377,7 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
         run = found["run"].value if "run" in found else "max_weighted"
         path = found["path"].value if "path" in found else "mean"
         confidence = found["confidence"].value if "confidence" in found else None
-        return model.Combine(run, path, confidence, span=self._s(meta))
+        return model.Combine(run, path, confidence, span=self._s(meta))  # type: ignore[arg-type]
 
     def rank_key(self, meta: Any, children: list[Any]) -> model.RankKey:
         expr, descending = children
@@ -457,6 +465,7 @@ def _first_line(span: Span) -> Span:
 
 # ----------------------------------------------------------------------------- comments
 
+_FIRST_WORD = re.compile(r"\s*([A-Za-z_]+|\})")
 _BLOCK_ANCHORS = {
     model.Index: ("index", "value", "limit", "weight", "map", "because", "}"),
     model.Combine: ("combine", "run", "path", "confidence", "}"),
@@ -467,6 +476,7 @@ _BLOCK_ANCHORS = {
 def _attach_comments(nodes: list[Any], blocks: list[_Section], comments: list[Token],
                      text: str) -> dict[Any, Any]:
     """Node id → the node with its comments; ``"trailing"`` → comments after everything."""
+    header = nodes[0]
     present = [node for node in nodes if node is not None and node.span.line > 0]
     present.sort(key=lambda node: (node.span.line, node.span.column))
     lines = text.split("\n")
@@ -487,6 +497,8 @@ def _attach_comments(nodes: list[Any], blocks: list[_Section], comments: list[To
             continue
         following = next((node for node in present
                           if (node.span.line, node.span.column) > (line, column)), None)
+        if present and following is present[0] and header in present:
+            following = header  # comments above everything belong to the file: keep them first
         if following is None:
             trailing.append(body)
             continue
@@ -511,12 +523,10 @@ def _inside_comment(node: Any, body: str, line: int, own_line: bool, lines: list
         return f"@eol {body}"
 
     def anchor_of(number: int) -> str | None:
-        words = lines[number - 1].split(None, 1) if 0 < number <= len(lines) else []
-        word = words[0] if words else ""
-        for anchor in anchors:
-            if word == anchor or (word.startswith(anchor) and anchor == "}"):
-                return anchor
-        return None
+        line_text = lines[number - 1] if 0 < number <= len(lines) else ""
+        first = _FIRST_WORD.match(line_text)
+        word = first.group(1) if first else ""
+        return word if word in anchors else None
 
     if own_line:
         for number in range(line + 1, node.span.end_line + 1):

@@ -81,12 +81,13 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
                       path: str) -> Diagnostic:
     """One diagnostic for a lark syntax error, at the offending token or character."""
     if isinstance(failure, lark.exceptions.UnexpectedCharacters):
-        char = text[failure.pos_in_stream] if failure.pos_in_stream < len(text) else ""
+        position = failure.pos_in_stream or 0
+        char = text[position] if position < len(text) else ""
         span = Span(path, failure.line, failure.column, failure.line, failure.column + 1)
         hint = None
         if char == '"':
             hint = 'a string ends with " on the same line it starts'
-        elif char in "!=&|" and failure.allowed:
+        elif char and char in "!=&|" and failure.allowed:
             hint = "comparisons are <, <=, >, >=, ==, !=; logic is and, or, not"
         shown = repr(char)[1:-1] if char.isprintable() else f"\\u{ord(char or ' '):04x}"
         message = f"unexpected character '{shown}'"
@@ -126,7 +127,7 @@ def acceptable(state: object, candidates: set[str]) -> set[str]:
             trial.feed_token(lark.Token(name, ""), is_end=name == "$END")
         except lark.exceptions.UnexpectedInput:
             continue
-        except Exception:  # noqa: BLE001 - a trial that cannot run: keep the candidate
+        except Exception:
             pass
         accepted.add(name)
     return accepted or candidates

@@ -1,0 +1,168 @@
+"""`idefix-verify check`, `fmt` and `explain`, and the default rulebook they ship with."""
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli import main
+from idefix_rules.rulebook import load_rulebook
+from idefix_rules.rulebook.format import format_rulebook
+from idefix_rules.rulebook.parser import parse_rulebook
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT = ROOT / "rulebooks" / "idefix-ops.rules"
+EARLIER = ROOT / "rulebooks" / "history" / "idefix-ops-0.9.0.rules"
+
+VALID = """rulebook "cli" version "1.0.0"
+purpose "CLI test"
+const critical_slip = 70 %
+index I_s "slip" {
+  value  = max over time (max over wheels (abs(wheel.slip)))
+  limit  = critical_slip
+  weight = 1
+}
+verdict ok: require risk <= 70 %
+"""
+UNFORMATTED = VALID.replace("const critical_slip = 70 %", "const   critical_slip=70 %")
+
+
+@pytest.fixture
+def write(tmp_path):
+    def _write(name: str, text: str) -> Path:
+        path = tmp_path / name
+        path.write_text(text, encoding="utf-8")
+        return path
+    return _write
+
+
+# ----------------------------------------------------------------------------- check
+
+def test_check_accepts_a_valid_rulebook(write, capsys):
+    assert main(["check", str(write("ok.rules", VALID))]) == 0
+    assert "ok.rules: ok" in capsys.readouterr().out
+
+
+def test_check_reports_every_error_of_every_file_with_exit_2(write, capsys):
+    good = write("good.rules", VALID)
+    bad = write("bad.rules", VALID.replace("limit  = critical_slip", "limit  = 5 cm")
+                .replace("weight = 1", "weight = 1.5"))
+    assert main(["check", str(good), str(bad)]) == 2
+    out = capsys.readouterr().out
+    assert re.search(r"bad\.rules:6:\d+: error\[E204\]", out)
+    assert re.search(r"bad\.rules:7:\d+: error\[E401\]", out)
+    assert "good.rules: ok" in out and "bad.rules: 2 errors" in out
+    assert "    ^" in out  # the caret under the source line
+
+
+def test_check_json_lists_the_diagnostics(write, capsys):
+    bad = write("bad.rules", VALID.replace("critical_slip\n", "critcal_slip\n"))
+    assert main(["check", "--format", "json", str(bad)]) == 2
+    [record] = json.loads(capsys.readouterr().out)
+    assert record["code"] == "E101" and record["line"] == 6
+    assert record["path"] == str(bad) and "critical_slip" in record["hint"]
+
+
+def test_check_strict_turns_warnings_into_a_failure(write, capsys):
+    path = write("w.rules", VALID + "const unused = 3 cm\n")
+    assert main(["check", str(path)]) == 0
+    assert main(["check", "--strict", str(path)]) == 2
+    assert "W601" in capsys.readouterr().out
+
+
+def test_check_of_a_missing_or_binary_file_is_exit_2_not_a_traceback(write, tmp_path, capsys):
+    junk = tmp_path / "junk.rules"
+    junk.write_bytes(b"\xff\xfe\x00rulebook")
+    assert main(["check", str(tmp_path / "missing.rules"), str(junk)]) == 2
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    assert "not found" in captured.out
+
+
+def test_check_of_a_syntax_error_is_exit_2(write, capsys):
+    assert main(["check", str(write("s.rules", VALID + "verdict x: require risk = 1\n"))]) == 2
+    assert "use '==' to compare" in capsys.readouterr().out
+
+
+# ----------------------------------------------------------------------------- fmt
+
+def test_fmt_rewrites_in_place(write, capsys):
+    path = write("f.rules", UNFORMATTED)
+    assert main(["fmt", str(path)]) == 0
+    assert path.read_text() == format_rulebook(parse_rulebook(UNFORMATTED, str(path)))
+    assert "reformatted" in capsys.readouterr().out
+    assert main(["fmt", "--check", str(path)]) == 0
+
+
+def test_fmt_check_exits_1_names_the_file_and_writes_nothing(write, capsys):
+    path = write("f.rules", UNFORMATTED)
+    assert main(["fmt", "--check", str(path)]) == 1
+    assert f"would reformat {path}" in capsys.readouterr().out
+    assert path.read_text() == UNFORMATTED
+
+
+def test_fmt_diff_shows_the_change(write, capsys):
+    path = write("f.rules", UNFORMATTED)
+    assert main(["fmt", "--check", "--diff", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "-const   critical_slip=70 %" in out and "+const critical_slip = 70 %" in out
+
+
+def test_fmt_of_an_invalid_file_is_exit_2_and_leaves_it_alone(write, capsys):
+    text = VALID + "verdict broken require\n"
+    path = write("b.rules", text)
+    assert main(["fmt", str(path)]) == 2
+    assert path.read_text() == text
+    assert "error[E001]" in capsys.readouterr().out
+
+
+def test_fmt_help_says_what_check_does(capsys):
+    assert main(["fmt", "--help"]) == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "--check" in help_text and "exit 1 if any would" in help_text
+
+
+# ----------------------------------------------------------------------------- explain
+
+def test_explain_lists_every_rule(capsys):
+    assert main(["explain", str(DEFAULT)]) == 0
+    out = capsys.readouterr().out
+    for name in ("I_pos", "I_theta", "I_psi", "I_phi", "I_s", "I_beta", "I_ds", "I_obs",
+                 "max_turn_angle", "min_motion", "hit_L3", "no_clear_collision",
+                 "acceptable_risk", "rank by risk, time, energy"):
+        assert name in out, name
+
+
+def test_explain_of_an_invalid_rulebook_is_exit_2(write, capsys):
+    assert main(["explain", str(write("x.rules", "rulebook"))]) == 2
+
+
+# ----------------------------------------------------------------------------- default rulebook
+
+def test_default_rulebooks_are_valid_strict_and_formatted(capsys):
+    assert main(["check", "--strict", str(DEFAULT), str(EARLIER)]) == 0
+    assert main(["fmt", "--check", str(DEFAULT), str(EARLIER)]) == 0
+
+
+def test_default_rulebook_has_the_papers_rules_each_with_a_rationale():
+    book = load_rulebook(DEFAULT)
+    assert {i.name for i in book.indices} == {"I_pos", "I_theta", "I_psi", "I_phi", "I_s",
+                                              "I_beta", "I_ds", "I_obs"}
+    assert {"max_turn_angle", "min_motion"} <= {r.name for r in book.command_rules}
+    assert {"hit_L1", "hit_L2", "hit_L3"} <= {c.name for c in book.chances}
+    assert {level.level for level in book.obstacle_levels} == {"L1", "L2", "L3"}
+    declarations = [*book.constants, *book.command_rules, *book.indices, *book.chances,
+                    *book.prescreens, *book.verdicts]
+    assert all(d.rationale for d in declarations), [d.name for d in declarations
+                                                    if not d.rationale]
+    slip = {c.name: c.value for c in book.constants}
+    assert slip["nominal_slip"].value == 20 and slip["critical_slip"].value == 70
+
+
+def test_the_earlier_version_differs_and_says_so():
+    current, earlier = load_rulebook(DEFAULT), load_rulebook(EARLIER)
+    assert earlier.header.name == current.header.name
+    assert earlier.header.version == "0.9.0" != current.header.version
+    assert earlier != current
+    assert "EARLIER VERSION" in EARLIER.read_text()
