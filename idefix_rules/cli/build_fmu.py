@@ -10,8 +10,9 @@ HELP = "build the rover FMU from its C sources for this platform and print the .
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--force", action="store_true",
-                        help="rebuild even when the cache holds an FMU built from these sources")
+    parser.add_argument("--cached", action="store_true",
+                        help="reuse the cached FMU when one was built from these sources "
+                             "(default: always rebuild)")
     parser.add_argument("--output", "-o", type=Path, default=None,
                         help="write the .fmu here instead of the cache "
                              "($IDEFIX_CACHE or ~/.cache/idefix-rules)")
@@ -26,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
 
     console = Console(stderr=True)
     console.print(f"[dim]sources:[/] {source_dir()}")
-    path = build_fmu(force=args.force or args.output is not None, output=args.output)
+    path = build_fmu(force=not args.cached or args.output is not None, output=args.output)
     if args.validate:
         from fmpy.validation import validate_fmu
 

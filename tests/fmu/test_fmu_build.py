@@ -29,7 +29,10 @@ def test_cli_build_fmu_prints_the_path_as_last_line(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setenv("IDEFIX_CACHE", str(tmp_path))
-    assert main(["build-fmu", "--force"]) == 0
-    last = capsys.readouterr().out.strip().splitlines()[-1]
-    assert Path(last).is_file() and Path(last).suffix == ".fmu"
-    assert Path(last).is_relative_to(tmp_path)
+    assert main(["build-fmu"]) == 0
+    last = Path(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last.is_file() and last.suffix == ".fmu" and last.is_relative_to(tmp_path)
+    stamp = last.stat().st_mtime_ns
+    assert main(["build-fmu", "--cached"]) == 0
+    assert Path(capsys.readouterr().out.strip().splitlines()[-1]) == last
+    assert last.stat().st_mtime_ns == stamp
