@@ -21,6 +21,7 @@ Three stages per chunk of runs (``docs/obstacles.md`` has the derivations):
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -301,6 +302,20 @@ def _broad_phase(position: np.ndarray, rotation: np.ndarray, cum: np.ndarray,
     return out
 
 
+_DEPTH_REQUEST = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
+_DEPTH_SAFETY = 0.9  # use 90 % of fcl's penetration depth (EPA is iterative)
+_DEPTH_PAUSE = 8  # contact anchors without a depth query after a shallow answer
+
+
+def _penetration_depth(body: fcl.CollisionObject, piece: fcl.CollisionObject) -> float:
+    """fcl's penetration depth of two overlapping objects, 0 when they do not overlap."""
+    result = fcl.CollisionResult()
+    fcl.collide(body, piece, _DEPTH_REQUEST, result)
+    if not result.is_collision or not result.contacts:
+        return 0.0
+    return max(0.0, float(result.contacts[0].penetration_depth))
+
+
 class _Walker:
     """Conservative advancement along one (run, body, piece) stretch, writing into tracks."""
 
@@ -315,104 +330,173 @@ class _Walker:
         self.piece_objects = [fcl_piece(p) for p in pieces]
         self.request = fcl.DistanceRequest()
 
-    def _interpolated(self, body: Body, run: int, sample: int, frac: float
-                      ) -> tuple[np.ndarray, np.ndarray]:
-        """Quaternion and position of ``body`` at the pose interpolated linearly between two
-        samples (the motion bound assumes exactly this interpolation)."""
-        values = {name: (1.0 - frac) * self.chunk[name][run, sample]
-                  + frac * self.chunk[name][run, sample + 1] for name in POSE_NAMES}
-        angles = (np.array(values["roll"]), np.array(values["pitch"]), np.array(values["yaw"]))
-        rotation = rotation_matrices(*angles)
-        position = np.array([values["x"], values["y"], values["z"]]) + rotation @ body.offset
-        return quaternion_product(quaternions(*angles), body.quaternion), position
+    def _measurer(self, body_object: fcl.CollisionObject, piece_object: fcl.CollisionObject,
+                  margin: float) -> Callable[[], tuple[float, float]]:
+        """``measure() -> (value, allowance)`` at the body's current pose: value is the clearance
+        (0 in contact, capped), allowance how far (in ``u``) every decision and the clearance
+        value within its error bound are sure to hold."""
+        settings, tol, cap = self.settings, self.settings.contact_tolerance, self.cap
+        min_step = settings.min_step
+        resolution, relative = settings.clearance_resolution, settings.clearance_relative
+        check_margin = margin > tol
+        distance_of, new_result, request = fcl.distance, fcl.DistanceResult, self.request
+        depth_pause = 0
+
+        def measure() -> tuple[float, float]:
+            nonlocal depth_pause
+            distance = distance_of(body_object, piece_object, request, new_result())
+            if distance <= tol:
+                # fcl reports -1 for overlap. While every point of the body moves less than
+                # the penetration depth the overlap persists (separating-axis argument), so a
+                # deep overlap allows long steps; the depth query costs about two distance
+                # calls, so after a shallow answer (a wheel resting on a rock) it pauses.
+                allowance = tol - distance if distance > 0.0 else tol
+                if depth_pause == 0:
+                    depth = _penetration_depth(body_object, piece_object)
+                    allowance += _DEPTH_SAFETY * depth
+                    if depth < 2.0 * tol:
+                        depth_pause = _DEPTH_PAUSE
+                else:
+                    depth_pause -= 1
+                return 0.0, allowance
+            # Keep the contact and buffer decisions, bound the clearance error.
+            allowance = distance - tol
+            if check_margin:
+                to_margin = distance - margin if distance > margin else margin - distance
+                if to_margin < allowance:
+                    allowance = to_margin
+            error_bound = relative * distance
+            if error_bound < resolution:
+                error_bound = resolution
+            if distance - cap > error_bound:
+                error_bound = distance - cap
+            if error_bound < allowance:
+                allowance = error_bound
+            return (distance if distance < cap else cap), (
+                allowance if allowance > min_step else min_step)
+
+        return measure
 
     def walk(self, run: int, b: int, m: int, first: int, last: int) -> None:
-        settings, tol = self.settings, self.settings.contact_tolerance
+        """Anchors at samples as far apart as their allowances permit; a gap between two
+        consecutive samples is filled with interpolated anchors only when a contact or buffer
+        entry could hide in it (both ends clear of a threshold, but not by enough)."""
+        tol = self.settings.contact_tolerance
         body, body_object = self.body_list[b], self.body_objects[b]
-        piece_object = self.piece_objects[m]
         owner = int(self.piece_owner[m])
-        obstacle = self.obstacles.obstacles[owner]
-        margin = self.obstacles.buffer_margins[obstacle.level]
-        cum = self.cum[run, first:last + 1, b].tolist()
+        margin = self.obstacles.buffer_margins[self.obstacles.obstacles[owner].level]
+        measure = self._measurer(body_object, self.piece_objects[m], margin)
         span = slice(first, last + 1)
+        cum = self.cum[run, span, b].tolist()
         rotations = quaternion_product(
             quaternions(self.chunk["roll"][run, span], self.chunk["pitch"][run, span],
                         self.chunk["yaw"][run, span]), body.quaternion)
-        positions = self.position[run, first:last + 1] + self.rotation[run, first:last + 1] \
-            @ body.offset
+        positions = self.position[run, span] + self.rotation[run, span] @ body.offset
+        set_rotation, set_translation = body_object.setQuatRotation, body_object.setTranslation
         end = last - first
         values: list[float] = []
         counts: list[int] = []
         between: list[int] = []  # samples marked for contacts found between two samples
-        first_contact: tuple[int, float] | None = None
-        # Local names: this loop runs once per fcl call and dominates the check's time.
-        distance_of, new_result, request = fcl.distance, fcl.DistanceResult, self.request
-        set_rotation, set_translation = body_object.setQuatRotation, body_object.setTranslation
-        cap, min_step = self.cap, settings.min_step
-        resolution, relative = settings.clearance_resolution, settings.clearance_relative
-        check_margin = margin > tol
-        j, frac = 0, 0.0
+        fill_min = self.cap
+        set_rotation(rotations[0])
+        set_translation(positions[0])
+        value, allowance = measure()
+        first_contact: tuple[int, float] | None = (0, 0.0) if value == 0.0 else None
+        j = 0
         while True:
-            if frac == 0.0:
-                set_rotation(rotations[j])
-                set_translation(positions[j])
-                u = cum[j]
-            else:
-                body_rotation, body_position = self._interpolated(body, run, first + j, frac)
-                set_rotation(body_rotation)
-                set_translation(body_position)
-                u = cum[j] + frac * (cum[j + 1] - cum[j])
-            distance = distance_of(body_object, piece_object, request, new_result())
-            in_contact = distance <= tol
-            if in_contact:
-                # fcl reports -1 for overlap: the depth is unknown, so assume none.
-                allowance = tol - distance if distance > 0.0 else tol
-                value = 0.0
-                if first_contact is None:
-                    first_contact = (j, frac)
-            else:
-                # Keep the contact and buffer decisions, bound the clearance error.
-                allowance = distance - tol
-                if check_margin:
-                    to_margin = distance - margin if distance > margin else margin - distance
-                    if to_margin < allowance:
-                        allowance = to_margin
-                error_bound = relative * distance
-                if error_bound < resolution:
-                    error_bound = resolution
-                if distance - cap > error_bound:
-                    error_bound = distance - cap
-                if error_bound < allowance:
-                    allowance = error_bound
-                value = distance if distance < cap else cap
-            target = u + (allowance if allowance > min_step else min_step)
-            k = bisect_right(cum, target) - 1
-            covered_from = j if frac == 0.0 else j + 1
+            k = bisect_right(cum, cum[j] + allowance) - 1
             values.append(value)
             if k >= end:
-                counts.append(end - covered_from + 1)
+                counts.append(end - j + 1)
                 break
-            if k > j:
-                counts.append(k - covered_from)
-                if in_contact and k == covered_from:
-                    between.append(j if frac < 0.5 else j + 1)
-                j, frac = k, 0.0
-            else:  # the next sample is beyond the allowance: next anchor between samples
-                counts.append(1 if frac == 0.0 else 0)
-                if in_contact and frac > 0.0:
-                    between.append(j if frac < 0.5 else j + 1)
-                frac = (target - cum[j]) / (cum[j + 1] - cum[j])
-        self._record(run, b, owner, first, np.repeat(values, counts), between, first_contact)
+            if k > j:  # samples j..k-1 are covered by the anchor at j
+                counts.append(k - j)
+                j = k
+                set_rotation(rotations[j])
+                set_translation(positions[j])
+                value, allowance = measure()
+                if value == 0.0 and first_contact is None:
+                    first_contact = (j, 0.0)
+                continue
+            counts.append(1)  # the next sample lies beyond the allowance: measure it too
+            set_rotation(rotations[j + 1])
+            set_translation(positions[j + 1])
+            next_value, next_allowance = measure()
+            step = cum[j + 1] - cum[j]
+            if _gap_may_hide(value, next_value, step, tol, margin):
+                low, contact_at = self._fill(run, body, first + j, measure, cum[j] + allowance,
+                                             cum[j + 1] - next_allowance, cum[j], step)
+                fill_min = min(fill_min, low)
+                if contact_at is not None:
+                    between.append(j if contact_at < 0.5 else j + 1)
+                    if first_contact is None:
+                        first_contact = (j, contact_at)
+            j += 1
+            value, allowance = next_value, next_allowance
+            if value == 0.0 and first_contact is None:
+                first_contact = (j, 0.0)
+        self._record(run, b, owner, first, np.repeat(values, counts), between, first_contact,
+                     fill_min)
+
+    def _fill(self, run: int, body: Body, sample: int, measure: Callable[[], tuple[float, float]],
+              u: float, u_end: float, u_sample: float, step: float) -> tuple[float, float | None]:
+        """Interpolated anchors from ``u`` to ``u_end`` between ``sample`` and the next one:
+        the smallest clearance seen and the fraction of the step where contact starts, if any."""
+        body_object = self.body_objects[self.body_list.index(body)]
+        low = self.cap
+        while u < u_end:
+            frac = (u - u_sample) / step
+            quaternion, position = self._pose_between(run, sample, frac, body)
+            body_object.setQuatRotation(quaternion)
+            body_object.setTranslation(position)
+            value, allowance = measure()
+            low = min(low, value)
+            if value == 0.0:
+                return 0.0, frac
+            u += allowance
+        return low, None
+
+    def _pose_between(self, run: int, sample: int, frac: float, body: Body
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Quaternion and position of ``body`` at the pose interpolated linearly between two
+        samples (the motion bound assumes exactly this interpolation); plain floats, as this
+        runs once per interpolated anchor."""
+        c = self.chunk
+
+        def lerp(name: str) -> float:
+            a = float(c[name][run, sample])
+            return a + frac * (float(c[name][run, sample + 1]) - a)
+
+        roll, pitch, yaw = lerp("roll") / 2, lerp("pitch") / 2, lerp("yaw") / 2
+        cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        w = cy * cp * cr + sy * sp * sr
+        x = cy * cp * sr - sy * sp * cr
+        y = cy * sp * cr + sy * cp * sr
+        z = sy * cp * cr - cy * sp * sr
+        ox, oy, oz = (float(v) for v in body.offset)
+        # v + 2w (q × v) + 2 q × (q × v): the offset rotated by the pose.
+        tx, ty, tz = 2 * (y * oz - z * oy), 2 * (z * ox - x * oz), 2 * (x * oy - y * ox)
+        px = lerp("x") + ox + w * tx + (y * tz - z * ty)
+        py = lerp("y") + oy + w * ty + (z * tx - x * tz)
+        pz = lerp("z") + oz + w * tz + (x * ty - y * tx)
+        bw, bx, by, bz = (float(v) for v in body.quaternion)
+        quaternion = np.array([w * bw - x * bx - y * by - z * bz,
+                               w * bx + x * bw + y * bz - z * by,
+                               w * by - x * bz + y * bw + z * bx,
+                               w * bz + x * by - y * bx + z * bw])
+        return quaternion, np.array([px, py, pz])
 
     def _record(self, run: int, b: int, owner: int, first: int, per_sample: np.ndarray,
-                between: list[int], first_contact: tuple[int, float] | None) -> None:
+                between: list[int], first_contact: tuple[int, float] | None,
+                fill_min: float) -> None:
         tracks = self.tracks
         body = self.body_list[b]
         span = slice(first, first + len(per_sample))
         np.minimum(tracks.clearance[run, span, b], per_sample, out=tracks.clearance[run, span, b])
         part = body.part
         tracks.nearest[run, b, owner] = min(tracks.nearest[run, b, owner],
-                                            float(per_sample.min()))
+                                            float(per_sample.min()), fill_min)
         if first_contact is None:
             return
         level = self.obstacles.obstacles[owner].level
@@ -428,3 +512,15 @@ class _Walker:
         tracks.note_contact(FirstContact(PARTS[part], LEVELS[level], pose["t"], pose["x"],
                                          pose["y"], pose["z"], body.name,
                                          self.obstacles.obstacles[owner].name), run)
+
+
+def _gap_may_hide(value: float, next_value: float, step: float, tol: float,
+                  margin: float) -> bool:
+    """Whether a contact or buffer entry could lie strictly between two measured samples that
+    both show none: the distance can dip at most to ``(d0 + d1 - step) / 2`` in between."""
+    if value == 0.0 or next_value == 0.0:
+        return False  # a contact at either end already counts
+    lowest = (value + next_value - step) / 2.0
+    if lowest <= tol:
+        return True
+    return margin > tol and value >= margin and next_value >= margin and lowest < margin
