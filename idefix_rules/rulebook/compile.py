@@ -279,7 +279,7 @@ class CompiledRulebook:
 def _normalise(value: np.ndarray, limit: float) -> np.ndarray:
     """``clamp(value / limit, 0, 1)``, NaN → 1 (``fmin`` returns 1 for NaN)."""
     normalised = np.fmin(np.divide(value, limit), 1.0)
-    return np.fmax(normalised, 0.0, out=normalised)
+    return np.asarray(np.fmax(normalised, 0.0, out=normalised))
 
 
 def _scope_closure(name: str) -> Closure:

@@ -165,21 +165,21 @@ class DerivedSignals:
             self._cache["theory.x"], self._cache["theory.y"], self._cache["theory.yaw"] = x, y, yaw
             return self._cache[name]
         if name == "local_error":
-            return np.hypot(self.get("x") - self.get("theory.x"),
-                            self.get("y") - self.get("theory.y"))
+            return np.asarray(np.hypot(self.get("x") - self.get("theory.x"),
+                                       self.get("y") - self.get("theory.y")))
         if name == "global_error":
             total = np.square(self.get("x") - self.get("ref.x"))
             for axis in ("y", "z"):
                 difference = self.get(axis) - self.get(f"ref.{axis}")
                 total += np.square(difference, out=difference)
-            return np.sqrt(total, out=total)
+            return np.asarray(np.sqrt(total, out=total))
         if name == "tolerance_radius":
             turned = self._progress()[1]
             return self.context.initial_position_sigma + self.settings.tolerance_growth * turned
         if name == "heading_error":
             return wrap_angle(self.get("yaw") - self.get("ref.yaw"))
         if name == "speed":
-            return np.hypot(self._rate(self.get("x")), self._rate(self.get("y")))
+            return np.asarray(np.hypot(self._rate(self.get("x")), self._rate(self.get("y"))))
         if name == "acceleration":
             return self._rate(self.get("speed"))
         raise AssertionError(f"derived signal {name!r} has no formula")  # pragma: no cover
@@ -189,8 +189,8 @@ class DerivedSignals:
             return np.zeros(np.broadcast_shapes(values.shape, (self.runs, self.samples)))
         step = np.diff(self.t)
         if np.allclose(step, step[0], rtol=1e-9, atol=0.0):  # uniform grid: cheaper formula
-            return np.gradient(values, float(step[0]), axis=1)
-        return np.gradient(values, self.t, axis=1)
+            return np.asarray(np.gradient(values, float(step[0]), axis=1))
+        return np.asarray(np.gradient(values, self.t, axis=1))
 
     # ------------------------------------------------------------------ theoretical path
     def _command_progress(self) -> tuple[np.ndarray, np.ndarray]:

@@ -8,7 +8,7 @@ a time) so the two evaluators check each other: the test suite runs both on ever
 and on generated rulebooks and signals.
 
 >>> from idefix_rules.rulebook.interpret import reduce_series
->>> reduce_series("integral", [0.0, 1.0, 2.0], [True, True, True], [0.0, 1.0, 2.0], None)
+>>> float(reduce_series("integral", [0.0, 1.0, 2.0], [True, True, True], [0.0, 1.0, 2.0], None))
 2.0
 """
 

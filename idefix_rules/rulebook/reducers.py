@@ -39,11 +39,13 @@ def reduce(reducer: str, x: np.ndarray, axis: int, size: int, mask: np.ndarray |
         if mask is None and axis != 1 and size <= _SMALL:
             return _small_axis(reducer, truth, axis, size)
         if reducer == "any":
-            return (truth if mask is None else truth & mask).any(axis=axis, keepdims=True)
+            return np.asarray((truth if mask is None else truth & mask).any(axis=axis,
+                                                                            keepdims=True))
         if reducer == "all":
-            return (truth if mask is None else truth | ~mask).all(axis=axis, keepdims=True)
+            return np.asarray((truth if mask is None else truth | ~mask).all(axis=axis,
+                                                                             keepdims=True))
         counted = truth if mask is None else truth & mask
-        return counted.sum(axis=axis, keepdims=True).astype(float)
+        return np.asarray(counted.sum(axis=axis, keepdims=True), dtype=float)
     x = _as_float(x)
     if mask is None:
         if axis != 1 and size <= _SMALL and reducer in _SMALL_REDUCERS:
@@ -100,7 +102,7 @@ def _small_axis(reducer: str, x: np.ndarray, axis: int, size: int) -> np.ndarray
         squares = part(0) * part(0)
         for i in range(1, size):
             squares += part(i) * part(i)
-        return np.sqrt(squares / size)
+        return np.asarray(np.sqrt(squares / size))
     combine = {"max": np.maximum, "min": np.minimum, "sum": np.add, "mean": np.add,
                "any": np.logical_or, "all": np.logical_and, "count": np.add}[reducer]
     first = part(0)
@@ -113,15 +115,15 @@ def _small_axis(reducer: str, x: np.ndarray, axis: int, size: int) -> np.ndarray
 def _unmasked(reducer: str, x: np.ndarray, axis: int, size: int,
               parameter: np.ndarray | float | None, t: np.ndarray | None) -> np.ndarray:
     if reducer == "max":
-        return x.max(axis=axis, keepdims=True)
+        return np.asarray(x.max(axis=axis, keepdims=True))
     if reducer == "min":
-        return x.min(axis=axis, keepdims=True)
+        return np.asarray(x.min(axis=axis, keepdims=True))
     if reducer == "sum":
-        return x.sum(axis=axis, keepdims=True)
+        return np.asarray(x.sum(axis=axis, keepdims=True))
     if reducer == "mean":
-        return x.mean(axis=axis, keepdims=True)
+        return np.asarray(x.mean(axis=axis, keepdims=True))
     if reducer == "rms":
-        return np.sqrt((x * x).mean(axis=axis, keepdims=True))
+        return np.asarray(np.sqrt((x * x).mean(axis=axis, keepdims=True)))
     if reducer == "final":
         return np.take(x, [size - 1], axis=axis)
     if reducer == "initial":
@@ -154,7 +156,7 @@ def _integral(x: np.ndarray, axis: int, t: np.ndarray | None,
     pieces = 0.5 * (x[:, 1:] + x[:, :-1]) * dt
     if mask is not None:
         pieces = np.where(mask[:, 1:] & mask[:, :-1], pieces, 0.0)
-    return pieces.sum(axis=1, keepdims=True)
+    return np.asarray(pieces.sum(axis=1, keepdims=True))
 
 
 def _time_above(x: np.ndarray, axis: int, t: np.ndarray | None, mask: np.ndarray | None,
@@ -164,7 +166,7 @@ def _time_above(x: np.ndarray, axis: int, t: np.ndarray | None, mask: np.ndarray
     above = x > threshold
     if mask is not None:
         above = above & mask
-    return np.where(above, hold, 0.0).sum(axis=1, keepdims=True)
+    return np.asarray(np.where(above, hold, 0.0).sum(axis=1, keepdims=True))
 
 
 def _percentile(x: np.ndarray, count: np.ndarray, axis: int,

@@ -33,6 +33,11 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def _plain_dict(data: Mapping[str, Any]) -> dict[str, Any]:
+    plain: dict[str, Any] = _plain(data)
+    return plain
+
+
 @dataclass(frozen=True)
 class RunRow:
     """One run of a :class:`RunEvaluation`, as plain Python values (for reports)."""
@@ -49,7 +54,7 @@ class RunRow:
     energy: float
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(self.__dict__)
+        return _plain_dict(self.__dict__)
 
 
 @dataclass(frozen=True)
@@ -144,7 +149,7 @@ class RunEvaluation:
         }
         if per_sample:
             data["per_sample"] = self.per_sample
-        return _plain(data)
+        return _plain_dict(data)
 
 
 @dataclass(frozen=True)
@@ -159,7 +164,7 @@ class CommandViolation:
     span: Span | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(self.__dict__)
+        return _plain_dict(self.__dict__)
 
 
 @dataclass(frozen=True)
@@ -173,7 +178,7 @@ class PrescreenFinding:
     span: Span | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(self.__dict__)
+        return _plain_dict(self.__dict__)
 
 
 @dataclass(frozen=True)
@@ -185,7 +190,7 @@ class Estimate:
     high: float
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(self.__dict__)
+        return _plain_dict(self.__dict__)
 
 
 @dataclass(frozen=True)
@@ -220,7 +225,7 @@ class PathStatistics:
         data = {k: (v.to_dict() if isinstance(v, Estimate) else v)
                 for k, v in self.__dict__.items()}
         data["failed_fraction"] = self.failed_fraction
-        return _plain(data)
+        return _plain_dict(data)
 
 
 @dataclass(frozen=True)
@@ -239,7 +244,7 @@ class RuleResult:
     span: Span | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return _plain(self.__dict__)
+        return _plain_dict(self.__dict__)
 
 
 @dataclass(frozen=True)

@@ -269,7 +269,8 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
 
 
 def numbers_value(draw: Any, unit: str | None) -> Number:
-    return draw(numbers(unit, 0, 100))
+    number: Number = draw(numbers(unit, 0, 100))
+    return number
 
 
 # ----------------------------------------------------------------------------- signals
@@ -286,7 +287,7 @@ def chains(max_commands: int = 3) -> st.SearchStrategy[tuple[Command, ...]]:
 def _dyadic(draw: Any, shape: tuple[int, ...], low: int = -64, high: int = 64,
             denominator: int = 16) -> np.ndarray:
     values = draw(arrays(np.int16, shape, elements=st.integers(low, high)))
-    return values.astype(float) / denominator
+    return np.asarray(values, dtype=float) / denominator
 
 
 @st.composite
