@@ -48,7 +48,7 @@ import numpy as np
 
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 from idefix_rules.errors import UserInputError, error
-from idefix_rules.signals import DERIVED_SIGNALS, REF_PREFIX, lookup
+from idefix_rules.signals import AXIS_LABELS, DERIVED_SIGNALS, REF_PREFIX, lookup
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,7 @@ class DerivedSignals:
         self._cache: dict[str, np.ndarray] = {}
         self._command_cache: tuple[np.ndarray, np.ndarray] | None = None
         if "t" not in signals:
-            raise UserInputError(error("E501", "the run signals lack the time signal 't'"))
+            raise UserInputError(error("E701", "the run signals lack the time signal 't'"))
         t_all = np.asarray(signals["t"], dtype=float)
         self.t: np.ndarray = t_all[0] if t_all.ndim == 2 else t_all
         self.runs = int(t_all.shape[0]) if t_all.ndim == 2 else 1
@@ -135,21 +135,29 @@ class DerivedSignals:
     # ------------------------------------------------------------------ sources
     def _given(self, name: str) -> np.ndarray:
         if name not in self._signals:
-            raise UserInputError(error("E501", f"the run signals lack {name!r}",
+            raise UserInputError(error("E701", f"the run signals lack {name!r}",
                                        hint="the rulebook reads it; map it in the campaign"))
         array = np.asarray(self._signals[name])
+        spec = lookup(name)
+        if spec is not None:
+            sizes = tuple(self.samples if axis == "time" else len(AXIS_LABELS[axis])
+                          for axis in spec.axes)
+            if array.shape != (self.runs, *sizes):
+                raise UserInputError(error(
+                    "E705", f"signal {name!r} has shape {array.shape}, expected "
+                            f"{(self.runs, *sizes)} (runs, {', '.join(spec.axes)})"))
         return array if array.dtype == bool else array.astype(float, copy=False)
 
     def _reference(self, name: str) -> np.ndarray:
         reference = self.context.reference
         if reference is None or name not in reference:
             raise UserInputError(error(
-                "E502", f"the reference run's signal {name!r} is needed but not given",
+                "E702", f"the reference run's signal {name!r} is needed but not given",
                 hint="pass RunContext(reference=...) with the reference run's signals"))
         array = np.asarray(reference[name], dtype=float)
         if array.shape[:1] != (self.samples,):
             raise UserInputError(error(
-                "E503", f"reference signal {name!r} has {array.shape[0] if array.ndim else 0} "
+                "E703", f"reference signal {name!r} has {array.shape[0] if array.ndim else 0} "
                         f"samples, the runs have {self.samples}"))
         return array[np.newaxis]
 
@@ -158,7 +166,7 @@ class DerivedSignals:
             return self._reference(name[len(REF_PREFIX):])
         if name not in DERIVED_SIGNALS:
             if lookup(name) is None:
-                raise UserInputError(error("E504", f"unknown signal {name!r}"))
+                raise UserInputError(error("E704", f"unknown signal {name!r}"))
             return self._given(name)
         if name in ("theory.x", "theory.y", "theory.yaw"):
             x, y, yaw = self._theory()

@@ -134,3 +134,10 @@ def test_inputs_of_derived_signals():
     assert inputs_of("ref.pitch") == {"pitch"}
     assert inputs_of("speed") == {"t", "x", "y"}
     assert inputs_of("wheel.slip") == {"wheel.slip"}
+
+
+def test_signal_shapes_are_checked():
+    run = run_of(np.arange(3.0), [0, 0, -1])
+    run["wheel.slip"] = np.zeros((1, 3, 3))  # three wheels
+    with pytest.raises(UserInputError, match="wheel.slip"):
+        DerivedSignals(run, RunContext()).get("wheel.slip")
