@@ -173,7 +173,9 @@ def test_many_runs_match_the_exhaustive_reference():
               "a": float(rng.uniform(0.03, 0.12)), "b": float(rng.uniform(0.03, 0.12)),
               "c": float(rng.uniform(0.03, 0.3)), "yaw": float(rng.uniform(0, 3)),
               "level": int(rng.integers(1, 4))} for i in range(8)]
-    obstacles = ObstacleSet.from_rocks(rocks, buffer_margins=[0.02, 0.05, 0.1])
+    obstacles = ObstacleSet.from_rocks(rocks, buffer_margins=[0.02, 0.05, 0.1]).extended(
+        [polygon_area([(0.9, -1.0), (1.6, -1.0), (1.6, 1.0), (1.2, 0.1), (0.9, 1.0)], "L3",
+                      "keep-out", parts=("wheel", "solar_panel", "chassis"))])
     settings = CheckSettings()
     fast = collision_signals(poses, obstacles, settings=settings)
     slow = reference_collision_signals(poses, obstacles, settings=settings)
