@@ -91,3 +91,13 @@ def test_rover_stands_still_with_motors_off_after_the_chain(rover: FmuRunner) ->
     assert np.all(out["wheel.rate"][after + 1:] == 0.0)
     assert np.ptp(out["x"][after + 1:]) == 0.0 and np.ptp(out["yaw"][after + 1:]) == 0.0
     assert np.all(np.diff(out["energy"][after + 1:]) == 0.0)
+
+
+def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path) -> None:
+    path = tmp_path / "same-name.terrain"
+    results = []
+    for slope in (0.0, 0.3):  # same path and size, rewritten within the same second
+        write_terrain(path, synthetic_terrain(size=3.0, cell=0.05, slope=slope))
+        results.append(rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1])
+    assert results[0] == pytest.approx(0.0, abs=1e-9)
+    assert results[1] == pytest.approx(0.3, abs=1e-3)

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "idefix.h"
 
@@ -45,9 +46,12 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
         return 0;
     }
     if (stat(path, &info) != 0) return fail(message, message_size, path, 0, "cannot open");
+    /* Cached across resets: same path, size and modification time, and the file had been
+     * unchanged for over a second when it was read, so a rewrite within the same second (the
+     * resolution of st_mtime) cannot go unnoticed. */
     if (t->loaded && t->path && strcmp(t->path, path) == 0 && t->mtime == (long)info.st_mtime &&
-        t->size == (long)info.st_size)
-        return 0;  /* cached across resets: same file, unchanged */
+        t->size == (long)info.st_size && t->load_time > t->mtime + 1)
+        return 0;
 
     f = fopen(path, "rb");
     if (!f) return fail(message, message_size, path, 0, "cannot open");
@@ -125,6 +129,7 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
     t->y0 = y0;
     t->cell = cell;
     t->mtime = (long)info.st_mtime;
+    t->load_time = (long)time(NULL);
     t->size = (long)info.st_size;
     t->path = (char *)malloc(strlen(path) + 1);
     if (t->path) strcpy(t->path, path);
