@@ -166,3 +166,47 @@ def test_the_earlier_version_differs_and_says_so():
     assert earlier.header.version == "0.9.0" != current.header.version
     assert earlier != current
     assert "EARLIER VERSION" in EARLIER.read_text()
+
+
+# ----------------------------------------------------------------------------- documentation
+
+DOC = (ROOT / "docs" / "rulebook-language.md").read_text(encoding="utf-8")
+DOC_HEADER = 'rulebook "doc" version "1.0.0"\npurpose "documentation example"\n'
+
+
+def _blocks(kind: str) -> list[str]:
+    return re.findall(rf"```{kind}\n(.*?)```", DOC, re.S)
+
+
+def test_complete_examples_in_the_language_reference_are_valid():
+    from idefix_rules.rulebook import check_text
+
+    complete = _blocks("rules")
+    assert complete
+    for text in complete:
+        assert check_text(text, "doc.rules").diagnostics == []
+
+
+def test_every_example_fragment_in_the_language_reference_parses():
+    fragments = _blocks("rules-fragment")
+    assert len(fragments) >= 15
+    for fragment in fragments:
+        text = fragment if fragment.startswith("rulebook") else DOC_HEADER + fragment
+        parse_rulebook(text, "fragment.rules")
+
+
+def test_the_reference_lists_every_unit_signal_and_diagnostic_code():
+    from idefix_rules import signals, units
+
+    for atom in units._ATOMS:
+        assert f"`{atom}`" in DOC, atom
+    for name in signals.SIGNALS:
+        assert f"`{name}`" in DOC or f"`{name.split('.')[0]}." in DOC, name
+    sources = ["check.py", "infer.py", "parser.py", "syntax_errors.py", "fold.py",
+               "__init__.py"]
+    codes = set()
+    for source in sources:
+        text = (ROOT / "idefix_rules" / "rulebook" / source).read_text(encoding="utf-8")
+        codes |= set(re.findall(r'"([EW]\d{3})"', text))
+    missing = sorted(code for code in codes if f"| {code} |" not in DOC)
+    assert not missing, missing
