@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -103,7 +104,7 @@ class Body:
     rotation: np.ndarray
     tilt: float = 0.0  # the rotation as an angle about the body x axis
 
-    @property
+    @cached_property
     def quaternion(self) -> np.ndarray:
         return quaternions(np.array(self.tilt), np.array(0.0), np.array(0.0))
 

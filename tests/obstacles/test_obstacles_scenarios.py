@@ -195,3 +195,13 @@ def test_many_runs_match_the_exhaustive_reference():
     bound = np.maximum(settings.clearance_resolution, settings.clearance_relative * approx)
     assert np.all((np.abs(approx - exact) <= bound + 1e-9)[~extra])
     assert fast.signals["collision.hits"].sum() > 0  # the comparison is not vacuous
+
+
+def test_single_sample_and_standing_still_in_contact(drive):
+    obstacles = ObstacleSet.from_rocks([rock(-0.26, x=0.2, level="L3")])
+    single = collision_signals(drive(samples=1), obstacles)
+    assert single.signals["collision.hits"][0, WHEEL, L3] == 1
+    still = collision_signals(drive(x0=0.0, x1=0.0, samples=3001), obstacles)
+    assert still.signals["collision.hits"][0, WHEEL, L3] == 1
+    assert still.signals["collision.contact"][0, :, WHEEL, L3].all()
+    assert np.all(still.signals["collision.clearance"][0, :, WHEEL] == 0.0)
