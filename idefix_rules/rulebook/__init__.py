@@ -10,7 +10,10 @@ from pathlib import Path
 
 from idefix_rules.errors import UserInputError, error
 from idefix_rules.rulebook.check import CheckedRulebook, CheckResult, check
+from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
+from idefix_rules.rulebook.derived import RunContext
 from idefix_rules.rulebook.model import Rulebook
+from idefix_rules.rulebook.results import PathStatistics, RunEvaluation, Verdict
 
 
 def read_source(path: str | Path) -> str:
@@ -55,9 +58,15 @@ def load_rulebook(path: str | Path) -> Rulebook:
 __all__ = [
     "CheckResult",
     "CheckedRulebook",
+    "CompiledRulebook",
+    "PathStatistics",
     "Rulebook",
+    "RunContext",
+    "RunEvaluation",
+    "Verdict",
     "check",
     "check_text",
+    "compile_rulebook",
     "load_checked",
     "load_rulebook",
     "parse_text",

@@ -23,7 +23,6 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-from scipy import stats as scipy_stats
 
 from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Rulebook, Unary
@@ -50,6 +49,8 @@ def student_interval(samples: np.ndarray, confidence: float, bounds: Interval | 
     if n < 2:
         low, high = bounds or (-math.inf, math.inf)
         return Estimate(mean, low, high)
+    from scipy import stats as scipy_stats  # slow to import; only path statistics need it
+
     half = float(scipy_stats.t.ppf(0.5 + confidence / 2, n - 1)
                  * samples.std(ddof=1) / math.sqrt(n))
     low, high = mean - half, mean + half
@@ -62,6 +63,8 @@ def wilson_interval(successes: int, n: int, confidence: float) -> Estimate:
     """Fraction with its Wilson score interval; (nan, 0, 1) when there are no runs."""
     if n == 0:
         return Estimate(math.nan, 0.0, 1.0)
+    from scipy import stats as scipy_stats
+
     z = float(scipy_stats.norm.ppf(0.5 + confidence / 2))
     p = successes / n
     denominator = 1 + z * z / n
