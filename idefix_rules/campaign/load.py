@@ -125,7 +125,7 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         loc, found = _data_loc(data, item["loc"])
         kind = item["type"]
         if kind == "extra_forbidden":
-            message = f"unknown key {loc[-1]!r}" if loc else "unknown key"
+            message = "unknown key"
             span = locations.span(loc, at_key=True)
         elif kind == "missing":
             message = "missing required key"

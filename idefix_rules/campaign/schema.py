@@ -319,18 +319,10 @@ class CampaignFile(Strict):
     fmu: FmuSection = FmuSection()
     environment: EnvironmentSection = EnvironmentSection()
     uncertainty: UncertaintySection = UncertaintySection()
-    paths: dict[str, list[CommandSpec]] = Field(min_length=1)
+    paths: dict[str, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(min_length=1)
     runs: int = Field(default=100, ge=1)
     rulebook: str
     output: str = "results"
     workers: int | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[Expectation] = []
-
-    @model_validator(mode="after")
-    def _paths_not_empty(self) -> CampaignFile:
-        for name, chain in self.paths.items():
-            if not chain:
-                raise PydanticCustomError("chain", "path {name!r} has no commands",
-                                          {"name": name})
-        return self

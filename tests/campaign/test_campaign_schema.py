@@ -1,0 +1,175 @@
+"""Campaign files: valid ones load in SI, broken ones give precise file:line:col messages."""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.errors import UserInputError
+
+GOOD = """\
+name: demo
+rulebook: demo.rules
+runs: 8
+output: out
+paths:
+  straight:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}
+  detour:
+    - {max_wheel_rate: "3 deg/s", delta_position: "50 cm", delta_heading: "30 deg"}
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.5 m", delta_heading: "-30 deg"}
+uncertainty:
+  method: latin_hypercube
+  seed: 3
+  parameters:
+    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}
+    soil.cohesion: {distribution: log_normal, median: "250 Pa", sigma: 0.3}
+environment:
+  terrain:
+    synthetic: {slope: "2 deg", roughness: "2 mm", seed: 4}
+  rocks:
+    - {x: "0.5 m", y: "-0.26 m", radius: "5 cm", level: L2}
+expect:
+  - {path: detour, verdict: pass}
+  - {rank_first: detour}
+  - {path: straight, max_collision_chance: {L2: "95 %"}}
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "campaign.yaml") -> Path:
+    (tmp_path / "demo.rules").write_text("rulebook \"demo\" version \"1.0.0\"\n")
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def messages(path: Path) -> list[str]:
+    with pytest.raises(UserInputError) as caught:
+        load_campaign(path)
+    return [f"{d.span.line}:{d.span.column}: {d.message}" for d in caught.value.diagnostics]
+
+
+def test_a_valid_campaign_loads_in_si_with_paths_resolved(tmp_path: Path) -> None:
+    campaign = load_campaign(write(tmp_path, GOOD))
+    assert [p.name for p in campaign.paths] == ["straight", "detour"]
+    detour = campaign.paths[1].chain
+    assert math.isclose(detour[0].max_wheel_rate, math.radians(3))
+    assert math.isclose(detour[0].delta_position, 0.5)
+    assert math.isclose(detour[1].delta_heading, -math.pi / 6)
+    assert campaign.rulebook == (tmp_path / "demo.rules").resolve()
+    assert campaign.output == (tmp_path / "out").resolve()
+    assert campaign.runs == 8 and campaign.seed == 3
+    assert campaign.model.environment.rocks[0].axes == (0.05, 0.05, 0.05)
+    overridden = campaign.with_overrides(runs=2, seed=9)
+    assert (overridden.runs, overridden.seed) == (2, 9)
+
+
+def test_relative_paths_resolve_against_the_campaign_file_not_the_cwd(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    path = write(sub, GOOD)
+    monkeypatch.chdir(tmp_path)
+    assert load_campaign(Path("sub") / path.name).rulebook == (sub / "demo.rules").resolve()
+
+
+# Each broken file with the messages it must produce (line:column: message).
+CATALOGUE = [
+    ("bare number for an angle",
+     GOOD.replace('delta_heading: "30 deg"', 'delta_heading: "90"'),
+     ['9:75: paths.detour[0].delta_heading: expected an angle, got "90"']),
+    ("bare number for a rate",
+     GOOD.replace('max_wheel_rate: "3 deg/s"', "max_wheel_rate: 0.05"),
+     ["9:24: paths.detour[0].max_wheel_rate: expected an angular rate, got 0.05"]),
+    ("wrong dimension",
+     GOOD.replace('delta_position: "50 cm"', 'delta_position: "50 deg"'),
+     ['9:51: paths.detour[0].delta_position: expected a length, got "50 deg" (an angle)']),
+    ("unknown unit",
+     GOOD.replace('delta_position: "1 m"', 'delta_position: "1 parsec"'),
+     ["7:54: paths.straight[0].delta_position: unknown unit 'parsec' in 'parsec'"]),
+    ("unknown key",
+     GOOD.replace("runs: 8", "runz: 8"),
+     ["3:1: runz: unknown key"]),
+    ("missing rulebook",
+     GOOD.replace("rulebook: demo.rules\n", ""),
+     ["1:1: rulebook: missing required key"]),
+    ("unknown distribution",
+     GOOD.replace("distribution: normal", "distribution: gaussian"),
+     ["15:31: uncertainty.parameters.initial.x: unknown distribution 'gaussian' (expected one "
+      "of: 'fixed', 'normal', 'truncated_normal', 'uniform', 'log_normal')"]),
+    ("missing distribution field",
+     GOOD.replace(', std: "1 cm"', ""),
+     ["15:16: uncertainty.parameters.initial.x.std: missing required key"]),
+    ("mixed dimensions in a distribution",
+     GOOD.replace('std: "1 cm"', 'std: "1 deg"'),
+     ["15:16: uncertainty.parameters.initial.x: values disagree in dimension: mean is a length, "
+      "std is an angle"]),
+    ("unknown sampling method",
+     GOOD.replace("method: latin_hypercube", "method: halton"),
+     ["12:11: uncertainty.method: Input should be 'monte_carlo', 'latin_hypercube' or 'sobol'"]),
+    ("runs not positive",
+     GOOD.replace("runs: 8", "runs: 0"),
+     ["3:7: runs: Input should be greater than or equal to 1"]),
+    ("rock with two sizes",
+     GOOD.replace('radius: "5 cm"', 'radius: "5 cm", semi_axes: ["1 cm", "1 cm", "1 cm"]'),
+     ["21:7: environment.rocks[0]: give exactly one of 'radius' or 'semi_axes'"]),
+    ("bad expectation",
+     GOOD.replace("{rank_first: detour}", "{first: detour}"),
+     ["24:5: expect[1]: an expectation needs one of: verdict, rank_first, max_mean_risk, "
+      "max_collision_chance"]),
+    ("expectation names an unknown path",
+     GOOD.replace("{rank_first: detour}", "{rank_first: detuor}"),
+     ["24:18: expect[1].rank_first: unknown path 'detuor' (paths: straight, detour)"]),
+    ("rulebook file missing",
+     GOOD.replace("rulebook: demo.rules", "rulebook: nowhere.rules"),
+     ["2:11: rulebook: rulebook 'nowhere.rules' not found (relative paths start at the "
+      "campaign file's folder)"]),
+    ("empty chain",
+     GOOD.replace(
+         '  straight:\n    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", '
+         'delta_heading: "0 deg"}\n', "  straight: []\n"),
+     ["6:13: paths.straight: List should have at least 1 item after validation, not 0"]),
+    ("YAML syntax",
+     GOOD.replace("runs: 8", "runs: [8"),
+     ["4:7: invalid YAML: expected ',' or ']', but got ':'"]),
+    ("duplicate key",
+     GOOD.replace("runs: 8", "runs: 8\nruns: 9"),
+     ["4:1: duplicate key 'runs'"]),
+    ("not a mapping", "- just\n- a list\n",
+     ["1:1: a campaign file is a mapping (key: value lines)"]),
+]
+
+
+@pytest.mark.parametrize(("what", "text", "expected"), CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_broken_campaign_files_give_precise_messages(tmp_path: Path, what: str, text: str,
+                                                     expected: list[str]) -> None:
+    assert messages(write(tmp_path, text)) == expected
+
+
+def test_every_error_of_a_file_is_reported_at_once(tmp_path: Path) -> None:
+    text = GOOD.replace("runs: 8", "runs: -1").replace('"30 deg"', '"30"')
+    found = messages(write(tmp_path, text))
+    assert len(found) == 2
+    assert found[0].startswith("3:7: runs:")
+    assert "delta_heading: expected an angle" in found[1]
+
+
+def test_the_cli_renders_the_message_with_the_source_line_and_exit_code_2(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import main
+
+    path = write(tmp_path, GOOD.replace('delta_heading: "30 deg"', 'delta_heading: "90"'))
+    assert main([str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f'{path}:9:75: error[C100]: paths.detour[0].delta_heading: expected an angle, ' \
+           'got "90"' in err
+    assert "Traceback" not in err
+
+
+def test_a_missing_campaign_file_is_a_user_error(tmp_path: Path) -> None:
+    with pytest.raises(UserInputError, match="not found"):
+        load_campaign(tmp_path / "absent.yaml")
