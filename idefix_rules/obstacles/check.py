@@ -11,12 +11,14 @@ Three stages per chunk of runs (``docs/obstacles.md`` has the derivations):
    against each obstacle piece's axis-aligned box, minus the motion of the adjacent steps. Only
    (run, body, piece) stretches of samples whose lower bound is within the clearance cap go on.
 3. **Narrow phase (fcl, conservative advancement).** Along each stretch, fcl's exact distance
-   ``d`` at an anchor pose holds within ``±Δu`` for the poses that follow. The next anchor is
-   placed where ``Δu`` reaches an allowance chosen so that no contact or buffer decision can flip
-   before it (``|d - tolerance|``, ``|d - margin|``) and the clearance error stays within the
-   resolution; when one step between samples is larger than that, the anchor is an
-   interpolated pose between them. So no obstacle is skipped between samples however fast the
-   rover moves, and slow drives (sub-millimetre steps) need one fcl call per few millimetres.
+   ``d`` at an anchor sample holds within ``±Δu`` for the samples that follow. The next anchor is
+   the last sample before ``Δu`` reaches an allowance chosen so that no contact or buffer
+   decision can flip (``|d - tolerance|``, ``|d - margin|``, in contact the penetration depth)
+   and the clearance error stays within the resolution. When the next sample is beyond the
+   allowance it is measured too, and the gap between the two is filled with interpolated poses
+   only if a contact or buffer entry could hide in it. So no obstacle is skipped between samples
+   however fast the rover moves, and slow drives (sub-millimetre steps) need one fcl call per few
+   millimetres near an obstacle.
 """
 
 from __future__ import annotations
