@@ -7,9 +7,10 @@ Three stages per chunk of runs (``docs/obstacles.md`` has the derivations):
    ``|Δp| + (|Δroll| + |Δpitch| + |Δyaw|) · reach_b`` per step, ``reach_b`` bounding the body
    about the rover centre. Its running sum ``u_b`` is a distance-like coordinate along the run:
    the fcl distance of ``b`` to any obstacle changes by at most ``|Δu_b|``.
-2. **Broad phase (numpy, all poses at once).** Rover bounding sphere, then body bounding spheres,
-   against each obstacle piece's axis-aligned box, minus the motion of the adjacent steps. Only
-   (run, body, piece) stretches of samples whose lower bound is within the clearance cap go on.
+2. **Broad phase (numpy, all poses at once).** On blocks of 32 samples, each body's bounding
+   sphere, grown by how far the body can move within the block, against each obstacle piece's
+   axis-aligned box. Only (run, body, piece) stretches of blocks whose lower bound is within the
+   clearance cap go on.
 3. **Narrow phase (fcl, conservative advancement).** Along each stretch, fcl's exact distance
    ``d`` at an anchor sample holds within ``±Δu`` for the samples that follow. The next anchor is
    the last sample before ``Δu`` reaches an allowance chosen so that no contact or buffer
