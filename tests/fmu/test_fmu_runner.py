@@ -101,3 +101,26 @@ def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path
         results.append(rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1])
     assert results[0] == pytest.approx(0.0, abs=1e-9)
     assert results[1] == pytest.approx(0.3, abs=1e-3)
+
+
+def test_two_instances_in_one_process_do_not_share_state(rover_fmu: Path) -> None:
+    from fmpy.fmi2 import FMU2Slave
+
+    chain = [Command(0.05, 0.2, 0.2)]
+    with FmuRunner(rover_fmu) as first:
+        alone = first.run({}, chain, 60.0, 0.1)
+        # a second instance of the same loaded library, stepped in between
+        second = FMU2Slave(guid=first._slave.guid, unzipDirectory=str(first._unzipdir),
+                           modelIdentifier="idefix_rover", instanceName="other")
+        second.instantiate()
+        second.setupExperiment(startTime=0.0)
+        second.enterInitializationMode()
+        second.setReal([first._variables["soil.cohesion"].valueReference], [40.0])
+        second.exitInitializationMode()
+        for k in range(100):
+            second.doStep(k * 0.1, 0.1)
+        again = first.run({}, chain, 60.0, 0.1)
+        second.terminate()
+        second.fmi2FreeInstance(second.component)
+    for name in alone:
+        np.testing.assert_array_equal(alone[name], again[name], err_msg=name)
