@@ -76,17 +76,20 @@ class Masked:
 
 
 def per_sample_form(expr: Expr) -> Expr:
-    """The index value with every time reduction replaced by its (window-masked) operand.
+    """The index value with every outermost time reduction replaced by its (window-masked)
+    operand: the quantity before the time reducer. Time reductions inside that operand stay
+    (``max over time (pitch - mean over time (pitch))`` → ``pitch - mean over time (pitch)``).
 
     >>> from idefix_rules.rulebook.model import Name, Reduce
     >>> per_sample_form(Reduce("max", "time", Name("pitch")))
     Name(name='pitch')
     """
     if isinstance(expr, Reduce):
-        operand = per_sample_form(expr.operand)
         if expr.domain == "time":
+            operand = expr.operand
             return operand if expr.window is None else Masked(operand, expr.window)  # type: ignore[return-value]
-        return Reduce(expr.reducer, expr.domain, operand, expr.parameter, expr.window)
+        return Reduce(expr.reducer, expr.domain, per_sample_form(expr.operand), expr.parameter,
+                      expr.window)
     if isinstance(expr, Unary):
         return Unary(expr.op, per_sample_form(expr.operand))
     if isinstance(expr, Binary):

@@ -24,8 +24,18 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.rulebook.fold import number_si
-from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Rulebook, Unary
+from idefix_rules.rulebook.fold import fold
+from idefix_rules.rulebook.model import (
+    Binary,
+    Call,
+    Expr,
+    Name,
+    Number,
+    Rulebook,
+    Select,
+    Table,
+    Unary,
+)
 from idefix_rules.rulebook.results import (
     Estimate,
     PathStatistics,
@@ -138,11 +148,8 @@ def _evaluate(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any],
     if found is not None:
         estimate = found[1]
         return (estimate.low, estimate.high) if interval else estimate.value
-    if isinstance(expr, Number):
-        value = number_si(expr)
-        return (value, value) if interval else value
-    if isinstance(expr, Name):
-        value = float(constants[expr.name])
+    if isinstance(expr, Number | Name | Select | Table):  # constants
+        value = float(fold(expr, constants))  # type: ignore[arg-type]
         return (value, value) if interval else value
     def recurse(e: Expr) -> _Value:
         return _evaluate(e, stats, constants, interval)

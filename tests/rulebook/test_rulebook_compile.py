@@ -268,3 +268,14 @@ def test_missing_signal_is_a_user_error():
     del signals["pitch"]
     with pytest.raises(UserInputError, match="pitch"):
         compile_rulebook(checked).evaluate(signals, context)
+
+
+def test_per_sample_keeps_time_reductions_inside_the_outer_one():
+    checked = rulebook("""
+index I { value = max over time (pitch - mean over time (pitch)) limit = 1 rad weight = 1 }
+""")
+    result = evaluate(checked, *batch(pitch=PITCH))
+    mean = 0.05 / 6
+    np.testing.assert_allclose(result.per_sample["I"][0],
+                               np.clip(np.array(PITCH[0]) - mean, 0, 1))
+    assert result.raw["I"][0] == pytest.approx(0.2 - mean)

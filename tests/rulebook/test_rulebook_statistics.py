@@ -161,3 +161,10 @@ def test_empty_path_statistics_do_not_crash():
     stats: PathStatistics = rules.path_statistics(empty, failed_runs=3)
     assert stats.runs == 0 and math.isnan(stats.risk.value)
     assert not rules.verdict(stats).passed
+
+
+def test_verdict_thresholds_may_be_table_entries_and_expressions():
+    rules = evaluator("const limits = {L1: 10 %, L2: 50 %, L3: 90 %}\n"
+                      "verdict acceptable: require risk <= limits[L2] and risk * 2 < 1.5")
+    verdict = rules.verdict(rules.path_statistics(evaluation([0.1, 0.12, 0.11, 0.09] * 5)))
+    assert verdict.passed and verdict.decided
