@@ -106,6 +106,9 @@ def _per_sample(draw: Any, dimension: str, depth: int = 2) -> Expr:
                     (leaf, draw(_per_sample(dimension, depth - 1))))
     if choice == 3:
         return Binary("*", leaf, draw(numbers(None, 0, 4)))
+    if choice == 4:  # a time reduction nested inside the per-sample quantity
+        return Binary("-", leaf, Reduce(draw(st.sampled_from(["mean", "min", "final"])), "time",
+                                        leaf))
     return leaf
 
 
@@ -128,10 +131,13 @@ def index_values(draw: Any) -> tuple[Expr, str]:
         operand = Binary("/", Name("global_error"), Name("tolerance_radius"))
         dimension = "ratio"
     reducer = draw(st.sampled_from(["final", "initial", "max", "min", "mean", "rms",
-                                    "percentile", "time_above", "max", "integral"]))
+                                    "percentile", "time_above", "max", "integral", "count"]))
     parameter = None
     result = dimension
-    if reducer == "percentile":
+    if reducer == "count":
+        operand = Binary(">", operand, draw(_quantity(dimension, 0, 50)))
+        result = "ratio"
+    elif reducer == "percentile":
         parameter = Number(float(draw(st.integers(0, 100))))
     elif reducer == "time_above":
         parameter = draw(_quantity(dimension, 0, 50))
