@@ -117,14 +117,14 @@ def as_plain(obj: Any) -> Any:
 # --- collisions -------------------------------------------------------------------------------
 
 def collision_function(environment: Any, evaluator: Any,
-                       ground: Any = None) -> CollisionFunction | None:
+                       terrain: Any = None) -> CollisionFunction | None:
     """The obstacle checker for a campaign environment, or None if the rulebook needs none."""
     if not getattr(evaluator, "needs_collisions", False):
         return None
     from idefix_rules.campaign.environment import obstacle_set
     from idefix_rules.obstacles import collision_signals
 
-    obstacles = obstacle_set(environment, evaluator, ground)
+    obstacles = obstacle_set(environment, evaluator, terrain)
 
     def check(poses: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray],
                                                           list[dict[str, Any]]]:
@@ -289,7 +289,7 @@ def _fill(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None
 
 def _reason_text(rule: Any) -> str:
     text = f"{rule.name}: {rule.message}"
-    if not rule.decided:
+    if not rule.decided and "not decided" not in text:
         text += " (not decided at this number of runs)"
     return text
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign import outputs
-from idefix_rules.campaign.environment import ground_function, write_terrain
+from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
     collision_function,
@@ -81,15 +81,14 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
     fixed: dict[str, float | str] = {}
-    terrain_path = None
+    terrain = build_terrain(campaign.model.environment, campaign.dem)
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
-        terrain_path = write_terrain(campaign.model.environment, campaign.dem, campaign.output)
-        fixed[TERRAIN_PARAMETER] = str(terrain_path)
-    simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress)
+        fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
+    collisions = collision_function(campaign.model.environment, evaluator, terrain)
+    simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
+                                   collisions)
     if progress is not None:
         progress.message("evaluating")
-    collisions = collision_function(campaign.model.environment, evaluator,
-                                    ground_function(terrain_path))
     store = ResultStore.open(simulation.results, writable=True)
     try:
         evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
@@ -151,9 +150,8 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
             evaluator = compile_rulebook_file(rulebook)
         stub = _campaign_stub(model, base, campaign_text, campaign_path)
         output = out or results.parent
-        terrain = output / "terrain.dem"
         collisions = collision_function(model.environment, evaluator,
-                                        ground_function(terrain if terrain.exists() else None))
+                                        read_terrain(results.parent))
         evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
                                     initial_position_sigma(stub), collisions,
                                     rulebook_info(evaluator, rulebook_path))

@@ -102,7 +102,12 @@ class SyntheticTerrain(Strict):
 
 
 class TerrainSection(Strict):
+    """``dem``: a terrain file (docs/terrain-format.md), ``.npy`` or ``.csv`` heights (these
+    need ``cell``; ``origin`` defaults to centring the grid); or ``synthetic`` settings."""
+
     dem: str | None = None
+    cell: Length | None = Field(default=None, gt=0)
+    origin: tuple[Length, Length] | None = None
     synthetic: SyntheticTerrain | None = None
 
     @model_validator(mode="after")

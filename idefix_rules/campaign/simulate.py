@@ -22,7 +22,7 @@ from idefix_rules.campaign import sampling
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
-from idefix_rules.campaign.worker import RunTask, simulate
+from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import UserInputError, error
 
@@ -146,7 +146,8 @@ def _map(pool: Any, tasks: list[tuple[Any, RunTask]]) -> Iterator[tuple[Any, Out
 def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
                       fmu_parameters: Mapping[str, float | str],
                       options: SimulationOptions | None = None,
-                      progress: Progress | None = None) -> SimulationSummary:
+                      progress: Progress | None = None,
+                      collisions: Any = None) -> SimulationSummary:
     """Run every stage up to a complete ``results.h5``; returns what happened per path.
 
     ``fmu_parameters`` are the run-independent parameters (terrain file, regolith values).
@@ -168,7 +169,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         summary.plans = plans
         _command_rules(campaign, evaluator, rover, plans, store)
         _reference_runs(campaign, evaluator, rover, fmu_path, fmu_parameters, plans, store,
-                        options, progress)
+                        options, progress, collisions)
         _monte_carlo(campaign, fmu_path, fmu_parameters, plans, store, options, progress)
         complete = all(not store.has_runs(p.spec.name)
                        or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
@@ -285,7 +286,8 @@ def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
 
 def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu_path: Path,
                     fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
-                    store: ResultStore, options: SimulationOptions, progress: Progress) -> None:
+                    store: ResultStore, options: SimulationOptions, progress: Progress,
+                    collisions: Any) -> None:
     from idefix_rules.campaign.evaluation import prescreen_reference
 
     todo = [p for p in plans if p.status == "pending"]
@@ -298,6 +300,7 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
     pool = _pool(simulate, options, campaign)
     for name, outcome in _map(pool, tasks):
         plan = by_name[name]
+        _raise_input_problem(outcome)
         numeric = {k: float(v) for k, v in nominal.items() if not isinstance(v, str)}
         if not outcome.ok:
             plan.status, plan.reason = "reference_failed", outcome.reason
@@ -307,13 +310,20 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
         plan.reference = outcome.value
         store.write_reference(name, outcome.value, numeric)
         findings = prescreen_reference(evaluator, plan.spec.chain, rover,
-                                       initial_position_sigma(campaign), outcome.value)
+                                       initial_position_sigma(campaign), outcome.value,
+                                       collisions)
         if findings:
             plan.status = "excluded"
             plan.reason = "; ".join(_describe(f) for f in findings)
         else:
             plan.status = "simulated"
         store.set_path_status(name, plan.status, plan.reason)
+
+
+def _raise_input_problem(outcome: Outcome) -> None:
+    """A mistake in the campaign found inside a worker stops the campaign (exit 2)."""
+    if outcome.ok and isinstance(outcome.value, InputProblem):
+        raise UserInputError(outcome.value.diagnostics)
 
 
 def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, Any]]:
@@ -342,7 +352,7 @@ def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str
                                        campaign.model.uncertainty.method, campaign.seed,
                                        plan.spec.index, campaign.runs)
         if not store.has_runs(name):
-            shapes = {key: tuple(np.shape(value))[1:] for key, value in plan.reference.items()}
+            shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
             store.allocate_runs(name, campaign.runs, shapes, sampled,
                                 parameter_info(campaign, list(sampled)))
         status = store.run_status(name)
@@ -358,6 +368,7 @@ def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str
     tasks.sort(key=lambda item: (item[0][1], item[0][0]))
     pool = _pool(simulate, options, campaign)
     for (name, run), outcome in _map(pool, tasks):
+        _raise_input_problem(outcome)
         if outcome.ok:
             store.write_run(name, run, outcome.value)
         else:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.commands import Command
+from idefix_rules.errors import Diagnostic, UserInputError
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,14 @@ class RunTask:
     stop_time: float
     output_interval: float
     samples: int
+
+
+@dataclass(frozen=True)
+class InputProblem:
+    """A user mistake found while simulating (bad terrain, unknown variable): not a run
+    failure but a campaign error; the parent raises it as :class:`UserInputError`."""
+
+    diagnostics: tuple[Diagnostic, ...]
 
 
 _RUNNERS: dict[tuple[Any, ...], Any] = {}
@@ -52,12 +61,17 @@ def _runner(task: RunTask) -> Any:
     return runner
 
 
-def simulate(task: RunTask) -> dict[str, np.ndarray]:
+def simulate(task: RunTask) -> dict[str, np.ndarray] | InputProblem:
     """Simulate one run; raises on an FMU error or an output that breaks the contract."""
-    runner = _runner(task)
+    try:
+        runner = _runner(task)
+    except UserInputError as failure:
+        return InputProblem(tuple(failure.diagnostics))
     try:
         signals = runner.run(parameters=dict(task.parameters), chain=list(task.chain),
                              stop_time=task.stop_time, output_interval=task.output_interval)
+    except UserInputError as failure:
+        return InputProblem(tuple(failure.diagnostics))
     except BaseException:
         _RUNNERS.clear()
         with contextlib.suppress(Exception):

@@ -5,9 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rich.console import Console
-
-from idefix_rules.cli.run import print_outcome
+from idefix_rules.cli.run import make_console, print_outcome
 
 NAME = "evaluate"
 HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
@@ -28,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.campaign.runner import rescore
 
-    console = Console(highlight=False)
+    console = make_console()
     result = rescore(args.results, args.rulebook, args.junit, args.out)
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
                   result.warnings)

@@ -85,6 +85,7 @@ class RichProgress:
 
     def message(self, text: str) -> None:
         if not self.quiet:
+            self.stop()
             self.console.print(f"[dim]{text}[/dim]")
 
     def start_path(self, name: str, total: int, done: int) -> None:
@@ -112,6 +113,14 @@ class RichProgress:
         if self.bars is not None:
             self.bars.stop()
             self.bars = None
+
+
+def make_console() -> Console:
+    """Rich console; wide enough for the table when output goes to a file or CI log."""
+    console = Console(highlight=False)
+    if not console.is_terminal:
+        console = Console(highlight=False, width=150)
+    return console
 
 
 def _percent(value: float | None) -> str:
@@ -179,7 +188,7 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.campaign.runner import run_campaign
 
-    console = Console(stderr=False, highlight=False)
+    console = make_console()
     campaign = load_campaign(args.campaign).with_overrides(
         runs=args.runs, seed=args.seed,
         output=args.out.resolve() if args.out else None, workers=args.workers)

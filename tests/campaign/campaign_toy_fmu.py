@@ -7,6 +7,7 @@ Its variables follow the built-in rover FMU's names (``initial.x``, ``chain.*``,
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import zipfile
@@ -102,6 +103,15 @@ def _model_description() -> str:
 """
 
 
+def signal_map() -> dict[str, str]:
+    """FMU variable → contract name, like the built-in FMU's shipped map."""
+    names = {name: name for name, _ in OUTPUTS if not name.startswith("wheel.")}
+    for wheel in WHEELS:
+        for what, _ in WHEEL_OUTPUTS:
+            names[f"wheel.{wheel}.{what}"] = f"wheel.{what}[{wheel}]"
+    return names
+
+
 def build_toy_fmu(folder: Path) -> Path:
     """Compile ``toy.fmu`` into ``folder`` and return its path."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -115,5 +125,6 @@ def build_toy_fmu(folder: Path) -> Path:
     with zipfile.ZipFile(target, "w") as archive:
         archive.writestr("modelDescription.xml", _model_description())
         archive.write(library, "binaries/linux64/toy.so")
+        archive.writestr("signal_map.json", json.dumps(signal_map(), indent=1))
     os.utime(target)
     return target
