@@ -42,6 +42,7 @@ from lark import Token, Transformer, v_args
 
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.rulebook import model
+from idefix_rules.rulebook.comments import attach_comments
 from idefix_rules.rulebook.grammar import collecting_comments, rulebook_parser
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.syntax_errors import (
@@ -103,7 +104,8 @@ def _position(diagnostic: Diagnostic) -> tuple[int, int]:
 
 # ----------------------------------------------------------------------------- lark parsing
 
-def _parse_tree(text: str, path: str) -> tuple[lark.Tree | None, list[Token], list[Diagnostic]]:
+def _parse_tree(text: str, path: str
+                ) -> tuple[lark.Tree[Any] | None, list[Token], list[Diagnostic]]:
     """Parse; on syntax errors blank the failing declaration and try again to find more."""
     parser = rulebook_parser()
     diagnostics: list[Diagnostic] = []
@@ -433,11 +435,11 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
             MISSING_HEADER, "the rulebook has no header", Span(path, 1, 1, 1, 2),
             'start the file with: rulebook "NAME" version "1.0.0" purpose "…"'))
         header = model.Header("", "", "")
-    attached = _attach_comments(
+    attached = attach_comments(
         [header, *lists[model.Constant], *settings, *levels, *lists[model.CommandRule],
          *lists[model.Index], *lists[model.Chance], singles.get(model.Combine),
          *lists[model.Prescreen], *lists[model.VerdictRule], singles.get(model.Ranking)],
-        blocks, comments, text)
+        [(block.entries[0], block.span) for block in blocks if block.entries], comments, text)
     rulebook = model.Rulebook(
         header=attached.get(id(header), header),
         constants=tuple(attached.get(id(node), node) for node in lists[model.Constant]),
@@ -461,81 +463,3 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
 
 def _first_line(span: Span) -> Span:
     return Span(span.path, span.line, span.column, span.line, span.column + 1)
-
-
-# ----------------------------------------------------------------------------- comments
-
-_FIRST_WORD = re.compile(r"\s*([A-Za-z_]+|\})")
-_BLOCK_ANCHORS = {
-    model.Index: ("index", "value", "limit", "weight", "map", "because", "}"),
-    model.Combine: ("combine", "run", "path", "confidence", "}"),
-    model.Header: ("rulebook", "purpose"),
-}
-
-
-def _attach_comments(nodes: list[Any], blocks: list[_Section], comments: list[Token],
-                     text: str) -> dict[Any, Any]:
-    """Node id → the node with its comments; ``"trailing"`` → comments after everything."""
-    header = nodes[0]
-    present = [node for node in nodes if node is not None and node.span.line > 0]
-    present.sort(key=lambda node: (node.span.line, node.span.column))
-    lines = text.split("\n")
-    found: dict[int, list[str]] = {}
-    trailing: list[str] = []
-    for comment in comments:
-        line, column = comment.line or 0, comment.column or 0
-        body = str(comment).rstrip()
-        own_line = not lines[line - 1][: column - 1].strip() if 0 < line <= len(lines) else True
-        holder = None
-        for node in present:
-            span = node.span
-            if (span.line, span.column) <= (line, column) and line <= span.end_line:
-                holder = node
-        if holder is not None:
-            found.setdefault(id(holder), []).append(
-                _inside_comment(holder, body, line, own_line, lines))
-            continue
-        following = next((node for node in present
-                          if (node.span.line, node.span.column) > (line, column)), None)
-        if present and following is present[0] and header in present:
-            following = header  # comments above everything belong to the file: keep them first
-        if following is None:
-            trailing.append(body)
-            continue
-        prefix = ""
-        for block in blocks:
-            if block.entries and block.entries[0] is following \
-                    and (line, column) < (block.span.line, block.span.column):
-                prefix = "@block^ "
-        found.setdefault(id(following), []).append(prefix + body)
-    result: dict[Any, Any] = {}
-    for node in present:
-        if id(node) in found:
-            result[id(node)] = dataclasses.replace(node, comments=tuple(found[id(node)]))
-    result["trailing"] = trailing
-    return result
-
-
-def _inside_comment(node: Any, body: str, line: int, own_line: bool, lines: list[str]) -> str:
-    """A comment within a declaration's lines, tagged with where it goes back."""
-    anchors = _BLOCK_ANCHORS.get(type(node))
-    if anchors is None:
-        return f"@eol {body}"
-
-    def anchor_of(number: int) -> str | None:
-        line_text = lines[number - 1] if 0 < number <= len(lines) else ""
-        first = _FIRST_WORD.match(line_text)
-        word = first.group(1) if first else ""
-        return word if word in anchors else None
-
-    if own_line:
-        for number in range(line + 1, node.span.end_line + 1):
-            anchor = anchor_of(number)
-            if anchor is not None:
-                return f"@{anchor}^ {body}"
-        return f"@{anchors[-1]}^ {body}"
-    for number in range(line, node.span.line - 1, -1):
-        anchor = anchor_of(number)
-        if anchor is not None:
-            return f"@{anchor} {body}"
-    return f"@eol {body}"

@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from idefix_rules.errors import UserInputError
+from idefix_rules.rulebook.format import format_rulebook
 from idefix_rules.rulebook.grammar import grammar_text, rulebook_parser
 from idefix_rules.rulebook.model import (
     Binary,
@@ -280,9 +281,14 @@ def test_damaged_rulebooks_give_a_rulebook_error_never_another_exception(data):
                                         "max", "1e400", "\x00", "é", "\n"]))
     text = SAMPLE[:start] + insert + SAMPLE[end:]
     try:
-        parse_rulebook(text, "damaged.rules")
+        model = parse_rulebook(text, "damaged.rules")
     except UserInputError as failure:
         assert failure.diagnostics
+        return
+    # Damage that still parses: the formatter must keep its meaning and be idempotent.
+    formatted = format_rulebook(model)
+    assert parse_rulebook(formatted, "damaged.rules") == model
+    assert format_rulebook(parse_rulebook(formatted, "damaged.rules")) == formatted
 
 
 @pytest.mark.parametrize("expression", ["(" * 5000 + "1" + ")" * 5000, "-" * 5000 + "1",
