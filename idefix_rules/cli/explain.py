@@ -21,6 +21,7 @@ from idefix_rules.rulebook.fold import NotConstant
 from idefix_rules.rulebook.format import format_expr, format_number
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.model import Binary, Expr, Number
+from idefix_rules.rulebook.types import SETTINGS
 from idefix_rules.units import Dimension
 
 NAME = "explain"
@@ -115,10 +116,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _footer(checked: CheckedRulebook) -> Iterator[str]:
     rulebook = checked.rulebook
-    settings = ", ".join(f"{name} = {format_number(value)}"
+    settings = ", ".join(f"{name} = {_si(value, SETTINGS[name][0] if name in SETTINGS else None)}"
                          for name, value in sorted(checked.settings.items()))
     if settings:
-        yield f"settings (SI): {settings}"
+        yield f"settings: {settings}"
     for level in checked.obstacle_levels:
         below = f"below {format_number(level.below)} m, " if level.below is not None else ""
         yield f"obstacle level {level.level}: {below}buffer {format_number(level.buffer)} m"
