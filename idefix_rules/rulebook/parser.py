@@ -74,6 +74,8 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
     """
     if not isinstance(text, str):
         raise UserInputError(error("E000", "a rulebook must be text", Span(path)))
+    if text.startswith("\ufeff"):  # a byte-order mark some editors write: not content
+        text = text[1:]
     tree, comments, diagnostics = _parse_tree(text, path)
     if diagnostics or tree is None:
         diagnostics.sort(key=_position)

@@ -165,6 +165,15 @@ def test_every_node_has_a_span():
     assert index.value.operand.span.path == "t.rules"
 
 
+def test_windows_line_endings_tabs_and_a_byte_order_mark_are_fine():
+    text = "\ufeff" + (HEADER + "const a =\t5 cm  # note\n" + INDEX + VERDICT).replace(
+        "\n", "\r\n")
+    book = parse_rulebook(text, "crlf.rules")
+    assert book.constants[0].value == Number(5.0, "cm")
+    assert book.constants[0].comments == ("@eol # note",)
+    assert book == parse(INDEX + VERDICT + "const a = 5 cm\n")
+
+
 def test_strings_unescape_quotes_and_backslashes():
     book = parse(r'const a = 1 because "say \"hi\" \\ now"' + "\n")
     assert book.constants[0].rationale == 'say "hi" \\ now'
