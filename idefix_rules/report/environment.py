@@ -82,8 +82,15 @@ def buffer_mask(area: AreaShape, step: float) -> tuple[np.ndarray, np.ndarray, n
     return xs, ys, (inside.reshape(gx.shape) | near).astype(float)
 
 
-def map_environment(campaign_text: str, checked: Any | None) -> tuple[MapEnvironment, list[str]]:
-    """Rocks and keep-out areas of a stored campaign; notes explain anything left out."""
+def map_environment(campaign_text: str, checked: Any | None,
+                    terrain: Any = None) -> tuple[MapEnvironment, list[str]]:
+    """Rocks, keep-out areas and terrain areas of a stored campaign; notes say what is left out.
+
+    The obstacles come from the campaign's own obstacle set (the one its evaluation checks:
+    rocks of the terrain file with their levels, keep-out polygons); rock footprints are the
+    horizontal extent of the rock's geometry. Without it, the campaign's rocks are drawn with
+    their explicit level or '?'.
+    """
     from idefix_rules.campaign.schema import EnvironmentSection
 
     notes: list[str] = []
@@ -96,28 +103,35 @@ def map_environment(campaign_text: str, checked: Any | None) -> tuple[MapEnviron
                                   f"could not be read ({type(failure).__name__})"]
     margins = {spec.level: float(spec.buffer) for spec in
                getattr(checked, "obstacle_levels", ())}
-    levels = _rock_levels(environment, checked, notes)
-    rocks = []
-    for number, rock in enumerate(environment.rocks):
-        a, b, _ = rock.axes
-        name = f"rock{number + 1}"
-        level = rock.level or levels.get(name, "?")
-        rocks.append(RockShape(name, rock.x, rock.y, a, b, level, margins.get(level, 0.0)))
     areas = [AreaShape(area.name, np.array(area.polygon, dtype=float), area.level,
                        margins.get(area.level, 0.0)) for area in environment.keep_out]
-    return MapEnvironment(tuple(rocks), tuple(areas)), notes
-
-
-def _rock_levels(environment: Any, checked: Any | None, notes: list[str]) -> dict[str, str]:
-    """Levels the obstacle checker assigns (by rock name), from the campaign's environment."""
-    if not environment.rocks:
-        return {}
     try:
         from idefix_rules.campaign.environment import obstacle_set
 
-        obstacles = obstacle_set(environment, checked)
-        return {obstacle.name: obstacle.level_name for obstacle in obstacles.obstacles}
+        obstacles = obstacle_set(environment, checked, terrain).obstacles
     except Exception as failure:
-        notes.append(f"rock levels not assigned from sizes ({type(failure).__name__}): "
-                     "rocks without an explicit level are drawn as '?'")
-        return {}
+        notes.append(f"rock levels not assigned ({type(failure).__name__}: {failure}): rocks "
+                     "without an explicit level are drawn as '?'")
+        rocks = [RockShape(f"rock{n + 1}", rock.x, rock.y, rock.axes[0], rock.axes[1],
+                           rock.level or "?", margins.get(rock.level or "", 0.0))
+                 for n, rock in enumerate(environment.rocks)]
+        return MapEnvironment(tuple(rocks), tuple(areas)), notes
+    rocks = []
+    for obstacle in obstacles:
+        if obstacle.kind == "polygon":
+            continue  # drawn from the campaign's polygon, with its buffer
+        lower = np.min([piece.lower for piece in obstacle.pieces], axis=0)
+        upper = np.max([piece.upper for piece in obstacle.pieces], axis=0)
+        centre, half = (lower + upper) / 2.0, (upper - lower) / 2.0
+        level = obstacle.level_name
+        if obstacle.kind == "rock":
+            rocks.append(RockShape(obstacle.name, float(centre[0]), float(centre[1]),
+                                   float(half[0]), float(half[1]), level,
+                                   margins.get(level, 0.0)))
+        else:  # steep or unknown terrain: its cells' outline
+            for number, piece in enumerate(obstacle.pieces):
+                x0, y0, x1, y1 = piece.lower[0], piece.lower[1], piece.upper[0], piece.upper[1]
+                areas.append(AreaShape(f"{obstacle.name}" if number == 0 else "",
+                                       np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]),
+                                       level, 0.0))
+    return MapEnvironment(tuple(rocks), tuple(areas)), notes

@@ -62,8 +62,9 @@ def _draw_environment(axes: object, environment: MapEnvironment, step: float) ->
             xs, ys, mask = buffer_mask(area, step)
             axes.contour(xs, ys, mask, levels=[0.5], colors=[colour], linestyles="--",
                          linewidths=1.0, zorder=3)
-        axes.annotate(f"{area.name} ({area.level})", area.polygon.mean(axis=0), fontsize=7,
-                      ha="center", color=colour, zorder=6)
+        if area.name:
+            axes.annotate(f"{area.name} ({area.level})", area.polygon.mean(axis=0),
+                          fontsize=7, ha="center", color=colour, zorder=6)
     for rock in environment.rocks:
         colour = LEVEL_COLOURS.get(rock.level, LEVEL_COLOURS["?"])
         axes.add_patch(Ellipse((rock.x, rock.y), 2 * rock.a, 2 * rock.b, facecolor="#8d8d8d",

@@ -107,14 +107,25 @@ def setup_from_store(store: ResultStore) -> Setup:
             setup.notes.append(f"the stored rulebook could not be compiled "
                                f"({type(failure).__name__}: {failure})")
     campaign_text = store.text("campaign") if "campaign" in store.file["provenance"] else ""
-    setup.environment, notes = map_environment(campaign_text, setup.checked)
+    terrain = _stored_terrain(Path(store.file.filename).parent)
+    setup.environment, notes = map_environment(campaign_text, setup.checked, terrain)
     setup.notes += notes
     if campaign_text:
-        _campaign_context(store, campaign_text, setup)
+        _campaign_context(store, campaign_text, setup, terrain)
     return setup
 
 
-def _campaign_context(store: ResultStore, text: str, setup: Setup) -> None:
+def _stored_terrain(folder: Path) -> Any:
+    """The terrain file the campaign wrote next to its results (rock heights, DEM areas)."""
+    try:
+        from idefix_rules.campaign.environment import read_terrain
+
+        return read_terrain(folder)
+    except Exception:  # no terrain file, or one this version cannot read: rocks on the datum
+        return None
+
+
+def _campaign_context(store: ResultStore, text: str, setup: Setup, terrain: Any) -> None:
     """Rover geometry, initial-position σ and the collision checker, as the campaign had them."""
     campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
     try:
@@ -139,16 +150,12 @@ def _campaign_context(store: ResultStore, text: str, setup: Setup) -> None:
         return
     if setup.evaluator is not None and getattr(setup.evaluator, "needs_collisions", False):
         try:
-            from idefix_rules.campaign.environment import ground_function
             from idefix_rules.campaign.evaluation import collision_function
 
-            terrain = Path(store.file.filename).parent / "terrain.dem"
-            setup.collisions = collision_function(
-                model.environment, setup.evaluator,
-                ground_function(terrain if terrain.exists() else None))
+            setup.collisions = collision_function(model.environment, setup.evaluator, terrain)
         except Exception as failure:
-            setup.notes.append(f"collision signals not rebuilt ({type(failure).__name__}): "
-                               "the map shows no per-sample collision risk")
+            setup.notes.append(f"collision signals not rebuilt ({type(failure).__name__}: "
+                               f"{failure}): the maps show each run's I_max instead")
             setup.evaluator = None
 
 

@@ -1,0 +1,76 @@
+"""End to end: a small real campaign writes its report, which renders in headless Chromium."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_report_browser import render
+
+from idefix_rules.cli import main
+from idefix_rules.report import prepare_report
+
+RULEBOOK = Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"
+
+CAMPAIGN = f"""\
+name: report-e2e
+rulebook: {RULEBOOK}
+runs: 4
+output: out
+environment:
+  terrain:
+    synthetic: {{size: "3 m", cell: "2 cm", slope: "2 deg", slope_direction: "0 deg"}}
+  rocks:
+    - {{x: "0.45 m", y: "-0.40 m", radius: "5 cm"}}
+  keep_out:
+    - name: soft-patch
+      polygon: [["0.2 m", "0.7 m"], ["0.45 m", "0.7 m"], ["0.45 m", "0.9 m"],
+                ["0.2 m", "0.9 m"]]
+uncertainty:
+  method: monte_carlo
+  seed: 3
+  parameters:
+    initial.y: {{distribution: normal, mean: "0 m", std: "1 cm"}}
+    soil.cohesion: {{distribution: uniform, low: "100 Pa", high: "400 Pa"}}
+paths:
+  straight:
+    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.6 m", delta_heading: "0 deg"}}
+  detour:
+    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "20 deg"}}
+    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "-20 deg"}}
+"""
+
+
+@pytest.mark.slow
+def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
+    campaign = tmp_path / "small.yaml"
+    campaign.write_text(CAMPAIGN, encoding="utf-8")
+    code = main(["run", str(campaign), "--quiet", "--workers", "2"])
+    assert code in (0, 1)  # verified or a path failed: both are reports worth reading
+    out = tmp_path / "out"
+    page = out / "report.html"
+    assert page.exists() and (out / "risk_map_all.png").exists()
+    text = page.read_text(encoding="utf-8")
+    assert "idefix-ops 1.0.0" in text and "Notes" not in text
+    data, setup, maps = prepare_report(out / "results.h5")
+    assert maps.per_sample and setup.notes == []
+    # The rock near the straight path and the keep-out area are drawn, with their levels.
+    assert [rock.level for rock in setup.environment.rocks] in (["L1"], ["L2"], ["L3"])
+    assert [area.name for area in setup.environment.areas] == ["soft-patch"]
+    for path in data.evaluated_paths:
+        accumulator = maps.per_path[path.name]
+        values = accumulator.values()
+        # Per-sample values may exceed a run's I_max where an index reduces with `final`
+        # (a transient the final value no longer shows): only the scale is bounded.
+        assert np.nanmin(values) >= 0.0 and np.nanmax(values) <= 1.0
+        complete = int(path.complete.sum())
+        assert accumulator.runs == complete
+        # Each run crosses cells along its whole track (0.6 m: more than 20 cells of 2.5 cm).
+        assert accumulator.counts().max() <= complete
+        assert accumulator.counts().sum() >= 20 * complete
+        assert path.final_local_error is not None
+        assert path.final_local_error.size == int(path.complete.sum())
+    # The page as a person sees it: the report again from the CLI, then a screenshot.
+    assert main(["report", str(out / "results.h5"), "-o", str(tmp_path / "again")]) == 0
+    assert render(tmp_path / "again" / "report.html", tmp_path / "screen.png") == []
