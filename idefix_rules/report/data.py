@@ -267,36 +267,53 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
     )
 
 
-def _row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
-    """Table 1 row when ``summary.json`` is not stored: means over the complete runs."""
+def _estimate(stats: Mapping[str, Any],
+              key: str) -> tuple[float | None, tuple[float, float] | None]:
+    """(value, (low, high)) of a ``PathStatistics`` estimate stored as a dict."""
+    item = stats.get(key)
+    if not isinstance(item, Mapping):
+        return None, None
+    low, high = _float_or_none(item.get("low")), _float_or_none(item.get("high"))
+    interval = (low, high) if low is not None and high is not None else None
+    return _float_or_none(item.get("value")), interval
+
+
+def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
+    """Table 1 row when ``summary.json`` is not stored: the path's stored statistics and
+    verdict, else means over the complete runs."""
     evaluation = group.get("evaluation")
     complete = path.complete if path.evaluated else np.zeros(0, dtype=bool)
     stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
     verdict = _json(evaluation.attrs.get("verdict"), {}) if evaluation is not None else {}
-    mean_risk = float(np.mean(path.i_max[complete])) if complete.any() else None
-    energy = time = None
-    if evaluation is not None and complete.any():
-        if "energy" in evaluation:
-            energy = float(np.mean(evaluation["energy"][()][complete])) * 1000.0
-        if "time" in evaluation:
+    mean_risk, interval = _estimate(stats, "risk")
+    energy, _ = _estimate(stats, "energy")
+    time, _ = _estimate(stats, "time")
+    if complete.any() and evaluation is not None:
+        if mean_risk is None:
+            mean_risk = float(np.mean(path.i_max[complete]))
+        if energy is None and "energy" in evaluation:
+            energy = float(np.mean(evaluation["energy"][()][complete]))
+        if time is None and "time" in evaluation:
             time = float(np.mean(evaluation["time"][()][complete]))
-    ci = stats.get("risk_ci95") or stats.get("mean_risk_ci")
+    chances = {key: value for key in (stats.get("chances") or {})
+               if (value := _estimate(stats["chances"], key)[0]) is not None}
+    if not chances and complete.any():
+        chances = {key: float(np.mean(values[complete] > 0))
+                   for key, values in path.chances.items()}
     passed = verdict.get("passed")
     status = _text(group.attrs.get("status", ""))
+    reasons = tuple(str(rule.get("message", "")) for rule in verdict.get("rules", [])
+                    if isinstance(rule, Mapping) and not rule.get("passed", True))
     return TableRow(
         path=name, status=status, runs=int(path.status_codes.size),
         completed_runs=int(np.sum(path.status_codes == STATUS_COMPLETE)),
         failed_runs=int(np.sum(path.status_codes == STATUS_FAILED)),
-        mean_risk=mean_risk,
-        risk_ci95=(float(ci[0]), float(ci[1])) if isinstance(ci, list | tuple) else None,
-        chances={key: float(np.mean(values[complete] > 0)) for key, values in path.chances.items()}
-        if complete.any() else {},
-        energy_mAs=energy, time_s=time,
-        verdict={True: "pass", False: "fail"}.get(passed, status) if passed is not None
-        else status,
+        mean_risk=mean_risk, risk_ci95=interval, chances=chances,
+        energy_mAs=energy * 1000.0 if energy is not None else None, time_s=time,
+        verdict={True: "pass", False: "fail"}[bool(passed)] if passed is not None else status,
         undecided=not bool(verdict.get("decided", True)), rank=None,
-        dominant_index=(path.dominance()[0][0] if path.evaluated and complete.any() else None),
-        reason=_text(group.attrs.get("reason", "")),
+        dominant_index=(path.dominance()[0][0] if complete.any() else None),
+        verdict_reasons=reasons, reason=_text(group.attrs.get("reason", "")),
     )
 
 
@@ -330,7 +347,7 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
             path.indices[key] = np.asarray(dataset[()], dtype=float)
         for key, dataset in evaluation.get("chances", {}).items():
             path.chances[key] = np.asarray(dataset[()])
-    path.row = summary_rows.get(name) or _row_from_arrays(name, group, path)
+    path.row = summary_rows.get(name) or row_from_arrays(name, group, path)
     return path
 
 

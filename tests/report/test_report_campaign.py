@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 from test_report_browser import render
 
+from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.report import prepare_report
+from idefix_rules.report.data import row_from_arrays
 
 RULEBOOK = Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"
 
@@ -71,6 +73,20 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
         assert accumulator.counts().sum() >= 20 * complete
         assert path.final_local_error is not None
         assert path.final_local_error.size == int(path.complete.sum())
+    # Without summary.json in the file, Table 1 comes from each path's stored statistics.
+    store = ResultStore.open(out / "results.h5")
+    try:
+        rows = {p.name: row_from_arrays(p.name, store.path_group(p.name), p)
+                for p in data.evaluated_paths}
+    finally:
+        store.close()
+    for path in data.evaluated_paths:
+        row = rows[path.name]
+        assert row.mean_risk == pytest.approx(path.row.mean_risk)
+        assert row.risk_ci95 == pytest.approx(path.row.risk_ci95)
+        assert row.energy_mAs == pytest.approx(path.row.energy_mAs)
+        assert row.time_s == pytest.approx(path.row.time_s)
+        assert (row.verdict, row.undecided) == (path.row.verdict, path.row.undecided)
     # The page as a person sees it: the report again from the CLI, then a screenshot.
     assert main(["report", str(out / "results.h5"), "-o", str(tmp_path / "again")]) == 0
     assert render(tmp_path / "again" / "report.html", tmp_path / "screen.png") == []
