@@ -278,7 +278,8 @@ class CompiledRulebook:
 
 def _normalise(value: np.ndarray, limit: float) -> np.ndarray:
     """``clamp(value / limit, 0, 1)``, NaN → 1 (``fmin`` returns 1 for NaN)."""
-    normalised = np.fmin(np.divide(value, limit), 1.0)
+    normalised = np.asarray(np.divide(value, limit))
+    np.fmin(normalised, 1.0, out=normalised)
     return np.asarray(np.fmax(normalised, 0.0, out=normalised))
 
 
