@@ -7,16 +7,23 @@ never matters).
 The local pool gives each worker process one task at a time over a pipe. That is what makes a
 crash attributable: when a worker dies (even by a segfault inside the FMU) the parent knows the
 one run it was executing, records it as failed with the signal, and starts a fresh worker. A run
-that exceeds the timeout is ended by killing its worker. Workers are forked from a forkserver
-(clean parent state, cheap start) and keep their FMU instance between runs.
+that exceeds the timeout is ended by killing its worker. Workers keep their FMU instance between
+runs.
+
+On Linux workers are forked: cheap to start again after a crash, and they never re-run the
+caller's ``__main__`` (forkserver and spawn do, which breaks scripts without a main guard). The
+parent holds no FMU instance and the children never touch the parent's HDF5 file (they leave
+through ``os._exit``). Elsewhere the platform's safe default (spawn) is used.
 """
 
 from __future__ import annotations
 
 import contextlib
+import faulthandler
 import multiprocessing
 import os
 import signal
+import sys
 import time
 import traceback
 from collections.abc import Callable, Hashable, Iterable, Iterator
@@ -36,11 +43,21 @@ class Outcome:
     reason: str = ""
 
 
-def _worker_main(connection: Connection, function: TaskFunction) -> None:
+def _worker_main(connection: Connection, function: TaskFunction, parent: int,
+                 inherited: Connection | None = None) -> None:
     # Ctrl-C goes to the parent, which decides; workers are ended by it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # A crash is recorded by the parent with its signal; no stack dump in the logs.
+    faulthandler.disable()
+    if inherited is not None:
+        inherited.close()  # the parent's end, copied by fork
     while True:
         try:
+            # Other workers forked later hold copies of this pipe, so a dead parent does not
+            # always show as EOF: look at the parent itself while idle.
+            while not connection.poll(1.0):
+                if os.getppid() != parent:
+                    return
             message = connection.recv()
         except (EOFError, OSError):
             return
@@ -80,17 +97,21 @@ class LocalPool:
     """A pool of worker processes, one task each at a time, with crash and timeout handling."""
 
     def __init__(self, function: TaskFunction, workers: int | None = None,
-                 run_timeout: float | None = None, start_method: str = "forkserver") -> None:
+                 run_timeout: float | None = None, start_method: str | None = None) -> None:
         self.function = function
         self.size = max(1, workers or os.cpu_count() or 1)
         self.run_timeout = run_timeout
+        if start_method is None:
+            start_method = "fork" if sys.platform.startswith("linux") else "spawn"
         self._context = multiprocessing.get_context(start_method)
         self._workers: list[_Worker] = []
 
     def _spawn(self) -> _Worker:
         parent_end, child_end = self._context.Pipe()
-        process = self._context.Process(target=_worker_main, args=(child_end, self.function),
-                                        daemon=True)
+        inherited = parent_end if self._context.get_start_method() == "fork" else None
+        process = self._context.Process(
+            target=_worker_main, args=(child_end, self.function, os.getpid(), inherited),
+            daemon=True)
         process.start()
         child_end.close()
         return _Worker(process, parent_end)

@@ -70,7 +70,7 @@ class ResultStore:
                texts: Mapping[str, str]) -> ResultStore:
         """A new results file (an existing one is replaced)."""
         path.parent.mkdir(parents=True, exist_ok=True)
-        file = h5py.File(path, "w", libver="latest", track_order=True)
+        file = h5py.File(path, "w", track_order=True)
         file.attrs["format"] = FORMAT
         file.attrs["format_version"] = FORMAT_VERSION
         for key, value in attrs.items():

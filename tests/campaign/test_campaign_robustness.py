@@ -1,0 +1,190 @@
+"""Determinism, resume after a kill, and runs that crash, hang or fail inside the FMU."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from conftest import CAMPAIGN
+
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.runner import run_campaign
+from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_MISSING
+
+pytestmark = pytest.mark.slow
+
+
+def datasets(path: Path) -> dict[str, np.ndarray]:
+    """Every dataset under /paths (simulation and evaluation), by its HDF5 name."""
+    found: dict[str, np.ndarray] = {}
+    with h5py.File(path) as results:
+        def visit(name: str, item: object) -> None:
+            if isinstance(item, h5py.Dataset):
+                found[name] = item[()]
+        results["paths"].visititems(visit)
+    return found
+
+
+def assert_same_datasets(first: Path, second: Path) -> None:
+    a, b = datasets(first), datasets(second)
+    assert a.keys() == b.keys()
+    for name in a:
+        if a[name].dtype.kind == "f":
+            assert np.array_equal(a[name], b[name], equal_nan=True), name
+        else:
+            assert np.array_equal(a[name], b[name]), name
+
+
+def copy_campaign(source: Path, target: Path, text: str = CAMPAIGN) -> Path:
+    target.mkdir()
+    for name in ("toy.fmu", "test.rules"):
+        (target / name).write_bytes((source / name).read_bytes())
+    (target / "campaign.yaml").write_text(text)
+    return target / "campaign.yaml"
+
+
+def test_one_worker_and_two_workers_give_identical_datasets(campaign_dir: Path,
+                                                            tmp_path: Path) -> None:
+    one = load_campaign(campaign_dir / "campaign.yaml").with_overrides(
+        output=tmp_path / "one", workers=1)
+    two = load_campaign(campaign_dir / "campaign.yaml").with_overrides(
+        output=tmp_path / "two", workers=2)
+    run_campaign(one, SimulationOptions(workers=1), report=False)
+    run_campaign(two, SimulationOptions(workers=2), report=False)
+    assert_same_datasets(tmp_path / "one" / "results.h5", tmp_path / "two" / "results.h5")
+    # and the runs differ from each other: the parameters really were sampled
+    x = datasets(tmp_path / "one" / "results.h5")["straight/runs/signals/x"]
+    assert len({row[-1] for row in x}) == x.shape[0]
+
+
+KILLER = textwrap.dedent("""\
+    import os, signal, sys
+    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.campaign.simulate import SimulationOptions
+
+    class KillAfter:
+        seen = 0
+        def message(self, text): pass
+        def start_path(self, name, total, done): pass
+        def run_finished(self, name, ok):
+            self.seen += 1
+            if self.seen == int(sys.argv[2]):
+                os.kill(os.getpid(), signal.SIGKILL)
+
+    run_campaign(load_campaign(sys.argv[1]), SimulationOptions(workers=2),
+                 progress=KillAfter(), report=False)
+""")
+
+
+def test_a_killed_campaign_resumes_to_the_same_result(campaign_dir: Path,
+                                                      tmp_path: Path) -> None:
+    text = CAMPAIGN.replace("runs: 6", "runs: 10")
+    killed = copy_campaign(campaign_dir, tmp_path / "killed", text)
+    whole = copy_campaign(campaign_dir, tmp_path / "whole", text)
+    script = tmp_path / "killer.py"
+    script.write_text(KILLER)
+    process = subprocess.run([sys.executable, str(script), str(killed), "7"],
+                             capture_output=True, text=True, timeout=120)
+    assert process.returncode == -9, process.stderr
+    results = killed.parent / "out" / "results.h5"
+    with h5py.File(results) as partial:
+        assert partial.attrs["state"] == "running"  # killed: never marked complete
+        status = np.concatenate([partial[f"paths/{p}/runs/status"][()]
+                                 for p in ("straight", "arc")])
+        assert np.sum(status == STATUS_COMPLETE) == 7
+        assert np.sum(status == STATUS_MISSING) == 13
+
+    resumed = run_campaign(load_campaign(killed), SimulationOptions(resume=True), report=False)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    assert resumed.exit_code == uninterrupted.exit_code
+    assert_same_datasets(results, whole.parent / "out" / "results.h5")
+    with h5py.File(results) as finished:
+        assert finished.attrs["state"] == "complete"
+        assert len(json.loads(finished.attrs["resumed"])) == 1
+
+
+def test_a_run_whose_status_is_not_complete_is_never_read_as_data(campaign_dir: Path) -> None:
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    run_campaign(campaign, report=False)
+    results = campaign.output / "results.h5"
+    original = datasets(results)
+    with h5py.File(results, "r+") as stored:
+        # A run cut off mid-write: data half there, status never set.
+        stored["paths/arc/runs/signals/x"][3, :5] = 1e9
+        stored["paths/arc/runs/status"][3] = STATUS_MISSING
+    run_campaign(campaign, SimulationOptions(resume=True), report=False)
+    assert_same_datasets_dicts(original, datasets(results))
+
+
+def assert_same_datasets_dicts(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
+    assert a.keys() == b.keys()
+    for name in a:
+        assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
+
+
+def test_resume_refuses_results_of_another_campaign(campaign_dir: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import main
+
+    path = campaign_dir / "campaign.yaml"
+    assert main([str(path), "--quiet", "--no-report"]) == 1
+    assert main([str(path), "--quiet", "--no-report", "--resume", "--runs", "7"]) == 2
+    assert "cannot resume" in capsys.readouterr().err
+
+
+FAULTS = CAMPAIGN.replace("runs: 6", "runs: 16").replace("seed: 5", "seed: 1") \
+    .replace("  too-fast:\n    - {max_wheel_rate: \"0.5 rad/s\", delta_position: \"0.1 m\", "
+             "delta_heading: \"0 deg\"}\n", "") \
+    .replace("    toy.slip:", """\
+    toy.crash_at: {distribution: uniform, low: "1 s", high: "100 s"}
+    toy.hang_at: {distribution: uniform, low: "1 s", high: "100 s"}
+    toy.error_at: {distribution: uniform, low: "1 s", high: "100 s"}
+    toy.slip:""")
+
+
+def test_crashing_hanging_and_failing_runs_are_recorded_and_the_campaign_goes_on(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import main
+
+    (campaign_dir / "campaign.yaml").write_text(FAULTS)
+    code = main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report",
+                 "--run-timeout", "2"])
+    out = capsys.readouterr().out
+    assert code == 1  # a path with failed runs cannot pass
+    expected_kinds = set()
+    with h5py.File(campaign_dir / "out" / "results.h5") as results:
+        for name in ("straight", "arc"):
+            group = results[f"paths/{name}"]
+            stop = float(group.attrs["stop_time"])
+            status = group["runs/status"][()]
+            reasons = [r.rstrip(b"\0").decode() for r in group["runs/failure"][()]]
+            params = {k: group[f"runs/parameters/toy.{k}_at"][()]
+                      for k in ("crash", "hang", "error")}
+            for run in range(16):
+                times = {kind: float(values[run]) for kind, values in params.items()}
+                first = min(times, key=lambda kind: times[kind])
+                if times[first] > stop:
+                    assert status[run] == STATUS_COMPLETE, (name, run, reasons[run])
+                    continue
+                expected_kinds.add(first)
+                assert status[run] == 2, (name, run)
+                fragment = {"crash": "SIGSEGV", "hang": "run timeout of 2 s",
+                            "error": "fmi2DoStep failed"}[first]
+                assert fragment in reasons[run], (name, run, reasons[run])
+                assert np.all(np.isnan(group["runs/signals/x"][run]))
+            assert np.any(status == STATUS_COMPLETE)
+    assert expected_kinds == {"crash", "hang", "error"}
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    for record in summary["paths"]:
+        assert record["failed_runs"] > 0
+        assert record["verdict"] == "fail"
+        assert len(record["failures"]) == record["failed_runs"]
+    assert "failed" in out
