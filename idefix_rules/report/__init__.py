@@ -28,6 +28,8 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> 
     order = [path.name for path in data.paths]
     images = []
     what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
+    if maps.combined.runs == 0:
+        what = "no evaluated runs (reference runs only)"
     combined = figures.risk_map_figure(
         maps.combined.values(), maps.grid, setup.environment, maps.reference_tracks, order,
         f"All paths: {what}", maps.cell_reason)

@@ -101,16 +101,15 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     axes.set_xlim(left, right)
     axes.set_ylim(bottom, top)
     axes.set_aspect("equal")
-    axes.set_xlabel("x [m] (rover start frame, forward)")
+    axes.set_xlabel(f"x [m] (rover start frame, forward)\ngrid: {cell_note}", fontsize=9)
     axes.set_ylabel("y [m] (left)")
     axes.set_title(title, fontsize=11)
     axes.grid(True, linewidth=0.3, alpha=0.5, zorder=1)
     axes.legend(loc="best", fontsize=7, framealpha=0.8)
-    bar = figure.colorbar(image, ax=axes, shrink=0.85)
+    # The colour bar sits in an inset, so it is exactly as tall as the map whatever its aspect.
+    bar = figure.colorbar(image, cax=axes.inset_axes((1.03, 0.0, 0.035, 1.0)))
     bar.set_label("risk (0 safe … 1 critical)")
-    axes.text(0.01, 0.01, cell_note, transform=axes.transAxes, fontsize=7, color="#333333",
-              bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none", "pad": 2},
-              zorder=7)
+
     return figure
 
 

@@ -178,14 +178,23 @@ def _chunks(store: ResultStore, name: str, keys: list[str] | None,
 def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[RiskGrid, str]:
     """A grid covering every complete run's track (and nearby obstacles), cell from the rover."""
     bounds = [np.inf, -np.inf, np.inf, -np.inf]
+
+    def include(x: np.ndarray, y: np.ndarray) -> None:
+        nonlocal bounds
+        if np.isfinite(x).any() and np.isfinite(y).any():
+            bounds = [min(bounds[0], np.nanmin(x)), max(bounds[1], np.nanmax(x)),
+                      min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
+
     for path in data.paths:
+        reference = store.reference(path.name)
+        if reference is not None and "x" in reference and "y" in reference:
+            include(np.asarray(reference["x"]), np.asarray(reference["y"]))
         for _, chunk in _chunks(store, path.name, ["x", "y"], 256):
-            x, y = chunk["x"], chunk["y"]
-            if np.isfinite(x).any():
-                bounds = [min(bounds[0], np.nanmin(x)), max(bounds[1], np.nanmax(x)),
-                          min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
+            include(chunk["x"], chunk["y"])
     obstacle_bounds = setup.environment.bounds()
-    if obstacle_bounds is not None and np.isfinite(bounds).all():
+    if obstacle_bounds is not None and not np.isfinite(bounds).all():
+        bounds = list(obstacle_bounds)
+    elif obstacle_bounds is not None:
         # Obstacles near the tracks widen the map; far-away areas are clipped.
         reach = 1.0
         bounds = [max(min(bounds[0], obstacle_bounds[0]), bounds[0] - reach),

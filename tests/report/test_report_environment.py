@@ -1,0 +1,43 @@
+"""Obstacle shapes for the map: levels and buffers from the stored campaign and rulebook."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import CAMPAIGN, RULEBOOK
+
+from idefix_rules.report.environment import AreaShape, buffer_mask, map_environment
+from idefix_rules.rulebook import check_text
+
+
+def test_buffer_mask_holds_the_area_and_points_closer_than_the_margin() -> None:
+    square = AreaShape("square", np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+                       "L3", 0.2)
+    xs, ys, mask = buffer_mask(square, 0.05)
+
+    def at(x: float, y: float) -> float:
+        return float(mask[np.argmin(np.abs(ys - y)), np.argmin(np.abs(xs - x))])
+
+    assert at(0.5, 0.5) == 1.0  # inside
+    assert at(1.15, 0.5) == 1.0  # 0.15 m outside an edge: within 0.2 m
+    assert at(1.3, 0.5) == 0.0  # 0.3 m outside
+    assert at(1.17, 1.17) == 0.0  # 0.24 m from the corner: the buffer is rounded there
+    assert at(1.1, 1.1) == 1.0  # 0.14 m from the corner
+
+
+def test_rocks_and_areas_from_the_stored_campaign() -> None:
+    checked = check_text(RULEBOOK, "report-test.rules").checked
+    environment, notes = map_environment(CAMPAIGN, checked)
+    assert notes == []
+    (rock,) = environment.rocks
+    assert (rock.name, rock.level) == ("rock1", "L2")
+    assert (rock.x, rock.y, rock.a, rock.b) == pytest.approx((0.5, -0.26, 0.06, 0.06))
+    assert rock.buffer == pytest.approx(0.05)  # the rulebook's L2 buffer
+    (area,) = environment.areas
+    assert (area.name, area.level) == ("crater", "L3") and area.buffer == pytest.approx(0.1)
+    assert environment.bounds() == pytest.approx((0.39, 1.2, -0.37, 0.8))
+
+
+def test_an_unreadable_environment_is_a_note_not_an_error() -> None:
+    environment, notes = map_environment("environment: {rocks: [{x: 1}]}", None)
+    assert environment.rocks == () and "could not be read" in notes[0]
