@@ -158,6 +158,11 @@ class CompiledRulebook:
         self.required_signals: frozenset[str] = frozenset(provided | {"t", "command", "energy"})
         self.needs_collisions = any(name.startswith("collision.") for name in provided)
 
+    def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
+        """Pickle as the checked model and compile again on loading (closures do not pickle),
+        so an evaluator can be shipped to worker processes."""
+        return (CompiledRulebook, (self.checked,))
+
     def _signals_read(self, *expressions: Expr) -> tuple[str, ...]:
         names: set[str] = set()
         for expr in expressions:

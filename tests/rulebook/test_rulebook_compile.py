@@ -279,3 +279,15 @@ index I { value = max over time (pitch - mean over time (pitch)) limit = 1 rad w
     np.testing.assert_allclose(result.per_sample["I"][0],
                                np.clip(np.array(PITCH[0]) - mean, 0, 1))
     assert result.raw["I"][0] == pytest.approx(0.2 - mean)
+
+
+def test_compiled_rulebook_pickles_for_worker_processes():
+    import pickle
+
+    checked = rulebook("index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }")
+    evaluator = compile_rulebook(checked)
+    copy = pickle.loads(pickle.dumps(evaluator))
+    signals, context = batch(pitch=PITCH)
+    np.testing.assert_array_equal(copy.evaluate(signals, context).i_max,
+                                  evaluator.evaluate(signals, context).i_max)
+    assert copy.source_hash == evaluator.source_hash

@@ -139,5 +139,5 @@ def test_inputs_of_derived_signals():
 def test_signal_shapes_are_checked():
     run = run_of(np.arange(3.0), [0, 0, -1])
     run["wheel.slip"] = np.zeros((1, 3, 3))  # three wheels
-    with pytest.raises(UserInputError, match="wheel.slip"):
+    with pytest.raises(UserInputError, match=r"wheel\.slip"):
         DerivedSignals(run, RunContext()).get("wheel.slip")
