@@ -187,7 +187,8 @@ def parse_unit(text: str) -> Unit:
             match = _TOKEN.match(source, position)
             if match is None or match.group(1) not in _ATOMS:
                 atom = match.group(1) if match else source[position:]
-                raise UnitError(f"unknown unit {atom!r} in {text!r}")
+                where = "" if atom == source else f" in {text!r}"
+                raise UnitError(f"unknown unit {atom!r}{where}")
             atom_scale, atom_dim = _ATOMS[match.group(1)]
             power = int(match.group(2)) if match.group(2) else 1
             scale *= atom_scale ** (sign * power)

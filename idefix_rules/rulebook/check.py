@@ -239,7 +239,9 @@ def check_names(env: _Env) -> list[Diagnostic]:
         if name in seen:
             first_kind, first = seen[name]
             first_span = getattr(first, "span", None)
-            problems.append(error("E102", f"{kind} '{name}' is already declared as a {first_kind}"
+            article = "an" if first_kind[0] in "aeiou" else "a"
+            problems.append(error("E102", f"{kind} '{name}' is already declared as {article} "
+                                  f"{first_kind}"
                                   + (f" at {first_span}" if first_span else ""), span))
             continue
         seen[name] = (kind, node)
@@ -328,6 +330,7 @@ def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
         return problems
     specs.sort(key=lambda item: LEVELS.index(item[0].level))
     previous = 0.0
+    previous_level = ""
     for position, (level, below, _) in enumerate(specs):
         last = position == len(specs) - 1
         if level.below is None and not last:
@@ -335,10 +338,11 @@ def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
                                   "('below …'): only the highest level may omit it", level.span))
         if below is not None:
             if below <= previous:
-                problems.append(error("E405", f"size thresholds must increase from L1 to L3; "
-                                      f"{level.level}'s is not above the level before",
-                                      level.below.span if level.below else level.span))
-            previous = below
+                problems.append(error(
+                    "E405", f"size thresholds must increase from L1 to L3: {level.level}'s "
+                    f"({below * 100:g} cm) is not above {previous_level}'s ({previous * 100:g} cm)",
+                    level.below.span if level.below else level.span))
+            previous, previous_level = below, level.level
     env.levels = [ObstacleLevelSpec(level.level, below, buffer)
                   for level, below, buffer in specs]
     missing = [lvl for lvl in LEVELS if lvl not in seen]
@@ -361,10 +365,15 @@ def _condition(env: _Env, expr: Expr, kind: str, what: str,
     if found.axes:
         problems.append(error("E302", f"{what} must be one condition per "
                               f"{'command' if kind == 'command' else 'run'}, but it still has "
-                              f"the axes {', '.join(found.axes)}", expr.span,
+                              f"{_axes_phrase(found.axes)}", expr.span,
                               "reduce them with any/all over …"))
         return None
     return found
+
+
+def _axes_phrase(axes: tuple[str, ...]) -> str:
+    """``a time axis`` / ``a time and a wheel axis``."""
+    return " and ".join(f"a {axis}" for axis in axes) + (" axis" if len(axes) == 1 else " axes")
 
 
 def check_command_rules(env: _Env) -> list[Diagnostic]:
@@ -387,8 +396,8 @@ def check_indices(env: _Env) -> list[Diagnostic]:
                 found = None
             elif found.axes:
                 problems.append(error(
-                    "E302", f"{what} must give one value per run, but it still has the axes "
-                    f"{', '.join(found.axes)}", index.value.span,
+                    "E302", f"{what} must give one value per run, but it still has "
+                    f"{_axes_phrase(found.axes)}", index.value.span,
                     "reduce them, e.g. 'max over time (…)' or 'max over wheels (…)'"))
                 found = None
         if found is not None:

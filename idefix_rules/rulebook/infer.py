@@ -177,6 +177,11 @@ def _binary(expr: Binary, scope: Scope, problems: Problems) -> ExprType | None:
                                   node.span))
             return None
     if expr.op in _COMPARISON or expr.op in ("+", "-"):
+        # A bare 0 is zero in any unit: `delta_position == 0`, `x - 0`.
+        if _is_bare_zero(expr.right):
+            right = ExprType(left.dimension, right.axes)
+        elif _is_bare_zero(expr.left):
+            left = ExprType(right.dimension, left.axes)
         if left.dimension != right.dimension:
             verb = "compare" if expr.op in _COMPARISON else (
                 "add" if expr.op == "+" else "subtract")
@@ -202,6 +207,10 @@ def _binary(expr: Binary, scope: Scope, problems: Problems) -> ExprType | None:
                               "number written in place", exponent.span))
         return None
     return ExprType(left.dimension ** int(exponent.value), left.axes)
+
+
+def _is_bare_zero(expr: Expr) -> bool:
+    return isinstance(expr, Number) and expr.unit is None and expr.value == 0
 
 
 def _call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:

@@ -57,7 +57,7 @@ RATIO = ExprType(DIMENSIONLESS)
 ScopeKind = Literal["constant", "command", "run", "prescreen", "path"]
 
 SCOPE_DESCRIPTIONS: dict[str, str] = {
-    "constant": "a constant",
+    "constant": "a constant expression (constants and numbers only)",
     "command": "a command rule",
     "run": "an index or chance",
     "prescreen": "a prescreen rule",

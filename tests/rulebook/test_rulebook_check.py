@@ -218,3 +218,11 @@ def test_every_error_of_a_file_is_reported():
         indices=(Index("I_s", SLIP, Number(5, "cm"), Number(2)),),
     )
     assert sorted(codes(book)) == ["E204", "E401", "E503"]
+
+
+def test_a_bare_zero_compares_with_any_dimension():
+    rule = CommandRule("moves", Binary("or", Binary("!=", Name("delta_position"), Number(0)),
+                                       Binary("!=", Name("delta_heading"), Number(0))))
+    assert check(rulebook(command_rules=(rule,))).ok
+    rule = CommandRule("moves", Binary("!=", Name("delta_position"), Number(1)))
+    assert codes(rulebook(command_rules=(rule,))) == ["E201"]
