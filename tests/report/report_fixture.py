@@ -1,4 +1,8 @@
-"""A small synthetic results file in the documented layout (docs/results-format.md)."""
+"""A small synthetic results file in the documented layout (docs/results-format.md).
+
+Imported by the report tests as ``report_fixture`` (a unique module name: every test folder
+has its own ``conftest``, so importing from ``conftest`` would find another folder's).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,6 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-import pytest
 
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 
@@ -191,6 +194,3 @@ def write_results(target: Path, evaluated: bool = True) -> Path:
     return target
 
 
-@pytest.fixture
-def synthetic_results(tmp_path: Path) -> Path:
-    return write_results(tmp_path / "results.h5")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import CAMPAIGN, RULEBOOK
+from report_fixture import CAMPAIGN, RULEBOOK
 
 from idefix_rules.report.environment import AreaShape, buffer_mask, map_environment
 from idefix_rules.rulebook import check_text

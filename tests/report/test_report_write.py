@@ -8,7 +8,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import write_results
+from report_fixture import write_results
 
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
