@@ -277,9 +277,13 @@ def _fill(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None
     result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \
         else dominant_index(evaluation)
     result.passed = bool(verdict.passed)
-    result.undecided = not bool(verdict.decided)
-    result.verdict_reasons = [_reason_text(rule) for rule in verdict.rules
-                              if not rule.passed or not rule.decided]
+    failed_for_sure = [rule for rule in verdict.rules if not rule.passed and rule.decided]
+    # A rule that fails with its threshold outside the interval decides the path whatever the
+    # undecided rules say; otherwise an undecided rule leaves the verdict undecided.
+    result.undecided = not bool(verdict.decided) and not failed_for_sure
+    shown = failed_for_sure or [rule for rule in verdict.rules
+                                if not rule.passed or not rule.decided]
+    result.verdict_reasons = [_reason_text(rule) for rule in shown]
     if (result.failed or result.completed < result.runs) and result.passed:
         # The rulebook already counts failed runs; this is the last guard.
         result.passed = False
