@@ -10,6 +10,7 @@ Stages: read the data (:mod:`.data`), evaluate per-sample risk and bin it (:mod:
 from __future__ import annotations
 
 import math
+from html import escape
 from pathlib import Path
 
 from idefix_rules.campaign.store import ResultStore
@@ -100,7 +101,7 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
     notes = list(setup.notes)
     if not data.evaluated_paths:
         notes.append("no path has an evaluation: run `idefix-verify evaluate` first")
-    map_text = (f"<p>Grid: {html.escape(maps.cell_reason)}. A cell crossed by one run shows "
+    map_text = (f"<p>Grid: {escape(maps.cell_reason)}. A cell crossed by one run shows "
                 "the maximum per-sample risk of that run there; a cell crossed by several runs "
                 "the mean of the run-specific maxima (body-centre positions; segments between "
                 "samples are rasterised so fast segments leave no gap). Dashed outlines: buffer "

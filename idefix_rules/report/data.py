@@ -278,6 +278,15 @@ def _estimate(stats: Mapping[str, Any],
     return _float_or_none(item.get("value")), interval
 
 
+def _undecided(verdict: Mapping[str, Any]) -> bool:
+    """Not decided at this number of runs: some rule is undecided and no failing rule is
+    decided (a rule failing with its threshold outside the interval decides the path)."""
+    rules = [rule for rule in verdict.get("rules", []) if isinstance(rule, Mapping)]
+    failed_for_sure = any(not rule.get("passed", True) and rule.get("decided", True)
+                          for rule in rules)
+    return not bool(verdict.get("decided", True)) and not failed_for_sure
+
+
 def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
     """Table 1 row when ``summary.json`` is not stored: the path's stored statistics and
     verdict, else means over the complete runs."""
@@ -311,7 +320,7 @@ def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
         mean_risk=mean_risk, risk_ci95=interval, chances=chances,
         energy_mAs=energy * 1000.0 if energy is not None else None, time_s=time,
         verdict={True: "pass", False: "fail"}[bool(passed)] if passed is not None else status,
-        undecided=not bool(verdict.get("decided", True)), rank=None,
+        undecided=_undecided(verdict), rank=None,
         dominant_index=(path.dominance()[0][0] if complete.any() else None),
         verdict_reasons=reasons, reason=_text(group.attrs.get("reason", "")),
     )

@@ -71,15 +71,6 @@ def _campaign_model(text: str, path: str) -> Any:
     return CampaignFile.model_validate(load_yaml(text, path).data)
 
 
-def _compiler() -> Any:
-    """The rulebook compiler (exported by the package, or from its module)."""
-    try:
-        from idefix_rules.rulebook import compile_rulebook  # type: ignore[attr-defined]
-    except ImportError:
-        from idefix_rules.rulebook.compile import compile_rulebook
-    return compile_rulebook
-
-
 def setup_from_store(store: ResultStore) -> Setup:
     """Compile the stored rulebook and rebuild the campaign's run context and collisions."""
     setup = Setup()
@@ -102,7 +93,9 @@ def setup_from_store(store: ResultStore) -> Setup:
             setup.notes.append(f"the stored rulebook could not be read: {failure}")
     if setup.checked is not None:
         try:
-            setup.evaluator = _compiler()(setup.checked)
+            from idefix_rules.rulebook import compile_rulebook
+
+            setup.evaluator = compile_rulebook(setup.checked)
         except Exception as failure:
             setup.notes.append(f"the stored rulebook could not be compiled "
                                f"({type(failure).__name__}: {failure})")

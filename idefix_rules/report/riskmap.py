@@ -220,8 +220,9 @@ def per_sample_risk(per_sample: dict[str, np.ndarray], weights: dict[str, float]
     ...                 {"a": 0.5, "b": 1.0}).tolist()
     [[0.5, 0.4]]
     """
-    stacked = [weights.get(name, 1.0) * np.asarray(values, dtype=float)
+    stacked = [weights[name] * np.asarray(values, dtype=float)
                for name, values in per_sample.items()]
     if not stacked:
         raise ValueError("no per-sample index values")
-    return np.clip(np.max(np.stack(stacked), axis=0), 0.0, 1.0)
+    risk: np.ndarray = np.clip(np.max(np.stack(stacked), axis=0), 0.0, 1.0)
+    return risk
