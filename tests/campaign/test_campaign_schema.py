@@ -90,7 +90,7 @@ CATALOGUE = [
      ['9:51: paths.detour[0].delta_position: expected a length, got "50 deg" (an angle)']),
     ("unknown unit",
      GOOD.replace('delta_position: "1 m"', 'delta_position: "1 parsec"'),
-     ["7:54: paths.straight[0].delta_position: unknown unit 'parsec' in 'parsec'"]),
+     ["7:54: paths.straight[0].delta_position: unknown unit 'parsec'"]),
     ("unknown key",
      GOOD.replace("runs: 8", "runz: 8"),
      ["3:1: runz: unknown key"]),
