@@ -194,7 +194,7 @@ class FmuRunner:
                     self._check_terrain(str(value))
                 strings[variable.valueReference] = str(value)
             elif variable.type in ("Integer", "Enumeration"):
-                integers[variable.valueReference] = int(value)  # type: ignore[arg-type]
+                integers[variable.valueReference] = int(value)
             elif variable.type == "Boolean":
                 raise UserInputError(error("F108", f"Boolean parameter '{name}' not supported"))
             else:

@@ -75,7 +75,8 @@ class Terrain:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.heights.shape  # type: ignore[return-value]
+        ny, nx = self.heights.shape
+        return ny, nx
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
@@ -93,8 +94,9 @@ class Terrain:
         j = np.minimum(fy.astype(int), ny - 2)
         tx, ty = fx - i, fy - j
         h = self.heights
-        return ((1 - ty) * ((1 - tx) * h[j, i] + tx * h[j, i + 1])
-                + ty * ((1 - tx) * h[j + 1, i] + tx * h[j + 1, i + 1]))
+        heights: np.ndarray = ((1 - ty) * ((1 - tx) * h[j, i] + tx * h[j, i + 1])
+                               + ty * ((1 - tx) * h[j + 1, i] + tx * h[j + 1, i + 1]))
+        return heights
 
 
 def flat_terrain(size: float = 6.0, cell: float = 0.05) -> Terrain:
