@@ -56,6 +56,9 @@ class FmuRunner:
         except Exception as exc:  # fmpy raises plain exceptions for unreadable archives
             raise UserInputError(error("F102", f"not a readable FMU: {exc}",
                                        Span(str(self.fmu_path)))) from None
+        if description.fmiVersion != "2.0":
+            raise UserInputError(error("F103", f"FMI {description.fmiVersion} FMU; the runner "
+                                       "supports FMI 2.0 co-simulation", Span(str(self.fmu_path))))
         if description.coSimulation is None:
             raise UserInputError(error("F103", "the FMU has no co-simulation interface",
                                        Span(str(self.fmu_path))))
@@ -70,7 +73,12 @@ class FmuRunner:
         self._slave = FMU2Slave(guid=description.guid, unzipDirectory=str(self._unzipdir),
                                 modelIdentifier=description.coSimulation.modelIdentifier,
                                 instanceName="idefix")
-        self._slave.instantiate()
+        try:
+            self._slave.instantiate()
+        except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
+                from None
         dll = self._slave.dll
         self._do_step = dll.fmi2DoStep
         self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
