@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import json
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,6 +51,8 @@ class CampaignResult:
     exit_code: int
     warnings: list[str] = field(default_factory=list)
     report: Path | None = None
+    # Wall-clock seconds per stage, and seconds workers spent inside FmuRunner.run.
+    timings: dict[str, float] = field(default_factory=dict)
 
 
 def compile_rulebook_file(path: Path) -> Any:
@@ -77,6 +80,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                  report: bool = True) -> CampaignResult:
     """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked)."""
     options = options or SimulationOptions()
+    started = time.perf_counter()
     evaluator = compile_rulebook_file(campaign.rulebook)
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
@@ -87,6 +91,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
     simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
                                    collisions)
+    simulated = time.perf_counter()
     if progress is not None:
         progress.message("evaluating")
     store = ResultStore.open(simulation.results, writable=True)
@@ -97,9 +102,16 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name)
     finally:
         store.close()
+    evaluated = time.perf_counter()
     result.warnings.extend(simulation.warnings)
     if report:
         result.report = write_report(result.results, campaign.output)
+    result.timings = {"preparation_and_simulation": simulated - started,
+                      "evaluation": evaluated - simulated,
+                      "report": time.perf_counter() - evaluated,
+                      "total": time.perf_counter() - started,
+                      "inside_fmu": simulation.fmu_seconds,
+                      "simulated_runs": float(simulation.simulated_runs)}
     return result
 
 

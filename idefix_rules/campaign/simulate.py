@@ -85,6 +85,8 @@ class SimulationSummary:
     results: Path
     plans: list[PathPlan] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    fmu_seconds: float = 0.0  # summed time workers spent inside FmuRunner.run
+    simulated_runs: int = 0
 
 
 def now_iso() -> str:
@@ -169,8 +171,9 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         summary.plans = plans
         _command_rules(campaign, evaluator, rover, plans, store)
         _reference_runs(campaign, evaluator, rover, fmu_path, fmu_parameters, plans, store,
-                        options, progress, collisions)
-        _monte_carlo(campaign, fmu_path, fmu_parameters, plans, store, options, progress)
+                        options, progress, collisions, summary)
+        _monte_carlo(campaign, fmu_path, fmu_parameters, plans, store, options, progress,
+                     summary)
         complete = all(not store.has_runs(p.spec.name)
                        or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
                        for p in plans)
@@ -287,7 +290,7 @@ def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
 def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu_path: Path,
                     fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
                     store: ResultStore, options: SimulationOptions, progress: Progress,
-                    collisions: Any) -> None:
+                    collisions: Any, summary: SimulationSummary) -> None:
     from idefix_rules.campaign.evaluation import prescreen_reference
 
     todo = [p for p in plans if p.status == "pending"]
@@ -307,10 +310,11 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
             store.write_reference(name, None, numeric, outcome.reason)
             store.set_path_status(name, plan.status, plan.reason)
             continue
-        plan.reference = outcome.value
-        store.write_reference(name, outcome.value, numeric)
+        plan.reference = outcome.value.signals
+        summary.fmu_seconds += outcome.value.seconds
+        store.write_reference(name, plan.reference, numeric)
         findings = prescreen_reference(evaluator, plan.spec.chain, rover,
-                                       initial_position_sigma(campaign), outcome.value,
+                                       initial_position_sigma(campaign), plan.reference,
                                        collisions)
         if findings:
             plan.status = "excluded"
@@ -341,7 +345,7 @@ def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, 
 
 def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
-                 progress: Progress) -> None:
+                 progress: Progress, summary: SimulationSummary) -> None:
     tasks: list[tuple[tuple[str, int], RunTask]] = []
     base = {**fmu_parameters, **nominal_parameters(campaign)}
     for plan in plans:
@@ -369,8 +373,10 @@ def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str
     pool = _pool(simulate, options, campaign)
     for (name, run), outcome in _map(pool, tasks):
         _raise_input_problem(outcome)
+        summary.simulated_runs += 1
         if outcome.ok:
-            store.write_run(name, run, outcome.value)
+            store.write_run(name, run, outcome.value.signals)
+            summary.fmu_seconds += outcome.value.seconds
         else:
             store.write_failure(name, run, outcome.reason)
         progress.run_finished(name, outcome.ok)
