@@ -60,6 +60,7 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("rover.wheel_width", "m", 0.06, "wheel width (assumption, see docs/rover-model.md)"),
     _p("rover.half_track", "m", 0.26, "lateral distance body centre to wheel centre plane"),
     _p("rover.half_wheelbase", "m", 0.20, "longitudinal distance body centre to wheel axle"),
+    _p("rover.yaw_inertia", "kg.m2", 1.0, "moment of inertia about the vertical axis"),
     _p("rover.cog_height", "m", 0.25, "centre of gravity height above the wheel contact plane"),
     _p("rover.body_centre_height", "m", 0.30,
        "body centre height above the wheel contact plane (pose z is this point)"),
@@ -163,6 +164,7 @@ _UNITS: dict[str, tuple[dict[str, int], float]] = {
     "N/m2": ({"kg": 1, "m": -1, "s": -2}, 1.0),
     "N/m3": ({"kg": 1, "m": -2, "s": -2}, 1.0),
     "N.m": ({"kg": 1, "m": 2, "s": -2}, 1.0),
+    "kg.m2": ({"kg": 1, "m": 2}, 1.0),
     "N.m/A": ({"kg": 1, "m": 2, "s": -2, "A": -1}, 1.0),
     "A.s": ({"A": 1, "s": 1}, 1.0),
 }

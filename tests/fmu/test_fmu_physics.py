@@ -57,8 +57,9 @@ def test_rock_under_the_right_wheels_rolls_the_rover_and_spikes_their_slip(
     assert out["roll"].min() < math.radians(-3)  # right side up: negative roll
     assert out["roll"].max() < math.radians(0.1)
     flat_slip = float(flat["wheel.slip"][1000, FR])
-    assert out["wheel.slip"][:, FR].max() > 3 * flat_slip
-    assert out["wheel.slip"][:, FR].max() > out["wheel.slip"][:, FL].max()
+    crossing = slice(50, 2000)  # after the start-up slip of the first second
+    assert out["wheel.slip"][crossing, FR].max() > 3 * flat_slip
+    assert out["wheel.slip"][crossing, FR].max() > out["wheel.slip"][crossing, FL].max()
     assert out["z"].max() > flat["z"].max() + 0.01
 
 

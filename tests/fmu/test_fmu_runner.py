@@ -89,8 +89,12 @@ def test_rover_stands_still_with_motors_off_after_the_chain(rover: FmuRunner) ->
     assert done[-1] and not done[0]
     after = np.argmax(done)
     assert np.all(out["wheel.rate"][after + 1:] == 0.0)
-    assert np.ptp(out["x"][after + 1:]) == 0.0 and np.ptp(out["yaw"][after + 1:]) == 0.0
-    assert np.all(np.diff(out["energy"][after + 1:]) == 0.0)
+    # the body skids to a stop on its locked wheels within about a second, then stands
+    coasting = out["x"][-1] - out["x"][after]
+    assert 0.0 <= coasting < 0.004
+    settled = after + 30
+    assert np.ptp(out["x"][settled:]) == 0.0 and np.ptp(out["yaw"][settled:]) == 0.0
+    assert np.ptp(out["energy"][settled:]) == 0.0  # holding still draws no current
 
 
 def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path) -> None:

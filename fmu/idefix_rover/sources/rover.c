@@ -277,6 +277,32 @@ static void solve_balance(Instance *inst, double gx, double gy, double q[3])
     residual(inst, q, gx, gy, r);  /* leave the wheel forces of the solution in place */
 }
 
+/* The rover's inertia between quasi-static states: its velocity moves towards the balance
+ * velocity no faster than the largest net force allows, i.e. the full-skid strength of all
+ * wheels plus in-plane gravity for the translation and their moment for the yaw rate. */
+static void limit_acceleration(Instance *inst, const double previous[3], double q[3], double dt)
+{
+    const double mass = inst->r[VR_ROVER_MASS], inertia = inst->r[VR_ROVER_YAW_INERTIA];
+    double force = mass * sqrt(inst->gx * inst->gx + inst->gy * inst->gy), moment = 0.0;
+    double du = q[0] - previous[0], dv = q[1] - previous[1], dw = q[2] - previous[2];
+    double step, largest;
+    int i;
+    for (i = 0; i < N_WHEELS; i++) {
+        const Wheel *w = &inst->wheels[i];
+        double hold = w->capacity * janosi_mobilisation(w->contact_length, w->shear_K);
+        force += hold;
+        moment += hold * sqrt(w->px * w->px + w->py * w->py);
+    }
+    step = sqrt(du * du + dv * dv);
+    largest = force / mass * dt;
+    if (step > largest) {
+        q[0] = previous[0] + du * largest / step;
+        q[1] = previous[1] + dv * largest / step;
+    }
+    largest = inertia > 0.0 ? moment / inertia * dt : fabs(dw);
+    if (fabs(dw) > largest) q[2] = previous[2] + (dw > 0.0 ? largest : -largest);
+}
+
 static void move(Instance *inst, const double q[3], double dt, double fraction)
 {
     double c_pitch = cos(inst->pitch), c_roll = cos(inst->roll);
@@ -326,6 +352,12 @@ void rover_step(Instance *inst, double dt)
     gx = inst->gx;
     gy = inst->gy;
     solve_balance(inst, gx, gy, q);
+    {
+        const double previous[3] = {inst->u, inst->v, inst->omega};
+        double r[3];
+        limit_acceleration(inst, previous, q, dt);
+        residual(inst, q, gx, gy, r);  /* wheel forces at the velocity actually reached */
+    }
 
     for (i = 0; i < N_WHEELS; i++) prev_centre[i] = inst->wheels[i].centre_z;
     move(inst, q, dt, 1.0);
