@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import time
 from dataclasses import dataclass, field
@@ -129,17 +128,11 @@ def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignF
     return CampaignResult(Path(store.file.filename), evaluation, checks, data, code)
 
 
-def write_report(results: Path, output: Path) -> Path | None:
-    """The HTML report, when the report package provides its writer (optional stage)."""
-    if importlib.util.find_spec("idefix_rules.report") is None:
-        return None
-    import idefix_rules.report as report_package
+def write_report(results: Path, output: Path) -> Path:
+    """The HTML report (``report.html`` and figures) next to the results."""
+    from idefix_rules.report import write_report as write_html_report
 
-    writer = getattr(report_package, "write_report", None)
-    if writer is None:
-        return None
-    written = writer(results, output)
-    return Path(written) if written is not None else None
+    return Path(write_html_report(results, output))
 
 
 def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,

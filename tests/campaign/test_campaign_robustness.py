@@ -188,3 +188,14 @@ def test_crashing_hanging_and_failing_runs_are_recorded_and_the_campaign_goes_on
         assert record["verdict"] == "fail"
         assert len(record["failures"]) == record["failed_runs"]
     assert "failed" in out
+
+
+def test_a_local_dask_cluster_gives_the_same_datasets_as_the_process_pool(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    pooled = load_campaign(campaign_dir / "campaign.yaml").with_overrides(
+        output=tmp_path / "pool")
+    dask = load_campaign(campaign_dir / "campaign.yaml").with_overrides(
+        output=tmp_path / "dask")
+    run_campaign(pooled, report=False)
+    run_campaign(dask, SimulationOptions(dask_local=True, workers=2), report=False)
+    assert_same_datasets(tmp_path / "pool" / "results.h5", tmp_path / "dask" / "results.h5")

@@ -1,0 +1,107 @@
+"""Expectations, exit codes and JUnit from evaluation results (no simulation)."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, collision_chances
+from idefix_rules.campaign.outputs import (
+    check_expectation,
+    check_expectations,
+    exit_code,
+    junit_xml,
+    summary,
+)
+from idefix_rules.campaign.schema import (
+    CollisionExpectation,
+    MeanRiskExpectation,
+    PathVerdictExpectation,
+    RankFirstExpectation,
+)
+
+
+def evaluation() -> CampaignEvaluation:
+    good = PathResult("good", 0, "simulated", runs=10, completed=10, mean_risk=0.3,
+                      risk_ci=(0.25, 0.35), collision_chance={"L1": 0.0, "L2": 0.1, "L3": 0.0},
+                      passed=True, rank=1)
+    close = PathResult("close", 1, "simulated", runs=10, completed=10, mean_risk=0.49,
+                       risk_ci=(0.4, 0.6), passed=True, undecided=True, rank=2)
+    broken = PathResult("broken", 2, "simulated", runs=10, completed=8,
+                        failures={3: "the simulation process crashed (SIGSEGV)", 7: "timeout"},
+                        mean_risk=0.1, risk_ci=(0.05, 0.15), passed=False, rank=3,
+                        collision_chance={"L2": 0.0})
+    rejected = PathResult("rejected", 3, "rejected", reason="command 1 breaks rule 'x'")
+    return CampaignEvaluation([good, close, broken, rejected], ["good", "close", "broken"],
+                              {"name": "r", "version": "1.0.0"}, {"campaign_name": "c"})
+
+
+def test_verdict_expectations_need_a_decided_verdict() -> None:
+    results = evaluation()
+    held = check_expectation(PathVerdictExpectation(path="good", verdict="pass"), results)
+    assert held.held
+    undecided = check_expectation(PathVerdictExpectation(path="close", verdict="pass"), results)
+    assert not undecided.held and "not decided" in undecided.message
+    rejected = check_expectation(PathVerdictExpectation(path="rejected", verdict="fail"),
+                                 results)
+    assert rejected.held
+
+
+def test_failed_runs_never_satisfy_risk_or_collision_expectations() -> None:
+    results = evaluation()
+    risk = check_expectation(MeanRiskExpectation(path="broken", max_mean_risk="50 %"), results)
+    assert not risk.held and "2 failed run(s)" in risk.message
+    hits = check_expectation(
+        CollisionExpectation(path="broken", max_collision_chance={"L2": "50 %"}), results)
+    assert not hits.held
+
+
+def test_rank_and_collision_expectations() -> None:
+    results = evaluation()
+    assert check_expectation(RankFirstExpectation(rank_first="good"), results).held
+    assert not check_expectation(RankFirstExpectation(rank_first="close"), results).held
+    within = CollisionExpectation(path="good", max_collision_chance={"L2": "10 %", "any": "20 %"})
+    assert check_expectation(within, results).held
+    over = CollisionExpectation(path="good", max_collision_chance={"L2": "5 %"})
+    assert not check_expectation(over, results).held
+
+
+def test_exit_code_without_expectations_needs_every_path_to_pass() -> None:
+    results = evaluation()
+    assert exit_code(results, [], has_expectations=False) == 1
+    only_good = CampaignEvaluation(results.paths[:1], ["good"], {}, {})
+    assert exit_code(only_good, [], has_expectations=False) == 0
+    checks = check_expectations([RankFirstExpectation(rank_first="good")], results)
+    assert exit_code(results, checks, has_expectations=True) == 0
+
+
+def test_junit_has_a_case_per_path_and_per_expectation() -> None:
+    results = evaluation()
+    checks = check_expectations([RankFirstExpectation(rank_first="close"),
+                                 PathVerdictExpectation(path="good", verdict="pass")], results)
+    suite = ET.fromstring(junit_xml(results, checks, "c")).find("testsuite")
+    assert suite is not None
+    cases = list(suite.iter("testcase"))
+    assert [c.get("name") for c in cases] == [
+        "good", "close", "broken", "rejected", "expect[0] close ranks first",
+        "expect[1] good passes"]
+    failing = [c.get("name") for c in cases if c.find("failure") is not None]
+    assert failing == ["broken", "rejected", "expect[0] close ranks first"]
+    assert suite.get("tests") == "6" and suite.get("failures") == "3"
+    broken_text = cases[2].find("failure").text or ""
+    assert "run 3 failed: the simulation process crashed (SIGSEGV)" in broken_text
+
+
+def test_summary_lists_failures_and_uses_mAs() -> None:
+    results = evaluation()
+    results.paths[0].energy = 0.5
+    data = summary(results, [], 1)
+    good, _, broken, rejected = data["paths"]
+    assert good["energy_mAs"] == 500.0
+    assert broken["failures"][0] == {"run": 3,
+                                     "reason": "the simulation process crashed (SIGSEGV)"}
+    assert rejected["verdict"] == "rejected" and rejected["rank"] is None
+
+
+def test_collision_columns_come_from_level_named_chances() -> None:
+    assert collision_chances({"hit_L1": 0.1, "collision_L3": 0.2, "too_fast": 0.5}) == \
+        {"L1": 0.1, "L3": 0.2}
