@@ -13,18 +13,59 @@ from idefix_rules.cli import main
 from idefix_rules.report import prepare_report
 from idefix_rules.report.data import row_from_arrays
 
-RULEBOOK = Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"
+# No pre-screen and no command rule: every path gets its Monte Carlo runs, whatever the rover
+# model's current tuning makes of the reference runs.
+RULEBOOK = """\
+rulebook "report-e2e" version "0.2.0"
+purpose "Rules for the report's end-to-end test"
 
-CAMPAIGN = f"""\
+const f_obs = {L1: 0.2, L2: 0.6, L3: 1}
+
+settings {
+  theoretical_slip = 20 %
+  tolerance_growth = 5 cm/rad
+}
+
+obstacles {
+  level L1 below 3 cm  buffer 2 cm
+  level L2 below 10 cm buffer 5 cm
+  level L3             buffer 10 cm
+}
+
+index I_pos "position drift" {
+  value  = final over time (global_error / tolerance_radius)
+  limit  = 1
+  weight = 0.5
+}
+
+index I_s "wheel slip ratio" {
+  value  = max over time (max over wheels (abs(wheel.slip)))
+  limit  = 70 %
+  weight = 1
+}
+
+index I_obs "obstacle collisions" {
+  value  = sum over parts (sum over levels (collision.hits * f_obs))
+  limit  = 1
+  weight = 1
+  map    = max over parts (max over levels (collision.contact * f_obs))
+}
+
+chance hit_L2 = any over parts (collision.hits[L2] > 0)
+
+verdict acceptable_risk: require risk <= 70 %
+"""
+
+CAMPAIGN = """\
 name: report-e2e
-rulebook: {RULEBOOK}
+rulebook: report-e2e.rules
 runs: 4
 output: out
 environment:
   terrain:
-    synthetic: {{size: "3 m", cell: "2 cm", slope: "2 deg", slope_direction: "0 deg"}}
+    synthetic: {size: "3 m", cell: "2 cm", slope: "2 deg", slope_direction: "0 deg"}
   rocks:
-    - {{x: "0.45 m", y: "-0.40 m", radius: "5 cm"}}
+    - {x: "0.45 m", y: "-0.30 m", radius: "4 cm", level: L2}
   keep_out:
     - name: soft-patch
       polygon: [["0.2 m", "0.7 m"], ["0.45 m", "0.7 m"], ["0.45 m", "0.9 m"],
@@ -33,14 +74,14 @@ uncertainty:
   method: monte_carlo
   seed: 3
   parameters:
-    initial.y: {{distribution: normal, mean: "0 m", std: "1 cm"}}
-    soil.cohesion: {{distribution: uniform, low: "100 Pa", high: "400 Pa"}}
+    initial.y: {distribution: normal, mean: "0 m", std: "1 cm"}
+    soil.cohesion: {distribution: uniform, low: "100 Pa", high: "400 Pa"}
 paths:
   straight:
-    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.6 m", delta_heading: "0 deg"}}
+    - {max_wheel_rate: "0.09 rad/s", delta_position: "0.6 m", delta_heading: "0 deg"}
   detour:
-    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "20 deg"}}
-    - {{max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "-20 deg"}}
+    - {max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "20 deg"}
+    - {max_wheel_rate: "0.09 rad/s", delta_position: "0.3 m", delta_heading: "-20 deg"}
 """
 
 
@@ -48,13 +89,14 @@ paths:
 def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
     campaign = tmp_path / "small.yaml"
     campaign.write_text(CAMPAIGN, encoding="utf-8")
+    (tmp_path / "report-e2e.rules").write_text(RULEBOOK, encoding="utf-8")
     code = main(["run", str(campaign), "--quiet", "--workers", "2"])
     assert code in (0, 1)  # verified or a path failed: both are reports worth reading
     out = tmp_path / "out"
     page = out / "report.html"
     assert page.exists() and (out / "risk_map_all.png").exists()
     text = page.read_text(encoding="utf-8")
-    assert "idefix-ops 1.0.0" in text and "Notes" not in text
+    assert "report-e2e 0.2.0" in text and "Notes" not in text
     data, setup, maps = prepare_report(out / "results.h5")
     assert maps.per_sample and setup.notes == []
     # The rock near the straight path and the keep-out area are drawn, with their levels.
@@ -73,6 +115,13 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
         assert accumulator.counts().sum() >= 20 * complete
         assert path.final_local_error is not None
         assert path.final_local_error.size == int(path.complete.sum())
+    # The rock beside the right wheels of 'straight': where they touch it (body centre near
+    # x = 0.45 m), the per-sample obstacle risk of the L2 contact (factor 0.6) is on the map.
+    straight = next(p for p in data.paths if p.name == "straight")
+    if straight.chances["hit_L2"][straight.complete].any():
+        xs, _ = maps.grid.centres()
+        near_rock = maps.per_path["straight"].values()[(xs > 0.35) & (xs < 0.55)]
+        assert np.nanmax(near_rock) >= 0.6 - 1e-9
     # Without summary.json in the file, Table 1 comes from each path's stored statistics.
     store = ResultStore.open(out / "results.h5")
     try:
