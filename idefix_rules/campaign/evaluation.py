@@ -202,7 +202,7 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             details.extend(chunk_details)
         parts.append(without_samples(evaluator.evaluate(signals, context)))
     evaluation = concatenate(parts) if parts else None
-    extra_store = {"rows": complete}
+    extra_store: dict[str, Any] = {"rows": complete}
     if collisions is not None and parts:
         extra_store["hits"] = np.concatenate([h for h in hits if h is not None]) \
             if any(h is not None for h in hits) else None
@@ -329,7 +329,7 @@ def dominant_index(evaluation: Any) -> str | None:
     if valid.size == 0:
         return None
     counts = np.bincount(valid.astype(int), minlength=len(names))
-    return names[int(np.argmax(counts))]
+    return str(names[int(np.argmax(counts))])
 
 
 def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,

@@ -109,7 +109,7 @@ class LocalPool:
     def _spawn(self) -> _Worker:
         parent_end, child_end = self._context.Pipe()
         inherited = parent_end if self._context.get_start_method() == "fork" else None
-        process = self._context.Process(
+        process = self._context.Process(  # type: ignore[attr-defined]
             target=_worker_main, args=(child_end, self.function, os.getpid(), inherited),
             daemon=True)
         process.start()
@@ -214,12 +214,12 @@ class DaskPool:
         self.function = function
         self._cluster = None
         if address is None:
-            self._cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
-                                         threads_per_worker=1, processes=True)
-            self._client = Client(self._cluster)
+            self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True)
+            self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
         else:
-            self._client = Client(address)
-        self.size = max(1, sum(self._client.nthreads().values()))
+            self._client = Client(address)  # type: ignore[no-untyped-call]
+        self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
         from dask.distributed import as_completed
@@ -229,7 +229,7 @@ class DaskPool:
             future = self._client.submit(self.function, payload, pure=False, retries=0)
             futures[future] = key
         try:
-            for future in as_completed(list(futures)):
+            for future in as_completed(list(futures)):  # type: ignore[no-untyped-call]
                 key = futures[future]
                 if future.status == "finished":
                     yield key, Outcome(True, future.result())
@@ -240,6 +240,6 @@ class DaskPool:
             self.close()
 
     def close(self) -> None:
-        self._client.close()
+        self._client.close()  # type: ignore[no-untyped-call]
         if self._cluster is not None:
             self._cluster.close()

@@ -73,9 +73,10 @@ def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
     if isinstance(spec, TruncatedNormal):
         low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
         values = stats.truncnorm.ppf(u, low, high, loc=spec.mean, scale=spec.std)
-        return np.clip(np.asarray(values, dtype=float), spec.low, spec.high)
+        clipped: np.ndarray = np.clip(np.asarray(values, dtype=float), spec.low, spec.high)
+        return clipped
     if isinstance(spec, Uniform):
-        return spec.low + u * (spec.high - spec.low)
+        return np.asarray(spec.low + u * (spec.high - spec.low), dtype=float)
     return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
 
 

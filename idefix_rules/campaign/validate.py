@@ -8,11 +8,12 @@ one we know. Mistakes point at the campaign line.
 from __future__ import annotations
 
 import difflib
+from collections.abc import Mapping
 from pathlib import Path
 
 from idefix_rules.campaign.load import Campaign, format_loc
 from idefix_rules.errors import Diagnostic, UserInputError, error
-from idefix_rules.units import UnitError, describe, parse_unit
+from idefix_rules.units import Dimension, UnitError, describe, parse_unit
 
 # FMI unit spellings → our unit parser's.
 _FMI_UNIT_SPELLING = {"m/s2": "m/s^2", "N/m2": "N/m^2", "N/m3": "N/m^3", "N.m": "N*m",
@@ -57,8 +58,9 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
             if fmu_name not in variables:
                 problems.append(_unknown(campaign, ("fmu", "signals", fmu_name), fmu_name,
                                          variables, "FMU variable", fmu_path))
-    entries = [(("uncertainty", "parameters", name), name, spec.dimension)
-               for name, spec in campaign.model.uncertainty.parameters.items()]
+    entries: list[tuple[tuple[str, ...], str, Dimension | None]] = [
+        (("uncertainty", "parameters", name), name, spec.dimension)
+        for name, spec in campaign.model.uncertainty.parameters.items()]
     entries += [(("environment", "regolith", key), key if "." in key else f"soil.{key}", None)
                 for key in campaign.model.environment.regolith]
     for loc, name, dimension in entries:
@@ -82,7 +84,7 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
     return variables
 
 
-def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: dict[str, object],
+def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping[str, object],
              what: str, fmu_path: Path) -> Diagnostic:
     close = difflib.get_close_matches(name, list(known), n=1)
     hint = f"did you mean {close[0]!r}?" if close else None

@@ -53,7 +53,7 @@ class YamlDocument:
     text: str
 
 
-class LocatingLoader(yaml.SafeLoader):
+class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
     """A SafeLoader that records the position of every node while constructing the data."""
 
     def construct_with_locations(self, node: yaml.Node, source_map: SourceMap,
@@ -64,7 +64,7 @@ class LocatingLoader(yaml.SafeLoader):
             result: dict[Any, Any] = {}
             for key_node, value_node in node.value:
                 key = self.construct_object(key_node, deep=True)
-                if not isinstance(key, str | int | float | bool) or key is None:
+                if not isinstance(key, str | int):
                     raise UserInputError(error(
                         "C001", "mapping keys must be plain names",
                         Span(source_map.path, key_node.start_mark.line + 1,
