@@ -42,6 +42,12 @@ def test_commanded_wheel_rates_equal_the_shared_kinematics(rover: FmuRunner) -> 
         middle = int(expected.duration / 2 / 0.1)
         np.testing.assert_allclose(out["wheel.rate"][middle], expected.wheel_rates, rtol=1e-12)
         finished = int(np.argmax(out["command"] < 0))
+        ramp = abs(command.max_wheel_rate) / 0.015  # trapezoid: ramps add rate / acceleration
+        assert finished * 0.1 == pytest.approx(expected.duration + ramp, abs=0.3)
+        stepped = rover.run({"controller.wheel_acceleration": 0.0}, [command],
+                            expected.duration + 5.0, 0.1)
+        np.testing.assert_allclose(stepped["wheel.rate"][1], expected.wheel_rates, rtol=1e-12)
+        finished = int(np.argmax(stepped["command"] < 0))
         assert finished * 0.1 == pytest.approx(expected.duration, abs=0.1 + 1e-9)
 
 

@@ -27,6 +27,8 @@ static void begin_command(Instance *inst, int k)
     }
     c->elapsed = 0.0;
     c->angle = 0.0;
+    c->profile = 0.0;
+    c->ramp_time = 0.0;
     c->window_progress = 0.0;
     c->window_commanded = 0.0;
     c->stuck = 0;
@@ -51,6 +53,9 @@ static void begin_command(Instance *inst, int k)
     c->rates[1] = c->rates[3] = right / c->duration / radius;  /* FR, RR */
     c->fastest = fabs(left) > fabs(right) ? 0 : 1;
     c->commanded_speed = dp / c->duration;
+    /* a trapezoidal profile takes rate/acceleration longer than the ideal duration */
+    if (inst->r[VR_CONTROLLER_WHEEL_ACCELERATION] > 0.0)
+        c->ramp_time = rate / inst->r[VR_CONTROLLER_WHEEL_ACCELERATION];
     c->commanded_yaw_rate = dh / c->duration;
 }
 
@@ -62,21 +67,30 @@ void controller_start(Instance *inst)
     begin_command(inst, 0);
 }
 
-/* Sets every wheel's rate for the next step of length dt. The last step of a command turns
- * the wheels only as far as the odometry target (a proportionally lower mean rate). */
+/* Sets every wheel's rate for the next step of length dt. All rates share one profile factor,
+ * so the arc keeps its shape: it ramps up and down at controller.wheel_acceleration (for the
+ * fastest wheel) and the last step turns the wheels only as far as the odometry target. */
 void controller_step(Instance *inst, double dt)
 {
     Controller *c = &inst->ctrl;
-    double scale = 1.0, fastest_rate;
+    double accel = inst->r[VR_CONTROLLER_WHEEL_ACCELERATION];
+    double fastest_rate, remaining, scale = 1.0;
     int i;
     if (c->active < 0) {
         for (i = 0; i < N_WHEELS; i++) inst->wheels[i].rate = 0.0;
         return;
     }
     fastest_rate = fabs(c->rates[c->fastest]);
-    if (fastest_rate * dt > c->target_angle - c->angle)
-        scale = (c->target_angle - c->angle) / (fastest_rate * dt);
-    if (scale < 0.0) scale = 0.0;
+    remaining = c->target_angle - c->angle;
+    if (remaining < 0.0) remaining = 0.0;
+    if (accel > 0.0) {
+        double up = c->profile + accel * dt / fastest_rate;
+        double down = sqrt(2.0 * accel * remaining) / fastest_rate;  /* room left to stop */
+        scale = up < down ? up : down;
+        if (scale > 1.0) scale = 1.0;
+    }
+    if (fastest_rate * scale * dt > remaining) scale = remaining / (fastest_rate * dt);
+    c->profile = scale;
     for (i = 0; i < N_WHEELS; i++)
         inst->wheels[i].rate = c->stalled[i] ? 0.0 : c->rates[i] * scale;
 }
@@ -102,7 +116,7 @@ void controller_after_step(Instance *inst, double dt, double progress)
 
     /* stuck observer: progress over an exponentially weighted window of length `window` */
     commanded = (fabs(c->commanded_speed) + fabs(c->commanded_yaw_rate) *
-                 inst->r[VR_ROVER_HALF_TRACK]) * dt;
+                 inst->r[VR_ROVER_HALF_TRACK]) * c->profile * dt;
     if (window > 0.0) {
         double decay = exp(-dt / window);
         c->window_progress = c->window_progress * decay + progress;
@@ -111,6 +125,6 @@ void controller_after_step(Instance *inst, double dt, double progress)
                    c->window_progress < inst->r[VR_CONTROLLER_STUCK_PROGRESS] * c->window_commanded;
     }
     if (c->angle >= c->target_angle * (1.0 - 1e-12) ||
-        c->elapsed >= inst->r[VR_CONTROLLER_TIMEOUT_FACTOR] * c->duration)
+        c->elapsed >= inst->r[VR_CONTROLLER_TIMEOUT_FACTOR] * (c->duration + c->ramp_time))
         begin_command(inst, c->active + 1);
 }

@@ -112,6 +112,8 @@ typedef struct {
     double rates[N_WHEELS];  /* commanded wheel rates, rad/s */
     double commanded_speed;  /* ideal body speed of the active command, m/s */
     double commanded_yaw_rate;
+    double profile;          /* share of the commanded rates applied in the last step, 0..1 */
+    double ramp_time;        /* extra time of the ramps over the ideal duration, s */
     int stalled[N_WHEELS];
     /* stuck observer: ring of progress samples */
     double window_progress, window_commanded;

@@ -3,7 +3,7 @@
 #define IDEFIX_VARIABLES_H
 
 #define MAX_COMMANDS 32
-#define N_REAL 162
+#define N_REAL 163
 #define VR_CHAIN_COUNT 0 /* Integer */
 #define VR_TERRAIN_FILE 0 /* String */
 
@@ -32,59 +32,60 @@
 #define VR_MOTOR_NO_LOAD_CURRENT 21
 #define VR_MOTOR_TORQUE_CONSTANT 22
 #define VR_MOTOR_MAX_TORQUE 23
-#define VR_CONTROLLER_TIMEOUT_FACTOR 24
-#define VR_CONTROLLER_STUCK_TIME 25
-#define VR_CONTROLLER_STUCK_PROGRESS 26
-#define VR_INITIAL_X 27
-#define VR_INITIAL_Y 28
-#define VR_INITIAL_YAW 29
-#define VR_SOLVER_STEP 30
-#define VR_SOLVER_VELOCITY_EPSILON 31
-#define VR_CHAIN_MAX_WHEEL_RATE 32
-#define VR_CHAIN_DELTA_POSITION 64
-#define VR_CHAIN_DELTA_HEADING 96
-#define VR_T 128
-#define VR_X 129
-#define VR_Y 130
-#define VR_Z 131
-#define VR_ROLL 132
-#define VR_PITCH 133
-#define VR_YAW 134
-#define VR_WHEEL_FL_RATE 135
-#define VR_WHEEL_FR_RATE 136
-#define VR_WHEEL_RL_RATE 137
-#define VR_WHEEL_RR_RATE 138
-#define VR_WHEEL_FL_SLIP 139
-#define VR_WHEEL_FR_SLIP 140
-#define VR_WHEEL_RL_SLIP 141
-#define VR_WHEEL_RR_SLIP 142
-#define VR_WHEEL_FL_SLIP_ANGLE 143
-#define VR_WHEEL_FR_SLIP_ANGLE 144
-#define VR_WHEEL_RL_SLIP_ANGLE 145
-#define VR_WHEEL_RR_SLIP_ANGLE 146
-#define VR_WHEEL_FL_SINKAGE 147
-#define VR_WHEEL_FR_SINKAGE 148
-#define VR_WHEEL_RL_SINKAGE 149
-#define VR_WHEEL_RR_SINKAGE 150
-#define VR_WHEEL_FL_CURRENT 151
-#define VR_WHEEL_FR_CURRENT 152
-#define VR_WHEEL_RL_CURRENT 153
-#define VR_WHEEL_RR_CURRENT 154
-#define VR_WHEEL_FL_LOAD 155
-#define VR_WHEEL_FR_LOAD 156
-#define VR_WHEEL_RL_LOAD 157
-#define VR_WHEEL_RR_LOAD 158
-#define VR_ENERGY 159
-#define VR_COMMAND 160
-#define VR_STUCK 161
+#define VR_CONTROLLER_WHEEL_ACCELERATION 24
+#define VR_CONTROLLER_TIMEOUT_FACTOR 25
+#define VR_CONTROLLER_STUCK_TIME 26
+#define VR_CONTROLLER_STUCK_PROGRESS 27
+#define VR_INITIAL_X 28
+#define VR_INITIAL_Y 29
+#define VR_INITIAL_YAW 30
+#define VR_SOLVER_STEP 31
+#define VR_SOLVER_VELOCITY_EPSILON 32
+#define VR_CHAIN_MAX_WHEEL_RATE 33
+#define VR_CHAIN_DELTA_POSITION 65
+#define VR_CHAIN_DELTA_HEADING 97
+#define VR_T 129
+#define VR_X 130
+#define VR_Y 131
+#define VR_Z 132
+#define VR_ROLL 133
+#define VR_PITCH 134
+#define VR_YAW 135
+#define VR_WHEEL_FL_RATE 136
+#define VR_WHEEL_FR_RATE 137
+#define VR_WHEEL_RL_RATE 138
+#define VR_WHEEL_RR_RATE 139
+#define VR_WHEEL_FL_SLIP 140
+#define VR_WHEEL_FR_SLIP 141
+#define VR_WHEEL_RL_SLIP 142
+#define VR_WHEEL_RR_SLIP 143
+#define VR_WHEEL_FL_SLIP_ANGLE 144
+#define VR_WHEEL_FR_SLIP_ANGLE 145
+#define VR_WHEEL_RL_SLIP_ANGLE 146
+#define VR_WHEEL_RR_SLIP_ANGLE 147
+#define VR_WHEEL_FL_SINKAGE 148
+#define VR_WHEEL_FR_SINKAGE 149
+#define VR_WHEEL_RL_SINKAGE 150
+#define VR_WHEEL_RR_SINKAGE 151
+#define VR_WHEEL_FL_CURRENT 152
+#define VR_WHEEL_FR_CURRENT 153
+#define VR_WHEEL_RL_CURRENT 154
+#define VR_WHEEL_RR_CURRENT 155
+#define VR_WHEEL_FL_LOAD 156
+#define VR_WHEEL_FR_LOAD 157
+#define VR_WHEEL_RL_LOAD 158
+#define VR_WHEEL_RR_LOAD 159
+#define VR_ENERGY 160
+#define VR_COMMAND 161
+#define VR_STUCK 162
 
 /* per-wheel outputs: base + wheel index (FL, FR, RL, RR) */
-#define VR_WHEEL_RATE 135
-#define VR_WHEEL_SLIP 139
-#define VR_WHEEL_SLIP_ANGLE 143
-#define VR_WHEEL_SINKAGE 147
-#define VR_WHEEL_CURRENT 151
-#define VR_WHEEL_LOAD 155
+#define VR_WHEEL_RATE 136
+#define VR_WHEEL_SLIP 140
+#define VR_WHEEL_SLIP_ANGLE 144
+#define VR_WHEEL_SINKAGE 148
+#define VR_WHEEL_CURRENT 152
+#define VR_WHEEL_LOAD 156
 
 /* start values of every Real, indexed by value reference */
 #define REAL_DEFAULTS { \
@@ -112,6 +113,7 @@
     0.0003, /* motor.no_load_current */ \
     2.0, /* motor.torque_constant */ \
     0.2, /* motor.max_torque */ \
+    0.015, /* controller.wheel_acceleration */ \
     2.0, /* controller.timeout_factor */ \
     10.0, /* controller.stuck_time */ \
     0.1, /* controller.stuck_progress */ \
@@ -251,6 +253,6 @@
     0.0, /* command */ \
     0.0, /* stuck */ \
 }
-#define FIRST_OUTPUT_VR 128
+#define FIRST_OUTPUT_VR 129
 
 #endif
