@@ -62,6 +62,18 @@ class ResultStore:
 
     def __init__(self, file: h5py.File) -> None:
         self.file = file
+        # Open dataset handles per path: looking them up by name costs more than the write.
+        self._handles: dict[str, tuple[dict[str, h5py.Dataset], h5py.Dataset, h5py.Dataset]] = {}
+
+    def _run_handles(self, name: str) -> tuple[dict[str, h5py.Dataset], h5py.Dataset,
+                                               h5py.Dataset]:
+        handles = self._handles.get(name)
+        if handles is None:
+            group = self.path_group(name)["runs"]
+            datasets = {key: group["signals"][key] for key in group["signals"]}
+            handles = (datasets, group["status"], group["failure"])
+            self._handles[name] = handles
+        return handles
 
     # --- opening ----------------------------------------------------------------------------
 
@@ -101,6 +113,7 @@ class ResultStore:
         return cls(file)
 
     def close(self) -> None:
+        self._handles.clear()
         if self.file.id.valid:
             self.file.flush()
             self.file.close()
@@ -196,19 +209,18 @@ class ResultStore:
         return group is not None and "status" in group
 
     def write_run(self, name: str, run: int, signals: Mapping[str, np.ndarray]) -> None:
-        group = self.path_group(name)["runs"]
-        datasets = group["signals"]
-        for key in datasets:
-            datasets[key][run] = np.asarray(signals[key], dtype=np.float64)
+        datasets, status, _ = self._run_handles(name)
+        for key, dataset in datasets.items():
+            dataset[run] = np.asarray(signals[key], dtype=np.float64)
         self.file.flush()
-        group["status"][run] = STATUS_COMPLETE
+        status[run] = STATUS_COMPLETE
         self.file.flush()
 
     def write_failure(self, name: str, run: int, reason: str) -> None:
-        group = self.path_group(name)["runs"]
-        group["failure"][run] = encode_reason(reason)
+        _, status, failure = self._run_handles(name)
+        failure[run] = encode_reason(reason)
         self.file.flush()
-        group["status"][run] = STATUS_FAILED
+        status[run] = STATUS_FAILED
         self.file.flush()
 
     def run_status(self, name: str) -> np.ndarray:
