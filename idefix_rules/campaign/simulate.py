@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import hashlib
 import json
@@ -141,8 +142,15 @@ def _pool(function: Any, options: SimulationOptions, campaign: Campaign) -> Any:
                      run_timeout=options.run_timeout)
 
 
-def _map(pool: Any, tasks: list[tuple[Any, RunTask]]) -> Iterator[tuple[Any, Outcome]]:
-    yield from pool.map(tasks)
+@contextlib.contextmanager
+def _map(pool: Any, tasks: list[tuple[Any, RunTask]]) -> Iterator[Iterator[tuple[Any, Outcome]]]:
+    """The pool's results; on any exit (Ctrl-C included) busy workers are ended at once."""
+    results = pool.map(tasks)
+    try:
+        yield results
+    finally:
+        results.close()
+        pool.close()
 
 
 def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
@@ -291,8 +299,6 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
                     fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
                     store: ResultStore, options: SimulationOptions, progress: Progress,
                     collisions: Any, summary: SimulationSummary) -> None:
-    from idefix_rules.campaign.evaluation import prescreen_reference
-
     todo = [p for p in plans if p.status == "pending"]
     if not todo:
         return
@@ -301,27 +307,37 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
     tasks = [(plan.spec.name, _task(campaign, fmu_path, plan, nominal)) for plan in todo]
     by_name = {plan.spec.name: plan for plan in todo}
     pool = _pool(simulate, options, campaign)
-    for name, outcome in _map(pool, tasks):
-        plan = by_name[name]
-        _raise_input_problem(outcome)
-        numeric = {k: float(v) for k, v in nominal.items() if not isinstance(v, str)}
-        if not outcome.ok:
-            plan.status, plan.reason = "reference_failed", outcome.reason
-            store.write_reference(name, None, numeric, outcome.reason)
-            store.set_path_status(name, plan.status, plan.reason)
-            continue
-        plan.reference = outcome.value.signals
-        summary.fmu_seconds += outcome.value.seconds
-        store.write_reference(name, plan.reference, numeric)
-        findings = prescreen_reference(evaluator, plan.spec.chain, rover,
-                                       initial_position_sigma(campaign), plan.reference,
-                                       collisions)
-        if findings:
-            plan.status = "excluded"
-            plan.reason = "; ".join(_describe(f) for f in findings)
-        else:
-            plan.status = "simulated"
+    with _map(pool, tasks) as results:
+        for name, outcome in results:
+            _reference_outcome(campaign, evaluator, rover, store, by_name[name], nominal,
+                               outcome, collisions, summary)
+
+
+def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
+                       store: ResultStore, plan: PathPlan, nominal: Mapping[str, float | str],
+                       outcome: Outcome, collisions: Any, summary: SimulationSummary) -> None:
+    """Store a reference run and apply the pre-screen to it."""
+    from idefix_rules.campaign.evaluation import prescreen_reference
+
+    name = plan.spec.name
+    _raise_input_problem(outcome)
+    numeric = {k: float(v) for k, v in nominal.items() if not isinstance(v, str)}
+    if not outcome.ok:
+        plan.status, plan.reason = "reference_failed", outcome.reason
+        store.write_reference(name, None, numeric, outcome.reason)
         store.set_path_status(name, plan.status, plan.reason)
+        return
+    plan.reference = outcome.value.signals
+    summary.fmu_seconds += outcome.value.seconds
+    store.write_reference(name, plan.reference, numeric)
+    findings = prescreen_reference(evaluator, plan.spec.chain, rover,
+                                   initial_position_sigma(campaign), plan.reference, collisions)
+    if findings:
+        plan.status = "excluded"
+        plan.reason = "; ".join(_describe(f) for f in findings)
+    else:
+        plan.status = "simulated"
+    store.set_path_status(name, plan.status, plan.reason)
 
 
 def _raise_input_problem(outcome: Outcome) -> None:
@@ -371,12 +387,13 @@ def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str
     # Interleave paths so every progress bar moves from the start.
     tasks.sort(key=lambda item: (item[0][1], item[0][0]))
     pool = _pool(simulate, options, campaign)
-    for (name, run), outcome in _map(pool, tasks):
-        _raise_input_problem(outcome)
-        summary.simulated_runs += 1
-        if outcome.ok:
-            store.write_run(name, run, outcome.value.signals)
-            summary.fmu_seconds += outcome.value.seconds
-        else:
-            store.write_failure(name, run, outcome.reason)
-        progress.run_finished(name, outcome.ok)
+    with _map(pool, tasks) as results:
+        for (name, run), outcome in results:
+            _raise_input_problem(outcome)
+            summary.simulated_runs += 1
+            if outcome.ok:
+                store.write_run(name, run, outcome.value.signals)
+                summary.fmu_seconds += outcome.value.seconds
+            else:
+                store.write_failure(name, run, outcome.reason)
+            progress.run_finished(name, outcome.ok)

@@ -199,3 +199,37 @@ def test_a_local_dask_cluster_gives_the_same_datasets_as_the_process_pool(
     run_campaign(pooled, report=False)
     run_campaign(dask, SimulationOptions(dask_local=True, workers=2), report=False)
     assert_same_datasets(tmp_path / "pool" / "results.h5", tmp_path / "dask" / "results.h5")
+
+
+class InterruptAfter:
+    """Progress that presses Ctrl-C (raises KeyboardInterrupt) after some finished runs."""
+
+    def __init__(self, runs: int) -> None:
+        self.runs = runs
+        self.seen = 0
+
+    def message(self, text: str) -> None:
+        pass
+
+    def start_path(self, name: str, total: int, done: int) -> None:
+        pass
+
+    def run_finished(self, name: str, ok: bool) -> None:
+        self.seen += 1
+        if self.seen == self.runs:
+            raise KeyboardInterrupt
+
+
+def test_an_interrupted_campaign_is_marked_and_resumes_to_the_same_result(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    whole = copy_campaign(campaign_dir, tmp_path / "whole")
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(5), report=False)
+    results = campaign.output / "results.h5"
+    with h5py.File(results) as partial:
+        assert partial.attrs["state"] == "interrupted"
+        assert partial.attrs["finished"] == ""
+    run_campaign(campaign, SimulationOptions(resume=True), report=False)
+    run_campaign(load_campaign(whole), report=False)
+    assert_same_datasets(results, whole.parent / "out" / "results.h5")
