@@ -248,7 +248,7 @@ def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
         name = plan.spec.name
         if store.has_path(name):
             group = store.path_group(name)
-            if "reference" not in group and group.attrs.get("status") == "pending":
+            if group.attrs.get("status", "pending") == "pending":
                 del store.file["paths"][name]  # killed before its reference run was stored
             else:
                 plan.status = str(group.attrs.get("status", "pending"))

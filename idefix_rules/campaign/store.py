@@ -185,7 +185,10 @@ class ResultStore:
                       parameters: Mapping[str, np.ndarray],
                       parameter_info: Mapping[str, Mapping[str, Any]]) -> None:
         """Create every dataset of a path's runs at full size, then flush."""
-        group = self.path_group(name).create_group("runs")
+        path_group = self.path_group(name)
+        if "runs" in path_group:  # allocation cut off by a kill: no run was written yet
+            del path_group["runs"]
+        group = path_group.create_group("runs")
         group.attrs["count"] = runs
         signals = group.create_group("signals", track_order=True)
         for key, shape in shapes.items():

@@ -233,3 +233,19 @@ def test_an_interrupted_campaign_is_marked_and_resumes_to_the_same_result(
     run_campaign(campaign, SimulationOptions(resume=True), report=False)
     run_campaign(load_campaign(whole), report=False)
     assert_same_datasets(results, whole.parent / "out" / "results.h5")
+
+
+def test_a_path_cut_off_before_its_runs_were_allocated_is_started_again(
+        campaign_dir: Path) -> None:
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    run_campaign(campaign, report=False)
+    results = campaign.output / "results.h5"
+    original = datasets(results)
+    with h5py.File(results, "r+") as stored:
+        arc = stored["paths/arc"]
+        arc.attrs["status"] = "pending"  # killed between its reference run and the pre-screen
+        del arc["runs"]
+        straight = stored["paths/straight/runs"]
+        del straight["status"]  # killed while its run datasets were being created
+    run_campaign(campaign, SimulationOptions(resume=True), report=False)
+    assert_same_datasets_dicts(original, datasets(results))
