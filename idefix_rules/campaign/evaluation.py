@@ -12,13 +12,12 @@ import dataclasses
 import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
+from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.signals import AXIS_LABELS
 
@@ -83,16 +82,7 @@ class CampaignEvaluation:
         raise KeyError(name)
 
 
-# --- adapters to the rulebook's result objects ------------------------------------------------
-
-def _get(obj: Any, *names: str, default: Any = None) -> Any:
-    for name in names:
-        if isinstance(obj, Mapping) and name in obj:
-            return obj[name]
-        if hasattr(obj, name):
-            return getattr(obj, name)
-    return default
-
+# --- plain data -------------------------------------------------------------------------------
 
 def as_plain(obj: Any) -> Any:
     """JSON-ready form of the rulebook's dataclasses (statistics, verdicts)."""
@@ -372,11 +362,3 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
     target.attrs["statistics"] = json.dumps(as_plain(stats))
     target.attrs["verdict"] = json.dumps(as_plain(verdict))
     store.file.flush()
-
-
-def open_for_evaluation(path: Path) -> ResultStore:
-    return ResultStore.open(path, writable=True)
-
-
-__all__ = ["STATUS_FAILED", "CampaignEvaluation", "PathResult", "evaluate_store",
-           "prescreen_reference"]
