@@ -286,7 +286,9 @@ def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
     return RunTask(
         fmu_path=str(fmu_path),
         signal_map=tuple(fmu.signals.items()) if fmu.signals is not None else None,
-        parameter_map=tuple(fmu.parameters.items()) if fmu.parameters is not None else None,
+        # The campaign maps FMU variable → our name (like signals); the runner wants ours → FMU.
+        parameter_map=tuple((ours, theirs) for theirs, ours in fmu.parameters.items())
+        if fmu.parameters is not None else None,
         parameters=tuple(parameters.items()),
         chain=plan.spec.chain,
         stop_time=plan.stop_time,

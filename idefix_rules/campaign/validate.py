@@ -52,6 +52,8 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
             if fmu_name not in variables:
                 problems.append(_unknown(campaign, ("fmu", "parameters", fmu_name), fmu_name,
                                          variables, "FMU variable", fmu_path))
+                parameter_names[our_name] = ""  # reported already; skip its unit check
+                continue
             parameter_names[our_name] = fmu_name
     if fmu.signals is not None:
         for fmu_name in fmu.signals:
@@ -68,7 +70,7 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
             problems.append(_unknown(campaign, loc, name, parameter_names, "FMU parameter",
                                      fmu_path))
             continue
-        if dimension is None:
+        if dimension is None or not parameter_names[name]:
             continue
         unit = variables[parameter_names[name]][1]
         try:

@@ -166,3 +166,24 @@ def test_the_core_returns_data_the_cli_prints(campaign_dir: Path) -> None:
     assert result.report is not None and result.report.is_file()
     assert [p.name for p in result.evaluation.paths] == ["straight", "arc", "too-fast"]
     assert result.summary["paths"][2]["verdict"] == "rejected"
+
+
+def test_a_foreign_fmu_is_used_through_signal_and_parameter_maps(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from campaign_toy_fmu import signal_map
+
+    lines = "\n".join(f"    {fmu_name}: {contract}" for fmu_name, contract in signal_map().items())
+    text = CAMPAIGN.replace("  path: toy.fmu\n", "  path: toy.fmu\n  signals:\n" + lines
+                            + "\n  parameters:\n    toy.slip: slip_ratio\n") \
+        .replace("toy.slip: {distribution", "slip_ratio: {distribution")
+    (campaign_dir / "campaign.yaml").write_text(text)
+    assert run_cli(str(campaign_dir / "campaign.yaml")) == 1
+    with h5py.File(campaign_dir / "out" / "results.h5") as results:
+        slip = results["paths/straight/runs/parameters/slip_ratio"][()]
+        measured = results["paths/straight/runs/signals/wheel.slip"][:, 5, 0]
+        assert np.allclose(measured, slip)  # the mapped parameter reached the FMU
+    text = text.replace("    toy.slip: slip_ratio", "    toy.slipp: slip_ratio")
+    (campaign_dir / "campaign.yaml").write_text(text)
+    capsys.readouterr()
+    assert run_cli(str(campaign_dir / "campaign.yaml")) == 2
+    assert "fmu.parameters.toy.slipp: unknown FMU variable 'toy.slipp'" in capsys.readouterr().err
