@@ -187,3 +187,24 @@ def test_a_foreign_fmu_is_used_through_signal_and_parameter_maps(
     capsys.readouterr()
     assert run_cli(str(campaign_dir / "campaign.yaml")) == 2
     assert "fmu.parameters.toy.slipp: unknown FMU variable 'toy.slipp'" in capsys.readouterr().err
+
+
+def test_the_example_campaign_runs_on_the_built_in_fmu_with_collisions(
+        tmp_path: Path) -> None:
+    example = Path(__file__).resolve().parents[2] / "campaigns" / "rock-detour.yaml"
+    out = tmp_path / "rock-detour"
+    code = run_cli(str(example), "--runs", "4", "--out", str(out), "--workers", "2")
+    assert code in (0, 1)
+    summary = json.loads((out / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    assert set(paths) == {"straight", "wide-detour", "smooth-detour"}
+    # The rock sits in the right wheels' track: driving straight always hits it.
+    assert paths["straight"]["collision_chance"]["L2"] == 1.0
+    assert (out / "terrain.dem").is_file()
+    with h5py.File(out / "results.h5") as results:
+        hits = results["paths/straight/evaluation/collisions/hits"][()]
+        assert hits.shape == (4, 3, 3)
+        assert np.all(hits[:, 0, 1] >= 1)  # wheels, level L2
+        details = json.loads(results["paths/straight/evaluation/collisions/details"][0])
+        assert details["hits"]["wheel"] == ["rock1"]
+        assert results["provenance/rulebook"].attrs["name"] == "idefix-ops-rock-detour"
