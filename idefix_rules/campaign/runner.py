@@ -35,6 +35,7 @@ from idefix_rules.campaign.simulate import (
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.validate import check_parameters
 from idefix_rules.campaign.yamlsource import load_yaml
+from idefix_rules.errors import InfrastructureError
 
 SUMMARY_FILE = "summary.json"
 
@@ -88,8 +89,12 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
-    simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
-                                   collisions)
+    try:
+        simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
+                                       collisions)
+    except OSError as failure:  # the results file could not be written (disk full, locked …)
+        raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
+                                  f"{failure}") from failure
     simulated = time.perf_counter()
     if progress is not None:
         progress.message("evaluating")

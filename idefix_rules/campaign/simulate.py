@@ -25,7 +25,7 @@ from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
-from idefix_rules.errors import UserInputError, error
+from idefix_rules.errors import InfrastructureError, UserInputError, error
 
 RESULTS_FILE = "results.h5"
 SEED_DERIVATION = ("monte_carlo: run j of path p uses SeedSequence(seed, spawn_key=(p, j)); "
@@ -313,6 +313,11 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
         for name, outcome in results:
             _reference_outcome(campaign, evaluator, rover, store, by_name[name], nominal,
                                outcome, collisions, summary)
+    if all(plan.status == "reference_failed" for plan in todo):
+        # Nothing could be simulated at all: the FMU or its set-up is broken, not a chain.
+        reasons = sorted({plan.reason for plan in todo})
+        raise InfrastructureError("every reference run failed, so nothing was simulated: "
+                                  + "; ".join(reasons))
 
 
 def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,

@@ -249,3 +249,16 @@ def test_a_path_cut_off_before_its_runs_were_allocated_is_started_again(
         del straight["status"]  # killed while its run datasets were being created
     run_campaign(campaign, SimulationOptions(resume=True), report=False)
     assert_same_datasets_dicts(original, datasets(results))
+
+
+def test_when_every_reference_run_fails_it_is_an_infrastructure_error(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import main
+
+    crash = '    toy.crash_at: {distribution: fixed, value: "1 s"}\n'
+    text = CAMPAIGN.replace("    toy.slip:", crash + "    toy.slip:")
+    (campaign_dir / "campaign.yaml").write_text(text)
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) == 3
+    err = capsys.readouterr().err
+    assert "every reference run failed" in err and "SIGSEGV" in err
+    assert "Traceback" not in err
