@@ -201,9 +201,11 @@ def run(args: argparse.Namespace) -> int:
                               report=not args.no_report)
     except KeyboardInterrupt:
         progress.stop()
-        console.print("[yellow]interrupted[/yellow]: continue with "
-                      f"`idefix-verify {args.campaign} --resume`"
-                      + (f" --out {args.out}" if args.out else ""))
+        again = f"idefix-verify {args.campaign} --resume"
+        for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed)):
+            if value is not None:
+                again += f" {flag} {value}"
+        console.print(f"[yellow]interrupted[/yellow]: continue with `{again}`")
         raise
     finally:
         progress.stop()
