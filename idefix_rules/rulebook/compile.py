@@ -75,6 +75,7 @@ def command_quantities(command: Command, number: int, rover: RoverGeometry) -> d
         "speed": k.speed,
         "yaw_rate": k.yaw_rate,
         "wheel_speed": max(abs(rate) for rate in k.wheel_rates) * rover.wheel_radius,
+        "lateral_acceleration": abs(k.speed * k.yaw_rate),
         "command_number": float(number),
     }
 

@@ -74,6 +74,8 @@ COMMAND_NAMES: dict[str, ExprType] = {
     "speed": ExprType(VELOCITY),
     "yaw_rate": ExprType(ANGULAR_RATE),
     "wheel_speed": ExprType(VELOCITY),
+    # centripetal acceleration of the body centre on the arc, |speed · yaw_rate|
+    "lateral_acceleration": ExprType(VELOCITY / TIME),
     "command_number": ExprType(DIMENSIONLESS),
 }
 

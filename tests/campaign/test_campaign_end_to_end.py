@@ -11,7 +11,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import CAMPAIGN, RULEBOOK
+from campaign_texts import CAMPAIGN, RULEBOOK
 
 from idefix_rules import __version__
 from idefix_rules.campaign import runner
@@ -207,4 +207,4 @@ def test_the_example_campaign_runs_on_the_built_in_fmu_with_collisions(
         assert np.all(hits[:, 0, 1] >= 1)  # wheels, level L2
         details = json.loads(results["paths/straight/evaluation/collisions/details"][0])
         assert details["hits"]["wheel"] == ["rock1"]
-        assert results["provenance/rulebook"].attrs["name"] == "idefix-ops-rock-detour"
+        assert results["provenance/rulebook"].attrs["name"] == "idefix-ops"

@@ -11,7 +11,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import CAMPAIGN
+from campaign_texts import CAMPAIGN
 
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
