@@ -46,6 +46,6 @@ def test_bad_units_are_rejected(text):
 
 
 def test_incompatible_conversion_names_both_dimensions():
-    with pytest.raises(UnitError, match="a length.*an angle"):
+    with pytest.raises(UnitError, match=r"a length.*an angle"):
         convert(1.0, "cm", "deg")
     assert describe(ANGLE) == "an angle"

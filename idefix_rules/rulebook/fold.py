@@ -11,7 +11,7 @@ the checker both need their values. Tables fold to a ``{label: value}`` mapping.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Select, Table, Unary
 from idefix_rules.units import parse_unit
@@ -63,23 +63,24 @@ def fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
     raise NotConstant(type(expr).__name__)
 
 
-def _map(function, value: Value) -> Value:  # type: ignore[no-untyped-def]
+def _map(function: Callable[[float], float], value: Value) -> Value:
     if isinstance(value, dict):
         return {k: function(v) for k, v in value.items()}
     return function(value)
 
 
-def _zip(function, left: Value, right: Value) -> Value:  # type: ignore[no-untyped-def]
+def _zip(function: Callable[[float, float], float], left: Value, right: Value) -> Value:
     if isinstance(left, dict) and isinstance(right, dict):
         return {k: function(left[k], right[k]) for k in left}
     if isinstance(left, dict):
+        assert not isinstance(right, dict)
         return {k: function(v, right) for k, v in left.items()}
     if isinstance(right, dict):
         return {k: function(left, v) for k, v in right.items()}
     return function(left, right)
 
 
-_OPS = {
+_OPS: dict[str, Callable[[float, float], float]] = {
     "+": lambda a, b: a + b,
     "-": lambda a, b: a - b,
     "*": lambda a, b: a * b,
@@ -100,10 +101,10 @@ def _call(function: str, args: list[Value]) -> Value:
     if function == "sqrt":
         return _map(math.sqrt, args[0])
     if function in ("min", "max"):
-        pick = min if function == "min" else max
+        pick: Callable[[float, float], float] = min if function == "min" else max
         result = args[0]
         for arg in args[1:]:
-            result = _zip(lambda a, b, pick=pick: pick(a, b), result, arg)
+            result = _zip(pick, result, arg)
         return result
     if function == "clamp":
         low = _zip(max, args[0], args[1])

@@ -20,11 +20,11 @@ NO_SPAN = Span("<generated>")
 
 
 def _span() -> Span:
-    return field(default=NO_SPAN, compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+    return field(default=NO_SPAN, compare=False, repr=False, kw_only=True)
 
 
 def _comments() -> tuple[str, ...]:
-    return field(default=(), compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+    return field(default=(), compare=False, repr=False, kw_only=True)
 
 
 # ----------------------------------------------------------------------------- expressions
