@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -159,13 +159,27 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
 
 
 def _chunk_signals(store: ResultStore, name: str, rows: np.ndarray,
-                   required: set[str] | None) -> dict[str, np.ndarray]:
-    keys = None if required is None else sorted(required | set(POSE_SIGNALS) | {"command",
-                                                                              "energy", "t"})
+                   required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
+    extra = set(POSE_SIGNALS) if poses else set()
+    keys = None if required is None else sorted(required | extra | {"command", "energy", "t"})
     start, stop = int(rows[0]), int(rows[-1]) + 1
     chunk = store.read_runs(name, slice(start, stop), keys)
+    if stop - start == len(rows):  # no gaps: the chunk as read
+        return chunk
     offset = rows - start
     return {key: values[offset] for key, values in chunk.items()}
+
+
+def complete_chunks(store: ResultStore, name: str, required: set[str] | None,
+                    chunk_runs: int = DEFAULT_CHUNK_RUNS, poses: bool = True
+                    ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
+    """``(rows, signals)`` of a path's complete runs, ``chunk_runs`` at a time; each chunk is
+    read once. ``required`` None reads every stored signal; ``poses`` adds the pose signals
+    the obstacle checker reads."""
+    complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
+    for begin in range(0, len(complete), chunk_runs):
+        rows = complete[begin:begin + chunk_runs]
+        yield rows, _chunk_signals(store, name, rows, required, poses)
 
 
 def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeometry,
@@ -176,14 +190,11 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     chain = tuple(Command(*row) for row in group["chain"][()])
     reference = store.reference(name)
     context = run_context(chain, rover, sigma, reference)
-    status = store.run_status(name)
-    complete = np.flatnonzero(status == STATUS_COMPLETE)
+    complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
     required = set(getattr(evaluator, "required_signals", ())) or None
     parts = []
     hits, buffers, details = [], [], []
-    for begin in range(0, len(complete), chunk_runs):
-        rows = complete[begin:begin + chunk_runs]
-        signals = _chunk_signals(store, name, rows, required)
+    for _rows, signals in complete_chunks(store, name, required, chunk_runs):
         if collisions is not None:
             extra, chunk_details = collisions(signals)
             signals.update(extra)
@@ -210,18 +221,11 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
     for name in store.path_names:
-        group = store.path_group(name)
-        result = PathResult(name=name, index=int(group.attrs["index"]),
-                            status=str(group.attrs.get("status", "pending")),
-                            reason=str(group.attrs.get("reason", "")))
+        result = stored_path_result(store, name)
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue
-        status = store.run_status(name)
-        result.runs = len(status)
-        result.completed = int(np.sum(status == STATUS_COMPLETE))
-        result.failures = store.failures(name)
-        missing = len(status) - result.completed - result.failed
+        missing = result.runs - result.completed - result.failed
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
                                           chunk_runs)
         if evaluation is None:
@@ -231,9 +235,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         stats = evaluator.path_statistics(evaluation, failed_runs=result.failed + missing)
         verdict = evaluator.verdict(stats)
         statistics[name] = stats
-        _fill(result, evaluation, stats, verdict)
+        fill_result(result, evaluation, stats, verdict)
         if write:
-            _write_path_evaluation(store, name, evaluation, extra, stats, verdict, len(status))
+            _write_path_evaluation(store, name, evaluation, extra, stats, verdict, result.runs)
     ranking = list(evaluator.rank(statistics)) if statistics else []
     for position, name in enumerate(ranking, start=1):
         for result in results:
@@ -253,7 +257,22 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     return campaign_eval
 
 
-def _fill(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None:
+def stored_path_result(store: ResultStore, name: str) -> PathResult:
+    """A path's stored status and run counts (failures included), not yet evaluated."""
+    group = store.path_group(name)
+    result = PathResult(name=name, index=int(group.attrs["index"]),
+                        status=str(group.attrs.get("status", "pending")),
+                        reason=str(group.attrs.get("reason", "")))
+    if result.status == "simulated" and store.has_runs(name):
+        status = store.run_status(name)
+        result.runs = len(status)
+        result.completed = int(np.sum(status == STATUS_COMPLETE))
+        result.failures = store.failures(name)
+    return result
+
+
+def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None:
+    """Copy a path's statistics and verdict into ``result`` (mean risk, chances, reasons …)."""
     result.statistics = stats
     result.verdict = verdict
     risk = stats.risk
@@ -267,10 +286,10 @@ def _fill(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None
     result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \
         else dominant_index(evaluation)
     result.passed = bool(verdict.passed)
+    result.undecided = not bool(verdict.decided)
+    # A decided failure is explained by the rules that fail decidedly; otherwise by the rules
+    # that fail or are not decided.
     failed_for_sure = [rule for rule in verdict.rules if not rule.passed and rule.decided]
-    # A rule that fails with its threshold outside the interval decides the path whatever the
-    # undecided rules say; otherwise an undecided rule leaves the verdict undecided.
-    result.undecided = not bool(verdict.decided) and not failed_for_sure
     shown = failed_for_sure or [rule for rule in verdict.rules
                                 if not rule.passed or not rule.decided]
     result.verdict_reasons = [_reason_text(rule) for rule in shown]

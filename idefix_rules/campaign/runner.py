@@ -145,11 +145,8 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
     """Evaluate stored results again, with their own or another rulebook; no simulation."""
     store = ResultStore.open(results, writable=True)
     try:
-        campaign_text = store.text("campaign")
-        campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
-        document = load_yaml(campaign_text, campaign_path)
-        model = CampaignFile.model_validate(document.data)
-        base = Path(campaign_path).parent
+        stub = stored_campaign(store)
+        model = stub.model
         if rulebook is None:
             text = store.text("rulebook")
             stored = store.file["provenance"]["rulebook"].attrs
@@ -158,7 +155,6 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         else:
             rulebook_path = rulebook
             evaluator = compile_rulebook_file(rulebook)
-        stub = _campaign_stub(model, base, campaign_text, campaign_path)
         output = out or results.parent
         collisions = collision_function(model.environment, evaluator,
                                         read_terrain(results.parent))
@@ -178,6 +174,16 @@ def _compile_text(text: str, path: Path) -> Any:
         copy = Path(folder) / path.name
         copy.write_text(text, encoding="utf-8")
         return compile_rulebook_file(copy)
+
+
+def stored_campaign(store: ResultStore) -> Campaign:
+    """The campaign a results file was simulated from, rebuilt from its stored text (for
+    geometry, uncertainty and environment; the FMU and DEM are not resolved)."""
+    campaign_text = store.text("campaign")
+    campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
+    document = load_yaml(campaign_text, campaign_path)
+    model = CampaignFile.model_validate(document.data)
+    return _campaign_stub(model, Path(campaign_path).parent, campaign_text, campaign_path)
 
 
 def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Campaign:
