@@ -249,8 +249,10 @@ class RuleResult:
 
 @dataclass(frozen=True)
 class Verdict:
-    """Pass/fail of a path: every rule passes. ``decided`` is False when any rule is not decided
-    at this number of runs (its threshold lies inside the confidence interval)."""
+    """Pass/fail of a path: every rule passes. ``decided`` is True when every rule is decided,
+    or when at least one rule fails decidedly (the path fails whatever the undecided rules say);
+    otherwise the verdict is not decided at this number of runs (a threshold lies inside a
+    confidence interval)."""
 
     passed: bool
     decided: bool

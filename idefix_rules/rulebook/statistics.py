@@ -8,7 +8,8 @@
 * Verdict rules are evaluated twice: on the point estimates (pass/fail) and on the intervals
   (three-valued: a comparison is *decided* when it holds, or fails, for every value in the
   intervals of the statistics it reads). A rule whose threshold lies strictly inside its
-  statistic's interval is "not decided at this number of runs".
+  statistic's interval is "not decided at this number of runs". The verdict is decided when every
+  rule is, or when at least one rule fails decidedly (the path fails whatever the others say).
 * Failed runs: unless a verdict rule reads ``failed`` itself, the verdict carries an extra rule
   ``no_failed_runs`` that fails when any run of the path failed, so a path with failed
   simulations never passes silently.
@@ -19,7 +20,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -301,8 +302,16 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
             "A path whose simulations failed cannot pass without the rulebook saying so",
             f"{stats.failed_runs} of {stats.runs + stats.failed_runs} runs failed"
             if not passed else "no run failed"))
-    return Verdict(passed=all(r.passed for r in results),
-                   decided=all(r.decided for r in results), rules=tuple(results))
+    return Verdict(passed=all(r.passed for r in results), decided=verdict_decided(results),
+                   rules=tuple(results))
+
+
+def verdict_decided(rules: Sequence[RuleResult]) -> bool:
+    """A verdict is decided when it passes with every rule decided, or when at least one rule
+    fails decidedly (then no number of runs can make the path pass)."""
+    if any(not rule.passed and rule.decided for rule in rules):
+        return True
+    return all(rule.decided for rule in rules)
 
 
 def rank(rulebook: Rulebook, constants: Mapping[str, Any],

@@ -119,6 +119,23 @@ def test_compound_conditions_are_decided_in_three_valued_logic():
     assert not verdict.passed and verdict.decided  # false whatever the risk: decided
 
 
+def test_a_decided_failure_decides_the_verdict_whatever_undecided_rules_say():
+    rules = evaluator("verdict acceptable: require risk <= 50 %\n"
+                      "verdict quick: require time <= 200 s")
+    # risk: threshold inside the interval (not decided); time: fails for every value (decided)
+    stats = rules.path_statistics(evaluation([0.2, 0.7, 0.4, 0.6], time=[300.0] * 4))
+    verdict = rules.verdict(stats)
+    assert [(r.name, r.passed, r.decided) for r in verdict.rules] == [
+        ("acceptable", True, False), ("quick", False, True), ("no_failed_runs", True, True)]
+    assert not verdict.passed and verdict.decided
+    # the same undecided rule with every other rule passing leaves the verdict undecided
+    quick = rules.path_statistics(evaluation([0.2, 0.7, 0.4, 0.6], time=[100.0] * 4))
+    assert rules.verdict(quick).passed and not rules.verdict(quick).decided
+    # an undecided rule that fails on its point estimate does not decide the verdict either
+    risky = rules.path_statistics(evaluation([0.3, 0.8, 0.5, 0.7], time=[100.0] * 4))
+    assert not rules.verdict(risky).passed and not rules.verdict(risky).decided
+
+
 def test_failed_runs_fail_the_verdict_unless_the_rulebook_speaks_of_them():
     plain = evaluator("verdict acceptable: require risk <= 50 %")
     stats = plain.path_statistics(evaluation([0.1] * 10), failed_runs=2)
