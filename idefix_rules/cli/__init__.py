@@ -26,6 +26,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "check",
     "fmt",
     "explain",
+    "diff",
     "report",
     "build_fmu",
 )

@@ -1,0 +1,222 @@
+"""``idefix-verify diff OLD NEW [--results results.h5 …]``: what a rulebook change does.
+
+``OLD`` and ``NEW`` are rulebook files or ``PATH@REV`` (the file at a git revision). Without
+``--results`` the rules are compared (exit 0). With ``--results`` the stored runs are re-scored
+under both rulebooks (no simulation) and the exit code gates on verdict changes (see
+``docs/diff.md``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from idefix_rules.cli.run import make_console
+
+NAME = "diff"
+HELP = ("Compare two rulebook versions (files or PATH@REV git revisions): the rules that "
+        "changed and, with --results, what the change does to stored campaigns (re-scored, "
+        "no simulation). Exit 0 when no verdict changes, 1 when a path's verdict or the "
+        "first-ranked path changes, 2 on invalid input.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("old", metavar="OLD", help="earlier rulebook: a file or PATH@REV")
+    parser.add_argument("new", metavar="NEW", help="later rulebook: a file or PATH@REV")
+    parser.add_argument("--results", type=Path, nargs="+", metavar="RESULTS_H5",
+                        help="stored campaign(s) to re-score under both rulebooks")
+    parser.add_argument("--fail-on", choices=("verdict", "rank", "never"), default="verdict",
+                        help="with --results: exit 1 when a path's verdict or the first-ranked "
+                             "path changes (verdict, the default), also when any rank "
+                             "changes (rank), or never")
+    parser.add_argument("--top", type=int, default=5, metavar="N",
+                        help="runs whose I_max moved most, per path (default 5)")
+    parser.add_argument("--chunk-runs", type=int, default=128, metavar="N",
+                        help="runs read and evaluated at a time (memory bound; default 128)")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="text tables (default) or the data as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    from idefix_rules.diff import diff_rules, load_source
+    from idefix_rules.diff.results import diff_results
+    from idefix_rules.errors import UserInputError, error
+
+    if args.top < 0 or args.chunk_runs < 1:
+        raise UserInputError(error("D020", "--top must be ≥ 0 and --chunk-runs ≥ 1"))
+    old, new = load_source(args.old), load_source(args.new)
+    rules = diff_rules(old.checked, new.checked, old.label, new.label)
+    results = None
+    if args.results:
+        results = diff_results(args.results, old, new, args.top, args.chunk_runs)
+    code = results.exit_code(args.fail_on) if results is not None else 0
+    if args.format == "json":
+        data: dict[str, Any] = {"rules": rules.to_dict(),
+                                "results": results.to_dict() if results is not None else None,
+                                "fail_on": args.fail_on, "exit_code": code}
+        print(json.dumps(data, indent=2, default=str))
+        return code
+    console = make_console()
+    print_rules(console, rules)
+    if results is not None:
+        for file in results.files:
+            print_results(console, file)
+        print_exit(console, results, args.fail_on, code)
+    return code
+
+
+# ----------------------------------------------------------------------------- rules
+
+def _field_text(change: Any) -> str:
+    lines = []
+    for item in change.fields:
+        old = item.old if item.old is not None else "—"
+        new = item.new if item.new is not None else "—"
+        if change.kind == "added":
+            text = f"{item.field}: {new}"
+        elif change.kind == "removed":
+            text = f"{item.field}: {old}"
+        else:
+            text = f"{item.field}: {old} → {new}" if old != new else f"{item.field}: {old}"
+        si_old, si_new = item.old_si, item.new_si
+        if change.kind == "changed" and si_old is not None and si_new is not None:
+            if si_old != si_new and (si_old, si_new) != (item.old, item.new):
+                text += f"  [{si_old} → {si_new}]"
+        elif (si_new or si_old) and (si_new or si_old) != (item.new or item.old):
+            text += f"  [= {si_new or si_old}]"
+        lines.append(text)
+    if change.reads_changed:
+        lines.append("reads changed: " + ", ".join(change.reads_changed))
+    return "\n".join(lines)
+
+
+def _rationale_text(change: Any) -> str:
+    if change.rationale_changed:
+        return f"was: {change.old_rationale or '—'}\nnow: {change.rationale or '—'}"
+    return change.rationale or ""
+
+
+_KIND_STYLE = {"added": "green", "removed": "red", "changed": "yellow", "affected": "cyan"}
+
+
+def print_rules(console: Console, diff: Any) -> None:
+    old, new = diff.old, diff.new
+    console.print(f"[bold]rulebook diff[/bold]: {old.name} {old.version} ({old.label}) → "
+                  f"{new.name} {new.version} ({new.label})")
+    if diff.identical:
+        console.print("the rules are the same (comments and layout aside)")
+        return
+    table = Table(show_lines=True)
+    for column in ("section", "name", "change", "what", "rationale"):
+        table.add_column(column, overflow="fold")
+    for change in diff.changes:
+        style = _KIND_STYLE.get(change.kind, "")
+        table.add_row(change.section, change.name, f"[{style}]{change.kind}[/{style}]",
+                      _field_text(change), _rationale_text(change))
+    console.print(table)
+    counts = diff.counts()
+    console.print(", ".join(f"{n} {kind}" for kind, n in counts.items() if n))
+
+
+# ----------------------------------------------------------------------------- results
+
+def _number(value: float | None, digits: int = 3) -> str:
+    return "—" if value is None else f"{value:.{digits}f}"
+
+
+def _risk(side: Any) -> str:
+    if side.mean_risk is None:
+        return "—"
+    interval = f" [{side.risk_ci[0]:.3f}, {side.risk_ci[1]:.3f}]" if side.risk_ci else ""
+    return f"{side.mean_risk:.3f}{interval}"
+
+
+def _verdict(side: Any) -> str:
+    return side.verdict + (" (undecided)" if side.undecided else "")
+
+
+def _arrow(old: str, new: str, changed: bool) -> str:
+    text = f"{old} → {new}" if old != new else old
+    return f"[bold red]{text}[/bold red]" if changed else text
+
+
+def _chances(path: Any) -> str:
+    names = list(dict.fromkeys([*path.old.chances, *path.new.chances]))
+    lines = []
+    for name in names:
+        old, new = path.old.chances.get(name), path.new.chances.get(name)
+        if old != new:
+            lines.append(f"{name}: {_percent(old)} → {_percent(new)}")
+    return "\n".join(lines)
+
+
+def _percent(value: float | None) -> str:
+    return "—" if value is None else f"{100 * value:.1f} %"
+
+
+def _dominant(side: Any) -> str:
+    counts = {k: v for k, v in side.dominant_counts.items() if v}
+    if not counts:
+        return "—"
+    return ", ".join(f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1]))
+
+
+def print_results(console: Console, file: Any) -> None:
+    console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
+                  f"collisions {file.collisions})")
+    table = Table(show_lines=True)
+    for column in ("path", "verdict", "mean risk [CI]", "rank", "chances that changed",
+                   "dominant index (runs)", "runs moved"):
+        table.add_column(column, overflow="fold")
+    for path in file.paths:
+        rank_old = str(path.old.rank) if path.old.rank is not None else "—"
+        rank_new = str(path.new.rank) if path.new.rank is not None else "—"
+        table.add_row(
+            path.name, _arrow(_verdict(path.old), _verdict(path.new), path.verdict_changed),
+            f"{_risk(path.old)}\n→ {_risk(path.new)}",
+            _arrow(rank_old, rank_new, False), _chances(path),
+            f"{_dominant(path.old)}\n→ {_dominant(path.new)}",
+            f"{path.changed_runs} of {path.new.runs or path.old.runs}")
+    console.print(table)
+    for path in file.paths:
+        if not path.top_runs:
+            continue
+        moves = Table(title=f"{path.name}: runs whose I_max moved most", title_justify="left")
+        for column in ("run", "I_max old → new", "Δ", "because of", "dominant old → new"):
+            moves.add_column(column)
+        for move in path.top_runs:
+            moves.add_row(str(move.run), f"{move.old_i_max:.3f} → {move.new_i_max:.3f}",
+                          f"{move.delta:+.3f}", move.index,
+                          _arrow(move.old_dominant, move.new_dominant, False))
+        console.print(moves)
+    for path in file.paths:
+        if path.verdict_changed:
+            for label, side in (("old", path.old), ("new", path.new)):
+                for reason in side.reasons[:3]:
+                    console.print(f"  {path.name} ({label}): {reason}")
+    console.print(f"ranking old: {' > '.join(file.old_ranking) or '—'}")
+    console.print(f"ranking new: {' > '.join(file.new_ranking) or '—'}"
+                  + ("  [bold red](first-ranked path changed)[/bold red]"
+                     if file.first_changed else ""))
+
+
+def print_exit(console: Console, results: Any, fail_on: str, code: int) -> None:
+    changes = results.verdict_changes()
+    first = [f.results for f in results.files if f.first_changed]
+    if code == 0:
+        console.print(f"exit code 0: no verdict changes (fail-on {fail_on})"
+                      + (f"; {len(changes)} verdict change(s) ignored" if changes else ""))
+        return
+    what = []
+    if changes:
+        what.append(f"{len(changes)} path verdict(s) changed")
+    if first:
+        what.append("the first-ranked path changed")
+    if not what:
+        what.append("a rank changed")
+    console.print(f"exit code 1: {', '.join(what)} (fail-on {fail_on})")

@@ -1,0 +1,419 @@
+"""The results diff: stored runs re-scored under two rulebooks, path by path, no simulation.
+
+For every path of a results file each rulebook first decides whether the path would be run at
+all: its command rules on the stored chain (``rejected``) and its prescreen on the stored
+reference run (``excluded``). Paths both rulebooks accept are evaluated in one pass over the
+stored runs: each chunk of signals is read once (only the signals either rulebook needs) and
+evaluated under both. Collision signals come from the stored ``collisions/hits`` when the
+obstacle levels and buffers of both rulebooks equal those they were computed with, else from
+the obstacle checker on the stored poses (once per chunk when both rulebooks have the same
+levels). Then statistics, verdicts and the ranking of each side, and the runs whose I_max moved
+most with the index responsible (the one whose weighted value changed most).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from idefix_rules.campaign.environment import read_terrain
+from idefix_rules.campaign.evaluation import (
+    PathResult,
+    collision_function,
+    complete_chunks,
+    concatenate,
+    fill_result,
+    prescreen_reference,
+    run_context,
+    stored_path_result,
+    without_samples,
+)
+from idefix_rules.campaign.runner import stored_campaign
+from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.commands import Command
+from idefix_rules.diff.evaluators import (
+    STORED_COLLISIONS,
+    can_use_stored,
+    collision_reads,
+    stored_levels,
+    values_only,
+)
+from idefix_rules.diff.source import RulebookSource
+from idefix_rules.errors import UserInputError, error
+
+DEFAULT_CHUNK_RUNS = 128
+DEFAULT_TOP_RUNS = 5
+# |Δ I_max| below this is rounding, not a change.
+MOVE_TOLERANCE = 1e-9
+
+FailOn = Literal["verdict", "rank", "never"]
+FAIL_ON: tuple[str, ...] = ("verdict", "rank", "never")
+NOT_SIMULATED = "not simulated"
+
+
+@dataclass(frozen=True)
+class SideResult:
+    """One path under one rulebook: verdict, risk, rank, chances, dominant index counts."""
+
+    verdict: str  # pass, fail, rejected, excluded, error, not simulated
+    undecided: bool = False
+    reasons: tuple[str, ...] = ()
+    mean_risk: float | None = None
+    risk_ci: tuple[float, float] | None = None
+    rank: int | None = None
+    chances: dict[str, float] = field(default_factory=dict)
+    dominant_counts: dict[str, int] = field(default_factory=dict)
+    runs: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"verdict": self.verdict, "undecided": self.undecided,
+                "reasons": list(self.reasons), "mean_risk": self.mean_risk,
+                "risk_ci": list(self.risk_ci) if self.risk_ci is not None else None,
+                "rank": self.rank, "chances": dict(self.chances),
+                "dominant_counts": dict(self.dominant_counts), "runs": self.runs}
+
+
+@dataclass(frozen=True)
+class RunMove:
+    """A run whose I_max changed: old → new, and the index whose weighted value moved most."""
+
+    run: int
+    old_i_max: float
+    new_i_max: float
+    index: str
+    old_dominant: str
+    new_dominant: str
+
+    @property
+    def delta(self) -> float:
+        return self.new_i_max - self.old_i_max
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**self.__dict__, "delta": self.delta}
+
+
+@dataclass(frozen=True)
+class PathDiff:
+    name: str
+    old: SideResult
+    new: SideResult
+    changed_runs: int = 0  # runs whose I_max changed
+    dominant_changed: int = 0  # runs whose dominant index changed
+    top_runs: tuple[RunMove, ...] = ()
+
+    @property
+    def verdict_changed(self) -> bool:
+        return self.old.verdict != self.new.verdict
+
+    @property
+    def rank_changed(self) -> bool:
+        return self.old.rank != self.new.rank
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "old": self.old.to_dict(), "new": self.new.to_dict(),
+                "verdict_changed": self.verdict_changed, "rank_changed": self.rank_changed,
+                "changed_runs": self.changed_runs, "dominant_changed": self.dominant_changed,
+                "top_runs": [m.to_dict() for m in self.top_runs]}
+
+
+@dataclass(frozen=True)
+class ResultsFileDiff:
+    """The diff of one results file. ``collisions``: ``stored``, ``recomputed`` or ``none``."""
+
+    results: str
+    campaign: str
+    paths: tuple[PathDiff, ...]
+    old_ranking: tuple[str, ...]
+    new_ranking: tuple[str, ...]
+    collisions: str
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def first_changed(self) -> bool:
+        return self.old_ranking[:1] != self.new_ranking[:1]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"results": self.results, "campaign": self.campaign,
+                "paths": [p.to_dict() for p in self.paths],
+                "old_ranking": list(self.old_ranking), "new_ranking": list(self.new_ranking),
+                "first_changed": self.first_changed, "collisions": self.collisions,
+                "timings": dict(self.timings)}
+
+
+@dataclass(frozen=True)
+class ResultsDiff:
+    files: tuple[ResultsFileDiff, ...]
+
+    def verdict_changes(self) -> list[tuple[str, PathDiff]]:
+        return [(f.results, p) for f in self.files for p in f.paths if p.verdict_changed]
+
+    def exit_code(self, fail_on: str = "verdict") -> int:
+        """0: nothing the policy gates on changed; 1: it did (see ``docs/diff.md``)."""
+        if fail_on == "never":
+            return 0
+        for file in self.files:
+            if file.first_changed or any(p.verdict_changed for p in file.paths):
+                return 1
+            if fail_on == "rank" and any(p.rank_changed for p in file.paths):
+                return 1
+        return 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"files": [f.to_dict() for f in self.files]}
+
+
+# ----------------------------------------------------------------------------- one side
+
+@dataclass
+class _Side:
+    """Working state of one rulebook on one path."""
+
+    evaluator: Any
+    result: PathResult
+    parts: list[Any] = field(default_factory=list)
+    evaluation: Any = None
+    statistics: Any = None
+
+    @property
+    def evaluates(self) -> bool:
+        return self.result.status == "simulated" and self.result.completed > 0
+
+
+def _gate(side: _Side, chain: tuple[Command, ...], context: dict[str, Any],
+          reference: dict[str, np.ndarray] | None, collisions: Any) -> None:
+    """Command rules and prescreen of this side's rulebook, as a campaign would apply them."""
+    result = side.result
+    violations = side.evaluator.check_chain(chain, context["rover"])
+    if violations:
+        result.status, result.reason = "rejected", violations[0].message
+        return
+    if reference is None:
+        return  # the stored status says why (reference failed, pending)
+    findings = prescreen_reference(side.evaluator, chain, context["rover"], context["sigma"],
+                                   reference, collisions)
+    if findings:
+        result.status, result.reason = "excluded", findings[0].message
+    elif result.status in ("rejected", "excluded"):
+        result.status = NOT_SIMULATED
+        result.reason = ("the stored campaign did not simulate this path; this rulebook "
+                         "would: run the campaign to compare")
+
+
+def _side_result(side: _Side) -> SideResult:
+    result = side.result
+    if result.status == NOT_SIMULATED:
+        verdict = NOT_SIMULATED
+    else:
+        verdict = result.verdict_text
+    reasons = tuple(result.verdict_reasons) or ((result.reason,) if result.reason else ())
+    counts = dict(getattr(side.statistics, "dominant_counts", {}) or {})
+    return SideResult(verdict, bool(result.undecided), reasons, result.mean_risk,
+                      result.risk_ci, result.rank, dict(result.chances), counts,
+                      result.completed if side.evaluation is not None else 0)
+
+
+# ----------------------------------------------------------------------------- collisions
+
+class _Collisions:
+    """Collision signals per chunk for each side: stored, or checked once per distinct level
+    set."""
+
+    def __init__(self, store: ResultStore, folder: Path, evaluators: Sequence[Any],
+                 sources: Sequence[RulebookSource], environment: Any) -> None:
+        self.evaluators = list(evaluators)
+        self.needed = [bool(collision_reads(e)) for e in evaluators]
+        self.folder, self.environment = folder, environment
+        self._functions: dict[tuple[Any, ...], Any] = {}
+        self._terrain: Any = None
+        self.mode = "none"
+        if not any(self.needed):
+            return
+        levels = stored_levels(store, [s.checked for s in sources])
+        self.mode = "stored" if can_use_stored(evaluators, levels) else "recomputed"
+
+    def function(self, position: int) -> Any:
+        """The obstacle checker of side ``position`` (None when its rulebook reads no
+        collisions); one per distinct set of obstacle levels, built on first use."""
+        if not self.needed[position]:
+            return None
+        evaluator = self.evaluators[position]
+        key = tuple(evaluator.obstacle_levels)
+        if key not in self._functions:
+            if self._terrain is None:
+                self._terrain = read_terrain(self.folder) or False
+            self._functions[key] = collision_function(self.environment, evaluator,
+                                                      self._terrain or None)
+        return self._functions[key]
+
+    def stored_for(self, store: ResultStore, name: str) -> dict[str, np.ndarray] | None:
+        """The stored collision arrays of a path, or None when they are missing or partial."""
+        if self.mode != "stored":
+            return None
+        group = store.path_group(name).get("evaluation/collisions")
+        if group is None:
+            return None
+        status = store.run_status(name)
+        complete = status == STATUS_COMPLETE
+        arrays = {}
+        for signal, dataset in STORED_COLLISIONS.items():
+            if dataset not in group:
+                continue
+            values = np.asarray(group[dataset][()])
+            if values.shape[0] != status.shape[0] or not np.all(np.isfinite(values[complete])):
+                return None
+            arrays[signal] = values
+        return arrays
+
+    def chunk(self, signals: dict[str, np.ndarray], rows: np.ndarray,
+              stored: dict[str, np.ndarray] | None) -> list[dict[str, np.ndarray]]:
+        """The collision signals of each side for one chunk (empty dict: none needed)."""
+        if stored is not None:
+            picked = {key: values[rows] for key, values in stored.items()}
+            return [picked if needed else {} for needed in self.needed]
+        computed: dict[int, dict[str, np.ndarray]] = {}
+        out = []
+        for position in range(len(self.needed)):
+            function = self.function(position)
+            if function is None:
+                out.append({})
+                continue
+            if id(function) not in computed:
+                computed[id(function)] = function(signals)[0]
+            out.append(computed[id(function)])
+        return out
+
+
+# ----------------------------------------------------------------------------- one file
+
+def _top_moves(rows: np.ndarray, old: Any, new: Any, top: int
+               ) -> tuple[int, int, tuple[RunMove, ...]]:
+    """Runs whose I_max changed, dominant-index changes, and the ``top`` largest moves.
+
+    The index responsible for a move is the new dominant index when I_max rose (its weighted
+    value rose to the new I_max) and the old dominant index when I_max fell (its weighted value
+    fell below the old I_max).
+    """
+    delta = new.i_max - old.i_max
+    moved = np.abs(delta) > MOVE_TOLERANCE
+    old_dominant = np.asarray(old.index_names, dtype=object)[old.dominant]
+    new_dominant = np.asarray(new.index_names, dtype=object)[new.dominant]
+    dominant_changed = int(np.sum(old_dominant != new_dominant))
+    order = np.argsort(-np.abs(delta), kind="stable")
+    chosen = [int(i) for i in order[:top] if moved[i]]
+    moves = tuple(RunMove(int(rows[i]), float(old.i_max[i]), float(new.i_max[i]),
+                          str(new_dominant[i] if delta[i] > 0 else old_dominant[i]),
+                          str(old_dominant[i]), str(new_dominant[i])) for i in chosen)
+    return int(np.sum(moved)), dominant_changed, moves
+
+
+def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
+                      top: int = DEFAULT_TOP_RUNS,
+                      chunk_runs: int = DEFAULT_CHUNK_RUNS) -> ResultsFileDiff:
+    """Re-score one stored campaign under ``old`` and ``new``; see the module docstring."""
+    started = time.perf_counter()
+    timings = {"read": 0.0, "collisions": 0.0, "evaluate": 0.0}
+    store = ResultStore.open(path)
+    try:
+        try:
+            campaign = stored_campaign(store)
+        except (KeyError, ValueError) as failure:
+            raise UserInputError(error(
+                "D010", f"{path}: the stored campaign cannot be read back: {failure}")) from None
+        context = {"rover": rover_geometry(campaign), "sigma": initial_position_sigma(campaign)}
+        evaluators = [values_only(old.checked), values_only(new.checked)]
+        collisions = _Collisions(store, path.parent, evaluators, (old, new),
+                                 campaign.model.environment)
+        required = set().union(*(e.required_signals for e in evaluators))
+        poses = collisions.mode == "recomputed"
+        prepared = time.perf_counter()
+        timings["prepare"] = prepared - started
+        path_sides: list[tuple[str, list[_Side], tuple[int, int, tuple[RunMove, ...]]]] = []
+        for name in store.path_names:
+            sides = [_Side(e, stored_path_result(store, name)) for e in evaluators]
+            group = store.path_group(name)
+            chain = tuple(Command(*row) for row in group["chain"][()])
+            reference = store.reference(name)
+            for position, side in enumerate(sides):
+                _gate(side, chain, context, reference, collisions.function(position))
+            moves: tuple[int, int, tuple[RunMove, ...]] = (0, 0, ())
+            active = [side for side in sides if side.evaluates]
+            if active:
+                moves = _evaluate_path(store, name, chain, reference, sides, active, context,
+                                       collisions, required, poses, chunk_runs, top, timings)
+            path_sides.append((name, sides, moves))
+        rankings = []
+        for position, evaluator in enumerate(evaluators):
+            stats = {name: sides[position].statistics for name, sides, _ in path_sides
+                     if sides[position].statistics is not None}
+            ranking = tuple(evaluator.rank(stats)) if stats else ()
+            for name, sides, _ in path_sides:
+                result = sides[position].result
+                result.rank = ranking.index(name) + 1 if name in ranking else None
+            rankings.append(ranking)
+        paths = tuple(PathDiff(name, _side_result(sides[0]), _side_result(sides[1]), *moves)
+                      for name, sides, moves in path_sides)
+        timings["total"] = time.perf_counter() - started
+        return ResultsFileDiff(str(path), str(store.attrs.get("campaign_name", "")), paths,
+                               rankings[0], rankings[1], collisions.mode, timings)
+    finally:
+        store.close()
+
+
+def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
+                   reference: dict[str, np.ndarray] | None, sides: list[_Side],
+                   active: list[_Side], context: dict[str, Any], collisions: _Collisions,
+                   required: set[str], poses: bool, chunk_runs: int, top: int,
+                   timings: dict[str, float]) -> tuple[int, int, tuple[RunMove, ...]]:
+    run_context_ = run_context(chain, context["rover"], context["sigma"], reference)
+    stored = collisions.stored_for(store, name)
+    if collisions.mode == "stored" and stored is None:
+        raise UserInputError(error(
+            "D011", f"{store.file.filename}: path {name!r} has no stored collisions for its "
+                    "complete runs", hint="run `idefix-verify evaluate` on the results first"))
+    all_rows = []
+    mark = time.perf_counter()
+    for rows, signals in complete_chunks(store, name, required, chunk_runs, poses):
+        now = time.perf_counter()
+        timings["read"] += now - mark
+        extra = collisions.chunk(signals, rows, stored)
+        mark = time.perf_counter()
+        timings["collisions"] += mark - now
+        for side, collision_signals in zip(sides, extra, strict=True):
+            if side in active:
+                chunk = {**signals, **collision_signals} if collision_signals else signals
+                side.parts.append(without_samples(side.evaluator.evaluate(chunk, run_context_)))
+        all_rows.append(rows)
+        now = time.perf_counter()
+        timings["evaluate"] += now - mark
+        mark = now
+    for side in active:
+        result = side.result
+        side.evaluation = concatenate(side.parts)
+        side.parts = []
+        missing = result.runs - result.completed - result.failed
+        side.statistics = side.evaluator.path_statistics(side.evaluation,
+                                                         failed_runs=result.failed + missing)
+        fill_result(result, side.evaluation, side.statistics,
+                    side.evaluator.verdict(side.statistics))
+    if len(active) == 2 and all_rows:
+        return _top_moves(np.concatenate(all_rows), sides[0].evaluation, sides[1].evaluation,
+                          top)
+    return 0, 0, ()
+
+
+def diff_results(paths: Sequence[Path], old: RulebookSource, new: RulebookSource,
+                 top: int = DEFAULT_TOP_RUNS,
+                 chunk_runs: int = DEFAULT_CHUNK_RUNS) -> ResultsDiff:
+    """:func:`diff_results_file` for every results file."""
+    return ResultsDiff(tuple(diff_results_file(Path(p), old, new, top, chunk_runs)
+                             for p in paths))
+
+
+__all__ = ["FAIL_ON", "PathDiff", "ResultsDiff", "ResultsFileDiff", "RunMove", "SideResult",
+           "diff_results", "diff_results_file"]

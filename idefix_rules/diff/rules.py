@@ -1,0 +1,290 @@
+"""The rule diff: what changed between two checked rulebooks, declaration by declaration.
+
+Each declaration of the canonical order (header, constants, settings, obstacle levels, command
+rules, indices, chances, combine, prescreens, verdicts, ranking) is compared by name. A change
+lists the fields that differ, each as written (printed by the formatter) and, where a value has
+one, in SI: so ``limit = critical_tilt`` shows ``0.3491 rad → 0.2618 rad`` when only the
+constant it reads changed. A declaration whose text is the same but that reads a changed
+constant is listed as ``affected``. Spans and comments never count (the model's equality).
+
+>>> from idefix_rules.rulebook import check_text
+>>> old = check_text(TEXT_A).checked  # doctest: +SKIP
+>>> diff = diff_rules(old, new)  # doctest: +SKIP
+>>> [(c.section, c.name, c.kind) for c in diff.changes]  # doctest: +SKIP
+[('constant', 'critical_slip', 'changed'), ('index', 'I_beta', 'added')]
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.format import format_expr, format_number, format_string
+from idefix_rules.rulebook.model import Combine, Expr, Ranking
+from idefix_rules.rulebook.semantics import names_in
+from idefix_rules.rulebook.types import SETTINGS
+from idefix_rules.units import DIMENSIONLESS, LENGTH, Dimension
+
+ChangeKind = Literal["added", "removed", "changed", "affected"]
+
+# Section names in the formatter's canonical order (combine comes before prescreens there).
+SECTIONS = ("header", "constant", "setting", "obstacle level", "command", "index", "chance",
+            "combine", "prescreen", "verdict", "ranking")
+
+# One field of a declaration: (text as written, SI text or None).
+Fields = dict[str, tuple[str, str | None]]
+
+
+@dataclass(frozen=True)
+class FieldChange:
+    """One item of a declaration that differs: as written and in SI (``None`` = absent)."""
+
+    field: str
+    old: str | None
+    new: str | None
+    old_si: str | None = None
+    new_si: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class RuleChange:
+    """A declaration added, removed, changed, or affected (same text, reads a changed constant).
+
+    ``rationale`` is the new rationale (the old one for a removed declaration);
+    ``old_rationale`` is set when the rationale itself changed.
+    """
+
+    section: str
+    name: str
+    kind: ChangeKind
+    fields: tuple[FieldChange, ...] = ()
+    rationale: str | None = None
+    old_rationale: str | None = None
+    rationale_changed: bool = False
+    reads_changed: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"section": self.section, "name": self.name, "kind": self.kind,
+                "fields": [f.to_dict() for f in self.fields], "rationale": self.rationale,
+                "old_rationale": self.old_rationale,
+                "rationale_changed": self.rationale_changed,
+                "reads_changed": list(self.reads_changed)}
+
+
+@dataclass(frozen=True)
+class RulebookInfo:
+    """Which rulebook a side of a diff is: the label the user gave, header, hash of the text."""
+
+    label: str
+    name: str
+    version: str
+    sha256: str
+
+    @classmethod
+    def of(cls, checked: CheckedRulebook, label: str) -> RulebookInfo:
+        header = checked.rulebook.header
+        digest = hashlib.sha256(checked.rulebook.source.encode("utf-8")).hexdigest()
+        return cls(label, header.name, header.version, digest)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class RuleDiff:
+    """Every change from ``old`` to ``new``, in canonical section order."""
+
+    old: RulebookInfo
+    new: RulebookInfo
+    changes: tuple[RuleChange, ...] = field(default=())
+
+    @property
+    def identical(self) -> bool:
+        return not self.changes
+
+    def counts(self) -> dict[str, int]:
+        kinds = ("added", "removed", "changed", "affected")
+        return {kind: sum(1 for c in self.changes if c.kind == kind) for kind in kinds}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"old": self.old.to_dict(), "new": self.new.to_dict(),
+                "identical": self.identical, "counts": self.counts(),
+                "changes": [c.to_dict() for c in self.changes]}
+
+
+# ----------------------------------------------------------------------------- SI texts
+
+def si_text(value: Any, dimension: Dimension | None = None) -> str:
+    """``0.2618 rad``, ``{L1: 0.2, L2: 0.6, L3: 1}``: a checked value, 6 significant digits."""
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k}: {si_text(v, dimension)}" for k, v in value.items()) + "}"
+    number = format_number(float(f"{float(value):.6g}"))
+    if dimension is None or dimension.is_dimensionless:
+        return number
+    return f"{number} {dimension}"
+
+
+def _dimension(types: Mapping[str, Any], name: str) -> Dimension | None:
+    found = types.get(name)
+    return getattr(found, "dimension", None)
+
+
+def _item(expr: Expr | None, si: str | None = None) -> tuple[str, str | None]:
+    return (format_expr(expr) if expr is not None else "", si)
+
+
+# ----------------------------------------------------------------------------- declarations
+
+@dataclass(frozen=True)
+class _Declaration:
+    name: str
+    fields: Fields
+    rationale: str | None
+    expressions: tuple[Expr, ...]
+
+
+def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declaration]:
+    """The declarations of one section by name, with their fields as text."""
+    model = checked.rulebook
+    found: dict[str, _Declaration] = {}
+    if section == "header":
+        header = model.header
+        found["header"] = _Declaration("header", {
+            "name": (format_string(header.name), None),
+            "version": (format_string(header.version), None),
+            "purpose": (format_string(header.purpose), None)}, None, ())
+    elif section == "constant":
+        for constant in model.constants:
+            si = si_text(checked.constants[constant.name],
+                         _dimension(checked.constant_types, constant.name))
+            found[constant.name] = _Declaration(constant.name, {"value": _item(constant.value, si)},
+                                                constant.rationale, (constant.value,))
+    elif section == "setting":
+        for setting in model.settings:
+            dimension = SETTINGS.get(setting.name, (DIMENSIONLESS, 0.0))[0]
+            si = si_text(checked.settings[setting.name], dimension) \
+                if setting.name in checked.settings else None
+            found[setting.name] = _Declaration(setting.name, {"value": _item(setting.value, si)},
+                                               None, (setting.value,))
+    elif section == "obstacle level":
+        specs = {spec.level: spec for spec in checked.obstacle_levels}
+        for level in model.obstacle_levels:
+            spec = specs.get(level.level)
+            below_si = si_text(spec.below, LENGTH) if spec and spec.below is not None else None
+            buffer_si = si_text(spec.buffer, LENGTH) if spec else None
+            found[level.level] = _Declaration(level.level, {
+                "below": _item(level.below, below_si), "buffer": _item(level.buffer, buffer_si)},
+                None, tuple(e for e in (level.below, level.buffer) if e is not None))
+    elif section in ("command", "chance", "prescreen", "verdict"):
+        rules = {"command": model.command_rules, "chance": model.chances,
+                 "prescreen": model.prescreens, "verdict": model.verdicts}[section]
+        for rule in rules:
+            found[rule.name] = _Declaration(rule.name, {"condition": _item(rule.condition)},
+                                            rule.rationale, (rule.condition,))
+    elif section == "index":
+        for index in model.indices:
+            dimension = _dimension(checked.index_types, index.name)
+            items: Fields = {
+                "title": (format_string(index.title) if index.title is not None else "", None),
+                "value": _item(index.value),
+                "limit": _item(index.limit, si_text(checked.limits[index.name], dimension)),
+                "weight": _item(index.weight, si_text(checked.weights[index.name])),
+                "map": _item(index.map)}
+            found[index.name] = _Declaration(
+                index.name, items, index.rationale,
+                tuple(e for e in (index.value, index.limit, index.weight, index.map)
+                      if e is not None))
+    elif section == "combine":
+        combine: Combine = model.combine
+        found["combine"] = _Declaration("combine", {
+            "run": (str(combine.run), None), "path": (str(combine.path), None),
+            "confidence": (format_expr(combine.confidence) if combine.confidence is not None
+                           else "", si_text(checked.confidence))}, None,
+            (combine.confidence,) if combine.confidence is not None else ())
+    elif section == "ranking":
+        ranking: Ranking = model.ranking
+        keys = ", ".join(format_expr(key.expr) + (" desc" if key.descending else "")
+                         for key in ranking.keys)
+        found["ranking"] = _Declaration("ranking", {"keys": (keys, None)}, None,
+                                        tuple(key.expr for key in ranking.keys))
+    return found
+
+
+def _present(fields: Fields) -> tuple[FieldChange, ...]:
+    return tuple(FieldChange(name, text, None, si, None)
+                 for name, (text, si) in fields.items() if text)
+
+
+def _compare(old: _Declaration, new: _Declaration) -> tuple[FieldChange, ...]:
+    changes = []
+    for name in dict.fromkeys([*old.fields, *new.fields]):
+        old_text, old_si = old.fields.get(name, ("", None))
+        new_text, new_si = new.fields.get(name, ("", None))
+        if old_text != new_text or (old_si is not None and new_si is not None
+                                    and old_si != new_si):
+            changes.append(FieldChange(name, old_text or None, new_text or None, old_si, new_si))
+    return tuple(changes)
+
+
+def _reads(declaration: _Declaration) -> set[str]:
+    names: set[str] = set()
+    for expr in declaration.expressions:
+        names |= names_in(expr)
+    return names
+
+
+def _section_changes(section: str, old: CheckedRulebook, new: CheckedRulebook,
+                     changed_constants: set[str]) -> list[RuleChange]:
+    before, after = _declarations(old, section), _declarations(new, section)
+    changes: list[RuleChange] = []
+    for name in dict.fromkeys([*before, *after]):
+        was, now = before.get(name), after.get(name)
+        if now is None and was is not None:
+            swapped = tuple(FieldChange(f.field, f.old, None, f.old_si, None)
+                            for f in _present(was.fields))
+            changes.append(RuleChange(section, name, "removed", swapped, was.rationale))
+            continue
+        if was is None and now is not None:
+            added = tuple(FieldChange(f.field, None, f.old, None, f.old_si)
+                          for f in _present(now.fields))
+            changes.append(RuleChange(section, name, "added", added, now.rationale))
+            continue
+        assert was is not None and now is not None
+        fields = _compare(was, now)
+        rationale_changed = was.rationale != now.rationale
+        reads = tuple(sorted((_reads(was) | _reads(now)) & changed_constants - {name}))
+        if fields or rationale_changed:
+            kind: ChangeKind = "changed"
+        elif reads:
+            kind = "affected"
+        else:
+            continue
+        changes.append(RuleChange(section, name, kind, fields, now.rationale,
+                                  was.rationale if rationale_changed else None,
+                                  rationale_changed, reads))
+    return changes
+
+
+def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old",
+               new_label: str = "new") -> RuleDiff:
+    """Compare two checked rulebooks; see the module docstring."""
+    constants = _section_changes("constant", old, new, set())
+    changed_constants = {c.name for c in constants if c.kind != "changed" or c.fields}
+    changes: list[RuleChange] = []
+    for section in SECTIONS:
+        changes += constants if section == "constant" else \
+            _section_changes(section, old, new, changed_constants)
+    return RuleDiff(RulebookInfo.of(old, old_label), RulebookInfo.of(new, new_label),
+                    tuple(changes))
+
+
+def changed_names(diff: RuleDiff, sections: Iterable[str]) -> set[str]:
+    """Names of the declarations of ``sections`` that a diff lists."""
+    wanted = set(sections)
+    return {c.name for c in diff.changes if c.section in wanted}
