@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, Severity, error, warning
@@ -111,6 +112,9 @@ class _Env:
 
     def scope(self, kind: str) -> Scope:
         return _scope(kind, self.rulebook, self.constant_types)
+
+
+Check = Callable[["_Env"], list[Diagnostic]]
 
 
 def _scope(kind: str, rulebook: Rulebook, constant_types: dict[str, ExprType]) -> Scope:
@@ -376,11 +380,23 @@ def _axes_phrase(axes: tuple[str, ...]) -> str:
     return " and ".join(f"a {axis}" for axis in axes) + (" axis" if len(axes) == 1 else " axes")
 
 
-def check_command_rules(env: _Env) -> list[Diagnostic]:
-    problems: list[Diagnostic] = []
-    for rule in env.rulebook.command_rules:
-        _condition(env, rule.condition, "command", f"command rule '{rule.name}'", problems)
-    return problems
+def _check_conditions(kind: str, label: str,
+                      rules: Callable[[Rulebook], tuple[Any, ...]]) -> Check:
+    """A pass checking that each rule's ``condition`` is one boolean in scope ``kind``."""
+
+    def check_pass(env: _Env) -> list[Diagnostic]:
+        problems: list[Diagnostic] = []
+        for rule in rules(env.rulebook):
+            _condition(env, rule.condition, kind, f"{label} '{rule.name}'", problems)
+        return problems
+
+    return check_pass
+
+
+check_command_rules = _check_conditions("command", "command rule", lambda r: r.command_rules)
+check_chances = _check_conditions("run", "chance", lambda r: r.chances)
+check_prescreens = _check_conditions("prescreen", "prescreen", lambda r: r.prescreens)
+check_verdicts = _check_conditions("path", "verdict", lambda r: r.verdicts)
 
 
 def check_indices(env: _Env) -> list[Diagnostic]:
@@ -431,13 +447,6 @@ def check_indices(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_chances(env: _Env) -> list[Diagnostic]:
-    problems: list[Diagnostic] = []
-    for chance in env.rulebook.chances:
-        _condition(env, chance.condition, "run", f"chance '{chance.name}'", problems)
-    return problems
-
-
 def check_combine(env: _Env) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     combine = env.rulebook.combine
@@ -450,20 +459,6 @@ def check_combine(env: _Env) -> list[Diagnostic]:
                                       combine.confidence.span))
             else:
                 env.confidence = value
-    return problems
-
-
-def check_prescreens(env: _Env) -> list[Diagnostic]:
-    problems: list[Diagnostic] = []
-    for rule in env.rulebook.prescreens:
-        _condition(env, rule.condition, "prescreen", f"prescreen '{rule.name}'", problems)
-    return problems
-
-
-def check_verdicts(env: _Env) -> list[Diagnostic]:
-    problems: list[Diagnostic] = []
-    for rule in env.rulebook.verdicts:
-        _condition(env, rule.condition, "path", f"verdict '{rule.name}'", problems)
     return problems
 
 
@@ -530,8 +525,6 @@ def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
     for key in rulebook.ranking.keys:
         yield key.expr
 
-
-Check = Callable[[_Env], list[Diagnostic]]
 
 CHECKS: tuple[Check, ...] = (
     check_header,
