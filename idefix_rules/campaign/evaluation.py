@@ -301,10 +301,8 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
 
 
 def _reason_text(rule: Any) -> str:
-    text = f"{rule.name}: {rule.message}"
-    if not rule.decided and "not decided" not in text:
-        text += " (not decided at this number of runs)"
-    return text
+    """``name: message``; the rule's message already says when it is not decided."""
+    return f"{rule.name}: {rule.message}"
 
 
 def _float(value: Any) -> float | None:

@@ -198,8 +198,7 @@ def _path_detail(path: PathResult) -> str:
         ci = f" (95 % CI {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
             if path.risk_ci else ""
         lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
-    if path.undecided:
-        lines.append("not decided at this number of runs")
+    # An undecided verdict is said by the reasons (each undecided rule's message says it).
     for reason in path.verdict_reasons:
         lines.append(f"verdict: {reason}")
     for run, reason in sorted(path.failures.items()):

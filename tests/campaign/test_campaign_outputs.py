@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, collision_chances
+import numpy as np
+
+from idefix_rules.campaign.evaluation import (
+    CampaignEvaluation,
+    PathResult,
+    collision_chances,
+    fill_result,
+)
 from idefix_rules.campaign.outputs import (
     check_expectation,
     check_expectations,
@@ -18,6 +25,7 @@ from idefix_rules.campaign.schema import (
     PathVerdictExpectation,
     RankFirstExpectation,
 )
+from idefix_rules.rulebook import RunEvaluation, check_text, compile_rulebook
 
 
 def evaluation() -> CampaignEvaluation:
@@ -105,3 +113,27 @@ def test_summary_lists_failures_and_uses_mAs() -> None:
 def test_collision_columns_come_from_level_named_chances() -> None:
     assert collision_chances({"hit_L1": 0.1, "collision_L3": 0.2, "too_fast": 0.5}) == \
         {"L1": 0.1, "L3": 0.2}
+
+
+def test_an_undecided_verdict_says_not_decided_once() -> None:
+    checked = check_text(
+        'rulebook "t" version "1.0.0"\npurpose "test"\n'
+        "index I_a { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }\n"
+        "verdict acceptable: require risk <= 50 %\n", "t.rules").checked
+    assert checked is not None
+    rules = compile_rulebook(checked)
+    i_max = np.array([0.2, 0.7, 0.4, 0.6])  # mean 0.475: 50 % lies inside the interval
+    runs = RunEvaluation(
+        index_names=("I_a",), values={"I_a": i_max}, raw={"I_a": i_max},
+        per_sample={"I_a": i_max[:, None]}, weighted={"I_a": i_max}, i_max=i_max,
+        dominant=np.zeros(4, dtype=int), dominant_sample=np.zeros(4, dtype=int),
+        chance_names=(), chances={}, time=np.full(4, 10.0), energy=np.full(4, 0.5))
+    stats = rules.path_statistics(runs)
+    path = PathResult("close", 0, "simulated", runs=4, completed=4)
+    fill_result(path, runs, stats, rules.verdict(stats))
+    assert path.undecided and path.passed
+    assert len(path.verdict_reasons) == 1
+    assert path.verdict_reasons[0].count("not decided") == 1
+    results = CampaignEvaluation([path], ["close"], {}, {})
+    detail = ET.fromstring(junit_xml(results, [], "c")).find(".//system-out")
+    assert detail is not None and (detail.text or "").count("not decided") == 1
