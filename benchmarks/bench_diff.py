@@ -1,0 +1,130 @@
+"""Benchmark: the results diff of two rulebook versions over a stored 3 × 1000-run campaign.
+
+Builds (once, cached under ``benchmarks/.cache/``, git-ignored) the rock-detour campaign with
+N runs per path on the real rover FMU, then times ``diff_results`` of
+``rulebooks/history/idefix-ops-0.9.0.rules`` → ``rulebooks/idefix-ops.rules`` (the work of
+``idefix-verify diff OLD NEW --results results.h5``) and, as the baseline measured in the same
+run, two separate evaluation passes (what ``idefix-verify evaluate --rulebook`` does for each
+version, without writing). Target (DESIGN.md): ≤ 2 s, no re-simulation.
+
+    python benchmarks/bench_diff.py              # 3 × 1000 runs (first time: simulate, ~3 GB)
+    python benchmarks/bench_diff.py --runs 100   # a quick look
+    python benchmarks/bench_diff.py --profile    # where the diff's time goes (cProfile)
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import statistics
+import time
+from pathlib import Path
+
+from idefix_rules.campaign.environment import read_terrain
+from idefix_rules.campaign.evaluation import collision_function, evaluate_store
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.runner import run_campaign, stored_campaign
+from idefix_rules.campaign.simulate import (
+    SimulationOptions,
+    initial_position_sigma,
+    rover_geometry,
+)
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.diff import load_source
+from idefix_rules.diff.results import diff_results
+from idefix_rules.rulebook import compile_rulebook
+
+ROOT = Path(__file__).resolve().parent.parent
+CAMPAIGN = ROOT / "campaigns" / "rock-detour.yaml"
+OLD = ROOT / "rulebooks" / "history" / "idefix-ops-0.9.0.rules"
+NEW = ROOT / "rulebooks" / "idefix-ops.rules"
+CACHE = Path(__file__).resolve().parent / ".cache"
+TARGET_S = 2.0
+
+
+def stored_campaign_file(runs: int, workers: int, rebuild: bool) -> Path:
+    """The cached results file of the campaign with ``runs`` per path (simulated if needed)."""
+    CACHE.mkdir(exist_ok=True)
+    (CACHE / ".gitignore").write_text("*\n")
+    folder = CACHE / f"rock-detour-{runs}"
+    results = folder / "results.h5"
+    campaign = load_campaign(CAMPAIGN).with_overrides(runs=runs, output=folder, workers=workers)
+    if results.is_file() and not rebuild:
+        store = ResultStore.open(results)
+        try:
+            fresh = (store.attrs.get("state") == "complete"
+                     and int(store.attrs.get("runs", -1)) == runs
+                     and store.attrs.get("campaign_sha256") == campaign.sha256)
+        finally:
+            store.close()
+        if fresh:
+            print(f"stored campaign: {results} (cached)")
+            return results
+    started = time.perf_counter()
+    run_campaign(campaign, SimulationOptions(workers=workers), report=False)
+    print(f"stored campaign: {results} (simulated 3 paths x {runs} runs in "
+          f"{time.perf_counter() - started:.0f} s)")
+    return results
+
+
+def time_diff(results: Path) -> tuple[float, dict[str, float]]:
+    old, new = load_source(str(OLD)), load_source(str(NEW))
+    started = time.perf_counter()
+    diff = diff_results([results], old, new)
+    return time.perf_counter() - started, diff.files[0].timings
+
+
+def time_two_evaluations(results: Path) -> float:
+    """Baseline: one full evaluation pass per rulebook, as two `evaluate` commands would."""
+    started = time.perf_counter()
+    for rulebook in (OLD, NEW):
+        evaluator = compile_rulebook(load_source(str(rulebook)).checked)
+        store = ResultStore.open(results)
+        try:
+            campaign = stored_campaign(store)
+            collisions = collision_function(campaign.model.environment, evaluator,
+                                            read_terrain(results.parent))
+            evaluate_store(store, evaluator, rover_geometry(campaign),
+                           initial_position_sigma(campaign), collisions, {}, write=False)
+        finally:
+            store.close()
+    return time.perf_counter() - started
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=1000, help="runs per path (default 1000)")
+    parser.add_argument("--workers", type=int, default=2, help="simulation workers")
+    parser.add_argument("--repeat", type=int, default=3, help="timed diffs (default 3)")
+    parser.add_argument("--rebuild", action="store_true", help="simulate the campaign again")
+    parser.add_argument("--profile", action="store_true", help="print a cProfile of one diff")
+    parser.add_argument("--no-baseline", action="store_true", help="skip the baseline")
+    args = parser.parse_args()
+    results = stored_campaign_file(args.runs, args.workers, args.rebuild)
+    size = results.stat().st_size / 1e9
+    print(f"results file: {size:.2f} GB")
+    times = []
+    for attempt in range(args.repeat):
+        elapsed, parts = time_diff(results)
+        times.append(elapsed)
+        shown = ", ".join(f"{k} {v:.2f} s" for k, v in parts.items())
+        print(f"diff {attempt + 1}: {elapsed:.2f} s ({shown})")
+    best, median = min(times), statistics.median(times)
+    print(f"diff of two rulebook versions over 3 x {args.runs} stored runs: median "
+          f"{median:.2f} s, best {best:.2f} s (target <= {TARGET_S:.0f} s: "
+          f"{'met' if median <= TARGET_S else f'missed by {median / TARGET_S:.1f}x'})")
+    if not args.no_baseline:
+        baseline = time_two_evaluations(results)
+        print(f"baseline, two separate evaluation passes: {baseline:.2f} s; "
+              f"diff is {baseline / median:.1f}x faster")
+    if args.profile:
+        profiler = cProfile.Profile()
+        profiler.enable()
+        time_diff(results)
+        profiler.disable()
+        pstats.Stats(profiler).sort_stats("cumulative").print_stats(25)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,190 @@
+"""The results diff end to end on a small stored campaign (built-in rover FMU, 4 runs per
+path): agreement with the evaluation stage, stored vs recomputed collisions, gates (command
+rules, prescreen), exit codes and JSON through the CLI."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.campaign.environment import read_terrain
+from idefix_rules.campaign.evaluation import collision_function, evaluate_store
+from idefix_rules.campaign.runner import stored_campaign
+from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.cli import main
+from idefix_rules.diff import load_source
+from idefix_rules.diff.results import diff_results
+from idefix_rules.rulebook import compile_rulebook
+
+pytestmark = pytest.mark.slow
+
+VERDICTS = re.compile(r"^verdict .*?(?=^rank by)", re.MULTILINE | re.DOTALL)
+
+
+def variant(ops_text: str, folder: Path, name: str, verdicts: str | None = None,
+            extra: str = "", replace: tuple[tuple[str, str], ...] = ()) -> Path:
+    """The operations rulebook with its verdicts replaced and/or text edits, as a file."""
+    text = ops_text
+    if verdicts is not None:
+        text = VERDICTS.sub(verdicts + "\n\n", text)
+    for old, new in replace:
+        assert old in text
+        text = text.replace(old, new)
+    path = folder / f"{name}.rules"
+    path.write_text(text + extra, encoding="utf-8")
+    return path
+
+
+def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict]:
+    capsys.readouterr()
+    code = main(["diff", *args, "--format", "json"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def test_the_same_rulebook_changes_nothing_and_matches_the_stored_evaluation(
+        stored_results: Path) -> None:
+    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    diff = diff_results([stored_results], ops, ops)
+    file = diff.files[0]
+    # The campaign was evaluated with this very rulebook: its collisions are reused.
+    assert file.collisions == "stored"
+    summary = json.loads((stored_results.parent / "summary.json").read_text())
+    by_name = {p["name"]: p for p in summary["paths"]}
+    for path in file.paths:
+        stored = by_name[path.name]
+        assert path.old == path.new
+        assert path.changed_runs == 0 and not path.top_runs
+        assert path.new.verdict == stored["verdict"]
+        assert path.new.mean_risk == pytest.approx(stored["mean_risk"], abs=1e-12)
+        assert path.new.chances == pytest.approx(stored["chances"])
+        assert path.new.rank == stored["rank"]
+    assert list(file.new_ranking) == summary["ranking"]
+    assert diff.exit_code() == 0
+
+
+def test_a_verdict_change_exits_1_and_is_reported_per_path(
+        stored_results: Path, ops_text: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
+    strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %")
+    code, data = run_json(capsys, str(lenient), str(strict), "--results", str(stored_results))
+    assert code == 1 and data["exit_code"] == 1
+    paths = data["results"]["files"][0]["paths"]
+    assert {p["name"] for p in paths} == {"straight", "wide-detour", "smooth-detour"}
+    for path in paths:
+        assert (path["old"]["verdict"], path["new"]["verdict"]) == ("pass", "fail")
+        assert path["verdict_changed"]
+        assert path["changed_runs"] == 0  # the indices did not change, only the verdicts
+        assert path["old"]["mean_risk"] == path["new"]["mean_risk"]
+    changes = {(c["section"], c["name"], c["kind"]) for c in data["rules"]["changes"]}
+    assert ("verdict", "lenient", "removed") in changes
+    assert ("verdict", "strict", "added") in changes
+    # The same change, gated on nothing.
+    code, _ = run_json(capsys, str(lenient), str(strict), "--results", str(stored_results),
+                       "--fail-on", "never")
+    assert code == 0
+
+
+def test_no_verdict_change_exits_0_even_when_runs_move(
+        stored_results: Path, ops_text: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
+    heavier = variant(ops_text, tmp_path, "heavier", "verdict lenient: require risk <= 100 %",
+                      replace=(("const critical_heading_drift   = 15 deg",
+                                "const critical_heading_drift   = 0.01 deg"),))
+    code, data = run_json(capsys, str(lenient), str(heavier), "--results", str(stored_results),
+                          "--top", "2")
+    file = data["results"]["files"][0]
+    assert [p["new"]["verdict"] for p in file["paths"]] == ["pass"] * 3
+    moved = [p for p in file["paths"] if p["changed_runs"]]
+    assert moved, "a 1500x tighter heading limit moves I_max"
+    for path in moved:
+        assert 0 < len(path["top_runs"]) <= 2
+        top = path["top_runs"][0]
+        assert top["new_i_max"] > top["old_i_max"]
+        assert top["index"] == "I_theta" == top["new_dominant"]
+        assert top["delta"] == pytest.approx(top["new_i_max"] - top["old_i_max"])
+        deltas = [abs(r["delta"]) for r in path["top_runs"]]
+        assert deltas == sorted(deltas, reverse=True)
+    rank_changed = any(p["rank_changed"] for p in file["paths"])
+    assert code == (1 if file["first_changed"] else 0)
+    code_rank, _ = run_json(capsys, str(lenient), str(heavier), "--results",
+                            str(stored_results), "--fail-on", "rank")
+    assert code_rank == (1 if rank_changed or file["first_changed"] else 0)
+
+
+def test_other_obstacle_buffers_recompute_collisions_like_the_evaluation_stage(
+        stored_results: Path, ops_text: str, tmp_path: Path) -> None:
+    wider = variant(ops_text, tmp_path, "wider", replace=(
+        ("level L2 below 10 cm buffer 5 cm", "level L2 below 10 cm buffer 7 cm"),))
+    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    new = load_source(str(wider))
+    diff = diff_results([stored_results], ops, new, chunk_runs=3)
+    file = diff.files[0]
+    assert file.collisions == "recomputed"
+    # What `idefix-verify evaluate --rulebook wider.rules` computes, full rulebook with maps.
+    evaluator = compile_rulebook(new.checked)
+    store = ResultStore.open(stored_results)
+    try:
+        campaign = stored_campaign(store)
+        collisions = collision_function(campaign.model.environment, evaluator,
+                                        read_terrain(stored_results.parent))
+        expected = evaluate_store(store, evaluator, rover_geometry(campaign),
+                                  initial_position_sigma(campaign), collisions, {}, write=False)
+    finally:
+        store.close()
+    for path in file.paths:
+        reference = expected.path(path.name)
+        assert path.new.verdict == reference.verdict_text
+        assert path.new.mean_risk == pytest.approx(reference.mean_risk, abs=1e-12)
+        assert path.new.chances == pytest.approx(reference.chances)
+        assert path.new.rank == reference.rank
+
+
+def test_command_rules_and_prescreens_of_each_side_gate_the_paths(
+        stored_results: Path, ops_text: str, tmp_path: Path) -> None:
+    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    short = load_source(str(variant(
+        ops_text, tmp_path, "short",
+        extra='command short_moves: require abs(delta_position) <= 90 cm\n'
+              'prescreen never: require risk > 2\n')))
+    diff = diff_results([stored_results], ops, short)
+    paths = {p.name: p for p in diff.files[0].paths}
+    assert paths["straight"].new.verdict == "rejected"
+    assert "short_moves" in paths["straight"].new.reasons[0]
+    assert paths["wide-detour"].new.verdict == "excluded"
+    assert "never" in paths["wide-detour"].new.reasons[0]
+    assert all(p.new.rank is None for p in paths.values())
+    assert diff.files[0].new_ranking == ()
+    assert diff.exit_code() == 1
+
+
+def test_chunk_size_does_not_change_the_result(stored_results: Path, ops_text: str,
+                                               tmp_path: Path) -> None:
+    old = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "history"
+                          / "idefix-ops-0.9.0.rules"))
+    new = load_source(str(variant(ops_text, tmp_path, "same")))
+    whole = diff_results([stored_results], old, new, chunk_runs=100).to_dict()
+    single = diff_results([stored_results], old, new, chunk_runs=1).to_dict()
+    for data in (whole, single):
+        data["files"][0].pop("timings")
+    assert whole == single
+
+
+def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
+        stored_results: Path, ops_text: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
+    strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %")
+    capsys.readouterr()
+    code = main(["diff", str(lenient), str(strict), "--results", str(stored_results),
+                 str(stored_results)])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert out.count("results: ") == 2  # two results files, one section each
+    assert "pass → fail" in out
+    assert "exit code 1: 6 path verdict(s) changed" in out
