@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics
 from idefix_rules.errors import UserInputError
-from idefix_rules.fmu import FmuRunner, synthetic_terrain, write_terrain
+from idefix_rules.fmu import FmuRunner, extract_fmu, synthetic_terrain, write_terrain
 from idefix_rules.signals import FMU_SIGNALS
 
 
@@ -113,6 +114,24 @@ def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path
     assert results[1] == pytest.approx(0.3, abs=1e-3)
 
 
+def test_a_replaced_terrain_file_with_preserved_mtime_is_read_again(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # The terrain cache is keyed by the file's content: a file replaced by one of the same
+    # size with its old modification time restored (e.g. `cp -p`, rsync -t) still counts.
+    path = tmp_path / "replaced.terrain"
+    write_terrain(path, synthetic_terrain(size=3.0, cell=0.05, slope=0.0))
+    hour_ago = path.stat().st_mtime_ns - 3600 * 10**9  # an old file, not one being written
+    os.utime(path, ns=(hour_ago, hour_ago))
+    stamp = path.stat()
+    flat = rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1]
+    write_terrain(path, synthetic_terrain(size=3.0, cell=0.05, slope=0.3))
+    assert path.stat().st_size == stamp.st_size
+    os.utime(path, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
+    sloped = rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1]
+    assert flat == pytest.approx(0.0, abs=1e-9)
+    assert sloped == pytest.approx(0.3, abs=1e-3)
+
+
 def test_two_instances_in_one_process_do_not_share_state(rover_fmu: Path) -> None:
     from fmpy.fmi2 import FMU2Slave
 
@@ -134,3 +153,29 @@ def test_two_instances_in_one_process_do_not_share_state(rover_fmu: Path) -> Non
         second.fmi2FreeInstance(second.component)
     for name in alone:
         np.testing.assert_array_equal(alone[name], again[name], err_msg=name)
+
+
+def test_runners_share_a_folder_extracted_once_and_leave_it_to_its_owner(
+        rover_fmu: Path, tmp_path: Path) -> None:
+    folder = extract_fmu(rover_fmu, tmp_path / "unzipped")
+    chain = [Command(0.05, 0.2, 0.2)]
+    with FmuRunner(rover_fmu) as own:
+        expected = own.run({}, chain, 30.0, 0.1)
+        own_folder = own.unzipped
+    assert not own_folder.exists()  # a runner removes the folder it extracted itself
+    with FmuRunner(rover_fmu, unzipped=folder) as first, \
+            FmuRunner(rover_fmu, unzipped=folder) as second:
+        assert first.unzipped == second.unzipped == folder
+        for runner in (first, second):
+            out = runner.run({}, chain, 30.0, 0.1)
+            for name in expected:
+                np.testing.assert_array_equal(out[name], expected[name], err_msg=name)
+    assert (folder / "modelDescription.xml").is_file()  # the caller's folder stays
+
+
+def test_extracting_something_that_is_not_an_fmu_is_a_user_error(tmp_path: Path) -> None:
+    (tmp_path / "broken.fmu").write_text("not a zip archive")
+    with pytest.raises(UserInputError, match="not a readable FMU"):
+        extract_fmu(tmp_path / "broken.fmu", tmp_path / "out")
+    with pytest.raises(UserInputError, match="FMU file is not a file"):
+        extract_fmu(tmp_path, tmp_path / "out")

@@ -17,8 +17,8 @@ typedef struct {
 
 typedef struct {
     int loaded;        /* 0: flat ground z = 0, no rocks */
-    char *path;        /* file the data came from (cache key with mtime and size) */
-    long mtime, size, load_time;
+    char *path;        /* file the data came from (cache key with the content hash) */
+    unsigned long long hash;  /* FNV-1a of the file's bytes */
     long nx, ny;
     double x0, y0, cell;
     double *height;    /* ny rows of nx heights, row j at y0 + j*cell */

@@ -4,7 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 
 #include "idefix.h"
 
@@ -24,6 +23,17 @@ static int fail(char *message, size_t size, const char *path, int line, const ch
     return -1;
 }
 
+/* FNV-1a over the whole file: cheap against parsing it (terrain files are a few MB at most). */
+static unsigned long long content_hash(FILE *f)
+{
+    unsigned char buffer[65536];
+    unsigned long long h = 14695981039346656037ULL;
+    size_t n, k;
+    while ((n = fread(buffer, 1, sizeof(buffer), f)) > 0)
+        for (k = 0; k < n; k++) h = (h ^ buffer[k]) * 1099511628211ULL;
+    return h;
+}
+
 static int read_line(FILE *f, char *buffer, int size, int *line)
 {
     if (!fgets(buffer, size, f)) return 0;
@@ -40,21 +50,23 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
     double x0 = 0.0, y0 = 0.0, cell = 0.0;
     FILE *f;
     Terrain fresh;
+    unsigned long long hash;
 
     if (path == NULL || path[0] == '\0') {
         terrain_free(t);
         return 0;
     }
     if (stat(path, &info) != 0) return fail(message, message_size, path, 0, "cannot open");
-    /* Cached across resets: same path, size and modification time, and the file had been
-     * unchanged for over a second when it was read, so a rewrite within the same second (the
-     * resolution of st_mtime) cannot go unnoticed. */
-    if (t->loaded && t->path && strcmp(t->path, path) == 0 && t->mtime == (long)info.st_mtime &&
-        t->size == (long)info.st_size && t->load_time > t->mtime + 1)
-        return 0;
-
     f = fopen(path, "rb");
     if (!f) return fail(message, message_size, path, 0, "cannot open");
+    /* Cached across resets while the file's bytes are unchanged: keyed by path and a hash of
+     * the content (a replaced file with a preserved modification time is read again). */
+    hash = content_hash(f);
+    if (t->loaded && t->path && strcmp(t->path, path) == 0 && t->hash == hash) {
+        fclose(f);
+        return 0;
+    }
+    rewind(f);
     memset(&fresh, 0, sizeof(fresh));
     if (!read_line(f, line_text, sizeof(line_text), &line) ||
         strncmp(line_text, "IDEFIX-TERRAIN 1", 16) != 0) {
@@ -128,9 +140,7 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
     t->x0 = x0;
     t->y0 = y0;
     t->cell = cell;
-    t->mtime = (long)info.st_mtime;
-    t->load_time = (long)time(NULL);
-    t->size = (long)info.st_size;
+    t->hash = hash;
     t->path = (char *)malloc(strlen(path) + 1);
     if (t->path) strcpy(t->path, path);
     return 0;
