@@ -21,10 +21,12 @@ from idefix_rules.campaign.schema import (
     MeanRiskExpectation,
     PathVerdictExpectation,
     RankFirstExpectation,
+    TerrainSection,
 )
 from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.commands import Command
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
 
 BUILTIN_FMU = "builtin"
 
@@ -211,6 +213,7 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
         need_file(model.fmu.path, ("fmu", "path"), "FMU")
     if model.environment.terrain.dem:
         need_file(model.environment.terrain.dem, ("environment", "terrain", "dem"), "DEM file")
+        found.extend(_dem_grid_checks(model.environment.terrain, locations))
     if model.workers != "auto" and model.workers < 1:
         found.append(error("C201", "workers: expected 'auto' or a positive number",
                            locations.span(("workers",))))
@@ -228,3 +231,23 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
                                        f"(paths: {known})",
                                locations.span(("expect", index, key))))
     return found
+
+
+def _dem_grid_checks(terrain: TerrainSection, locations: SourceMap) -> list[Diagnostic]:
+    """A ``.npy``/``.csv`` DEM is bare heights and needs ``cell``; a terrain file carries its
+    own cell and origin, so giving them as well would be silently ignored."""
+    dem = str(terrain.dem)
+    suffix = Path(dem).suffix.lower()
+    loc: tuple[str | int, ...] = ("environment", "terrain")
+    if suffix in HEIGHT_GRID_SUFFIXES:
+        if terrain.cell is None:
+            return [error("C203", f"{format_loc((*loc, 'dem'))}: {dem!r} holds heights only; "
+                                  "give the grid spacing as environment.terrain.cell",
+                          locations.span((*loc, "dem")), hint='e.g. cell: "2 cm" (origin '
+                          "defaults to centring the grid on (0, 0))")]
+        return []
+    given = [key for key in ("cell", "origin") if getattr(terrain, key) is not None]
+    return [error("C204", f"{format_loc((*loc, key))}: {dem!r} is a terrain file, which gives "
+                          f"its own {key}; remove it (only .npy and .csv DEMs take one)",
+                  locations.span((*loc, key))) for key in given]
+

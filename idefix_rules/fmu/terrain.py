@@ -225,6 +225,9 @@ def read_terrain(path: str | Path) -> Terrain:
     return Terrain(heights.copy(), (x0, y0), cell, tuple(rocks))
 
 
+HEIGHT_GRID_SUFFIXES = (".npy", ".csv")  # DEMs of bare heights: no cell size, no origin
+
+
 def load_dem(path: str | Path, cell: float | None = None,
              origin: tuple[float, float] | None = None, rocks: Sequence[Rock] = ()) -> Terrain:
     """A user DEM: our terrain format, a ``.npy`` 2-D array, or a ``.csv`` grid of heights.
@@ -235,7 +238,7 @@ def load_dem(path: str | Path, cell: float | None = None,
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in (".npy", ".csv"):
+    if suffix not in HEIGHT_GRID_SUFFIXES:
         terrain = read_terrain(path)
         return replace(terrain, rocks=terrain.rocks + tuple(rocks)) if rocks else terrain
     if cell is None or cell <= 0:
