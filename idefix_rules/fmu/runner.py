@@ -37,6 +37,8 @@ TERRAIN_FILE = "terrain.file"
 CHAIN_ARRAYS = ("chain.max_wheel_rate", "chain.delta_position", "chain.delta_heading")
 _INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
 _OK_STATUSES = (0, 1)  # fmi2OK, fmi2Warning
+# How the rover FMU (and any FMU following its wording) names a parameter it rejects.
+_PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
 
 
 class FmuRunner:
@@ -73,8 +75,9 @@ class FmuRunner:
         self._slave = FMU2Slave(guid=description.guid, unzipDirectory=str(self._unzipdir),
                                 modelIdentifier=description.coSimulation.modelIdentifier,
                                 instanceName="idefix")
+        self._log: list[str] = []
         try:
-            self._slave.instantiate()
+            self._slave.instantiate(callbacks=self._callbacks())
         except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
             shutil.rmtree(self._unzipdir, ignore_errors=True)
             raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
@@ -92,6 +95,39 @@ class FmuRunner:
         self._checked_terrain: tuple[str, int, int] | None = None
 
     # ------------------------------------------------------------------ set-up
+    def _callbacks(self) -> Any:
+        """FMI callbacks whose logger keeps the FMU's messages (to explain a failed call).
+
+        The logger reads the format string as the message (the rover FMU passes its text as the
+        format); fmpy's variadic logger proxy is process-wide, so it is not used here.
+        """
+        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, calloc, free)
+        def logger(component: Any, instance: bytes, status: int, category: bytes,
+                   message: bytes) -> None:
+            self._log.append(message.decode("utf-8", "replace"))
+            del self._log[:-20]
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        return callbacks
+
+    def _initialisation_error(self, exc: Exception) -> Exception:
+        """A parameter the FMU rejects is the user's mistake; anything else is not."""
+        for message in reversed(self._log):
+            match = _PARAMETER_REJECTED.match(message)
+            if match:
+                fmu_name = match["name"]
+                user_names = [k for k, v in self.parameter_map.items() if v == fmu_name]
+                name = user_names[0] if user_names else fmu_name
+                text = message if name == fmu_name else f"{message} (FMU variable of '{name}')"
+                return UserInputError(error("F110", text, Span(str(self.fmu_path)),
+                                            hint=f"set '{name}' within the allowed range"))
+        detail = f": {self._log[-1]}" if self._log else "; see the FMU's log for the reason"
+        return InfrastructureError(f"{self.fmu_path.name}: initialisation failed ({exc}){detail}")
+
     @property
     def variables(self) -> tuple[str, ...]:
         """Names of all variables of the FMU."""
@@ -174,7 +210,10 @@ class FmuRunner:
                 raise UserInputError(error("F107", f"parameter '{name}' expects {unit}, "
                                            f"got {value!r}"))
             return float(target.from_si(quantity.value))
-        # plain numbers are SI (the project's convention inside), converted to the FMU's unit
+        # plain numbers are SI (the project's convention inside), converted to the FMU's unit;
+        # NaN and infinities pass unconverted for the FMU's range check to name them
+        if not math.isfinite(float(value)):
+            return float(value)
         return float(target.from_si(float(value))) if target is not None else float(value)
 
     def _check_terrain(self, path: str) -> None:
@@ -246,6 +285,7 @@ class FmuRunner:
         slave = self._slave
         steps = round(stop_time / output_interval)
         out = np.empty((steps + 1, len(self._slots)), dtype=np.float64)
+        self._log.clear()
         try:
             if self._runs:
                 slave.reset()
@@ -255,8 +295,7 @@ class FmuRunner:
             self._apply(parameters, chain)
             slave.exitInitializationMode()
         except FMICallException as exc:
-            raise InfrastructureError(f"{self.fmu_path.name}: initialisation failed ({exc}); "
-                                      "see the FMU's log for the reason") from None
+            raise self._initialisation_error(exc) from None
         component = slave.component
         refs, n = self._output_refs, len(self._slots)
         row_bytes = out.strides[0]

@@ -76,10 +76,11 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("soil.multipass_factor", "1", 0.3,
        "extra sinkage of a wheel in a rut, as a fraction of its first-pass sinkage"),
     _p("soil.grid_cell", "m", 0.01, "cell size of the plastic sinkage (rut) grid"),
-    _p("soil.self_rut_time", "s", 20.0,
-       "a wheel ignores its own rut marks younger than this (its own moving contact patch)"),
     _p("rock.friction_coefficient", "1", 0.6, "wheel-rock Coulomb friction coefficient"),
     _p("rock.shear_K", "m", 0.001, "shear displacement to mobilise wheel-rock friction"),
+    _p("rock.contact_length", "m", 0.02,
+       "rim length sheared in a wheel-rock contact (with rock.shear_K: the slip mobilising "
+       "rock friction)"),
     _p("motor.no_load_current", "A", 0.0003, "current of a turning motor without load"),
     _p("motor.torque_constant", "N.m/A", 2.0, "wheel torque per ampere (motor and gear)"),
     _p("motor.max_torque", "N.m", 0.2, "largest wheel torque; above it the wheel stalls"),

@@ -139,3 +139,22 @@ def test_a_stalled_motor_ends_the_command_by_timeout(rover: FmuRunner) -> None:
     ramp = 0.05 / 0.015  # the trapezoidal profile's extra time (controller.wheel_acceleration)
     assert finished == pytest.approx(1.5 * (200.0 + ramp), abs=0.2)
     assert out["x"][-1] < 0.05
+
+
+def test_reversing_over_its_own_track_is_a_second_pass_whatever_the_track_age(
+        rover: FmuRunner) -> None:
+    # 0.06 m or 0.3 m forward and back (shorter than the 0.4 m wheelbase: each wheel meets only
+    # its own track). Back over it, the soil is a rut the wheel left: multi-pass sinkage
+    # z_p + multipass_factor * z (docs/rover-model.md, "Ruts"), 1.3 x the first pass with the
+    # defaults, whether the marks are 6 s or 60 s old.
+    mid_reverse = []
+    for length in (0.06, 0.3):
+        out = rover.run({}, [Command(0.05, length, 0.0), Command(0.05, -length, 0.0)],
+                        2.0 * (length / 0.005 + 4.0) + 10.0, 0.1)
+        forward = np.flatnonzero(out["command"] == 0)
+        back = np.flatnonzero(out["command"] == 1)
+        first = out["wheel.sinkage"][forward[len(forward) // 2]]
+        second = out["wheel.sinkage"][back[len(back) // 2]]
+        assert np.all(second > 1.25 * first) and np.all(second < 1.4 * first)
+        mid_reverse.append(second)
+    np.testing.assert_allclose(mid_reverse[0], mid_reverse[1], rtol=1e-3)

@@ -114,6 +114,26 @@ def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path
     assert results[1] == pytest.approx(0.3, abs=1e-3)
 
 
+@pytest.mark.parametrize(("name", "value"), [
+    ("rover.yaw_inertia", 0.0), ("rover.yaw_inertia", -1.0), ("soil.friction_angle", 1.55),
+    ("soil.rut_cohesion_factor", 1.5), ("soil.multipass_factor", -0.2),
+    ("rock.friction_coefficient", -0.1), ("rock.shear_K", 0.0), ("solver.step", float("nan")),
+])
+def test_a_parameter_out_of_range_is_a_user_error_naming_it(
+        rover: FmuRunner, name: str, value: float) -> None:
+    with pytest.raises(UserInputError) as caught:
+        rover.run({name: value}, [Command(0.05, 0.1, 0.0)], 1.0, 0.1)
+    text = str(caught.value)
+    assert f"parameter {name} = " in text and "allowed" in text
+    assert rover.run({}, [], 0.2, 0.1)["x"][-1] == 0.0  # the runner is still usable
+
+
+def test_a_rejected_parameter_is_named_by_its_campaign_name(rover_fmu: Path) -> None:
+    with FmuRunner(rover_fmu, parameter_map={"wheel_rock_mu": "rock.friction_coefficient"}) \
+            as runner, pytest.raises(UserInputError, match="'wheel_rock_mu'"):
+        runner.run({"wheel_rock_mu": 3.0}, [], 1.0, 0.1)
+
+
 def test_a_replaced_terrain_file_with_preserved_mtime_is_read_again(
         rover: FmuRunner, tmp_path: Path) -> None:
     # The terrain cache is keyed by the file's content: a file replaced by one of the same

@@ -12,9 +12,18 @@ static const double REAL_START[N_REAL] = REAL_DEFAULTS;
 static void log_message(Instance *inst, fmi2Status status, const char *category,
                         const char *message)
 {
+    /* The message is the format itself ('%' doubled): an importer's logger that does not
+     * expand variadic arguments (e.g. a Python callback) still receives the text. */
     fmi2CallbackLogger logger = (fmi2CallbackLogger)inst->logger;
+    char format[2048];
+    size_t n = 0;
+    for (; *message && n + 2 < sizeof(format); message++) {
+        if (*message == '%') format[n++] = '%';
+        format[n++] = *message;
+    }
+    format[n] = '\0';
     if (logger) logger((fmi2ComponentEnvironment)inst->env, inst->instance_name, status, category,
-                       "%s", message);
+                       format);
 }
 
 static char *copy_string(const char *text)

@@ -42,7 +42,7 @@ typedef struct {
     double cell, x0, y0;
     long nx, ny;
     float *sinkage;          /* plastic sinkage (rut depth), m */
-    float *mark_time;        /* time the cell was last run over, s */
+    float *mark_travel;      /* distance its wheel had travelled when it last pressed it, m */
     unsigned char *owner;    /* wheel index + 1 that last ran over the cell, 0: undisturbed */
     float *prior_sinkage;    /* the cell as its last wheel found it: rut depth ... */
     unsigned char *prior_disturbed;  /* ... and whether another wheel had run over it */
@@ -50,8 +50,7 @@ typedef struct {
 } SoilGrid;
 
 typedef struct {
-    double k_c, k_phi, n, cohesion, friction_angle, K, rut_cohesion_factor, self_rut_time,
-        multipass_factor;
+    double k_c, k_phi, n, cohesion, friction_angle, K, rut_cohesion_factor, multipass_factor;
 } SoilParameters;
 
 typedef struct {
@@ -64,9 +63,9 @@ int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double
 void soil_grid_free(SoilGrid *g);
 void soil_grid_clear(SoilGrid *g);
 RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-                    double width, int wheel, double now, double self_time);
+                    double width, int wheel, double travel, double own_span);
 void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-               double width, double sinkage, int wheel, double now, double self_time);
+               double width, double sinkage, int wheel, double travel, double own_span);
 double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width);
 double slip_sinkage(double static_sinkage, double slip);
 double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,
@@ -95,6 +94,9 @@ typedef struct {
     double thrust;           /* shear force along the wheel rim (for the torque), N */
     double slip, slip_angle, current;
     double prev_centre_z;
+    /* distance the contact travelled over ground (rut ownership), and where it was */
+    double travel, own_span, last_wx, last_wy;
+    int travel_started;
 } Wheel;
 
 void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, double omega,

@@ -41,6 +41,26 @@ static void wheel_position(const Instance *inst, const Pose *p, const Wheel *w, 
     *wy = p->y + s * w->px + c * w->py;
 }
 
+/* Odometer of the wheel's contact over ground, and the extent of its patch (plus one rut-grid
+ * cell, the resolution of the marks) across its direction of motion without the patch length:
+ * the contact length is added by the caller. */
+static void update_travel(Wheel *w, double hx, double hy, double width, double cell)
+{
+    double dx = w->wx - w->last_wx, dy = w->wy - w->last_wy, step = sqrt(dx * dx + dy * dy);
+    if (w->travel_started) {
+        w->travel += step;
+        if (step > 1e-9) {
+            double across = fabs(-dx * hy + dy * hx) / step;  /* |sin| of motion to heading */
+            w->own_span = width * across + cell;
+        }
+    } else {
+        w->own_span = cell;
+        w->travel_started = 1;
+    }
+    w->last_wx = w->wx;
+    w->last_wy = w->wy;
+}
+
 /* Heights, body plane (z, roll, pitch), loads and per-wheel soil state at the current pose. */
 static void update_geometry(Instance *inst)
 {
@@ -61,6 +81,7 @@ static void update_geometry(Instance *inst)
         double d, cz, ahead, behind;
         int rock_a, rock_b;
         wheel_position(inst, &pose, w, &w->wx, &w->wy);
+        update_travel(w, hx, hy, width, inst->grid.cell);
         w->centre_z = centre_height(inst, w, w->wx, w->wy, hx, hy, &w->on_rock, &d, &cz);
         ahead = centre_height(inst, w, w->wx + GRADE_PROBE * hx, w->wy + GRADE_PROBE * hy, hx, hy,
                               &rock_a, &d, &cz);
@@ -95,7 +116,7 @@ static void update_geometry(Instance *inst)
         w->grade = grade > MAX_GRADE ? MAX_GRADE : (grade < -MAX_GRADE ? -MAX_GRADE : grade);
         if (w->on_rock) {
             w->capacity = mu * w->load;
-            w->contact_length = 0.2 * radius;
+            w->contact_length = inst->r[VR_ROCK_CONTACT_LENGTH];
             w->shear_K = inst->r[VR_ROCK_SHEAR_K];
             w->resistance = 0.0;
             w->sinkage = 0.0;
@@ -106,7 +127,7 @@ static void update_geometry(Instance *inst)
             double zs = slip_sinkage(z0, w->slip);
             double patch = sqrt(2.0 * radius * zs);
             RutState rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i,
-                                      inst->time, soil->self_rut_time);
+                                      w->travel, w->own_span + w->contact_length);
             double cohesion = soil->cohesion *
                               (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
             w->rut_depth = rut.rut_depth;
@@ -401,28 +422,103 @@ void rover_step(Instance *inst, double dt)
         Wheel *w = &inst->wheels[i];
         if (!w->on_rock && w->load > 0.0)
             soil_mark(&inst->grid, w->wx, w->wy, hx, hy, w->contact_length, width, w->sinkage, i,
-                      inst->time, inst->soil.self_rut_time);
+                      w->travel, w->own_span + w->contact_length);
     }
+}
+
+/* Allowed range of every Real parameter: [lo, hi], an open end where marked. Ranges keep the
+ * equations defined (tan of the friction angle, Bekker exponent, positive step and masses) and
+ * the assumptions of the model (fractions in [0, 1], milli-g quasi-statics). */
+typedef struct {
+    int vr;
+    const char *name;
+    double lo, hi;
+    int lo_open, hi_open;
+} Range;
+
+static const Range RANGES[] = {
+    {VR_ROVER_MASS, "rover.mass", 0.0, 1e4, 1, 0},
+    {VR_ROVER_GRAVITY, "rover.gravity", 0.0, 30.0, 1, 0},
+    {VR_ROVER_WHEEL_RADIUS, "rover.wheel_radius", 0.0, 2.0, 1, 0},
+    {VR_ROVER_WHEEL_WIDTH, "rover.wheel_width", 0.0, 2.0, 1, 0},
+    {VR_ROVER_HALF_TRACK, "rover.half_track", 0.0, 10.0, 1, 0},
+    {VR_ROVER_HALF_WHEELBASE, "rover.half_wheelbase", 0.0, 10.0, 1, 0},
+    {VR_ROVER_YAW_INERTIA, "rover.yaw_inertia", 0.0, 1e6, 1, 0},
+    {VR_ROVER_COG_HEIGHT, "rover.cog_height", 0.0, 10.0, 0, 0},
+    {VR_ROVER_BODY_CENTRE_HEIGHT, "rover.body_centre_height", 0.0, 10.0, 0, 0},
+    {VR_SOIL_K_C, "soil.k_c", 0.0, 1e9, 0, 0},
+    {VR_SOIL_K_PHI, "soil.k_phi", 0.0, 1e12, 0, 0},
+    {VR_SOIL_N, "soil.n", 0.0, 2.5, 0, 1},
+    {VR_SOIL_COHESION, "soil.cohesion", 0.0, 1e6, 0, 0},
+    {VR_SOIL_FRICTION_ANGLE, "soil.friction_angle", 0.0, 1.3962634015954636, 0, 0},  /* 80 deg */
+    {VR_SOIL_SHEAR_MODULUS_K, "soil.shear_modulus_K", 0.0, 1.0, 1, 0},
+    {VR_SOIL_RUT_COHESION_FACTOR, "soil.rut_cohesion_factor", 0.0, 1.0, 0, 0},
+    {VR_SOIL_MULTIPASS_FACTOR, "soil.multipass_factor", 0.0, 2.0, 0, 0},
+    {VR_SOIL_GRID_CELL, "soil.grid_cell", 0.0, 1.0, 1, 0},
+    {VR_ROCK_FRICTION_COEFFICIENT, "rock.friction_coefficient", 0.0, 2.0, 0, 0},
+    {VR_ROCK_SHEAR_K, "rock.shear_K", 0.0, 0.1, 1, 0},
+    {VR_ROCK_CONTACT_LENGTH, "rock.contact_length", 0.0, 1.0, 1, 0},
+    {VR_MOTOR_NO_LOAD_CURRENT, "motor.no_load_current", 0.0, 100.0, 0, 0},
+    {VR_MOTOR_TORQUE_CONSTANT, "motor.torque_constant", 0.0, 1e4, 1, 0},
+    {VR_MOTOR_MAX_TORQUE, "motor.max_torque", 0.0, 1e4, 1, 0},
+    {VR_CONTROLLER_WHEEL_ACCELERATION, "controller.wheel_acceleration", 0.0, 100.0, 0, 0},
+    {VR_CONTROLLER_TIMEOUT_FACTOR, "controller.timeout_factor", 1.0, 1000.0, 0, 0},
+    {VR_CONTROLLER_STUCK_TIME, "controller.stuck_time", 0.0, 1e5, 1, 0},
+    {VR_CONTROLLER_STUCK_PROGRESS, "controller.stuck_progress", 0.0, 1.0, 0, 0},
+    {VR_INITIAL_X, "initial.x", -1e6, 1e6, 0, 0},
+    {VR_INITIAL_Y, "initial.y", -1e6, 1e6, 0, 0},
+    {VR_INITIAL_YAW, "initial.yaw", -1e6, 1e6, 0, 0},
+    {VR_SOLVER_STEP, "solver.step", 0.0, 1.0, 1, 0},
+    {VR_SOLVER_VELOCITY_EPSILON, "solver.velocity_epsilon", 0.0, 1e-3, 1, 0},
+};
+
+/* Every parameter in its range, else a message naming it, its value and the range. */
+static int check_parameters(const Instance *inst, char *message, size_t message_size)
+{
+    size_t k;
+    int i;
+    for (k = 0; k < sizeof(RANGES) / sizeof(RANGES[0]); k++) {
+        const Range *range = &RANGES[k];
+        double value = inst->r[range->vr];
+        int below = range->lo_open ? !(value > range->lo) : !(value >= range->lo);
+        int above = range->hi_open ? !(value < range->hi) : !(value <= range->hi);
+        if (below || above || !isfinite(value)) {
+            snprintf(message, message_size, "parameter %s = %.17g out of range: allowed %c%g, %g%c",
+                     range->name, value, range->lo_open ? '(' : '[', range->lo, range->hi,
+                     range->hi_open ? ')' : ']');
+            return -1;
+        }
+    }
+    if (!(inst->r[VR_SOIL_K_C] > 0.0 || inst->r[VR_SOIL_K_PHI] > 0.0)) {
+        snprintf(message, message_size, "parameter soil.k_phi = %.17g out of range: soil.k_c and "
+                 "soil.k_phi must not both be 0", inst->r[VR_SOIL_K_PHI]);
+        return -1;
+    }
+    for (i = 0; i < inst->chain_count; i++) {
+        static const char *names[3] = {"chain.max_wheel_rate", "chain.delta_position",
+                                       "chain.delta_heading"};
+        const int base[3] = {VR_CHAIN_MAX_WHEEL_RATE, VR_CHAIN_DELTA_POSITION,
+                             VR_CHAIN_DELTA_HEADING};
+        int a;
+        for (a = 0; a < 3; a++) {
+            double value = inst->r[base[a] + i];
+            if (!isfinite(value) || (a == 0 && value < 0.0)) {
+                snprintf(message, message_size, "parameter %s[%d] = %.17g out of range: allowed "
+                         "%s", names[a], i, value, a == 0 ? "[0, inf)" : "finite values");
+                return -1;
+            }
+        }
+    }
+    return 0;
 }
 
 int rover_initialise(Instance *inst, char *message, size_t message_size)
 {
-    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
     double x_min, y_min, x_max, y_max, cell = inst->r[VR_SOIL_GRID_CELL];
     int i;
     SoilParameters *s = &inst->soil;
 
-    if (!(radius > 0.0) || !(width > 0.0) || !(inst->r[VR_ROVER_MASS] > 0.0) ||
-        !(inst->r[VR_ROVER_GRAVITY] > 0.0) || !(inst->r[VR_ROVER_HALF_TRACK] > 0.0) ||
-        !(inst->r[VR_ROVER_HALF_WHEELBASE] > 0.0) || !(inst->r[VR_SOLVER_STEP] > 0.0) ||
-        !(inst->r[VR_SOLVER_VELOCITY_EPSILON] > 0.0) || !(inst->r[VR_SOIL_N] >= 0.0) ||
-        !(inst->r[VR_SOIL_N] < 2.5) || !(inst->r[VR_SOIL_SHEAR_MODULUS_K] > 0.0) ||
-        !(inst->r[VR_SOIL_COHESION] >= 0.0) || !(cell > 0.0)) {
-        snprintf(message, message_size,
-                 "parameters out of range: radius, width, mass, gravity, track, wheelbase, "
-                 "solver.step, K, cell must be > 0; cohesion >= 0; 0 <= soil.n < 2.5");
-        return -1;
-    }
+    if (check_parameters(inst, message, message_size) != 0) return -1;
     s->k_c = inst->r[VR_SOIL_K_C];
     s->k_phi = inst->r[VR_SOIL_K_PHI];
     s->n = inst->r[VR_SOIL_N];
@@ -430,7 +526,6 @@ int rover_initialise(Instance *inst, char *message, size_t message_size)
     s->friction_angle = inst->r[VR_SOIL_FRICTION_ANGLE];
     s->K = inst->r[VR_SOIL_SHEAR_MODULUS_K];
     s->rut_cohesion_factor = inst->r[VR_SOIL_RUT_COHESION_FACTOR];
-    s->self_rut_time = inst->r[VR_SOIL_SELF_RUT_TIME];
     s->multipass_factor = inst->r[VR_SOIL_MULTIPASS_FACTOR];
 
     if (terrain_load(&inst->terrain, inst->terrain_file, message, message_size) != 0) return -1;

@@ -25,11 +25,11 @@ int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double
     g->nx = nx;
     g->ny = ny;
     g->sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
-    g->mark_time = (float *)calloc((size_t)(nx * ny), sizeof(float));
+    g->mark_travel = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->owner = (unsigned char *)calloc((size_t)(nx * ny), 1);
     g->prior_sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->prior_disturbed = (unsigned char *)calloc((size_t)(nx * ny), 1);
-    if (!g->sinkage || !g->mark_time || !g->owner || !g->prior_sinkage || !g->prior_disturbed) {
+    if (!g->sinkage || !g->mark_travel || !g->owner || !g->prior_sinkage || !g->prior_disturbed) {
         soil_grid_free(g);
         return -1;
     }
@@ -43,7 +43,7 @@ int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double
 void soil_grid_free(SoilGrid *g)
 {
     free(g->sinkage);
-    free(g->mark_time);
+    free(g->mark_travel);
     free(g->owner);
     free(g->prior_sinkage);
     free(g->prior_disturbed);
@@ -58,7 +58,7 @@ void soil_grid_clear(SoilGrid *g)
     for (j = g->dirty_j0; j <= g->dirty_j1; j++) {
         long start = j * g->nx + g->dirty_i0, count = g->dirty_i1 - g->dirty_i0 + 1;
         memset(g->sinkage + start, 0, (size_t)count * sizeof(float));
-        memset(g->mark_time + start, 0, (size_t)count * sizeof(float));
+        memset(g->mark_travel + start, 0, (size_t)count * sizeof(float));
         memset(g->owner + start, 0, (size_t)count);
         memset(g->prior_sinkage + start, 0, (size_t)count * sizeof(float));
         memset(g->prior_disturbed + start, 0, (size_t)count);
@@ -94,8 +94,17 @@ static int patch_cells(const SoilGrid *g, double cx, double cy, double hx, doubl
     return count;
 }
 
+/* A cell belongs to the wheel's current contact when this wheel pressed it last and has since
+ * travelled less than the patch's extent along its motion (own_span): the cell is still under
+ * the patch that pressed it. Once the wheel has rolled on by more, the cell is a rut it left,
+ * and coming back over it (reversing, or a loop) is a second pass, however long ago. */
+static int own_patch(const SoilGrid *g, long k, int wheel, double travel, double own_span)
+{
+    return g->owner[k] == wheel + 1 && travel - (double)g->mark_travel[k] <= own_span;
+}
+
 RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-                    double width, int wheel, double now, double self_time)
+                    double width, int wheel, double travel, double own_span)
 {
     RutState state = {0.0, 0.0};
     long cells[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
@@ -104,10 +113,8 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
     n = patch_cells(g, cx, cy, hx, hy, length, width, cells);
     for (s = 0; s < n; s++) {
         long k = cells[s];
-        /* A wheel's own marks under its moving patch are not a rut it meets: skip them while
-         * they are younger than self_time. */
         if (k < 0) continue;
-        if (g->owner[k] == wheel + 1 && now - g->mark_time[k] < self_time) {
+        if (own_patch(g, k, wheel, travel, own_span)) {
             /* under this wheel's own moving patch: the soil as the wheel found it */
             state.rut_depth += g->prior_sinkage[k];
             state.disturbed += g->prior_disturbed[k];
@@ -124,7 +131,7 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
 }
 
 void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
-               double width, double sinkage, int wheel, double now, double self_time)
+               double width, double sinkage, int wheel, double travel, double own_span)
 {
     long cells[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
     int n, s;
@@ -135,13 +142,13 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
         if (k < 0) continue;
         i = k % g->nx;
         j = k / g->nx;
-        if (!(g->owner[k] == wheel + 1 && now - g->mark_time[k] < self_time)) {
+        if (!own_patch(g, k, wheel, travel, own_span)) {
             /* a new pass over this cell: remember the soil as this wheel finds it */
             g->prior_sinkage[k] = g->sinkage[k];
             g->prior_disturbed[k] = g->owner[k] != 0;
         }
         g->owner[k] = (unsigned char)(wheel + 1);
-        g->mark_time[k] = (float)now;
+        g->mark_travel[k] = (float)travel;
         if ((float)sinkage > g->sinkage[k]) g->sinkage[k] = (float)sinkage;
         if (i < g->dirty_i0) g->dirty_i0 = i;
         if (i > g->dirty_i1) g->dirty_i1 = i;

@@ -26,9 +26,9 @@
 #define VR_SOIL_RUT_COHESION_FACTOR 15
 #define VR_SOIL_MULTIPASS_FACTOR 16
 #define VR_SOIL_GRID_CELL 17
-#define VR_SOIL_SELF_RUT_TIME 18
-#define VR_ROCK_FRICTION_COEFFICIENT 19
-#define VR_ROCK_SHEAR_K 20
+#define VR_ROCK_FRICTION_COEFFICIENT 18
+#define VR_ROCK_SHEAR_K 19
+#define VR_ROCK_CONTACT_LENGTH 20
 #define VR_MOTOR_NO_LOAD_CURRENT 21
 #define VR_MOTOR_TORQUE_CONSTANT 22
 #define VR_MOTOR_MAX_TORQUE 23
@@ -107,9 +107,9 @@
     0.5, /* soil.rut_cohesion_factor */ \
     0.3, /* soil.multipass_factor */ \
     0.01, /* soil.grid_cell */ \
-    20.0, /* soil.self_rut_time */ \
     0.6, /* rock.friction_coefficient */ \
     0.001, /* rock.shear_K */ \
+    0.02, /* rock.contact_length */ \
     0.0003, /* motor.no_load_current */ \
     2.0, /* motor.torque_constant */ \
     0.2, /* motor.max_torque */ \
