@@ -194,9 +194,26 @@ class CompiledRulebook:
         return violations
 
     # ------------------------------------------------------------------ runs
-    def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext) -> RunEvaluation:
-        """Every index, I_max, dominant index and sample, chances, time and energy per run."""
-        source = DerivedSignals(signals, context, self.derived_settings)
+    def derived_signals(self, signals: Mapping[str, np.ndarray],
+                        context: RunContext) -> DerivedSignals:
+        """The source of signals ``evaluate`` reads (given, ``ref.*`` and derived, each
+        computed once); rulebooks with equal ``derived_settings`` can share one."""
+        return DerivedSignals(signals, context, self.derived_settings)
+
+    def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
+                 per_sample: bool = True, source: DerivedSignals | None = None
+                 ) -> RunEvaluation:
+        """Every index, I_max, dominant index and sample, chances, time and energy per run.
+
+        ``per_sample=False`` skips the per-sample values (``per_sample`` arrays are
+        (runs, 0), ``dominant_sample`` is 0) for callers that need per-run numbers only.
+        ``source``: a :meth:`derived_signals` of the same signals and context from a rulebook
+        with the same derived settings, so that two rulebooks derive signals once.
+        """
+        if source is None:
+            source = self.derived_signals(signals, context)
+        elif source.settings != self.derived_settings:
+            raise ValueError("a shared signal source needs equal derived settings")
         runs, samples = source.runs, source.samples
         frame = Frame(source=source)
         finite: dict[str, np.ndarray] = {}
@@ -214,15 +231,18 @@ class CompiledRulebook:
                 flags |= ~finite[name]
             return flags
 
-        values, raw, per_sample, weighted = {}, {}, {}, {}
+        values, raw, sample_values, weighted = {}, {}, {}, {}
         with np.errstate(all="ignore"):
             for index in self._indices:
                 value = per_run(index.value(frame), runs)
                 bad = bad_runs(index.reads) | np.isnan(value)
                 raw[index.name] = np.where(bad, np.nan, value)
                 values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit))
-                sample = per_run_sample(index.per_sample(frame), runs, samples)
-                per_sample[index.name] = _normalise(sample, index.limit)
+                if per_sample:
+                    sample = per_run_sample(index.per_sample(frame), runs, samples)
+                    sample_values[index.name] = _normalise(sample, index.limit)
+                else:
+                    sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
             chances = {c.name: per_run(c.test(frame), runs).astype(bool) | bad_runs(c.reads)
                        for c in self._chances}
@@ -230,13 +250,13 @@ class CompiledRulebook:
         stacked = np.stack([weighted[n] for n in self.index_names])
         dominant = np.argmax(stacked, axis=0)
         dominant_sample = np.zeros(runs, dtype=int)
-        for position, name in enumerate(self.index_names):
+        for position, name in enumerate(self.index_names if per_sample else ()):
             chosen = dominant == position
             if chosen.any():
-                dominant_sample[chosen] = np.argmax(per_sample[name][chosen], axis=1)
+                dominant_sample[chosen] = np.argmax(sample_values[name][chosen], axis=1)
         time, energy = self._time_energy(source, runs)
         return RunEvaluation(
-            index_names=self.index_names, values=values, raw=raw, per_sample=per_sample,
+            index_names=self.index_names, values=values, raw=raw, per_sample=sample_values,
             weighted=weighted, i_max=stacked.max(axis=0), dominant=dominant,
             dominant_sample=dominant_sample, chance_names=self.chance_names, chances=chances,
             time=time, energy=energy)
