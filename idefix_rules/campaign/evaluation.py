@@ -12,7 +12,7 @@ import dataclasses
 import json
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import h5py
 import numpy as np
@@ -24,8 +24,14 @@ from idefix_rules.signals import AXIS_LABELS
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 DEFAULT_CHUNK_RUNS = 64
 
-CollisionFunction = Callable[[Mapping[str, np.ndarray]],
-                             tuple[dict[str, np.ndarray], list[dict[str, Any]]]]
+
+
+class CollisionFunction(Protocol):
+    """Collision signals and per-run details of runs of poses (axis 0 = run). ``runs`` are the
+    path's run numbers of those rows, written into the details (None: numbered from 0)."""
+
+    def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
+                 ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]: ...
 
 
 @dataclass
@@ -116,10 +122,15 @@ def collision_function(environment: Any, evaluator: Any,
 
     obstacles = obstacle_set(environment, evaluator, terrain)
 
-    def check(poses: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray],
-                                                          list[dict[str, Any]]]:
+    def check(poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
+              ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
         result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, obstacles)
         details = [as_plain(d) for d in result.details]
+        if runs is not None:
+            # The checker numbers the rows it was given from 0; a chunk of complete runs is
+            # not contiguous when runs failed, so each row takes its own run number.
+            for record in details:
+                record["run"] = int(runs[record["run"]])
         return dict(result.signals), details
 
     return check
@@ -158,7 +169,7 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
     return type(evaluations[0]).concat(list(evaluations))
 
 
-def _chunk_signals(store: ResultStore, name: str, rows: np.ndarray,
+def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
                    required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
     extra = set(POSE_SIGNALS) if poses else set()
     keys = None if required is None else sorted(required | extra | {"command", "energy", "t"})
@@ -170,7 +181,7 @@ def _chunk_signals(store: ResultStore, name: str, rows: np.ndarray,
     return {key: values[offset] for key, values in chunk.items()}
 
 
-def complete_chunks(store: ResultStore, name: str, required: set[str] | None,
+def complete_chunks(store: RunReader, name: str, required: set[str] | None,
                     chunk_runs: int = DEFAULT_CHUNK_RUNS, poses: bool = True
                     ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
     """``(rows, signals)`` of a path's complete runs, ``chunk_runs`` at a time; each chunk is
@@ -194,9 +205,9 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     required = set(getattr(evaluator, "required_signals", ())) or None
     parts = []
     hits, buffers, details = [], [], []
-    for _rows, signals in complete_chunks(store, name, required, chunk_runs):
+    for rows, signals in complete_chunks(store, name, required, chunk_runs):
         if collisions is not None:
-            extra, chunk_details = collisions(signals)
+            extra, chunk_details = collisions(signals, rows)
             signals.update(extra)
             hits.append(extra.get("collision.hits"))
             buffers.append(extra.get("collision.buffer"))

@@ -31,7 +31,6 @@ from idefix_rules.campaign.evaluation import (
     prescreen_reference,
     run_context,
     stored_path_result,
-    without_samples,
 )
 from idefix_rules.campaign.runner import stored_campaign
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
@@ -44,6 +43,7 @@ from idefix_rules.diff.evaluators import (
     stored_levels,
     values_only,
 )
+from idefix_rules.diff.reader import MappedRuns
 from idefix_rules.diff.source import RulebookSource
 from idefix_rules.errors import UserInputError, error
 
@@ -365,6 +365,23 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         store.close()
 
 
+def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, np.ndarray],
+                    extra: list[dict[str, np.ndarray]], context: Any) -> None:
+    """One chunk under every active side. Sides with equal derived settings and the same
+    collision signals share one signal source: derived signals are computed once."""
+    sources: dict[tuple[Any, int], Any] = {}
+    for side, collision_signals in zip(sides, extra, strict=True):
+        if side not in active:
+            continue
+        chunk = {**signals, **collision_signals} if collision_signals else signals
+        evaluator = side.evaluator
+        key = (evaluator.derived_settings, id(collision_signals) if collision_signals else 0)
+        if key not in sources:
+            sources[key] = evaluator.derived_signals(chunk, context)
+        side.parts.append(evaluator.evaluate(chunk, context, per_sample=False,
+                                             source=sources[key]))
+
+
 def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
                    reference: dict[str, np.ndarray] | None, sides: list[_Side],
                    active: list[_Side], context: dict[str, Any], collisions: _Collisions,
@@ -377,21 +394,20 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
             "D011", f"{store.file.filename}: path {name!r} has no stored collisions for its "
                     "complete runs", hint="run `idefix-verify evaluate` on the results first"))
     all_rows = []
+    runs = MappedRuns(store)
     mark = time.perf_counter()
-    for rows, signals in complete_chunks(store, name, required, chunk_runs, poses):
+    for rows, signals in complete_chunks(runs, name, required, chunk_runs, poses):
         now = time.perf_counter()
         timings["read"] += now - mark
         extra = collisions.chunk(signals, rows, stored)
         mark = time.perf_counter()
         timings["collisions"] += mark - now
-        for side, collision_signals in zip(sides, extra, strict=True):
-            if side in active:
-                chunk = {**signals, **collision_signals} if collision_signals else signals
-                side.parts.append(without_samples(side.evaluator.evaluate(chunk, run_context_)))
+        _evaluate_chunk(sides, active, signals, extra, run_context_)
         all_rows.append(rows)
         now = time.perf_counter()
         timings["evaluate"] += now - mark
         mark = now
+    runs.close()
     for side in active:
         result = side.result
         side.evaluation = concatenate(side.parts)
