@@ -158,3 +158,68 @@ def test_reversing_over_its_own_track_is_a_second_pass_whatever_the_track_age(
         assert np.all(second > 1.25 * first) and np.all(second < 1.4 * first)
         mid_reverse.append(second)
     np.testing.assert_allclose(mid_reverse[0], mid_reverse[1], rtol=1e-3)
+
+
+def _soil_wheel(load: float) -> tuple[float, float, float]:
+    """Contact length, patch strength and compaction resistance of a default-soil wheel at rest
+    slip (docs/rover-model.md, "Soil": Bekker sinkage, Mohr-Coulomb, compaction)."""
+    r, b, n, c, phi = 0.1, 0.06, 1.0, 250.0, math.radians(35)
+    k = 1400.0 / b + 820e3
+    z = (3 * load / ((3 - n) * b * k * math.sqrt(2 * r))) ** (2 / (2 * n + 1))
+    length = math.sqrt(2 * r * z)
+    return length, b * length * c + load * math.tan(phi), b * k * z ** (n + 1) / (n + 1)
+
+
+def _janosi(j: float, K: float = 0.012) -> float:
+    return 1 - K / j * (1 - math.exp(-j / K))
+
+
+def _downhill_skid(slope: float) -> float:
+    """|slip| at which the four braking wheels and their compaction resistance carry the
+    downhill weight: sum F_max f(L |s|) + R_c = m g sin(slope), loads with the load transfer."""
+    from scipy.optimize import brentq
+
+    m, g, half_wheelbase, cog = 25.0, 0.0057, 0.2, 0.25
+    gz, gx = g * math.cos(slope), g * math.sin(slope)
+    wheels = [_soil_wheel(m * gz / 4 + side * m * gx * cog / (4 * half_wheelbase))
+              for side in (1, 1, -1, -1)]
+    return brentq(lambda s: sum(cap * _janosi(length * s) + rc for length, cap, rc in wheels)
+                  - m * gx, 1e-9, 1.0)
+
+
+@pytest.mark.parametrize("degrees", [15, 25])
+def test_driving_downhill_skids_at_the_slip_the_soil_can_brake(
+        rover: FmuRunner, tmp_path: Path, degrees: int) -> None:
+    # Downhill the wheels brake: the body runs ahead of the rims (negative slip) until the
+    # mobilised shear carries the weight along the slope. The balance slip depends on slope and
+    # soil only, so both wheel rates give the same slip, and the speed is rim / (1 - |s|).
+    slope = math.radians(degrees)
+    terrain = write_terrain(tmp_path / "downhill.terrain", synthetic_terrain(
+        size=6.0, cell=0.05, slope=slope, slope_direction=0.0))  # downhill is +x
+    skid = _downhill_skid(slope)
+    for rate in (0.05, 0.02):
+        out = rover.run({"terrain.file": str(terrain)}, [Command(rate, 0.5, 0.0)], 12.0, 0.1)
+        assert out["wheel.slip"][100] == pytest.approx(np.full(4, -skid), abs=0.01)
+        speed = (out["x"][101] - out["x"][99]) / 0.2 / math.cos(slope)  # along the slope
+        assert speed == pytest.approx(rate * 0.1 / (1 - skid), rel=0.02)
+        assert out["stuck"].max() == 0.0
+
+
+def test_a_slope_steeper_than_the_soil_holds_is_an_accelerating_slide_flagged_stuck(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # At 35° the full-skid strength of the default soil is below m g sin(35°): no speed
+    # balances the weight, so the rover accelerates downhill, motors holding or not (for the
+    # first 0.3 m, before the rear wheels reach the front wheels' ruts).
+    slope = math.radians(35)
+    m, g = 25.0, 0.0057
+    wheels = [_soil_wheel(m * g * math.cos(slope) / 4 + side * m * g * math.sin(slope) * 0.25
+                          / (4 * 0.2)) for side in (1, 1, -1, -1)]
+    assert sum(cap * _janosi(length) for length, cap, _ in wheels) < m * g * math.sin(slope)
+    terrain = write_terrain(tmp_path / "steep.terrain", synthetic_terrain(
+        size=6.0, cell=0.05, slope=slope, slope_direction=0.0))
+    for chain in ([], [Command(0.05, 0.5, 0.0)]):
+        out = rover.run({"terrain.file": str(terrain)}, chain, 20.0, 0.1)
+        assert out["x"][-1] < 0.3
+        speed = np.diff(out["x"][::25]) / 2.5
+        assert np.all(np.diff(speed) > 0)  # accelerating
+        assert out["stuck"][-1] == 1.0

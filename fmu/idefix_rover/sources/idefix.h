@@ -141,6 +141,7 @@ typedef struct {
     double gx, gy;           /* in-plane gravity, body frame, m/s^2 */
     double u, v, omega;      /* body velocity in the body plane (warm start) */
     double energy;
+    int sliding;             /* no quasi-static balance in the last step: uncontrolled slide */
     int initialised;
 } Instance;
 

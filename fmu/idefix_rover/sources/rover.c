@@ -10,6 +10,8 @@
 #define BLOCK_PROBE 0.002      /* m, look-ahead for a rock face above the axle */
 #define MAX_GRADE 1.3          /* rad, largest local grade a contact may report */
 #define NO_ROCK_LIMIT (-1e299)
+#define SPEED_LIMIT 1.0        /* m/s, bound of the balance search (quasi-static speeds: mm/s) */
+#define BALANCE_TOLERANCE 1e-4 /* residual of a balance, as a fraction of the weight m g */
 
 static const double SIDE_X[N_WHEELS] = {1.0, 1.0, -1.0, -1.0};  /* FL FR RL RR: front +1 */
 static const double SIDE_Y[N_WHEELS] = {1.0, -1.0, 1.0, -1.0};  /* left +1 */
@@ -229,26 +231,31 @@ static int holds_still(Instance *inst, double gx, double gy)
     return sqrt(r[0] * r[0] + r[1] * r[1]) <= hold && fabs(r[2]) <= hold_moment;
 }
 
-/* Damped Newton on the three equilibrium equations (forces x, y and yaw moment). */
-static void solve_balance(Instance *inst, double gx, double gy, double q[3])
+/* Damped Newton on the three equilibrium equations (forces x, y and yaw moment). Returns 1 when
+ * a balance was found (residual below BALANCE_TOLERANCE of the forces at play), 0 when none
+ * exists within SPEED_LIMIT: gravity then exceeds what the wheels can hold at any sliding
+ * speed, e.g. downhill on a slope steeper than the soil carries. */
+static int solve_balance(Instance *inst, double gx, double gy, double q[3])
 {
     const double arm = inst->r[VR_ROVER_HALF_TRACK];
     const double eps = inst->r[VR_SOLVER_VELOCITY_EPSILON];
     const double step[3] = {1e-3 * eps, 1e-3 * eps, 1e-3 * eps / arm};
-    double r[3], guess[3], rg[3], cap, fastest_rim = 0.0;
+    double r[3], guess[3], rg[3], trust, fastest_rim = 0.0, scale;
     int iteration, i, k;
 
-    /* Quasi-static speeds stay of the order of the rim speeds; bounding them keeps Newton away
-     * from the far field where every shear law saturates and the residual is flat. */
+    /* Newton steps are bounded by a trust region of the order of the rim speeds (the far field,
+     * where every shear law saturates and the residual is flat, is reached in steps); the
+     * velocity itself is bounded only by SPEED_LIMIT, far above any quasi-static balance. */
     for (i = 0; i < N_WHEELS; i++)
         if (fabs(inst->wheels[i].rate) > fastest_rim) fastest_rim = fabs(inst->wheels[i].rate);
     fastest_rim *= inst->r[VR_ROVER_WHEEL_RADIUS];
-    cap = 2.0 * fastest_rim > 0.01 ? 2.0 * fastest_rim : 0.01;
+    trust = 2.0 * fastest_rim > 0.01 ? 2.0 * fastest_rim : 0.01;
+    scale = inst->r[VR_ROVER_MASS] * inst->r[VR_ROVER_GRAVITY];
 
     if (holds_still(inst, gx, gy)) {
         q[0] = q[1] = q[2] = 0.0;
         residual(inst, q, gx, gy, r);
-        return;
+        return 1;
     }
     /* warm start: the previous velocity, or the ideal one if that balances better */
     residual(inst, q, gx, gy, r);
@@ -260,7 +267,7 @@ static void solve_balance(Instance *inst, double gx, double gy, double q[3])
         memcpy(q, guess, sizeof(guess));
         memcpy(r, rg, sizeof(rg));
     }
-    for (iteration = 0; iteration < 40; iteration++) {
+    for (iteration = 0; iteration < 60; iteration++) {
         double jac[3][3], dq[3], rn = norm3(r, arm), trial[3], rt[3], lambda = 1.0;
         if (rn < 1e-10) break;  /* N: forces are of order 0.01-0.1 N */
         for (k = 0; k < 3; k++) {
@@ -272,30 +279,31 @@ static void solve_balance(Instance *inst, double gx, double gy, double q[3])
         }
         if (solve3(jac, r, dq) != 0) break;
         {
+            /* trust region: grows with the speed already reached */
+            double speed = fabs(q[0]) + fabs(q[1]) + fabs(q[2] * arm);
             double size = fabs(dq[0]) + fabs(dq[1]) + fabs(dq[2] * arm);
-            if (size > 0.5 * cap)
-                for (i = 0; i < 3; i++) dq[i] *= 0.5 * cap / size;
+            double region = 0.5 * (trust > speed ? trust : speed);
+            if (size > region)
+                for (i = 0; i < 3; i++) dq[i] *= region / size;
         }
-        for (k = 0; k < 10; k++, lambda *= 0.5) {
+        for (k = 0; k < 12; k++, lambda *= 0.5) {
             for (i = 0; i < 3; i++) trial[i] = q[i] - lambda * dq[i];
             for (i = 0; i < 3; i++) {
-                double limit = i == 2 ? cap / arm : cap;
+                double limit = i == 2 ? SPEED_LIMIT / arm : SPEED_LIMIT;
                 trial[i] = trial[i] > limit ? limit : (trial[i] < -limit ? -limit : trial[i]);
             }
             residual(inst, trial, gx, gy, rt);
             if (norm3(rt, arm) < rn) break;
         }
-        if (k == 10) break;
+        if (k == 12) break;
         memcpy(q, trial, sizeof(trial));
         memcpy(r, rt, sizeof(rt));
         if (fabs(lambda * dq[0]) + fabs(lambda * dq[1]) + fabs(lambda * dq[2] * arm) < 1e-11) break;
     }
-    for (i = 0; i < 3; i++) {
-        double limit = i == 2 ? cap / arm : cap;
+    for (i = 0; i < 3; i++)
         if (!isfinite(q[i])) q[i] = 0.0;
-        q[i] = q[i] > limit ? limit : (q[i] < -limit ? -limit : q[i]);
-    }
     residual(inst, q, gx, gy, r);  /* leave the wheel forces of the solution in place */
+    return norm3(r, arm) <= BALANCE_TOLERANCE * scale;
 }
 
 /* The rover's inertia between quasi-static states: its velocity moves towards the balance
@@ -372,11 +380,22 @@ void rover_step(Instance *inst, double dt)
     update_blocking(inst);
     gx = inst->gx;
     gy = inst->gy;
-    solve_balance(inst, gx, gy, q);
     {
         const double previous[3] = {inst->u, inst->v, inst->omega};
         double r[3];
-        limit_acceleration(inst, previous, q, dt);
+        inst->sliding = !solve_balance(inst, gx, gy, q);
+        if (inst->sliding) {
+            /* No quasi-static balance: the net force accelerates the rover (Newton's second
+             * law with the wheel forces at the present velocity), an uncontrolled slide. */
+            const double mass = inst->r[VR_ROVER_MASS], inertia = inst->r[VR_ROVER_YAW_INERTIA];
+            memcpy(q, previous, sizeof(previous));
+            residual(inst, previous, gx, gy, r);
+            q[0] += r[0] / mass * dt;
+            q[1] += r[1] / mass * dt;
+            q[2] += r[2] / inertia * dt;
+        } else {
+            limit_acceleration(inst, previous, q, dt);
+        }
         residual(inst, q, gx, gy, r);  /* wheel forces at the velocity actually reached */
     }
 
@@ -561,6 +580,7 @@ int rover_initialise(Instance *inst, char *message, size_t message_size)
     inst->y = inst->r[VR_INITIAL_Y];
     inst->yaw = inst->r[VR_INITIAL_YAW];
     inst->u = inst->v = inst->omega = 0.0;
+    inst->sliding = 0;
     inst->energy = 0.0;
     controller_start(inst);
     update_geometry(inst);
@@ -589,5 +609,6 @@ void rover_write_outputs(Instance *inst)
     }
     inst->r[VR_ENERGY] = inst->energy;
     inst->r[VR_COMMAND] = (double)inst->ctrl.active;
-    inst->r[VR_STUCK] = (double)inst->ctrl.stuck;
+    /* stuck: no progress during a command, or an uncontrolled slide (no balance) at any time */
+    inst->r[VR_STUCK] = (double)(inst->ctrl.stuck || inst->sliding);
 }
