@@ -11,6 +11,7 @@ import datetime
 import hashlib
 import json
 import math
+import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -172,16 +173,17 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         summary.warnings.append(warning)
         progress.message(warning)
     store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
+    unpacked = contextlib.ExitStack()
     try:
+        fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, options, unpacked))
         store.attrs["state"] = "running"
         store.file.flush()
         plans = [plan_path(campaign, spec, rover) for spec in campaign.paths]
         summary.plans = plans
         _command_rules(campaign, evaluator, rover, plans, store)
-        _reference_runs(campaign, evaluator, rover, fmu_path, fmu_parameters, plans, store,
+        _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
                         options, progress, collisions, summary)
-        _monte_carlo(campaign, fmu_path, fmu_parameters, plans, store, options, progress,
-                     summary)
+        _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress, summary)
         complete = all(not store.has_runs(p.spec.name)
                        or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
                        for p in plans)
@@ -192,8 +194,33 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
             store.attrs["state"] = "interrupted"
         raise
     finally:
+        unpacked.close()  # the pools are closed by now: no worker uses the folder any more
         store.close()
     return summary
+
+
+@dataclass(frozen=True)
+class FmuSource:
+    """The FMU the workers run: its file, and the folder it was extracted to once (None:
+    each worker extracts it)."""
+
+    path: str
+    unzipped: str | None
+
+
+def _unzip_once(fmu_path: Path, options: SimulationOptions,
+                stack: contextlib.ExitStack) -> str | None:
+    """Extract the FMU once into a temporary folder the campaign owns until it ends.
+
+    Workers on a remote Dask cluster cannot see a local folder: there every worker extracts
+    the FMU itself (None).
+    """
+    if options.scheduler:
+        return None
+    from idefix_rules.fmu import extract_fmu
+
+    folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="idefix-fmu-"))
+    return str(extract_fmu(fmu_path, folder))
 
 
 def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
@@ -280,15 +307,16 @@ def _describe(item: Any) -> str:
     return str(item)
 
 
-def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
+def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
           parameters: Mapping[str, float | str]) -> RunTask:
-    fmu = campaign.model.fmu
+    maps = campaign.model.fmu
     return RunTask(
-        fmu_path=str(fmu_path),
-        signal_map=tuple(fmu.signals.items()) if fmu.signals is not None else None,
+        fmu_path=fmu.path,
+        unzipped=fmu.unzipped,
+        signal_map=tuple(maps.signals.items()) if maps.signals is not None else None,
         # The campaign maps FMU variable → our name (like signals); the runner wants ours → FMU.
-        parameter_map=tuple((ours, theirs) for theirs, ours in fmu.parameters.items())
-        if fmu.parameters is not None else None,
+        parameter_map=tuple((ours, theirs) for theirs, ours in maps.parameters.items())
+        if maps.parameters is not None else None,
         parameters=tuple(parameters.items()),
         chain=plan.spec.chain,
         stop_time=plan.stop_time,
@@ -297,7 +325,7 @@ def _task(campaign: Campaign, fmu_path: Path, plan: PathPlan,
     )
 
 
-def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu_path: Path,
+def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
                     fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
                     store: ResultStore, options: SimulationOptions, progress: Progress,
                     collisions: Any, summary: SimulationSummary) -> None:
@@ -306,7 +334,7 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
         return
     nominal = {**fmu_parameters, **nominal_parameters(campaign)}
     progress.message(f"reference runs of {len(todo)} path(s)")
-    tasks = [(plan.spec.name, _task(campaign, fmu_path, plan, nominal)) for plan in todo]
+    tasks = [(plan.spec.name, _task(campaign, fmu, plan, nominal)) for plan in todo]
     by_name = {plan.spec.name: plan for plan in todo}
     pool = _pool(simulate, options, campaign)
     with _map(pool, tasks) as results:
@@ -366,7 +394,7 @@ def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, 
     return info
 
 
-def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str, float | str],
+def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
                  progress: Progress, summary: SimulationSummary) -> None:
     tasks: list[tuple[tuple[str, int], RunTask]] = []
@@ -388,7 +416,7 @@ def _monte_carlo(campaign: Campaign, fmu_path: Path, fmu_parameters: Mapping[str
         for run in missing:
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled.items()})
-            tasks.append(((name, int(run)), _task(campaign, fmu_path, plan, parameters)))
+            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters)))
     if not tasks:
         return
     # Interleave paths so every progress bar moves from the start.

@@ -1,8 +1,10 @@
 """The task a worker executes: one simulation of one command chain.
 
 The same function runs in the local pool and on Dask workers. Each worker process keeps its
-:class:`~idefix_rules.fmu.FmuRunner` (FMU extracted and instantiated once) and reuses it through
-``reset`` for every later run; a failing run drops the instance so the next run starts clean.
+:class:`~idefix_rules.fmu.FmuRunner` (instantiated once) and reuses it through ``reset`` for
+every later run; a failing run drops the instance so the next run starts clean. The campaign
+extracts the FMU once and names the folder in ``RunTask.unzipped``; a task without it (Dask
+workers on other machines cannot see the folder) makes each worker extract the FMU itself.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ class RunTask:
     stop_time: float
     output_interval: float
     samples: int
+    unzipped: str | None = None  # the FMU extracted once by the campaign (None: extract here)
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,7 @@ _RUNNERS: dict[tuple[Any, ...], Any] = {}
 def _runner(task: RunTask) -> Any:
     from idefix_rules.fmu import FmuRunner
 
-    key = (task.fmu_path, task.signal_map, task.parameter_map)
+    key = (task.fmu_path, task.unzipped, task.signal_map, task.parameter_map)
     runner = _RUNNERS.get(key)
     if runner is None:
         for old in _RUNNERS.values():
@@ -57,6 +60,7 @@ def _runner(task: RunTask) -> Any:
             task.fmu_path,
             signal_map=dict(task.signal_map) if task.signal_map is not None else None,
             parameter_map=dict(task.parameter_map) if task.parameter_map is not None else None,
+            unzipped=task.unzipped,
         )
         _RUNNERS[key] = runner
     return runner

@@ -4,7 +4,7 @@
 """
 
 from idefix_rules.fmu.build import build_fmu, default_fmu_path, source_dir
-from idefix_rules.fmu.runner import FmuRunner
+from idefix_rules.fmu.runner import FmuRunner, extract_fmu
 from idefix_rules.fmu.terrain import (
     Rock,
     Terrain,
@@ -21,6 +21,7 @@ __all__ = [
     "Terrain",
     "build_fmu",
     "default_fmu_path",
+    "extract_fmu",
     "flat_terrain",
     "load_dem",
     "read_terrain",

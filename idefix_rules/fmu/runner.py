@@ -1,8 +1,11 @@
 """Run an FMI 2.0 co-simulation FMU many times, cheaply: :class:`FmuRunner`.
 
-One runner per process: the FMU is extracted once and instantiated once; every run resets the
-instance, applies start values (with units), and steps it on the caller's time grid, reading
-all outputs with one ``fmi2GetReal`` per communication step straight into a numpy array.
+One runner per process: the FMU is instantiated once; every run resets the instance, applies
+start values (with units), and steps it on the caller's time grid, reading all outputs with one
+``fmi2GetReal`` per communication step straight into a numpy array. Given a ``.fmu`` the runner
+extracts it itself (and removes the folder on close); given ``unzipped``, a folder the caller
+extracted once with :func:`extract_fmu` and owns, many runners (one per worker process) share
+it.
 
 >>> from idefix_rules.commands import Command
 >>> runner = FmuRunner(default_fmu_path())                      # doctest: +SKIP
@@ -41,30 +44,55 @@ _OK_STATUSES = (0, 1)  # fmi2OK, fmi2Warning
 _PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
 
 
+def extract_fmu(fmu_path: str | Path, folder: str | Path | None = None) -> Path:
+    """Unzip an FMU into ``folder`` (None: a new temporary folder); returns the folder.
+
+    A campaign extracts once and hands the folder to every worker's runner (``unzipped``).
+    """
+    from fmpy import extract
+
+    path = Path(fmu_path)
+    if not path.is_file():
+        found = "is not a file" if path.exists() else "not found"
+        raise UserInputError(error("F101", f"FMU file {found}", Span(str(path))))
+    try:
+        return Path(extract(str(path), unzipdir=None if folder is None else str(folder)))
+    except Exception as exc:  # fmpy and zipfile raise plain exceptions for unreadable archives
+        raise UserInputError(error("F102", f"not a readable FMU: {exc}", Span(str(path)))) \
+            from None
+
+
 class FmuRunner:
-    """Runs one FMU repeatedly in this process (see the module docstring)."""
+    """Runs one FMU repeatedly in this process (see the module docstring).
+
+    ``unzipped``: the FMU already extracted by the caller (:func:`extract_fmu`), who keeps the
+    folder; ``fmu_path`` then only names the FMU in messages.
+    """
 
     def __init__(self, fmu_path: str | Path, signal_map: Mapping[str, str] | None = None,
                  parameter_map: Mapping[str, str] | None = None,
-                 extra_outputs: Sequence[str] = ()) -> None:
-        from fmpy import extract, read_model_description
+                 extra_outputs: Sequence[str] = (), unzipped: str | Path | None = None) -> None:
+        from fmpy import read_model_description
         from fmpy.fmi2 import FMU2Slave
 
         self.fmu_path = Path(fmu_path)
-        if not self.fmu_path.exists():
+        if unzipped is None and not self.fmu_path.exists():
             raise UserInputError(error("F101", "FMU file not found", Span(str(self.fmu_path))))
+        source = self.fmu_path if unzipped is None else Path(unzipped)
         try:
-            description = read_model_description(str(self.fmu_path), validate=False)
+            description = read_model_description(str(source), validate=False)
         except Exception as exc:  # fmpy raises plain exceptions for unreadable archives
             raise UserInputError(error("F102", f"not a readable FMU: {exc}",
-                                       Span(str(self.fmu_path)))) from None
+                                       Span(str(source)))) from None
         if description.fmiVersion != "2.0":
             raise UserInputError(error("F103", f"FMI {description.fmiVersion} FMU; the runner "
                                        "supports FMI 2.0 co-simulation", Span(str(self.fmu_path))))
         if description.coSimulation is None:
             raise UserInputError(error("F103", "the FMU has no co-simulation interface",
                                        Span(str(self.fmu_path))))
-        self._unzipdir = Path(extract(str(self.fmu_path)))
+        # Only a folder the runner extracted itself is removed on close.
+        self._owns_unzipdir = unzipped is None
+        self._unzipdir = extract_fmu(self.fmu_path) if unzipped is None else Path(unzipped)
         self._variables = {v.name: v for v in description.modelVariables}
         self._units = {u.name for u in description.unitDefinitions}
         if signal_map is None:
@@ -79,7 +107,7 @@ class FmuRunner:
         try:
             self._slave.instantiate(callbacks=self._callbacks())
         except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            self._remove_unzipdir()
             raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
                 from None
         dll = self._slave.dll
@@ -127,6 +155,11 @@ class FmuRunner:
                                             hint=f"set '{name}' within the allowed range"))
         detail = f": {self._log[-1]}" if self._log else "; see the FMU's log for the reason"
         return InfrastructureError(f"{self.fmu_path.name}: initialisation failed ({exc}){detail}")
+
+    @property
+    def unzipped(self) -> Path:
+        """The folder the FMU is extracted to (the caller's when given, else the runner's)."""
+        return self._unzipdir
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -324,8 +357,12 @@ class FmuRunner:
             signals["t"] = np.arange(steps + 1) * interval
         return signals
 
+    def _remove_unzipdir(self) -> None:
+        if self._owns_unzipdir:
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
+
     def close(self) -> None:
-        """Free the instance and remove the extracted files."""
+        """Free the instance and remove the extracted files (if the runner extracted them)."""
         if self._closed:
             return
         self._closed = True
@@ -333,7 +370,7 @@ class FmuRunner:
             self._slave.terminate()
             self._slave.freeInstance()
         finally:
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            self._remove_unzipdir()
 
     def __enter__(self) -> FmuRunner:
         return self
