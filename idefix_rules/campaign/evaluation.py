@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -25,13 +25,21 @@ POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 DEFAULT_CHUNK_RUNS = 64
 
 
-
 class CollisionFunction(Protocol):
     """Collision signals and per-run details of runs of poses (axis 0 = run). ``runs`` are the
     path's run numbers of those rows, written into the details (None: numbered from 0)."""
 
     def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
                  ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]: ...
+
+
+class RunReader(Protocol):
+    """What reading runs needs of a results file (:class:`ResultStore` or a stand-in)."""
+
+    def run_status(self, name: str) -> np.ndarray: ...
+
+    def read_runs(self, name: str, selection: slice | np.ndarray,
+                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]: ...
 
 
 @dataclass
