@@ -223,3 +223,106 @@ def test_a_slope_steeper_than_the_soil_holds_is_an_accelerating_slide_flagged_st
         speed = np.diff(out["x"][::25]) / 2.5
         assert np.all(np.diff(speed) > 0)  # accelerating
         assert out["stuck"][-1] == 1.0
+
+
+def _flat_with(tmp_path: Path, rocks: list[Rock], name: str = "rocks.terrain") -> Path:
+    return write_terrain(tmp_path / name, synthetic_terrain(size=4.0, cell=0.02, rocks=rocks))
+
+
+def test_a_thin_tall_pebble_under_the_wheel_edge_lifts_the_wheel(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # A 5 cm tall pebble of 6 mm radius, 15 mm off the right wheels' centre line (inside their
+    # 60 mm width): the wheel must roll over it, lifting its corner of the body plane by the
+    # pebble's height, i.e. the body centre by a quarter of it.
+    flat = rover.run({}, STRAIGHT, 210.0, 0.1)
+    pebble = _flat_with(tmp_path, [Rock(0.6, -0.26 - 0.015, 0.006, 0.006, 0.05, z=0.0)])
+    out = rover.run({"terrain.file": str(pebble)}, STRAIGHT, 210.0, 0.1)
+    assert out["z"].max() - flat["z"].max() > 0.9 * 0.05 / 4
+    assert out["roll"].min() < -0.9 * math.atan(0.05 / (2 * 0.26)) / 2
+
+
+def test_every_rock_near_a_wheel_counts_however_many(rover: FmuRunner, tmp_path: Path) -> None:
+    # 40 low pebbles around the right front wheel's path, then one 4 cm rock last in the file:
+    # the last one lifts the wheel as if it were alone.
+    pebbles = [Rock(0.5 + 0.01 * (k % 10), -0.29 + 0.015 * (k // 10), 0.004, 0.004, 0.005, z=0.0)
+               for k in range(40)]
+    tall = Rock(0.56, -0.26, 0.02, 0.02, 0.04, z=0.0)
+    alone = rover.run({"terrain.file": str(_flat_with(tmp_path, [tall], "alone.terrain"))},
+                      STRAIGHT, 210.0, 0.1)
+    crowded = rover.run({"terrain.file": str(_flat_with(tmp_path, [*pebbles, tall]))},
+                        STRAIGHT, 210.0, 0.1)
+    assert crowded["z"].max() == pytest.approx(alone["z"].max(), abs=2e-4)
+    assert alone["z"].max() > rover.run({}, STRAIGHT, 210.0, 0.1)["z"].max() + 0.009
+
+
+def _wall_contact_angle(height: float, half_thickness: float, sinkage: float) -> float:
+    """Contact angle (from the vertical) at which a wheel of radius 0.1 m, its rim `sinkage`
+    into the soil, first touches a thin ellipsoidal wall: brute-force envelope of the disc."""
+    r = 0.1
+    d = np.linspace(-r, r, 40001)
+    lift = np.sqrt(r * r - d * d)
+    lo, hi = -r - half_thickness, 0.0  # wheel centre relative to the wall
+    for _ in range(36):
+        centre = 0.5 * (lo + hi)
+        u = (centre + d) / half_thickness
+        top = np.where(np.abs(u) < 1, height * np.sqrt(np.clip(1 - u * u, 0, None)), -1.0)
+        if (top + lift).max() > r - sinkage:
+            hi = centre
+        else:
+            lo = centre
+    return math.asin(d[int(np.argmax(top + lift))] / r)
+
+
+def _largest_push_over_weight(cohesion: float) -> tuple[float, float]:
+    """Largest net push (thrust minus compaction) of a driven soil wheel over its load, over
+    all slips, with slip sinkage (docs/rover-model.md, "Soil"), and its sinkage at full slip."""
+    r, b, phi, K = 0.1, 0.06, math.radians(35), 0.012
+    load = 25 * 0.0057 / 4
+    k = 1400.0 / b + 820e3
+    z0 = (3 * load / (2 * b * k * math.sqrt(2 * r))) ** (2 / 3)
+    best, sinkage = 0.0, z0
+    for s in np.linspace(0.01, 1.0, 100):
+        z = z0 * (1 + min(s, 0.95)) / (1 - 0.5 * min(s, 0.95))
+        length = math.sqrt(2 * r * z)
+        push = (b * length * cohesion + load * math.tan(phi)) * _janosi(length * s, K) \
+            - b * k * z * z / 2
+        best, sinkage = max(best, push / load), z
+    return best, sinkage
+
+
+@pytest.mark.parametrize("cohesion", [0.0, 250.0])
+def test_a_step_is_climbed_while_the_push_lifts_the_wheel_over_its_edge(
+        rover: FmuRunner, tmp_path: Path, cohesion: float) -> None:
+    # Disc against a rigid edge at contact angle a (from the vertical), friction mobilised to
+    # mu_m = 0.95 mu (rock.contact_length / rock.shear_K): the front wheels climb iff the rear
+    # wheels' push P satisfies P >= W tan(a - atan mu_m), i.e. a <= a* = atan mu_m + atan(P/W).
+    # Thin walls across both front wheels, at 3° of contact angle below and above a* (the
+    # estimate leaves out the creep at the stall), decide it. Cohesionless soil (P/W = 0.02):
+    # a* = 31°, a 1.2 cm step is climbed and a 1.7 cm one is not. Default soil (P/W = 1.7):
+    # a* = 89°; a thin wall's rounded top reaches that contact angle only at the axle height,
+    # so a wall just below the axle is climbed, and a rock whose face stands above the axle
+    # (its top surface there is above the wheel centre: a = 90°, W tan(90° - atan mu_m) = 1.75 W
+    # > P) stops the rover.
+    push, sinkage = _largest_push_over_weight(cohesion)
+    mu_m = 0.6 * (1 - 0.001 / 0.02 * (1 - math.exp(-20)))
+    critical = math.atan(mu_m) + math.atan(push)
+    heights = []
+    for target in (critical - math.radians(3), critical + math.radians(3)):
+        lo, hi = 0.001, 0.1
+        for _ in range(16):
+            h = 0.5 * (lo + hi)
+            lo, hi = (lo, h) if _wall_contact_angle(h, 0.005, sinkage) > target else (h, hi)
+        heights.append(h)
+    walls = [Rock(0.35, 0.0, 0.005, 0.5, heights[0], z=0.0)]
+    if critical + math.radians(3) < math.pi / 2:
+        walls.append(Rock(0.35, 0.0, 0.005, 0.5, heights[1], z=0.0))
+    else:  # a face above the axle: a rock block from 5 cm to 20 cm height
+        walls.append(Rock(0.35, 0.0, 0.02, 0.5, 0.075, z=0.125))
+    for wall_rock, climbs in zip(walls, (True, False)):
+        height = wall_rock.z + wall_rock.c
+        wall = _flat_with(tmp_path, [wall_rock], f"wall{height:.4f}.terrain")
+        out = rover.run({"terrain.file": str(wall), "soil.cohesion": cohesion},
+                        [Command(0.05, 0.5, 0.0)], 150.0, 0.1)
+        assert bool(out["x"][-1] > 0.3) is climbs, height
+        if not climbs:
+            assert out["stuck"].max() == 1.0

@@ -8,7 +8,7 @@
 
 #define GRADE_PROBE 0.005      /* m, half distance of the grade finite difference */
 #define BLOCK_PROBE 0.002      /* m, look-ahead for a rock face above the axle */
-#define MAX_GRADE 1.3          /* rad, largest local grade a contact may report */
+#define MAX_SOIL_GRADE 1.3     /* rad, largest grade of the DEM under a wheel (not on rocks) */
 #define NO_ROCK_LIMIT (-1e299)
 #define SPEED_LIMIT 1.0        /* m/s, bound of the balance search (quasi-static speeds: mm/s) */
 #define BALANCE_TOLERANCE 1e-4 /* residual of a balance, as a fraction of the weight m g */
@@ -74,7 +74,7 @@ static void update_geometry(Instance *inst)
     const SoilParameters *soil = &inst->soil;
     Pose pose = {inst->x, inst->y, inst->yaw};
     double hx = cos(inst->yaw), hy = sin(inst->yaw);
-    double slope[N_WHEELS], mean = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0;
+    double slope[N_WHEELS], contact_angle[N_WHEELS], mean = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0;
     double plane_x, plane_y, gx, gy, gz;
     int i;
 
@@ -85,6 +85,9 @@ static void update_geometry(Instance *inst)
         wheel_position(inst, &pose, w, &w->wx, &w->wy);
         update_travel(w, hx, hy, width, inst->grid.cell);
         w->centre_z = centre_height(inst, w, w->wx, w->wy, hx, hy, &w->on_rock, &d, &cz);
+        /* on a rock: the contact normal's angle from the vertical in the wheel plane, exact
+         * from the contact position (d ahead of the axle: climbing forward) */
+        contact_angle[i] = asin(d / radius > 1.0 ? 1.0 : (d / radius < -1.0 ? -1.0 : d / radius));
         ahead = centre_height(inst, w, w->wx + GRADE_PROBE * hx, w->wy + GRADE_PROBE * hy, hx, hy,
                               &rock_a, &d, &cz);
         behind = centre_height(inst, w, w->wx - GRADE_PROBE * hx, w->wy - GRADE_PROBE * hy, hx,
@@ -110,12 +113,14 @@ static void update_geometry(Instance *inst)
 
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
-        double grade = atan(slope[i]) - atan(plane_x);
+        double path = w->on_rock ? contact_angle[i] :
+                      fmax(-MAX_SOIL_GRADE, fmin(MAX_SOIL_GRADE, atan(slope[i])));
+        double grade = path - atan(plane_x);
         /* static load sharing on four wheels with load transfer from the in-plane gravity */
         double load = mass * gz / 4.0 + SIDE_X[i] * mass * gx * cog / (4.0 * hw) +
                       SIDE_Y[i] * mass * gy * cog / (4.0 * ht);
         w->load = load > 0.0 ? load : 0.0;
-        w->grade = grade > MAX_GRADE ? MAX_GRADE : (grade < -MAX_GRADE ? -MAX_GRADE : grade);
+        w->grade = grade;
         if (w->on_rock) {
             w->capacity = mu * w->load;
             w->contact_length = inst->r[VR_ROCK_CONTACT_LENGTH];

@@ -186,38 +186,135 @@ double rock_top(const Terrain *t, double x, double y)
     return best;
 }
 
-/* The wheel is a disc of radius r in the vertical plane of its heading, of width w. Over a
- * rock its centre must sit at max over the rim of (rock surface + sqrt(r^2 - d^2)): the
- * envelope of the disc rolling over the rock. Sampled at 13 points along and 3 across, against
- * the rocks within reach only. */
+/* The wheel is a cylinder of radius r and width w, its axis horizontal and across the heading
+ * (hx, hy). Over a rock its centre must sit at
+ *     H = max over the footprint (d along, e across) of [top(p(d, e)) + sqrt(r^2 - d^2)],
+ * the envelope of the wheel rolling over the rock. For an ellipsoid the top is concave on its
+ * ellipse (z_c + c sqrt(1 - q), q a convex quadratic in (d, e)) and sqrt(r^2 - d^2) is concave,
+ * so the maximum is unique: for each d the best e minimises q (analytic, clamped to the width),
+ * and the remaining concave function of d is maximised by golden-section search on the interval
+ * of d where the rock is under the footprint. Exact up to SEARCH_TOLERANCE, for rocks of any
+ * size; every rock within reach is considered. */
+#define SEARCH_TOLERANCE 1e-7  /* m, of the contact position along the wheel */
+
+typedef struct {
+    double q0, qd, qe, qdd, qde, qee;  /* q(d, e) = q0 + qd d + qe e + qdd d^2 + qde d e + qee e^2 */
+    double half_width;
+} Footprint;
+
+/* q of the ellipse at (d, e) with e chosen to minimise q within the wheel width. */
+static double q_best(const Footprint *f, double d, double *e_best)
+{
+    double e = -(f->qe + f->qde * d) / (2.0 * f->qee);
+    if (e > f->half_width) e = f->half_width;
+    if (e < -f->half_width) e = -f->half_width;
+    *e_best = e;
+    return f->q0 + f->qd * d + f->qe * e + f->qdd * d * d + f->qde * d * e + f->qee * e * e;
+}
+
+static double envelope(const Rock *rk, const Footprint *f, double r, double d, double *top)
+{
+    double e, q = q_best(f, d, &e);
+    *top = rk->z + rk->c * sqrt(q < 1.0 ? 1.0 - q : 0.0);
+    return *top + sqrt(fmax(r * r - d * d, 0.0));
+}
+
+static const double GOLDEN = 0.6180339887498949;
+
+/* One rock: the wheel-centre height it asks for, or NO_ROCK if it is not under the wheel. */
+static double rock_envelope(const Rock *rk, double x, double y, double hx, double hy, double r,
+                            double w, double *contact_d, double *contact_z)
+{
+    /* p(d, e) = (x, y) + d (hx, hy) + e (-hy, hx); u = (p - centre) / axes */
+    double ux = (x - rk->x) / rk->a, uy = (y - rk->y) / rk->b;
+    double dx = hx / rk->a, dy = hy / rk->b, ex = -hy / rk->a, ey = hx / rk->b;
+    Footprint f;
+    double lo = -r, hi = r, a, b, m1, m2, t1, t2, top, best;
+    int k;
+    f.q0 = ux * ux + uy * uy;
+    f.qd = 2.0 * (ux * dx + uy * dy);
+    f.qe = 2.0 * (ux * ex + uy * ey);
+    f.qdd = dx * dx + dy * dy;
+    f.qde = 2.0 * (dx * ex + dy * ey);
+    f.qee = ex * ex + ey * ey;
+    f.half_width = 0.5 * w;
+    /* the d of smallest q (convex in d): is the rock under the footprint at all? */
+    a = lo;
+    b = hi;
+    for (k = 0; k < 200 && b - a > SEARCH_TOLERANCE; k++) {
+        double e;
+        m1 = b - GOLDEN * (b - a);
+        m2 = a + GOLDEN * (b - a);
+        if (q_best(&f, m1, &e) < q_best(&f, m2, &e)) b = m2;
+        else a = m1;
+    }
+    {
+        double e, centre = 0.5 * (a + b);
+        if (q_best(&f, centre, &e) >= 1.0) return NO_ROCK;
+        /* the interval of d where q < 1, by bisection on each side */
+        if (q_best(&f, lo, &e) >= 1.0) {
+            double inside = centre, outside = lo;
+            for (k = 0; k < 200 && inside - outside > SEARCH_TOLERANCE; k++) {
+                double mid = 0.5 * (inside + outside);
+                if (q_best(&f, mid, &e) < 1.0) inside = mid;
+                else outside = mid;
+            }
+            lo = outside;
+        }
+        if (q_best(&f, hi, &e) >= 1.0) {
+            double inside = centre, outside = hi;
+            for (k = 0; k < 200 && outside - inside > SEARCH_TOLERANCE; k++) {
+                double mid = 0.5 * (inside + outside);
+                if (q_best(&f, mid, &e) < 1.0) inside = mid;
+                else outside = mid;
+            }
+            hi = outside;
+        }
+    }
+    /* golden-section search of the concave envelope on [lo, hi] */
+    a = lo;
+    b = hi;
+    m1 = b - GOLDEN * (b - a);
+    m2 = a + GOLDEN * (b - a);
+    t1 = envelope(rk, &f, r, m1, &top);
+    t2 = envelope(rk, &f, r, m2, &top);
+    for (k = 0; k < 200 && b - a > SEARCH_TOLERANCE; k++) {
+        if (t1 < t2) {
+            a = m1;
+            m1 = m2;
+            t1 = t2;
+            m2 = a + GOLDEN * (b - a);
+            t2 = envelope(rk, &f, r, m2, &top);
+        } else {
+            b = m2;
+            m2 = m1;
+            t2 = t1;
+            m1 = b - GOLDEN * (b - a);
+            t1 = envelope(rk, &f, r, m1, &top);
+        }
+    }
+    *contact_d = 0.5 * (a + b);
+    best = envelope(rk, &f, r, *contact_d, &top);
+    *contact_z = top;
+    return best;
+}
+
 double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
                          double w, double *contact_d, double *contact_z)
 {
-    enum { NA = 13, NW = 3, NEAR = 16 };
-    double best = NO_ROCK, reach = r + 0.5 * w;
-    int k, ia, iw, n_near = 0, near[NEAR];
+    double best = NO_ROCK, reach = sqrt(r * r + 0.25 * w * w);
+    int k;
     *contact_d = 0.0;
     *contact_z = NO_ROCK;
-    for (k = 0; k < t->n_rocks && n_near < NEAR; k++) {
+    for (k = 0; k < t->n_rocks; k++) {
         const Rock *rk = &t->rocks[k];
-        double dx = x - rk->x, dy = y - rk->y, big = rk->a > rk->b ? rk->a : rk->b;
-        if (dx * dx + dy * dy < (big + reach) * (big + reach)) near[n_near++] = k;
-    }
-    if (n_near == 0) return NO_ROCK;
-    for (ia = 0; ia < NA; ia++) {
-        double d = -r + 2.0 * r * (double)ia / (double)(NA - 1);
-        double lift = sqrt(fmax(r * r - d * d, 0.0));
-        for (iw = 0; iw < NW; iw++) {
-            double e = -0.5 * w + w * (double)iw / (double)(NW - 1);
-            double px = x + d * hx - e * hy, py = y + d * hy + e * hx;
-            for (k = 0; k < n_near; k++) {
-                double top = top_of(&t->rocks[near[k]], px, py);
-                if (top > NO_ROCK && top + lift > best) {
-                    best = top + lift;
-                    *contact_d = d;
-                    *contact_z = top;
-                }
-            }
+        double dx = x - rk->x, dy = y - rk->y, big = rk->a > rk->b ? rk->a : rk->b, d, z, h;
+        if (dx * dx + dy * dy >= (big + reach) * (big + reach)) continue;
+        h = rock_envelope(rk, x, y, hx, hy, r, w, &d, &z);
+        if (h > best) {
+            best = h;
+            *contact_d = d;
+            *contact_z = z;
         }
     }
     return best;

@@ -27,8 +27,13 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
 
     if (w->on_rock) {
         /* rigid contact with normal tilted by the grade a: F = W tan(atan(mu_m) - a) */
+        /* N cos a + T sin a = W and T = m mu N give F_x = W tan(atan(m mu) - a); beyond a
+         * right angle the contact cannot carry the wheel at any push: a near-rigid stop. */
         double load = w->load > 1e-12 ? w->load : 1e-12;
-        force_x = load * tan(atan(tx / load) - w->grade);
+        double angle = atan(tx / load) - w->grade;
+        const double limit = 0.5 * 3.141592653589793 - 0.01;
+        angle = angle > limit ? limit : (angle < -limit ? -limit : angle);
+        force_x = load * tan(angle);
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
