@@ -11,12 +11,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.table import Table
 
 from idefix_rules.cli.run import make_console
+
+if TYPE_CHECKING:
+    from idefix_rules.diff.results import PathDiff, ResultsDiff, ResultsFileDiff, SideResult
+    from idefix_rules.diff.rules import RuleChange, RuleDiff
 
 NAME = "diff"
 HELP = ("Compare two rulebook versions (files or PATH@REV git revisions): the rules that "
@@ -38,6 +42,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="runs whose I_max moved most, per path (default 5)")
     parser.add_argument("--chunk-runs", type=int, default=128, metavar="N",
                         help="runs read and evaluated at a time (memory bound; default 128)")
+    parser.add_argument("--threads", type=int, default=2, metavar="N",
+                        help="chunks evaluated at the same time (default 2)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text tables (default) or the data as JSON")
 
@@ -47,13 +53,13 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.diff.results import diff_results
     from idefix_rules.errors import UserInputError, error
 
-    if args.top < 0 or args.chunk_runs < 1:
-        raise UserInputError(error("D020", "--top must be ≥ 0 and --chunk-runs ≥ 1"))
+    if args.top < 0 or args.chunk_runs < 1 or args.threads < 1:
+        raise UserInputError(error("D020", "--top must be ≥ 0, --chunk-runs and --threads ≥ 1"))
     old, new = load_source(args.old), load_source(args.new)
     rules = diff_rules(old.checked, new.checked, old.label, new.label)
     results = None
     if args.results:
-        results = diff_results(args.results, old, new, args.top, args.chunk_runs)
+        results = diff_results(args.results, old, new, args.top, args.chunk_runs, args.threads)
     code = results.exit_code(args.fail_on) if results is not None else 0
     if args.format == "json":
         data: dict[str, Any] = {"rules": rules.to_dict(),
@@ -72,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- rules
 
-def _field_text(change: Any) -> str:
+def _field_text(change: RuleChange) -> str:
     lines = []
     for item in change.fields:
         old = item.old if item.old is not None else "—"
@@ -95,7 +101,7 @@ def _field_text(change: Any) -> str:
     return "\n".join(lines)
 
 
-def _rationale_text(change: Any) -> str:
+def _rationale_text(change: RuleChange) -> str:
     if change.rationale_changed:
         return f"was: {change.old_rationale or '—'}\nnow: {change.rationale or '—'}"
     return change.rationale or ""
@@ -104,7 +110,7 @@ def _rationale_text(change: Any) -> str:
 _KIND_STYLE = {"added": "green", "removed": "red", "changed": "yellow", "affected": "cyan"}
 
 
-def print_rules(console: Console, diff: Any) -> None:
+def print_rules(console: Console, diff: RuleDiff) -> None:
     old, new = diff.old, diff.new
     console.print(f"[bold]rulebook diff[/bold]: {old.name} {old.version} ({old.label}) → "
                   f"{new.name} {new.version} ({new.label})")
@@ -129,14 +135,14 @@ def _number(value: float | None, digits: int = 3) -> str:
     return "—" if value is None else f"{value:.{digits}f}"
 
 
-def _risk(side: Any) -> str:
+def _risk(side: SideResult) -> str:
     if side.mean_risk is None:
         return "—"
     interval = f" [{side.risk_ci[0]:.3f}, {side.risk_ci[1]:.3f}]" if side.risk_ci else ""
     return f"{side.mean_risk:.3f}{interval}"
 
 
-def _verdict(side: Any) -> str:
+def _verdict(side: SideResult) -> str:
     return side.verdict + (" (undecided)" if side.undecided else "")
 
 
@@ -145,7 +151,7 @@ def _arrow(old: str, new: str, changed: bool) -> str:
     return f"[bold red]{text}[/bold red]" if changed else text
 
 
-def _chances(path: Any) -> str:
+def _chances(path: PathDiff) -> str:
     names = list(dict.fromkeys([*path.old.chances, *path.new.chances]))
     lines = []
     for name in names:
@@ -159,14 +165,14 @@ def _percent(value: float | None) -> str:
     return "—" if value is None else f"{100 * value:.1f} %"
 
 
-def _dominant(side: Any) -> str:
+def _dominant(side: SideResult) -> str:
     counts = {k: v for k, v in side.dominant_counts.items() if v}
     if not counts:
         return "—"
     return ", ".join(f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1]))
 
 
-def print_results(console: Console, file: Any) -> None:
+def print_results(console: Console, file: ResultsFileDiff) -> None:
     console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
                   f"collisions {file.collisions})")
     table = Table(show_lines=True)
@@ -205,7 +211,7 @@ def print_results(console: Console, file: Any) -> None:
                      if file.first_changed else ""))
 
 
-def print_exit(console: Console, results: Any, fail_on: str, code: int) -> None:
+def print_exit(console: Console, results: ResultsDiff, fail_on: str, code: int) -> None:
     changes = results.verdict_changes()
     first = [f.results for f in results.files if f.first_changed]
     if code == 0:

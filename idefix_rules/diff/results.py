@@ -14,7 +14,9 @@ most with the index responsible (the one whose weighted value changed most).
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -49,6 +51,7 @@ from idefix_rules.errors import UserInputError, error
 
 DEFAULT_CHUNK_RUNS = 128
 DEFAULT_TOP_RUNS = 5
+DEFAULT_THREADS = 2
 # |Δ I_max| below this is rounding, not a change.
 MOVE_TOLERANCE = 1e-9
 
@@ -207,10 +210,7 @@ def _gate(side: _Side, chain: tuple[Command, ...], context: dict[str, Any],
 
 def _side_result(side: _Side) -> SideResult:
     result = side.result
-    if result.status == NOT_SIMULATED:
-        verdict = NOT_SIMULATED
-    else:
-        verdict = result.verdict_text
+    verdict = NOT_SIMULATED if result.status == NOT_SIMULATED else result.verdict_text
     reasons = tuple(result.verdict_reasons) or ((result.reason,) if result.reason else ())
     counts = dict(getattr(side.statistics, "dominant_counts", {}) or {})
     return SideResult(verdict, bool(result.undecided), reasons, result.mean_risk,
@@ -277,7 +277,7 @@ class _Collisions:
             picked = {key: values[rows] for key, values in stored.items()}
             return [picked if needed else {} for needed in self.needed]
         computed: dict[int, dict[str, np.ndarray]] = {}
-        out = []
+        out: list[dict[str, np.ndarray]] = []
         for position in range(len(self.needed)):
             function = self.function(position)
             if function is None:
@@ -313,8 +313,8 @@ def _top_moves(rows: np.ndarray, old: Any, new: Any, top: int
 
 
 def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
-                      top: int = DEFAULT_TOP_RUNS,
-                      chunk_runs: int = DEFAULT_CHUNK_RUNS) -> ResultsFileDiff:
+                      top: int = DEFAULT_TOP_RUNS, chunk_runs: int = DEFAULT_CHUNK_RUNS,
+                      threads: int = DEFAULT_THREADS) -> ResultsFileDiff:
     """Re-score one stored campaign under ``old`` and ``new``; see the module docstring."""
     started = time.perf_counter()
     timings = {"read": 0.0, "collisions": 0.0, "evaluate": 0.0}
@@ -345,7 +345,8 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
             active = [side for side in sides if side.evaluates]
             if active:
                 moves = _evaluate_path(store, name, chain, reference, sides, active, context,
-                                       collisions, required, poses, chunk_runs, top, timings)
+                                       collisions, required, poses, chunk_runs, top, timings,
+                                       threads)
             path_sides.append((name, sides, moves))
         rankings = []
         for position, evaluator in enumerate(evaluators):
@@ -366,10 +367,12 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
 
 
 def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, np.ndarray],
-                    extra: list[dict[str, np.ndarray]], context: Any) -> None:
-    """One chunk under every active side. Sides with equal derived settings and the same
-    collision signals share one signal source: derived signals are computed once."""
+                    extra: list[dict[str, np.ndarray]], context: Any) -> list[Any]:
+    """One chunk under every active side (their evaluations, in order). Sides with equal
+    derived settings and the same collision signals share one signal source: derived signals
+    are computed once."""
     sources: dict[tuple[Any, int], Any] = {}
+    parts = []
     for side, collision_signals in zip(sides, extra, strict=True):
         if side not in active:
             continue
@@ -378,15 +381,17 @@ def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, 
         key = (evaluator.derived_settings, id(collision_signals) if collision_signals else 0)
         if key not in sources:
             sources[key] = evaluator.derived_signals(chunk, context)
-        side.parts.append(evaluator.evaluate(chunk, context, per_sample=False,
-                                             source=sources[key]))
+        parts.append(evaluator.evaluate(chunk, context, per_sample=False,
+                                        source=sources[key]))
+    return parts
 
 
 def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
                    reference: dict[str, np.ndarray] | None, sides: list[_Side],
                    active: list[_Side], context: dict[str, Any], collisions: _Collisions,
                    required: set[str], poses: bool, chunk_runs: int, top: int,
-                   timings: dict[str, float]) -> tuple[int, int, tuple[RunMove, ...]]:
+                   timings: dict[str, float], threads: int
+                   ) -> tuple[int, int, tuple[RunMove, ...]]:
     run_context_ = run_context(chain, context["rover"], context["sigma"], reference)
     stored = collisions.stored_for(store, name)
     if collisions.mode == "stored" and stored is None:
@@ -395,18 +400,33 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
                     "complete runs", hint="run `idefix-verify evaluate` on the results first"))
     all_rows = []
     runs = MappedRuns(store)
-    mark = time.perf_counter()
-    for rows, signals in complete_chunks(runs, name, required, chunk_runs, poses):
-        now = time.perf_counter()
-        timings["read"] += now - mark
-        extra = collisions.chunk(signals, rows, stored)
+    pending: deque[Future[list[Any]]] = deque()
+
+    def collect(future: Future[list[Any]]) -> None:
+        for side, part in zip(active, future.result(), strict=True):
+            side.parts.append(part)
+
+    # Chunks are evaluated on worker threads (numpy releases the GIL in its loops), at most
+    # ``threads`` in flight so memory stays bounded; parts are collected in chunk order.
+    with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
         mark = time.perf_counter()
-        timings["collisions"] += mark - now
-        _evaluate_chunk(sides, active, signals, extra, run_context_)
-        all_rows.append(rows)
-        now = time.perf_counter()
-        timings["evaluate"] += now - mark
-        mark = now
+        for rows, signals in complete_chunks(runs, name, required, chunk_runs, poses):
+            now = time.perf_counter()
+            timings["read"] += now - mark
+            extra = collisions.chunk(signals, rows, stored)
+            mark = time.perf_counter()
+            timings["collisions"] += mark - now
+            pending.append(pool.submit(_evaluate_chunk, sides, active, signals, extra,
+                                       run_context_))
+            all_rows.append(rows)
+            while len(pending) >= max(1, threads):
+                collect(pending.popleft())
+            now = time.perf_counter()
+            timings["evaluate"] += now - mark
+            mark = now
+        while pending:
+            collect(pending.popleft())
+        timings["evaluate"] += time.perf_counter() - mark
     runs.close()
     for side in active:
         result = side.result
@@ -424,10 +444,10 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
 
 
 def diff_results(paths: Sequence[Path], old: RulebookSource, new: RulebookSource,
-                 top: int = DEFAULT_TOP_RUNS,
-                 chunk_runs: int = DEFAULT_CHUNK_RUNS) -> ResultsDiff:
+                 top: int = DEFAULT_TOP_RUNS, chunk_runs: int = DEFAULT_CHUNK_RUNS,
+                 threads: int = DEFAULT_THREADS) -> ResultsDiff:
     """:func:`diff_results_file` for every results file."""
-    return ResultsDiff(tuple(diff_results_file(Path(p), old, new, top, chunk_runs)
+    return ResultsDiff(tuple(diff_results_file(Path(p), old, new, top, chunk_runs, threads)
                              for p in paths))
 
 

@@ -17,13 +17,21 @@ constant is listed as ``affected``. Spans and comments never count (the model's 
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.format import format_expr, format_number, format_string
-from idefix_rules.rulebook.model import Combine, Expr, Ranking
+from idefix_rules.rulebook.model import (
+    Chance,
+    Combine,
+    CommandRule,
+    Expr,
+    Prescreen,
+    Ranking,
+    VerdictRule,
+)
 from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.rulebook.types import SETTINGS
 from idefix_rules.units import DIMENSIONLESS, LENGTH, Dimension
@@ -167,10 +175,11 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
                                                 constant.rationale, (constant.value,))
     elif section == "setting":
         for setting in model.settings:
-            dimension = SETTINGS.get(setting.name, (DIMENSIONLESS, 0.0))[0]
-            si = si_text(checked.settings[setting.name], dimension) \
+            setting_dimension = SETTINGS.get(setting.name, (DIMENSIONLESS, 0.0))[0]
+            setting_si = si_text(checked.settings[setting.name], setting_dimension) \
                 if setting.name in checked.settings else None
-            found[setting.name] = _Declaration(setting.name, {"value": _item(setting.value, si)},
+            found[setting.name] = _Declaration(setting.name,
+                                               {"value": _item(setting.value, setting_si)},
                                                None, (setting.value,))
     elif section == "obstacle level":
         specs = {spec.level: spec for spec in checked.obstacle_levels}
@@ -182,18 +191,20 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
                 "below": _item(level.below, below_si), "buffer": _item(level.buffer, buffer_si)},
                 None, tuple(e for e in (level.below, level.buffer) if e is not None))
     elif section in ("command", "chance", "prescreen", "verdict"):
-        rules = {"command": model.command_rules, "chance": model.chances,
-                 "prescreen": model.prescreens, "verdict": model.verdicts}[section]
+        sections: dict[str, Sequence[CommandRule | Chance | Prescreen | VerdictRule]] = {
+            "command": model.command_rules, "chance": model.chances,
+            "prescreen": model.prescreens, "verdict": model.verdicts}
+        rules = sections[section]
         for rule in rules:
             found[rule.name] = _Declaration(rule.name, {"condition": _item(rule.condition)},
                                             rule.rationale, (rule.condition,))
     elif section == "index":
         for index in model.indices:
-            dimension = _dimension(checked.index_types, index.name)
+            index_dimension = _dimension(checked.index_types, index.name)
             items: Fields = {
                 "title": (format_string(index.title) if index.title is not None else "", None),
                 "value": _item(index.value),
-                "limit": _item(index.limit, si_text(checked.limits[index.name], dimension)),
+                "limit": _item(index.limit, si_text(checked.limits[index.name], index_dimension)),
                 "weight": _item(index.weight, si_text(checked.weights[index.name])),
                 "map": _item(index.map)}
             found[index.name] = _Declaration(

@@ -163,16 +163,18 @@ def test_command_rules_and_prescreens_of_each_side_gate_the_paths(
     assert diff.exit_code() == 1
 
 
-def test_chunk_size_does_not_change_the_result(stored_results: Path, ops_text: str,
+def test_chunk_size_and_threads_do_not_change_the_result(stored_results: Path, ops_text: str,
                                                tmp_path: Path) -> None:
     old = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "history"
                           / "idefix-ops-0.9.0.rules"))
     new = load_source(str(variant(ops_text, tmp_path, "same")))
-    whole = diff_results([stored_results], old, new, chunk_runs=100).to_dict()
-    single = diff_results([stored_results], old, new, chunk_runs=1).to_dict()
-    for data in (whole, single):
+    whole = diff_results([stored_results], old, new, chunk_runs=100, threads=1).to_dict()
+    single = diff_results([stored_results], old, new, chunk_runs=1, threads=1).to_dict()
+    threaded = diff_results([stored_results], old, new, chunk_runs=1, threads=2).to_dict()
+    for data in (whole, single, threaded):
         data["files"][0].pop("timings")
-    assert whole == single
+    assert whole == single == threaded
+    assert any(p["changed_runs"] for p in whole["files"][0]["paths"])
 
 
 def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
