@@ -168,10 +168,11 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     results = campaign.output / RESULTS_FILE
     rover = rover_geometry(campaign)
     summary = SimulationSummary(results)
-    warning = sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs)
-    if warning:
-        summary.warnings.append(warning)
-        progress.message(warning)
+    for warning in (sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs),
+                    dask_timeout_warning(options)):
+        if warning:
+            summary.warnings.append(warning)
+            progress.message(warning)
     store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
     unpacked = contextlib.ExitStack()
     try:
@@ -197,6 +198,16 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         unpacked.close()  # the pools are closed by now: no worker uses the folder any more
         store.close()
     return summary
+
+
+def dask_timeout_warning(options: SimulationOptions) -> str | None:
+    """Dask cannot stop a task once it runs (cancelling its future leaves it running on the
+    worker), so a run timeout is enforced by the local pool only; say so when both are asked."""
+    if options.run_timeout is None or not (options.scheduler or options.dask_local):
+        return None
+    return (f"--run-timeout {options.run_timeout:g} s is not enforced on Dask: a running task "
+            "cannot be stopped there, so a hanging run holds its worker until the campaign "
+            "ends; use the local process pool to end hanging runs")
 
 
 @dataclass(frozen=True)
