@@ -87,6 +87,36 @@ class Diagnostic:
         return "\n".join(lines)
 
 
+def read_user_text(path: str | Path, code: str, what: str) -> str:
+    """The text of a file the user named (universal newlines, BOM kept for the caller).
+
+    A missing file, a folder, an unreadable file or bytes that are not UTF-8 raise
+    :class:`UserInputError` naming the file (and the line and column of the first bad byte).
+    """
+    name = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise UserInputError(error(code, f"{what} not found: {name}", Span(name))) from None
+    except IsADirectoryError:
+        raise UserInputError(error(code, f"{what} expected, but {name} is a folder",
+                                   Span(name))) from None
+    except OSError as failure:
+        raise UserInputError(error(code, f"cannot read {what} {name}: "
+                                         f"{failure.strerror or failure}", Span(name))) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as failure:
+        before = raw[:failure.start]
+        line = before.count(b"\n") + 1
+        # columns count characters, as in every other diagnostic
+        column = len(before[before.rfind(b"\n") + 1:].decode("utf-8", "replace")) + 1
+        raise UserInputError(error(
+            code, f"{what} is not UTF-8 text (byte 0x{raw[failure.start]:02x}: {failure.reason})",
+            Span(name, line, column), hint="save the file as UTF-8")) from None
+    return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
 def _read_quietly(path: str) -> str | None:
     try:
         return Path(path).read_text(encoding="utf-8")

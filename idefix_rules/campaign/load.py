@@ -25,7 +25,7 @@ from idefix_rules.campaign.schema import (
 )
 from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.commands import Command
-from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
 
 BUILTIN_FMU = "builtin"
@@ -155,13 +155,7 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
     source = Path(path)
     shown = str(path)
-    try:
-        text = source.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserInputError(error("C010", f"campaign file {shown} not found")) from None
-    except (OSError, UnicodeDecodeError) as failure:
-        raise UserInputError(error("C010", f"cannot read campaign file {shown}: {failure}")) \
-            from None
+    text = read_user_text(source, "C010", "campaign file")
     document = load_yaml(text, shown)
     if not isinstance(document.data, dict):
         raise UserInputError(error("C101", "a campaign file is a mapping (key: value lines)",

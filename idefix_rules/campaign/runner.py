@@ -33,7 +33,12 @@ from idefix_rules.campaign.simulate import (
     simulate_campaign,
 )
 from idefix_rules.campaign.store import ResultStore
-from idefix_rules.campaign.validate import check_parameters
+from idefix_rules.campaign.validate import (
+    check_parameters,
+    check_rocks_on_terrain,
+    check_simulation_size,
+    prepare_output,
+)
 from idefix_rules.campaign.yamlsource import load_yaml
 from idefix_rules.errors import InfrastructureError
 
@@ -84,8 +89,11 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     evaluator = compile_rulebook_file(campaign.rulebook)
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
+    check_simulation_size(campaign)
+    prepare_output(campaign)
     fixed: dict[str, float | str] = {}
     terrain = build_terrain(campaign.model.environment, campaign.dem)
+    check_rocks_on_terrain(campaign, terrain.extent)
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)

@@ -17,6 +17,7 @@ from pydantic import (
     Discriminator,
     Field,
     PrivateAttr,
+    StrictInt,
     Tag,
     model_validator,
 )
@@ -70,6 +71,7 @@ def _show(value: Any) -> str:
 
 
 Length = Annotated[float, _quantity(units.LENGTH)]
+PositiveLength = Annotated[float, _quantity(units.LENGTH), Field(gt=0)]
 Angle = Annotated[float, _quantity(units.ANGLE)]
 AngularRate = Annotated[float, _quantity(units.ANGULAR_RATE)]
 Duration = Annotated[float, _quantity(units.TIME)]
@@ -92,13 +94,30 @@ class FmuSection(Strict):
 
 # --- environment -----------------------------------------------------------------------------
 
+# Terrain grids hold at most this many nodes (docs/terrain-format.md: nx·ny ≤ 16 million).
+MAX_TERRAIN_NODES = 16_000_000
+
+
 class SyntheticTerrain(Strict):
-    size: Length = 4.0
-    cell: Length = 0.02
+    size: Length = Field(default=4.0, gt=0)
+    cell: Length = Field(default=0.02, gt=0)
     slope: Angle = 0.0
     slope_direction: Angle = 0.0
     roughness: Length = 0.0
-    seed: int = 0
+    seed: StrictInt = Field(default=0, ge=0)
+
+    @model_validator(mode="after")
+    def _grid_size(self) -> SyntheticTerrain:
+        if self.cell >= self.size:
+            raise PydanticCustomError("terrain", "cell {cell} m must be smaller than size {size} m",
+                                      {"cell": f"{self.cell:g}", "size": f"{self.size:g}"})
+        nodes = (self.size / self.cell + 1.0) ** 2
+        if nodes > MAX_TERRAIN_NODES:
+            raise PydanticCustomError(
+                "terrain", "size {size} m with cell {cell} m gives {nodes} grid nodes, more "
+                "than {limit}", {"size": f"{self.size:g}", "cell": f"{self.cell:g}",
+                                 "nodes": f"{nodes:.3g}", "limit": MAX_TERRAIN_NODES})
+        return self
 
 
 class TerrainSection(Strict):
@@ -120,8 +139,8 @@ class TerrainSection(Strict):
 class RockSpec(Strict):
     x: Length
     y: Length
-    radius: Length | None = None
-    semi_axes: tuple[Length, Length, Length] | None = None
+    radius: PositiveLength | None = None
+    semi_axes: tuple[PositiveLength, PositiveLength, PositiveLength] | None = None
     embed: Length = 0.0
     level: Literal["L1", "L2", "L3"] | None = None
 
@@ -245,7 +264,7 @@ SamplingMethod = Literal["monte_carlo", "latin_hypercube", "sobol"]
 
 class UncertaintySection(Strict):
     method: SamplingMethod = "monte_carlo"
-    seed: int = Field(default=0, ge=0)
+    seed: StrictInt = Field(default=0, ge=0)
     parameters: dict[str, Distribution] = {}
 
 
@@ -325,9 +344,10 @@ class CampaignFile(Strict):
     environment: EnvironmentSection = EnvironmentSection()
     uncertainty: UncertaintySection = UncertaintySection()
     paths: dict[str, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(min_length=1)
-    runs: int = Field(default=100, ge=1)
+    # StrictInt: YAML's `true` is not a run count or a seed
+    runs: StrictInt = Field(default=100, ge=1)
     rulebook: str
     output: str = "results"
-    workers: int | Literal["auto"] = "auto"
+    workers: StrictInt | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[Expectation] = []

@@ -100,16 +100,30 @@ class ResultStore:
         try:
             file = h5py.File(path, "r+" if writable else "r")
         except FileNotFoundError:
-            raise UserInputError(error("H001", f"results file {path} not found")) from None
+            raise UserInputError(error("H001", f"results file {path} not found",
+                                       Span(str(path)))) from None
+        except IsADirectoryError:
+            raise UserInputError(error("H002", f"cannot open results file {path}: a folder",
+                                       Span(str(path)), hint="give its results.h5")) from None
         except OSError as failure:
+            if not h5py.is_hdf5(path):
+                raise UserInputError(error(
+                    "H002", f"cannot open results file {path}: not an HDF5 file", Span(str(path)),
+                    hint="give the results.h5 a campaign run wrote")) from None
             raise UserInputError(error(
-                "H002", f"cannot open results file {path}: {failure}",
+                "H002", f"cannot open results file {path}: {failure}", Span(str(path)),
                 hint="a file damaged while its structure was being written cannot be resumed: "
-                     "run the campaign again without --resume")) from None
+                     "run the campaign again without --resume" if writable else None)) from None
         if file.attrs.get("format") != FORMAT:
             file.close()
             raise UserInputError(error("H003", f"{path} is not an idefix results file",
                                        Span(str(path))))
+        missing = [name for name in ("provenance", "paths") if name not in file]
+        if missing:
+            file.close()
+            raise UserInputError(error("H003", f"{path} is an incomplete idefix results file "
+                                               f"(no {' or '.join(missing)} group)",
+                                       Span(str(path)), hint="run the campaign again"))
         return cls(file)
 
     def close(self) -> None:

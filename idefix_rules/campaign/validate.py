@@ -12,23 +12,36 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from idefix_rules.campaign.load import Campaign, format_loc
-from idefix_rules.errors import Diagnostic, UserInputError, error
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+from idefix_rules.fmu.runner import CHAIN_ARRAYS
 from idefix_rules.units import Dimension, UnitError, describe, parse_unit
+
+# Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
+# off by orders of magnitude, which would exhaust memory rather than simulate.
+MAX_SAMPLES = 1_000_000
 
 # FMI unit spellings → our unit parser's.
 _FMI_UNIT_SPELLING = {"m/s2": "m/s^2", "N/m2": "N/m^2", "N/m3": "N/m^3", "N.m": "N*m",
                       "N.m/A": "N*m/A", "A.s": "A*s"}
 
 
-def model_variables(fmu_path: Path) -> dict[str, tuple[str, str]]:
-    """FMU variable name → (causality, unit)."""
+def model_variables(fmu_path: Path, span: Span | None = None) -> dict[str, tuple[str, str]]:
+    """FMU variable name → (causality, unit); ``span`` is where the campaign names the FMU."""
     from fmpy import read_model_description
 
     try:
         description = read_model_description(str(fmu_path))
     except Exception as failure:
-        raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({failure})")) \
-            from None
+        raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({failure})",
+                                   span or Span(str(fmu_path)))) from None
+    if description.fmiVersion != "2.0" or description.coSimulation is None:
+        kinds = ", ".join(kind for kind, part in (("co-simulation", description.coSimulation),
+                                                  ("model exchange",
+                                                   description.modelExchange)) if part)
+        raise UserInputError(error(
+            "C400", f"{fmu_path}: an FMI {description.fmiVersion} FMU for {kinds or 'nothing'}; "
+                    "the campaign runner needs FMI 2.0 co-simulation", span or Span(str(fmu_path)),
+            hint="export the model as an FMI 2.0 co-simulation FMU"))
     found = {}
     for variable in description.modelVariables:
         unit = ""
@@ -42,7 +55,8 @@ def model_variables(fmu_path: Path) -> dict[str, tuple[str, str]]:
 
 def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str, str]]:
     """Validate parameter and signal names against the FMU; returns its variables."""
-    variables = model_variables(fmu_path)
+    variables = model_variables(fmu_path, campaign.span(("fmu", "path"))
+                                if campaign.fmu is not None else None)
     fmu = campaign.model.fmu
     problems: list[Diagnostic] = []
     parameter_names = {name: name for name, (causality, _) in variables.items()
@@ -81,9 +95,84 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
             problems.append(error(
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit {unit}), "
                         f"got {describe(dimension)}", campaign.span(loc)))
+    problems += _chain_capacity(campaign, variables, fmu_path)
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
     return variables
+
+
+def _chain_capacity(campaign: Campaign, variables: Mapping[str, object],
+                    fmu_path: Path) -> list[Diagnostic]:
+    """Every chain must fit the FMU's chain arrays (``chain.max_wheel_rate[i]`` …)."""
+    fmu_name = {ours: theirs for theirs, ours in (campaign.model.fmu.parameters or {}).items()}
+    capacity = 0
+    while all(fmu_name.get(f"{array}[{capacity}]", f"{array}[{capacity}]") in variables
+              for array in CHAIN_ARRAYS):
+        capacity += 1
+    if capacity == 0:  # an FMU without chain arrays: the runner names what it lacks
+        return []
+    return [error("C403", f"paths.{spec.name}: {len(spec.chain)} commands, but "
+                          f"{fmu_path.name} takes at most {capacity} per chain "
+                          f"(chain.max_wheel_rate[0] … [{capacity - 1}])",
+                  campaign.locations.span(("paths", spec.name), at_key=True),
+                  hint="split the chain, or use an FMU built for longer chains")
+            for spec in campaign.paths if len(spec.chain) > capacity]
+
+
+def check_simulation_size(campaign: Campaign) -> None:
+    """Refuse a run longer than :data:`MAX_SAMPLES` output samples before simulating."""
+    from idefix_rules.campaign.simulate import plan_path, rover_geometry
+
+    rover = rover_geometry(campaign)
+    settings = campaign.model.simulation
+    problems = []
+    for spec in campaign.paths:
+        samples = plan_path(campaign, spec, rover).samples
+        if samples > MAX_SAMPLES:
+            problems.append(error(
+                "C404", f"paths.{spec.name}: a run would last "
+                        f"{samples * settings.output_interval:.6g} s at an output interval of "
+                        f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
+                        f"than {MAX_SAMPLES}",
+                campaign.locations.span(("simulation",), at_key=True),
+                hint="stop time = chain duration × duration_margin + extra_time; check the "
+                     "simulation section and the chain's wheel rates"))
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+
+
+def check_rocks_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
+                           ) -> None:
+    """Every rock centre must lie on the terrain grid ``(x_min, x_max, y_min, y_max)``."""
+    x_min, x_max, y_min, y_max = extent
+    problems = [
+        error("C206", f"environment.rocks[{index}]: ({rock.x:g} m, {rock.y:g} m) is outside "
+                      f"the terrain (x {x_min:g} … {x_max:g} m, y {y_min:g} … {y_max:g} m)",
+              campaign.span(("environment", "rocks", index)),
+              hint="rock positions are world coordinates, in the terrain's frame")
+        for index, rock in enumerate(campaign.model.environment.rocks)
+        if not (x_min <= rock.x <= x_max and y_min <= rock.y <= y_max)]
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+
+
+def prepare_output(campaign: Campaign) -> None:
+    """Create the output folder, or say why it cannot be (a file, no permission …)."""
+    folder = campaign.output
+    from_file = folder == (campaign.source.parent / campaign.model.output).resolve()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / ".idefix-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as failure:
+        reason = ("it is a file" if folder.is_file() or isinstance(failure, FileExistsError)
+                  else failure.strerror or str(failure))
+        raise UserInputError(error(
+            "C205", f"output folder {folder} cannot be used: {reason}",
+            campaign.span(("output",)) if from_file else Span(str(folder)),
+            hint=None if from_file else "given by --out"),
+            sources={str(campaign.source): campaign.text}) from None
 
 
 def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping[str, object],

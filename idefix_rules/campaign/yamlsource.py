@@ -22,6 +22,10 @@ from idefix_rules.errors import Span, UserInputError, error
 
 Loc = tuple[str | int, ...]
 
+# Aliases let a few lines expand into billions of values ("billion laughs"); a campaign has a
+# few hundred, so a document expanding past this is refused instead of exhausting memory.
+MAX_VALUES = 100_000
+
 
 @dataclass
 class SourceMap:
@@ -56,14 +60,23 @@ class YamlDocument:
 class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
     """A SafeLoader that records the position of every node while constructing the data."""
 
+    values_seen = 0
+
     def construct_with_locations(self, node: yaml.Node, source_map: SourceMap,
                                  loc: Loc = ()) -> Any:
+        self.values_seen += 1
+        if self.values_seen > MAX_VALUES:
+            raise UserInputError(error(
+                "C003", f"the document expands to more than {MAX_VALUES} values",
+                Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1),
+                hint="YAML aliases (*name) copy whole anchored blocks; nested ones multiply"))
         source_map.values[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
         if isinstance(node, yaml.MappingNode):
             self.flatten_mapping(node)
             result: dict[Any, Any] = {}
             for key_node, value_node in node.value:
-                key = self.construct_object(key_node, deep=True)
+                key = (self.construct_object(key_node, deep=True)
+                       if isinstance(key_node, yaml.ScalarNode) else None)
                 if not isinstance(key, str | int):
                     raise UserInputError(error(
                         "C001", "mapping keys must be plain names",

@@ -10,10 +10,12 @@ an internal error (exit 3). ``idefix-verify campaign.yaml`` is short for
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import sys
 import traceback
 from collections.abc import Sequence
+from pathlib import Path
 from types import ModuleType
 
 from idefix_rules import __version__
@@ -56,13 +58,26 @@ def build_parser(commands: dict[str, ModuleType]) -> argparse.ArgumentParser:
     return parser
 
 
+def _looks_like_campaign(argument: str) -> bool:
+    """A word that is no command is taken as a campaign file when it could be one."""
+    return Path(argument).suffix.lower() in (".yaml", ".yml") or Path(argument).exists()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     commands = _load_commands()
+    parser = build_parser(commands)
     if args_list and not args_list[0].startswith("-") and args_list[0] not in commands \
             and DEFAULT_COMMAND in commands:
+        if not _looks_like_campaign(args_list[0]):
+            parser.print_usage(sys.stderr)
+            close = difflib.get_close_matches(args_list[0], list(commands), n=1)
+            print(f"idefix-verify: error: unknown command {args_list[0]!r}"
+                  + (f" (did you mean {close[0]!r}?)" if close else "")
+                  + f"; commands: {', '.join(commands)}; or a campaign file: "
+                  "idefix-verify CAMPAIGN.yaml", file=sys.stderr)
+            return 2
         args_list.insert(0, DEFAULT_COMMAND)
-    parser = build_parser(commands)
     try:
         args = parser.parse_args(args_list)
     except SystemExit as exit_request:  # argparse: usage errors are exit 2 already

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from idefix_rules.errors import UserInputError, error
+from idefix_rules.errors import UserInputError, read_user_text
 from idefix_rules.rulebook.check import CheckedRulebook, CheckResult, check
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
 from idefix_rules.rulebook.derived import RunContext
@@ -17,16 +17,8 @@ from idefix_rules.rulebook.results import PathStatistics, RunEvaluation, Verdict
 
 
 def read_source(path: str | Path) -> str:
-    """The text of a rulebook file; a missing or unreadable file is a user error."""
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserInputError(error("E002", f"rulebook file not found: {path}")) from None
-    except UnicodeDecodeError as failure:
-        raise UserInputError(error("E002", f"{path}: not UTF-8 text ({failure.reason} at "
-                                           f"byte {failure.start})")) from None
-    except OSError as failure:
-        raise UserInputError(error("E002", f"cannot read {path}: {failure.strerror}")) from None
+    """The text of a rulebook file; a missing, unreadable or non-UTF-8 file is a user error."""
+    return read_user_text(path, "E002", "rulebook file")
 
 
 def parse_text(text: str, path: str = "<rulebook>") -> Rulebook:

@@ -85,7 +85,9 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
         declarations = lowering.transform(tree)
     except RecursionError:
         raise UserInputError(error(SYNTAX_ERROR, "expression nested too deeply",
-                                   Span(path, 1, 1, 1, 2)), sources={path: text}) from None
+                                   _deepest_declaration(tree, path),
+                                   hint="split it into named constants or derived values"),
+                             sources={path: text}) from None
     except lark.exceptions.VisitError as failure:  # only our own mistakes can land here
         if isinstance(failure.orig_exc, RecursionError):
             raise UserInputError(error(SYNTAX_ERROR, "expression nested too deeply",
@@ -97,6 +99,23 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
         lowering.diagnostics.sort(key=_position)
         raise UserInputError(lowering.diagnostics, sources={path: text})
     return rulebook
+
+
+def _deepest_declaration(tree: lark.Tree[Any], path: str) -> Span:
+    """Span of the top-level declaration holding the deepest node (found without recursion)."""
+    best, best_depth = None, -1
+    for declaration in tree.children:
+        if not isinstance(declaration, lark.Tree):
+            continue
+        stack = [(declaration, 1)]
+        while stack:
+            node, depth = stack.pop()
+            if depth > best_depth:
+                best, best_depth = declaration, depth
+            stack.extend((child, depth + 1) for child in node.children
+                         if isinstance(child, lark.Tree))
+    span = _span(path, getattr(best, "meta", None))
+    return span if span.line > 0 else Span(path, 1, 1, 1, 2)
 
 
 def _position(diagnostic: Diagnostic) -> tuple[int, int]:

@@ -1,0 +1,413 @@
+"""A careless user and a hostile CI against ``idefix-verify``: every mistake exits 2 with a
+message naming file, line and column where they are knowable, never a traceback, never lost work.
+
+Each case writes its files into an empty folder, runs the command line in-process from there
+and checks the exit code and message fragments. Campaign cases fail before any simulation.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from idefix_rules.cli import COMMAND_MODULES, main
+
+RULEBOOK = """\
+rulebook "cli-test" version "0.1.0"
+purpose "Small rulebook for the command-line tests"
+
+const critical_slip = 70 %
+  because "Slip above 70 % is critical"
+
+settings {
+  theoretical_slip = 10 %
+  tolerance_growth = 5 cm/rad
+}
+
+index I_s "wheel slip ratio" {
+  value  = max over time (max over wheels (abs(wheel.slip)))
+  limit  = critical_slip
+  weight = 1
+  because "Slip"
+}
+
+verdict acceptable_risk: require risk <= 50 %
+  because "Mean risk limit"
+
+rank by risk, time, energy
+"""
+
+CAMPAIGN = """\
+name: cli
+fmu:
+  path: toy.fmu
+rulebook: test.rules
+output: out
+runs: 6
+workers: 1
+uncertainty:
+  method: monte_carlo
+  seed: 5
+  parameters:
+    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}
+    toy.slip: {distribution: uniform, low: 0.05, high: 0.25}
+paths:
+  straight:
+    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}
+  arc:
+    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "20 deg"}
+simulation:
+  output_interval: "0.5 s"
+  extra_time: "2 s"
+"""
+STRAIGHT = '    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}\n'
+
+TOY = object()  # placeholder: the toy FMU of the campaign tests
+FOLDER = object()  # placeholder: an empty folder
+RUN = ("campaign.yaml", "--runs", "2", "--quiet", "--no-report")
+
+Files = dict[str, object]
+
+
+def campaign(*replacements: tuple[str, str], append: str = "") -> Files:
+    """The standard campaign folder, the campaign text edited by ``(old, new)`` pairs."""
+    text = CAMPAIGN
+    for old, new in replacements:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return {"campaign.yaml": text + append, "test.rules": RULEBOOK, "toy.fmu": TOY}
+
+
+def with_files(files: Files, **more: object) -> Files:
+    return {**files, **{name.replace("__", "."): value for name, value in more.items()}}
+
+
+def terrain_file(header: str = "", heights: np.ndarray | None = None, cut: int = 0) -> bytes:
+    text = header or ("IDEFIX-TERRAIN 1\nnx 3\nny 3\norigin -1.0 -1.0\ncell 1.0\nrocks 0\n"
+                      "heights\n")
+    grid = (np.zeros(9) if heights is None else heights).astype("<f8").tobytes()
+    return text.encode() + (grid[:-cut] if cut else grid)
+
+
+def fmu_with_description(description: str) -> Callable[[Path], bytes]:
+    """An FMU whose modelDescription.xml is replaced (the rest of the toy FMU kept)."""
+    def build(toy: Path) -> bytes:
+        target = toy.parent / "variant.fmu"
+        with zipfile.ZipFile(toy) as source, zipfile.ZipFile(target, "w") as out:
+            for name in source.namelist():
+                if name != "modelDescription.xml":
+                    out.writestr(name, source.read(name))
+            out.writestr("modelDescription.xml", description)
+        return target.read_bytes()
+    return build
+
+
+def toy_description(toy: Path) -> str:
+    with zipfile.ZipFile(toy) as source:
+        return source.read("modelDescription.xml").decode()
+
+
+FMI3 = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="toy" instantiationToken="{t}">
+  <CoSimulation modelIdentifier="toy"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+  </ModelVariables>
+  <ModelStructure/>
+</fmiModelDescription>
+"""
+
+BOMB = "".join(f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n"
+               for a, b in zip("abcdefgh", "bcdefghi", strict=True))
+BOMB = 'a: &a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]\n' + BOMB
+
+
+@dataclass
+class Case:
+    id: str
+    files: Files
+    argv: tuple[str, ...]
+    code: int
+    fragments: tuple[str, ...]
+    unchanged: tuple[str, ...] = ()  # files that must still hold their bytes afterwards
+    absent: tuple[str, ...] = field(default=())  # fragments that must not appear
+
+
+CASES = [
+    # ----------------------------------------------------------------- rulebooks
+    Case("rulebook-empty", {"r.rules": ""}, ("check", "r.rules"), 2,
+         ("r.rules:1:1: error[E500]: the rulebook has no header",)),
+    Case("rulebook-binary", {"r.rules": 'rulebook "ä"\n  '.encode() + b"\xff\xfe\x00"},
+         ("check", "r.rules"), 2,
+         ("r.rules:2:3: error[E002]: rulebook file is not UTF-8 text (byte 0xff",)),
+    Case("rulebook-latin-1", {"r.rules": RULEBOOK.replace("Slip above", "Glissement \xe9")
+                              .encode("latin-1")}, ("check", "r.rules"), 2,
+         ("r.rules:5:23: error[E002]: rulebook file is not UTF-8 text (byte 0xe9",)),
+    Case("rulebook-folder", {"r.rules": FOLDER}, ("check", "r.rules"), 2,
+         ("r.rules: error[E002]: rulebook file expected, but r.rules is a folder",)),
+    Case("rulebook-missing", {}, ("check", "r.rules"), 2,
+         ("r.rules: error[E002]: rulebook file not found: r.rules",)),
+    Case("rulebook-unreadable", {"notes": "a file, not a folder"}, ("check", "notes/r.rules"), 2,
+         ("notes/r.rules: error[E002]: cannot read rulebook file notes/r.rules: Not a directory",)),
+    Case("rulebook-nested-too-deeply",
+         {"r.rules": RULEBOOK + "const deep = " + "abs(" * 3000 + "1" + ")" * 3000 + "\n"},
+         ("check", "r.rules"), 2, ("r.rules:23:1: error[E001]: expression nested too deeply",)),
+    Case("rulebook-long-sum", {"r.rules": RULEBOOK + "const sum = " + "1 + " * 3000 + "1\n"},
+         ("check", "r.rules"), 2, ("r.rules:23:1: error[E001]: expression nested too deeply",)),
+    Case("rulebook-crlf", {"r.rules": RULEBOOK.replace("\n", "\r\n")}, ("check", "r.rules"), 0,
+         ("r.rules: ok",)),
+    Case("rulebook-crlf-error-line", {"r.rules": RULEBOOK.replace("\n", "\r\n")
+                                      .replace("limit  = critical_slip", "limit  = critcal")},
+         ("check", "r.rules"), 2, ("r.rules:14:12: error[E101]: unknown name 'critcal'",)),
+    Case("rulebook-path-with-spaces-and-unicode", {"räder prüfung.rules": RULEBOOK},
+         ("check", "räder prüfung.rules"), 0, ("räder prüfung.rules: ok",)),
+    Case("explain-missing", {}, ("explain", "r.rules"), 2, ("rulebook file not found: r.rules",)),
+    Case("fmt-syntax-error-leaves-the-file",
+         {"r.rules": RULEBOOK.replace("rank by", "rank by by")}, ("fmt", "r.rules"), 2,
+         ("r.rules:22:12: error[E001]: unexpected name 'risk'",), unchanged=("r.rules",)),
+    Case("fmt-not-utf8-leaves-the-file", {"r.rules": b"rulebook \xff"}, ("fmt", "r.rules"), 2,
+         ("r.rules:1:10: error[E002]",), unchanged=("r.rules",)),
+    Case("fmt-check-writes-nothing", {"r.rules": RULEBOOK.replace("limit  =", "limit =")},
+         ("fmt", "--check", "r.rules"), 1, ("would reformat r.rules",), unchanged=("r.rules",)),
+    # ----------------------------------------------------------------- campaign file
+    Case("campaign-empty", {"campaign.yaml": ""}, RUN, 2,
+         ("campaign.yaml:1:1: error[C101]: a campaign file is a mapping",)),
+    Case("campaign-a-list", {"campaign.yaml": "- a\n- b\n"}, RUN, 2,
+         ("campaign.yaml:1:1: error[C101]",)),
+    Case("campaign-folder", {"campaign.yaml": FOLDER}, RUN, 2,
+         ("campaign.yaml: error[C010]: campaign file expected, but campaign.yaml is a folder",)),
+    Case("campaign-missing", {}, RUN, 2,
+         ("campaign.yaml: error[C010]: campaign file not found: campaign.yaml",)),
+    Case("campaign-not-utf8", {"campaign.yaml": CAMPAIGN.replace("name: cli", "name: cl\xef")
+                               .encode("latin-1")}, RUN, 2,
+         ("campaign.yaml:1:9: error[C010]: campaign file is not UTF-8 text (byte 0xef",)),
+    Case("campaign-tab", campaign(("  path: toy.fmu", "\tpath: toy.fmu")), RUN, 2,
+         ("campaign.yaml:3:1: error[C000]: invalid YAML: found character '\\t'",)),
+    Case("campaign-duplicate-key", campaign(append="runs: 7\n"), RUN, 2,
+         ("campaign.yaml:22:1: error[C002]: duplicate key 'runs'",)),
+    Case("campaign-unknown-key", campaign(append="runz: 7\n"), RUN, 2,
+         ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
+    Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,
+         ("error[C003]: the document expands to more than 100000 values",)),
+    Case("campaign-runs-zero", campaign(("runs: 6", "runs: 0")), RUN, 2,
+         ("campaign.yaml:6:7: error[C100]: runs: Input should be greater than or equal to 1",)),
+    Case("campaign-runs-negative", campaign(("runs: 6", "runs: -3")), RUN, 2,
+         ("campaign.yaml:6:7: error[C100]: runs:",)),
+    Case("campaign-runs-true", campaign(("runs: 6", "runs: true")), RUN, 2,
+         ("campaign.yaml:6:7: error[C100]: runs: Input should be a valid integer",)),
+    Case("campaign-runs-text", campaign(("runs: 6", "runs: many")), RUN, 2,
+         ("campaign.yaml:6:7: error[C100]: runs:",)),
+    Case("campaign-workers-zero", campaign(("workers: 1", "workers: 0")), RUN, 2,
+         ("campaign.yaml:7:10: error[C201]",)),
+    Case("campaign-seed-text", campaign(("seed: 5", "seed: abc")), RUN, 2,
+         ("campaign.yaml:10:9: error[C100]: uncertainty.seed",)),
+    Case("campaign-seed-negative", campaign(("seed: 5", "seed: -5")), RUN, 2,
+         ("campaign.yaml:10:9: error[C100]: uncertainty.seed",)),
+    Case("campaign-zero-commands", campaign((f"  straight:\n{STRAIGHT}", "  straight: []\n")),
+         RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: List should have at least",)),
+    Case("campaign-100-commands", campaign((f"  straight:\n{STRAIGHT}",
+                                            "  straight:\n" + STRAIGHT * 100)), RUN, 2,
+         ("campaign.yaml:15:3: error[C403]: paths.straight: 100 commands, but toy.fmu takes at "
+          "most 8",)),
+    Case("campaign-wrong-unit", campaign(('"20 deg"', '"20 m"')), RUN, 2,
+         ("campaign.yaml:18:77: error[C100]: paths.arc[0].delta_heading: expected an angle, got "
+          '"20 m" (a length)',)),
+    Case("campaign-bare-number", campaign(('"20 deg"', "20")), RUN, 2,
+         ("campaign.yaml:18:77: error[C100]: paths.arc[0].delta_heading: expected an angle",)),
+    Case("campaign-nan", campaign(('"20 deg"', '"nan deg"')), RUN, 2,
+         ("campaign.yaml:18:77: error[C100]",)),
+    Case("campaign-negative-wheel-rate", campaign(('"0.1 rad/s"', '"-0.1 rad/s"')), RUN, 2,
+         ("campaign.yaml:16:24: error[C100]: paths.straight[0].max_wheel_rate",)),
+    Case("campaign-negative-std", campaign(('std: "1 cm"', 'std: "-1 cm"')), RUN, 2,
+         ("campaign.yaml:12:57: error[C100]: uncertainty.parameters.initial.x.std",)),
+    Case("campaign-unknown-distribution", campaign(("uniform", "gaussian")), RUN, 2,
+         ("campaign.yaml:13:30: error[C100]: uncertainty.parameters.toy.slip: unknown "
+          "distribution 'gaussian'",)),
+    Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
+         2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
+    Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),
+         RUN, 2, ("campaign.yaml:4:11: error[C200]: rulebook: rulebook 'nope.rules' not found",)),
+    Case("campaign-rulebook-with-errors",
+         with_files(campaign(), test__rules=RULEBOOK.replace("= critical_slip", "= critcal")),
+         RUN, 2, ("test.rules:14:12: error[E101]: unknown name 'critcal'",)),
+    # ----------------------------------------------------------------- FMU
+    Case("fmu-missing", campaign(("path: toy.fmu", "path: nope.fmu")), RUN, 2,
+         ("campaign.yaml:3:9: error[C200]: fmu.path: FMU 'nope.fmu' not found",)),
+    Case("fmu-not-a-zip", with_files(campaign(), toy__fmu="not a zip"), RUN, 2,
+         ("campaign.yaml:3:9: error[C400]:", "not a readable FMU (File is not a zip file)")),
+    Case("fmu-fmi3", with_files(campaign(), toy__fmu=fmu_with_description(FMI3)), RUN, 2,
+         ("campaign.yaml:3:9: error[C400]:", "an FMI 3.0 FMU for co-simulation; the campaign "
+          "runner needs FMI 2.0 co-simulation")),
+    Case("fmu-model-exchange-only",
+         with_files(campaign(), toy__fmu=lambda toy: fmu_with_description(
+             re.sub("<CoSimulation[^>]*>", '<ModelExchange modelIdentifier="toy"/>',
+                    toy_description(toy)))(toy)), RUN, 2,
+         ("campaign.yaml:3:9: error[C400]:", "an FMI 2.0 FMU for model exchange")),
+    Case("fmu-unknown-parameter", campaign(("toy.slip:", "toy.slipp:")), RUN, 2,
+         ("campaign.yaml:13:5: error[C401]: uncertainty.parameters.toy.slipp: unknown FMU "
+          "parameter 'toy.slipp' in toy.fmu", "did you mean 'toy.slip'?")),
+    Case("fmu-parameter-mapped-to-nothing",
+         campaign(("  path: toy.fmu", "  path: toy.fmu\n  parameters:\n    soil.nothing: c")),
+         RUN, 2, ("campaign.yaml:5:5: error[C401]: fmu.parameters.soil.nothing: unknown FMU "
+                  "variable 'soil.nothing' in toy.fmu",)),
+    Case("fmu-signal-mapped-to-nothing",
+         campaign(("  path: toy.fmu", "  path: toy.fmu\n  signals:\n    body.x: x")),
+         RUN, 2, ("campaign.yaml:5:5: error[C401]: fmu.signals.body.x: unknown FMU variable",)),
+    Case("fmu-parameter-of-wrong-dimension", campaign(("low: 0.05, high: 0.25",
+                                                       'low: "1 m", high: "2 m"')), RUN, 2,
+         ("campaign.yaml:13:15: error[C402]: uncertainty.parameters.toy.slip: expected a ratio",)),
+    # ----------------------------------------------------------------- terrain
+    Case("dem-truncated", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                "    dem: site.dem\npaths:")),
+                                     site__dem=terrain_file(cut=8)), RUN, 2,
+         ("site.dem:7:1: error[F204]: height grid holds 64 bytes, expected 72",)),
+    Case("dem-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                          "    dem: site.dem\npaths:")),
+                               site__dem=terrain_file(heights=np.array([0.0] * 4 + [np.nan]
+                                                                       + [0.0] * 4))), RUN, 2,
+         ("site.dem:7:1: error[F204]: height grid holds NaN or infinite values",)),
+    Case("dem-wrong-header", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                   "    dem: site.dem\npaths:")),
+                                        site__dem=b"IDEFIX 2\n" + bytes(72)), RUN, 2,
+         ("site.dem:1:1: error[F204]: expected 'IDEFIX-TERRAIN 1' as the first line",)),
+    Case("dem-csv-bad-value", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                    "    dem: site.csv\n    cell: \"1 m\"\n"
+                                                    "paths:")),
+                                         site__csv="0,0,0\n0,x,0\n0,0,0\n"), RUN, 2,
+         ("site.csv:2:3: error[F207]: not a number: 'x'",)),
+    Case("rock-outside-the-terrain",
+         campaign(("paths:", 'environment:\n  rocks:\n    - {x: "100 m", y: "0 m", '
+                             'radius: "4 cm"}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:7: error[C206]: environment.rocks[0]: (100 m, 0 m) is outside the "
+          "terrain",)),
+    Case("rock-negative-radius",
+         campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
+                             'radius: "-4 cm"}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:36: error[C100]: environment.rocks[0].radius: Input should be "
+          "greater than 0",)),
+    Case("synthetic-terrain-too-large",
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 km", '
+                             'cell: "1 mm"}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:16: error[C100]: environment.terrain.synthetic: size 4000 m with "
+          "cell 0.001 m gives",)),
+    Case("synthetic-cell-zero",
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {cell: "0 cm"}\n'
+                             'paths:')), RUN, 2,
+         ("campaign.yaml:16:23: error[C100]: environment.terrain.synthetic.cell",)),
+    # ----------------------------------------------------------------- output folder
+    Case("output-is-a-file", campaign(("output: out", "output: test.rules")), RUN, 2,
+         ("campaign.yaml:5:9: error[C205]: output folder", "test.rules cannot be used: it is a "
+          "file"), unchanged=("test.rules",)),
+    Case("output-below-a-file", campaign(("output: out", "output: test.rules/out")), RUN, 2,
+         ("campaign.yaml:5:9: error[C205]: output folder", "cannot be used: Not a directory")),
+    Case("out-option-is-a-file", campaign(), (*RUN, "--out", "test.rules"), 2,
+         ("error[C205]: output folder", "hint: given by --out"), unchanged=("test.rules",)),
+    # ----------------------------------------------------------------- run options
+    Case("option-runs-zero", campaign(), ("campaign.yaml", "--runs", "0"), 2,
+         ("argument --runs: expected a positive whole number, got 0",)),
+    Case("option-runs-negative", campaign(), ("campaign.yaml", "--runs", "-1"), 2,
+         ("argument --runs: expected a positive whole number, got -1",)),
+    Case("option-workers-zero", campaign(), ("campaign.yaml", "--workers", "0"), 2,
+         ("argument --workers: expected a positive whole number, got 0",)),
+    Case("option-seed-text", campaign(), ("campaign.yaml", "--seed", "abc"), 2,
+         ("argument --seed: expected a whole number, got 'abc'",)),
+    Case("option-run-timeout-infinite", campaign(), ("campaign.yaml", "--run-timeout", "inf"), 2,
+         ("argument --run-timeout: expected a finite positive number, got inf",)),
+    # ----------------------------------------------------------------- results files
+    Case("evaluate-not-hdf5", {"results.h5": "plain text"}, ("evaluate", "results.h5"), 2,
+         ("results.h5: error[H002]: cannot open results file results.h5: not an HDF5 file",),
+         absent=("--resume",)),
+    Case("evaluate-missing", {}, ("evaluate", "results.h5"), 2,
+         ("results.h5: error[H001]: results file results.h5 not found",)),
+    Case("evaluate-a-folder", {"results.h5": FOLDER}, ("evaluate", "results.h5"), 2,
+         ("results.h5: error[H002]",)),
+    Case("report-not-hdf5", {"results.h5": "plain text"}, ("report", "results.h5"), 2,
+         ("results.h5: error[H002]: cannot open results file results.h5: not an HDF5 file",)),
+    # ----------------------------------------------------------------- the command line
+    Case("no-arguments", {}, (), 2, ("usage: idefix-verify",)),
+    Case("unknown-command", {}, ("chek", "r.rules"), 2,
+         ("unknown command 'chek' (did you mean 'check'?)",)),
+]
+
+
+def materialise(folder: Path, files: Files, toy: Path) -> None:
+    for name, content in files.items():
+        target = folder / name
+        if content is FOLDER:
+            target.mkdir()
+        elif content is TOY:
+            target.write_bytes(toy.read_bytes())
+        elif callable(content):
+            target.write_bytes(content(toy))
+        elif isinstance(content, bytes):
+            target.write_bytes(content)
+        else:
+            target.write_bytes(str(content).encode("utf-8"))
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.id for case in CASES])
+def test_a_user_mistake_gets_a_clear_message_and_its_exit_code(
+        case: Case, tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    materialise(tmp_path, case.files, cli_toy_fmu)
+    before = {name: (tmp_path / name).read_bytes() for name in case.unchanged}
+    monkeypatch.chdir(tmp_path)
+    code = main(list(case.argv))
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert "Traceback" not in output
+    assert code == case.code, output
+    flat = " ".join(output.split())  # rich may wrap long lines
+    for fragment in case.fragments:
+        assert fragment in output or " ".join(fragment.split()) in flat, output
+    for fragment in case.absent:
+        assert fragment not in output
+    for name, content in before.items():
+        assert (tmp_path / name).read_bytes() == content, f"{name} was changed"
+
+
+@pytest.mark.parametrize("module_name", COMMAND_MODULES)
+def test_every_command_has_a_working_help(module_name: str,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    module = importlib.import_module(f"idefix_rules.cli.{module_name}")
+    assert main([module.NAME, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert f"usage: idefix-verify {module.NAME}" in out
+
+
+def test_ctrl_c_exits_130_without_a_traceback(monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import check
+
+    def interrupted(args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(check, "run", interrupted)
+    assert main(["check", "any.rules"]) == 130
+    captured = capsys.readouterr()
+    assert "interrupted" in captured.err and "Traceback" not in captured.err
+
+
+def test_an_incomplete_results_file_is_a_user_error(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.campaign.store import FORMAT
+
+    results = tmp_path / "results.h5"
+    with h5py.File(results, "w") as file:
+        file.attrs["format"] = FORMAT
+        file.create_group("paths")
+    for command in ("report", "evaluate"):
+        code = main([command, str(results)])
+        output = "".join(capsys.readouterr())
+        assert code == 2, output
+        assert "Traceback" not in output
+        assert f"{results}: error[H003]: {results} is an incomplete idefix results file " \
+               "(no provenance group)" in output
