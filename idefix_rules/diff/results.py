@@ -231,11 +231,18 @@ class _Collisions:
         self.folder, self.environment = folder, environment
         self._functions: dict[tuple[Any, ...], Any] = {}
         self._terrain: Any = None
+        self.recomputed_paths: list[str] = []
         self.mode = "none"
         if not any(self.needed):
             return
         levels = stored_levels(store, [s.checked for s in sources])
         self.mode = "stored" if can_use_stored(evaluators, levels) else "recomputed"
+
+    def describe(self) -> str:
+        """``none``, ``stored``, ``recomputed``, or ``stored (recomputed for: a, b)``."""
+        if self.mode == "stored" and self.recomputed_paths:
+            return f"stored (recomputed for: {', '.join(self.recomputed_paths)})"
+        return self.mode
 
     def function(self, position: int) -> Any:
         """The obstacle checker of side ``position`` (None when its rulebook reads no
@@ -330,7 +337,6 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         collisions = _Collisions(store, path.parent, evaluators, (old, new),
                                  campaign.model.environment)
         required = set().union(*(e.required_signals for e in evaluators))
-        poses = collisions.mode == "recomputed"
         prepared = time.perf_counter()
         timings["prepare"] = prepared - started
         path_sides: list[tuple[str, list[_Side], tuple[int, int, tuple[RunMove, ...]]]] = []
@@ -345,7 +351,7 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
             active = [side for side in sides if side.evaluates]
             if active:
                 moves = _evaluate_path(store, name, chain, reference, sides, active, context,
-                                       collisions, required, poses, chunk_runs, top, timings,
+                                       collisions, required, chunk_runs, top, timings,
                                        threads)
             path_sides.append((name, sides, moves))
         rankings = []
@@ -361,7 +367,7 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                       for name, sides, moves in path_sides)
         timings["total"] = time.perf_counter() - started
         return ResultsFileDiff(str(path), str(store.attrs.get("campaign_name", "")), paths,
-                               rankings[0], rankings[1], collisions.mode, timings)
+                               rankings[0], rankings[1], collisions.describe(), timings)
     finally:
         store.close()
 
@@ -389,15 +395,14 @@ def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, 
 def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
                    reference: dict[str, np.ndarray] | None, sides: list[_Side],
                    active: list[_Side], context: dict[str, Any], collisions: _Collisions,
-                   required: set[str], poses: bool, chunk_runs: int, top: int,
+                   required: set[str], chunk_runs: int, top: int,
                    timings: dict[str, float], threads: int
                    ) -> tuple[int, int, tuple[RunMove, ...]]:
     run_context_ = run_context(chain, context["rover"], context["sigma"], reference)
     stored = collisions.stored_for(store, name)
     if collisions.mode == "stored" and stored is None:
-        raise UserInputError(error(
-            "D011", f"{store.file.filename}: path {name!r} has no stored collisions for its "
-                    "complete runs", hint="run `idefix-verify evaluate` on the results first"))
+        collisions.recomputed_paths.append(name)  # not stored for every run: check them
+    poses = collisions.mode == "recomputed" or (collisions.mode == "stored" and stored is None)
     all_rows = []
     runs = MappedRuns(store)
     pending: deque[Future[list[Any]]] = deque()
@@ -408,7 +413,16 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
 
     # Chunks are evaluated on worker threads (numpy releases the GIL in its loops), at most
     # ``threads`` in flight so memory stays bounded; parts are collected in chunk order.
-    with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
+    pool = ThreadPoolExecutor(max_workers=threads) if threads > 1 else None
+
+    def submit(*args: Any) -> Future[list[Any]]:
+        if pool is not None:
+            return pool.submit(_evaluate_chunk, *args)
+        future: Future[list[Any]] = Future()
+        future.set_result(_evaluate_chunk(*args))
+        return future
+
+    try:
         mark = time.perf_counter()
         for rows, signals in complete_chunks(runs, name, required, chunk_runs, poses):
             now = time.perf_counter()
@@ -416,8 +430,7 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
             extra = collisions.chunk(signals, rows, stored)
             mark = time.perf_counter()
             timings["collisions"] += mark - now
-            pending.append(pool.submit(_evaluate_chunk, sides, active, signals, extra,
-                                       run_context_))
+            pending.append(submit(sides, active, signals, extra, run_context_))
             all_rows.append(rows)
             while len(pending) >= max(1, threads):
                 collect(pending.popleft())
@@ -427,7 +440,10 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
         while pending:
             collect(pending.popleft())
         timings["evaluate"] += time.perf_counter() - mark
-    runs.close()
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+        runs.close()
     for side in active:
         result = side.result
         side.evaluation = concatenate(side.parts)

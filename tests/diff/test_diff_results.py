@@ -190,3 +190,22 @@ def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
     assert out.count("results: ") == 2  # two results files, one section each
     assert "pass → fail" in out
     assert "exit code 1: 6 path verdict(s) changed" in out
+
+
+def test_a_path_without_stored_collisions_has_them_recomputed(
+        stored_results: Path, tmp_path: Path) -> None:
+    import shutil
+
+    import h5py
+
+    copy = tmp_path / "rock-detour" / "results.h5"
+    copy.parent.mkdir()
+    shutil.copy(stored_results, copy)
+    shutil.copy(stored_results.parent / "terrain.dem", copy.parent / "terrain.dem")
+    with h5py.File(copy, "r+") as file:
+        del file["paths/straight/evaluation/collisions"]
+    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    original = diff_results([stored_results], ops, ops).files[0]
+    patched = diff_results([copy], ops, ops).files[0]
+    assert patched.collisions == "stored (recomputed for: straight)"
+    assert [p.to_dict() for p in patched.paths] == [p.to_dict() for p in original.paths]
