@@ -329,8 +329,8 @@ def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
             problems.append(error("E402", "a buffer zone cannot be negative", level.buffer.span))
         specs.append((level, below, buffer if buffer is not None else 0.0))
     if not declared:
-        env.levels = [ObstacleLevelSpec(lvl, None if lvl == LEVELS[-1] else 0.0, 0.0)
-                      for lvl in LEVELS]
+        # No size thresholds and no buffers: rocks must carry their level explicitly.
+        env.levels = []
         return problems
     specs.sort(key=lambda item: LEVELS.index(item[0].level))
     previous = 0.0

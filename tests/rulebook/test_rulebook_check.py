@@ -226,3 +226,8 @@ def test_a_bare_zero_compares_with_any_dimension():
     assert check(rulebook(command_rules=(rule,))).ok
     rule = CommandRule("moves", Binary("!=", Name("delta_position"), Number(1)))
     assert codes(rulebook(command_rules=(rule,))) == ["E201"]
+
+
+def test_without_an_obstacles_section_there_are_no_size_thresholds():
+    checked = check(rulebook()).checked
+    assert checked.obstacle_levels == ()
