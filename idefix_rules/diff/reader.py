@@ -3,8 +3,8 @@
 The results file stores every run dataset contiguous, uncompressed and allocated when its path
 starts (``docs/results-format.md``), so its bytes sit at a fixed offset of the file and numpy
 can map them (:class:`numpy.memmap`, copy-on-write: the file is never written). A chunk of runs
-is then a view; the evaluator touches only the samples it reads, straight from the page cache,
-instead of HDF5 copying every value into a new array first. Datasets that are chunked,
+is then a map of its rows; the evaluator touches only the samples it reads, straight from the
+page cache, instead of HDF5 copying every value into a new array first. Datasets that are chunked,
 compressed, not native float64 or in a file driver other than the default fall back to h5py.
 
 :class:`MappedRuns` stands in for :class:`~idefix_rules.campaign.store.ResultStore` where
@@ -23,47 +23,65 @@ import numpy as np
 from idefix_rules.campaign.store import ResultStore
 
 
-def mapped(dataset: h5py.Dataset, filename: Path) -> np.ndarray | None:
-    """The dataset as a copy-on-write memory map, or None when it cannot be mapped."""
+def mappable(dataset: h5py.Dataset) -> int | None:
+    """File offset of a dataset's bytes when it can be mapped, else None."""
     if dataset.chunks is not None or dataset.compression is not None or dataset.external:
         return None
     if dataset.dtype != np.dtype("<f8") or dataset.file.driver != "sec2":
         return None
-    offset = dataset.id.get_offset()
-    if offset is None or dataset.size == 0:
+    if dataset.size == 0:
         return None
-    return np.memmap(filename, dtype=dataset.dtype, mode="c", offset=offset,
-                     shape=dataset.shape)
+    offset: int | None = dataset.id.get_offset()
+    return offset
 
 
 class MappedRuns:
-    """The run reading of a :class:`ResultStore`, through memory maps where possible."""
+    """The run reading of a :class:`ResultStore`, through memory maps where possible.
+
+    Each read maps only the rows it covers, so what stays mapped is bounded by the chunks in
+    use (a view keeps its map alive; the map goes when the chunk's arrays do).
+    """
 
     def __init__(self, store: ResultStore) -> None:
         self.store = store
         self.filename = Path(store.file.filename)
-        self._maps: dict[tuple[str, str], np.ndarray | None] = {}
+        self._offsets: dict[tuple[str, str], int | None] = {}
 
     def run_status(self, name: str) -> np.ndarray:
         return self.store.run_status(name)
 
-    def _map(self, name: str, key: str, dataset: h5py.Dataset) -> np.ndarray | None:
-        if (name, key) not in self._maps:
-            self._maps[(name, key)] = mapped(dataset, self.filename)
-        return self._maps[(name, key)]
+    def _rows(self, name: str, key: str, dataset: h5py.Dataset, start: int,
+              stop: int) -> np.ndarray:
+        if (name, key) not in self._offsets:
+            self._offsets[(name, key)] = mappable(dataset)
+        offset = self._offsets[(name, key)]
+        if offset is None:
+            return np.asarray(dataset[start:stop])
+        row_bytes = dataset.dtype.itemsize * int(np.prod(dataset.shape[1:], dtype=np.int64))
+        return np.memmap(self.filename, dtype=dataset.dtype, mode="c",
+                         offset=offset + start * row_bytes,
+                         shape=(stop - start, *dataset.shape[1:]))
 
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-        """Like :meth:`ResultStore.read_runs`; mapped datasets come back as views."""
+        """Like :meth:`ResultStore.read_runs`; mapped datasets come back as maps of the rows."""
         datasets = self.store.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
-        if isinstance(selection, np.ndarray):
-            selection = np.sort(selection)
         out: dict[str, Any] = {}
         for key in wanted:
-            view = self._map(name, key, datasets[key])
-            out[key] = view[selection] if view is not None else datasets[key][selection]
+            dataset = datasets[key]
+            if isinstance(selection, slice):
+                start, stop, step = selection.indices(dataset.shape[0])
+                rows = self._rows(name, key, dataset, start, max(start, stop))
+                out[key] = rows if step == 1 else rows[::step]
+            else:
+                chosen = np.sort(selection)
+                if chosen.size == 0:
+                    out[key] = np.asarray(dataset[chosen])
+                    continue
+                first, last = int(chosen[0]), int(chosen[-1]) + 1
+                out[key] = np.asarray(self._rows(name, key, dataset, first, last)[chosen - first])
         return out
 
     def close(self) -> None:
-        self._maps.clear()
+        self._offsets.clear()

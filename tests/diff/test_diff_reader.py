@@ -1,0 +1,54 @@
+"""Mapped reading of stored runs gives exactly what h5py reads, and falls back when it must."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.commands import Command
+from idefix_rules.diff.reader import MappedRuns, mappable
+
+
+def small_store(path: Path) -> ResultStore:
+    store = ResultStore.create(path, {"runs": 5}, {"campaign": "name: t\n"})
+    store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+    store.allocate_runs("p", 5, {"x": (7,), "wheel.slip": (7, 4)}, {}, {})
+    rng = np.random.default_rng(3)
+    for run in (0, 1, 3, 4):  # run 2 is never written
+        store.write_run("p", run, {"x": rng.normal(size=7), "wheel.slip": rng.normal(size=(7, 4))})
+    return store
+
+
+def test_mapped_rows_equal_h5py_rows(tmp_path: Path) -> None:
+    store = small_store(tmp_path / "results.h5")
+    try:
+        mapped = MappedRuns(store)
+        for selection in (slice(0, 5), slice(1, 4), slice(3, 5), np.array([4, 0, 3])):
+            expected = store.read_runs("p", selection, ["x", "wheel.slip", "missing"])
+            got = mapped.read_runs("p", selection, ["x", "wheel.slip", "missing"])
+            assert set(got) == set(expected) == {"x", "wheel.slip"}
+            for key in expected:
+                np.testing.assert_array_equal(got[key], expected[key])
+        rows = mapped.read_runs("p", slice(0, 2), ["x"])["x"]
+        assert isinstance(rows, np.memmap)
+        rows[0, 0] = 123.0  # copy-on-write: the file keeps its value
+        assert store.read_runs("p", slice(0, 1), ["x"])["x"][0, 0] != 123.0
+        np.testing.assert_array_equal(mapped.run_status("p"), [1, 1, 0, 1, 1])
+    finally:
+        store.close()
+
+
+def test_chunked_datasets_are_read_through_h5py(tmp_path: Path) -> None:
+    store = small_store(tmp_path / "results.h5")
+    try:
+        signals = store.path_group("p")["runs"]["signals"]
+        signals.create_dataset("y", data=np.arange(35.0).reshape(5, 7), chunks=(1, 7),
+                               compression="gzip")
+        assert mappable(signals["y"]) is None and mappable(signals["x"]) is not None
+        got = MappedRuns(store).read_runs("p", slice(1, 3), ["y"])["y"]
+        assert not isinstance(got, np.memmap)
+        np.testing.assert_array_equal(got, np.arange(35.0).reshape(5, 7)[1:3])
+    finally:
+        store.close()
