@@ -36,6 +36,7 @@ from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.validate import (
     check_parameters,
     check_rocks_on_terrain,
+    check_signal_map,
     check_simulation_size,
     prepare_output,
 )
@@ -89,6 +90,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     evaluator = compile_rulebook_file(campaign.rulebook)
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
+    check_signal_map(campaign, evaluator.required_signals)
     check_simulation_size(campaign)
     prepare_output(campaign)
     fixed: dict[str, float | str] = {}

@@ -26,7 +26,7 @@ from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
-from idefix_rules.errors import InfrastructureError, UserInputError, error
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 
 RESULTS_FILE = "results.h5"
 SEED_DERIVATION = ("monte_carlo: run j of path p uses SeedSequence(seed, spawn_key=(p, j)); "
@@ -245,9 +245,10 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
             stored = store.attrs.get(key)
             if stored != value:
                 store.close()
+                shown = stored.item() if isinstance(stored, np.generic) else stored
                 raise UserInputError(error(
-                    "H010", f"cannot resume {results}: its {key} is {stored!r}, "
-                            f"this campaign's is {value!r}",
+                    "H010", f"cannot resume {results}: its {key} is {shown!r}, "
+                            f"this campaign's is {value!r}", Span(str(results)),
                     hint="resume with the same campaign file, --runs, --seed and FMU, or "
                          "choose another --out"))
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))

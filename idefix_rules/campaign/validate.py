@@ -8,12 +8,13 @@ one we know. Mistakes point at the campaign line.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from idefix_rules.campaign.load import Campaign, format_loc
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.runner import CHAIN_ARRAYS
+from idefix_rules.signals import FMU_SIGNALS
 from idefix_rules.units import Dimension, UnitError, describe, parse_unit
 
 # Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
@@ -117,6 +118,24 @@ def _chain_capacity(campaign: Campaign, variables: Mapping[str, object],
                   campaign.locations.span(("paths", spec.name), at_key=True),
                   hint="split the chain, or use an FMU built for longer chains")
             for spec in campaign.paths if len(spec.chain) > capacity]
+
+
+def check_signal_map(campaign: Campaign, required: Iterable[str]) -> None:
+    """A campaign's own ``fmu.signals`` map must provide every FMU signal the rulebook reads
+    (without a map, the FMU's shipped map or its contract names are used as they are)."""
+    signals = campaign.model.fmu.signals
+    if signals is None:
+        return
+    provided = {contract.split("[", 1)[0] for contract in signals.values()}
+    provided.add("t")  # the runner fills in the output grid's times when the FMU has none
+    missing = sorted(name for name in required if name in FMU_SIGNALS and name not in provided)
+    if missing:
+        raise UserInputError(error(
+            "C405", f"fmu.signals: the rulebook reads {', '.join(map(repr, missing))}, which "
+                    "the signal map does not provide",
+            campaign.locations.span(("fmu", "signals"), at_key=True),
+            hint="map an FMU variable to each (FMU variable: signal), e.g. body.pos.y: y"),
+            sources={str(campaign.source): campaign.text})
 
 
 def check_simulation_size(campaign: Campaign) -> None:

@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 from rich.console import Console
 
-from idefix_rules.errors import InfrastructureError, UserInputError
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.rulebook import read_source
 from idefix_rules.rulebook.format import format_rulebook
 from idefix_rules.rulebook.parser import parse_rulebook
@@ -44,6 +47,24 @@ def formatted_text(source: str, path: str) -> str:
     return text
 
 
+def replace_text(path: Path, text: str) -> None:
+    """Write ``text`` over ``path`` atomically: a crash or a full disk leaves the old file.
+
+    The new text goes to a temporary file next to the target (a symlink's target), keeps the
+    old file's permissions and is renamed over it.
+    """
+    target = path.resolve()
+    fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+        shutil.copymode(target, temporary)
+        os.replace(temporary, target)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
 def run(args: argparse.Namespace) -> int:
     console = Console(highlight=False, soft_wrap=True)
     invalid: list[UserInputError] = []
@@ -67,7 +88,13 @@ def run(args: argparse.Namespace) -> int:
         if args.check:
             console.print(f"would reformat {name}", markup=False)
         else:
-            path.write_text(text, encoding="utf-8")
+            try:
+                replace_text(path, text)
+            except OSError as failure:
+                invalid.append(UserInputError(error(
+                    "E003", f"cannot write {name}: {failure.strerror or failure}; the file is "
+                            "unchanged", Span(name))))
+                continue
             console.print(f"reformatted {name}", markup=False)
     for problem in invalid:
         console.print(problem.render(), markup=False)

@@ -21,7 +21,7 @@ from rich.table import Table
 from idefix_rules.campaign.evaluation import CampaignEvaluation
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.outputs import ExpectationResult
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -207,6 +207,9 @@ def run(args: argparse.Namespace) -> int:
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
     progress = RichProgress(console, args.quiet)
+    if args.resume and not (campaign.output / RESULTS_FILE).exists():
+        console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
+                      "simulating every run")
     try:
         result = run_campaign(campaign, options, progress, junit=args.junit,
                               report=not args.no_report)

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from idefix_rules.cli import COMMAND_MODULES, main
+from idefix_rules.cli.fmt import formatted_text
 
 RULEBOOK = """\
 rulebook "cli-test" version "0.1.0"
@@ -261,6 +262,11 @@ CASES = [
     Case("fmu-signal-mapped-to-nothing",
          campaign(("  path: toy.fmu", "  path: toy.fmu\n  signals:\n    body.x: x")),
          RUN, 2, ("campaign.yaml:5:5: error[C401]: fmu.signals.body.x: unknown FMU variable",)),
+    Case("fmu-signal-map-without-a-signal-the-rulebook-reads",
+         campaign(("  path: toy.fmu", "  path: toy.fmu\n  signals:\n    x: x\n    y: y\n"
+                                      "    energy: energy\n    command: command")), RUN, 2,
+         ("campaign.yaml:4:3: error[C405]: fmu.signals: the rulebook reads 'wheel.slip', which "
+          "the signal map does not provide",)),
     Case("fmu-parameter-of-wrong-dimension", campaign(("low: 0.05, high: 0.25",
                                                        'low: "1 m", high: "2 m"')), RUN, 2,
          ("campaign.yaml:13:15: error[C402]: uncertainty.parameters.toy.slip: expected a ratio",)),
@@ -411,3 +417,56 @@ def test_an_incomplete_results_file_is_a_user_error(
         assert "Traceback" not in output
         assert f"{results}: error[H003]: {results} is an incomplete idefix results file " \
                "(no provenance group)" in output
+
+
+def test_fmt_keeps_a_symlink_and_the_file_mode(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    real = tmp_path / "real.rules"
+    real.write_text(RULEBOOK.replace("limit  =", "limit ="))
+    real.chmod(0o640)
+    link = tmp_path / "link.rules"
+    link.symlink_to(real)
+    assert main(["fmt", str(link)]) == 0
+    assert link.is_symlink()
+    assert real.read_text() == formatted_text(RULEBOOK, "real.rules")
+    assert real.stat().st_mode & 0o777 == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.rules", "real.rules"]
+
+
+def test_fmt_that_cannot_write_leaves_the_file_and_exits_2(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.cli import fmt
+
+    path = tmp_path / "r.rules"
+    original = RULEBOOK.replace("limit  =", "limit =")
+    path.write_text(original)
+
+    def disk_full(source: object, target: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(fmt.os, "replace", disk_full)
+    assert main(["fmt", str(path)]) == 2
+    output = "".join(capsys.readouterr())
+    assert f"{path}: error[E003]: cannot write {path}: No space left on device; the file is " \
+           "unchanged" in " ".join(output.split())
+    assert "Traceback" not in output
+    assert path.read_text() == original
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.rules"]  # no temporary left
+
+
+@pytest.mark.slow
+def test_resume_without_results_warns_and_resume_of_another_campaign_is_refused(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main([*RUN, "--resume"]) in (0, 1)
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert "warning: nothing to resume in" in output
+    assert (tmp_path / "out" / "results.h5").is_file()
+    assert main([*RUN, "--resume", "--seed", "6"]) == 2
+    output = "".join(capsys.readouterr())
+    assert "results.h5: error[H010]: cannot resume" in output
+    assert "its seed is 5, this campaign's is 6" in " ".join(output.split())
+    assert "Traceback" not in output
