@@ -267,9 +267,12 @@ class _Collisions:
             return None
         status = store.run_status(name)
         complete = status == STATUS_COMPLETE
+        wanted = set().union(*(collision_reads(e) for e in self.evaluators))
         arrays = {}
         for signal, dataset in STORED_COLLISIONS.items():
             if dataset not in group:
+                if signal in wanted:
+                    return None
                 continue
             values = np.asarray(group[dataset][()])
             if values.shape[0] != status.shape[0] or not np.all(np.isfinite(values[complete])):

@@ -209,3 +209,29 @@ def test_a_path_without_stored_collisions_has_them_recomputed(
     patched = diff_results([copy], ops, ops).files[0]
     assert patched.collisions == "stored (recomputed for: straight)"
     assert [p.to_dict() for p in patched.paths] == [p.to_dict() for p in original.paths]
+
+
+def test_a_path_the_campaign_did_not_simulate_but_a_rulebook_accepts_is_not_simulated(
+        stored_results: Path, tmp_path: Path, ops_text: str) -> None:
+    import shutil
+
+    import h5py
+
+    copy = tmp_path / "results.h5"
+    shutil.copy(stored_results, copy)
+    with h5py.File(copy, "r+") as file:
+        straight = file["paths/straight"]
+        straight.attrs["status"] = "excluded"
+        straight.attrs["reason"] = "the reference run fails prescreen 'x'"
+        del straight["runs"]
+        del straight["evaluation"]
+    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    short = load_source(str(variant(
+        ops_text, tmp_path, "short",
+        extra="command short_moves: require abs(delta_position) <= 90 cm\n")))
+    file = diff_results([copy], ops, short).files[0]
+    straight_diff = next(p for p in file.paths if p.name == "straight")
+    assert straight_diff.old.verdict == "not simulated"
+    assert "run the campaign" in straight_diff.old.reasons[0]
+    assert straight_diff.new.verdict == "rejected"
+    assert "straight" not in file.old_ranking
