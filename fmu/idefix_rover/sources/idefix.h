@@ -80,6 +80,7 @@ typedef struct {
     double centre_z;         /* wheel-centre height, m */
     double grade;            /* local grade of the wheel path relative to the body plane, rad */
     int on_rock;
+    int dropping;            /* on a rock face too steep to rest on: carries no load */
     int blocked;             /* a rock face above the axle in the driving direction */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */

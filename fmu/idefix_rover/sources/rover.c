@@ -81,17 +81,16 @@ static void update_geometry(Instance *inst)
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         double d, cz, ahead, behind;
-        int rock_a, rock_b;
         wheel_position(inst, &pose, w, &w->wx, &w->wy);
         update_travel(w, hx, hy, width, inst->grid.cell);
         w->centre_z = centre_height(inst, w, w->wx, w->wy, hx, hy, &w->on_rock, &d, &cz);
         /* on a rock: the contact normal's angle from the vertical in the wheel plane, exact
          * from the contact position (d ahead of the axle: climbing forward) */
         contact_angle[i] = asin(d / radius > 1.0 ? 1.0 : (d / radius < -1.0 ? -1.0 : d / radius));
-        ahead = centre_height(inst, w, w->wx + GRADE_PROBE * hx, w->wy + GRADE_PROBE * hy, hx, hy,
-                              &rock_a, &d, &cz);
-        behind = centre_height(inst, w, w->wx - GRADE_PROBE * hx, w->wy - GRADE_PROBE * hy, hx,
-                               hy, &rock_b, &d, &cz);
+        /* on soil: the grade of the soil under the wheel (a rock the wheel does not touch is
+         * no part of its path's grade) */
+        ahead = terrain_height(&inst->terrain, w->wx + GRADE_PROBE * hx, w->wy + GRADE_PROBE * hy);
+        behind = terrain_height(&inst->terrain, w->wx - GRADE_PROBE * hx, w->wy - GRADE_PROBE * hy);
         slope[i] = (ahead - behind) / (2.0 * GRADE_PROBE);
         mean += 0.25 * (w->centre_z - radius);
         sx += (w->centre_z - radius) * w->px;
@@ -111,15 +110,36 @@ static void update_geometry(Instance *inst)
     gy = -g * sin(inst->roll) * cos(inst->pitch);
     gz = g * cos(inst->pitch) * cos(inst->roll);
 
+    /* A wheel on the far side of a rock, on a face steeper than the friction cone of the
+     * contact (atan mu) in its direction of travel, cannot rest on it: it slides off and drops
+     * (slowly in milli-g), the chassis rocking onto the other wheels. Its static share of the
+     * load goes to them instead of a face that could carry it only by pushing the rover on. */
+    {
+        double total = 0.0, kept = 0.0;
+        for (i = 0; i < N_WHEELS; i++) {
+            Wheel *w = &inst->wheels[i];
+            double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
+            double load = mass * gz / 4.0 + SIDE_X[i] * mass * gx * cog / (4.0 * hw) +
+                          SIDE_Y[i] * mass * gy * cog / (4.0 * ht);
+            w->load = load > 0.0 ? load : 0.0;
+            w->dropping = w->on_rock && dir * (contact_angle[i] - atan(plane_x)) < -atan(mu);
+            total += w->load;
+            if (!w->dropping) kept += w->load;
+        }
+        for (i = 0; i < N_WHEELS; i++) {
+            Wheel *w = &inst->wheels[i];
+            if (kept <= 0.0) w->dropping = 0;
+            else w->load = w->dropping ? 0.0 : w->load * total / kept;
+        }
+    }
+
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         double path = w->on_rock ? contact_angle[i] :
                       fmax(-MAX_SOIL_GRADE, fmin(MAX_SOIL_GRADE, atan(slope[i])));
         double grade = path - atan(plane_x);
-        /* static load sharing on four wheels with load transfer from the in-plane gravity */
-        double load = mass * gz / 4.0 + SIDE_X[i] * mass * gx * cog / (4.0 * hw) +
-                      SIDE_Y[i] * mass * gy * cog / (4.0 * ht);
-        w->load = load > 0.0 ? load : 0.0;
+        /* loads: static sharing on four wheels with load transfer from the in-plane gravity,
+         * set above */
         w->grade = grade;
         if (w->on_rock) {
             w->capacity = mu * w->load;
