@@ -256,11 +256,23 @@ static int holds_still(Instance *inst, double gx, double gy)
     return sqrt(r[0] * r[0] + r[1] * r[1]) <= hold && fabs(r[2]) <= hold_moment;
 }
 
+/* Can the wheels' full-skid strength hold the in-plane gravity at all? */
+static int can_hold(const Instance *inst)
+{
+    double hold = 0.0;
+    int i;
+    for (i = 0; i < N_WHEELS; i++) {
+        const Wheel *w = &inst->wheels[i];
+        hold += w->capacity * janosi_mobilisation(w->contact_length, w->shear_K);
+    }
+    return inst->r[VR_ROVER_MASS] * sqrt(inst->gx * inst->gx + inst->gy * inst->gy) <= hold;
+}
+
 /* Damped Newton on the three equilibrium equations (forces x, y and yaw moment). Returns 1 when
  * a balance was found (residual below BALANCE_TOLERANCE of the forces at play), 0 when none
  * exists within SPEED_LIMIT: gravity then exceeds what the wheels can hold at any sliding
  * speed, e.g. downhill on a slope steeper than the soil carries. */
-static int solve_balance(Instance *inst, double gx, double gy, double q[3])
+static int solve_balance(Instance *inst, double gx, double gy, double q[3], int from_rest)
 {
     const double arm = inst->r[VR_ROVER_HALF_TRACK];
     const double eps = inst->r[VR_SOLVER_VELOCITY_EPSILON];
@@ -268,8 +280,9 @@ static int solve_balance(Instance *inst, double gx, double gy, double q[3])
     double r[3], guess[3], rg[3], trust, fastest_rim = 0.0, scale;
     int iteration, i, k;
 
-    /* Newton steps are bounded by a trust region of the order of the rim speeds (the far field,
-     * where every shear law saturates and the residual is flat, is reached in steps); the
+    /* Newton steps are bounded by a trust region of the order of the rim speeds (half of twice
+     * the fastest rim speed, at least 1 cm/s: the far field, where every shear law saturates and
+     * the residual is flat, is reached only in steps); 60 iterations reach 30 times that. The
      * velocity itself is bounded only by SPEED_LIMIT, far above any quasi-static balance. */
     for (i = 0; i < N_WHEELS; i++)
         if (fabs(inst->wheels[i].rate) > fastest_rim) fastest_rim = fabs(inst->wheels[i].rate);
@@ -282,7 +295,8 @@ static int solve_balance(Instance *inst, double gx, double gy, double q[3])
         residual(inst, q, gx, gy, r);
         return 1;
     }
-    /* warm start: the previous velocity, or the ideal one if that balances better */
+    /* warm start: the previous velocity (or rest), or the ideal one if that balances better */
+    if (from_rest) q[0] = q[1] = q[2] = 0.0;
     residual(inst, q, gx, gy, r);
     guess[0] = inst->ctrl.active >= 0 ? inst->ctrl.commanded_speed : 0.0;
     guess[1] = 0.0;
@@ -304,12 +318,9 @@ static int solve_balance(Instance *inst, double gx, double gy, double q[3])
         }
         if (solve3(jac, r, dq) != 0) break;
         {
-            /* trust region: grows with the speed already reached */
-            double speed = fabs(q[0]) + fabs(q[1]) + fabs(q[2] * arm);
             double size = fabs(dq[0]) + fabs(dq[1]) + fabs(dq[2] * arm);
-            double region = 0.5 * (trust > speed ? trust : speed);
-            if (size > region)
-                for (i = 0; i < 3; i++) dq[i] *= region / size;
+            if (size > 0.5 * trust)
+                for (i = 0; i < 3; i++) dq[i] *= 0.5 * trust / size;
         }
         for (k = 0; k < 12; k++, lambda *= 0.5) {
             for (i = 0; i < 3; i++) trial[i] = q[i] - lambda * dq[i];
@@ -408,7 +419,27 @@ void rover_step(Instance *inst, double dt)
     {
         const double previous[3] = {inst->u, inst->v, inst->omega};
         double r[3];
-        inst->sliding = !solve_balance(inst, gx, gy, q);
+        int found = solve_balance(inst, gx, gy, q, 0);
+        if (!found) {
+            memcpy(q, previous, sizeof(previous));
+            found = solve_balance(inst, gx, gy, q, 1);
+        }
+        /* Without a balance the rover slides only where physics says none exists: the wheels'
+         * full-skid strength cannot hold the in-plane gravity. Otherwise the search failed on a
+         * balance that exists (a stiff corner of the regularised laws): the velocity stays
+         * within the rim speeds as in the search and follows it as far as inertia allows. */
+        inst->sliding = !found && !can_hold(inst);
+        if (!found && !inst->sliding) {
+            double bound = 0.0;
+            for (i = 0; i < N_WHEELS; i++)
+                if (fabs(inst->wheels[i].rate) * radius > bound) bound = fabs(inst->wheels[i].rate) * radius;
+            bound = 2.0 * bound > 0.01 ? 2.0 * bound : 0.01;
+            for (i = 0; i < 3; i++) {
+                double limit = i == 2 ? bound / inst->r[VR_ROVER_HALF_TRACK] : bound;
+                if (!isfinite(q[i])) q[i] = 0.0;
+                q[i] = q[i] > limit ? limit : (q[i] < -limit ? -limit : q[i]);
+            }
+        }
         if (inst->sliding) {
             /* No quasi-static balance: the net force accelerates the rover (Newton's second
              * law with the wheel forces at the present velocity), an uncontrolled slide. */
