@@ -49,6 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.campaign.evaluation import as_plain
     from idefix_rules.diff import diff_rules, load_source
     from idefix_rules.diff.results import diff_results
     from idefix_rules.errors import UserInputError, error
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         data: dict[str, Any] = {"rules": rules.to_dict(),
                                 "results": results.to_dict() if results is not None else None,
                                 "fail_on": args.fail_on, "exit_code": code}
-        print(json.dumps(data, indent=2, default=str))
+        print(json.dumps(as_plain(data), indent=2, default=str, allow_nan=False))
         return code
     console = make_console()
     print_rules(console, rules)
