@@ -153,6 +153,12 @@ class CompiledRulebook:
             _Condition(p.name, scoped.compile(p.condition), (), p.rationale, p.condition)
             for p in model.prescreens)
 
+        # What a per-run value is, independent of the rulebook it sits in: the expression and
+        # the SI values of the constants it reads (evaluations sharing a source share values).
+        self._value_keys = {
+            **{i.name: self._value_key(i.value) for i in model.indices},
+            **{c.name: self._value_key(c.condition) for c in model.chances}}
+
         read = set().union(*(set(i.reads) for i in self._indices),
                            *(set(c.reads) for c in self._chances))
         provided = set().union(*(inputs_of(name) for name in read)) if read else set()
@@ -163,6 +169,15 @@ class CompiledRulebook:
         """Pickle as the checked model and compile again on loading (closures do not pickle),
         so an evaluator can be shipped to worker processes."""
         return (CompiledRulebook, (self.checked,))
+
+    def _value_key(self, expr: Expr) -> tuple[Any, ...]:
+        constants = []
+        for name in sorted(names_in(expr)):
+            if name in self.constants:
+                value = self.constants[name]
+                constants.append((name, value.tobytes() if isinstance(value, np.ndarray)
+                                  else value))
+        return (expr, tuple(constants), self.derived_settings)
 
     def _signals_read(self, *expressions: Expr) -> tuple[str, ...]:
         names: set[str] = set()
@@ -201,14 +216,17 @@ class CompiledRulebook:
         return DerivedSignals(signals, context, self.derived_settings)
 
     def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
-                 per_sample: bool = True, source: DerivedSignals | None = None
-                 ) -> RunEvaluation:
+                 per_sample: bool = True, source: DerivedSignals | None = None,
+                 shared: dict[Any, Any] | None = None) -> RunEvaluation:
         """Every index, I_max, dominant index and sample, chances, time and energy per run.
 
         ``per_sample=False`` skips the per-sample values (``per_sample`` arrays are
         (runs, 0), ``dominant_sample`` is 0) for callers that need per-run numbers only.
         ``source``: a :meth:`derived_signals` of the same signals and context from a rulebook
         with the same derived settings, so that two rulebooks derive signals once.
+        ``shared``: a dict passed to the evaluations of several rulebooks on the same
+        ``source``; an index value or chance whose expression and constants equal one already
+        computed there is taken from it, not computed again.
         """
         if source is None:
             source = self.derived_signals(signals, context)
@@ -216,7 +234,8 @@ class CompiledRulebook:
             raise ValueError("a shared signal source needs equal derived settings")
         runs, samples = source.runs, source.samples
         frame = Frame(source=source)
-        finite: dict[str, np.ndarray] = {}
+        # Which runs hold only finite values, per signal: shared like the values are.
+        finite: dict[str, np.ndarray] = {} if shared is None else shared.setdefault(_FINITE, {})
 
         def bad_runs(names: tuple[str, ...]) -> np.ndarray:
             flags = np.zeros(runs, dtype=bool)
@@ -231,10 +250,19 @@ class CompiledRulebook:
                 flags |= ~finite[name]
             return flags
 
+        def computed(name: str, closure: Closure) -> np.ndarray:
+            if shared is None:
+                return per_run(closure(frame), runs)
+            key = self._value_keys[name]
+            if key not in shared:
+                shared[key] = per_run(closure(frame), runs)
+            value: np.ndarray = shared[key]
+            return value
+
         values, raw, sample_values, weighted = {}, {}, {}, {}
         with np.errstate(all="ignore"):
             for index in self._indices:
-                value = per_run(index.value(frame), runs)
+                value = computed(index.name, index.value)
                 bad = bad_runs(index.reads) | np.isnan(value)
                 raw[index.name] = np.where(bad, np.nan, value)
                 values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit))
@@ -244,7 +272,7 @@ class CompiledRulebook:
                 else:
                     sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
-            chances = {c.name: per_run(c.test(frame), runs).astype(bool) | bad_runs(c.reads)
+            chances = {c.name: computed(c.name, c.test).astype(bool) | bad_runs(c.reads)
                        for c in self._chances}
         frame.memo.clear()
         stacked = np.stack([weighted[n] for n in self.index_names])
@@ -300,6 +328,9 @@ class CompiledRulebook:
 
     def rank(self, stats_by_path: Mapping[str, PathStatistics]) -> list[str]:
         return statistics.rank(self.rulebook, self.checked.constants, stats_by_path)
+
+
+_FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals
 
 
 def _normalise(value: np.ndarray, limit: float) -> np.ndarray:
