@@ -379,8 +379,9 @@ def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, 
                     extra: list[dict[str, np.ndarray]], context: Any) -> list[Any]:
     """One chunk under every active side (their evaluations, in order). Sides with equal
     derived settings and the same collision signals share one signal source: derived signals
-    are computed once."""
-    sources: dict[tuple[Any, int], Any] = {}
+    are computed once, and so is every index value or chance the two rulebooks write the same
+    (same expression, same constant values)."""
+    sources: dict[tuple[Any, int], tuple[Any, dict[Any, Any]]] = {}
     parts = []
     for side, collision_signals in zip(sides, extra, strict=True):
         if side not in active:
@@ -389,9 +390,10 @@ def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, 
         evaluator = side.evaluator
         key = (evaluator.derived_settings, id(collision_signals) if collision_signals else 0)
         if key not in sources:
-            sources[key] = evaluator.derived_signals(chunk, context)
-        parts.append(evaluator.evaluate(chunk, context, per_sample=False,
-                                        source=sources[key]))
+            sources[key] = (evaluator.derived_signals(chunk, context), {})
+        source, shared = sources[key]
+        parts.append(evaluator.evaluate(chunk, context, per_sample=False, source=source,
+                                        shared=shared))
     return parts
 
 

@@ -235,3 +235,39 @@ def test_a_path_the_campaign_did_not_simulate_but_a_rulebook_accepts_is_not_simu
     assert "run the campaign" in straight_diff.old.reasons[0]
     assert straight_diff.new.verdict == "rejected"
     assert "straight" not in file.old_ranking
+
+
+def test_shared_evaluation_equals_two_separate_evaluations(stored_results: Path) -> None:
+    import numpy as np
+
+    from idefix_rules.campaign.evaluation import run_context
+    from idefix_rules.commands import Command
+    from idefix_rules.diff.evaluators import values_only
+
+    root = Path(__file__).resolve().parents[2] / "rulebooks"
+    old = values_only(load_source(str(root / "history" / "idefix-ops-0.9.0.rules")).checked)
+    new = values_only(load_source(str(root / "idefix-ops.rules")).checked)
+    store = ResultStore.open(stored_results)
+    try:
+        campaign = stored_campaign(store)
+        chain = tuple(Command(*row) for row in store.path_group("smooth-detour")["chain"][()])
+        signals = store.read_runs("smooth-detour", slice(0, 4))
+        signals["collision.hits"] = store.path_group(
+            "smooth-detour")["evaluation/collisions/hits"][()]
+        context = run_context(chain, rover_geometry(campaign), initial_position_sigma(campaign),
+                              store.reference("smooth-detour"))
+    finally:
+        store.close()
+    source, shared = old.derived_signals(signals, context), {}
+    together = [e.evaluate(signals, context, per_sample=False, source=source, shared=shared)
+                for e in (old, new)]
+    apart = [e.evaluate(signals, context, per_sample=False) for e in (old, new)]
+    assert len(shared) > 5  # index values and chances written alike in both rulebooks
+    for joint, alone in zip(together, apart, strict=True):
+        for name in alone.index_names:
+            np.testing.assert_array_equal(joint.values[name], alone.values[name])
+            np.testing.assert_array_equal(joint.raw[name], alone.raw[name])
+        for name in alone.chance_names:
+            np.testing.assert_array_equal(joint.chances[name], alone.chances[name])
+        np.testing.assert_array_equal(joint.i_max, alone.i_max)
+        np.testing.assert_array_equal(joint.dominant, alone.dominant)
