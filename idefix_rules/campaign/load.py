@@ -140,7 +140,8 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
             span = locations.span((*loc, "distribution"))
         else:
             message = item["msg"]
-            span = locations.span(loc)
+            # "[key]": pydantic's marker for a mistake in a mapping key, not its value
+            span = locations.span(loc, at_key=item["loc"][-1:] == ("[key]",))
         where = format_loc(loc)
         text = f"{where}: {message}" if where else message
         if (text, str(span)) in seen:

@@ -41,7 +41,7 @@ from idefix_rules.campaign.validate import (
     prepare_output,
 )
 from idefix_rules.campaign.yamlsource import load_yaml
-from idefix_rules.errors import InfrastructureError
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 
 SUMMARY_FILE = "summary.json"
 
@@ -138,8 +138,13 @@ def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignF
     store.file.flush()
     outputs.write_summary(output / SUMMARY_FILE, data)
     if junit is not None:
-        junit.parent.mkdir(parents=True, exist_ok=True)
-        junit.write_text(outputs.junit_xml(evaluation, checks, name), encoding="utf-8")
+        try:
+            junit.parent.mkdir(parents=True, exist_ok=True)
+            junit.write_text(outputs.junit_xml(evaluation, checks, name), encoding="utf-8")
+        except OSError as failure:  # the results are stored already: say so
+            raise UserInputError(error(
+                "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
+                Span(str(junit)), hint=f"the results are in {store.file.filename}")) from None
     return CampaignResult(Path(store.file.filename), evaluation, checks, data, code)
 
 

@@ -337,15 +337,31 @@ class SimulationSection(Strict):
     extra_time: Duration = Field(default=5.0, ge=0)
 
 
+def _path_name(value: Any) -> Any:
+    # Path names become HDF5 group names, file names of figures and JUnit test names.
+    if isinstance(value, str) and (not value.strip() or "/" in value or value in (".", "..")):
+        raise PydanticCustomError("path_name", "path name {name} is not usable: give a "
+                                  "non-empty name without '/'", {"name": repr(value)})
+    return value
+
+
+PathName = Annotated[str, BeforeValidator(_path_name)]
+
+# Monte Carlo runs per path: the paper's campaigns use hundreds; a million already means
+# results files of terabytes, so more is refused rather than attempted.
+MAX_RUNS = 1_000_000
+
+
 class CampaignFile(Strict):
     name: str | None = None
     description: str = ""
     fmu: FmuSection = FmuSection()
     environment: EnvironmentSection = EnvironmentSection()
     uncertainty: UncertaintySection = UncertaintySection()
-    paths: dict[str, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(min_length=1)
+    paths: dict[PathName, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(
+        min_length=1)
     # StrictInt: YAML's `true` is not a run count or a seed
-    runs: StrictInt = Field(default=100, ge=1)
+    runs: StrictInt = Field(default=100, ge=1, le=MAX_RUNS)
     rulebook: str
     output: str = "results"
     workers: StrictInt | Literal["auto"] = "auto"

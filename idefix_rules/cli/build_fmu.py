@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from idefix_rules.cli.destinations import output_file
 
 NAME = "build-fmu"
 HELP = "build the rover FMU from its C sources for this platform and print the .fmu path"
@@ -13,7 +14,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cached", action="store_true",
                         help="reuse the cached FMU when one was built from these sources "
                              "(default: always rebuild)")
-    parser.add_argument("--output", "-o", type=Path, default=None,
+    parser.add_argument("--output", "-o", type=output_file, default=None,
                         help="write the .fmu here instead of the cache "
                              "($IDEFIX_CACHE or ~/.cache/idefix-rules)")
     parser.add_argument("--validate", action="store_true",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.run import make_console, print_outcome
 
 NAME = "evaluate"
@@ -17,8 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("results", type=Path, help="results.h5 of a campaign")
     parser.add_argument("--rulebook", type=Path,
                         help="rulebook to score with (default: the one stored in the results)")
-    parser.add_argument("--junit", type=Path, metavar="FILE", help="write JUnit XML")
-    parser.add_argument("--out", type=Path,
+    parser.add_argument("--junit", type=output_file, metavar="FILE", help="write JUnit XML")
+    parser.add_argument("--out", type=output_folder,
                         help="folder for summary.json (default: next to results.h5)")
     parser.add_argument("--quiet", action="store_true", help="accepted for symmetry with run")
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from rich.console import Console
 
+from idefix_rules.cli.destinations import output_folder
 from idefix_rules.report import write_report
 
 NAME = "report"
@@ -23,7 +24,7 @@ HELP = ("Write the HTML report of a results file: Table 1, the result map per pa
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("results", type=Path, metavar="RESULTS_H5",
                         help="results file written by a campaign run (results.h5)")
-    parser.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
+    parser.add_argument("-o", "--out", type=output_folder, default=None, metavar="DIR",
                         help="output folder (default: the results file's folder)")
 
 

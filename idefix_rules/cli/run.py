@@ -21,7 +21,9 @@ from rich.table import Table
 from idefix_rules.campaign.evaluation import CampaignEvaluation
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.outputs import ExpectationResult
+from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
+from idefix_rules.cli.destinations import output_file, output_folder
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -31,9 +33,9 @@ HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo),
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (YAML)")
-    parser.add_argument("--runs", type=_positive_int, help="Monte Carlo runs per path "
-                        "(overrides the campaign's `runs`)")
-    parser.add_argument("--out", type=Path, help="output folder (overrides `output`)")
+    parser.add_argument("--runs", type=_run_count, help="Monte Carlo runs per path "
+                        f"(overrides the campaign's `runs`; at most {MAX_RUNS})")
+    parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
     parser.add_argument("--seed", type=_non_negative_int, help="campaign seed (overrides "
                         "`uncertainty.seed`)")
     parser.add_argument("--workers", type=_positive_int,
@@ -42,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a run taking longer is killed and recorded as failed")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted campaign: simulate only missing runs")
-    parser.add_argument("--junit", type=Path, metavar="FILE",
+    parser.add_argument("--junit", type=output_file, metavar="FILE",
                         help="write JUnit XML: one test case per path and per expectation")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress bars (CI logs); the result table is still printed")
@@ -58,6 +60,13 @@ def _positive_int(text: str) -> int:
     value = _integer(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}")
+    return value
+
+
+def _run_count(text: str) -> int:
+    value = _positive_int(text)
+    if value > MAX_RUNS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_RUNS} runs per path, got {text}")
     return value
 
 

@@ -1,0 +1,38 @@
+"""Argument types for where the command line writes: refused at parse time (usage error,
+exit 2) when the file or folder cannot be written, so a long campaign never ends in a crash
+at its last step. Nothing is created here; the commands create what they need.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+
+def output_folder(text: str) -> Path:
+    """A folder to write into: an existing writable folder, or one that can be created."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    _creatable(path, text)
+    return path
+
+
+def output_file(text: str) -> Path:
+    """A file to (over)write: not a folder, inside a folder that exists or can be created."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give a file name")
+    _creatable(path.parent, text)
+    return path
+
+
+def _creatable(folder: Path, text: str) -> None:
+    existing = folder.absolute()
+    while not existing.exists():  # the first existing ancestor decides
+        existing = existing.parent
+    if not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"cannot write {text}: {existing} is a file")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"cannot write {text}: {existing} is not writable")
