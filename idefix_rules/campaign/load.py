@@ -198,7 +198,10 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
     found: list[Diagnostic] = []
 
     def need_file(relative: str, loc: tuple[str | int, ...], what: str) -> None:
-        if not (base / relative).is_file():
+        if (base / relative).is_dir():
+            found.append(error("C200", f"{format_loc(loc)}: {what} {relative!r} is a folder, "
+                                       "not a file", locations.span(loc)))
+        elif not (base / relative).is_file():
             found.append(error("C200", f"{format_loc(loc)}: {what} {relative!r} not found "
                                        f"(relative paths start at the campaign file's folder)",
                                locations.span(loc)))

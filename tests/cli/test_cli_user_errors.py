@@ -250,6 +250,8 @@ CASES = [
     # ----------------------------------------------------------------- FMU
     Case("fmu-missing", campaign(("path: toy.fmu", "path: nope.fmu")), RUN, 2,
          ("campaign.yaml:3:9: error[C200]: fmu.path: FMU 'nope.fmu' not found",)),
+    Case("fmu-a-folder", campaign(("path: toy.fmu", "path: .")), RUN, 2,
+         ("campaign.yaml:3:9: error[C200]: fmu.path: FMU '.' is a folder, not a file",)),
     Case("fmu-not-a-zip", with_files(campaign(), toy__fmu="not a zip"), RUN, 2,
          ("campaign.yaml:3:9: error[C400]:", "not a readable FMU (File is not a zip file)")),
     Case("fmu-fmi3", with_files(campaign(), toy__fmu=fmu_with_description(FMI3)), RUN, 2,
