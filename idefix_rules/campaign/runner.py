@@ -170,6 +170,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         else:
             rulebook_path = rulebook
             evaluator = compile_rulebook_file(rulebook)
+        _check_stored_signals(store, evaluator, results)
         output = out or results.parent
         collisions = collision_function(model.environment, evaluator,
                                         read_terrain(results.parent))
@@ -180,6 +181,30 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         return _finish(store, evaluation, model, output, junit, name)
     finally:
         store.close()
+
+
+def _check_stored_signals(store: ResultStore, evaluator: Any, results: Path) -> None:
+    """The rulebook may read only FMU signals the stored runs hold (a rulebook other than the
+    campaign's can need one its FMU map did not provide)."""
+    from idefix_rules.signals import FMU_SIGNALS
+
+    required = {name for name in getattr(evaluator, "required_signals", ())
+                if name in FMU_SIGNALS}
+    problems = []
+    for name in store.path_names:
+        runs = store.path_group(name).get("runs")
+        signals = runs.get("signals") if runs is not None else None
+        if signals is None:
+            continue  # rejected or excluded before simulation: nothing to evaluate
+        missing = sorted(required - set(signals))
+        if missing:
+            problems.append(error(
+                "H011", f"the rulebook reads {', '.join(map(repr, missing))}, which the stored "
+                        f"runs of path {name!r} do not hold", Span(str(results)),
+                hint="the campaign's FMU signal map did not provide it: simulate again with "
+                     "it mapped, or score with a rulebook that does not read it"))
+    if problems:
+        raise UserInputError(problems)
 
 
 def _compile_text(text: str, path: Path) -> Any:

@@ -496,3 +496,21 @@ def test_resume_without_results_warns_and_resume_of_another_campaign_is_refused(
     assert "results.h5: error[H010]: cannot resume" in output
     assert "its seed is 5, this campaign's is 6" in " ".join(output.split())
     assert "Traceback" not in output
+
+
+def test_evaluate_with_a_rulebook_reading_a_signal_the_results_lack(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) in (0, 1)
+    results = tmp_path / "out" / "results.h5"
+    assert main(["evaluate", str(results)]) in (0, 1)  # the stored rulebook: fine
+    with h5py.File(results, "r+") as file:  # as if the FMU map had not provided the slip
+        del file["paths/arc/runs/signals/wheel.slip"]
+    capsys.readouterr()
+    assert main(["evaluate", str(results)]) == 2
+    output = "".join(capsys.readouterr())
+    assert f"{results}: error[H011]: the rulebook reads 'wheel.slip', which the stored runs " \
+           "of path 'arc' do not hold" in " ".join(output.split())
+    assert "Traceback" not in output
