@@ -23,6 +23,7 @@ from idefix_rules.errors import Span, UserInputError, error
 
 MAGIC = "IDEFIX-TERRAIN 1"
 MAX_ROCKS = 4096
+MAX_NODES = 16_000_000  # nx*ny, as the FMU reads it
 
 
 @dataclass(frozen=True)
@@ -169,8 +170,11 @@ def read_terrain(path: str | Path) -> Terrain:
     rocks: list[Rock] = []
     offset, line_number = 0, 0
 
-    def fail(message: str) -> UserInputError:
-        return UserInputError(error("F204", message, Span(str(path), line_number, 1)))
+    lines: dict[str, int] = {}  # header key → its line, for messages about its values
+
+    def fail(message: str, key: str | None = None) -> UserInputError:
+        line = lines.get(key, line_number) if key else line_number
+        return UserInputError(error("F204", message, Span(str(path), line, 1)))
 
     while True:
         end = data.find(b"\n", offset)
@@ -197,24 +201,38 @@ def read_terrain(path: str | Path) -> Terrain:
                 x, y, z, a, b, c = (float(v) for v in values[:6])
             except ValueError:
                 raise fail("expected 'rock x y z a b c [level]'") from None
-            if len(values) not in (6, 7) or min(a, b, c) <= 0:
-                raise fail("expected 'rock x y z a b c [level]' with positive semi-axes")
+            if len(values) not in (6, 7) or not min(a, b, c) > 0 \
+                    or not np.all(np.isfinite((x, y, z, a, b, c))):
+                raise fail("expected 'rock x y z a b c [level]' with finite values and "
+                           "positive semi-axes")
+            if len(values) == 7 and values[6] not in ("L1", "L2", "L3"):
+                raise fail(f"rock level '{values[6]}': expected L1, L2 or L3")
             rocks.append(Rock(x, y, a, b, c, z=z, level=values[6] if len(values) == 7 else None))
             continue
         if key not in ("nx", "ny", "origin", "cell", "rocks"):
             raise fail(f"unknown header line '{key}'")
         header[key] = values
-    try:
-        nx, ny = int(header["nx"][0]), int(header["ny"][0])
-        x0, y0 = (float(v) for v in header["origin"][:2])
-        cell = float(header["cell"][0])
-        count = int(header.get("rocks", ["0"])[0])
-    except (KeyError, IndexError, ValueError):
-        raise fail("header needs 'nx N', 'ny N', 'origin X Y', 'cell C'") from None
-    if nx < 2 or ny < 2 or cell <= 0:
-        raise fail("need nx >= 2, ny >= 2 and cell > 0")
+        lines[key] = line_number
+
+    def number(key: str, parse: type[int] | type[float], index: int = 0) -> float:
+        try:
+            return parse(header[key][index])
+        except (KeyError, IndexError, ValueError):
+            raise fail("header needs 'nx N', 'ny N', 'origin X Y', 'cell C'",
+                       key if key in header else None) from None
+
+    nx, ny = int(number("nx", int)), int(number("ny", int))
+    x0, y0 = number("origin", float), number("origin", float, 1)
+    cell = number("cell", float)
+    count = int(number("rocks", int)) if "rocks" in header else 0
+    if nx < 2 or ny < 2 or nx * ny > MAX_NODES:
+        raise fail(f"need nx >= 2, ny >= 2 and nx*ny <= {MAX_NODES}", "ny" if ny < 2 else "nx")
+    if not (cell > 0 and np.isfinite(cell)):
+        raise fail("need a finite cell > 0", "cell")
+    if not np.all(np.isfinite((x0, y0))):
+        raise fail("need a finite origin", "origin")
     if count != len(rocks):
-        raise fail(f"'rocks {count}' but {len(rocks)} rock lines")
+        raise fail(f"'rocks {count}' but {len(rocks)} rock lines", "rocks")
     expected = nx * ny * 8
     if len(data) - offset != expected:
         raise fail(f"height grid holds {len(data) - offset} bytes, expected {expected} "

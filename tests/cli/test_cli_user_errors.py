@@ -91,9 +91,12 @@ def with_files(files: Files, **more: object) -> Files:
     return {**files, **{name.replace("__", "."): value for name, value in more.items()}}
 
 
-def terrain_file(header: str = "", heights: np.ndarray | None = None, cut: int = 0) -> bytes:
-    text = header or ("IDEFIX-TERRAIN 1\nnx 3\nny 3\norigin -1.0 -1.0\ncell 1.0\nrocks 0\n"
-                      "heights\n")
+TERRAIN_HEADER = "IDEFIX-TERRAIN 1\nnx 3\nny 3\norigin -1.0 -1.0\ncell 1.0\nrocks 0\nheights\n"
+
+
+def terrain_file(header: str = TERRAIN_HEADER, heights: np.ndarray | None = None,
+                 cut: int = 0) -> bytes:
+    text = header
     grid = (np.zeros(9) if heights is None else heights).astype("<f8").tobytes()
     return text.encode() + (grid[:-cut] if cut else grid)
 
@@ -294,6 +297,21 @@ CASES = [
                                                    "    dem: site.dem\npaths:")),
                                         site__dem=b"IDEFIX 2\n" + bytes(72)), RUN, 2,
          ("site.dem:1:1: error[F204]: expected 'IDEFIX-TERRAIN 1' as the first line",)),
+    Case("dem-nx-not-a-number", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                      "    dem: site.dem\npaths:")),
+                                           site__dem=terrain_file(
+                                               header=TERRAIN_HEADER.replace("nx 3", "nx three"))),
+         RUN, 2, ("site.dem:2:1: error[F204]: header needs 'nx N'",)),
+    Case("dem-cell-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                               "    dem: site.dem\npaths:")),
+                                    site__dem=terrain_file(
+                                        header=TERRAIN_HEADER.replace("cell 1.0", "cell nan"))),
+         RUN, 2, ("site.dem:5:1: error[F204]: need a finite cell > 0",)),
+    Case("dem-rock-level-unknown", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                        "    dem: site.dem\npaths:")),
+                                              site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                                                  "rocks 0\n", "rocks 1\nrock 0 0 0 1 1 1 L9\n"))),
+         RUN, 2, ("site.dem:7:1: error[F204]: rock level 'L9': expected L1, L2 or L3",)),
     Case("dem-csv-bad-value", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
