@@ -80,11 +80,30 @@ class Diagnostic:
                     width = 1
                     if span.end_line == span.line and span.end_column > col:
                         width = span.end_column - col
+                    src, col, width = _clip(src, col, width)
                     lines.append(f"    {src}")
                     lines.append("    " + " " * (col - 1) + "^" * width)
         if self.hint:
             lines.append(f"    hint: {self.hint}")
         return "\n".join(lines)
+
+
+# Source lines longer than this are shown as a window around the caret (a generated or
+# pathological line can be megabytes long).
+SHOWN_LINE = 160
+
+
+def _clip(line: str, column: int, width: int) -> tuple[str, int, int]:
+    """``line`` cut to :data:`SHOWN_LINE` characters around ``column`` (``…`` marks cuts)."""
+    if len(line) <= SHOWN_LINE:
+        return line, column, width
+    start = max(0, min(column - 1 - SHOWN_LINE // 4, len(line) - SHOWN_LINE))
+    shown = line[start:start + SHOWN_LINE]
+    prefix = "…" if start > 0 else ""
+    suffix = "…" if start + SHOWN_LINE < len(line) else ""
+    column = column - start + len(prefix)
+    width = max(1, min(width, SHOWN_LINE - (column - 1 - len(prefix))))
+    return prefix + shown + suffix, column, width
 
 
 def read_user_text(path: str | Path, code: str, what: str) -> str:

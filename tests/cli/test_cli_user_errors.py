@@ -163,7 +163,8 @@ CASES = [
          ("notes/r.rules: error[E002]: cannot read rulebook file notes/r.rules: Not a directory",)),
     Case("rulebook-nested-too-deeply",
          {"r.rules": RULEBOOK + "const deep = " + "abs(" * 3000 + "1" + ")" * 3000 + "\n"},
-         ("check", "r.rules"), 2, ("r.rules:23:1: error[E001]: expression nested too deeply",)),
+         ("check", "r.rules"), 2, ("r.rules:23:1: error[E001]: expression nested too deeply",),
+         absent=("abs(" * 60,)),  # a long source line is shown as a window around the caret
     Case("rulebook-long-sum", {"r.rules": RULEBOOK + "const sum = " + "1 + " * 3000 + "1\n"},
          ("check", "r.rules"), 2, ("r.rules:23:1: error[E001]: expression nested too deeply",)),
     Case("rulebook-crlf", {"r.rules": RULEBOOK.replace("\n", "\r\n")}, ("check", "r.rules"), 0,
