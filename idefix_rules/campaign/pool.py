@@ -218,7 +218,15 @@ class DaskPool:
                 n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True)
             self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
         else:
-            self._client = Client(address)  # type: ignore[no-untyped-call]
+            from idefix_rules.errors import InfrastructureError, UserInputError
+
+            try:
+                self._client = Client(address)  # type: ignore[no-untyped-call]
+            except ValueError as failure:  # not an address at all: a usage mistake
+                raise UserInputError(f"--scheduler {address!r}: {failure}") from None
+            except OSError as failure:  # no scheduler answers there
+                raise InfrastructureError(f"cannot reach the Dask scheduler {address}: "
+                                          f"{failure}") from None
         self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:

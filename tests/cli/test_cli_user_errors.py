@@ -362,6 +362,8 @@ CASES = [
     Case("build-fmu-output-is-a-folder", {"out": FOLDER}, ("build-fmu", "-o", "out"), 2,
          ("argument --output/-o: out is a folder; give a file name",)),
     # ----------------------------------------------------------------- run options
+    Case("option-scheduler-not-an-address", campaign(), (*RUN, "--scheduler", "no address"), 2,
+         ("--scheduler 'no address': missing port number",)),
     Case("option-runs-zero", campaign(), ("campaign.yaml", "--runs", "0"), 2,
          ("argument --runs: expected a positive whole number, got 0",)),
     Case("option-runs-negative", campaign(), ("campaign.yaml", "--runs", "-1"), 2,
@@ -532,4 +534,19 @@ def test_evaluate_with_a_rulebook_reading_a_signal_the_results_lack(
     output = "".join(capsys.readouterr())
     assert f"{results}: error[H011]: the rulebook reads 'wheel.slip', which the stored runs " \
            "of path 'arc' do not hold" in " ".join(output.split())
+    assert "Traceback" not in output
+
+
+def test_an_unreachable_dask_scheduler_is_exit_3_and_says_so(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import dask
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        code = main([*RUN, "--scheduler", "tcp://127.0.0.1:1"])
+    output = "".join(capsys.readouterr())
+    assert code == 3
+    assert "cannot reach the Dask scheduler tcp://127.0.0.1:1" in output
     assert "Traceback" not in output
