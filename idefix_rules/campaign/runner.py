@@ -178,7 +178,15 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
                                     initial_position_sigma(stub), collisions,
                                     rulebook_info(evaluator, rulebook_path))
         name = str(store.attrs.get("campaign_name", "campaign"))
-        return _finish(store, evaluation, model, output, junit, name)
+        result = _finish(store, evaluation, model, output, junit, name)
+        state = str(store.attrs.get("state", "complete"))
+        if state != "complete":  # its missing runs count as failed: say why
+            result.warnings.append(
+                f"{results} holds a campaign that is {state}: runs never simulated count as "
+                f"failed; continue it with `idefix-verify {stub.source} --resume --out "
+                f"{results.parent} --runs {store.attrs.get('runs')} --seed "
+                f"{store.attrs.get('seed')}`")
+        return result
     finally:
         store.close()
 

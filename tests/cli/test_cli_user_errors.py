@@ -550,3 +550,20 @@ def test_an_unreachable_dask_scheduler_is_exit_3_and_says_so(
     assert code == 3
     assert "cannot reach the Dask scheduler tcp://127.0.0.1:1" in output
     assert "Traceback" not in output
+
+
+def test_evaluating_an_interrupted_campaign_says_how_to_continue_it(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) in (0, 1)
+    results = tmp_path / "out" / "results.h5"
+    with h5py.File(results, "r+") as file:
+        file.attrs["state"] = "interrupted"
+    capsys.readouterr()
+    assert main(["evaluate", str(results)]) in (0, 1)
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert f"warning: {results} holds a campaign that is interrupted: runs never simulated " \
+           "count as failed" in output
+    assert f"--resume --out {results.parent} --runs 2 --seed 5" in output
