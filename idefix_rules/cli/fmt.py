@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
                 replace_text(path, text)
             except OSError as failure:
                 invalid.append(UserInputError(error(
-                    "E003", f"cannot write {name}: {failure.strerror or failure}; the file is "
+                    "E010", f"cannot write {name}: {failure.strerror or failure}; the file is "
                             "unchanged", Span(name))))
                 continue
             console.print(f"reformatted {name}", markup=False)

@@ -8,6 +8,7 @@ constant value the compiler needs already in SI.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -195,6 +196,11 @@ def resolve_constants(env: _Env) -> list[Diagnostic]:
             problems.append(error("E402", f"constant '{name}' cannot be computed: {failure}",
                                   constant.value.span))
             return
+        values = value.values() if isinstance(value, dict) else [value]
+        if not all(math.isfinite(float(v)) for v in values):
+            problems.append(error("E402", f"constant '{name}' is not a finite number (a "
+                                          "division by zero?)", constant.value.span))
+            return
         env.constant_types[name] = found
         env.constants[name] = value
 
@@ -301,7 +307,13 @@ def _constant_quantity(env: _Env, expr: Expr, wanted: object, what: str,
         value = fold(expr, env.constants)
     except NotConstant:
         return None
-    return float(value) if not isinstance(value, dict) else None
+    if isinstance(value, dict):
+        return None
+    if not math.isfinite(float(value)):
+        problems.append(error("E402", f"{what} is not a finite number ({float(value)}; a "
+                                      "division by zero?)", expr.span))
+        return None
+    return float(value)
 
 
 def check_obstacle_levels(env: _Env) -> list[Diagnostic]:

@@ -172,6 +172,12 @@ CASES = [
     Case("rulebook-crlf-error-line", {"r.rules": RULEBOOK.replace("\n", "\r\n")
                                       .replace("limit  = critical_slip", "limit  = critcal")},
          ("check", "r.rules"), 2, ("r.rules:14:12: error[E101]: unknown name 'critcal'",)),
+    Case("rulebook-constant-divided-by-zero", {"r.rules": RULEBOOK.replace(
+        "const critical_slip = 70 %", "const critical_slip = 70 % / 0")}, ("check", "r.rules"),
+         2, ("r.rules:4:23: error[E402]: constant 'critical_slip' is not a finite number",)),
+    Case("rulebook-limit-divided-by-zero", {"r.rules": RULEBOOK.replace(
+        "limit  = critical_slip", "limit  = 1 m / 0 m")}, ("check", "r.rules"), 2,
+         ("r.rules:14:12: error[E402]: the limit of index 'I_s' is not a finite number",)),
     Case("rulebook-path-with-spaces-and-unicode", {"räder prüfung.rules": RULEBOOK},
          ("check", "räder prüfung.rules"), 0, ("räder prüfung.rules: ok",)),
     Case("explain-missing", {}, ("explain", "r.rules"), 2, ("rulebook file not found: r.rules",)),
@@ -495,7 +501,7 @@ def test_fmt_that_cannot_write_leaves_the_file_and_exits_2(
     monkeypatch.setattr(fmt.os, "replace", disk_full)
     assert main(["fmt", str(path)]) == 2
     output = "".join(capsys.readouterr())
-    assert f"{path}: error[E003]: cannot write {path}: No space left on device; the file is " \
+    assert f"{path}: error[E010]: cannot write {path}: No space left on device; the file is " \
            "unchanged" in " ".join(output.split())
     assert "Traceback" not in output
     assert path.read_text() == original
