@@ -12,9 +12,13 @@ Three stages per chunk of runs (``docs/obstacles.md`` has the derivations):
    axis-aligned box. Only (run, body, piece) stretches of blocks whose lower bound is within the
    clearance cap go on.
 3. **Narrow phase (fcl, conservative advancement).** Along each stretch, fcl's exact distance
-   ``d`` at an anchor sample holds within ``±Δu`` for the samples that follow. The next anchor is
+   ``d`` at an anchor sample holds within ``±Δu`` for the samples that follow. fcl's GJK answers
+   are certified first (:func:`certified_distance`: a support-function lower bound, a retry
+   with the objects swapped when it disagrees, the remaining uncertainty taken off the
+   allowance), since GJK now and then reports a distance far too large. The next anchor is
    the last sample before ``Δu`` reaches an allowance chosen so that no contact or buffer
-   decision can flip (``|d - tolerance|``, ``|d - margin|``, in contact the penetration depth)
+   decision can flip (``|d - tolerance|``, ``|d - margin|``, in overlap how deep a witness point
+   of the body lies inside the obstacle)
    and the clearance error stays within the resolution. When the next sample is beyond the
    allowance it is measured too, and the gap between the two is filled with interpolated poses
    only if a contact or buffer entry could hide in it. So no obstacle is skipped between samples
@@ -305,18 +309,175 @@ def _broad_phase(position: np.ndarray, rotation: np.ndarray, cum: np.ndarray,
     return out
 
 
-_DEPTH_REQUEST = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
-_DEPTH_SAFETY = 0.9  # use 90 % of fcl's penetration depth (EPA is iterative)
-_DEPTH_PAUSE = 8  # contact anchors without a depth query after a shallow answer
+Support = Callable[[float, float, float], float]
 
 
-def _penetration_depth(body: fcl.CollisionObject, piece: fcl.CollisionObject) -> float:
-    """fcl's penetration depth of two overlapping objects, 0 when they do not overlap."""
-    result = fcl.CollisionResult()
-    fcl.collide(body, piece, _DEPTH_REQUEST, result)
-    if not result.is_collision or not result.contacts:
+def support_function(shape: str, size: tuple[float, ...], vertices: np.ndarray | None = None
+                     ) -> Support:
+    """The support function ``h(v) = max over the shape of v · x`` in the shape's own frame
+    (fcl's conventions: box full lengths, cylinder axis along z, ellipsoid semi-axes); plain
+    floats, as it runs once or twice per fcl distance call."""
+    if shape == "box":
+        hx, hy, hz = (float(s) / 2.0 for s in size)
+        return lambda x, y, z: abs(x) * hx + abs(y) * hy + abs(z) * hz
+    if shape == "cylinder":
+        radius, half_length = float(size[0]), float(size[1]) / 2.0
+        return lambda x, y, z: radius * math.sqrt(x * x + y * y) + half_length * abs(z)
+    if shape == "ellipsoid":
+        a, b, c = (float(s) for s in size)
+        return lambda x, y, z: math.sqrt((a * x) ** 2 + (b * y) ** 2 + (c * z) ** 2)
+    if shape == "sphere":
+        radius = float(size[0])
+        return lambda x, y, z: radius * math.sqrt(x * x + y * y + z * z)
+    assert vertices is not None
+    points = np.asarray(vertices, float)
+    return lambda x, y, z: float((points @ np.array([x, y, z])).max())
+
+
+def piece_support(piece: Piece) -> Support:
+    """The support function of a placed obstacle piece in world directions: ``n · c + h(Rᵀ n)``
+    (pieces do not move, so this is set up once)."""
+    local = support_function(piece.shape, piece.size, piece.vertices)
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(piece.rotation,
+                                                                   float).tolist()
+    cx, cy, cz = np.asarray(piece.centre, float).tolist()
+    return lambda x, y, z: x * cx + y * cy + z * cz + local(
+        r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z, r02 * x + r12 * y + r22 * z)
+
+
+_NEAREST_REQUEST = fcl.DistanceRequest(enable_nearest_points=True)
+
+
+def certified_distance(body_object: fcl.CollisionObject, body_support: Support,
+                       piece_object: fcl.CollisionObject, piece_world: Support,
+                       slack: float) -> tuple[float, float]:
+    """fcl's distance of a body to a piece with a proven lower bound: ``(distance, lower)``.
+
+    fcl answers shape pairs without a closed form (box or cylinder against ellipsoid, box or
+    convex hull) with GJK, which now and then stops at a wrong simplex and reports a distance
+    far too large (0.29 m for an exact 0.146 m, chassis against an ellipsoid; about one call in
+    2000 off by more than 1 mm, in any world frame). The distance it returns is that of two
+    points of the shapes, so it bounds the exact distance from above. Any unit direction ``n``
+    bounds it from below: ``min over the piece of n · x − max over the body of n · x``, from
+    the support functions (``body_support`` in the body's frame, ``piece_world`` of the placed
+    piece, :func:`piece_support`). Along the direction between fcl's nearest points this bound
+    equals the distance when GJK converged. When the two differ by more than ``slack``, the
+    query is repeated with the objects swapped (GJK starts elsewhere) and the best bounds of
+    both are kept. Overlap (fcl's ``-1``) is returned as it is.
+    """
+    result = fcl.DistanceResult()
+    distance = fcl.distance(body_object, piece_object, _NEAREST_REQUEST, result)
+    if distance <= 0.0:
+        return distance, distance
+    lower = _lower_bound(body_object, body_support, piece_world, result.nearest_points[0],
+                         result.nearest_points[1])
+    if distance - lower <= slack:
+        return distance, lower
+    result = fcl.DistanceResult()
+    swapped = fcl.distance(piece_object, body_object, _NEAREST_REQUEST, result)
+    if swapped <= 0.0:
+        return swapped, swapped
+    lower = max(lower, _lower_bound(body_object, body_support, piece_world,
+                                    result.nearest_points[1], result.nearest_points[0]))
+    distance = min(distance, swapped)
+    return distance, min(lower, distance)
+
+
+def _lower_bound(body_object: fcl.CollisionObject, body_support: Support, piece_world: Support,
+                 on_body: np.ndarray, on_piece: np.ndarray) -> float:
+    """Separation of the two shapes along the direction from ``on_body`` to ``on_piece``
+    (a lower bound of their distance for any direction; 0 if the points coincide)."""
+    (bx, by, bz), (px, py, pz) = on_body.tolist(), on_piece.tolist()
+    nx, ny, nz = px - bx, py - by, pz - bz
+    length = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if length <= 1e-12:
         return 0.0
-    return max(0.0, float(result.contacts[0].penetration_depth))
+    nx, ny, nz = nx / length, ny / length, nz / length
+    # The body's support in the world direction n: n · t + h(Rᵀ n).
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = body_object.getRotation().tolist()
+    tx, ty, tz = body_object.getTranslation().tolist()
+    body_reach = nx * tx + ny * ty + nz * tz + body_support(
+        r00 * nx + r10 * ny + r20 * nz, r01 * nx + r11 * ny + r21 * nz,
+        r02 * nx + r12 * ny + r22 * nz)
+    piece_start = -piece_world(-nx, -ny, -nz)
+    return max(0.0, piece_start - body_reach)
+
+
+Inside = Callable[[float, float, float], float]
+
+
+def piece_inside(piece: Piece) -> Inside:
+    """``inside(x, y, z)``: a lower bound of how deep the world point lies inside the piece
+    (the radius of a ball around it that the piece contains; ≤ 0 outside)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(piece.rotation,
+                                                                   float).tolist()
+    cx, cy, cz = np.asarray(piece.centre, float).tolist()
+
+    def local(x: float, y: float, z: float) -> tuple[float, float, float]:
+        x, y, z = x - cx, y - cy, z - cz
+        return (r00 * x + r10 * y + r20 * z, r01 * x + r11 * y + r21 * z,
+                r02 * x + r12 * y + r22 * z)
+
+    if piece.shape == "sphere":
+        radius = float(piece.size[0])
+        return lambda x, y, z: radius - math.sqrt(sum(v * v for v in local(x, y, z)))
+    if piece.shape == "ellipsoid":
+        # At scaled radius ρ = |D⁻¹ v| < 1 the ball of radius (1 − ρ)·min(a, b, c) is inside.
+        a, b, c = (float(s) for s in piece.size)
+        shortest = min(a, b, c)
+
+        def in_ellipsoid(x: float, y: float, z: float) -> float:
+            u, v, w = local(x, y, z)
+            return (1.0 - math.sqrt((u / a) ** 2 + (v / b) ** 2 + (w / c) ** 2)) * shortest
+
+        return in_ellipsoid
+    if piece.shape == "box":
+        hx, hy, hz = (float(s) / 2.0 for s in piece.size)
+
+        def in_box(x: float, y: float, z: float) -> float:
+            u, v, w = local(x, y, z)
+            return min(hx - abs(u), hy - abs(v), hz - abs(w))
+
+        return in_box
+    assert piece.vertices is not None and piece.faces is not None
+    vertices = np.asarray(piece.vertices, float)
+    corners = vertices[np.asarray(piece.faces, int)]  # (faces, 3, 3)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    offsets = np.einsum("fi,fi->f", normals, corners[:, 0])
+    outward = np.where(offsets >= normals @ vertices.mean(axis=0), 1.0, -1.0)
+    normals, offsets = normals * outward[:, None], offsets * outward
+    return lambda x, y, z: float((offsets - normals @ np.array(local(x, y, z))).min())
+
+
+def body_point_near(body: Body) -> Callable[[fcl.CollisionObject, float, float, float],
+                                             tuple[float, float, float]]:
+    """``near(placed, x, y, z)``: the point of the placed body nearest the world point (the box
+    or cylinder clamps it in its own frame), as a witness of an overlap."""
+    if body.shape == "cylinder":
+        radius, half_length = float(body.size[0]), float(body.size[1]) / 2.0
+    else:
+        hx, hy, hz = (float(s) / 2.0 for s in body.size)
+
+    def near(placed: fcl.CollisionObject, x: float, y: float, z: float
+             ) -> tuple[float, float, float]:
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = placed.getRotation().tolist()
+        tx, ty, tz = placed.getTranslation().tolist()
+        x, y, z = x - tx, y - ty, z - tz
+        u = r00 * x + r10 * y + r20 * z
+        v = r01 * x + r11 * y + r21 * z
+        w = r02 * x + r12 * y + r22 * z
+        if body.shape == "cylinder":
+            w = min(max(w, -half_length), half_length)
+            radial = math.sqrt(u * u + v * v)
+            if radial > radius:
+                u, v = u * radius / radial, v * radius / radial
+        else:
+            u, v, w = min(max(u, -hx), hx), min(max(v, -hy), hy), min(max(w, -hz), hz)
+        return (tx + r00 * u + r01 * v + r02 * w, ty + r10 * u + r11 * v + r12 * w,
+                tz + r20 * u + r21 * v + r22 * w)
+
+    return near
 
 
 class _Walker:
@@ -331,37 +492,46 @@ class _Walker:
         self.obstacles, self.settings, self.cap, self.tracks = obstacles, settings, cap, tracks
         self.body_objects = [fcl_body(b) for b in body_list]
         self.piece_objects = [fcl_piece(p) for p in pieces]
+        self.body_supports = [support_function(b.shape, b.size) for b in body_list]
+        self.piece_supports = [piece_support(p) for p in pieces]
+        self.exact = [p.shape == "sphere" for p in pieces]  # fcl has closed forms for these
+        self.pieces = pieces
+        self.piece_insides = [piece_inside(p) for p in pieces]
+        self.body_nears = [body_point_near(b) for b in body_list]
         self.request = fcl.DistanceRequest()
 
-    def _measurer(self, body_object: fcl.CollisionObject, piece_object: fcl.CollisionObject,
-                  margin: float) -> Callable[[], tuple[float, float]]:
-        """``measure() -> (value, allowance)`` at the body's current pose: value is the clearance
-        (0 in contact, capped), allowance how far (in ``u``) every decision and the clearance
-        value within its error bound are sure to hold."""
+    def _measurer(self, b: int, m: int, margin: float) -> Callable[[], tuple[float, float]]:
+        """``measure() -> (value, allowance)`` at body ``b``'s current pose against piece ``m``:
+        value is the clearance (0 in contact, capped), allowance how far (in ``u``) every
+        decision and the clearance value within its error bound are sure to hold."""
         settings, tol, cap = self.settings, self.settings.contact_tolerance, self.cap
         min_step = settings.min_step
         resolution, relative = settings.clearance_resolution, settings.clearance_relative
         check_margin = margin > tol
+        body_object, piece_object = self.body_objects[b], self.piece_objects[m]
+        body_support, piece_world = self.body_supports[b], self.piece_supports[m]
+        exact = self.exact[m]
+        inside, near = self.piece_insides[m], self.body_nears[b]
+        cx, cy, cz = np.asarray(self.pieces[m].centre, float).tolist()
         distance_of, new_result, request = fcl.distance, fcl.DistanceResult, self.request
-        depth_pause = 0
 
         def measure() -> tuple[float, float]:
-            nonlocal depth_pause
-            distance = distance_of(body_object, piece_object, request, new_result())
+            if exact:
+                distance = distance_of(body_object, piece_object, request, new_result())
+                uncertain = 0.0
+            else:  # GJK: the exact distance lies in [distance - uncertain, distance]
+                distance, lower = certified_distance(body_object, body_support, piece_object,
+                                                     piece_world, min_step)
+                uncertain = distance - lower
             if distance <= tol:
-                # fcl reports -1 for overlap. While every point of the body moves less than
-                # the penetration depth the overlap persists (separating-axis argument), so a
-                # deep overlap allows long steps; the depth query costs about two distance
-                # calls, so after a shallow answer (a wheel resting on a rock) it pauses.
-                allowance = tol - distance if distance > 0.0 else tol
-                if depth_pause == 0:
-                    depth = _penetration_depth(body_object, piece_object)
-                    allowance += _DEPTH_SAFETY * depth
-                    if depth < 2.0 * tol:
-                        depth_pause = _DEPTH_PAUSE
-                else:
-                    depth_pause -= 1
-                return 0.0, allowance
+                if distance > 0.0:
+                    return 0.0, tol - distance
+                # fcl reports -1 for overlap. A point q of the body inside the piece with a
+                # ball of radius s around it inside too keeps the overlap while every point of
+                # the body moves less than s, and the contact (distance ≤ tol) for s + tol.
+                # q: the point of the body nearest the piece's centre.
+                witness = inside(*near(body_object, cx, cy, cz))
+                return 0.0, tol + (witness if witness > 0.0 else 0.0)
             # Keep the contact and buffer decisions, bound the clearance error.
             allowance = distance - tol
             if check_margin:
@@ -375,6 +545,7 @@ class _Walker:
                 error_bound = distance - cap
             if error_bound < allowance:
                 allowance = error_bound
+            allowance -= uncertain  # every bound above holds from the lower end as well
             return (distance if distance < cap else cap), (
                 allowance if allowance > min_step else min_step)
 
@@ -388,7 +559,7 @@ class _Walker:
         body, body_object = self.body_list[b], self.body_objects[b]
         owner = int(self.piece_owner[m])
         margin = self.obstacles.buffer_margins[self.obstacles.obstacles[owner].level]
-        measure = self._measurer(body_object, self.piece_objects[m], margin)
+        measure = self._measurer(b, m, margin)
         span = slice(first, last + 1)
         cum = self.cum[run, span, b].tolist()
         rotations = quaternion_product(

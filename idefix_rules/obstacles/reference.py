@@ -2,7 +2,9 @@
 
 No broad phase, no advancement, no interpolation between samples. It is the baseline of
 ``benchmarks/bench_collisions.py`` and the oracle the tests compare :func:`collision_signals`
-with (on trajectories sampled finely enough that nothing happens between samples).
+with (on trajectories sampled finely enough that nothing happens between samples). Distances fcl
+computes with GJK (every piece but spheres) go through the same certificate as in the fast
+checker (:func:`~idefix_rules.obstacles.check.certified_distance`), so both see fcl's best answer.
 """
 
 from __future__ import annotations
@@ -13,7 +15,16 @@ import fcl
 import numpy as np
 
 from idefix_rules.obstacles.bodies import PARTS, Body, RoverBodies, rotation_matrices
-from idefix_rules.obstacles.check import Tracks, check_poses, collect, fcl_body, fcl_piece
+from idefix_rules.obstacles.check import (
+    Tracks,
+    certified_distance,
+    check_poses,
+    collect,
+    fcl_body,
+    fcl_piece,
+    piece_support,
+    support_function,
+)
 from idefix_rules.obstacles.obstacles import LEVELS, ObstacleSet, Piece
 from idefix_rules.obstacles.result import CheckSettings, CollisionResult, FirstContact
 
@@ -36,6 +47,8 @@ def _exhaustive_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet,
     position = np.stack([chunk["x"], chunk["y"], chunk["z"]], axis=-1)
     body_objects = [fcl_body(b) for b in body_list]
     piece_objects = [fcl_piece(p) for p in pieces]
+    body_supports = [support_function(b.shape, b.size) for b in body_list]
+    piece_supports = [piece_support(p) for p in pieces]
     request = fcl.DistanceRequest()
     tol = settings.contact_tolerance
     for run in range(runs):
@@ -49,8 +62,13 @@ def _exhaustive_chunk(chunk: dict[str, np.ndarray], obstacles: ObstacleSet,
                     obstacle = obstacles.obstacles[owner]
                     if PARTS[body.part] not in obstacle.parts:
                         continue
-                    distance = fcl.distance(body_objects[b], piece_object, request,
-                                            fcl.DistanceResult())
+                    if pieces[m].shape == "sphere":
+                        distance = fcl.distance(body_objects[b], piece_object, request,
+                                                fcl.DistanceResult())
+                    else:
+                        distance = certified_distance(body_objects[b], body_supports[b],
+                                                      piece_object, piece_supports[m],
+                                                      settings.min_step)[0]
                     value = 0.0 if distance <= tol else min(distance, cap)
                     tracks.clearance[run, sample, b] = min(tracks.clearance[run, sample, b],
                                                            value)

@@ -21,9 +21,10 @@ class CheckSettings:
     ``clearance_cutoff``: clearance is exact below it and reported as the cutoff above it (raised
     to the largest buffer margin when smaller). ``clearance_resolution`` and
     ``clearance_relative``: per-sample clearance below the cutoff is within
-    ``max(clearance_resolution, clearance_relative × clearance)`` of the exact value; contact and
-    buffer flags do not depend on them. ``min_step``: flags can differ from the exact ones only
-    where the distance is within ``min_step`` of the contact tolerance or a buffer margin.
+    ``max(clearance_resolution, clearance_relative × clearance)`` of the exact value (relative to
+    the clearance reported); contact and buffer flags do not depend on them. ``min_step``:
+    flags can differ from the exact ones only where the distance is within ``min_step`` of the
+    contact tolerance or a buffer margin (fcl's GJK distances are certified to it as well).
     ``chunk_poses``: poses handled at once (memory bound).
     """
 

@@ -205,3 +205,23 @@ def test_single_sample_and_standing_still_in_contact(drive):
     assert still.signals["collision.hits"][0, WHEEL, L3] == 1
     assert still.signals["collision.contact"][0, :, WHEEL, L3].all()
     assert np.all(still.signals["collision.clearance"][0, :, WHEEL] == 0.0)
+
+
+def test_a_deep_overlap_is_not_carried_past_where_it_ends(drive):
+    """A tall narrow ellipsoid under the chassis as the rover drives off it in 6 cm steps. fcl's
+    penetration depth (EPA) is too large here (0.255 m where moving the chassis 0.147 m along x
+    separates them); an allowance built on it carried the contact to a sample 3 cm clear.
+    Every sample must agree with the exhaustive check, in contact and clearance."""
+    poses = drive(x0=0.0, x1=1.6875, samples=30, duration=10.0)
+    tall = {"name": "tall", "x": 0.05818965517241379, "y": 0.0, "z": 0.046875,
+            "a": 0.05859375, "b": 0.1171875, "c": 0.3515625, "level": "L1"}
+    obstacles = ObstacleSet.from_rocks([tall], buffer_margins=[0.02, 0.05, 0.1])
+    settings = CheckSettings()
+    fast = collision_signals(poses, obstacles, settings=settings)
+    slow = reference_collision_signals(poses, obstacles, settings=settings)
+    assert np.array_equal(fast.signals["collision.contact"], slow.signals["collision.contact"])
+    approx = fast.signals["collision.clearance"][0, :, CHASSIS]
+    exact = slow.signals["collision.clearance"][0, :, CHASSIS]
+    assert exact[5] == 0.0 and exact[6] > 0.025  # the contact ends between samples 5 and 6
+    bound = np.maximum(settings.clearance_resolution, settings.clearance_relative * approx)
+    assert np.all(np.abs(approx - exact) <= bound + 1e-9)
