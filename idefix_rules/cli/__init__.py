@@ -34,6 +34,7 @@ COMMAND_MODULES: tuple[str, ...] = (
 )
 
 DEFAULT_COMMAND = "run"
+_TOP_LEVEL_OPTIONS = ("-h", "--help", "--version")
 
 
 def _load_commands() -> dict[str, ModuleType]:
@@ -60,14 +61,18 @@ def build_parser(commands: dict[str, ModuleType]) -> argparse.ArgumentParser:
 
 def _looks_like_campaign(argument: str) -> bool:
     """A word that is no command is taken as a campaign file when it could be one."""
-    return Path(argument).suffix.lower() in (".yaml", ".yml") or Path(argument).exists()
+    return bool(argument) and (Path(argument).suffix.lower() in (".yaml", ".yml")
+                               or Path(argument).exists())
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     commands = _load_commands()
     parser = build_parser(commands)
-    if args_list and not args_list[0].startswith("-") and args_list[0] not in commands \
+    if args_list and args_list[0].startswith("-") and args_list[0] not in _TOP_LEVEL_OPTIONS \
+            and DEFAULT_COMMAND in commands and any(map(_looks_like_campaign, args_list)):
+        args_list.insert(0, DEFAULT_COMMAND)  # `idefix-verify --runs 8 c.yaml`: run's options
+    elif args_list and not args_list[0].startswith("-") and args_list[0] not in commands \
             and DEFAULT_COMMAND in commands:
         if not _looks_like_campaign(args_list[0]):
             parser.print_usage(sys.stderr)

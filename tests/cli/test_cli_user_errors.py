@@ -394,6 +394,10 @@ CASES = [
     Case("no-arguments", {}, (), 2, ("usage: idefix-verify",)),
     Case("unknown-command", {}, ("chek", "r.rules"), 2,
          ("unknown command 'chek' (did you mean 'check'?)",)),
+    Case("empty-command", {}, ("",), 2, ("unknown command ''",)),
+    Case("unknown-option", {}, ("--bogus",), 2, ("unrecognized arguments: --bogus",)),
+    Case("run-options-before-the-campaign", campaign(), ("--runs", "0", "campaign.yaml"), 2,
+         ("idefix-verify run: error: argument --runs: expected a positive whole number",)),
 ]
 
 
