@@ -119,6 +119,14 @@ def toy_description(toy: Path) -> str:
         return source.read("modelDescription.xml").decode()
 
 
+def foreign_hdf5(toy: Path) -> bytes:
+    """An HDF5 file some other tool wrote."""
+    path = toy.parent / "foreign.h5"
+    with h5py.File(path, "w") as file:
+        file.create_dataset("temperature", data=[20.5, 21.0])
+    return path.read_bytes()
+
+
 FMI3 = """<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="3.0" modelName="toy" instantiationToken="{t}">
   <CoSimulation modelIdentifier="toy"/>
@@ -384,6 +392,8 @@ CASES = [
     Case("evaluate-not-hdf5", {"results.h5": "plain text"}, ("evaluate", "results.h5"), 2,
          ("results.h5: error[H002]: cannot open results file results.h5: not an HDF5 file",),
          absent=("--resume",)),
+    Case("evaluate-foreign-hdf5", {"results.h5": foreign_hdf5}, ("evaluate", "results.h5"), 2,
+         ("results.h5: error[H003]: results.h5 is not an idefix results file",)),
     Case("evaluate-missing", {}, ("evaluate", "results.h5"), 2,
          ("results.h5: error[H001]: results file results.h5 not found",)),
     Case("evaluate-a-folder", {"results.h5": FOLDER}, ("evaluate", "results.h5"), 2,
@@ -512,7 +522,6 @@ def test_fmt_that_cannot_write_leaves_the_file_and_exits_2(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.rules"]  # no temporary left
 
 
-@pytest.mark.slow
 def test_resume_without_results_warns_and_resume_of_another_campaign_is_refused(
         tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -577,3 +586,20 @@ def test_evaluating_an_interrupted_campaign_says_how_to_continue_it(
     assert f"warning: {results} holds a campaign that is interrupted: runs never simulated " \
            "count as failed" in output
     assert f"--resume --out {results.parent} --runs 2 --seed 5" in output
+
+
+def test_report_of_results_whose_evaluation_was_never_stored_evaluates_them(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Not a mistake: the report scores the stored runs with the stored rulebook itself."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) in (0, 1)
+    results = tmp_path / "out" / "results.h5"
+    with h5py.File(results, "r+") as file:  # as if the campaign stopped before evaluating
+        for name in ("evaluation", "paths/straight/evaluation", "paths/arc/evaluation"):
+            if name in file:
+                del file[name]
+    assert main(["report", str(results), "-o", str(tmp_path / "report")]) == 0
+    assert "Traceback" not in "".join(capsys.readouterr())
+    assert (tmp_path / "report" / "report.html").is_file()
