@@ -57,6 +57,9 @@ class YamlDocument:
     text: str
 
 
+_PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
+
+
 class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
     """A SafeLoader that records the position of every node while constructing the data."""
 
@@ -71,6 +74,11 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
                 Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1),
                 hint="YAML aliases (*name) copy whole anchored blocks; nested ones multiply"))
         source_map.values[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
+        if node.tag not in _PLAIN_TAGS and not isinstance(node, yaml.ScalarNode):
+            # scalars' tags go through the safe constructor, which refuses unknown ones
+            raise UserInputError(error(
+                "C004", f"YAML tag {node.tag!r} is not allowed",
+                Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1)))
         if isinstance(node, yaml.MappingNode):
             self.flatten_mapping(node)
             result: dict[Any, Any] = {}
@@ -113,6 +121,11 @@ def load_yaml(text: str, path: str) -> YamlDocument:
                              sources={path: text}) from None
     except yaml.YAMLError as failure:
         raise UserInputError(error("C000", f"invalid YAML: {failure}", Span(path)),
+                             sources={path: text}) from None
+    except RecursionError:
+        mark = loader.get_mark()
+        raise UserInputError(error("C000", "invalid YAML: nested too deeply",
+                                   Span(path, mark.line + 1, mark.column + 1)),
                              sources={path: text}) from None
     finally:
         loader.dispose()

@@ -216,6 +216,11 @@ CASES = [
          ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
     Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,
          ("error[C003]: the document expands to more than 100000 values",)),
+    Case("campaign-python-tag", campaign(append='x: !!python/object/apply:os.system ["true"]\n'),
+         RUN, 2, ("campaign.yaml:22:4: error[C004]: YAML tag "
+                  "'tag:yaml.org,2002:python/object/apply:os.system' is not allowed",)),
+    Case("campaign-nested-too-deeply", campaign(append="x: " + "[" * 5000 + "]" * 5000 + "\n"),
+         RUN, 2, ("error[C000]: invalid YAML: nested too deeply",)),
     Case("campaign-runs-zero", campaign(("runs: 6", "runs: 0")), RUN, 2,
          ("campaign.yaml:6:7: error[C100]: runs: Input should be greater than or equal to 1",)),
     Case("campaign-runs-negative", campaign(("runs: 6", "runs: -3")), RUN, 2,
