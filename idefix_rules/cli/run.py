@@ -229,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
             if value is not None:
                 again += f" {flag} {value}"
         console.print(f"[yellow]interrupted[/yellow]: continue with `{again}`")
-        raise
+        return 130  # as the dispatcher would, without saying "interrupted" twice
     finally:
         progress.stop()
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,

@@ -608,3 +608,20 @@ def test_report_of_results_whose_evaluation_was_never_stored_evaluates_them(
     assert main(["report", str(results), "-o", str(tmp_path / "report")]) == 0
     assert "Traceback" not in "".join(capsys.readouterr())
     assert (tmp_path / "report" / "report.html").is_file()
+
+
+def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.campaign import runner
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(runner, "run_campaign", interrupted)
+    assert main([*RUN, "--seed", "9"]) == 130
+    output = "".join(capsys.readouterr())
+    assert output.count("interrupted") == 1 and "Traceback" not in output
+    assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
