@@ -88,7 +88,12 @@ def _compile(unzipdir: Path) -> None:
     if compiler is None or fmpy.system == "windows":
         from fmpy.build import build_platform_binary
 
-        build_platform_binary(unzipdir)
+        try:
+            build_platform_binary(unzipdir)
+        except (OSError, RuntimeError) as failure:  # no C compiler, no cmake
+            raise InfrastructureError(
+                f"building the rover FMU needs a C compiler (cc, gcc or clang; or $CC): "
+                f"none was found, and fmpy's cmake build failed too ({failure})") from None
         return
     target = unzipdir / "binaries" / fmpy.platform
     target.mkdir(parents=True, exist_ok=True)

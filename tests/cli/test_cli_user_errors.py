@@ -625,3 +625,14 @@ def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
     output = "".join(capsys.readouterr())
     assert output.count("interrupted") == 1 and "Traceback" not in output
     assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
+
+
+def test_building_the_fmu_without_a_compiler_is_exit_3_and_says_what_is_missing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))  # no cc, gcc, clang or cmake
+    monkeypatch.delenv("CC", raising=False)
+    assert main(["build-fmu", "-o", str(tmp_path / "rover.fmu")]) == 3
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert "building the rover FMU needs a C compiler" in output
+    assert "Traceback" not in output
