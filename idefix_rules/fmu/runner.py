@@ -129,8 +129,14 @@ class FmuRunner:
         The logger reads the format string as the message (the rover FMU passes its text as the
         format); fmpy's variadic logger proxy is process-wide, so it is not used here.
         """
-        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, calloc, free)
+        from fmpy.fmi2 import (
+            calloc,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+            free,
+        )
         def logger(component: Any, instance: bytes, status: int, category: bytes,
                    message: bytes) -> None:
             self._log.append(message.decode("utf-8", "replace"))
