@@ -57,6 +57,11 @@ def signal_attrs(name: str) -> dict[str, Any]:
     return {"unit": spec.unit, "axes": json.dumps(list(spec.axes))}
 
 
+def previous_results_path(path: Path) -> Path:
+    """Where :meth:`ResultStore.create` keeps the results file it replaces."""
+    return path.with_name(f"{path.stem}.previous{path.suffix}")
+
+
 class ResultStore:
     """Writer and reader of one ``results.h5``."""
 
@@ -80,8 +85,11 @@ class ResultStore:
     @classmethod
     def create(cls, path: Path, attrs: Mapping[str, Any],
                texts: Mapping[str, str]) -> ResultStore:
-        """A new results file (an existing one is replaced)."""
+        """A new results file. An existing one is kept as ``<stem>.previous.h5`` (replacing an
+        older copy), so a re-run that fails early never loses the last campaign's results."""
         path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_file():
+            path.replace(previous_results_path(path))
         file = h5py.File(path, "w", track_order=True)
         file.attrs["format"] = FORMAT
         file.attrs["format_version"] = FORMAT_VERSION
