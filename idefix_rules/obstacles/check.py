@@ -399,8 +399,8 @@ def _lower_bound(body_object: fcl.CollisionObject, body_support: Support, piece_
     body_reach = nx * tx + ny * ty + nz * tz + body_support(
         r00 * nx + r10 * ny + r20 * nz, r01 * nx + r11 * ny + r21 * nz,
         r02 * nx + r12 * ny + r22 * nz)
-    piece_start = -piece_world(-nx, -ny, -nz)
-    return max(0.0, piece_start - body_reach)
+    piece_start = -float(piece_world(-nx, -ny, -nz))
+    return max(0.0, piece_start - float(body_reach))
 
 
 Inside = Callable[[float, float, float], float]

@@ -322,7 +322,8 @@ def test_a_step_is_climbed_while_the_push_lifts_the_wheel_over_its_edge(
     # wheels' push P satisfies P >= W tan(a - atan mu_m), i.e. a <= a* = atan mu_m + atan(P/W).
     # Thin walls across both front wheels, at 5° of contact angle below and above a*, decide
     # it (the estimate takes the loads at the first contact: as the front wheels rise up the
-    # rounded wall, load moves to the pushing rear wheels and the model climbs 1-3° further). Cohesionless soil (P/W = 0.02):
+    # rounded wall, load moves to the pushing rear wheels and the model climbs 1-3° further).
+    # Cohesionless soil (P/W = 0.02):
     # a* = 31°, a 1.0 cm step is climbed and a 1.9 cm one is not. Default soil (P/W = 1.7):
     # a* = 89°; a thin wall's rounded top reaches that contact angle only at the axle height,
     # so a wall just below the axle is climbed, and a rock whose face stands above the axle
@@ -343,7 +344,7 @@ def test_a_step_is_climbed_while_the_push_lifts_the_wheel_over_its_edge(
         walls.append(Rock(0.35, 0.0, 0.005, 0.5, heights[1], z=0.0))
     else:  # a face above the axle: a rock block from 5 cm to 20 cm height
         walls.append(Rock(0.35, 0.0, 0.02, 0.5, 0.075, z=0.125))
-    for wall_rock, climbs in zip(walls, (True, False)):
+    for wall_rock, climbs in zip(walls, (True, False), strict=True):
         height = wall_rock.z + wall_rock.c
         wall = _flat_with(tmp_path, [wall_rock], f"wall{height:.4f}.terrain")
         out = rover.run({"terrain.file": str(wall), "soil.cohesion": cohesion},
