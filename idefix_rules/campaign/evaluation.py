@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import multiprocessing
+from collections import deque
 from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -201,10 +204,56 @@ def complete_chunks(store: RunReader, name: str, required: set[str] | None,
         yield rows, _chunk_signals(store, name, rows, required, poses)
 
 
+# The collision checker of the pool's workers: set before the pool forks, so the workers
+# inherit it (its python-fcl objects cannot be pickled).
+_WORKER_COLLISIONS: CollisionFunction | None = None
+
+
+def _check_in_worker(poses: dict[str, np.ndarray], rows: np.ndarray
+                     ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+    assert _WORKER_COLLISIONS is not None
+    return _WORKER_COLLISIONS(poses, rows)
+
+
+def _with_collisions(chunks: Iterator[tuple[np.ndarray, dict[str, np.ndarray]]],
+                     collisions: CollisionFunction, workers: int
+                     ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], Any]]:
+    """``(rows, signals, (collision signals, details))`` per chunk, in chunk order.
+
+    With several workers the collision checks (the costly part of an evaluation) run in forked
+    processes, at most two chunks per worker in flight; each chunk's result is a pure function
+    of its poses, so the outcome does not depend on the number of workers.
+    """
+    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        for rows, signals in chunks:
+            yield rows, signals, collisions(signals, rows)
+        return
+    global _WORKER_COLLISIONS
+    _WORKER_COLLISIONS = collisions
+    pending: deque[tuple[np.ndarray, dict[str, np.ndarray], Future[Any]]] = deque()
+    try:
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")
+                                 ) as pool:
+            for rows, signals in chunks:
+                poses = {key: signals[key] for key in POSE_SIGNALS}
+                pending.append((rows, signals, pool.submit(_check_in_worker, poses, rows)))
+                while len(pending) >= 2 * workers:
+                    done_rows, done_signals, future = pending.popleft()
+                    yield done_rows, done_signals, future.result()
+            while pending:
+                done_rows, done_signals, future = pending.popleft()
+                yield done_rows, done_signals, future.result()
+    finally:
+        _WORKER_COLLISIONS = None
+
+
 def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeometry,
                   sigma: float, collisions: CollisionFunction | None,
-                  chunk_runs: int = DEFAULT_CHUNK_RUNS) -> tuple[Any, dict[str, Any]]:
-    """Evaluate the complete runs of a path chunk by chunk; returns (evaluation, stored)."""
+                  chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1
+                  ) -> tuple[Any, dict[str, Any]]:
+    """Evaluate the complete runs of a path chunk by chunk; returns (evaluation, stored).
+
+    ``workers`` > 1 spreads the collision checks over that many processes."""
     group = store.path_group(name)
     chain = tuple(Command(*row) for row in group["chain"][()])
     reference = store.reference(name)
@@ -213,9 +262,12 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     required = set(getattr(evaluator, "required_signals", ())) or None
     parts = []
     hits, buffers, details = [], [], []
-    for rows, signals in complete_chunks(store, name, required, chunk_runs):
-        if collisions is not None:
-            extra, chunk_details = collisions(signals, rows)
+    chunks = complete_chunks(store, name, required, chunk_runs)
+    checked = (_with_collisions(chunks, collisions, workers) if collisions is not None
+               else ((rows, signals, None) for rows, signals in chunks))
+    for _rows, signals, collided in checked:
+        if collided is not None:
+            extra, chunk_details = collided
             signals.update(extra)
             hits.append(extra.get("collision.hits"))
             buffers.append(extra.get("collision.buffer"))
@@ -235,8 +287,9 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
                    collisions: CollisionFunction | None, rulebook_info: dict[str, str],
                    write: bool = True,
-                   chunk_runs: int = DEFAULT_CHUNK_RUNS) -> CampaignEvaluation:
-    """Score every path of a results file; writes the evaluation groups when ``write``."""
+                   chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1) -> CampaignEvaluation:
+    """Score every path of a results file; writes the evaluation groups when ``write``.
+    ``workers`` processes share the collision checks."""
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
     for name in store.path_names:
@@ -246,7 +299,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             continue
         missing = result.runs - result.completed - result.failed
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
-                                          chunk_runs)
+                                          chunk_runs, workers)
         if evaluation is None:
             result.passed = False
             result.verdict_reasons = ["no complete run to evaluate"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,6 +82,14 @@ def resolve_fmu(campaign: Campaign) -> Path:
     return Path(default_fmu_path())
 
 
+def _local_workers(options: SimulationOptions, campaign: Campaign) -> int:
+    """Processes for the evaluation's collision checks: the local pool's size (1 when the
+    simulation went to a Dask cluster, whose workers are not on this machine)."""
+    if options.scheduler:
+        return 1
+    return max(1, options.workers or campaign.workers or os.cpu_count() or 1)
+
+
 def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                  progress: Progress | None = None, junit: Path | None = None,
                  report: bool = True) -> CampaignResult:
@@ -112,7 +121,8 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     try:
         evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                     initial_position_sigma(campaign), collisions,
-                                    rulebook_info(evaluator, campaign.rulebook))
+                                    rulebook_info(evaluator, campaign.rulebook),
+                                    workers=_local_workers(options, campaign))
         result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name)
     finally:
         store.close()
