@@ -185,14 +185,20 @@ class ObstacleLevel:
 
 
 @dataclass(frozen=True)
-class CommandRule:
-    """``command max_turn: require abs(delta_heading) <= 90 deg because "…"``."""
+class ConditionRule:
+    """A named condition with its rationale; the kinds below differ in where it is checked
+    (equality includes the kind: a command rule never equals a verdict)."""
 
     name: str
     condition: Expr
     rationale: str | None = None
     span: Span = _span()
     comments: tuple[str, ...] = _comments()
+
+
+@dataclass(frozen=True)
+class CommandRule(ConditionRule):
+    """``command max_turn: require abs(delta_heading) <= 90 deg because "…"``."""
 
 
 @dataclass(frozen=True)
@@ -211,15 +217,9 @@ class Index:
 
 
 @dataclass(frozen=True)
-class Chance:
+class Chance(ConditionRule):
     """``chance hit_L2 = any over parts (collision.hits[L2] > 0)``: per run a boolean; the path
     statistic is the fraction of runs where it holds."""
-
-    name: str
-    condition: Expr
-    rationale: str | None = None
-    span: Span = _span()
-    comments: tuple[str, ...] = _comments()
 
 
 RunCombination = Literal["max_weighted"]
@@ -238,25 +238,13 @@ class Combine:
 
 
 @dataclass(frozen=True)
-class Prescreen:
+class Prescreen(ConditionRule):
     """``prescreen no_collision: require I_obs < 1 because "…"`` on the reference run."""
-
-    name: str
-    condition: Expr
-    rationale: str | None = None
-    span: Span = _span()
-    comments: tuple[str, ...] = _comments()
 
 
 @dataclass(frozen=True)
-class VerdictRule:
+class VerdictRule(ConditionRule):
     """``verdict acceptable_risk: require risk <= 70 % because "…"`` on path statistics."""
-
-    name: str
-    condition: Expr
-    rationale: str | None = None
-    span: Span = _span()
-    comments: tuple[str, ...] = _comments()
 
 
 @dataclass(frozen=True)
