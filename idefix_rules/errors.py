@@ -62,6 +62,9 @@ class Diagnostic:
             "path": span.path if span else None,
             "line": span.line if span else None,
             "column": span.column if span else None,
+            # end_column is exclusive (the column just after the last character), as in Span
+            "end_line": span.end_line if span and span.end_line > 0 else None,
+            "end_column": span.end_column if span and span.end_line > 0 else None,
             "hint": self.hint,
         }
 

@@ -2,7 +2,9 @@
 
 Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--strict``, warnings
 about unused constants and zero-weight indices count too). ``--format json`` prints the
-diagnostics' ``to_dict()`` records instead of text.
+diagnostics' ``to_dict()`` records instead of text (start and end of each span; the end column
+is exclusive). The language server (``idefix-verify lsp``) publishes the same diagnostics through
+:func:`check_source`.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "warnings then fail the check (exit 2)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "
-                             "message, path, line, column, hint)")
+                             "message, path, line, column, end_line, end_column, hint)")
 
 
 @dataclass(frozen=True)
@@ -59,6 +61,11 @@ def check_file(path: str | Path, strict: bool = False) -> FileReport:
         source = read_source(path)
     except UserInputError as failure:
         return FileReport(name, tuple(failure.diagnostics), "")
+    return check_source(source, name, strict)
+
+
+def check_source(source: str, name: str, strict: bool = False) -> FileReport:
+    """Parse and check rulebook text read from ``name`` (an open editor buffer, a file)."""
     try:
         result = check_text(source, name, strict=strict)
     except UserInputError as failure:

@@ -210,3 +210,12 @@ def test_the_reference_lists_every_unit_signal_and_diagnostic_code():
         codes |= set(re.findall(r'"([EW]\d{3})"', text))
     missing = sorted(code for code in codes if f"| {code} |" not in DOC)
     assert not missing, missing
+
+
+def test_check_json_gives_the_end_of_each_span(write, capsys):
+    bad = write("bad.rules", VALID.replace("critical_slip\n", "critcal_slip\n"))
+    main(["check", "--format", "json", str(bad)])
+    [record] = json.loads(capsys.readouterr().out)
+    line = bad.read_text().splitlines()[record["line"] - 1]
+    assert record["end_line"] == record["line"]
+    assert line[record["column"] - 1:record["end_column"] - 1] == "critcal_slip"
