@@ -158,6 +158,8 @@ _ATOMS: dict[str, tuple[Fraction, Dimension]] = {
     "Pa": (Fraction(1), PRESSURE),
     "kPa": (Fraction(1000), PRESSURE),
 }
+# Every unit atom the language knows (editor completion lists them).
+UNIT_SYMBOLS: tuple[str, ...] = tuple(_ATOMS)
 
 _TOKEN = re.compile(r"\s*([A-Za-z%°]+|1)(?:\^?(-?\d+))?\s*")
 

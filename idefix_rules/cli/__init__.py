@@ -31,6 +31,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "diff",
     "report",
     "build_fmu",
+    "lsp",
 )
 
 DEFAULT_COMMAND = "run"
