@@ -162,8 +162,10 @@ def _completion_item(document: TextDocument, item: Completion) -> types.Completi
 
 
 def whole_document(document: TextDocument) -> types.Range:
-    lines = document.lines
-    end = _client_position(document, lines, Position(len(lines), 0))
+    """From the start to the very end of the text (after its last newline, if any)."""
+    segments = document.source.split("\n")
+    end = types.Position(line=len(segments) - 1,
+                         character=document.position_codec.client_num_units(segments[-1]))
     return types.Range(start=types.Position(line=0, character=0), end=end)
 
 
