@@ -390,3 +390,17 @@ def test_no_quick_fix_without_an_obvious_one(client: LspClient, tmp_path: Path) 
         "context": {"diagnostics": [dimension]}})
     assert actions == []
     assert re.search(r"cannot add a length", str(dimension["message"]))
+
+
+def test_columns_follow_the_encoding_the_client_asks_for(tmp_path: Path) -> None:
+    editor = LspClient({"debounce": 0.02}, position_encodings=("utf-32", "utf-16"))
+    try:
+        assert editor.initialize_result["capabilities"]["positionEncoding"] == "utf-32"
+        uri = editor.open(tmp_path / "utf32.rules", BROKEN)
+        typo = next(d for d in editor.diagnostics(uri, 1) if "wheel.slp" in d["message"])
+        line = BROKEN.split("\n")[typo["range"]["start"]["line"]]
+        # UTF-32 columns count characters: the emoji before the name is one, not two
+        assert typo["range"]["start"]["character"] == line.index("wheel.slp")
+        assert typo["range"]["end"]["character"] == line.index("wheel.slp") + len("wheel.slp")
+    finally:
+        assert editor.close() == 0
