@@ -69,13 +69,14 @@ def _context(lines: LineIndex, position: Position) -> tuple[str, str]:
 
 
 def _unit_items(word_range: Range) -> list[Completion]:
+    """Every unit atom, with its dimension and its size in SI: ``a length: 1 cm = 0.01 m``."""
     items = []
     for symbol in UNIT_SYMBOLS:
+        if not symbol[0].isalpha() and symbol[0] not in "%°":
+            continue  # `1` is the unit of plain ratios in the signal contract; a rulebook omits it
         unit = parse_unit(symbol)
-        detail = describe(unit.dimension)
-        if not unit.dimension.is_dimensionless or symbol != "1":
-            detail += f"; 1 {symbol} = {unit.scale:.6g} {unit.dimension}".replace(" 1", "") \
-                if not unit.dimension.is_dimensionless else f"; 1 {symbol} = {unit.scale:g}"
+        si_unit = "" if unit.dimension.is_dimensionless else f" {unit.dimension}"
+        detail = f"{describe(unit.dimension)}: 1 {symbol} = {unit.scale:.6g}{si_unit}"
         items.append(Completion(symbol, "unit", detail, word_range))
     return items
 

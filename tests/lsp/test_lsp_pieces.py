@@ -163,3 +163,13 @@ def test_lsp_command_without_the_extra_says_how_to_install_it(
     assert main(["lsp"]) == 3
     err = capsys.readouterr().err
     assert "pip install 'idefix-rules[lsp]'" in err and "Traceback" not in err
+
+
+def test_unit_completions_say_what_each_unit_is_in_si() -> None:
+    text = HEADER + "const a = 5 "
+    details = {item.label: item.detail for item in completions(text, position(text, "5 ", 2))}
+    assert details["cm"] == "a length: 1 cm = 0.01 m"
+    assert details["%"] == "a ratio: 1 % = 0.01"
+    assert details["km"] == "a length: 1 km = 1000 m"
+    assert details["deg"] == "an angle: 1 deg = 0.0174533 rad"
+    assert "1" not in details  # a unit a rulebook cannot write
