@@ -24,6 +24,7 @@ import pytest
 from textmate_grammar.parsers.base import LanguageParser
 
 from idefix_rules import signals
+from idefix_rules.cli import main
 from idefix_rules.rulebook import parse_text
 from idefix_rules.rulebook.types import COMMAND_NAMES, PATH_NAMES
 
@@ -155,3 +156,23 @@ def test_an_unclosed_string_ends_at_the_end_of_its_line(tokenize: Any) -> None:
     text = 'const a = 1 because "never closed\nconst b = 2\n'
     scoped = {piece: scope for _, _, piece, scope in tokenize(text)}
     assert scoped["b"] == "entity.name.constant.rulebook"
+
+
+def test_vscode_extension_starts_the_language_server() -> None:
+    folder = REPOSITORY / "editors" / "vscode"
+    package = json.loads((folder / "package.json").read_text(encoding="utf-8"))
+    settings = package["contributes"]["configuration"]["properties"]
+    command = settings["idefixRules.server.command"]["default"]
+    arguments = settings["idefixRules.server.args"]["default"]
+    assert [command, *arguments] == ["idefix-verify", "lsp"]
+    assert main([*arguments, "--stdio", "--help"]) == 0  # what the client runs, with its --stdio
+    extension = (folder / package["main"]).read_text(encoding="utf-8")
+    assert "server.command" in extension and "TransportKind.stdio" in extension
+    [language] = package["contributes"]["languages"]
+    assert language["extensions"] == [".rules"]
+    assert (folder / language["configuration"]).is_file()
+    # the grammar the extension ships is built from the one tested here
+    [grammar] = package["contributes"]["grammars"]
+    assert grammar["path"] == "./syntaxes/rulebook.tmLanguage.json"
+    assert "'../rulebook.tmLanguage.json','syntaxes/rulebook.tmLanguage.json'" in \
+        package["scripts"]["build"]

@@ -168,7 +168,7 @@ def test_diagnostics_are_cleared_when_the_document_closes(client: LspClient,
 
 def test_a_burst_of_changes_is_checked_once(default_text: str, tmp_path: Path) -> None:
     # a long debounce: the three changes below arrive well within it
-    editor = LspClient({"debounce": 1.5})
+    editor = LspClient({"debounce": 3.0})
     try:
         uri = editor.open(tmp_path / "typing.rules", default_text)
         assert editor.diagnostics(uri, 1) == []
