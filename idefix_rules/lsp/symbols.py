@@ -82,10 +82,6 @@ class SymbolIndex:
     def name_at(self, position: Position) -> NameUse | None:
         return next((use for use in self.names if use.range.contains(position)), None)
 
-    def by_name(self, name: str) -> Symbol | None:
-        return next((s for s in self.symbols.values() if s.name == name and s.kind != "level"),
-                    None)
-
 
 def expressions(rulebook: Rulebook) -> Iterator[tuple[Expr, ScopeKind]]:
     """Every expression of a rulebook with the context the checker reads it in."""
