@@ -112,20 +112,26 @@ def test_completion_replaces_the_dotted_word_being_typed() -> None:
 
 # ----------------------------------------------------------------------------- quick fixes
 
-@pytest.mark.parametrize(("written", "wrong", "right"), [
-    ("abs(wheel.slip)", "wheel.slp", "wheel.slip"),     # E101 unknown name
-    ("abs(wheel.slip)", "ab", "abs"),                   # E105 unknown function
-    ("max over wheels", "wheel", "wheels"),             # E007 unknown domain
+FIXABLE = (HEADER + "settings {\n  theoretical_slip = 20 %\n}\n"
+           + "index I_s {\n  value  = max over time (max over wheels (abs(wheel.slip)))\n"
+           + "  limit  = 1\n  weight = 1\n}\n" + VERDICT)
+
+
+@pytest.mark.parametrize(("right", "wrong"), [
+    ("abs(wheel.slip)", "abs(wheel.slp)"),             # E101 unknown name
+    ("abs(wheel.slip)", "ab(wheel.slip)"),             # E105 unknown function
+    ("max over wheels", "max over wheel"),             # E007 unknown domain
+    ("theoretical_slip", "theoretical_slp"),           # E505 unknown setting
+    ("limit  = 1", "limt  = 1"),                       # E001 misspelt keyword
 ])
-def test_quick_fix_replaces_the_misspelt_word(written: str, wrong: str, right: str) -> None:
-    misspelt = written.replace(right, wrong) if right in written else written
-    text = HEADER + INDEX.replace(written, misspelt) + VERDICT
+def test_quick_fix_replaces_the_misspelt_word(right: str, wrong: str) -> None:
+    text = FIXABLE.replace(right, wrong)
+    assert analyse(FIXABLE, "r.rules").diagnostics == ()
     analysis = analyse(text, "r.rules")
     [fix] = quick_fixes(analysis)
     start, end = analysis.lines.offset(fix.range.start), analysis.lines.offset(fix.range.end)
-    assert (text[start:end], fix.new_text) == (wrong, right)
-    fixed = text[:start] + fix.new_text + text[end:]
-    assert analyse(fixed, "r.rules").diagnostics == ()
+    assert text[:start] + fix.new_text + text[end:] == FIXABLE
+    assert fix.title == f"replace '{text[start:end]}' with '{fix.new_text}'"
 
 
 def test_no_quick_fix_for_a_hint_that_is_not_a_replacement() -> None:
