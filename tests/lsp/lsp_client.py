@@ -31,8 +31,10 @@ class LspClient:
         self.notifications: list[Message] = []
         self._arrived = threading.Condition()
         self.stderr: list[bytes] = []
-        threading.Thread(target=self._read, daemon=True).start()
-        threading.Thread(target=self._drain_stderr, daemon=True).start()
+        self._threads = [threading.Thread(target=self._read, daemon=True),
+                         threading.Thread(target=self._drain_stderr, daemon=True)]
+        for thread in self._threads:
+            thread.start()
         self.initialize_result = self.request("initialize", {
             "processId": os.getpid(), "rootUri": None,
             "capabilities": {
@@ -147,6 +149,7 @@ class LspClient:
         return params["diagnostics"]  # type: ignore[no-any-return]
 
     def close(self) -> int:
+        """Shut the server down as an editor does; its exit code (0 after shutdown)."""
         try:
             self.request("shutdown", None, timeout=30)
             self.notify("exit", None)
@@ -155,6 +158,11 @@ class LspClient:
             if self.process.poll() is None:
                 self.process.kill()
                 self.process.wait()
+            for thread in self._threads:  # they stop at the end of the server's output
+                thread.join(timeout=30)
+            for stream in (self.process.stdin, self.process.stdout, self.process.stderr):
+                if stream is not None:
+                    stream.close()
 
 
 def utf16_column(line: str, characters: int) -> int:
