@@ -24,6 +24,7 @@ from idefix_rules.campaign import sampling
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
@@ -300,7 +301,8 @@ def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
             "samples": plan.samples, "ideal_duration": plan.ideal_duration})
         if violations:
             plan.status = "rejected"
-            plan.reason = "; ".join(_describe(v) for v in violations)
+            units = DisplayUnits.from_campaign_text(campaign.text)
+            plan.reason = "; ".join(violation_text(v, units) for v in violations)
             store.set_path_status(name, plan.status, plan.reason)
 
 

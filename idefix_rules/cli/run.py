@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -16,14 +17,14 @@ from rich.progress import (
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
-from rich.table import Table
 
-from idefix_rules.campaign.evaluation import CampaignEvaluation
 from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.outputs import ExpectationResult
 from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
+from idefix_rules.cli.outcome import index_titles, print_outcome
+
+__all__ = ["make_console", "print_outcome", "stored_titles"]
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -136,73 +137,29 @@ class RichProgress:
 
 
 def make_console() -> Console:
-    """Rich console; wide enough for the table when output goes to a file or CI log."""
+    """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
+    columns wide (CI logs), a terminal as wide as it is."""
     console = Console(highlight=False)
-    if not console.is_terminal:
+    if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
         console = Console(highlight=False, width=150)
     return console
 
 
-def _percent(value: float | None) -> str:
-    return "–" if value is None else f"{100.0 * value:.1f}"
+def stored_titles(results: Path) -> dict[str, str]:
+    """Index titles of the rulebook stored in a results file (empty when unreadable)."""
+    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.rulebook import check_text
 
-
-def results_table(evaluation: CampaignEvaluation) -> Table:
-    """The paper's Table 1, plus verdict, rank and dominant index."""
-    table = Table(title="Path evaluation", title_justify="left")
-    table.add_column("path")
-    table.add_column("risk %", justify="right")
-    table.add_column("95 % CI", justify="right")
-    for level in ("L1", "L2", "L3"):
-        table.add_column(f"hit {level} %", justify="right")
-    table.add_column("energy mAs", justify="right")
-    table.add_column("time s", justify="right")
-    table.add_column("runs", justify="right")
-    table.add_column("verdict")
-    table.add_column("rank", justify="right")
-    table.add_column("dominant")
-    for path in sorted(evaluation.paths, key=lambda p: (p.rank is None, p.rank or 0, p.index)):
-        verdict = path.verdict_text
-        style = {"pass": "green", "fail": "red"}.get(verdict, "yellow")
-        shown = f"[{style}]{verdict}[/{style}]"
-        if path.undecided:
-            shown += " [yellow](not decided)[/yellow]"
-        ci = f"{_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])}" if path.risk_ci else "–"
-        runs = f"{path.completed}/{path.runs}" if path.runs else "–"
-        if path.failed:
-            runs += f" [red]({path.failed} failed)[/red]"
-        table.add_row(
-            path.name, _percent(path.mean_risk), ci,
-            *(_percent(path.collision_chance.get(level)) for level in ("L1", "L2", "L3")),
-            "–" if path.energy is None else f"{path.energy * 1000.0:.1f}",
-            "–" if path.time is None else f"{path.time:.1f}",
-            runs, shown, "–" if path.rank is None else str(path.rank),
-            path.dominant_index or "–",
-        )
-    return table
-
-
-def print_outcome(console: Console, evaluation: CampaignEvaluation,
-                  expectations: list[ExpectationResult], code: int,
-                  warnings: list[str]) -> None:
-    console.print(results_table(evaluation))
-    for path in evaluation.paths:
-        if path.reason:
-            console.print(f"[yellow]{path.name}[/yellow] {path.status}: {path.reason}")
-        for reason in path.verdict_reasons:
-            console.print(f"  {path.name}: {reason}")
-        for run, reason in sorted(path.failures.items())[:10]:
-            console.print(f"  [red]{path.name} run {run} failed[/red]: {reason}")
-        if path.failed > 10:
-            console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
-    if evaluation.ranking:
-        console.print("ranking: " + " > ".join(evaluation.ranking))
-    for expectation in expectations:
-        mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
-        console.print(f"{mark} expect {expectation.description}: {expectation.message}")
-    for text in warnings:
-        console.print(f"[yellow]warning:[/yellow] {text}")
-    console.print(f"exit code {code}: " + ("verified" if code == 0 else "verification failed"))
+    try:
+        store = ResultStore.open(results)
+        try:
+            text = store.text("rulebook")
+        finally:
+            store.close()
+        checked = check_text(text, "rulebook.rules").checked
+    except Exception:  # titles are a courtesy: a table without them is still right
+        return {}
+    return index_titles(checked.rulebook) if checked is not None else {}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -233,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         progress.stop()
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
-                  result.warnings)
+                  result.warnings, stored_titles(result.results))
     console.print(f"results: {result.results}")
     if result.report is not None:
         console.print(f"report: {result.report}")
