@@ -23,6 +23,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.wording import verdict_reasons
+
 DecisionKind = Literal["send", "none", "unsettled"]
 
 
@@ -74,3 +77,31 @@ def decide(paths: Sequence[Any]) -> Decision:
     return Decision("none", least.name,
                     f"no chain is acceptable; least bad is {least.name} (rank 1 of {total})"
                     f"{why}", reasons)
+
+
+@dataclass(frozen=True)
+class PathFacts:
+    """What :func:`decide` reads of a path."""
+
+    name: str
+    verdict: str
+    undecided: bool
+    rank: int | None
+    reasons: list[str]
+
+
+def reasons_of(path: PathResult) -> list[str]:
+    """A path's failing (or undecided) verdict rules in words and percent, else its stored
+    reasons (a rejected or excluded path says why in ``path.reason``)."""
+    confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
+    if path.verdict is not None:
+        shown = verdict_reasons(as_plain(path.verdict), confidence)
+        extra = [r for r in path.verdict_reasons if "run(s) failed or missing" in r]
+        return shown + extra
+    return list(path.verdict_reasons)
+
+
+def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
+    """The decision of an evaluated campaign."""
+    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p))
+                   for p in evaluation.paths])

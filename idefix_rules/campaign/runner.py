@@ -25,6 +25,7 @@ from idefix_rules.campaign.evaluation import (
 )
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.schema import CampaignFile
+from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
     TERRAIN_PARAMETER,
     Progress,
@@ -123,7 +124,8 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                                     initial_position_sigma(campaign), collisions,
                                     rulebook_info(evaluator, campaign.rulebook),
                                     workers=_local_workers(options, campaign))
-        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name)
+        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name,
+                         simulation.path_seconds)
     finally:
         store.close()
     evaluated = time.perf_counter()
@@ -140,17 +142,19 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
 
 
 def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,
-            output: Path, junit: Path | None, name: str) -> CampaignResult:
+            output: Path, junit: Path | None, name: str,
+            seconds: dict[str, float] | None = None) -> CampaignResult:
     checks = outputs.check_expectations(model.expect, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(model.expect))
-    data = outputs.summary(evaluation, checks, code)
+    data = outputs.summary(evaluation, checks, code, store_sensitivity(store.file))
     store.file.require_group("evaluation").attrs["summary"] = json.dumps(data, default=str)
     store.file.flush()
     outputs.write_summary(output / SUMMARY_FILE, data)
     if junit is not None:
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
-            junit.write_text(outputs.junit_xml(evaluation, checks, name), encoding="utf-8")
+            junit.write_text(outputs.junit_xml(evaluation, checks, name, seconds),
+                             encoding="utf-8")
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",

@@ -90,6 +90,7 @@ class SimulationSummary:
     warnings: list[str] = field(default_factory=list)
     fmu_seconds: float = 0.0  # summed time workers spent inside FmuRunner.run
     simulated_runs: int = 0
+    path_seconds: dict[str, float] = field(default_factory=dict)  # the same, per path
 
 
 def now_iso() -> str:
@@ -378,6 +379,7 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
         return
     plan.reference = outcome.value.signals
     summary.fmu_seconds += outcome.value.seconds
+    summary.path_seconds[name] = summary.path_seconds.get(name, 0.0) + outcome.value.seconds
     store.write_reference(name, plan.reference, numeric)
     findings = prescreen_reference(evaluator, plan.spec.chain, rover,
                                    initial_position_sigma(campaign), plan.reference, collisions)
@@ -443,6 +445,8 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
             if outcome.ok:
                 store.write_run(name, run, outcome.value.signals)
                 summary.fmu_seconds += outcome.value.seconds
+                summary.path_seconds[name] = (summary.path_seconds.get(name, 0.0)
+                                              + outcome.value.seconds)
             else:
                 store.write_failure(name, run, outcome.reason)
             progress.run_finished(name, outcome.ok)

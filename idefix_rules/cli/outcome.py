@@ -10,7 +10,6 @@ no name is ever cut.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 from rich.console import Console
@@ -18,39 +17,13 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
-from idefix_rules.campaign.decision import Decision, decide
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.decision import Decision, campaign_decision, reasons_of
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
-from idefix_rules.campaign.wording import percent, verdict_reasons
+from idefix_rules.campaign.wording import percent
 
 LEVELS = ("L1", "L2", "L3")
 STYLES = {"pass": "green", "fail": "red"}
-
-
-@dataclass(frozen=True)
-class PathFacts:
-    """What :func:`decide` reads of a path."""
-
-    name: str
-    verdict: str
-    undecided: bool
-    rank: int | None
-    reasons: list[str]
-
-
-def reasons_of(path: PathResult) -> list[str]:
-    """A path's failing (or undecided) verdict rules in words, else its stored reasons."""
-    confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
-    if path.verdict is not None:
-        shown = verdict_reasons(as_plain(path.verdict), confidence)
-        extra = [r for r in path.verdict_reasons if "run(s) failed or missing" in r]
-        return shown + extra
-    return list(path.verdict_reasons)
-
-
-def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
-    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p))
-                   for p in evaluation.paths])
 
 
 def _ordered(evaluation: CampaignEvaluation) -> list[PathResult]:
