@@ -75,6 +75,16 @@ def rulebook_info(evaluator: Any, path: Path) -> dict[str, str]:
             "sha256": str(evaluator.source_hash), "path": str(path)}
 
 
+def _fmu_cached() -> bool:
+    """Whether the built-in rover FMU is already built for these sources."""
+    try:
+        from idefix_rules.fmu.build import MODEL_IDENTIFIER, cache_dir, source_hash
+
+        return (cache_dir() / f"{MODEL_IDENTIFIER}-{source_hash()[:16]}.fmu").exists()
+    except Exception:  # cannot tell: say nothing rather than something wrong
+        return True
+
+
 def resolve_fmu(campaign: Campaign) -> Path:
     if campaign.fmu is not None:
         return campaign.fmu
@@ -97,13 +107,18 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked)."""
     options = options or SimulationOptions()
     started = time.perf_counter()
+    say = progress.message if progress is not None else (lambda text: None)
+    say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
+    if campaign.fmu is None and not _fmu_cached():
+        say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
     check_signal_map(campaign, evaluator.required_signals)
     check_simulation_size(campaign)
     prepare_output(campaign)
     fixed: dict[str, float | str] = {}
+    say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
@@ -116,14 +131,15 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
     simulated = time.perf_counter()
-    if progress is not None:
-        progress.message("evaluating")
     store = ResultStore.open(simulation.results, writable=True)
+    checks = " (collision checks and rulebook)" if collisions is not None else ""
     try:
         evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                     initial_position_sigma(campaign), collisions,
                                     rulebook_info(evaluator, campaign.rulebook),
-                                    workers=_local_workers(options, campaign))
+                                    workers=_local_workers(options, campaign),
+                                    on_path=lambda name, runs: say(
+                                        f"evaluating {name}: {runs} runs{checks}"))
         result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name,
                          simulation.path_seconds)
     finally:
@@ -131,6 +147,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     evaluated = time.perf_counter()
     result.warnings.extend(simulation.warnings)
     if report:
+        say("writing the report (per-sample risk maps, figures)")
         result.report = write_report(result.results, campaign.output)
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,

@@ -5,14 +5,17 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import time
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    SpinnerColumn,
     TextColumn,
     TimeElapsedColumn,
     TimeRemainingColumn,
@@ -96,30 +99,51 @@ def _positive_float(text: str) -> float:
 
 
 class RichProgress:
-    """Progress bars with ETA per path (the simulation's :class:`Progress` protocol)."""
+    """Progress on the console (the simulation's :class:`Progress` protocol): a spinner with
+    the elapsed time for each step (compile, FMU build, terrain, evaluation per path, report),
+    then a line saying how long it took; bars with ETA for each path's runs."""
 
     def __init__(self, console: Console, quiet: bool) -> None:
         self.console = console
         self.quiet = quiet
         self.bars: Progress | None = None
         self.tasks: dict[str, Any] = {}
+        self.failed: dict[str, int] = {}
+        self.step: tuple[str, float] | None = None
+        self.spinner: Progress | None = None
 
     def message(self, text: str) -> None:
-        if not self.quiet:
-            self.stop()
-            self.console.print(f"[dim]{text}[/dim]")
+        if self.quiet:
+            return
+        self.stop()
+        self.step = (text, time.perf_counter())
+        self.spinner = Progress(SpinnerColumn(), TextColumn("{task.description}"),
+                                TimeElapsedColumn(), console=self.console, transient=True)
+        self.spinner.add_task(text, total=None)
+        self.spinner.start()
+
+    def _end_step(self) -> None:
+        if self.spinner is not None:
+            self.spinner.stop()
+            self.spinner = None
+        if self.step is not None:
+            text, began = self.step
+            self.step = None
+            self.console.print(f"[dim]{escape(text)} ({time.perf_counter() - began:.1f} s)"
+                               "[/dim]")
 
     def start_path(self, name: str, total: int, done: int) -> None:
         if self.quiet:
             return
+        self._end_step()
         if self.bars is None:
-            self.bars = Progress(TextColumn("{task.description:<24}"), BarColumn(),
+            self.bars = Progress(TextColumn("{task.description}"), BarColumn(bar_width=20),
                                  MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
                                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                  console=self.console, transient=False)
             self.bars.start()
-        self.tasks[name] = self.bars.add_task(name, total=total, completed=done, failed="")
-        self.failed: dict[str, int] = getattr(self, "failed", {})
+        self.tasks[name] = self.bars.add_task(escape(name), total=total, completed=done,
+                                              failed="")
         self.failed[name] = 0
 
     def run_finished(self, name: str, ok: bool) -> None:
@@ -131,6 +155,7 @@ class RichProgress:
         self.bars.update(self.tasks[name], advance=1, failed=label)
 
     def stop(self) -> None:
+        self._end_step()
         if self.bars is not None:
             self.bars.stop()
             self.bars = None
