@@ -279,7 +279,12 @@ SCRIPT = r"""
     box.addEventListener("change", function () { on[box.value] = box.checked; draw(); });
   });
   window.addEventListener("resize", draw);
-  window.idefixReport = {openRun: openRun, cells: cellTable, draw: draw};
+  function at(key) {  // client coordinates of a cell's centre (for scripted checks)
+    var box = canvas.getBoundingClientRect(), col = key % g.nx, row = Math.floor(key / g.nx);
+    return {x: box.left + sx(g.x0 + (col + 0.5) * g.cell),
+            y: box.top + sy(g.y0 + (row + 0.5) * g.cell)};
+  }
+  window.idefixReport = {openRun: openRun, cells: cellTable, draw: draw, at: at};
   draw();
 })();
 """
