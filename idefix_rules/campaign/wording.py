@@ -122,11 +122,14 @@ class DisplayUnits:
             if isinstance(data.get("uncertainty"), Mapping) else None
         for name, spec in (parameters or {}).items() if isinstance(parameters, Mapping) else ():
             if isinstance(spec, Mapping):
-                for key in ("mean", "median", "low", "high", "std", "value"):
-                    unit = _written_unit(spec.get(key))
-                    if unit is not None:
-                        found.setdefault(str(name), unit)
-                        break
+                # The unit of the first non-zero value: "mean: 0 m, std: 1 cm" reads in cm.
+                written = [(_number_of(str(spec.get(key))), unit) for key in
+                           ("mean", "median", "low", "high", "std", "value")
+                           if (unit := _written_unit(spec.get(key))) is not None]
+                chosen = [unit for value, unit in written if value != 0.0] or \
+                    [unit for _, unit in written]
+                if chosen:
+                    found.setdefault(str(name), chosen[0])
         for key in [k for k in found if k.endswith("#zero")]:
             found.setdefault(key[:-5], found.pop(key))
         return cls(found)

@@ -21,6 +21,7 @@ from idefix_rules.rulebook.results import CommandViolation
 CAMPAIGN = """\
 uncertainty:
   parameters:
+    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}
     soil.cohesion: {distribution: log_normal, median: "250 Pa", sigma: 0.4}
     soil.friction_angle: {distribution: uniform, low: "30 deg", high: "45 deg"}
     soil.shear_modulus_K: {distribution: truncated_normal, mean: "1.4 cm", std: "0.2 cm"}
@@ -51,6 +52,8 @@ def test_sampled_parameters_in_the_campaign_units() -> None:
     assert parameter_text("soil.friction_angle", math.radians(37.5), "rad", units) == "37.5 deg"
     assert parameter_text("soil.shear_modulus_K", 0.0142, "m", units) == "1.42 cm"
     assert parameter_text("initial.yaw", math.radians(-1.5), "rad", units) == "-1.5 deg"
+    # "mean: 0 m, std: 1 cm": the non-zero value's unit.
+    assert parameter_text("initial.x", -0.0212, "m", units) == "-2.12 cm"
     # An unknown stored unit is shown as stored, never converted wrongly.
     assert parameter_text("toy.slip", 0.15, "1", units) == "0.15"
 
