@@ -1,8 +1,8 @@
 """``idefix-verify report results.h5 [-o DIR]``: the HTML report of a stored campaign.
 
 Writes ``report.html`` (self-contained: figures and data embedded, its own small script, no
-request of any kind) and the figures as PNG into ``DIR`` (default: the folder of the results file). Exit 0 when written, 2 when the
-results file is missing or not a results file.
+request of any kind) and the figures as PNG into ``DIR`` (default: the folder of the results
+file). Exit 0 when written, 2 when the results file is missing or not a results file.
 """
 
 from __future__ import annotations
