@@ -20,6 +20,7 @@ from rich.progress import (
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
+from rich.table import Column
 
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.schema import MAX_RUNS
@@ -49,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted campaign: simulate only missing runs")
     parser.add_argument("--junit", type=output_file, metavar="FILE",
-                        help="write JUnit XML: one test case per path and per expectation")
+                        help="write JUnit XML: a case per path and per expectation; its "
+                        "failures are exactly what sets the exit code (docs/ci.md)")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress bars (CI logs); the result table is still printed")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
@@ -117,7 +119,9 @@ class RichProgress:
             return
         self.stop()
         self.step = (text, time.perf_counter())
-        self.spinner = Progress(SpinnerColumn(), TextColumn("{task.description}"),
+        self.spinner = Progress(SpinnerColumn(),
+                                TextColumn("{task.description}",
+                                           table_column=Column(overflow="fold")),
                                 TimeElapsedColumn(), console=self.console, transient=True)
         self.spinner.add_task(text, total=None)
         self.spinner.start()
@@ -137,7 +141,12 @@ class RichProgress:
             return
         self._end_step()
         if self.bars is None:
-            self.bars = Progress(TextColumn("{task.description}"), BarColumn(bar_width=20),
+            # A narrow console keeps the bar short so whole path names fit; a name longer
+            # than the line folds onto the next one, never cut.
+            bar = 10 if self.console.width < 100 else 30
+            self.bars = Progress(TextColumn("{task.description}",
+                                            table_column=Column(overflow="fold")),
+                                 BarColumn(bar_width=bar),
                                  MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
                                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                  console=self.console, transient=False)

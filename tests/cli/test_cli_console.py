@@ -73,3 +73,30 @@ def test_a_wide_console_shows_the_table_and_a_failed_expectation(
     assert "┃ path" in out  # the table layout
     assert "CI expectations: 0 of 1 held (exit 1)" in out.splitlines()
     assert "Decision: " in out
+
+
+def test_progress_keeps_whole_names_at_80_columns() -> None:
+    import io
+
+    from rich.console import Console
+
+    from idefix_rules.cli.run import RichProgress
+
+    out = io.StringIO()
+    console = Console(file=out, width=80, force_terminal=True, color_system=None)
+    progress = RichProgress(console, quiet=False)
+    name = "a-very-long-path-name-for-the-detour-left-of-the-rock-with-arcs"
+    progress.message("compiling the rulebook idefix-ops.rules")
+    progress.start_path(name, total=128, done=0)
+    for _ in range(128):
+        progress.run_finished(name, ok=True)
+    progress.message(f"evaluating {name}: 128 runs (collision checks and rulebook)")
+    progress.stop()
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", out.getvalue())
+    lines = [line for line in re.split(r"[\r\n]", text) if line.strip()]
+    assert max(len(line) for line in lines) <= 80
+    assert "…" not in text
+    assert "128/128" in text
+    # The step lines say how long each step took; a folded name is still whole.
+    assert re.search(r"compiling the rulebook idefix-ops.rules \(\d+\.\d s\)", text)
+    assert name in "".join(line.strip() for line in lines)
