@@ -20,7 +20,7 @@ from idefix_rules.campaign.wording import DisplayUnits, parameter_text
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.figures import path_colour
 from idefix_rules.report.prepare import MapSet, Setup
-from idefix_rules.report.runs import SERIES
+from idefix_rules.report.runs import MAX_CONTACTS, SERIES
 
 
 def _track(x: np.ndarray, y: np.ndarray, points: int = 300) -> list[list[float]]:
@@ -85,7 +85,9 @@ def payload(data: ReportData, setup: Setup, maps: MapSet,
                                for wheel, track in maps.wheel_tracks[path.name].items()}
         if path.name in maps.cells:
             entry["cells"] = _sparse_cells(maps, path.name, path.index_names)
-            entry["contacts"] = maps.contacts.get(path.name, [])
+            contacts = maps.contacts.get(path.name, [])
+            entry["contacts"] = contacts[:MAX_CONTACTS]
+            entry["contacts_total"] = len(contacts)
             runs = {}
             for run, series in maps.series.get(path.name, {}).items():
                 position_ = int(path.dominant[run])

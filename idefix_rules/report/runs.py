@@ -31,6 +31,8 @@ from idefix_rules.commands import RoverGeometry
 from idefix_rules.report.riskmap import RiskGrid, run_cell_maxima
 
 POINTS = 120
+# Contacts per path the page draws (the first ones by run number; all are in results.h5).
+MAX_CONTACTS = 1000
 # Runs per path whose track and time series the page holds (the worst first).
 EMBEDDED_RUNS = 24
 WHEELS = ("FL", "FR", "RL", "RR")
@@ -208,6 +210,8 @@ def contact_points(details: Any, rows: np.ndarray, signals: Mapping[str, np.ndar
                 dx, dy = offsets[body]
                 x, y = x + dx * math.cos(yaw) - dy * math.sin(yaw), \
                     y + dx * math.sin(yaw) + dy * math.cos(yaw)
+            if not (math.isfinite(x) and math.isfinite(y)):
+                continue
             points.append({"run": int(run), "t": round(float(t[sample]), 2),
                            "x": round(x, 4), "y": round(y, 4), "body": body,
                            "part": str(contact.get("part", "")),
