@@ -6,6 +6,8 @@ import math
 from types import SimpleNamespace
 
 import pytest
+from hypothesis import event, given
+from hypothesis import strategies as st
 
 from idefix_rules.campaign.decision import decide
 from idefix_rules.campaign.wording import (
@@ -109,3 +111,44 @@ def test_decision_send_none_unsettled() -> None:
     # A decided pass is sent even when a better-ranked path is undecided, and it says so.
     both = decide([_path("a", "pass", 1, undecided=True), _path("b", "pass", 2)])
     assert both.path == "b" and "a ranks better but is not decided yet" in both.text
+
+
+VERDICTS = ("pass", "fail", "rejected", "excluded", "error")
+
+
+@st.composite
+def campaigns(draw: st.DrawFn) -> list[SimpleNamespace]:
+    verdicts = draw(st.lists(st.sampled_from(VERDICTS), min_size=1, max_size=6))
+    ranked = [i for i, v in enumerate(verdicts) if v in ("pass", "fail")]
+    order = draw(st.permutations(ranked))
+    paths = []
+    for index, verdict in enumerate(verdicts):
+        rank = order.index(index) + 1 if index in ranked else None
+        undecided = verdict in ("pass", "fail") and draw(st.booleans())
+        paths.append(_path(f"p{index}", verdict, rank, undecided, (f"r{index}",)))
+    return paths
+
+
+@given(campaigns())
+def test_the_decision_follows_the_verdicts(paths: list[SimpleNamespace]) -> None:
+    decision = decide(paths)
+    event(decision.kind)
+    decided_pass = [p for p in paths if p.verdict == "pass" and not p.undecided]
+    if decided_pass:
+        best = min(decided_pass, key=lambda p: p.rank)
+        assert (decision.kind, decision.path) == ("send", best.name)
+    elif any(p.undecided for p in paths):
+        assert decision.kind == "unsettled"
+        assert decision.path in {p.name for p in paths if p.undecided}
+    else:
+        assert decision.kind == "none"
+        ranked = [p for p in paths if p.rank is not None]
+        if ranked:
+            least = min(ranked, key=lambda p: p.rank)
+            assert decision.path == least.name and f"r{least.name[1:]}" in decision.text
+        else:
+            assert decision.path is None
+    # Never "send" a chain that does not pass decidedly.
+    if decision.kind == "send":
+        sent = next(p for p in paths if p.name == decision.path)
+        assert sent.verdict == "pass" and not sent.undecided
