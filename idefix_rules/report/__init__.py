@@ -139,8 +139,8 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
         figure = figures.sensitivity_figure(sensitivity, order)
         sensitivity_images.append(html.Image(
             "sensitivity.png", figures.save_png(figure, out_dir / "sensitivity.png"),
-            "Spearman rank correlation of each sampled parameter with the run risk I_max, "
-            "per path, with its 95 % interval."))
+            "Per path, Spearman rank correlation of each sampled parameter with the run "
+            "risk I_max and its 95 % interval; filled bars: the interval excludes 0."))
     notes = list(setup.notes)
     if not data.evaluated_paths:
         notes.append("no path has an evaluation: run `idefix-verify evaluate` first")

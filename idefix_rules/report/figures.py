@@ -153,34 +153,37 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
 
 def sensitivity_figure(sensitivity: Mapping[str, Mapping[str, Any]],
                        path_order: Sequence[str]) -> Figure:
-    """Per path, a bar per parameter: Spearman's ρ with I_max and its 95 % interval."""
+    """A bar chart per path: each parameter's Spearman ρ with I_max and its 95 % interval
+    (filled when the interval excludes 0), parameters in the same order in every panel."""
     names = [name for name in path_order if sensitivity.get(name, {}).get("risk")]
     parameters: list[str] = []
     for name in names:
         parameters += [item["parameter"] for item in sensitivity[name]["risk"]
                        if item["parameter"] not in parameters]
-    figure = _figure(9.0, 1.2 + 0.32 * max(1, len(parameters)) * max(1, len(names)) ** 0.6)
-    axes = figure.add_subplot()
-    height = 0.8 / max(1, len(names))
-    for offset, name in enumerate(names):
+    rows = max(1, len(names))
+    figure = _figure(9.0, 0.9 + rows * (0.55 + 0.3 * max(1, len(parameters))))
+    panels = figure.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
+    for axes, name in zip(panels, names, strict=False):
         items = {item["parameter"]: item for item in sensitivity[name]["risk"]}
-        ys = [row + offset * height for row, p in enumerate(parameters) if p in items]
-        rho = [items[p]["rho"] for p in parameters if p in items]
-        low = [items[p]["rho"] - items[p]["ci95"][0] for p in parameters if p in items]
-        high = [items[p]["ci95"][1] - items[p]["rho"] for p in parameters if p in items]
-        axes.barh(ys, rho, height=height * 0.9, xerr=[low, high], capsize=2,
-                  color=path_colour(list(path_order).index(name)), alpha=0.8, label=name,
-                  error_kw={"linewidth": 0.8})
-    axes.set_yticks([row + 0.4 - height / 2 for row in range(len(parameters))], parameters,
-                    fontsize=10)
-    axes.invert_yaxis()
-    axes.axvline(0.0, color="black", linewidth=0.8)
-    axes.set_xlim(-1.0, 1.0)
-    axes.set_xlabel("Spearman ρ with the run risk I_max (95 % interval)", fontsize=10)
-    axes.set_title("Which uncertain parameter drives each path's risk", fontsize=12)
-    axes.grid(True, axis="x", linewidth=0.3, alpha=0.6)
-    if names:
-        axes.legend(loc="lower right", fontsize=9)
+        shown = [p for p in parameters if p in items]
+        ys = np.arange(len(shown))
+        rho = np.array([items[p]["rho"] for p in shown])
+        low = rho - np.array([items[p]["ci95"][0] for p in shown])
+        high = np.array([items[p]["ci95"][1] for p in shown]) - rho
+        colour = path_colour(list(path_order).index(name))
+        significant = [bool(items[p]["significant"]) for p in shown]
+        axes.barh(ys, rho, height=0.7, xerr=[low, high], capsize=3,
+                  color=[colour if s else "white" for s in significant], edgecolor=colour,
+                  linewidth=1.2, error_kw={"linewidth": 0.9})
+        axes.set_yticks(ys, shown, fontsize=10)
+        axes.invert_yaxis()
+        axes.axvline(0.0, color="black", linewidth=0.8)
+        axes.set_title(f"{name} ({sensitivity[name].get('runs', 0)} runs)", fontsize=11,
+                       loc="left")
+        axes.grid(True, axis="x", linewidth=0.3, alpha=0.6)
+    panels[-1].set_xlim(-1.0, 1.0)
+    panels[-1].set_xlabel("Spearman ρ with the run risk I_max, 95 % interval "
+                          "(filled: the interval excludes 0)", fontsize=10)
     return figure
 
 
