@@ -37,7 +37,7 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> 
     if maps.combined.runs == 0:
         what = "no evaluated runs (reference runs only)"
     overlay = figures.MapOverlay(maps.reference_tracks, maps.ideal_tracks, maps.wheel_tracks,
-                                 maps.contacts)
+                                 maps.contacts, maps.wheel_bands)
     combined = figures.risk_map_figure(
         maps.combined.values(), maps.grid, setup.environment, overlay, order,
         f"All paths: {what}", maps.cell_reason)

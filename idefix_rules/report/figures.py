@@ -90,6 +90,7 @@ class MapOverlay:
     wheels: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]] = field(
         default_factory=dict)
     contacts: Mapping[str, Sequence[Mapping[str, Any]]] = field(default_factory=dict)
+    bands: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
 
 def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironment,
@@ -110,6 +111,10 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
         strong = highlight is None or name == highlight
         colour = path_colour(position)
         alpha = 1.0 if strong else 0.35
+        if strong:
+            for band in (overlay.bands.get(name) or {}).values():
+                axes.add_patch(Polygon(band, closed=True, facecolor=colour, alpha=0.18,
+                                       edgecolor="none", zorder=4))
         for wheel in (overlay.wheels.get(name) or {}).values():
             axes.plot(wheel[0], wheel[1], color=colour, linewidth=0.8, alpha=0.6 * alpha,
                       zorder=5)
@@ -132,6 +137,8 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     axes.plot([], [], color=grey, linestyle=(0, (5, 3)), linewidth=1.5,
               label="ideal (commanded) path")
     axes.plot([], [], color=grey, linewidth=0.8, label="wheel tracks (reference run)")
+    axes.add_patch(Polygon(np.zeros((3, 2)), facecolor=grey, alpha=0.25, edgecolor="none",
+                           label="wheel footprints (6 cm wide)" if overlay.bands else None))
     if contacts_drawn:
         axes.scatter([], [], marker="x", color="black", label="first contact (at the wheel)")
     left, right, bottom, top = grid.extent

@@ -19,7 +19,7 @@ import numpy as np
 from idefix_rules.campaign.wording import DisplayUnits, parameter_text
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.figures import path_colour
-from idefix_rules.report.prepare import MapSet, Setup
+from idefix_rules.report.prepare import WHEEL_WIDTH, MapSet, Setup
 from idefix_rules.report.runs import MAX_CONTACTS, SERIES
 
 
@@ -111,7 +111,7 @@ def payload(data: ReportData, setup: Setup, maps: MapSet,
         "series": [{"key": s.key, "title": s.title, "unit": s.unit} for s in SERIES],
         "limits": series_limits(setup),
         "rover": {"half_track": setup.rover.half_track,
-                  "half_wheelbase": setup.rover.half_wheelbase},
+                  "half_wheelbase": setup.rover.half_wheelbase, "wheel_width": WHEEL_WIDTH},
         "rocks": [{"name": r.name, "x": r.x, "y": r.y, "a": r.a, "b": r.b, "level": r.level,
                    "buffer": r.buffer} for r in env.rocks],
         "areas": [{"name": a.name, "polygon": np.round(a.polygon, 4).tolist(),

@@ -24,6 +24,7 @@ import numpy as np
 
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command, RoverGeometry, chain_duration, ideal_poses
+from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData
 from idefix_rules.report.environment import MapEnvironment, map_environment
 from idefix_rules.report.riskmap import (
@@ -38,10 +39,13 @@ from idefix_rules.report.runs import (
     CellRuns,
     contact_points,
     run_series,
+    wheel_bands,
     wheel_tracks,
 )
 
 CHUNK_RUNS = 64
+# Wheel width the footprints are drawn with: the obstacle checker's wheel (docs/obstacles.md).
+WHEEL_WIDTH = RoverBodies().wheel_width
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 ERROR_SIGNALS = ("t", "x", "y", "yaw", "command")
 
@@ -77,6 +81,7 @@ class MapSet:
     ideal_tracks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     wheel_tracks: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]] = field(
         default_factory=dict)
+    wheel_bands: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 def _campaign_model(text: str, path: str) -> Any:
@@ -299,6 +304,9 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
                 maps.wheel_tracks[path.name] = wheel_tracks(
                     np.asarray(reference["x"]), np.asarray(reference["y"]),
                     np.asarray(reference["yaw"]), setup.rover)
+                maps.wheel_bands[path.name] = wheel_bands(
+                    np.asarray(reference["x"]), np.asarray(reference["y"]),
+                    np.asarray(reference["yaw"]), setup.rover, WHEEL_WIDTH)
         if not path.evaluated or not path.complete.any():
             continue
         accumulator = RiskAccumulator(grid)

@@ -78,6 +78,21 @@ def wheel_tracks(x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
             for name, (dx, dy) in wheel_offsets(rover).items()}
 
 
+def wheel_bands(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, rover: RoverGeometry,
+                width: float) -> dict[str, np.ndarray]:
+    """Each wheel's footprint over the run: the band its ``width`` sweeps, as a polygon
+    (edges offset ±width/2 along the wheel axle, i.e. across the body heading)."""
+    half = width / 2.0
+    keep = np.isfinite(x) & np.isfinite(y) & np.isfinite(yaw)
+    x, y, yaw = x[keep], y[keep], yaw[keep]
+    across = np.stack([-np.sin(yaw), np.cos(yaw)], axis=1) * half
+    bands = {}
+    for name, (wx, wy) in wheel_tracks(x, y, yaw, rover).items():
+        centre = np.stack([wx, wy], axis=1)
+        bands[name] = np.vstack([centre + across, (centre - across)[::-1]])
+    return bands
+
+
 def _buckets(valid: int, points: int = POINTS) -> np.ndarray:
     """Bucket edges over ``valid`` samples (at most ``points`` buckets)."""
     count = max(1, min(points, valid))

@@ -147,8 +147,10 @@ SCRIPT = r"""
     data.paths.forEach(function (p) {
       if (!on[p.name]) { return; }
       if (p.wheels) {
-        Object.keys(p.wheels).forEach(function (w) {
-          line(ctx, p.wheels[w][0], p.wheels[w][1], p.colour + "88", 1.2);
+        Object.keys(p.wheels).forEach(function (w) {  // footprint band, then its centre
+          line(ctx, p.wheels[w][0], p.wheels[w][1], p.colour + "30",
+               Math.max(1, data.rover.wheel_width * view.scale));
+          line(ctx, p.wheels[w][0], p.wheels[w][1], p.colour + "88", 1);
         });
       }
       if (p.ideal) { line(ctx, p.ideal[0], p.ideal[1], p.colour, 1.8, [7, 5]); }
@@ -164,7 +166,9 @@ SCRIPT = r"""
       var wheels = wheelsOf(selected.run);
       if (wheels) {
         Object.keys(wheels).forEach(function (w) {
-          line(ctx, wheels[w][0], wheels[w][1], "rgba(0,0,0,.55)", 1.4);
+          line(ctx, wheels[w][0], wheels[w][1], "rgba(0,0,0,.18)",
+               Math.max(1, data.rover.wheel_width * view.scale));
+          line(ctx, wheels[w][0], wheels[w][1], "rgba(0,0,0,.55)", 1.2);
         });
       }
       line(ctx, selected.run.x, selected.run.y, "#000", 3);
