@@ -91,3 +91,21 @@ def test_worst_runs_break_ties_by_how_far_over_the_limit() -> None:
     assert worst[0].excess == pytest.approx(3.0)
     # Without limits, equal I_max keeps the run order.
     assert path.worst_order().tolist()[:3] == [0, 1, 3]
+
+
+def test_wheel_footprints_are_as_wide_as_the_wheel_across_the_heading() -> None:
+    from idefix_rules.report.runs import wheel_bands
+
+    rover = RoverGeometry()
+    x = np.linspace(0.0, 1.0, 11)
+    bands = wheel_bands(x, np.zeros(11), np.zeros(11), rover, 0.06)
+    front_right = bands["FR"]
+    assert front_right.shape == (22, 2)
+    # Driving along +x: the band spans y = -half_track ± 3 cm, x = half_wheelbase + 0 … 1 m.
+    assert front_right[:, 1].min() == pytest.approx(-rover.half_track - 0.03)
+    assert front_right[:, 1].max() == pytest.approx(-rover.half_track + 0.03)
+    assert front_right[:, 0].max() == pytest.approx(1.0 + rover.half_wheelbase)
+    # Facing +y, the band is 6 cm wide along x instead.
+    turned = wheel_bands(np.zeros(3), np.linspace(0, 1, 3), np.full(3, math.pi / 2), rover,
+                         0.06)["FL"]
+    assert np.ptp(turned[:, 0]) == pytest.approx(0.06)
