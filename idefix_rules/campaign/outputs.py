@@ -209,8 +209,9 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
     (one case per path, its verdict). With expectations, the exit code follows them, so only
     expectation cases fail; path cases report their verdict (property ``verdict``, text) and
     pass. Without expectations, every path must pass: a path that does not is a failure (an
-    error when its evaluation broke). ``seconds``: time spent per path (simulation), the
-    ``time`` of its case; each expectation case's time is its check.
+    error when its evaluation broke). ``seconds``: time spent per path (simulation in the
+    workers and evaluation), the ``time`` of its case; each expectation case's time is its
+    check.
     """
     seconds = seconds or {}
     asserted_paths = not expectations

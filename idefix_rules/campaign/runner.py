@@ -75,6 +75,35 @@ def rulebook_info(evaluator: Any, path: Path) -> dict[str, str]:
             "sha256": str(evaluator.source_hash), "path": str(path)}
 
 
+class PathClock:
+    """Seconds each path's evaluation took (from its start to the next path's or to
+    :meth:`seconds`), for JUnit's ``time``; passes each start on to ``then``."""
+
+    def __init__(self, then: Any = None) -> None:
+        self.then = then
+        self.started: list[tuple[str, float]] = []
+        self.took: dict[str, float] = {}
+
+    def start(self, name: str, runs: int) -> None:
+        self._close()
+        self.started.append((name, time.perf_counter()))
+        if self.then is not None:
+            self.then(name, runs)
+
+    def _close(self) -> None:
+        if self.started and self.started[-1][0] not in self.took:
+            name, began = self.started[-1]
+            self.took[name] = time.perf_counter() - began
+
+    def seconds(self, plus: dict[str, float] | None = None) -> dict[str, float]:
+        """Evaluation seconds per path, plus ``plus`` (simulation seconds) where given."""
+        self._close()
+        total = dict(plus or {})
+        for name, value in self.took.items():
+            total[name] = total.get(name, 0.0) + value
+        return total
+
+
 def _fmu_cached() -> bool:
     """Whether the built-in rover FMU is already built for these sources."""
     try:
@@ -133,15 +162,15 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     simulated = time.perf_counter()
     store = ResultStore.open(simulation.results, writable=True)
     checks = " (collision checks and rulebook)" if collisions is not None else ""
+    clock = PathClock(lambda name, runs: say(f"evaluating {name}: {runs} runs{checks}"))
     try:
         evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                     initial_position_sigma(campaign), collisions,
                                     rulebook_info(evaluator, campaign.rulebook),
                                     workers=_local_workers(options, campaign),
-                                    on_path=lambda name, runs: say(
-                                        f"evaluating {name}: {runs} runs{checks}"))
+                                    on_path=clock.start)
         result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name,
-                         simulation.path_seconds)
+                         clock.seconds(simulation.path_seconds))
     finally:
         store.close()
     evaluated = time.perf_counter()
@@ -205,11 +234,12 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         output = out or results.parent
         collisions = collision_function(model.environment, evaluator,
                                         read_terrain(results.parent))
+        clock = PathClock()
         evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
                                     initial_position_sigma(stub), collisions,
-                                    rulebook_info(evaluator, rulebook_path))
+                                    rulebook_info(evaluator, rulebook_path), on_path=clock.start)
         name = str(store.attrs.get("campaign_name", "campaign"))
-        result = _finish(store, evaluation, model, output, junit, name)
+        result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
         state = str(store.attrs.get("state", "complete"))
         if state != "complete":  # its missing runs count as failed: say why
             result.warnings.append(

@@ -4,6 +4,7 @@ whole path names at 80 columns, and a rejected command in the campaign's units."
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -34,9 +35,9 @@ def _campaign(folder: Path, toy: Path, expect: str) -> Path:
 
 
 def _run(campaign: Path, columns: int, monkeypatch: pytest.MonkeyPatch,
-         capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+         capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str]:
     monkeypatch.setenv("COLUMNS", str(columns))
-    code = main([str(campaign), "--quiet", "--no-report"])
+    code = main([str(campaign), "--quiet", "--no-report", *extra])
     return code, capsys.readouterr().out
 
 
@@ -68,8 +69,16 @@ def test_a_wide_console_shows_the_table_and_a_failed_expectation(
         capsys: pytest.CaptureFixture[str]) -> None:
     campaign = _campaign(tmp_path, cli_toy_fmu,
                          "expect:\n  - {path: point-turn-120, verdict: pass}\n")
-    code, out = _run(campaign, 200, monkeypatch, capsys)
+    junit = tmp_path / "junit.xml"
+    code, out = _run(campaign, 200, monkeypatch, capsys, "--junit", str(junit))
     assert code == 1
+    # JUnit agrees with the exit code: one failure, the expectation; paths only report.
+    root = ET.parse(junit).getroot()
+    assert root.get("failures") == "1"
+    failing = [c.get("name") for c in root.iter("testcase") if c.find("failure") is not None]
+    assert failing == ["expect[0] point-turn-120 passes"]
+    simulated = next(c for c in root.iter("testcase") if c.get("name") == LONG)
+    assert float(simulated.get("time", "0")) > 0.0  # its runs and its evaluation took time
     assert "┃ path" in out  # the table layout
     assert "CI expectations: 0 of 1 held (exit 1)" in out.splitlines()
     assert "Decision: " in out
