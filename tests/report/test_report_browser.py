@@ -78,6 +78,12 @@ window.addEventListener("load", function () {
                              " > " + Math.round(limit));
       }
     });
+    var maps = document.querySelectorAll('img[alt^="Result map"]');
+    out.mapScale = Math.min.apply(null, Array.prototype.map.call(maps, function (img) {
+      return img.getBoundingClientRect().width / img.naturalWidth; }));
+    out.mapShare = Math.min.apply(null, Array.prototype.map.call(maps, function (img) {
+      return img.getBoundingClientRect().width /
+        img.closest("section").getBoundingClientRect().width; }));
     out.resources = performance.getEntriesByType("resource").map(function (e) {
       return e.name; });
     var api = window.idefixReport, cells = api.cells(), keys = Object.keys(cells);
@@ -177,6 +183,10 @@ def test_report_fits_fetches_nothing_and_answers(synthetic_results: Path, tmp_pa
     # tables scroll inside their own box).
     assert int(found["scrollWidth"]) <= int(found["clientWidth"]), found  # type: ignore[call-overload]
     assert found["overflowing"] == []
+    # Printable maps take most of the page's width and are not shrunk below 70 % of their
+    # drawn size: their 9.5–10 pt labels stay at 10 px or more.
+    assert float(found["mapShare"]) > 0.75  # type: ignore[arg-type]
+    assert float(found["mapScale"]) >= 0.7  # type: ignore[arg-type]
     assert found["resources"] == []  # not one request, not even for a file next to it
     # The map is drawn: a crossed cell is coloured, not the white background.
     red, green, blue, _ = found["pixel"]  # type: ignore[misc]
