@@ -12,7 +12,7 @@ import dataclasses
 import json
 import multiprocessing
 from collections import deque
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -287,9 +287,11 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
                    collisions: CollisionFunction | None, rulebook_info: dict[str, str],
                    write: bool = True,
-                   chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1) -> CampaignEvaluation:
+                   chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
+                   on_path: Callable[[str, int], None] | None = None) -> CampaignEvaluation:
     """Score every path of a results file; writes the evaluation groups when ``write``.
-    ``workers`` processes share the collision checks."""
+    ``workers`` processes share the collision checks; ``on_path(name, runs)`` is called as
+    each simulated path's evaluation starts (progress)."""
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
     for name in store.path_names:
@@ -298,6 +300,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         if result.status != "simulated" or not store.has_runs(name):
             continue
         missing = result.runs - result.completed - result.failed
+        if on_path is not None:
+            on_path(name, result.completed)
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
                                           chunk_runs, workers)
         if evaluation is None:

@@ -6,13 +6,17 @@ Exit codes (DESIGN.md): 0 every expectation holds (no expectations: every path p
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import time
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from idefix_rules import __version__
+from idefix_rules.campaign.decision import campaign_decision, reasons_of
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
 from idefix_rules.campaign.schema import (
     CollisionExpectation,
@@ -30,6 +34,7 @@ class ExpectationResult:
     description: str
     held: bool
     message: str
+    seconds: float = 0.0  # time the check took (JUnit ``time``)
 
 
 def _percent(value: float | None) -> str:
@@ -89,7 +94,12 @@ def _any_collision(path: PathResult) -> float | None:
 
 def check_expectations(expectations: list[Any],
                        evaluation: CampaignEvaluation) -> list[ExpectationResult]:
-    return [check_expectation(e, evaluation) for e in expectations]
+    results = []
+    for expectation in expectations:
+        started = time.perf_counter()
+        result = check_expectation(expectation, evaluation)
+        results.append(dataclasses.replace(result, seconds=time.perf_counter() - started))
+    return results
 
 
 def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
@@ -97,6 +107,38 @@ def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
     if has_expectations:
         return EXIT_OK if all(e.held for e in expectations) else EXIT_FAILED
     return EXIT_OK if all(p.verdict_text == "pass" for p in evaluation.paths) else EXIT_FAILED
+
+
+# Units of the numbers in a summary's path records (also in docs/results-format.md).
+SUMMARY_UNITS = {
+    "mean_risk": "1 (run risk I_max, 0 safe … 1 critical; 4 decimals)",
+    "risk_ci95": "1 (4 decimals)",
+    "chances": "1 (share of runs; 4 decimals)",
+    "collision_chance": "1 (share of runs per obstacle level; 4 decimals)",
+    "energy_mAs": "mAs (0.1 mAs)",
+    "time_s": "s (0.01 s)",
+    "statistics": "SI, 4 significant digits (risk and chances 1, time s, energy A·s)",
+    "sensitivity": "rank correlations, -1 … 1 (3 decimals)",
+}
+
+
+def _round(value: float | None, decimals: int) -> float | None:
+    return None if value is None else round(float(value), decimals)
+
+
+def significant(obj: Any, digits: int = 4) -> Any:
+    """Every float of a plain tree rounded to ``digits`` significant digits.
+
+    >>> significant({"a": [0.123456, 123456.7], "b": 3})
+    {'a': [0.1235, 123500.0], 'b': 3}
+    """
+    if isinstance(obj, float):
+        return float(f"{obj:.{digits}g}") if obj == obj and abs(obj) != float("inf") else obj
+    if isinstance(obj, dict):
+        return {k: significant(v, digits) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [significant(v, digits) for v in obj]
+    return obj
 
 
 def path_record(path: PathResult) -> dict[str, Any]:
@@ -110,23 +152,24 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "failed_runs": path.failed,
         "failures": [{"run": run, "reason": reason} for run, reason in
                      sorted(path.failures.items())],
-        "mean_risk": path.mean_risk,
-        "risk_ci95": list(path.risk_ci) if path.risk_ci else None,
-        "chances": path.chances,
-        "collision_chance": path.collision_chance,
-        "energy_mAs": None if path.energy is None else path.energy * 1000.0,
-        "time_s": path.time,
+        "mean_risk": _round(path.mean_risk, 4),
+        "risk_ci95": [round(v, 4) for v in path.risk_ci] if path.risk_ci else None,
+        "chances": {k: round(v, 4) for k, v in path.chances.items()},
+        "collision_chance": {k: round(v, 4) for k, v in path.collision_chance.items()},
+        "energy_mAs": None if path.energy is None else round(path.energy * 1000.0, 1),
+        "time_s": _round(path.time, 2),
         "dominant_index": path.dominant_index,
         "verdict": path.verdict_text,
         "undecided": path.undecided,
         "verdict_reasons": path.verdict_reasons,
+        "reasons": reasons_of(path),
         "rank": path.rank,
-        "statistics": as_plain(path.statistics),
+        "statistics": significant(as_plain(path.statistics)),
     }
 
 
 def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
-            code: int) -> dict[str, Any]:
+            code: int, sensitivity: dict[str, Any] | None = None) -> dict[str, Any]:
     prov = evaluation.provenance
     return {
         "format": "idefix-summary",
@@ -141,8 +184,11 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "sampling": prov.get("sampling"),
         "started": prov.get("started"),
         "finished": prov.get("finished"),
+        "decision": campaign_decision(evaluation).to_dict(),
+        "units": SUMMARY_UNITS,
         "paths": [path_record(p) for p in evaluation.paths],
         "ranking": evaluation.ranking,
+        "sensitivity": sensitivity or {},
         "expectations": [{"description": e.description, "held": e.held, "message": e.message}
                          for e in expectations],
         "exit_code": code,
@@ -156,38 +202,71 @@ def write_summary(path: Path, data: dict[str, Any]) -> None:
 
 
 def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
-              suite_name: str) -> str:
-    """One test case per path (passes?) and per expectation (holds?)."""
-    suite = ET.Element("testsuite", name=suite_name)
-    failures = 0
-    errors = 0
+              suite_name: str, seconds: Mapping[str, float] | None = None) -> str:
+    """JUnit XML whose failures are exactly what makes the exit code 1 (docs/ci.md).
+
+    Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
+    (one case per path, its verdict). With expectations, the exit code follows them, so only
+    expectation cases fail; path cases report their verdict (property ``verdict``, text) and
+    pass. Without expectations, every path must pass: a path that does not is a failure (an
+    error when its evaluation broke). ``seconds``: time spent per path (simulation in the
+    workers and evaluation), the ``time`` of its case; each expectation case's time is its
+    check.
+    """
+    seconds = seconds or {}
+    asserted_paths = not expectations
+    root = ET.Element("testsuites", name=suite_name)
+    paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
+    failures = errors = 0
     for path in evaluation.paths:
-        case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.paths", name=path.name)
-        text = path.verdict_text
+        case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
+                             time=f"{seconds.get(path.name, 0.0):.3f}")
+        properties = ET.SubElement(case, "properties")
+        verdict = path.verdict_text + (" (not decided)" if path.undecided else "")
+        ET.SubElement(properties, "property", name="verdict", value=verdict)
+        ET.SubElement(properties, "property", name="asserted",
+                      value="yes" if asserted_paths else "no: the campaign's expectations "
+                      "decide the exit code")
         detail = _path_detail(path)
-        if text == "error":
+        if asserted_paths and path.verdict_text == "error":
             errors += 1
             ET.SubElement(case, "error", message=f"path {path.name}: {path.reason or 'error'}",
                           type="error").text = detail
-        elif text != "pass":
+        elif asserted_paths and path.verdict_text != "pass":
             failures += 1
-            ET.SubElement(case, "failure", message=f"path {path.name}: {text}",
-                          type=text).text = detail
+            ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
+                          type=path.verdict_text).text = detail
         ET.SubElement(case, "system-out").text = detail
-    for index, expectation in enumerate(expectations):
-        case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.expect",
-                             name=f"expect[{index}] {expectation.description}")
-        if not expectation.held:
-            failures += 1
-            ET.SubElement(case, "failure", message=expectation.message,
-                          type="expectation").text = expectation.message
-    suite.set("tests", str(len(evaluation.paths) + len(expectations)))
-    suite.set("failures", str(failures))
-    suite.set("errors", str(errors))
-    root = ET.Element("testsuites")
-    root.append(suite)
+    _suite_counts(paths, len(evaluation.paths), failures, errors,
+                  sum(seconds.get(p.name, 0.0) for p in evaluation.paths))
+    if expectations:
+        suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
+        failed = 0
+        for index, expectation in enumerate(expectations):
+            case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.expect",
+                                 name=f"expect[{index}] {expectation.description}",
+                                 time=f"{expectation.seconds:.3f}")
+            if not expectation.held:
+                failed += 1
+                ET.SubElement(case, "failure", message=expectation.message,
+                              type="expectation").text = expectation.message
+            ET.SubElement(case, "system-out").text = expectation.message
+        _suite_counts(suite, len(expectations), failed, 0,
+                      sum(e.seconds for e in expectations))
+        failures += failed
+    _suite_counts(root, len(evaluation.paths) + len(expectations), failures, errors,
+                  sum(float(s.get("time", "0")) for s in root.iter("testsuite")))
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
+                  seconds: float) -> None:
+    element.set("tests", str(tests))
+    element.set("failures", str(failures))
+    element.set("errors", str(errors))
+    element.set("skipped", "0")
+    element.set("time", f"{seconds:.3f}")
 
 
 def _path_detail(path: PathResult) -> str:
@@ -199,7 +278,7 @@ def _path_detail(path: PathResult) -> str:
             if path.risk_ci else ""
         lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
     # An undecided verdict is said by the reasons (each undecided rule's message says it).
-    for reason in path.verdict_reasons:
+    for reason in reasons_of(path):
         lines.append(f"verdict: {reason}")
     for run, reason in sorted(path.failures.items()):
         lines.append(f"run {run} failed: {reason}")

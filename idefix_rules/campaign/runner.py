@@ -25,6 +25,7 @@ from idefix_rules.campaign.evaluation import (
 )
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.schema import CampaignFile
+from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
     TERRAIN_PARAMETER,
     Progress,
@@ -74,6 +75,45 @@ def rulebook_info(evaluator: Any, path: Path) -> dict[str, str]:
             "sha256": str(evaluator.source_hash), "path": str(path)}
 
 
+class PathClock:
+    """Seconds each path's evaluation took (from its start to the next path's or to
+    :meth:`seconds`), for JUnit's ``time``; passes each start on to ``then``."""
+
+    def __init__(self, then: Any = None) -> None:
+        self.then = then
+        self.started: list[tuple[str, float]] = []
+        self.took: dict[str, float] = {}
+
+    def start(self, name: str, runs: int) -> None:
+        self._close()
+        self.started.append((name, time.perf_counter()))
+        if self.then is not None:
+            self.then(name, runs)
+
+    def _close(self) -> None:
+        if self.started and self.started[-1][0] not in self.took:
+            name, began = self.started[-1]
+            self.took[name] = time.perf_counter() - began
+
+    def seconds(self, plus: dict[str, float] | None = None) -> dict[str, float]:
+        """Evaluation seconds per path, plus ``plus`` (simulation seconds) where given."""
+        self._close()
+        total = dict(plus or {})
+        for name, value in self.took.items():
+            total[name] = total.get(name, 0.0) + value
+        return total
+
+
+def _fmu_cached() -> bool:
+    """Whether the built-in rover FMU is already built for these sources."""
+    try:
+        from idefix_rules.fmu.build import MODEL_IDENTIFIER, cache_dir, source_hash
+
+        return (cache_dir() / f"{MODEL_IDENTIFIER}-{source_hash()[:16]}.fmu").exists()
+    except Exception:  # cannot tell: say nothing rather than something wrong
+        return True
+
+
 def resolve_fmu(campaign: Campaign) -> Path:
     if campaign.fmu is not None:
         return campaign.fmu
@@ -96,13 +136,18 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked)."""
     options = options or SimulationOptions()
     started = time.perf_counter()
+    say = progress.message if progress is not None else (lambda text: None)
+    say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
+    if campaign.fmu is None and not _fmu_cached():
+        say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
     variables = check_parameters(campaign, fmu_path)
     check_signal_map(campaign, evaluator.required_signals)
     check_simulation_size(campaign)
     prepare_output(campaign)
     fixed: dict[str, float | str] = {}
+    say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
@@ -115,20 +160,23 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
     simulated = time.perf_counter()
-    if progress is not None:
-        progress.message("evaluating")
     store = ResultStore.open(simulation.results, writable=True)
+    checks = " (collision checks and rulebook)" if collisions is not None else ""
+    clock = PathClock(lambda name, runs: say(f"evaluating {name}: {runs} runs{checks}"))
     try:
         evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                     initial_position_sigma(campaign), collisions,
                                     rulebook_info(evaluator, campaign.rulebook),
-                                    workers=_local_workers(options, campaign))
-        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name)
+                                    workers=_local_workers(options, campaign),
+                                    on_path=clock.start)
+        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name,
+                         clock.seconds(simulation.path_seconds))
     finally:
         store.close()
     evaluated = time.perf_counter()
     result.warnings.extend(simulation.warnings)
     if report:
+        say("writing the report (per-sample risk maps, figures)")
         result.report = write_report(result.results, campaign.output)
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,
@@ -140,17 +188,19 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
 
 
 def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,
-            output: Path, junit: Path | None, name: str) -> CampaignResult:
+            output: Path, junit: Path | None, name: str,
+            seconds: dict[str, float] | None = None) -> CampaignResult:
     checks = outputs.check_expectations(model.expect, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(model.expect))
-    data = outputs.summary(evaluation, checks, code)
+    data = outputs.summary(evaluation, checks, code, store_sensitivity(store.file))
     store.file.require_group("evaluation").attrs["summary"] = json.dumps(data, default=str)
     store.file.flush()
     outputs.write_summary(output / SUMMARY_FILE, data)
     if junit is not None:
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
-            junit.write_text(outputs.junit_xml(evaluation, checks, name), encoding="utf-8")
+            junit.write_text(outputs.junit_xml(evaluation, checks, name, seconds),
+                             encoding="utf-8")
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
@@ -184,11 +234,12 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         output = out or results.parent
         collisions = collision_function(model.environment, evaluator,
                                         read_terrain(results.parent))
+        clock = PathClock()
         evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
                                     initial_position_sigma(stub), collisions,
-                                    rulebook_info(evaluator, rulebook_path))
+                                    rulebook_info(evaluator, rulebook_path), on_path=clock.start)
         name = str(store.attrs.get("campaign_name", "campaign"))
-        result = _finish(store, evaluation, model, output, junit, name)
+        result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
         state = str(store.attrs.get("state", "complete"))
         if state != "complete":  # its missing runs count as failed: say why
             result.warnings.append(

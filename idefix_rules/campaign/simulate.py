@@ -24,6 +24,7 @@ from idefix_rules.campaign import sampling
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
@@ -89,6 +90,7 @@ class SimulationSummary:
     warnings: list[str] = field(default_factory=list)
     fmu_seconds: float = 0.0  # summed time workers spent inside FmuRunner.run
     simulated_runs: int = 0
+    path_seconds: dict[str, float] = field(default_factory=dict)  # the same, per path
 
 
 def now_iso() -> str:
@@ -300,7 +302,8 @@ def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
             "samples": plan.samples, "ideal_duration": plan.ideal_duration})
         if violations:
             plan.status = "rejected"
-            plan.reason = "; ".join(_describe(v) for v in violations)
+            units = DisplayUnits.from_campaign_text(campaign.text)
+            plan.reason = "; ".join(violation_text(v, units) for v in violations)
             store.set_path_status(name, plan.status, plan.reason)
 
 
@@ -376,6 +379,7 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
         return
     plan.reference = outcome.value.signals
     summary.fmu_seconds += outcome.value.seconds
+    summary.path_seconds[name] = summary.path_seconds.get(name, 0.0) + outcome.value.seconds
     store.write_reference(name, plan.reference, numeric)
     findings = prescreen_reference(evaluator, plan.spec.chain, rover,
                                    initial_position_sigma(campaign), plan.reference, collisions)
@@ -441,6 +445,8 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
             if outcome.ok:
                 store.write_run(name, run, outcome.value.signals)
                 summary.fmu_seconds += outcome.value.seconds
+                summary.path_seconds[name] = (summary.path_seconds.get(name, 0.0)
+                                              + outcome.value.seconds)
             else:
                 store.write_failure(name, run, outcome.reason)
             progress.run_finished(name, outcome.ok)

@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rich.console import Console
+
 from idefix_rules.cli.destinations import output_file, output_folder
-from idefix_rules.cli.run import make_console, print_outcome
+from idefix_rules.cli.run import make_console, print_outcome, stored_titles
 
 NAME = "evaluate"
 HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
@@ -28,7 +30,8 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.campaign.runner import rescore
 
     console = make_console()
-    result = rescore(args.results, args.rulebook, args.junit, args.out)
+    with Console(stderr=True).status("evaluating the stored runs (collision checks, rulebook)"):
+        result = rescore(args.results, args.rulebook, args.junit, args.out)
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
-                  result.warnings)
+                  result.warnings, stored_titles(result.results))
     return result.exit_code

@@ -1,8 +1,8 @@
 """``idefix-verify report results.h5 [-o DIR]``: the HTML report of a stored campaign.
 
-Writes ``report.html`` (self-contained: figures embedded, no script, no network) and the figures
-as PNG into ``DIR`` (default: the folder of the results file). Exit 0 when written, 2 when the
-results file is missing or not a results file.
+Writes ``report.html`` (self-contained: figures and data embedded, its own small script, no
+request of any kind) and the figures as PNG into ``DIR`` (default: the folder of the results
+file). Exit 0 when written, 2 when the results file is missing or not a results file.
 """
 
 from __future__ import annotations
@@ -16,9 +16,10 @@ from idefix_rules.cli.destinations import output_folder
 from idefix_rules.report import write_report
 
 NAME = "report"
-HELP = ("Write the HTML report of a results file: Table 1, the result map per path and "
-        "combined, the final-error box plots, what drove the risk, rule coverage; "
-        "report.html plus the figures as PNG.")
+HELP = ("Write the HTML report of a results file: the decision, Table 1, an interactive "
+        "result map (hover a cell, switch paths, open a run's time series), printable maps, "
+        "the final-error box plots, sensitivity, what drove the risk, rule coverage; "
+        "report.html (one offline file) plus the figures as PNG.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

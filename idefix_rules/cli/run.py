@@ -4,26 +4,31 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import time
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    SpinnerColumn,
     TextColumn,
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
-from rich.table import Table
+from rich.table import Column
 
-from idefix_rules.campaign.evaluation import CampaignEvaluation
 from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.outputs import ExpectationResult
 from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
+from idefix_rules.cli.outcome import index_titles, print_outcome
+
+__all__ = ["make_console", "print_outcome", "stored_titles"]
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -45,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted campaign: simulate only missing runs")
     parser.add_argument("--junit", type=output_file, metavar="FILE",
-                        help="write JUnit XML: one test case per path and per expectation")
+                        help="write JUnit XML: a case per path and per expectation; its "
+                        "failures are exactly what sets the exit code (docs/ci.md)")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress bars (CI logs); the result table is still printed")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
@@ -95,30 +101,58 @@ def _positive_float(text: str) -> float:
 
 
 class RichProgress:
-    """Progress bars with ETA per path (the simulation's :class:`Progress` protocol)."""
+    """Progress on the console (the simulation's :class:`Progress` protocol): a spinner with
+    the elapsed time for each step (compile, FMU build, terrain, evaluation per path, report),
+    then a line saying how long it took; bars with ETA for each path's runs."""
 
     def __init__(self, console: Console, quiet: bool) -> None:
         self.console = console
         self.quiet = quiet
         self.bars: Progress | None = None
         self.tasks: dict[str, Any] = {}
+        self.failed: dict[str, int] = {}
+        self.step: tuple[str, float] | None = None
+        self.spinner: Progress | None = None
 
     def message(self, text: str) -> None:
-        if not self.quiet:
-            self.stop()
-            self.console.print(f"[dim]{text}[/dim]")
+        if self.quiet:
+            return
+        self.stop()
+        self.step = (text, time.perf_counter())
+        self.spinner = Progress(SpinnerColumn(),
+                                TextColumn("{task.description}",
+                                           table_column=Column(overflow="fold")),
+                                TimeElapsedColumn(), console=self.console, transient=True)
+        self.spinner.add_task(text, total=None)
+        self.spinner.start()
+
+    def _end_step(self) -> None:
+        if self.spinner is not None:
+            self.spinner.stop()
+            self.spinner = None
+        if self.step is not None:
+            text, began = self.step
+            self.step = None
+            self.console.print(f"[dim]{escape(text)} ({time.perf_counter() - began:.1f} s)"
+                               "[/dim]")
 
     def start_path(self, name: str, total: int, done: int) -> None:
         if self.quiet:
             return
+        self._end_step()
         if self.bars is None:
-            self.bars = Progress(TextColumn("{task.description:<24}"), BarColumn(),
+            # A narrow console keeps the bar short so whole path names fit; a name longer
+            # than the line folds onto the next one, never cut.
+            bar = 10 if self.console.width < 100 else 30
+            self.bars = Progress(TextColumn("{task.description}",
+                                            table_column=Column(overflow="fold")),
+                                 BarColumn(bar_width=bar),
                                  MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
                                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                  console=self.console, transient=False)
             self.bars.start()
-        self.tasks[name] = self.bars.add_task(name, total=total, completed=done, failed="")
-        self.failed: dict[str, int] = getattr(self, "failed", {})
+        self.tasks[name] = self.bars.add_task(escape(name), total=total, completed=done,
+                                              failed="")
         self.failed[name] = 0
 
     def run_finished(self, name: str, ok: bool) -> None:
@@ -130,79 +164,36 @@ class RichProgress:
         self.bars.update(self.tasks[name], advance=1, failed=label)
 
     def stop(self) -> None:
+        self._end_step()
         if self.bars is not None:
             self.bars.stop()
             self.bars = None
 
 
 def make_console() -> Console:
-    """Rich console; wide enough for the table when output goes to a file or CI log."""
+    """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
+    columns wide (CI logs), a terminal as wide as it is."""
     console = Console(highlight=False)
-    if not console.is_terminal:
+    if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
         console = Console(highlight=False, width=150)
     return console
 
 
-def _percent(value: float | None) -> str:
-    return "–" if value is None else f"{100.0 * value:.1f}"
+def stored_titles(results: Path) -> dict[str, str]:
+    """Index titles of the rulebook stored in a results file (empty when unreadable)."""
+    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.rulebook import check_text
 
-
-def results_table(evaluation: CampaignEvaluation) -> Table:
-    """The paper's Table 1, plus verdict, rank and dominant index."""
-    table = Table(title="Path evaluation", title_justify="left")
-    table.add_column("path")
-    table.add_column("risk %", justify="right")
-    table.add_column("95 % CI", justify="right")
-    for level in ("L1", "L2", "L3"):
-        table.add_column(f"hit {level} %", justify="right")
-    table.add_column("energy mAs", justify="right")
-    table.add_column("time s", justify="right")
-    table.add_column("runs", justify="right")
-    table.add_column("verdict")
-    table.add_column("rank", justify="right")
-    table.add_column("dominant")
-    for path in sorted(evaluation.paths, key=lambda p: (p.rank is None, p.rank or 0, p.index)):
-        verdict = path.verdict_text
-        style = {"pass": "green", "fail": "red"}.get(verdict, "yellow")
-        shown = f"[{style}]{verdict}[/{style}]"
-        if path.undecided:
-            shown += " [yellow](not decided)[/yellow]"
-        ci = f"{_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])}" if path.risk_ci else "–"
-        runs = f"{path.completed}/{path.runs}" if path.runs else "–"
-        if path.failed:
-            runs += f" [red]({path.failed} failed)[/red]"
-        table.add_row(
-            path.name, _percent(path.mean_risk), ci,
-            *(_percent(path.collision_chance.get(level)) for level in ("L1", "L2", "L3")),
-            "–" if path.energy is None else f"{path.energy * 1000.0:.1f}",
-            "–" if path.time is None else f"{path.time:.1f}",
-            runs, shown, "–" if path.rank is None else str(path.rank),
-            path.dominant_index or "–",
-        )
-    return table
-
-
-def print_outcome(console: Console, evaluation: CampaignEvaluation,
-                  expectations: list[ExpectationResult], code: int,
-                  warnings: list[str]) -> None:
-    console.print(results_table(evaluation))
-    for path in evaluation.paths:
-        if path.reason:
-            console.print(f"[yellow]{path.name}[/yellow] {path.status}: {path.reason}")
-        for reason in path.verdict_reasons:
-            console.print(f"  {path.name}: {reason}")
-        for run, reason in sorted(path.failures.items())[:10]:
-            console.print(f"  [red]{path.name} run {run} failed[/red]: {reason}")
-        if path.failed > 10:
-            console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
-    if evaluation.ranking:
-        console.print("ranking: " + " > ".join(evaluation.ranking))
-    for expectation in expectations:
-        mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
-        console.print(f"{mark} expect {expectation.description}: {expectation.message}")
-    for text in warnings:
-        console.print(f"[yellow]warning:[/yellow] {text}")
-    console.print(f"exit code {code}: " + ("verified" if code == 0 else "verification failed"))
+    try:
+        store = ResultStore.open(results)
+        try:
+            text = store.text("rulebook")
+        finally:
+            store.close()
+        checked = check_text(text, "rulebook.rules").checked
+    except Exception:  # titles are a courtesy: a table without them is still right
+        return {}
+    return index_titles(checked.rulebook) if checked is not None else {}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -233,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         progress.stop()
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
-                  result.warnings)
+                  result.warnings, stored_titles(result.results))
     console.print(f"results: {result.results}")
     if result.report is not None:
         console.print(f"report: {result.report}")

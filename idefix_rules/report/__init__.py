@@ -1,10 +1,12 @@
 """The HTML report of a campaign: Table 1, the result map, the error box plots and the why.
 
 ``write_report(results_h5, out_dir)`` reads a results file and writes ``report.html`` (one
-self-contained page: figures embedded, no script, no network) plus every figure as PNG into
-``out_dir``. The campaign run calls it at its end; ``idefix-verify report`` calls it on demand.
+self-contained page: figures and data embedded, its own small script, no request of any kind)
+plus every figure as PNG into ``out_dir``. The campaign run calls it at its end;
+``idefix-verify report`` calls it on demand.
 Stages: read the data (:mod:`.data`), evaluate per-sample risk and bin it (:mod:`.prepare`,
-:mod:`.riskmap`), draw (:mod:`.figures`), assemble the page (:mod:`.html`).
+:mod:`.riskmap`, :mod:`.runs`), draw (:mod:`.figures`), assemble the page (:mod:`.html`,
+:mod:`.sections`, the interactive map's data :mod:`.interactive` and script :mod:`.script`).
 """
 
 from __future__ import annotations
@@ -12,9 +14,12 @@ from __future__ import annotations
 import math
 from html import escape
 from pathlib import Path
+from typing import Any
 
+from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.store import ResultStore
-from idefix_rules.report import figures, html
+from idefix_rules.campaign.wording import DisplayUnits
+from idefix_rules.report import figures, html, interactive, script, sections
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
 
@@ -31,8 +36,10 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> 
     what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
     if maps.combined.runs == 0:
         what = "no evaluated runs (reference runs only)"
+    overlay = figures.MapOverlay(maps.reference_tracks, maps.ideal_tracks, maps.wheel_tracks,
+                                 maps.contacts, maps.wheel_bands)
     combined = figures.risk_map_figure(
-        maps.combined.values(), maps.grid, setup.environment, maps.reference_tracks, order,
+        maps.combined.values(), maps.grid, setup.environment, overlay, order,
         f"All paths: {what}", maps.cell_reason)
     images.append(html.Image("risk_map_all.png",
                              figures.save_png(combined, out_dir / "risk_map_all.png"),
@@ -40,7 +47,7 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> 
     for name, accumulator in maps.per_path.items():
         file = f"risk_map_{_safe(name)}.png"
         figure = figures.risk_map_figure(accumulator.values(), maps.grid, setup.environment,
-                                         maps.reference_tracks, order, f"{name}: {what}",
+                                         overlay, order, f"{name}: {what}",
                                          maps.cell_reason, highlight=name)
         images.append(html.Image(file, figures.save_png(figure, out_dir / file),
                                  f"Result map of path {name} ({accumulator.runs} runs)."))
@@ -81,6 +88,33 @@ def prepare_report(results_h5: Path) -> tuple[ReportData, Setup, MapSet]:
         store.close()
 
 
+def _limit_texts(setup: Setup) -> dict[str, str]:
+    """Each index's limit as the rulebook wrote it (a constant shows its value: ``70 %``)."""
+    from idefix_rules.rulebook.format import format_expr
+    from idefix_rules.rulebook.model import Name
+
+    rulebook = getattr(setup.checked, "rulebook", None)
+    if rulebook is None:
+        return {}
+    constants = {c.name: c.value for c in rulebook.constants}
+    texts = {}
+    for index in rulebook.indices:
+        expr = index.limit
+        shown = format_expr(expr)
+        if isinstance(expr, Name) and expr.name in constants:
+            shown = f"{expr.name} = {format_expr(constants[expr.name])}"
+        texts[index.name] = shown
+    return texts
+
+
+def _sensitivity(results_h5: Path) -> dict[str, Any]:
+    store = ResultStore.open(results_h5)
+    try:
+        return store_sensitivity(store.file)
+    finally:
+        store.close()
+
+
 def write_report(results_h5: Path, out_dir: Path) -> Path:
     """Write ``report.html`` and the figures as PNG into ``out_dir``; returns the HTML path.
 
@@ -89,24 +123,55 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
     data, setup, maps = prepare_report(Path(results_h5))
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    order = [path.name for path in data.paths]
     map_images = _map_images(data, maps, setup, out_dir)
     box_images = _box_images(data, out_dir)
     dominance = None
     counts = {path.name: path.dominance() for path in data.evaluated_paths}
     if any(counts.values()):
-        figure = figures.dominance_figure(counts, [path.name for path in data.paths])
+        figure = figures.dominance_figure(counts, order)
         dominance = html.Image("dominant_index.png",
                                figures.save_png(figure, out_dir / "dominant_index.png"),
                                "Share of runs in which each index set the run risk I_max.")
+    sensitivity = _sensitivity(Path(results_h5))
+    sensitivity_images = []
+    if any(record.get("risk") for record in sensitivity.values()):
+        figure = figures.sensitivity_figure(sensitivity, order)
+        sensitivity_images.append(html.Image(
+            "sensitivity.png", figures.save_png(figure, out_dir / "sensitivity.png"),
+            "Per path, Spearman rank correlation of each sampled parameter with the run "
+            "risk I_max and its 95 % interval; filled bars: the interval excludes 0."))
     notes = list(setup.notes)
     if not data.evaluated_paths:
         notes.append("no path has an evaluation: run `idefix-verify evaluate` first")
     map_text = (f"<p>Grid: {escape(maps.cell_reason)}. A cell crossed by one run shows "
                 "the maximum per-sample risk of that run there; a cell crossed by several runs "
                 "the mean of the run-specific maxima (body-centre positions; segments between "
-                "samples are rasterised so fast segments leave no gap). Dashed outlines: buffer "
-                "zones; lines: reference runs.</p>")
-    page = html.page(data, map_images, box_images, dominance, notes, map_text)
+                "samples are rasterised so fast segments leave no gap). Dashed: the ideal "
+                "(commanded) path; solid: the reference run's body centre, thin: its wheel "
+                "tracks; ✕: first contacts, at the touching wheel; dashed rings: buffer zones. "
+                "These are the printable figures of the interactive map above.</p>")
+    info = interactive.index_info(setup)
+    titles = {name: entry["title"] for name, entry in info.items() if entry["title"]}
+    units = DisplayUnits.from_campaign_text(setup.campaign_text)
+    context = html.WhyContext(units, dict(getattr(setup.checked, "limits", {}) or {}),
+                              dict(getattr(setup.checked, "weights", {}) or {}), titles)
+    colours = {name: figures.path_colour(position) for position, name in enumerate(order)}
+    payload = interactive.payload_json(interactive.payload(data, setup, maps, units))
+    parts = [
+        sections.decision_html(data),
+        html.notes_html(notes),
+        html.table_one_html(data, titles, sections.path_reasons(data)),
+        sections.interactive_html(payload, order, colours),
+        html.figures_html("Result maps (printable)", map_images, map_text, wide=True),
+        html.figures_html("Final errors (paper Fig. 9)", box_images),
+        sections.sensitivity_html(sensitivity, sensitivity_images, titles),
+        html.why_html(data, dominance, context),
+        sections.indices_html(info, _limit_texts(setup)),
+        html.expectations_html(data.expectations),
+        html.provenance_html(data),
+    ]
+    page = html.page(data, parts, script.SCRIPT, script.CSS)
     target = out_dir / REPORT_FILE
     target.write_text(page, encoding="utf-8")
     return target

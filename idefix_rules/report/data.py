@@ -78,6 +78,9 @@ class WorstRun:
     dominant: str | None
     indices: dict[str, float]
     parameters: dict[str, float]
+    # Unclipped weighted value / limit of the index furthest over its limit (None: unknown).
+    excess: float | None = None
+    excess_index: str | None = None
 
 
 @dataclass
@@ -95,6 +98,8 @@ class PathReport:
     i_max: np.ndarray = field(default_factory=lambda: np.zeros(0))
     dominant: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int16))
     indices: dict[str, np.ndarray] = field(default_factory=dict)
+    raw: dict[str, np.ndarray] = field(default_factory=dict)  # index values before / limit
+    verdict: dict[str, Any] = field(default_factory=dict)  # the stored Verdict as a dict
     chances: dict[str, np.ndarray] = field(default_factory=dict)
     parameters: dict[str, np.ndarray] = field(default_factory=dict)
     parameter_units: dict[str, str] = field(default_factory=dict)
@@ -114,14 +119,50 @@ class PathReport:
             counts[name] = counts.get(name, 0) + 1
         return sorted(counts.items(), key=lambda item: (-item[1], item[0]))
 
-    def worst_runs(self, count: int = WORST_RUNS) -> list[WorstRun]:
-        """The complete runs with the highest I_max, with their indices and parameters."""
+    def excess(self, limits: Mapping[str, float], weights: Mapping[str, float]
+               ) -> tuple[np.ndarray, list[str | None]]:
+        """Per run: how far over its limit the furthest index goes (weight × raw / limit,
+        not clipped at 1), and which index that is; NaN where no raw value is known."""
+        ratios = []
+        names = []
+        for name, values in self.raw.items():
+            limit = limits.get(name)
+            if limit is None or limit == 0:
+                continue
+            ratios.append(weights.get(name, 1.0) * np.asarray(values, dtype=float) / limit)
+            names.append(name)
+        if not ratios:
+            return np.full(self.i_max.size, np.nan), [None] * self.i_max.size
+        stacked = np.vstack(ratios)
+        filled = np.where(np.isfinite(stacked), stacked, -np.inf)
+        best = np.argmax(filled, axis=0)
+        value = filled[best, np.arange(stacked.shape[1])]
+        return (np.where(np.isfinite(value), value, np.nan),
+                [names[int(b)] if np.isfinite(v) else None for b, v in zip(best, value,
+                                                                           strict=True)])
+
+    def worst_order(self, limits: Mapping[str, float] | None = None,
+                    weights: Mapping[str, float] | None = None) -> np.ndarray:
+        """Complete runs, worst first: by I_max, then by how far over the limits the run
+        goes (unclipped weight × value / limit of its furthest index), then by the sum of its
+        normalised indices (more indices near their limits), then by run number."""
         runs = np.flatnonzero(self.complete)
         if runs.size == 0:
-            return []
-        order = runs[np.argsort(-self.i_max[runs], kind="stable")][:count]
+            return runs
+        excess, _ = self.excess(limits or {}, weights or {})
+        total = np.zeros(self.i_max.size)
+        for values in self.indices.values():
+            total += np.nan_to_num(np.asarray(values, dtype=float))
+        keys = (runs, -total[runs], -np.nan_to_num(excess[runs], nan=-np.inf),
+                -self.i_max[runs])
+        return runs[np.lexsort(keys)]
+
+    def worst_runs(self, count: int = WORST_RUNS, limits: Mapping[str, float] | None = None,
+                   weights: Mapping[str, float] | None = None) -> list[WorstRun]:
+        """The ``count`` worst complete runs (:meth:`worst_order`), indices and parameters."""
+        excess, excess_names = self.excess(limits or {}, weights or {})
         worst = []
-        for run in order:
+        for run in self.worst_order(limits, weights)[:count]:
             position = int(self.dominant[run])
             dominant = (self.index_names[position]
                         if 0 <= position < len(self.index_names) else None)
@@ -129,6 +170,8 @@ class PathReport:
                 run=int(run), i_max=float(self.i_max[run]), dominant=dominant,
                 indices={name: float(values[run]) for name, values in self.indices.items()},
                 parameters={name: float(values[run]) for name, values in self.parameters.items()},
+                excess=float(excess[run]) if np.isfinite(excess[run]) else None,
+                excess_index=excess_names[int(run)],
             ))
         return worst
 
@@ -150,6 +193,8 @@ class ReportData:
     paths: list[PathReport]
     ranking: list[str]
     expectations: list[dict[str, Any]]
+    decision: dict[str, Any] | None = None  # summary.json's decision (None: older files)
+    exit_code: int | None = None
 
     @property
     def evaluated_paths(self) -> list[PathReport]:
@@ -354,6 +399,9 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
                          else np.full(count, -1, dtype=np.int16))
         for key, dataset in evaluation.get("indices", {}).items():
             path.indices[key] = np.asarray(dataset[()], dtype=float)
+        for key, dataset in evaluation.get("raw", {}).items():
+            path.raw[key] = np.asarray(dataset[()], dtype=float)
+        path.verdict = dict(_json(evaluation.attrs.get("verdict"), {}) or {})
         for key, dataset in evaluation.get("chances", {}).items():
             path.chances[key] = np.asarray(dataset[()])
     path.row = summary_rows.get(name) or row_from_arrays(name, group, path)
@@ -370,5 +418,8 @@ def read_report_data(store: ResultStore) -> ReportData:
     paths = [read_path(name, store.path_group(name), rows) for name in store.path_names]
     ranking = summary.get("ranking") or (_json(evaluation.attrs.get("ranking"), [])
                                          if evaluation is not None else [])
+    code = summary.get("exit_code")
     return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
-                      expectations=list(summary.get("expectations", [])))
+                      expectations=list(summary.get("expectations", [])),
+                      decision=summary.get("decision"),
+                      exit_code=int(code) if isinstance(code, int) else None)

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import io
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -64,7 +66,7 @@ def _draw_environment(axes: object, environment: MapEnvironment, step: float) ->
                          linewidths=1.0, zorder=3)
         if area.name:
             axes.annotate(f"{area.name} ({area.level})", area.polygon.mean(axis=0),
-                          fontsize=7, ha="center", color=colour, zorder=6)
+                          fontsize=10, ha="center", color=colour, zorder=6)
     for rock in environment.rocks:
         colour = LEVEL_COLOURS.get(rock.level, LEVEL_COLOURS["?"])
         axes.add_patch(Ellipse((rock.x, rock.y), 2 * rock.a, 2 * rock.b, facecolor="#8d8d8d",
@@ -73,43 +75,122 @@ def _draw_environment(axes: object, environment: MapEnvironment, step: float) ->
             axes.add_patch(Ellipse((rock.x, rock.y), 2 * (rock.a + rock.buffer),
                                    2 * (rock.b + rock.buffer), fill=False, edgecolor=colour,
                                    linestyle="--", linewidth=1.0, zorder=4))
-        axes.annotate(f"{rock.name} ({rock.level})", (rock.x, rock.y + rock.b + rock.buffer),
-                      fontsize=7, ha="center", va="bottom", color=colour, zorder=6)
+        buffer = f", buffer {rock.buffer * 100:.0f} cm" if rock.buffer > 0 else ""
+        axes.annotate(f"{rock.name} ({rock.level}{buffer})",
+                      (rock.x, rock.y + rock.b + rock.buffer), fontsize=10, ha="center",
+                      va="bottom", color=colour, zorder=6)
+
+
+@dataclass(frozen=True)
+class MapOverlay:
+    """What is drawn over the risk cells besides obstacles (all per path, metres)."""
+
+    references: Mapping[str, tuple[np.ndarray, np.ndarray]]
+    ideal: Mapping[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    wheels: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]] = field(
+        default_factory=dict)
+    contacts: Mapping[str, Sequence[Mapping[str, Any]]] = field(default_factory=dict)
+    bands: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
 
 def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironment,
-                    references: Mapping[str, tuple[np.ndarray, np.ndarray]],
-                    path_order: Sequence[str], title: str, cell_note: str,
-                    highlight: str | None = None) -> Figure:
-    """The result map (paper Fig. 8): risk per cell, obstacles, buffers and reference tracks."""
-    figure = _figure(7.5, 6.0)
+                    overlay: MapOverlay, path_order: Sequence[str], title: str,
+                    cell_note: str, highlight: str | None = None) -> Figure:
+    """The result map (paper Fig. 8): risk per cell, obstacles with level and buffer, per
+    path the ideal (commanded) path dashed, the reference run and its four wheel tracks, and
+    the first contacts marked where they happened. Sized to be read at page width (fonts
+    ≥ 9 pt at 100 %), the legend below the map."""
+    figure = _figure(9.0, 7.4)
     axes = figure.add_subplot()
     cmap = colormaps[RISK_COLOURS].with_extremes(bad=(1.0, 1.0, 1.0, 0.0))
     image = axes.imshow(np.ma.masked_invalid(values), origin="lower", extent=grid.extent,
                         cmap=cmap, norm=Normalize(0.0, 1.0), interpolation="nearest", zorder=2)
     _draw_environment(axes, environment, grid.cell / 4)
+    contacts_drawn = False
     for position, name in enumerate(path_order):
-        track = references.get(name)
-        if track is None:
-            continue
         strong = highlight is None or name == highlight
-        axes.plot(track[0], track[1], color=path_colour(position), linewidth=1.6 if strong
-                  else 0.8, alpha=1.0 if strong else 0.45, label=f"{name} (reference run)",
-                  zorder=5)
-    axes.plot([0.0], [0.0], marker="o", color="black", markersize=4, zorder=6, label="start")
+        colour = path_colour(position)
+        alpha = 1.0 if strong else 0.35
+        if strong:
+            for band in (overlay.bands.get(name) or {}).values():
+                axes.add_patch(Polygon(band, closed=True, facecolor=colour, alpha=0.18,
+                                       edgecolor="none", zorder=4))
+        for wheel in (overlay.wheels.get(name) or {}).values():
+            axes.plot(wheel[0], wheel[1], color=colour, linewidth=0.8, alpha=0.6 * alpha,
+                      zorder=5)
+        ideal = overlay.ideal.get(name)
+        if ideal is not None and strong:
+            axes.plot(ideal[0], ideal[1], color=colour, linestyle=(0, (5, 3)), linewidth=1.5,
+                      zorder=6)
+        track = overlay.references.get(name)
+        if track is not None:
+            axes.plot(track[0], track[1], color=colour, linewidth=2.2 if strong else 0.9,
+                      alpha=alpha, label=name, zorder=6)
+        points = overlay.contacts.get(name) or ()
+        if points and strong:
+            axes.scatter([p["x"] for p in points], [p["y"] for p in points], marker="x",
+                         s=28, color="black", linewidths=1.2, zorder=7)
+            contacts_drawn = True
+    axes.plot([0.0], [0.0], marker="o", color="black", markersize=5, zorder=7, label="start")
+    grey = "#555555"
+    axes.plot([], [], color=grey, linewidth=2.2, label="reference run (body centre)")
+    axes.plot([], [], color=grey, linestyle=(0, (5, 3)), linewidth=1.5,
+              label="ideal (commanded) path")
+    axes.plot([], [], color=grey, linewidth=0.8, label="wheel tracks (reference run)")
+    axes.add_patch(Polygon(np.zeros((3, 2)), facecolor=grey, alpha=0.25, edgecolor="none",
+                           label="wheel footprints (6 cm wide)" if overlay.bands else None))
+    if contacts_drawn:
+        axes.scatter([], [], marker="x", color="black", label="first contact (at the wheel)")
     left, right, bottom, top = grid.extent
     axes.set_xlim(left, right)
     axes.set_ylim(bottom, top)
     axes.set_aspect("equal")
-    axes.set_xlabel(f"x [m] (rover start frame, forward)\ngrid: {cell_note}", fontsize=9)
-    axes.set_ylabel("y [m] (left)")
-    axes.set_title(title, fontsize=11)
+    axes.set_xlabel(f"x [m] (rover start frame, forward)\ngrid: {cell_note}", fontsize=10)
+    axes.set_ylabel("y [m] (left)", fontsize=10)
+    axes.tick_params(labelsize=10)
+    axes.set_title(title, fontsize=13)
     axes.grid(True, linewidth=0.3, alpha=0.5, zorder=1)
-    axes.legend(loc="best", fontsize=7, framealpha=0.8)
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, fontsize=9.5,
+                framealpha=0.9)
     # The colour bar sits in an inset, so it is exactly as tall as the map whatever its aspect.
     bar = figure.colorbar(image, cax=axes.inset_axes((1.03, 0.0, 0.035, 1.0)))
-    bar.set_label("risk (0 safe … 1 critical)")
+    bar.set_label("risk (0 safe … 1 critical)", fontsize=10)
+    return figure
 
+
+def sensitivity_figure(sensitivity: Mapping[str, Mapping[str, Any]],
+                       path_order: Sequence[str]) -> Figure:
+    """A bar chart per path: each parameter's Spearman ρ with I_max and its 95 % interval
+    (filled when the interval excludes 0), parameters in the same order in every panel."""
+    names = [name for name in path_order if sensitivity.get(name, {}).get("risk")]
+    parameters: list[str] = []
+    for name in names:
+        parameters += [item["parameter"] for item in sensitivity[name]["risk"]
+                       if item["parameter"] not in parameters]
+    rows = max(1, len(names))
+    figure = _figure(9.0, 0.9 + rows * (0.55 + 0.3 * max(1, len(parameters))))
+    panels = figure.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
+    for axes, name in zip(panels, names, strict=False):
+        items = {item["parameter"]: item for item in sensitivity[name]["risk"]}
+        shown = [p for p in parameters if p in items]
+        ys = np.arange(len(shown))
+        rho = np.array([items[p]["rho"] for p in shown])
+        low = rho - np.array([items[p]["ci95"][0] for p in shown])
+        high = np.array([items[p]["ci95"][1] for p in shown]) - rho
+        colour = path_colour(list(path_order).index(name))
+        significant = [bool(items[p]["significant"]) for p in shown]
+        axes.barh(ys, rho, height=0.7, xerr=[low, high], capsize=3,
+                  color=[colour if s else "white" for s in significant], edgecolor=colour,
+                  linewidth=1.2, error_kw={"linewidth": 0.9})
+        axes.set_yticks(ys, shown, fontsize=10)
+        axes.invert_yaxis()
+        axes.axvline(0.0, color="black", linewidth=0.8)
+        axes.set_title(f"{name} ({sensitivity[name].get('runs', 0)} runs)", fontsize=11,
+                       loc="left")
+        axes.grid(True, axis="x", linewidth=0.3, alpha=0.6)
+    panels[-1].set_xlim(-1.0, 1.0)
+    panels[-1].set_xlabel("Spearman ρ with the run risk I_max, 95 % interval "
+                          "(filled: the interval excludes 0)", fontsize=10)
     return figure
 
 

@@ -8,12 +8,20 @@ from __future__ import annotations
 import base64
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from html import escape
 
 import numpy as np
 
-from idefix_rules.report.data import LEVELS, NEAR_LIMIT, ReportData, TableRow
+from idefix_rules.campaign.wording import DisplayUnits, parameter_text
+from idefix_rules.report.data import (
+    LEVELS,
+    NEAR_LIMIT,
+    WORST_RUNS,
+    PathReport,
+    ReportData,
+    TableRow,
+)
 
 CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
@@ -29,7 +37,7 @@ h3 { font-size: 1.02em; margin: 16px 0 6px 0; }
 table { border-collapse: collapse; font-size: 0.9em; margin: 6px 0; }
 th, td { border: 1px solid #d5dbe2; padding: 4px 9px; text-align: left; vertical-align: top; }
 th { background: #eef1f5; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 code, .hash { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 0.88em;
               word-break: break-all; }
 .pass { color: #1b7f3b; font-weight: 600; } .fail { color: #b3261e; font-weight: 600; }
@@ -38,10 +46,30 @@ code, .hash { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-siz
 figure { margin: 10px 0; } figure img { max-width: 100%; height: auto;
           border: 1px solid #e3e7ec; }
 figcaption { font-size: 0.88em; color: #4a545e; }
+.scroll { overflow-x: auto; max-width: 100%; }
+.banner { padding: 12px 16px; border-radius: 6px; margin: 16px 0 0 0; font-size: 1.08em;
+          border-left: 6px solid; background: #fff; }
+.banner.send { border-color: #1b7f3b; } .banner.none { border-color: #b3261e; }
+.banner.unsettled { border-color: #e0a800; }
+.banner .ci { font-size: 0.86em; color: #4a545e; margin-top: 4px; }
+dl.indices dt { font-weight: 600; margin-top: 6px; } dl.indices dd { margin: 0 0 0 18px; }
 .grid { display: flex; flex-wrap: wrap; gap: 14px; }
-.grid figure { flex: 1 1 520px; max-width: calc(50% - 7px); }
+.grid figure { flex: 1 1 520px; max-width: calc(50% - 7px); min-width: 0; }
+.grid.wide figure { flex: 1 1 100%; max-width: 100%; }
 @media (max-width: 1100px) { .grid figure { max-width: 100%; } }
+@media (max-width: 900px) { main { padding: 6px 10px 30px 10px; }
+  section { padding: 10px 10px; } header { padding: 14px 12px; } }
 """
+
+
+@dataclass(frozen=True)
+class WhyContext:
+    """What the "why" section needs besides the data: units, limits, titles."""
+
+    units: DisplayUnits = field(default_factory=DisplayUnits)
+    limits: Mapping[str, float] = field(default_factory=dict)
+    weights: Mapping[str, float] = field(default_factory=dict)
+    titles: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -108,6 +136,18 @@ def header_html(data: ReportData) -> str:
     h = data.header
     title = f"Campaign {h.campaign_name or '(unnamed)'}: verification report"
     rulebook = f"{h.rulebook_name} {h.rulebook_version}".strip() or "(unknown rulebook)"
+    return (f"<header><h1>{escape(title)}</h1><div class=\"sub\">Rulebook "
+            f"<b>{escape(rulebook)}</b> · rulebook sha256 <span class=\"hash\">"
+            f"{escape(h.rulebook_sha256[:16] or '–')}…</span> · campaign sha256 "
+            f"<span class=\"hash\">{escape(h.campaign_sha256[:16] or '–')}…</span> · FMU "
+            f"sha256 <span class=\"hash\">{escape(h.fmu_sha256[:16] or '–')}…</span></div>"
+            f"</header><main>")
+
+
+def provenance_html(data: ReportData) -> str:
+    """Files, hashes, runs and times the results came from."""
+    h = data.header
+    rulebook = f"{h.rulebook_name} {h.rulebook_version}".strip() or "(unknown rulebook)"
     rows = [
         ("Rulebook", f"{escape(rulebook)} · sha256 <span class=\"hash\">"
                      f"{escape(h.rulebook_sha256 or '–')}</span>"),
@@ -120,19 +160,22 @@ def header_html(data: ReportData) -> str:
                         f"state {h.state or '–'} · evaluated {h.evaluated or '–'}")),
         ("Tool", escape(f"idefix-rules {h.package_version or '–'}")),
     ]
-    table = _table((), rows, raw=True)
-    return (f"<header><h1>{escape(title)}</h1><div class=\"sub\">Rulebook "
-            f"<b>{escape(rulebook)}</b> · rulebook sha256 <span class=\"hash\">"
-            f"{escape(h.rulebook_sha256[:16] or '–')}…</span> · campaign sha256 "
-            f"<span class=\"hash\">{escape(h.campaign_sha256[:16] or '–')}…</span> · FMU "
-            f"sha256 <span class=\"hash\">{escape(h.fmu_sha256[:16] or '–')}…</span></div>"
-            f"</header><main><section><h2>Provenance</h2>{table}</section>")
+    return (f"<section><h2>Provenance</h2><div class=\"scroll\">{_table((), rows, raw=True)}"
+            "</div></section>")
 
 
-def table_one_html(data: ReportData) -> str:
-    head = ("Path", "Risk [%]", "95 % CI of the risk [%]", "L1 hit [%]", "L2 hit [%]",
+def _titled(name: str | None, titles: Mapping[str, str]) -> str:
+    if not name:
+        return "–"
+    return f"{name} ({titles[name]})" if titles.get(name) else name
+
+
+def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
+                   reasons: Mapping[str, list[str]] | None = None) -> str:
+    titles = titles or {}
+    head = ("Path", "Risk [%]", "95 % CI [%]", "L1 hit [%]", "L2 hit [%]",
             "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
-            "Energy [mAs]", "Time [s]", "Verdict", "Rank", "Runs (failed)")
+            "Energy [mAs]", "Time [s]", "Verdict", "Rank", "Runs (failed)", "Dominant index")
     rows = []
     for path in data.paths:
         row = path.row
@@ -150,34 +193,69 @@ def table_one_html(data: ReportData) -> str:
             f"<span class=\"{_verdict_class(row.verdict)}\">{verdict}</span>",
             str(row.rank) if row.rank is not None else "–",
             f"{row.completed_runs} ({row.failed_runs})",
+            escape(_titled(row.dominant_index, titles)),
         ))
     table = _table(head, rows, numeric={1, 2, 3, 4, 5, 6, 7, 8, 9, 11}, raw=True)
-    reasons = []
+    explained = []
     for path in data.paths:
-        lines = list(path.row.verdict_reasons) or ([path.reason] if path.reason else [])
+        lines = (list((reasons or {}).get(path.name, [])) or list(path.row.verdict_reasons)
+                 or ([path.reason] if path.reason else []))
         if lines:
             items = "".join(f"<li>{escape(line)}</li>" for line in lines)
-            reasons.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")
+            explained.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")
     ranking = " → ".join(escape(name) for name in data.ranking) or "–"
-    return (f"<section><h2>Table 1: path evaluation</h2>{table}"
+    return (f"<section><h2>Table 1: path evaluation</h2><div class=\"scroll\">{table}</div>"
             f"<p>Ranking, best first: {ranking}. Risk is the mean run risk I_max (eq. 2) "
             f"with its 95 % confidence interval; hit chances are the share of runs that hit an "
             f"obstacle of that level; final errors are means of the absolute values at the end "
-            f"of the runs (distributions in the box plots below).</p>{''.join(reasons)}</section>")
+            f"of the runs (distributions in the box plots below).</p>"
+            f"{''.join(explained)}</section>")
 
 
-def figures_html(title: str, images: Sequence[Image], text: str = "") -> str:
+def figures_html(title: str, images: Sequence[Image], text: str = "", wide: bool = False) -> str:
+    """A section of figures, two a row (``wide``: one a row, at the page's width)."""
     if not images:
         return ""
     body = "".join(image.tag() for image in images)
-    return f"<section><h2>{escape(title)}</h2>{text}<div class=\"grid\">{body}</div></section>"
+    css = "grid wide" if wide else "grid"
+    return f"<section><h2>{escape(title)}</h2>{text}<div class=\"{css}\">{body}</div></section>"
 
 
-def _parameter_text(name: str, value: float, unit: str) -> str:
-    return f"{name} = {value:.4g}{' ' + unit if unit and unit != '1' else ''}"
+def worst_runs_html(path: PathReport, context: WhyContext) -> str:
+    """The worst runs of a path (clickable: the run panel opens), parameters in the
+    campaign's units."""
+    worst = path.worst_runs(WORST_RUNS, context.limits, context.weights)
+    if not worst:
+        return ""
+    rows = []
+    for run in worst:
+        top = sorted(run.indices.items(), key=lambda item: -item[1])[:3]
+        params = "; ".join(
+            f"{name} = "
+            + parameter_text(name, value, path.parameter_units.get(name, ""), context.units)
+            for name, value in run.parameters.items())
+        over = (f"{run.excess:.2f}× ({run.excess_index})"
+                if run.excess is not None and run.excess_index else "–")
+        rows.append(f'<tr class="run" data-path="{escape(path.name)}" data-run="{run.run}" '
+                    f'title="open run {run.run} in the map and its time series">'
+                    f'<td class="num">{run.run}</td><td class="num">{run.i_max:.3f}</td>'
+                    f"<td class=\"num\">{escape(over)}</td>"
+                    f"<td>{escape(_titled(run.dominant, context.titles))}</td>"
+                    f"<td>{escape(', '.join(f'{n} {v:.2f}' for n, v in top))}</td>"
+                    f"<td>{escape(params or '–')}</td></tr>")
+    head = "".join(f"<th>{escape(h)}</th>" for h in (
+        "Run", "I_max", "Furthest over its limit", "Dominant index", "Highest indices (0…1)",
+        "Sampled parameters"))
+    return ("<p>Worst runs, ranked by I_max, then by how far over its limit the furthest "
+            "index goes (weight × value / limit, not clipped at 1), then by the sum of the "
+            "normalised indices, then by run number. Click a row to see the run on the map "
+            "and its time series.</p><div class=\"scroll\"><table><thead><tr>" + head +
+            "</tr></thead><tbody>" + "".join(rows) + "</tbody></table></div>")
 
 
-def why_html(data: ReportData, dominance_image: Image | None) -> str:
+def why_html(data: ReportData, dominance_image: Image | None,
+             context: WhyContext | None = None) -> str:
+    context = context or WhyContext()
     parts = ["<section><h2>Why: what drove the risk</h2>"]
     if dominance_image is not None:
         parts.append(dominance_image.tag())
@@ -186,21 +264,9 @@ def why_html(data: ReportData, dominance_image: Image | None) -> str:
         dominance = path.dominance()
         total = sum(count for _, count in dominance) or 1
         parts.append("<p>Index that set I_max: " + ", ".join(
-            f"<b>{escape(name)}</b> in {count} of {total} runs ({100 * count / total:.0f} %)"
-            for name, count in dominance) + ".</p>")
-        worst = path.worst_runs()
-        if worst:
-            rows = []
-            for run in worst:
-                top = sorted(run.indices.items(), key=lambda item: -item[1])[:3]
-                params = "; ".join(_parameter_text(name, value, path.parameter_units.get(name, ""))
-                                   for name, value in run.parameters.items())
-                rows.append((str(run.run), f"{run.i_max:.3f}", run.dominant or "–",
-                             ", ".join(f"{name} {value:.2f}" for name, value in top),
-                             params or "–"))
-            parts.append("<p>Worst runs and their sampled parameters:</p>")
-            parts.append(_table(("Run", "I_max", "Dominant", "Highest indices",
-                                 "Sampled parameters (SI)"), rows, numeric={0, 1}))
+            f"<b>{escape(_titled(name, context.titles))}</b> in {count} of {total} runs "
+            f"({100 * count / total:.0f} %)" for name, count in dominance) + ".</p>")
+        parts.append(worst_runs_html(path, context))
     coverage = data.coverage()
     if coverage:
         rows = []
@@ -245,22 +311,20 @@ def notes_html(notes: Sequence[str]) -> str:
         f"<div class=\"note\">{escape(note)}</div>" for note in notes) + "</section>"
 
 
-def page(data: ReportData, maps: Sequence[Image], boxes: Sequence[Image],
-         dominance: Image | None, notes: Sequence[str], map_text: str) -> str:
-    """The whole report page."""
-    title = f"{data.header.campaign_name or 'campaign'} · idefix-verify report"
-    body = "".join([
-        header_html(data),
-        notes_html(notes),
-        table_one_html(data),
-        figures_html("Result map (paper Fig. 8)", maps, map_text),
-        figures_html("Final errors (paper Fig. 9)", boxes),
-        why_html(data, dominance),
-        expectations_html(data.expectations),
-        "</main>",
-    ])
-    return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>{escape(title)}</title><style>{CSS}</style></head><body>{body}"
-            f"</body></html>\n")
+# Nothing may be fetched: no URL is allowed, so an accidental request fails loudly (a console
+# error the browser tests catch) instead of leaking or breaking offline.
+CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; "
+       "script-src 'unsafe-inline'; base-uri 'none'; form-action 'none'")
 
+
+def page(data: ReportData, parts: Sequence[str], script: str = "", css: str = "") -> str:
+    """The whole report page: header, then ``parts`` (already HTML) in order, then the
+    page's own script."""
+    title = f"{data.header.campaign_name or 'campaign'} · idefix-verify report"
+    body = header_html(data) + "".join(parts) + "</main>"
+    code = f"<script>{script}</script>" if script else ""
+    return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{escape(title)}</title><style>{CSS}{css}</style></head><body>{body}"
+            f"{code}</body></html>\n")

@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.commands import Command, RoverGeometry, chain_duration, ideal_poses
+from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData
 from idefix_rules.report.environment import MapEnvironment, map_environment
 from idefix_rules.report.riskmap import (
@@ -33,8 +34,18 @@ from idefix_rules.report.riskmap import (
     grid_covering,
     per_sample_risk,
 )
+from idefix_rules.report.runs import (
+    EMBEDDED_RUNS,
+    CellRuns,
+    contact_points,
+    run_series,
+    wheel_bands,
+    wheel_tracks,
+)
 
 CHUNK_RUNS = 64
+# Wheel width the footprints are drawn with: the obstacle checker's wheel (docs/obstacles.md).
+WHEEL_WIDTH = RoverBodies().wheel_width
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 ERROR_SIGNALS = ("t", "x", "y", "yaw", "command")
 
@@ -50,6 +61,7 @@ class Setup:
     collisions: Any | None = None
     environment: MapEnvironment = field(default_factory=MapEnvironment)
     notes: list[str] = field(default_factory=list)
+    campaign_text: str = ""
 
 
 @dataclass
@@ -62,6 +74,14 @@ class MapSet:
     combined: RiskAccumulator
     per_sample: bool  # False: the fallback (stored I_max along the whole track)
     reference_tracks: dict[str, tuple[np.ndarray, np.ndarray]]
+    # The interactive page's data (:mod:`.runs`): per path.
+    cells: dict[str, CellRuns] = field(default_factory=dict)
+    series: dict[str, dict[int, dict[str, Any]]] = field(default_factory=dict)
+    contacts: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
+    ideal_tracks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    wheel_tracks: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]] = field(
+        default_factory=dict)
+    wheel_bands: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 def _campaign_model(text: str, path: str) -> Any:
@@ -100,6 +120,7 @@ def setup_from_store(store: ResultStore) -> Setup:
             setup.notes.append(f"the stored rulebook could not be compiled "
                                f"({type(failure).__name__}: {failure})")
     campaign_text = store.text("campaign") if "campaign" in store.file["provenance"] else ""
+    setup.campaign_text = campaign_text
     terrain = _stored_terrain(Path(store.file.filename).parent)
     setup.environment, notes = map_environment(campaign_text, setup.checked, terrain)
     setup.notes += notes
@@ -197,7 +218,9 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
     cell = cell_size_for(setup.rover)
     track = 2.0 * setup.rover.half_track
     xmin, xmax, ymin, ymax = (float(b) for b in bounds)
-    grid = grid_covering(xmin, xmax, ymin, ymax, cell=cell, margin=setup.rover.half_track)
+    # The margin holds the wheels (corners of the rover) around the body-centre tracks.
+    reach = float(np.hypot(setup.rover.half_track, setup.rover.half_wheelbase)) + 0.05
+    grid = grid_covering(xmin, xmax, ymin, ymax, cell=cell, margin=reach)
     reason = (f"{grid.cell * 100:.1f} cm cells: 1/20 of the rover's track width "
               f"({track:.2f} m), rounded to 5 mm")
     if grid.cell != cell:
@@ -241,34 +264,81 @@ def _context(store: ResultStore, name: str, setup: Setup) -> Any:
                       reference=store.reference(name))
 
 
+def _ideal_track(store: ResultStore, name: str, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
+    """The commanded chain executed ideally (no slip) from the start pose: the ideal path."""
+    chain = tuple(Command(*map(float, row)) for row in store.path_group(name)["chain"][()])
+    duration = chain_duration(chain, setup.rover)
+    times = np.linspace(0.0, duration, 400) if duration > 0 else np.zeros(1)
+    poses = ideal_poses(chain, setup.rover, times)
+    return poses[:, 0], poses[:, 1]
+
+
+def _details(store: ResultStore, name: str) -> Any:
+    evaluation = store.path_group(name).get("evaluation")
+    if evaluation is None or "collisions" not in evaluation:
+        return None
+    collisions = evaluation["collisions"]
+    return collisions["details"][()] if "details" in collisions else None
+
+
 def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
-    """Fill the risk maps and each path's final errors in one chunked pass over the runs."""
+    """Fill the risk maps, each path's final errors and the interactive page's per-run data
+    (cells, thinned runs, contacts) in one chunked pass over the runs."""
     grid, reason = choose_grid(store, data, setup)
     per_path: dict[str, RiskAccumulator] = {}
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    maps = MapSet(grid, reason, per_path, RiskAccumulator(grid), setup.evaluator is not None,
+                  references)
     required = sorted(set(getattr(setup.evaluator, "required_signals", ()) or ())
-                      | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"})
+                      | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"}
+                      | {"wheel.slip", "wheel.slip_angle", "wheel.sinkage"})
+    limits = dict(getattr(setup.checked, "limits", {}) or {})
+    weights = dict(getattr(setup.checked, "weights", {}) or {})
     for path in data.paths:
         reference = store.reference(path.name)
+        if store.has_path(path.name) and "chain" in store.path_group(path.name):
+            maps.ideal_tracks[path.name] = _ideal_track(store, path.name, setup)
         if reference is not None and "x" in reference:
             references[path.name] = (np.asarray(reference["x"]), np.asarray(reference["y"]))
+            if "yaw" in reference:
+                maps.wheel_tracks[path.name] = wheel_tracks(
+                    np.asarray(reference["x"]), np.asarray(reference["y"]),
+                    np.asarray(reference["yaw"]), setup.rover)
+                maps.wheel_bands[path.name] = wheel_bands(
+                    np.asarray(reference["x"]), np.asarray(reference["y"]),
+                    np.asarray(reference["yaw"]), setup.rover, WHEEL_WIDTH)
         if not path.evaluated or not path.complete.any():
             continue
         accumulator = RiskAccumulator(grid)
+        cells = CellRuns(grid, len(path.index_names))
+        embedded = {int(run) for run in path.worst_order(limits, weights)[:EMBEDDED_RUNS]}
+        series: dict[int, dict[str, Any]] = {}
+        contacts: list[dict[str, Any]] = []
+        details = _details(store, path.name)
         context = _context(store, path.name, setup) if reference is not None else None
         local, heading = [], []
-        for rows, signals in _chunks(store, path.name, required):
+        stored = store.path_group(path.name)["runs"]["signals"]
+        keys = [key for key in required if key in stored]
+        for rows, signals in _chunks(store, path.name, keys):
             risk = _risk_of_chunk(setup, path, rows, signals, context)
             accumulator.add(signals["x"], signals["y"], risk)
+            cells.add(rows, signals["x"], signals["y"], risk, path.dominant, embedded)
+            for position, run in enumerate(rows):
+                if int(run) in embedded:
+                    series[int(run)] = run_series(signals, position, risk, reference)
+            if details is not None:
+                contacts += contact_points(details, rows, signals, setup.rover)
             errors = _final_errors(setup, signals, context) if context is not None else None
             if errors is not None:
                 local.append(errors[0])
                 heading.append(errors[1])
         per_path[path.name] = accumulator
+        maps.cells[path.name] = cells
+        maps.series[path.name] = series
+        maps.contacts[path.name] = contacts
         if local:
             path.final_local_error = np.concatenate(local)
             path.final_heading_error = np.concatenate(heading)
-    combined = RiskAccumulator(grid)
     for accumulator in per_path.values():
-        combined.merge(accumulator)
-    return MapSet(grid, reason, per_path, combined, setup.evaluator is not None, references)
+        maps.combined.merge(accumulator)
+    return maps

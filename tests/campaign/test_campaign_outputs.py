@@ -82,21 +82,47 @@ def test_exit_code_without_expectations_needs_every_path_to_pass() -> None:
     assert exit_code(results, checks, has_expectations=True) == 0
 
 
-def test_junit_has_a_case_per_path_and_per_expectation() -> None:
+def _junit_failures(text: str) -> tuple[ET.Element, dict[str, ET.Element]]:
+    root = ET.fromstring(text)
+    cases = {c.get("name", ""): c for c in root.iter("testcase")}
+    return root, cases
+
+
+def test_junit_with_expectations_fails_only_on_expectations() -> None:
     results = evaluation()
     checks = check_expectations([RankFirstExpectation(rank_first="close"),
                                  PathVerdictExpectation(path="good", verdict="pass")], results)
-    suite = ET.fromstring(junit_xml(results, checks, "c")).find("testsuite")
-    assert suite is not None
-    cases = list(suite.iter("testcase"))
-    assert [c.get("name") for c in cases] == [
-        "good", "close", "broken", "rejected", "expect[0] close ranks first",
-        "expect[1] good passes"]
-    failing = [c.get("name") for c in cases if c.find("failure") is not None]
-    assert failing == ["broken", "rejected", "expect[0] close ranks first"]
-    assert suite.get("tests") == "6" and suite.get("failures") == "3"
-    broken_text = cases[2].find("failure").text or ""
-    assert "run 3 failed: the simulation process crashed (SIGSEGV)" in broken_text
+    root, cases = _junit_failures(junit_xml(results, checks, "c", {"good": 1.25}))
+    suites = {s.get("name"): s for s in root.iter("testsuite")}
+    assert list(suites) == ["c.paths", "c.expectations"]
+    assert [c.get("name") for c in suites["c.paths"].iter("testcase")] == [
+        "good", "close", "broken", "rejected"]
+    failing = [name for name, c in cases.items() if c.find("failure") is not None]
+    # Exactly what makes the exit code 1: the expectation, not the failing paths.
+    assert failing == ["expect[0] close ranks first"]
+    assert exit_code(results, checks, has_expectations=True) == 1
+    assert root.get("failures") == "1" and root.get("tests") == "6"
+    assert suites["c.paths"].get("failures") == "0"
+    broken = cases["broken"]
+    verdict = broken.find("properties/property[@name='verdict']")
+    assert verdict is not None and verdict.get("value") == "fail"
+    assert "run 3 failed: the simulation process crashed (SIGSEGV)" in (
+        broken.findtext("system-out") or "")
+    assert cases["good"].get("time") == "1.250"
+    assert all(c.get("time") is not None for c in cases.values())
+
+
+def test_junit_without_expectations_fails_on_path_verdicts() -> None:
+    results = evaluation()
+    root, cases = _junit_failures(junit_xml(results, [], "c"))
+    assert [s.get("name") for s in root.iter("testsuite")] == ["c.paths"]
+    failing = [name for name, c in cases.items() if c.find("failure") is not None]
+    assert failing == ["broken", "rejected"]
+    assert root.get("failures") == "2"
+    assert exit_code(results, [], has_expectations=False) == 1
+    passing = CampaignEvaluation(results.paths[:1], ["good"], {}, {})
+    root, _ = _junit_failures(junit_xml(passing, [], "c"))
+    assert root.get("failures") == "0" and exit_code(passing, [], False) == 0
 
 
 def test_summary_lists_failures_and_uses_mAs() -> None:
@@ -105,6 +131,8 @@ def test_summary_lists_failures_and_uses_mAs() -> None:
     data = summary(results, [], 1)
     good, _, broken, rejected = data["paths"]
     assert good["energy_mAs"] == 500.0
+    assert data["decision"]["kind"] == "send" and data["decision"]["path"] == "good"
+    assert data["units"]["energy_mAs"].startswith("mAs")
     assert broken["failures"][0] == {"run": 3,
                                      "reason": "the simulation process crashed (SIGSEGV)"}
     assert rejected["verdict"] == "rejected" and rejected["rank"] is None

@@ -1,14 +1,22 @@
-"""The report opens in headless Chromium, renders to a screenshot, and logs nothing.
+"""The report opens in headless Chromium, renders to a screenshot, logs nothing, fetches
+nothing, fits narrow (800 px) and wide windows, and answers hover, clicks and path switches.
 
 Chromium runs from a fresh profile, offline flags, file:// URL. Console messages are read from
 Chromium's own log on stderr (``--enable-logging=stderr``), where every console message and
-uncaught exception is a ``CONSOLE`` line; the report has no script, so any such line is an error.
-A test page that logs an error proves the detector sees one. Without chromium the test is
-skipped, except in CI (``CI`` set), where ``.ci/run`` installs it and its absence is a failure.
+uncaught exception is a ``CONSOLE`` line; the report logs nothing, so any such line is an error
+(a blocked request is one too: the page's Content-Security-Policy refuses every URL). A test
+page that logs an error proves the detector sees one.
+
+Layout and interaction are checked in the page itself: a copy of the report gets a checking
+script appended that measures overflow, lists every fetched resource (Resource Timing), hovers
+and clicks the map, switches a path off and clicks a worst-runs row, and writes what it found
+as JSON into the DOM, which ``--dump-dom`` prints. Without chromium the tests are skipped,
+except in CI (``CI`` set), where ``.ci/run`` installs it and its absence is a failure.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -32,19 +40,102 @@ def _chromium() -> str:
     return found
 
 
-def render(page: Path, screenshot: Path, height: int = 2400) -> list[str]:
-    """Screenshot ``page`` with headless Chromium; returns the console lines it logged."""
+def _run_chromium(page: Path, *arguments: str, width: int = 1300,
+                  height: int = 2400) -> subprocess.CompletedProcess[str]:
     browser = _chromium()
     with tempfile.TemporaryDirectory() as profile:
         completed = subprocess.run(
             [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
              "--no-first-run", "--disable-background-networking",
              "--disable-component-update", "--disable-sync", f"--user-data-dir={profile}",
-             "--enable-logging=stderr", "--v=0", f"--screenshot={screenshot}",
-             f"--window-size=1300,{height}", page.resolve().as_uri()],
+             "--enable-logging=stderr", "--v=0", *arguments,
+             f"--window-size={width},{height}", page.resolve().as_uri()],
             capture_output=True, text=True, timeout=180, check=False)
     assert completed.returncode == 0, completed.stderr[-2000:]
+    return completed
+
+
+def render(page: Path, screenshot: Path, height: int = 2400, width: int = 1300) -> list[str]:
+    """Screenshot ``page`` with headless Chromium; returns the console lines it logged."""
+    completed = _run_chromium(page, f"--screenshot={screenshot}", width=width, height=height)
     return [line for line in completed.stderr.splitlines() if CONSOLE_LINE.search(line)]
+
+
+# Appended to a copy of the report: measures and drives the page, writes JSON into the DOM.
+CHECKER = """<script>
+window.addEventListener("load", function () {
+  var out = {errors: []};
+  try {
+    var doc = document.documentElement;
+    out.clientWidth = doc.clientWidth; out.scrollWidth = doc.scrollWidth;
+    out.overflowing = [];
+    document.querySelectorAll("main *").forEach(function (el) {
+      if (el.closest(".scroll") || el.closest("script")) { return; }
+      var box = el.getBoundingClientRect(), section = el.closest("section");
+      var limit = section ? section.getBoundingClientRect().right : doc.clientWidth;
+      if (box.width > 0 && box.right > limit + 1) {
+        out.overflowing.push(el.tagName + "." + el.className + " " + Math.round(box.right) +
+                             " > " + Math.round(limit));
+      }
+    });
+    var maps = document.querySelectorAll('img[alt^="Result map"]');
+    out.mapScale = Math.min.apply(null, Array.prototype.map.call(maps, function (img) {
+      return img.getBoundingClientRect().width / img.naturalWidth; }));
+    out.mapShare = Math.min.apply(null, Array.prototype.map.call(maps, function (img) {
+      return img.getBoundingClientRect().width /
+        img.closest("section").getBoundingClientRect().width; }));
+    out.resources = performance.getEntriesByType("resource").map(function (e) {
+      return e.name; });
+    var api = window.idefixReport, cells = api.cells(), keys = Object.keys(cells);
+    out.cells = keys.length;
+    var key = keys.reduce(function (a, b) {
+      return cells[b].runs > cells[a].runs ? b : a; });
+    var point = api.at(Number(key)), canvas = document.querySelector("#imap canvas");
+    var box = canvas.getBoundingClientRect(), ctx = canvas.getContext("2d");
+    var ratio = canvas.width / box.width;
+    out.pixel = Array.prototype.slice.call(ctx.getImageData(
+      Math.round((point.x - box.left) * ratio), Math.round((point.y - box.top) * ratio),
+      1, 1).data);
+    canvas.dispatchEvent(new MouseEvent("mousemove", {clientX: point.x, clientY: point.y,
+                                                      bubbles: true}));
+    out.tip = document.querySelector("#imap .tip").textContent;
+    out.expectedRisk = (cells[key].total / cells[key].runs).toFixed(2);
+    out.expectedRuns = cells[key].runs;
+    canvas.dispatchEvent(new MouseEvent("click", {clientX: point.x, clientY: point.y,
+                                                  bubbles: true}));
+    var panel = document.getElementById("runpanel");
+    out.openedFromMap = panel.getAttribute("data-open");
+    out.charts = Array.prototype.map.call(panel.querySelectorAll(".charts canvas"),
+      function (c) { return c.getAttribute("data-series"); });
+    var box0 = document.querySelector("#imap-paths input");
+    box0.checked = false; box0.dispatchEvent(new Event("change"));
+    out.cellsWithoutFirst = Object.keys(api.cells()).length;
+    out.firstPath = box0.value;
+    var row = document.querySelector("tr.run");
+    row.dispatchEvent(new MouseEvent("click", {bubbles: true}));
+    out.row = row.getAttribute("data-path") + "/" + row.getAttribute("data-run");
+    out.openedFromRow = panel.getAttribute("data-open");
+    out.title = panel.querySelector("h3").textContent;
+  } catch (error) { out.errors.push(String(error)); }
+  var pre = document.createElement("pre"); pre.id = "check-result";
+  pre.textContent = JSON.stringify(out); document.body.appendChild(pre);
+});
+</script>"""
+
+
+def check_page(page: Path, width: int, tmp: Path) -> dict[str, object]:
+    """Load a copy of ``page`` with :data:`CHECKER` appended; what the checker found."""
+    copy = tmp / f"checked-{width}.html"
+    copy.write_text(page.read_text(encoding="utf-8").replace("</body>", CHECKER + "</body>"),
+                    encoding="utf-8")
+    completed = _run_chromium(copy, "--dump-dom", "--virtual-time-budget=5000", width=width,
+                              height=1000)
+    match = re.search(r'<pre id="check-result">(.*?)</pre>', completed.stdout, re.S)
+    assert match is not None, completed.stdout[-2000:]
+    text = match.group(1).replace("&quot;", '"').replace("&lt;", "<").replace(
+        "&gt;", ">").replace("&amp;", "&")
+    found: dict[str, object] = json.loads(text)
+    return found
 
 
 def test_the_detector_flags_a_console_error(tmp_path: Path) -> None:
@@ -57,12 +148,57 @@ def test_the_detector_flags_a_console_error(tmp_path: Path) -> None:
     assert any("Uncaught ReferenceError" in line for line in lines)
 
 
+def test_the_detector_flags_a_blocked_request(tmp_path: Path, synthetic_results: Path) -> None:
+    """The report's policy refuses any URL, and the refusal is a console line: a report that
+    tried to fetch anything would fail the console check below."""
+    page = write_report(synthetic_results, tmp_path / "out")
+    leaky = tmp_path / "leaky.html"
+    leaky.write_text(page.read_text(encoding="utf-8").replace(
+        "</main>", '<img src="http://127.0.0.1:9/x.png" alt="x"></main>'), encoding="utf-8")
+    lines = render(leaky, tmp_path / "leaky.png", height=400)
+    assert any("Content Security Policy" in line or "Refused" in line for line in lines)
+
+
 @pytest.mark.slow
-def test_report_renders_without_console_errors(synthetic_results: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("width", [800, 1400])
+def test_report_renders_without_console_errors(synthetic_results: Path, tmp_path: Path,
+                                               width: int) -> None:
     page = write_report(synthetic_results, tmp_path / "out")
     screenshot = tmp_path / "report.png"
-    lines = render(page, screenshot)
+    lines = render(page, screenshot, width=width)
     assert lines == []
     data = screenshot.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(data) > 50_000  # a blank page compresses to a few kB
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("width", [800, 1400])
+def test_report_fits_fetches_nothing_and_answers(synthetic_results: Path, tmp_path: Path,
+                                                width: int) -> None:
+    page = write_report(synthetic_results, tmp_path / "out")
+    found = check_page(page, width, tmp_path)
+    assert found["errors"] == []
+    # Nothing overflows: no horizontal page scroll, no element past its section (wide
+    # tables scroll inside their own box).
+    assert int(found["scrollWidth"]) <= int(found["clientWidth"]), found  # type: ignore[call-overload]
+    assert found["overflowing"] == []
+    # Printable maps take most of the page's width and are not shrunk below 70 % of their
+    # drawn size: their 9.5–10 pt labels stay at 10 px or more.
+    assert float(found["mapShare"]) > 0.75  # type: ignore[arg-type]
+    assert float(found["mapScale"]) >= 0.7  # type: ignore[arg-type]
+    assert found["resources"] == []  # not one request, not even for a file next to it
+    # The map is drawn: a crossed cell is coloured, not the white background.
+    red, green, blue, _ = found["pixel"]  # type: ignore[misc]
+    assert (red, green, blue) != (255, 255, 255)
+    # Hover: the busiest cell says its risk and its runs.
+    tip = str(found["tip"])
+    assert f"risk {found['expectedRisk']}" in tip and f"{found['expectedRuns']} run(s)" in tip
+    assert "dominant" in tip
+    # Click on the map: the worst run there opens, with its series against the limits.
+    assert found["openedFromMap"] and "risk" in found["charts"]  # type: ignore[operator]
+    # Switching a path off removes its cells.
+    assert 0 < int(found["cellsWithoutFirst"]) < int(found["cells"])  # type: ignore[call-overload]
+    # A worst-runs row opens its run.
+    assert found["openedFromRow"] == found["row"]
+    assert "I_max" in str(found["title"])

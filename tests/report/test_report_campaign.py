@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_report_browser import render
+from test_report_browser import check_page, render
 
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
@@ -132,11 +132,26 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
         store.close()
     for path in data.evaluated_paths:
         row = rows[path.name]
-        assert row.mean_risk == pytest.approx(path.row.mean_risk)
-        assert row.risk_ci95 == pytest.approx(path.row.risk_ci95)
-        assert row.energy_mAs == pytest.approx(path.row.energy_mAs)
-        assert row.time_s == pytest.approx(path.row.time_s)
+        # summary.json rounds: risks to 4 decimals, energy to 0.1 mAs, time to 0.01 s.
+        assert row.mean_risk == pytest.approx(path.row.mean_risk, abs=5e-5)
+        assert row.risk_ci95 == pytest.approx(path.row.risk_ci95, abs=5e-5)
+        assert row.energy_mAs == pytest.approx(path.row.energy_mAs, abs=0.05)
+        assert row.time_s == pytest.approx(path.row.time_s, abs=0.005)
         assert (row.verdict, row.undecided) == (path.row.verdict, path.row.undecided)
+    # What explains the map: contacts where the right wheels met the rock, the ideal path,
+    # the reference run's wheel tracks, and the decision above everything.
+    contacts = maps.contacts["straight"]
+    assert contacts and all(c["body"] in ("FR", "RR") for c in contacts if c["part"] == "wheel")
+    assert all(abs(c["y"] - (-0.30)) < 0.04 + 0.06 for c in contacts)  # at the rock's side
+    ideal_x, ideal_y = maps.ideal_tracks["straight"]
+    assert ideal_x[-1] == pytest.approx(0.6) and np.allclose(ideal_y, 0.0)
+    assert set(maps.wheel_tracks["straight"]) == {"FL", "FR", "RL", "RR"}
+    assert text.index('id="decision"') < text.index("Table 1") < text.index('id="imap"')
     # The page as a person sees it: the report again from the CLI, then a screenshot.
     assert main(["report", str(out / "results.h5"), "-o", str(tmp_path / "again")]) == 0
     assert render(tmp_path / "again" / "report.html", tmp_path / "screen.png") == []
+    for width in (800, 1400):
+        found = check_page(tmp_path / "again" / "report.html", width, tmp_path)
+        assert found["errors"] == [] and found["overflowing"] == []
+        assert found["resources"] == []
+        assert found["openedFromRow"] == found["row"]

@@ -36,7 +36,7 @@ def test_report_files_and_header(written: Path) -> None:
     assert "report-test 0.1.0" in text
     assert "r" * 64 in text and "c" * 64 in text and "f" * 64 in text
     # Table 1: risk of 'straight' with its CI, the L2 chance, energy and time columns.
-    assert "95 % CI of the risk" in text and "Energy [mAs]" in text and "Time [s]" in text
+    assert "95 % CI [%]" in text and "Energy [mAs]" in text and "Time [s]" in text
     assert "not decided at this number of runs" in text
     # A path rejected by the command rules is listed with its reason, without figures.
     assert "too-sharp" in text and "max_turn_angle: command 1 turns 120 deg" in text
@@ -45,10 +45,14 @@ def test_report_files_and_header(written: Path) -> None:
 
 def test_report_is_self_contained_and_escaped(written: Path) -> None:
     text = written.read_text(encoding="utf-8")
-    assert "<script" not in text  # the verdict reason in the file holds a <script> tag
+    # Only the page's own two script elements: its data (JSON) and its code; the verdict
+    # reason in the file holds a <script> tag, which shows as text.
+    assert text.count("<script") == 2
+    assert '<script id="report-data" type="application/json">' in text
     assert "&lt;script&gt;" in text
     assert not re.search(r"(src|href)=\"(?!data:)", text)
     assert "http://" not in text and "https://" not in text
+    assert "Content-Security-Policy" in text and "default-src 'none'" in text
     assert text.count('src="data:image/png;base64,') == 6
 
 

@@ -1,0 +1,107 @@
+"""The decision a campaign supports, in words: which chain to send, none, or not settled yet.
+
+The verdicts say pass/fail per chain and the ranking orders them; operators want one sentence.
+The decision is separate from CI's outcome (the exit code follows the campaign's ``expect:``
+entries, which may well assert that a chain fails):
+
+- **send**: the best-ranked chain whose verdict passes and is decided.
+- **unsettled**: no chain passes decidedly, and some chain's verdict is not decided at this
+  number of runs (a threshold lies inside a confidence interval): more runs are needed.
+- **none**: no chain is acceptable; the best-ranked simulated chain is named as the least bad,
+  with the verdicts it fails.
+
+>>> from types import SimpleNamespace as P
+>>> paths = [P(name="a", verdict="fail", undecided=False, rank=2, reasons=["r1"]),
+...          P(name="b", verdict="pass", undecided=False, rank=1, reasons=[])]
+>>> decide(paths).text
+'send b (passes every verdict, rank 1 of 2)'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.wording import verdict_reasons
+
+DecisionKind = Literal["send", "none", "unsettled"]
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What to do with the chains of a campaign."""
+
+    kind: DecisionKind
+    path: str | None  # the chain to send, or the least bad one; None when nothing ran
+    text: str
+    reasons: tuple[str, ...] = field(default=())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "path": self.path, "text": self.text,
+                "reasons": list(self.reasons)}
+
+
+def _rank(path: Any) -> tuple[bool, int]:
+    rank = getattr(path, "rank", None)
+    return (rank is None, rank or 0)
+
+
+def decide(paths: Sequence[Any]) -> Decision:
+    """The decision from per-path ``name``, ``verdict`` (pass, fail, rejected, excluded,
+    error), ``undecided``, ``rank`` (None when not ranked) and ``reasons`` (failing verdicts)."""
+    ranked = [p for p in paths if getattr(p, "rank", None) is not None]
+    total = len(ranked)
+    passing = sorted((p for p in paths if p.verdict == "pass" and not p.undecided), key=_rank)
+    if passing:
+        best = passing[0]
+        where = f"rank {best.rank} of {total}" if best.rank is not None else "not ranked"
+        others = [p.name for p in paths if p.undecided and _rank(p) < _rank(best)]
+        note = (f"; {', '.join(others)} ranks better but is not decided yet" if others else "")
+        return Decision("send", best.name,
+                        f"send {best.name} (passes every verdict, {where}){note}")
+    undecided = sorted((p for p in paths if p.undecided), key=_rank)
+    if undecided:
+        names = ", ".join(p.name for p in undecided)
+        return Decision("unsettled", undecided[0].name,
+                        f"not settled yet: the verdict of {names} is not decided at this "
+                        "number of runs (run more to settle it)",
+                        tuple(undecided[0].reasons))
+    if not ranked:
+        return Decision("none", None, "no chain is acceptable (none was simulated: every "
+                        "chain was rejected or excluded before Monte Carlo)")
+    least = sorted(ranked, key=_rank)[0]
+    reasons = tuple(least.reasons)
+    why = f": it fails {'; '.join(reasons)}" if reasons else ""
+    return Decision("none", least.name,
+                    f"no chain is acceptable; least bad is {least.name} (rank 1 of {total})"
+                    f"{why}", reasons)
+
+
+@dataclass(frozen=True)
+class PathFacts:
+    """What :func:`decide` reads of a path."""
+
+    name: str
+    verdict: str
+    undecided: bool
+    rank: int | None
+    reasons: list[str]
+
+
+def reasons_of(path: PathResult) -> list[str]:
+    """A path's failing (or undecided) verdict rules in words and percent, else its stored
+    reasons (a rejected or excluded path says why in ``path.reason``)."""
+    confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
+    if path.verdict is not None:
+        shown = verdict_reasons(as_plain(path.verdict), confidence)
+        extra = [r for r in path.verdict_reasons if "run(s) failed or missing" in r]
+        return shown + extra
+    return list(path.verdict_reasons)
+
+
+def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
+    """The decision of an evaluated campaign."""
+    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p))
+                   for p in evaluation.paths])

@@ -1,0 +1,248 @@
+"""Values as a person reads them: in the units the campaign or rulebook was written in.
+
+Everything inside the tool and in its files is SI (rad, m, Pa, A·s). Messages, tables and the
+report show a value in the unit its author used: a command's ``delta_heading`` in the unit the
+campaign wrote it in (``120 deg``, not ``2.0944``), a sampled parameter in the unit of its
+distribution (``soil.cohesion`` in Pa, ``soil.friction_angle`` in deg), ratios of verdicts in %.
+:class:`DisplayUnits` collects those units from a campaign's text; a name it does not know falls
+back to the unit people use for its dimension (deg for angles, deg/s for rates, mm/s for speeds).
+
+>>> units = DisplayUnits.from_campaign_text(
+...     "paths:\\n  p:\\n    - {delta_heading: '120 deg', delta_position: '0 m'}\\n")
+>>> units.show("delta_heading", 2.0943951023931953)
+'120 deg'
+>>> units.show("speed", 0.0123)
+'12.3 mm/s'
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+from idefix_rules.units import UnitError, convert, parse_unit
+
+# Units people read when a name's own unit is not known (rules' derived command quantities).
+DEFAULT_UNITS: dict[str, str] = {
+    "max_wheel_rate": "rad/s",
+    "delta_position": "m",
+    "delta_heading": "deg",
+    "turn_radius": "m",
+    "duration": "s",
+    "speed": "mm/s",
+    "yaw_rate": "deg/s",
+    "wheel_speed": "mm/s",
+    "lateral_acceleration": "mm/s^2",
+    "command_number": "1",
+    "initial.x": "cm",
+    "initial.y": "cm",
+    "initial.z": "cm",
+    "initial.yaw": "deg",
+}
+# SI unit of the names above (what the stored number is in).
+SI_UNITS: dict[str, str] = {
+    "max_wheel_rate": "rad/s", "delta_position": "m", "delta_heading": "rad",
+    "turn_radius": "m", "duration": "s", "speed": "m/s", "yaw_rate": "rad/s",
+    "wheel_speed": "m/s", "lateral_acceleration": "m/s^2", "command_number": "1",
+    "initial.x": "m", "initial.y": "m", "initial.z": "m", "initial.yaw": "rad",
+}
+_WRITTEN = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*(\S.*?)\s*$")
+
+
+def number(value: float, digits: int = 3) -> str:
+    """A number with ``digits`` significant digits, never in exponent form below 10^6.
+
+    >>> number(2.0943951023931953 * 180 / math.pi), number(0.000123), number(747.04)
+    ('120', '0.000123', '747')
+    """
+    if not math.isfinite(value):
+        return "–"
+    if value == 0:
+        return "0"
+    magnitude = math.floor(math.log10(abs(value)))
+    decimals = max(0, digits - 1 - magnitude)
+    if abs(value) >= 1e6 or decimals > 9:
+        return f"{value:.{digits}g}"
+    text = f"{value:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def percent(value: float | None, decimals: int = 1) -> str:
+    """A ratio as ``12.3 %``; ``–`` when unknown."""
+    if value is None or not math.isfinite(value):
+        return "–"
+    return f"{100.0 * value:.{decimals}f} %"
+
+
+def _written_unit(text: Any) -> str | None:
+    if not isinstance(text, str):
+        return None
+    match = _WRITTEN.match(text)
+    if match is None:
+        return None
+    try:
+        parse_unit(match.group(1))
+    except UnitError:
+        return None
+    return match.group(1)
+
+
+@dataclass
+class DisplayUnits:
+    """Unit to show per quantity name (``delta_heading``, ``soil.cohesion`` …)."""
+
+    units: dict[str, str] = field(default_factory=dict)
+
+    @classmethod
+    def from_campaign_text(cls, text: str) -> DisplayUnits:
+        """The units a campaign's author wrote: command fields and uncertain parameters."""
+        try:
+            data = yaml.safe_load(text) or {}
+        except yaml.YAMLError:
+            return cls()
+        found: dict[str, str] = {}
+        if not isinstance(data, Mapping):
+            return cls()
+        for chain in (data.get("paths") or {}).values() if isinstance(
+                data.get("paths"), Mapping) else ():
+            for command in chain if isinstance(chain, list) else ():
+                if isinstance(command, Mapping):
+                    for key, value in command.items():
+                        unit = _written_unit(value)
+                        if unit is not None and float(_number_of(value)) != 0.0:
+                            found.setdefault(str(key), unit)
+                        elif unit is not None:
+                            found.setdefault(f"{key}#zero", unit)
+        parameters = (data.get("uncertainty") or {}).get("parameters") \
+            if isinstance(data.get("uncertainty"), Mapping) else None
+        for name, spec in (parameters or {}).items() if isinstance(parameters, Mapping) else ():
+            if isinstance(spec, Mapping):
+                # The unit of the first non-zero value: "mean: 0 m, std: 1 cm" reads in cm.
+                written = [(_number_of(str(spec.get(key))), unit) for key in
+                           ("mean", "median", "low", "high", "std", "value")
+                           if (unit := _written_unit(spec.get(key))) is not None]
+                chosen = [unit for value, unit in written if value != 0.0] or \
+                    [unit for _, unit in written]
+                if chosen:
+                    found.setdefault(str(name), chosen[0])
+        for key in [k for k in found if k.endswith("#zero")]:
+            found.setdefault(key[:-5], found.pop(key))
+        return cls(found)
+
+    def unit_of(self, name: str) -> str:
+        return self.units.get(name) or DEFAULT_UNITS.get(name, "")
+
+    def show(self, name: str, si_value: float, si_unit: str | None = None) -> str:
+        """``value unit`` of a quantity given in SI, in the unit its author used."""
+        unit = self.unit_of(name)
+        source = si_unit or SI_UNITS.get(name)
+        if unit and source and unit not in ("1",):
+            try:
+                value = convert(si_value, source, unit)
+            except UnitError:
+                return number(si_value) + (f" {source}" if source != "1" else "")
+            return f"{number(value)} {unit}"
+        return number(si_value) + (f" {source}" if source and source != "1" else "")
+
+
+def _number_of(text: str) -> float:
+    match = re.match(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)", text)
+    return float(match.group(1)) if match else math.nan
+
+
+def si_unit_for(unit: str) -> str:
+    """The SI spelling of a unit's dimension (``deg`` → ``rad``, ``Pa`` → ``kg/(m·s^2)``)."""
+    return str(parse_unit(unit).dimension)
+
+
+def parameter_text(name: str, si_value: float, stored_unit: str, units: DisplayUnits) -> str:
+    """A sampled parameter in the campaign's unit (stored values are SI, ``stored_unit``)."""
+    unit = units.unit_of(name)
+    if unit and stored_unit:
+        try:
+            return f"{number(convert(si_value, _si_spelling(stored_unit), unit))} {unit}"
+        except UnitError:
+            pass
+    return number(si_value) + (f" {stored_unit}" if stored_unit and stored_unit != "1" else "")
+
+
+def _si_spelling(unit: str) -> str:
+    """Stored units are written like ``kg/(m·s^2)``; the unit parser reads ``kg/m/s^2``."""
+    if "(" in unit:
+        head, _, inner = unit.partition("/(")
+        return head + "/" + inner.rstrip(")").replace("·", "/")
+    return unit
+
+
+def violation_text(violation: Any, units: DisplayUnits) -> str:
+    """A command-rule violation with the command's quantities in the campaign's units."""
+    values: Mapping[str, float] = getattr(violation, "values", {}) or {}
+    shown = ", ".join(f"{name} = {units.show(name, float(value))}"
+                      for name, value in values.items() if name != "command_number")
+    text = (f"command {violation.command_number} breaks rule '{violation.rule}'"
+            + (f" ({shown})" if shown else ""))
+    rationale = getattr(violation, "rationale", None)
+    return text + (f": {rationale}" if rationale else "")
+
+
+def _statistic_value(statistic: str, value: float) -> str:
+    if statistic in ("time",):
+        return f"{number(value)} s"
+    if statistic in ("energy",):
+        return f"{number(value * 1000.0)} mAs"
+    return f"{number(100.0 * value)} %"
+
+
+def _is_shown(statistic: str | None) -> bool:
+    return statistic is not None and (statistic in ("risk", "failed", "time", "energy")
+                                      or statistic.startswith("chance("))
+
+
+def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
+    """One verdict rule's result in words and percent, from its stored (plain) form.
+
+    >>> rule_text({"name": "acceptable_risk", "passed": False, "decided": True,
+    ...            "statistic": "risk", "value": 0.9439, "interval": [0.921, 0.9667],
+    ...            "threshold": 0.7, "message": "…"})
+    'acceptable_risk: risk 94.4 % (95 % CI 92.1–96.7 %) is above the limit 70 %'
+    """
+    name = str(rule.get("name", ""))
+    statistic = rule.get("statistic")
+    value, threshold = rule.get("value"), rule.get("threshold")
+    if not _is_shown(statistic) or value is None or threshold is None:
+        return f"{name}: {rule.get('message', '')}"
+    stat = str(statistic)
+    interval = rule.get("interval")
+    ci = ""
+    if interval and None not in interval[:2] and stat not in ("failed",):
+        low = _statistic_value(stat, float(interval[0])).rsplit(" ", 1)[0]
+        ci = (f" ({confidence * 100:.0f} % CI {low}–"
+              f"{_statistic_value(stat, float(interval[1]))})")
+    limit = _statistic_value(stat, float(threshold))
+    passed, decided = bool(rule.get("passed", True)), bool(rule.get("decided", True))
+    side = "above" if float(value) > float(threshold) else "below"
+    if not decided:
+        verdict = f"not decided: the limit {limit} lies inside the interval"
+    elif passed:
+        verdict = f"within the limit {limit}"
+    else:
+        verdict = f"is {side} the limit {limit}"
+    return f"{name}: {stat} {_statistic_value(stat, float(value))}{ci} {verdict}"
+
+
+def verdict_reasons(verdict: Mapping[str, Any] | None, confidence: float = 0.95) -> list[str]:
+    """The rules that explain a verdict: those failing decidedly, else failing or undecided."""
+    rules = [r for r in (verdict or {}).get("rules", []) if isinstance(r, Mapping)]
+    failed_for_sure = [r for r in rules if not r.get("passed", True) and r.get("decided", True)]
+    shown = failed_for_sure or [r for r in rules
+                                if not r.get("passed", True) or not r.get("decided", True)]
+    return [rule_text(r, confidence) for r in shown]
+
+
+def joined(items: Iterable[str]) -> str:
+    return "; ".join(items)

@@ -1,0 +1,170 @@
+"""The console's account of a campaign: decision, Table 1, why, CI's outcome.
+
+Order: the ``Decision:`` line (what to send), the path table, each path's failing verdicts in
+the rulebook's terms (percent, not bare ratios), the ranking, the expectations and the line
+``CI expectations: N of M held (exit K)``. The table is the paper's Table 1 when it fits the
+console; when it does not (80 columns), every path becomes a short block of lines instead, so
+no name is ever cut.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from rich.console import Console
+from rich.markup import escape
+from rich.measure import Measurement
+from rich.table import Table
+
+from idefix_rules.campaign.decision import Decision, campaign_decision, reasons_of
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
+from idefix_rules.campaign.outputs import ExpectationResult
+from idefix_rules.campaign.wording import percent
+
+LEVELS = ("L1", "L2", "L3")
+STYLES = {"pass": "green", "fail": "red"}
+
+
+def _ordered(evaluation: CampaignEvaluation) -> list[PathResult]:
+    return sorted(evaluation.paths, key=lambda p: (p.rank is None, p.rank or 0, p.index))
+
+
+def _number(value: float | None, scale: float = 1.0) -> str:
+    return "–" if value is None else f"{value * scale:.1f}"
+
+
+def _pct(value: float | None) -> str:
+    return "–" if value is None else f"{100.0 * value:.1f}"
+
+
+def _verdict(path: PathResult) -> str:
+    verdict = path.verdict_text
+    style = STYLES.get(verdict, "yellow")
+    shown = f"[{style}]{verdict}[/{style}]"
+    if path.undecided:
+        shown += " [yellow](not decided)[/yellow]"
+    return shown
+
+
+def _dominant(path: PathResult, titles: Mapping[str, str]) -> str:
+    name = path.dominant_index
+    if not name:
+        return "–"
+    title = titles.get(name)
+    return f"{escape(name)} ({escape(title)})" if title else escape(name)
+
+
+def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> Table:
+    """The paper's Table 1, plus verdict, rank and dominant index (with its title)."""
+    table = Table(title="Path evaluation", title_justify="left")
+    table.add_column("path", no_wrap=True)
+    table.add_column("risk %", justify="right")
+    table.add_column("95 % CI", justify="right")
+    for level in LEVELS:
+        table.add_column(f"hit {level} %", justify="right")
+    table.add_column("energy mAs", justify="right")
+    table.add_column("time s", justify="right")
+    table.add_column("runs", justify="right")
+    table.add_column("verdict")
+    table.add_column("rank", justify="right")
+    table.add_column("dominant index")
+    for path in _ordered(evaluation):
+        ci = f"{_pct(path.risk_ci[0])}–{_pct(path.risk_ci[1])}" if path.risk_ci else "–"
+        runs = f"{path.completed}/{path.runs}" if path.runs else "–"
+        if path.failed:
+            runs += f" [red]({path.failed} failed)[/red]"
+        table.add_row(
+            escape(path.name), _pct(path.mean_risk), ci,
+            *(_pct(path.collision_chance.get(level)) for level in LEVELS),
+            _number(path.energy, 1000.0), _number(path.time), runs, _verdict(path),
+            "–" if path.rank is None else str(path.rank), _dominant(path, titles))
+    return table
+
+
+def path_lines(path: PathResult, titles: Mapping[str, str]) -> list[str]:
+    """One path as a few short lines (the narrow layout)."""
+    rank = f"#{path.rank} " if path.rank is not None else ""
+    lines = [f"[bold]{rank}{escape(path.name)}[/bold]  {_verdict(path)}"]
+    if path.mean_risk is not None:
+        ci = (f" (95 % CI {_pct(path.risk_ci[0])}–{_pct(path.risk_ci[1])})"
+              if path.risk_ci else "")
+        lines.append(f"  risk {percent(path.mean_risk)}{ci}")
+        hits = "  ".join(f"{level} {_pct(path.collision_chance.get(level))}"
+                         for level in LEVELS)
+        lines.append(f"  hit chance %: {hits}")
+        runs = f"{path.completed}/{path.runs}"
+        if path.failed:
+            runs += f" [red]({path.failed} failed)[/red]"
+        lines.append(f"  energy {_number(path.energy, 1000.0)} mAs · time "
+                     f"{_number(path.time)} s · runs {runs}")
+        lines.append(f"  dominant index: {_dominant(path, titles)}")
+    return lines
+
+
+def fits(console: Console, table: Table) -> bool:
+    """Whether the table fits the console without shrinking a column."""
+    unbounded = console.options.update(width=10_000)
+    return Measurement.get(console, unbounded, table).maximum <= console.width
+
+
+def print_decision(console: Console, decision: Decision) -> None:
+    style = {"send": "green", "none": "red"}.get(decision.kind, "yellow")
+    console.print(f"[bold]Decision:[/bold] [{style}]{escape(decision.text)}[/{style}]")
+
+
+def ci_line(expectations: Sequence[ExpectationResult], code: int,
+            evaluation: CampaignEvaluation) -> str:
+    """CI's outcome, kept apart from the decision: what the exit code asserts."""
+    if expectations:
+        held = sum(1 for e in expectations if e.held)
+        return f"CI expectations: {held} of {len(expectations)} held (exit {code})"
+    passed = sum(1 for p in evaluation.paths if p.verdict_text == "pass")
+    return (f"CI verdicts (no expectations: every path must pass): {passed} of "
+            f"{len(evaluation.paths)} passed (exit {code})")
+
+
+def print_outcome(console: Console, evaluation: CampaignEvaluation,
+                  expectations: list[ExpectationResult], code: int, warnings: list[str],
+                  titles: Mapping[str, str] | None = None) -> Decision:
+    """Decision, table (or per-path blocks), reasons, ranking, expectations, CI's outcome."""
+    titles = titles or {}
+    decision = campaign_decision(evaluation)
+    print_decision(console, decision)
+    table = results_table(evaluation, titles)
+    wide = fits(console, table)
+    if wide:
+        console.print(table)
+    else:
+        console.print("[bold]Path evaluation[/bold] (best first)")
+    for path in _ordered(evaluation) if not wide else evaluation.paths:
+        if not wide:
+            for line in path_lines(path, titles):
+                console.print(line)
+        if path.reason:
+            console.print(f"  [yellow]{escape(path.name)}[/yellow] {path.status}: "
+                          f"{escape(path.reason)}")
+        for reason in reasons_of(path):
+            console.print(f"  {escape(path.name)}: {escape(reason)}" if wide
+                          else f"  ✗ {escape(reason)}")
+        for run, reason in sorted(path.failures.items())[:10]:
+            console.print(f"  [red]{escape(path.name)} run {run} failed[/red]: {escape(reason)}")
+        if path.failed > 10:
+            console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
+    if evaluation.ranking:
+        console.print("ranking: " + " > ".join(escape(n) for n in evaluation.ranking))
+    for expectation in expectations:
+        mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
+        console.print(f"{mark} expect {escape(expectation.description)}: "
+                      f"{escape(expectation.message)}")
+    for text in warnings:
+        console.print(f"[yellow]warning:[/yellow] {escape(text)}")
+    style = "green" if code == 0 else "red"
+    console.print(f"[{style}]{ci_line(expectations, code, evaluation)}[/{style}]")
+    return decision
+
+
+def index_titles(rulebook: Any) -> dict[str, str]:
+    """``{index name: title}`` of a rule model (``Rulebook``)."""
+    return {index.name: index.title for index in getattr(rulebook, "indices", ())
+            if getattr(index, "title", None)}
