@@ -30,7 +30,6 @@ COMMAND_MODULES: tuple[str, ...] = (
     "explain",
     "diff",
     "test",
-    "explain_error",
     "report",
     "build_fmu",
 )

@@ -42,12 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.errors import error
     from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
     from idefix_rules.testing.coverage import coverage_of, coverage_percent
     from idefix_rules.testing.runner import FileOutcome
 
     if args.min_coverage is not None and not 0 <= args.min_coverage <= 100:
-        from idefix_rules.errors import error
         raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
     started = time.perf_counter()
     files = discover_case_files(args.paths)
@@ -81,8 +81,8 @@ def run(args: argparse.Namespace) -> int:
             data["coverage_percent"] = percent
         print(json.dumps(data, indent=2, ensure_ascii=False))
         return code
-    for failure in broken:
-        console.print(render_diagnostics(failure.diagnostics, failure.sources), markup=False)
+    for problem in broken:
+        console.print(render_diagnostics(problem.diagnostics, problem.sources), markup=False)
     for file in outcomes:
         _print_file(console, file, args.verbose)
     for file in outcomes:

@@ -43,8 +43,8 @@ from idefix_rules.units import (
 
 # Signals a case may shape. ``command`` follows the chain and derived/collision signals are
 # computed (collisions have their own entry), so they are not keyframed.
-SHAPEABLE = tuple(name for name in signals.FMU_SIGNALS if name not in ("t", "command")) + (
-    "collision.clearance",)
+SHAPEABLE = (*(name for name in signals.FMU_SIGNALS if name not in ("t", "command")),
+             "collision.clearance")
 # Flags hold their value until the next keyframe instead of ramping.
 STEP_SIGNALS = frozenset({"stuck"})
 DEFAULT_STEP = 1.0  # s
@@ -341,8 +341,8 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
             reader.fail("T012", "give either 'runs' or 'variants' (their counts add up to the "
                         "runs)", (*loc, "runs"), at_key=True)
     else:
-        count = reader.count(data["runs"], (*loc, "runs"), 1) if "runs" in data else 1
-        groups.append(RunGroup(count or 1, base.keyframes, base.collisions))
+        runs = reader.count(data["runs"], (*loc, "runs"), 1) if "runs" in data else 1
+        groups.append(RunGroup(runs or 1, base.keyframes, base.collisions))
     reference: tuple[Keyframes, ...] = ()
     if "reference" in data:
         reference = _keyframe_block(reader, data["reference"], (*loc, "reference"), False)
@@ -375,7 +375,7 @@ def _chain(reader: _Reader, data: Any, loc: Loc) -> tuple[Command, ...]:
                         "delta_heading", cloc)
             continue
         reader.unknown_keys(item, cloc, keys)
-        values = []
+        values: list[float | None] = []
         for key, dimension in zip(keys, dimensions, strict=True):
             if key not in item:
                 reader.fail("T007", f"command {number + 1} lacks {key}", cloc)
@@ -455,7 +455,8 @@ def _keyframe_block(reader: _Reader, data: Any, loc: Loc, offset: bool
                 reader.fail("T006", "keyframes are a mapping of times to values, e.g. "
                             "'{0 s: 10 %, 20 s: 80 %}', or one value", kloc)
                 continue
-        times, values = [], []
+        times: list[float] = []
+        values: list[float] = []
         for time_text, value in frames.items():
             time = reader.quantity(time_text, kloc, TIME, f"keyframe time {time_text!r}")
             number = reader.quantity(value, (*kloc, time_text), spec.dimension,
@@ -515,9 +516,10 @@ def _collision(reader: _Reader, data: Any, loc: Loc) -> Collision | None:
 
 def _names(checked: CheckedRulebook, kind: str) -> list[str]:
     model = checked.rulebook
-    groups = {"index": model.indices, "chance": model.chances, "prescreen": model.prescreens,
-              "command": model.command_rules, "verdict": model.verdicts}
-    return [item.name for item in groups[kind]]
+    groups: dict[str, tuple[Any, ...]] = {
+        "index": model.indices, "chance": model.chances, "prescreen": model.prescreens,
+        "command": model.command_rules, "verdict": model.verdicts}
+    return [str(item.name) for item in groups[kind]]
 
 
 def _named(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook,
@@ -575,7 +577,7 @@ def _outcome(reader: _Reader, value: Any, loc: Loc, words: tuple[str, str]) -> b
     if isinstance(value, bool):
         return value
     if value in words:
-        return value == words[0]
+        return bool(value == words[0])
     reader.fail("T009", f"expected {words[0]} or {words[1]}, got {value!r}", loc)
     return None
 

@@ -32,8 +32,7 @@ from idefix_rules.testing.synthetic import build_runs
 
 NEAR = 2.0  # within this factor of the limit counts as near
 _COMPARISONS = ("<", "<=", ">", ">=")
-_LABELS = {"across": "across its limit", "near": "near its limit only",
-           "untouched": "never touched"}
+_LABELS = {"across": "across", "near": "near only", "untouched": "never touched"}
 
 
 @dataclass
@@ -60,9 +59,9 @@ class RuleCoverage:
         self.seen |= set(outcomes)
         closest = min((abs(float(np.log2(r))) for r in ratios if np.isfinite(r) and r > 0),
                       default=float("inf"))
-        if (new and self.seen == {True, False}) or closest <= 1.0:
-            if case not in self.cases:
-                self.cases.append(case)
+        crossed = bool(new) and self.seen == {True, False}
+        if (crossed or closest <= 1.0) and case not in self.cases:
+            self.cases.append(case)
         self.closest = min(self.closest, closest)
 
     def finish(self) -> None:
@@ -73,10 +72,8 @@ class RuleCoverage:
         else:
             self.state = "untouched"
         if self.closest < float("inf"):
-            self.detail = f"closest case at {100 * 2 ** -self.closest:.0f} %" \
-                          f"–{100 * 2 ** self.closest:.0f} % of the limit"
-            if self.closest == 0:
-                self.detail = "a case sat exactly at the limit"
+            self.detail = f"closest: {2 ** -self.closest:.2f}× or {2 ** self.closest:.2f}× " \
+                          "the limit" if self.closest else "a case sat at the limit"
         outcomes = {True: "held", False: "did not hold"}
         if self.kind == "index":
             outcomes = {True: "reached", False: "stayed below"}
@@ -100,9 +97,7 @@ def _leaves(expr: Expr) -> Iterator[Binary]:
             return
         yield from _leaves(expr.left)
         yield from _leaves(expr.right)
-    elif isinstance(expr, Unary | Select):
-        yield from _leaves(expr.operand)
-    elif isinstance(expr, Reduce):
+    elif isinstance(expr, Unary | Select | Reduce):
         yield from _leaves(expr.operand)
 
 

@@ -82,21 +82,23 @@ def expression_mutations(expr: Expr, constants: set[str]) -> Iterator[tuple[str,
 def _local(expr: Expr, constants: set[str]) -> Iterator[tuple[str, Expr]]:
     if isinstance(expr, Binary):
         if expr.op in _NEGATION:
-            yield f"{expr.op} → {_NEGATION[expr.op]}", replace(expr, op=_NEGATION[expr.op])
+            negated: Any = _NEGATION[expr.op]
+            yield f"{expr.op} → {negated}", replace(expr, op=negated)
             for side in ("right", "left"):
                 value = getattr(expr, side)
                 if _is_constant(value, constants) and not _is_zero(value):
                     for factor in (2.0, 0.5):
+                        changed: dict[str, Any] = {side: _scaled(value, factor)}
                         yield (f"threshold {format_expr(value)} × {factor:g}",
-                               replace(expr, **{side: _scaled(value, factor)}))
+                               replace(expr, **changed))
                     break
         elif expr.op in ("and", "or"):
-            other = "or" if expr.op == "and" else "and"
+            other: Any = "or" if expr.op == "and" else "and"
             yield f"{expr.op} → {other}", replace(expr, op=other)
     elif isinstance(expr, Unary) and expr.op == "not":
         yield "not removed", expr.operand
     elif isinstance(expr, Reduce) and expr.reducer in _SWAP:
-        swapped = _SWAP[expr.reducer]
+        swapped: Any = _SWAP[expr.reducer]
         yield (f"{expr.reducer} over {expr.domain} → {swapped} over {expr.domain}",
                replace(expr, reducer=swapped, parameter=None))
 
@@ -105,9 +107,7 @@ def _children(expr: Expr) -> Iterator[tuple[Any, Expr]]:
     if isinstance(expr, Binary):
         yield (lambda new: replace(expr, left=new)), expr.left
         yield (lambda new: replace(expr, right=new)), expr.right
-    elif isinstance(expr, Unary | Select):
-        yield (lambda new: replace(expr, operand=new)), expr.operand
-    elif isinstance(expr, Reduce):
+    elif isinstance(expr, Unary | Select | Reduce):
         yield (lambda new: replace(expr, operand=new)), expr.operand
     elif isinstance(expr, Call):
         for position, arg in enumerate(expr.args):
@@ -127,8 +127,8 @@ def mutants(rulebook: Rulebook) -> Iterator[Mutant]:
             for change, new_rule in _rule_mutations(rule, constants):
                 changed = list(rules)
                 changed[position] = new_rule
-                yield Mutant(kind, rule.name, change,
-                             replace(rulebook, **{attribute: tuple(changed)}))
+                fields: dict[str, Any] = {attribute: tuple(changed)}
+                yield Mutant(kind, rule.name, change, replace(rulebook, **fields))
 
 
 def _rule_mutations(rule: Index | ConditionRule, constants: set[str]

@@ -48,7 +48,7 @@ def timeline(chain: tuple[Command, ...], step: float, duration: float | None,
     total = float(ends[-1]) if len(ends) else 0.0
     if duration is None:
         duration = max(total + DEFAULT_SETTLE, last_keyframe)
-    samples = int(math.floor(duration / step + 1e-9)) + 1
+    samples = math.floor(duration / step + 1e-9) + 1
     t = np.arange(samples) * step
     command = np.full(samples, -1.0)
     start = 0.0
@@ -80,8 +80,8 @@ def _curve(frames: Keyframes, t: np.ndarray) -> np.ndarray:
     times, values = np.array(frames.times), np.array(frames.values)
     if frames.signal in STEP_SIGNALS:
         position = np.searchsorted(times, t, side="right") - 1
-        return np.asarray(values[np.maximum(position, 0)])
-    return np.interp(t, times, values)
+        return np.asarray(values[np.maximum(position, 0)], dtype=float)
+    return np.asarray(np.interp(t, times, values), dtype=float)
 
 
 def _shape(run: dict[str, np.ndarray], keyframes: tuple[Keyframes, ...], t: np.ndarray) -> None:
@@ -89,13 +89,12 @@ def _shape(run: dict[str, np.ndarray], keyframes: tuple[Keyframes, ...], t: np.n
         curve = _curve(frames, t)
         array = run[frames.signal]
         if frames.label is None:
-            target = array if array.ndim == 1 else array[:, :]
-            if array.ndim == 2:
+            if array.ndim == 2:  # every wheel (or part) alike
                 curve = curve[:, np.newaxis]
             if frames.offset:
-                target += curve
+                array += curve
             else:
-                target[...] = curve
+                array[...] = curve
             continue
         spec = signals.lookup(frames.signal)
         assert spec is not None
