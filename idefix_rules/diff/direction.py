@@ -319,9 +319,18 @@ def _label(checked: CheckedRulebook, seed: Mapping[str, int], moved: int | None)
 # ----------------------------------------------------------------------------- per change
 
 def constant_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Direction:
+    """Every use of the constant: the rules (pass polarity) and the settings and obstacle
+    levels that read it."""
     if name not in old.constants or name not in new.constants:
         return "neutral"
-    return _label(new, {f"const:{name}": 1}, _sign(old.constants[name], new.constants[name]))
+    labels = [_label(new, {f"const:{name}": 1},
+                     _sign(old.constants[name], new.constants[name]))]
+    labels += [setting_direction(old, new, s.name) for s in new.rulebook.settings
+               if name in names_in(s.value)]
+    labels += [level_direction(old, new, lv.level) for lv in new.rulebook.obstacle_levels
+               if name in set().union(*(names_in(e) for e in (lv.below, lv.buffer)
+                                        if e is not None))]
+    return merge(labels)
 
 
 def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
