@@ -30,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "explain",
     "diff",
     "test",
+    "explain_error",
     "report",
     "build_fmu",
 )
