@@ -128,7 +128,7 @@ def lint_bare_ratios(env: _Env) -> list[Diagnostic]:
         subject = f"constant '{constant}' = {written}" if constant else written
         message = (f"{subject} is a ratio of {value * 100:g} % where {what} is a fraction "
                    f"(0 to 1)")
-        related = (("compared here", used),) if constant else ()
+        related = ((f"'{constant}' is used here", used),) if constant else ()
         found.append(_with_related(warning(
             "W610", message, span, f"write {written} % for {written} percent, or "
             f"{value / 100:g} as a plain ratio"), related))
@@ -254,24 +254,54 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str]]:
 
 
 def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
+    """Constants, index limits, and rules whose condition compares with one constant."""
+    from idefix_rules.rulebook.format import format_expr
+
     found: list[Diagnostic] = []
-    for constant in env.rulebook.constants:
-        value = env.constants.get(constant.name)
-        kind = env.constant_types.get(constant.name)
-        if constant.rationale is None or value is None or kind is None or \
-                isinstance(value, dict):
-            continue
-        mentioned = [(v, text) for v, dimension, text in _quantities(constant.rationale)
-                     if dimension == kind.dimension]
+
+    def compare(name: str, rationale: str | None, value: Any, dimension: Dimension | None,
+                written: Expr, span: Span) -> None:
+        if rationale is None or value is None or dimension is None or isinstance(value, dict):
+            return
+        mentioned = [(v, text) for v, found_dimension, text in _quantities(rationale)
+                     if found_dimension == dimension]
         if mentioned and not any(math.isclose(v, float(value), rel_tol=1e-6, abs_tol=1e-15)
                                  for v, _ in mentioned):
-            from idefix_rules.rulebook.format import format_expr
             said = ", ".join(text for _, text in mentioned)
+            shown = format_expr(written)
+            si = f"{float(value):g}"
             found.append(warning(
-                "W612", f"the rationale of '{constant.name}' says {said} but the value is "
-                f"{format_expr(constant.value)}", constant.span,
+                "W612", f"the rationale of '{name}' says {said} but the value is {shown}"
+                + (f" (= {si})" if si != shown else ""), span,
                 "update the value or its rationale so they agree"))
+
+    for constant in env.rulebook.constants:
+        kind = env.constant_types.get(constant.name)
+        compare(constant.name, constant.rationale, env.constants.get(constant.name),
+                kind.dimension if kind else None, constant.value, constant.span)
+    for index in env.rulebook.indices:
+        kind = env.index_types.get(index.name)
+        compare(index.name, index.rationale, env.limits.get(index.name),
+                kind.dimension if kind else None, index.limit, index.span)
+    for rule in (*env.rulebook.command_rules, *env.rulebook.prescreens,
+                 *env.rulebook.verdicts):
+        condition = rule.condition
+        if not (isinstance(condition, Binary) and condition.op in _COMPARISONS):
+            continue
+        try:
+            threshold = fold(condition.right, env.constants)
+        except (NotConstant, KeyError, ValueError, ZeroDivisionError, TypeError):
+            continue
+        dimension = _dimension_of(condition.right, env)
+        compare(rule.name, rule.rationale, threshold, dimension, condition.right, rule.span)
     return found
+
+
+def _dimension_of(expr: Expr, env: _Env) -> Dimension | None:
+    from idefix_rules.rulebook.infer import infer_type
+
+    found = infer_type(expr, env.scope("constant"), [])
+    return found.dimension if found is not None else None
 
 
 # ----------------------------------------------------------------------------- W613
