@@ -40,6 +40,7 @@ from typing import Any, Literal
 
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.fold import number_si
+from idefix_rules.rulebook.lints import NON_NEGATIVE
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -58,11 +59,8 @@ from idefix_rules.rulebook.semantics import names_in
 Direction = Literal["stricter", "looser", "neutral", "unknown"]
 Polarity = int | None  # +1, -1, 0, or None (unknown)
 
-# Signals that are never negative (the contract's counts, distances and magnitudes).
-NON_NEGATIVE_SIGNALS = frozenset({
-    "collision.hits", "collision.buffer", "collision.contact", "collision.clearance",
-    "wheel.sinkage", "speed", "global_error", "local_error", "tolerance_radius", "energy",
-    "stuck", "t"})
+# Names that are never negative (counts, distances, magnitudes; shared with the lints).
+NON_NEGATIVE_SIGNALS = NON_NEGATIVE
 _MONOTONE_REDUCERS = frozenset({"final", "initial", "max", "min", "mean", "sum", "integral",
                                 "percentile", "any", "all", "count", "time_above"})
 

@@ -24,8 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.rulebook.compile import command_quantities, compile_rulebook
-from idefix_rules.rulebook.expressions import ExpressionCompiler, Frame, layout, signal_closure
+from idefix_rules.rulebook.compile import (
+    _scope_closure,  # the compiler's own reader of named values
+    command_quantities,
+    compile_rulebook,
+)
+from idefix_rules.rulebook.expressions import ExpressionCompiler, Frame, signal_closure
 from idefix_rules.rulebook.model import Binary, Expr, Reduce, Select, Unary
 from idefix_rules.testing.runner import CaseOutcome, FileOutcome
 from idefix_rules.testing.synthetic import build_runs
@@ -108,13 +112,6 @@ def _ratios(left: Any, right: Any) -> list[float]:
         ratio = np.divide(a, b)
     keep = np.isfinite(ratio) & (ratio > 0)
     return [float(r) for r in ratio[keep].ravel()]
-
-
-def _scope_closure(name: str) -> Any:
-    def run(frame: Frame) -> Any:
-        value = frame.scope[name]
-        return value if np.ndim(value) == 0 else layout(np.asarray(value), ())
-    return run
 
 
 def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:

@@ -24,6 +24,7 @@ from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
 from idefix_rules.rulebook.derived import RunContext
 from idefix_rules.rulebook.model import Binary, Index, Number, Rulebook
 from idefix_rules.rulebook.results import RunEvaluation
+from idefix_rules.testing.runner import first_run
 
 Signals = Mapping[str, np.ndarray]
 
@@ -141,14 +142,7 @@ def path_passes(compiled: CompiledRulebook, signals: Signals, context: RunContex
     if compiled.check_chain(context.chain, context.rover):
         return False
     evaluation = compiled.evaluate(signals, context, per_sample=False)
-    first = RunEvaluation(
-        evaluation.index_names, {k: v[:1] for k, v in evaluation.values.items()},
-        {k: v[:1] for k, v in evaluation.raw.items()},
-        {k: v[:1] for k, v in evaluation.per_sample.items()},
-        {k: v[:1] for k, v in evaluation.weighted.items()}, evaluation.i_max[:1],
-        evaluation.dominant[:1], evaluation.dominant_sample[:1], evaluation.chance_names,
-        {k: v[:1] for k, v in evaluation.chances.items()}, evaluation.time[:1],
-        evaluation.energy[:1])
+    first = first_run(evaluation)
     if compiled.prescreen(first):
         return False
     return compiled.verdict(compiled.path_statistics(evaluation, failed_runs)).passed

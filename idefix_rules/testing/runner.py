@@ -86,7 +86,8 @@ class FileOutcome:
         return all(o.passed for o in self.outcomes)
 
 
-def _first(evaluation: RunEvaluation) -> RunEvaluation:
+def first_run(evaluation: RunEvaluation) -> RunEvaluation:
+    """The first run of an evaluation, as an evaluation of one run."""
     def cut(mapping: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         return {k: v[:1] for k, v in mapping.items()}
 
@@ -100,7 +101,7 @@ def run_case(compiled: CompiledRulebook, case: Case) -> CaseOutcome:
     """Evaluate one case and compare every expectation."""
     batch, context = build_runs(case)
     evaluation = compiled.evaluate(batch, context)
-    first = _first(evaluation)
+    first = first_run(evaluation)
     violations = tuple(compiled.check_chain(case.chain, context.rover))
     findings = tuple(compiled.prescreen(first))
     stats = compiled.path_statistics(evaluation, case.failed_runs)
