@@ -25,7 +25,7 @@ from typing import Any, Literal
 
 from idefix_rules import signals
 from idefix_rules.campaign.yamlsource import Loc, SourceMap, load_yaml
-from idefix_rules.commands import Command
+from idefix_rules.commands import Command, RoverGeometry, chain_duration
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.rulebook import check_text, read_source
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -51,6 +51,8 @@ DEFAULT_STEP = 1.0  # s
 DEFAULT_SIGMA = 0.01  # m: initial position σ, the starting tolerance radius
 DEFAULT_TOLERANCE = 0.005  # on normalised index values and risk
 DEFAULT_SETTLE = 5.0  # s of samples after the chain ends
+MAX_SAMPLES = 100_000  # per run: a case is a short example, not a mission
+MAX_RUNS = 10_000  # per case
 
 _TOP_KEYS = ("rulebook", "defaults", "cases", "tolerance")
 _SETUP_KEYS = ("chain", "step", "duration", "initial_position_sigma")
@@ -185,7 +187,8 @@ def parse_case_file(text: str, path: str) -> CaseFile:
     checked, rulebook_path = _rulebook(reader, data, path)
     tolerance = DEFAULT_TOLERANCE
     if "tolerance" in data:
-        tolerance = reader.number(data["tolerance"], ("tolerance",), minimum=0.0) or tolerance
+        given = reader.number(data["tolerance"], ("tolerance",), minimum=0.0)
+        tolerance = tolerance if given is None else given
     defaults = data.get("defaults", {})
     if not isinstance(defaults, dict):
         reader.fail("T002", "'defaults' must be a mapping", ("defaults",))
@@ -281,8 +284,10 @@ class _Reader:
         return float(value)
 
     def count(self, value: Any, loc: Loc, minimum: int) -> int | None:
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            self.fail("T012", f"expected a whole number ≥ {minimum}, got {value!r}", loc)
+        if isinstance(value, bool) or not isinstance(value, int) or \
+                not minimum <= value <= MAX_RUNS:
+            self.fail("T012", f"expected a whole number from {minimum} to {MAX_RUNS}, got "
+                      f"{value!r}", loc)
             return None
         return value
 
@@ -304,13 +309,18 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
     chain = _chain(reader, setup.get("chain", []), where("chain"))
     step = DEFAULT_STEP
     if "step" in setup:
-        step = reader.quantity(setup["step"], where("step"), TIME, "step") or DEFAULT_STEP
-        if step <= 0:
+        given = reader.quantity(setup["step"], where("step"), TIME, "step")
+        if given is not None and given <= 0:
             reader.fail("T005", "step must be above 0 s", where("step"))
-            step = DEFAULT_STEP
+        elif given is not None:
+            step = given
     duration = None
     if "duration" in setup:
         duration = reader.quantity(setup["duration"], where("duration"), TIME, "duration")
+        if duration is not None and not 0 <= duration <= MAX_SAMPLES * step:
+            reader.fail("T005", f"duration must lie between 0 s and {MAX_SAMPLES} steps "
+                        f"({MAX_SAMPLES * step:g} s at this step)", where("duration"))
+            duration = None
     sigma = DEFAULT_SIGMA
     if "initial_position_sigma" in setup:
         found = reader.quantity(setup["initial_position_sigma"], where("initial_position_sigma"),
@@ -355,6 +365,15 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
     elif checked is not None:
         expectations = _expectations(reader, data["expect"], (*loc, "expect"), checked,
                                      tolerance)
+    last = max([f.times[-1] for g in groups for f in g.keyframes]
+               + [c.end for g in groups for c in g.collisions]
+               + [f.times[-1] for f in reference], default=0.0)
+    length = duration if duration is not None else max(
+        chain_duration(chain, RoverGeometry()) + DEFAULT_SETTLE, last)
+    if length / step > MAX_SAMPLES:
+        reader.fail("T005", f"the case's run would have {length / step:.3g} samples (more than "
+                    f"{MAX_SAMPLES}): shorten the chain or keyframes, or sample less often",
+                    loc, at_key=True)
     description = data.get("description")
     return Case(name, str(description) if description is not None else None, chain, step,
                 duration, sigma, tuple(groups), reference, failed, expectations,

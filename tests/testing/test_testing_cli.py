@@ -174,3 +174,33 @@ def test_coverage_states_across_near_and_untouched(tmp_path, capsys):
     assert states["I_psi"] == "near"       # 10 deg: within a factor 2 of 15 deg
     assert states["I_ds"] == "untouched"   # never sank
     assert states["min_motion"] == "untouched"  # 20 cm against 5 cm: a factor 4 away
+
+
+@pytest.mark.parametrize("body", [
+    "  c:\n    duration: -5 s\n    expect: {verdict: pass}\n",
+    "  c:\n    duration: 1000000 s\n    expect: {verdict: pass}\n",
+    "  c:\n    step: 0 s\n    expect: {verdict: pass}\n",
+    "  c:\n    runs: 1000000000\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {roll: {1000000000 s: 1 deg}}\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {stuck: {0 s: true}}\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {roll: [1, 2]}\n    expect: {verdict: pass}\n",
+    "  c:\n    expect: {indices: 5}\n",
+    "  c:\n    chain: x\n    expect: {verdict: pass}\n",
+    "  c:\n    runs: 2\n    variants: [{count: 1}]\n    expect: {verdict: pass}\n",
+    "  c: 5\n",
+    "  c:\n    expect: {rejected: {min_motion: [0]}}\n",
+])
+def test_odd_case_files_are_user_errors_never_tracebacks(tmp_path, capsys, body):
+    path = write(tmp_path, body)
+    assert main(["test", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    assert f"{path}:" in captured.out
+
+
+def test_a_zero_tolerance_is_kept(tmp_path):
+    path = write(tmp_path, "  c:\n    signals: {\"wheel.slip[FL]\": 35 %}\n"
+                           "    expect: {indices: {I_s: 0.5}}\n")
+    path.write_text(path.read_text(encoding="utf-8").replace("defaults:", "tolerance: 0\n"
+                                                             "defaults:"), encoding="utf-8")
+    assert main(["test", str(path)]) == 0  # 0.35 / 0.7 is exactly 0.5
