@@ -503,13 +503,20 @@ def perturbed_runs(draw: Any, signal: str | None = None, ranges: RunRanges | Non
 @st.composite
 def rulebook_variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
     """``(description, rulebook)``: ``rulebook`` with one number changed — a scalar
-    constant, an index limit or weight — by a factor drawn in [0.25, 4] (weights stay ≤ 1)."""
+    constant, an index limit or weight, or the number a command rule, verdict or prescreen
+    compares with — by a factor drawn in [0.25, 4] (weights are drawn in [0, 1])."""
     from dataclasses import replace as replaced
 
     factor = draw(st.sampled_from([0.25, 0.5, 0.8, 0.9, 1.1, 1.25, 2.0, 4.0]))
     scalar = [c for c in rulebook.constants if isinstance(c.value, Number)]
-    choice = draw(st.sampled_from(["constant", "constant", "limit", "limit", "weight"] if scalar
-                                  else ["limit", "weight"]))
+    thresholds = [(attribute, rule) for attribute in ("command_rules", "verdicts", "prescreens")
+                  for rule in getattr(rulebook, attribute)
+                  if isinstance(rule.condition, Binary) and isinstance(rule.condition.right,
+                                                                       Number)
+                  and rule.condition.right.value != 0]
+    choices = ["limit", "weight"] + (["constant", "constant"] if scalar else []) + \
+        (["threshold"] if thresholds else [])
+    choice = draw(st.sampled_from(choices))
     if choice == "constant":
         constant = draw(st.sampled_from(scalar))
         number = constant.value
@@ -518,6 +525,15 @@ def rulebook_variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
         constants = tuple(new if c.name == constant.name else c for c in rulebook.constants)
         return (f"constant {constant.name} × {factor:g}",
                 replaced(rulebook, constants=constants))
+    if choice == "threshold":
+        attribute, rule = draw(st.sampled_from(thresholds))
+        condition = rule.condition
+        right = condition.right
+        moved = replaced(condition, right=Number(right.value * factor, right.unit))
+        rules = tuple(replaced(r, condition=moved) if r.name == rule.name else r
+                      for r in getattr(rulebook, attribute))
+        fields: dict[str, Any] = {attribute: rules}
+        return f"threshold of {rule.name} × {factor:g}", replaced(rulebook, **fields)
     index = draw(st.sampled_from(rulebook.indices))
     if choice == "limit":
         changed = replaced(index, limit=Binary("*", index.limit, Number(factor)))
