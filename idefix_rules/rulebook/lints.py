@@ -43,9 +43,11 @@ RATIO_SIGNALS = frozenset({"wheel.slip", "ref.wheel.slip"})
 RATIO_PATH_NAMES = frozenset({"risk", "failed"})
 NON_NEGATIVE = frozenset({
     "collision.hits", "collision.buffer", "collision.contact", "collision.clearance",
-    "wheel.sinkage", "speed", "global_error", "local_error", "tolerance_radius", "energy",
+    "wheel.sinkage", "global_error", "local_error", "tolerance_radius", "energy",
     "stuck", "t", "duration", "wheel_speed", "lateral_acceleration", "command_number",
     "time", "runs", "failed", "risk"})
+# Non-negative in runs only: the planar speed of a run (a command's speed is signed).
+RUN_NON_NEGATIVE = frozenset({"speed"})
 _COMPARISONS = {"<", "<=", ">", ">="}
 _TRIGGER = re.compile(
     r"(?:above|below|over|under|beyond|exceed\w*|than|at most|at least|up to|limit(?:ed)?"
@@ -160,8 +162,9 @@ def _with_related(diagnostic: Diagnostic, related: tuple[tuple[str, Span], ...])
 Range = tuple[float, float]
 
 
-def _range(expr: Expr, rulebook: Rulebook) -> Range | None:
-    """Declared range of a quantity, when the language fixes one."""
+def _range(expr: Expr, rulebook: Rulebook, run: bool = True) -> Range | None:
+    """Declared range of a quantity, when the language fixes one (``run``: in an index,
+    chance or map, where ``speed`` is a run's planar speed)."""
     # risk, failed, chance(X), mean(I), max(I), an index in a prescreen: fractions in [0, 1]
     # (slip itself is a ratio but not bounded: a spinning wheel slips 100 %, a sliding one more)
     if _is_ratio(expr, rulebook) and isinstance(expr, Name | Call) and not (
@@ -170,18 +173,19 @@ def _range(expr: Expr, rulebook: Rulebook) -> Range | None:
         return (0.0, 1.0)
     if isinstance(expr, Call) and expr.function in ("abs", "sqrt"):
         return (0.0, math.inf)
-    if isinstance(expr, Name) and expr.name in NON_NEGATIVE:
+    if isinstance(expr, Name) and (expr.name in NON_NEGATIVE
+                                   or (run and expr.name in RUN_NON_NEGATIVE)):
         return (0.0, 1.0) if expr.name in RATIO_PATH_NAMES else (0.0, math.inf)
     if isinstance(expr, Reduce):
         if expr.reducer in ("count", "time_above"):
             return (0.0, math.inf)
-        inner = _range(expr.operand, rulebook)
+        inner = _range(expr.operand, rulebook, run)
         if inner is not None and expr.reducer not in ("sum", "integral"):
             return inner
         if inner is not None and inner[0] >= 0:
             return (0.0, math.inf)
     if isinstance(expr, Select):
-        return _range(expr.operand, rulebook)
+        return _range(expr.operand, rulebook, run)
     return None
 
 
@@ -211,7 +215,7 @@ def lint_constant_comparisons(env: _Env) -> list[Diagnostic]:
                 continue
             for quantity, other, op in ((node.left, node.right, node.op),
                                         (node.right, node.left, _FLIP[node.op])):
-                declared = _range(quantity, env.rulebook)
+                declared = _range(quantity, env.rulebook, run=kind != "command rule")
                 if declared is None:
                     continue
                 try:

@@ -100,3 +100,12 @@ def test_used_here_notes_are_data_too():
     assert [d.code for d in result.diagnostics] == ["E201"]
     related = result.diagnostics[0].to_dict()["related"]
     assert [(r["line"], r["column"]) for r in related] == [(6, 19), (9, 12), (12, 52)]
+
+
+def test_a_commands_speed_is_signed_but_a_runs_is_not():
+    reverse_ok = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + \
+        "command forward_only: require speed >= 0 mm/s\n"
+    assert [d.code for d in check_text(reverse_ok, "t.rules", strict=True).diagnostics] == []
+    never = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + \
+        "chance backwards = min over time (speed) < 0 mm/s\n"
+    assert [d.code for d in check_text(never, "t.rules", strict=True).diagnostics] == ["W611"]
