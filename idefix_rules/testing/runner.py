@@ -16,7 +16,15 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
+from idefix_rules.rulebook.expressions import (
+    ExpressionCompiler,
+    Frame,
+    InternalError,
+    per_run_sample,
+    signal_closure,
+)
 from idefix_rules.rulebook.format import format_expr
+from idefix_rules.rulebook.model import Binary, Call, Expr, Reduce, Select, Unary
 from idefix_rules.rulebook.results import (
     CommandViolation,
     PathStatistics,
@@ -220,7 +228,53 @@ def _chance(compiled: CompiledRulebook, outcome: CaseOutcome, e: Expectation) ->
     if held == e.expected:
         return None
     return Mismatch(e, f"chance {e.name}", e.text, "holds" if held else "does not hold",
-                    condition_text(compiled, "chance", e.name), "run 1")
+                    condition_text(compiled, "chance", e.name),
+                    _chance_where(compiled, outcome, e.name))
+
+
+def _time_reduction(expr: Expr) -> Reduce | None:
+    """The first reduction over time inside a condition (depth first)."""
+    if isinstance(expr, Reduce) and expr.domain == "time":
+        return expr
+    children: tuple[Expr, ...] = ()
+    if isinstance(expr, Binary):
+        children = (expr.left, expr.right)
+    elif isinstance(expr, Unary | Select | Reduce):
+        children = (expr.operand,)
+    elif isinstance(expr, Call):
+        children = expr.args
+    for child in children:
+        found = _time_reduction(child)
+        if found is not None:
+            return found
+    return None
+
+
+def _chance_where(compiled: CompiledRulebook, outcome: CaseOutcome, name: str) -> str:
+    """Run 1, and where the chance's time reduction found its value: the sample where its
+    operand peaks (or first holds, for a condition)."""
+    chance = next(c for c in compiled.rulebook.chances if c.name == name)
+    reduction = _time_reduction(chance.condition)
+    if reduction is None:
+        return "run 1"
+    batch, context = build_runs(outcome.case)
+    frame = Frame(source=compiled.derived_signals(batch, context))
+    compiler = ExpressionCompiler(compiled.constants, signal_closure)
+    try:
+        series = per_run_sample(compiler.compile(reduction.operand)(frame), outcome.case.runs,
+                                len(outcome.t))[0]
+    except InternalError:  # the operand still has wheel/part axes: no single series
+        return "run 1"
+    operand = format_expr(reduction.operand)
+    if reduction.reducer in ("any", "all", "count"):
+        true = np.flatnonzero(series > 0)
+        if not true.size:
+            return f"run 1: {operand} never holds"
+        return f"run 1: {operand} first holds at {_time(outcome, int(true[0]))}"
+    pick = int(np.argmin(series)) if reduction.reducer == "min" else int(np.argmax(series))
+    word = "lowest" if reduction.reducer == "min" else "highest"
+    return (f"run 1: {operand} is {word} at {_time(outcome, pick)}: "
+            f"{float(series[pick]):.6g} (SI)")
 
 
 def _prescreen(compiled: CompiledRulebook, outcome: CaseOutcome,

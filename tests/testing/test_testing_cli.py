@@ -204,3 +204,19 @@ def test_a_zero_tolerance_is_kept(tmp_path):
     path.write_text(path.read_text(encoding="utf-8").replace("defaults:", "tolerance: 0\n"
                                                              "defaults:"), encoding="utf-8")
     assert main(["test", str(path)]) == 0  # 0.35 / 0.7 is exactly 0.5
+
+
+def test_a_chance_failure_says_where_its_time_reduction_found_the_value(tmp_path, capsys):
+    path = write(tmp_path, """  jolt:
+    offsets:
+      x: {10 s: 0 cm, 12 s: 2 cm}
+    expect: {chances: {too_fast: false}}
+  stuck:
+    signals: {stuck: {0 s: 0, 30 s: 1}}
+    expect: {chances: {got_stuck: false}}
+""")
+    assert main(["test", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "chance too_fast: expected does not hold, got holds" in out
+    assert "from: run 1: speed is highest at t = 11 s (sample 11): 0.014 (SI)" in out
+    assert "from: run 1: stuck > 0 first holds at t = 30 s (sample 30)" in out
