@@ -49,6 +49,8 @@ class Diagnostic:
     message: str
     span: Span | None = None
     hint: str | None = None
+    # Secondary places, each with a short label ("used here"), shown after the main caret.
+    related: tuple[tuple[str, Span], ...] = ()
 
     def location(self) -> str:
         return str(self.span) if self.span is not None else "<input>"
@@ -66,29 +68,43 @@ class Diagnostic:
             "end_line": span.end_line if span and span.end_line > 0 else None,
             "end_column": span.end_column if span and span.end_line > 0 else None,
             "hint": self.hint,
+            **({"related": [{"label": label, "path": where.path, "line": where.line,
+                             "column": where.column} for label, where in self.related]}
+               if self.related else {}),
         }
 
     def format(self, source: str | None = None) -> str:
         """``path:line:col: severity[code]: message`` then the source line and a caret."""
         head = f"{self.location()}: {self.severity.value}[{self.code}]: {self.message}"
-        lines = [head]
-        span = self.span
-        if span is not None and span.line > 0:
-            text = source if source is not None else _read_quietly(span.path)
-            if text is not None:
-                source_lines = text.splitlines()
-                if span.line <= len(source_lines):
-                    src = source_lines[span.line - 1].expandtabs(1)
-                    col = max(span.column, 1)
-                    width = 1
-                    if span.end_line == span.line and span.end_column > col:
-                        width = span.end_column - col
-                    src, col, width = _clip(src, col, width)
-                    lines.append(f"    {src}")
-                    lines.append("    " + " " * (col - 1) + "^" * width)
+        lines = [head, *_caret(self.span, source)]
+        for label, where in self.related:
+            lines.append(f"    {where}: note: {label}")
+            lines += ["  " + line for line in _caret(where, source
+                                                     if self.span is None
+                                                     or where.path == self.span.path
+                                                     else None)]
         if self.hint:
             lines.append(f"    hint: {self.hint}")
         return "\n".join(lines)
+
+
+def _caret(span: Span | None, source: str | None) -> list[str]:
+    """The source line of ``span`` and a caret under it (nothing when unknown)."""
+    if span is None or span.line <= 0:
+        return []
+    text = source if source is not None else _read_quietly(span.path)
+    if text is None:
+        return []
+    source_lines = text.splitlines()
+    if span.line > len(source_lines):
+        return []
+    src = source_lines[span.line - 1].expandtabs(1)
+    col = max(span.column, 1)
+    width = 1
+    if span.end_line == span.line and span.end_column > col:
+        width = span.end_column - col
+    src, col, width = _clip(src, col, width)
+    return [f"    {src}", "    " + " " * (col - 1) + "^" * width]
 
 
 # Source lines longer than this are shown as a window around the caret (a generated or

@@ -29,6 +29,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "fmt",
     "explain",
     "diff",
+    "test",
+    "explain_error",
     "report",
     "build_fmu",
     "lsp",

@@ -1,10 +1,10 @@
 """``idefix-verify check RULEBOOK…``: parse and check rulebooks, print every diagnostic.
 
-Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--strict``, warnings
-about unused constants and zero-weight indices count too). ``--format json`` prints the
-diagnostics' ``to_dict()`` records instead of text (start and end of each span; the end column
-is exclusive). The language server (``idefix-verify lsp``) publishes the same diagnostics through
-:func:`check_source`.
+Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--strict``, the
+warnings W601–W613 count too: unused constants, zero-weight indices and the lints of
+:mod:`idefix_rules.rulebook.lints`). ``--format json`` prints the diagnostics' ``to_dict()``
+records instead of text (start and end of each span; the end column is exclusive). The language
+server (``idefix-verify lsp``) publishes the same diagnostics through :func:`check_source`.
 """
 
 from __future__ import annotations
@@ -30,8 +30,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("rulebooks", nargs="+", type=Path, metavar="RULEBOOK",
                         help="rulebook files (.rules)")
     parser.add_argument("--strict", action="store_true",
-                        help="also warn about unused constants and indices with zero weight; "
-                             "warnings then fail the check (exit 2)")
+                        help="also warn about unused constants, indices with zero weight, "
+                             "ratios written as bare numbers above 1, comparisons that are "
+                             "always true or false, rationales that disagree with their value "
+                             "and numbers that underflow to 0 (W601-W613); warnings then fail "
+                             "the check (exit 2)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "
                              "message, path, line, column, end_line, end_column, hint)")

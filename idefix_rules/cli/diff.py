@@ -44,8 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="runs read and evaluated at a time (memory bound; default 128)")
     parser.add_argument("--threads", type=int, default=2, metavar="N",
                         help="chunks evaluated at the same time (default 2)")
-    parser.add_argument("--format", choices=("text", "json"), default="text",
-                        help="text tables (default) or the data as JSON")
+    parser.add_argument("--format", choices=("text", "json", "md"), default="text",
+                        help="text tables (default), the data as JSON, or md: the rule "
+                             "changes as a Markdown changelog entry")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -67,6 +68,11 @@ def run(args: argparse.Namespace) -> int:
                                 "results": results.to_dict() if results is not None else None,
                                 "fail_on": args.fail_on, "exit_code": code}
         print(json.dumps(as_plain(data), indent=2, default=str, allow_nan=False))
+        return code
+    if args.format == "md":
+        from idefix_rules.diff.changelog import changelog
+
+        print(changelog(rules))
         return code
     console = make_console()
     print_rules(console, rules)
@@ -109,6 +115,7 @@ def _rationale_text(change: RuleChange) -> str:
 
 
 _KIND_STYLE = {"added": "green", "removed": "red", "changed": "yellow", "affected": "cyan"}
+_DIRECTION_STYLE = {"stricter": "bold red", "looser": "bold green", "unknown": "magenta"}
 
 
 def print_rules(console: Console, diff: RuleDiff) -> None:
@@ -117,17 +124,24 @@ def print_rules(console: Console, diff: RuleDiff) -> None:
                   f"{new.name} {new.version} ({new.label})")
     if diff.identical:
         console.print("the rules are the same (comments and layout aside)")
+        for warning in diff.warnings:
+            console.print(f"[bold yellow]warning:[/bold yellow] {warning}")
         return
     table = Table(show_lines=True)
-    for column in ("section", "name", "change", "what", "rationale"):
+    for column in ("section", "name", "change", "direction", "what", "rationale"):
         table.add_column(column, overflow="fold")
     for change in diff.changes:
         style = _KIND_STYLE.get(change.kind, "")
+        way = _DIRECTION_STYLE.get(change.direction, "")
         table.add_row(change.section, change.name, f"[{style}]{change.kind}[/{style}]",
+                      f"[{way}]{change.direction}[/{way}]" if way else change.direction,
                       _field_text(change), _rationale_text(change))
     console.print(table)
     counts = diff.counts()
-    console.print(", ".join(f"{n} {kind}" for kind, n in counts.items() if n))
+    console.print(", ".join(f"{n} {kind}" for kind, n in counts.items() if n) + "; "
+                  + ", ".join(f"{n} {way}" for way, n in diff.directions().items() if n))
+    for warning in diff.warnings:
+        console.print(f"[bold yellow]warning:[/bold yellow] {warning}")
 
 
 # ----------------------------------------------------------------------------- results

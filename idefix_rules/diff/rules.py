@@ -76,9 +76,12 @@ class RuleChange:
     old_rationale: str | None = None
     rationale_changed: bool = False
     reads_changed: tuple[str, ...] = ()
+    # stricter / looser / neutral / unknown (idefix_rules.diff.direction)
+    direction: str = "neutral"
 
     def to_dict(self) -> dict[str, Any]:
         return {"section": self.section, "name": self.name, "kind": self.kind,
+                "direction": self.direction,
                 "fields": [f.to_dict() for f in self.fields], "rationale": self.rationale,
                 "old_rationale": self.old_rationale,
                 "rationale_changed": self.rationale_changed,
@@ -111,10 +114,17 @@ class RuleDiff:
     old: RulebookInfo
     new: RulebookInfo
     changes: tuple[RuleChange, ...] = field(default=())
+    warnings: tuple[str, ...] = field(default=())
 
     @property
     def identical(self) -> bool:
         return not self.changes
+
+    def directions(self) -> dict[str, int]:
+        """How many changes go each way."""
+        labels = ("stricter", "looser", "neutral", "unknown")
+        return {label: sum(1 for c in self.changes if c.direction == label)
+                for label in labels}
 
     def counts(self) -> dict[str, int]:
         kinds = ("added", "removed", "changed", "affected")
@@ -123,6 +133,7 @@ class RuleDiff:
     def to_dict(self) -> dict[str, Any]:
         return {"old": self.old.to_dict(), "new": self.new.to_dict(),
                 "identical": self.identical, "counts": self.counts(),
+                "directions": self.directions(), "warnings": list(self.warnings),
                 "changes": [c.to_dict() for c in self.changes]}
 
 
@@ -282,6 +293,17 @@ def _section_changes(section: str, old: CheckedRulebook, new: CheckedRulebook,
     return changes
 
 
+def _with_direction(change: RuleChange, old: CheckedRulebook, new: CheckedRulebook
+                    ) -> RuleChange:
+    from dataclasses import replace
+
+    from idefix_rules.diff.direction import change_direction
+
+    direction = change_direction(old, new, change.section, change.name, change.kind,
+                                 [f.field for f in change.fields])
+    return replace(change, direction=direction)
+
+
 def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old",
                new_label: str = "new") -> RuleDiff:
     """Compare two checked rulebooks; see the module docstring."""
@@ -291,8 +313,12 @@ def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old
     for section in SECTIONS:
         changes += constants if section == "constant" else \
             _section_changes(section, old, new, changed_constants)
+    from idefix_rules.diff.versions import version_warnings
+
+    changes = [_with_direction(change, old, new) for change in changes]
     return RuleDiff(RulebookInfo.of(old, old_label), RulebookInfo.of(new, new_label),
-                    tuple(changes))
+                    tuple(changes), tuple(version_warnings(old.rulebook, new.rulebook,
+                                                           bool(changes))))
 
 
 def changed_names(diff: RuleDiff, sections: Iterable[str]) -> set[str]:

@@ -283,9 +283,13 @@ def why_html(data: ReportData, dominance_image: Image | None,
         parts.append(_table(("Rule", "Kind", "Highest", "On path", "Coverage"), rows))
         silent = [item.name for item in coverage if not item.near]
         if silent:
-            parts.append("<p>Rules this campaign did not exercise: " +
+            parts.append("<p>Rules this campaign did not bring near their limits: " +
                          ", ".join(f"<code>{escape(name)}</code>" for name in silent) +
-                         ". A change to their limits would not change these results.</p>")
+                         ". These results say little about them: a small change of their "
+                         "limits would not show here, but a limit moved down towards the "
+                         "values these runs reached would still change them. The rulebook's "
+                         "example cases (<code>idefix-verify test --coverage</code>) show "
+                         "which cases exercise each rule.</p>")
     parts.append("</section>")
     return "".join(parts)
 

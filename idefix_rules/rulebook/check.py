@@ -558,11 +558,16 @@ STRICT_CHECKS: tuple[Check, ...] = (warn_unused_constants, warn_zero_weights)
 
 def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
     """Run every pass; all diagnostics of the file, sorted by position."""
+    from idefix_rules.rulebook.cascade import fold_cascades, fold_misfit_constants, path_hints
+    from idefix_rules.rulebook.lints import LINTS
+
     env = _Env(rulebook)
     diagnostics = resolve_constants(env)
-    for check_pass in CHECKS + (STRICT_CHECKS if strict else ()):
+    for check_pass in CHECKS + (STRICT_CHECKS + LINTS if strict else ()):
         diagnostics.extend(check_pass(env))
-    diagnostics = _deduplicate(diagnostics)
+    diagnostics = path_hints(rulebook, fold_cascades(rulebook, set(env.constants),
+                                                     _deduplicate(diagnostics)))
+    diagnostics = fold_misfit_constants(rulebook, env.constant_types, diagnostics)
     diagnostics.sort(key=lambda d: (d.span.line if d.span else 0,
                                     d.span.column if d.span else 0))
     checked = None

@@ -72,10 +72,14 @@ def test_hover_on_a_rulebook_with_errors_still_gives_what_it_can() -> None:
     assert analysis.checked is None  # I_s's limit is a length, its value a ratio: E204
     literal = hover(analysis, position(text, "const a", 6))
     assert literal is not None and "SI value: `0.05 m` — a length (m)" in literal.markdown
+    # the unit error of b is reported once, at its definition (its use is a note)
     derived = hover(analysis, position(text, "const b", 6))
     assert derived is not None and "shown when the rulebook has no errors" in derived.markdown
+    problem = hover(analysis, position(text, "a * 2", 4))
+    assert problem is not None and "error[E204]" in problem.markdown
     limit = hover(analysis, position(text, "limit = b", 8))
-    assert limit is not None and "const b" in limit.markdown and "error[E204]" in limit.markdown
+    assert limit is not None and "const b" in limit.markdown
+    assert "error[E204]" not in limit.markdown
 
 
 def test_hover_of_path_statistics_and_levels() -> None:

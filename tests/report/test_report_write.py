@@ -73,6 +73,10 @@ def test_why_sections_name_worst_runs_and_unexercised_rules(synthetic_results: P
     assert coverage["collision.L2"].near
     text = written.read_text(encoding="utf-8")
     assert "Worst runs" in text and "soil.slip_scale" in text and "Rule coverage" in text
+    # I_roll stays far below its limit: the report says what that means, and no more
+    assert not coverage["I_roll"].near
+    assert "did not bring near their limits" in text and "<code>I_roll</code>" in text
+    assert "would not change these results" not in text
 
 
 def test_unevaluated_results_still_give_a_report(tmp_path: Path) -> None:

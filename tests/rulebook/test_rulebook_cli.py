@@ -141,7 +141,10 @@ def test_explain_of_an_invalid_rulebook_is_exit_2(write, capsys):
 # ----------------------------------------------------------------------------- default rulebook
 
 def test_default_rulebooks_are_valid_strict_and_formatted(capsys):
-    assert main(["check", "--strict", str(DEFAULT), str(EARLIER)]) == 0
+    assert main(["check", "--strict", str(DEFAULT)]) == 0
+    # the archived 0.9.0 is kept as it was: valid, but --strict finds a rationale that
+    # disagrees with its value (tests/rulebook/test_rulebook_lints.py)
+    assert main(["check", str(EARLIER)]) == 0
     assert main(["fmt", "--check", str(DEFAULT), str(EARLIER)]) == 0
 
 

@@ -1,0 +1,139 @@
+"""``idefix-verify test [PATH…]``: run the example cases of rulebooks (case files).
+
+Each case file names its rulebook; every case is evaluated with the compiled rulebook on its
+synthetic runs (no simulation) and its expectations compared. Exit 0 when every case passes,
+1 when a case fails (or rule coverage is below ``--min-coverage``), 2 when a case file or its
+rulebook is broken (each mistake located), as ``docs/testing-rulebooks.md`` describes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from idefix_rules.errors import UserInputError, render_diagnostics
+
+NAME = "test"
+HELP = ("Run the example cases of rulebooks (case files, default rulebooks/tests/): "
+        "'N passed, N failed'; exit 0 when all pass, 1 when one fails or rule coverage is "
+        "below --min-coverage, 2 for a broken case file.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("paths", nargs="*", type=Path, metavar="PATH",
+                        help="case files (.yaml) or folders holding them "
+                             "(default: rulebooks/tests)")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="one line per case instead of one character")
+    parser.add_argument("--coverage", action="store_true",
+                        help="for every rule: did the cases bring it across its limit, near it, "
+                             "or never touch it")
+    parser.add_argument("--min-coverage", type=float, metavar="PERCENT", default=None,
+                        help="exit 1 when fewer than PERCENT %% of the rules were brought "
+                             "across their limit by the cases (implies --coverage)")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="text (default) or the outcomes as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    from idefix_rules.errors import error
+    from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
+    from idefix_rules.testing.coverage import coverage_of, coverage_percent
+    from idefix_rules.testing.runner import FileOutcome
+
+    if args.min_coverage is not None and not 0 <= args.min_coverage <= 100:
+        raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
+    started = time.perf_counter()
+    files = discover_case_files(args.paths)
+    console = Console(highlight=False, soft_wrap=True)
+    broken: list[UserInputError] = []
+    outcomes: list[FileOutcome] = []
+    for path in files:
+        try:
+            case_file = load_case_file(path)
+        except UserInputError as failure:
+            broken.append(failure)
+            continue
+        outcomes.append(run_case_file(case_file))
+    elapsed = time.perf_counter() - started
+    passed = sum(o.passed for f in outcomes for o in f.outcomes)
+    failed = sum(not o.passed for f in outcomes for o in f.outcomes)
+    want_coverage = args.coverage or args.min_coverage is not None
+    coverages = [coverage_of(f) for f in outcomes] if want_coverage else []
+    percent = coverage_percent([item for c in coverages for item in c]) if coverages else None
+    low_coverage = (args.min_coverage is not None and percent is not None
+                    and percent < args.min_coverage)
+    code = 2 if broken else 1 if failed or low_coverage else 0
+    if args.format == "json":
+        data: dict[str, Any] = {
+            "files": [{"path": f.case_file.path, "rulebook": f.case_file.rulebook_path,
+                       "cases": [o.to_dict() for o in f.outcomes]} for f in outcomes],
+            "broken": [d.to_dict() for b in broken for d in b.diagnostics],
+            "passed": passed, "failed": failed, "exit_code": code}
+        if want_coverage:
+            data["coverage"] = [item.to_dict() for c in coverages for item in c]
+            data["coverage_percent"] = percent
+        print(json.dumps(data, indent=2, ensure_ascii=False))
+        return code
+    for problem in broken:
+        console.print(render_diagnostics(problem.diagnostics, problem.sources), markup=False)
+    for file in outcomes:
+        _print_file(console, file, args.verbose)
+    for file in outcomes:
+        for outcome in file.outcomes:
+            if outcome.passed:
+                continue
+            console.print(f"\n[bold red]FAILED[/bold red] {outcome.case.span} "
+                          f"{outcome.case.name}")
+            if outcome.case.description:
+                console.print(f"  {outcome.case.description}", markup=False)
+            for mismatch in outcome.mismatches:
+                console.print("  " + mismatch.render().replace("\n", "\n  "), markup=False)
+    if want_coverage:
+        for file, items in zip(outcomes, coverages, strict=True):
+            _print_coverage(console, file, items)
+        if percent is not None:
+            console.print(f"rule coverage: {percent:.0f} % of rules brought across their limit"
+                          + (f" (minimum {args.min_coverage:g} %)"
+                             if args.min_coverage is not None else ""),
+                          style="red" if low_coverage else None, markup=False)
+    summary = [f"{failed} failed"] if failed else []
+    summary.append(f"{passed} passed")
+    if broken:
+        summary.append(f"{len(broken)} broken case file{'s' if len(broken) != 1 else ''}")
+    style = "red" if code else "green"
+    console.print(f"{', '.join(summary)} in {elapsed:.2f}s", style=style, markup=False)
+    return code
+
+
+def _print_file(console: Console, file: Any, verbose: bool) -> None:
+    if verbose:
+        console.print(f"{file.case_file.path} (rulebook {file.case_file.rulebook_path})",
+                      markup=False)
+        for outcome in file.outcomes:
+            state = "[green]PASSED[/green]" if outcome.passed else "[red]FAILED[/red]"
+            console.print(f"  {state} {outcome.case.name}")
+        return
+    marks = "".join("." if o.passed else "F" for o in file.outcomes)
+    console.print(f"{file.case_file.path} {marks}", markup=False)
+
+
+_STATE_STYLE = {"across": "green", "near": "yellow", "untouched": "red"}
+
+
+def _print_coverage(console: Console, file: Any, items: list[Any]) -> None:
+    table = Table(title=f"rule coverage: {file.case_file.rulebook_path} "
+                        f"({len(file.outcomes)} cases)", title_justify="left")
+    for column in ("kind", "rule", "coverage", "closest", "cases"):
+        table.add_column(column, overflow="fold")
+    for item in items:
+        style = _STATE_STYLE[item.state]
+        table.add_row(item.kind, item.name, f"[{style}]{item.label}[/{style}]", item.detail,
+                      ", ".join(item.cases[:3]) + (" …" if len(item.cases) > 3 else ""))
+    console.print(table)

@@ -1,0 +1,350 @@
+"""Lints of ``check --strict``: rules that are valid but almost certainly not what was meant.
+
+* **W610** a ratio written as a bare number above 1 where a percentage is meant:
+  ``require risk <= 70`` (7000 %), ``const critical_slip = 50`` as the limit of a slip index.
+* **W611** a comparison that is always true or always false over the declared range of what it
+  compares: ``risk <= 150 %`` (risk lies in [0, 1]), ``abs(delta_heading) >= 0 deg``,
+  ``I_obs <= 1`` in a prescreen.
+* **W612** a number in a ``because`` that disagrees with the value it explains:
+  ``const critical_slip = 65 % because "Slip above 70 % is critical"``.
+* **W613** a literal that underflows to 0 (or to a denormal) in SI: ``1e-400 %``.
+
+Each lint is a pass of the checker (same shape as :data:`~.check.STRICT_CHECKS`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, Any
+
+from idefix_rules.errors import Diagnostic, Span, warning
+from idefix_rules.rulebook.fold import NotConstant, fold, number_si
+from idefix_rules.rulebook.model import (
+    Binary,
+    Call,
+    Expr,
+    Name,
+    Number,
+    Reduce,
+    Rulebook,
+    Select,
+    Table,
+    Unary,
+)
+from idefix_rules.units import DIMENSIONLESS, Dimension, UnitError, parse_quantity, parse_unit
+
+if TYPE_CHECKING:
+    from idefix_rules.rulebook.check import _Env
+
+# Quantities that are fractions (0..1, shown as %): where a bare 70 means 7000 %.
+RATIO_SIGNALS = frozenset({"wheel.slip", "ref.wheel.slip"})
+RATIO_PATH_NAMES = frozenset({"risk", "failed"})
+NON_NEGATIVE = frozenset({
+    "collision.hits", "collision.buffer", "collision.contact", "collision.clearance",
+    "wheel.sinkage", "global_error", "local_error", "tolerance_radius", "energy",
+    "stuck", "t", "duration", "wheel_speed", "lateral_acceleration", "command_number",
+    "time", "runs", "failed", "risk"})
+# Non-negative in runs only: the planar speed of a run (a command's speed is signed).
+RUN_NON_NEGATIVE = frozenset({"speed"})
+_COMPARISONS = {"<", "<=", ">", ">="}
+_TRIGGER = re.compile(
+    r"(?:above|below|over|under|beyond|exceed\w*|than|at most|at least|up to|limit(?:ed)?"
+    r"(?: of| to| is| at)?|maximum|minimum|[<>≤≥]=?)\s+(-?\d+(?:\.\d+)?(?:[eE]-?\d+)?)"
+    r"(?:\s*([^\s,;:)]+))?", re.IGNORECASE)
+
+
+def _conditions(rulebook: Rulebook) -> Iterator[tuple[str, str, Expr]]:
+    for kind, rules in (("command rule", rulebook.command_rules),
+                        ("chance", rulebook.chances), ("prescreen", rulebook.prescreens),
+                        ("verdict", rulebook.verdicts)):
+        for rule in rules:
+            yield kind, rule.name, rule.condition
+
+
+def _walk(expr: Expr) -> Iterator[Expr]:
+    yield expr
+    children: tuple[Any, ...] = ()
+    if isinstance(expr, Binary):
+        children = (expr.left, expr.right)
+    elif isinstance(expr, Unary | Select):
+        children = (expr.operand,)
+    elif isinstance(expr, Call):
+        children = expr.args
+    elif isinstance(expr, Reduce):
+        children = (expr.operand, *(e for e in (expr.parameter,) if e is not None))
+        if expr.window is not None:
+            children += (expr.window.value,)
+    elif isinstance(expr, Table):
+        children = tuple(v for _, v in expr.entries)
+    for child in children:
+        yield from _walk(child)
+
+
+# ----------------------------------------------------------------------------- W610
+
+def _is_ratio(expr: Expr, rulebook: Rulebook) -> bool:
+    """A fraction the rules speak of in %: risk, failed, chance(X), mean/max(I), an index in a
+    prescreen, a slip signal (possibly inside abs, reductions, selections)."""
+    indices = {i.name for i in rulebook.indices}
+    if isinstance(expr, Name):
+        return expr.name in RATIO_SIGNALS | RATIO_PATH_NAMES or expr.name in indices
+    if isinstance(expr, Call):
+        single = len(expr.args) == 1 and isinstance(expr.args[0], Name)
+        if single and expr.function in ("chance", "mean", "max") and (
+                expr.function == "chance" or expr.args[0].name in indices):  # type: ignore[union-attr]
+            return True
+        return expr.function == "abs" and _is_ratio(expr.args[0], rulebook)
+    if isinstance(expr, Select):
+        return _is_ratio(expr.operand, rulebook)
+    if isinstance(expr, Reduce) and expr.reducer not in ("count", "integral", "time_above",
+                                                         "sum"):
+        return _is_ratio(expr.operand, rulebook)
+    return False
+
+
+def _bare_number(expr: Expr, rulebook: Rulebook) -> tuple[float, Span, str | None] | None:
+    """A bare number above 1, written directly or as a constant: (value, span, constant)."""
+    if isinstance(expr, Number) and expr.unit is None and expr.value > 1:
+        return expr.value, expr.span, None
+    if isinstance(expr, Name):
+        constant = next((c for c in rulebook.constants if c.name == expr.name), None)
+        if constant is not None and isinstance(constant.value, Number) and \
+                constant.value.unit is None and constant.value.value > 1:
+            return constant.value.value, constant.value.span, constant.name
+    return None
+
+
+def lint_bare_ratios(env: _Env) -> list[Diagnostic]:
+    rulebook = env.rulebook
+    found: list[Diagnostic] = []
+    seen: set[tuple[int, int]] = set()
+
+    def report(value: float, span: Span, constant: str | None, what: str, used: Span) -> None:
+        key = (span.line, span.column)
+        if key in seen:
+            return
+        seen.add(key)
+        written = f"{value:g}"
+        subject = f"constant '{constant}' = {written}" if constant else written
+        message = (f"{subject} is a ratio of {value * 100:g} % where {what} is a fraction "
+                   f"(0 to 1)")
+        related = ((f"'{constant}' is used here", used),) if constant else ()
+        found.append(_with_related(warning(
+            "W610", message, span, f"write {written} % for {written} percent, or "
+            f"{value / 100:g} as a plain ratio"), related))
+
+    for _, _, condition in _conditions(rulebook):
+        for node in _walk(condition):
+            if isinstance(node, Binary) and node.op in _COMPARISONS | {"==", "!="}:
+                for ratio, other in ((node.left, node.right), (node.right, node.left)):
+                    bare = _bare_number(other, rulebook)
+                    if bare is not None and _is_ratio(ratio, rulebook):
+                        from idefix_rules.rulebook.format import format_expr
+                        report(*bare, f"'{format_expr(ratio)}'", node.span)
+    for index in rulebook.indices:
+        bare = _bare_number(index.limit, rulebook)
+        if bare is not None and _is_ratio(index.value, rulebook) and \
+                env.index_types.get(index.name, None) is not None and \
+                env.index_types[index.name].dimension == DIMENSIONLESS:
+            report(*bare, f"the limit of index '{index.name}'", index.limit.span)
+    return found
+
+
+def _with_related(diagnostic: Diagnostic, related: tuple[tuple[str, Span], ...]) -> Diagnostic:
+    from dataclasses import replace
+    return replace(diagnostic, related=related)
+
+
+# ----------------------------------------------------------------------------- W611
+
+Range = tuple[float, float]
+
+
+def _range(expr: Expr, rulebook: Rulebook, run: bool = True) -> Range | None:
+    """Declared range of a quantity, when the language fixes one (``run``: in an index,
+    chance or map, where ``speed`` is a run's planar speed)."""
+    # risk, failed, chance(X), mean(I), max(I), an index in a prescreen: fractions in [0, 1]
+    # (slip itself is a ratio but not bounded: a spinning wheel slips 100 %, a sliding one more)
+    if _is_ratio(expr, rulebook) and isinstance(expr, Name | Call) and not (
+            isinstance(expr, Name) and expr.name in RATIO_SIGNALS) and not (
+            isinstance(expr, Call) and expr.function == "abs"):
+        return (0.0, 1.0)
+    if isinstance(expr, Call) and expr.function in ("abs", "sqrt"):
+        return (0.0, math.inf)
+    if isinstance(expr, Name) and (expr.name in NON_NEGATIVE
+                                   or (run and expr.name in RUN_NON_NEGATIVE)):
+        return (0.0, 1.0) if expr.name in RATIO_PATH_NAMES else (0.0, math.inf)
+    if isinstance(expr, Reduce):
+        if expr.reducer in ("count", "time_above"):
+            return (0.0, math.inf)
+        inner = _range(expr.operand, rulebook, run)
+        if inner is not None and expr.reducer not in ("sum", "integral"):
+            return inner
+        if inner is not None and inner[0] >= 0:
+            return (0.0, math.inf)
+    if isinstance(expr, Select):
+        return _range(expr.operand, rulebook, run)
+    return None
+
+
+def _always(op: str, low: float, high: float, threshold: float) -> bool | None:
+    """True / False when ``x op threshold`` holds for every / no x in [low, high]."""
+    if op == "<=":
+        return True if high <= threshold else False if low > threshold else None
+    if op == "<":
+        return True if high < threshold else False if low >= threshold else None
+    if op == ">=":
+        return True if low >= threshold else False if high < threshold else None
+    if op == ">":
+        return True if low > threshold else False if high <= threshold else None
+    return None
+
+
+_FLIP = {"<": ">", "<=": ">=", ">": "<", ">=": "<="}
+
+
+def lint_constant_comparisons(env: _Env) -> list[Diagnostic]:
+    from idefix_rules.rulebook.format import format_expr
+
+    found: list[Diagnostic] = []
+    for kind, name, condition in _conditions(env.rulebook):
+        for node in _walk(condition):
+            if not (isinstance(node, Binary) and node.op in _COMPARISONS):
+                continue
+            for quantity, other, op in ((node.left, node.right, node.op),
+                                        (node.right, node.left, _FLIP[node.op])):
+                declared = _range(quantity, env.rulebook, run=kind != "command rule")
+                if declared is None:
+                    continue
+                try:
+                    threshold = fold(other, env.constants)
+                except (NotConstant, KeyError, ValueError, ZeroDivisionError, TypeError):
+                    continue
+                if isinstance(threshold, dict):
+                    continue
+                verdict = _always(op, declared[0], declared[1], float(threshold))
+                if verdict is None:
+                    continue
+                low = f"{declared[0]:g}"
+                high = "∞)" if math.isinf(declared[1]) else f"{declared[1]:g}]"
+                found.append(warning(
+                    "W611", f"'{format_expr(node)}' in {kind} '{name}' is always "
+                    f"{'true' if verdict else 'false'}: '{format_expr(quantity)}' lies in "
+                    f"[{low}, {high}", node.span,
+                    "the rule never decides anything; check the threshold and its unit"))
+                break
+    return found
+
+
+# ----------------------------------------------------------------------------- W612
+
+def _quantities(text: str) -> Iterator[tuple[float, Dimension, str]]:
+    """Numbers after a comparison word in a rationale: (SI value, dimension, as written)."""
+    for match in _TRIGGER.finditer(text):
+        number, unit = match.group(1), match.group(2)
+        candidates = [f"{number} {unit}"] if unit else []
+        candidates.append(number)
+        for candidate in candidates:
+            try:
+                if candidate != number:
+                    parse_unit(str(unit))
+                found = parse_quantity(candidate)
+            except UnitError:
+                continue
+            yield found.value, found.dimension, candidate
+            break
+
+
+def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
+    """Constants, index limits, and rules whose condition compares with one constant."""
+    from idefix_rules.rulebook.format import format_expr
+
+    found: list[Diagnostic] = []
+
+    def compare(name: str, rationale: str | None, value: Any, dimension: Dimension | None,
+                written: Expr, span: Span) -> None:
+        if rationale is None or value is None or dimension is None or isinstance(value, dict):
+            return
+        mentioned = [(v, text) for v, found_dimension, text in _quantities(rationale)
+                     if found_dimension == dimension]
+        if mentioned and not any(math.isclose(v, float(value), rel_tol=1e-6, abs_tol=1e-15)
+                                 for v, _ in mentioned):
+            said = ", ".join(text for _, text in mentioned)
+            shown = format_expr(written)
+            si = f"{float(value):g}"
+            found.append(warning(
+                "W612", f"the rationale of '{name}' says {said} but the value is {shown}"
+                + (f" (= {si})" if si != shown else ""), span,
+                "update the value or its rationale so they agree"))
+
+    for constant in env.rulebook.constants:
+        kind = env.constant_types.get(constant.name)
+        compare(constant.name, constant.rationale, env.constants.get(constant.name),
+                kind.dimension if kind else None, constant.value, constant.span)
+    for index in env.rulebook.indices:
+        kind = env.index_types.get(index.name)
+        compare(index.name, index.rationale, env.limits.get(index.name),
+                kind.dimension if kind else None, index.limit, index.span)
+    for rule in (*env.rulebook.command_rules, *env.rulebook.prescreens,
+                 *env.rulebook.verdicts):
+        condition = rule.condition
+        if not (isinstance(condition, Binary) and condition.op in _COMPARISONS):
+            continue
+        try:
+            threshold = fold(condition.right, env.constants)
+        except (NotConstant, KeyError, ValueError, ZeroDivisionError, TypeError):
+            continue
+        dimension = _dimension_of(condition.right, env)
+        compare(rule.name, rule.rationale, threshold, dimension, condition.right, rule.span)
+    return found
+
+
+def _dimension_of(expr: Expr, env: _Env) -> Dimension | None:
+    from idefix_rules.rulebook.infer import infer_type
+
+    found = infer_type(expr, env.scope("constant"), [])
+    return found.dimension if found is not None else None
+
+
+# ----------------------------------------------------------------------------- W613
+
+def lint_underflow(env: _Env) -> list[Diagnostic]:
+    source = env.rulebook.source.splitlines()
+    found: list[Diagnostic] = []
+    for expr in _every_expression(env.rulebook):
+        for node in _walk(expr):
+            if not isinstance(node, Number):
+                continue
+            try:
+                si = number_si(node)
+            except (UnitError, ValueError):
+                continue
+            written = _written(node.span, source)
+            nonzero = any(ch in "123456789" for ch in written.split("e")[0].split("E")[0])
+            if (si == 0 and nonzero) or (si != 0 and abs(si) < 2.2250738585072014e-308):
+                found.append(warning(
+                    "W613", f"'{written or node.value}' is {'0' if si == 0 else 'a denormal'} "
+                    "in SI: the number is too small for a double", node.span,
+                    "write 0 if zero is meant, or a larger unit"))
+    return found
+
+
+def _written(span: Span, lines: list[str]) -> str:
+    if span.line <= 0 or span.line > len(lines):
+        return ""
+    line = lines[span.line - 1]
+    end = span.end_column if span.end_line == span.line and span.end_column > span.column \
+        else len(line) + 1
+    return line[span.column - 1:end - 1].strip()
+
+
+def _every_expression(rulebook: Rulebook) -> Iterator[Expr]:
+    from idefix_rules.rulebook.check import _all_expressions
+
+    yield from _all_expressions(rulebook)
+
+
+LINTS: tuple[Callable[[_Env], list[Diagnostic]], ...] = (
+    lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow)

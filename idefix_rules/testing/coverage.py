@@ -1,0 +1,183 @@
+"""Rule coverage: did the cases bring each rule across its limit, near it, or never touch it?
+
+For every command rule, index, chance, prescreen and verdict of the rulebook:
+
+* ``across`` — the cases put the rule on both sides of its limit: an index below its limit in
+  some run and at or beyond it in another; a condition true in some case and false in another.
+  A change to that limit will show in at least one case.
+* ``near`` — one side only, but some case came within a factor of 2 of the limit (an index
+  between 50 % and 200 % of its limit; a comparison inside the condition whose two sides were
+  within a factor of 2 of each other). A large change of the limit would show; a small one may
+  not.
+* ``untouched`` — no case came within a factor of 2: the cases say nothing about this limit.
+
+Indices count the raw value against the limit in every run of every case; command rules every
+command of every chain; chances every run; prescreens each case's first run (as the reference
+run); verdicts each case's path statistics.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.rulebook.compile import (
+    _scope_closure,  # the compiler's own reader of named values
+    command_quantities,
+    compile_rulebook,
+)
+from idefix_rules.rulebook.expressions import ExpressionCompiler, Frame, signal_closure
+from idefix_rules.rulebook.model import Binary, Expr, Reduce, Select, Unary
+from idefix_rules.testing.runner import CaseOutcome, FileOutcome
+from idefix_rules.testing.synthetic import build_runs
+
+NEAR = 2.0  # within this factor of the limit counts as near
+_COMPARISONS = ("<", "<=", ">", ">=")
+_LABELS = {"across": "across", "near": "near only", "untouched": "never touched"}
+
+
+@dataclass
+class RuleCoverage:
+    kind: str
+    name: str
+    state: str = "untouched"
+    detail: str = ""
+    cases: list[str] = field(default_factory=list)
+    seen: set[bool] = field(default_factory=set)
+    closest: float = float("inf")  # best |log2(ratio)| of a comparison or index, 0 = at limit
+
+    @property
+    def label(self) -> str:
+        return _LABELS[self.state]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "name": self.name, "state": self.state,
+                "detail": self.detail, "cases": list(self.cases)}
+
+    def note(self, case: str, outcomes: Iterable[bool], ratios: Iterable[float]) -> None:
+        outcomes = list(outcomes)
+        new = set(outcomes) - self.seen
+        self.seen |= set(outcomes)
+        closest = min((abs(float(np.log2(r))) for r in ratios if np.isfinite(r) and r > 0),
+                      default=float("inf"))
+        crossed = bool(new) and self.seen == {True, False}
+        if (crossed or closest <= 1.0) and case not in self.cases:
+            self.cases.append(case)
+        self.closest = min(self.closest, closest)
+
+    def finish(self) -> None:
+        if self.seen == {True, False}:
+            self.state = "across"
+        elif self.closest <= np.log2(NEAR):
+            self.state = "near"
+        else:
+            self.state = "untouched"
+        if self.closest < float("inf"):
+            self.detail = f"closest: {2 ** -self.closest:.2f}× or {2 ** self.closest:.2f}× " \
+                          "the limit" if self.closest else "a case sat at the limit"
+        outcomes = {True: "held", False: "did not hold"}
+        if self.kind == "index":
+            outcomes = {True: "reached", False: "stayed below"}
+        if self.seen:
+            self.detail = "; ".join(
+                [", ".join(outcomes[o] for o in sorted(self.seen, reverse=True))] +
+                ([self.detail] if self.detail else []))
+
+
+def coverage_percent(items: Iterable[RuleCoverage]) -> float:
+    """Share of rules brought across their limit, in percent (100 when there are none)."""
+    items = list(items)
+    return 100.0 * sum(i.state == "across" for i in items) / len(items) if items else 100.0
+
+
+def _leaves(expr: Expr) -> Iterator[Binary]:
+    """Comparisons inside a condition (not those nested in another comparison's side)."""
+    if isinstance(expr, Binary):
+        if expr.op in _COMPARISONS:
+            yield expr
+            return
+        yield from _leaves(expr.left)
+        yield from _leaves(expr.right)
+    elif isinstance(expr, Unary | Select | Reduce):
+        yield from _leaves(expr.operand)
+
+
+def _ratios(left: Any, right: Any) -> list[float]:
+    a, b = np.broadcast_arrays(np.abs(np.asarray(left, dtype=float)),
+                               np.abs(np.asarray(right, dtype=float)))
+    with np.errstate(all="ignore"):
+        ratio = np.divide(a, b)
+    keep = np.isfinite(ratio) & (ratio > 0)
+    return [float(r) for r in ratio[keep].ravel()]
+
+
+def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
+    """Coverage of every rule of a case file's rulebook by its cases."""
+    case_file = outcome.case_file
+    compiled = compile_rulebook(case_file.checked)
+    model = compiled.rulebook
+    constants = compiled.constants
+    scoped = ExpressionCompiler(constants, _scope_closure)
+    run_compiler = ExpressionCompiler(constants, signal_closure)
+    items: dict[tuple[str, str], RuleCoverage] = {}
+    for kind, rules in (("command", model.command_rules), ("index", model.indices),
+                        ("chance", model.chances), ("prescreen", model.prescreens),
+                        ("verdict", model.verdicts)):
+        for rule in rules:
+            items[(kind, rule.name)] = RuleCoverage(kind, rule.name)
+
+    def leaf_ratios(condition: Expr, compiler: ExpressionCompiler, frame: Frame
+                    ) -> list[float]:
+        ratios: list[float] = []
+        for leaf in _leaves(condition):
+            ratios += _ratios(compiler.compile(leaf.left)(frame),
+                              compiler.compile(leaf.right)(frame))
+        return ratios
+
+    for case_outcome in outcome.outcomes:
+        name = case_outcome.case.name
+        _cover_commands(items, case_outcome, compiled, scoped, leaf_ratios)
+        for index in model.indices:
+            raw = case_outcome.evaluation.raw[index.name]
+            limit = compiled.checked.limits[index.name]
+            ratio = np.where(np.isnan(raw), np.inf, raw / limit)
+            items[("index", index.name)].note(name, (ratio >= 1).tolist(),
+                                              [float(r) for r in ratio])
+        batch, context = build_runs(case_outcome.case)
+        frame = Frame(source=compiled.derived_signals(batch, context))
+        for chance in model.chances:
+            items[("chance", chance.name)].note(
+                name, case_outcome.evaluation.chances[chance.name].tolist(),
+                leaf_ratios(chance.condition, run_compiler, frame))
+        first = case_outcome.first
+        scope: dict[str, Any] = {"risk": first.i_max, **first.values, **first.chances}
+        failed = {f.rule for f in case_outcome.findings}
+        for prescreen in model.prescreens:
+            items[("prescreen", prescreen.name)].note(
+                name, [prescreen.name not in failed],
+                leaf_ratios(prescreen.condition, scoped, Frame(scope=scope)))
+        results = {r.name: r for r in case_outcome.verdict.rules}
+        for verdict in model.verdicts:
+            result = results[verdict.name]
+            ratios = []
+            if result.value is not None and result.threshold:
+                ratios = _ratios(result.value, result.threshold)
+            items[("verdict", verdict.name)].note(name, [result.passed], ratios)
+    for item in items.values():
+        item.finish()
+    return list(items.values())
+
+
+def _cover_commands(items: Mapping[tuple[str, str], RuleCoverage], case_outcome: CaseOutcome,
+                    compiled: Any, scoped: ExpressionCompiler, leaf_ratios: Any) -> None:
+    broken = {(v.rule, v.command_number) for v in case_outcome.violations}
+    rover = build_runs(case_outcome.case)[1].rover
+    for number, command in enumerate(case_outcome.case.chain, start=1):
+        frame = Frame(scope=command_quantities(command, number, rover))
+        for rule in compiled.rulebook.command_rules:
+            items[("command", rule.name)].note(
+                case_outcome.case.name, [(rule.name, number) not in broken],
+                leaf_ratios(rule.condition, scoped, frame))

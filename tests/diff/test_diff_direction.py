@@ -1,0 +1,162 @@
+"""Direction labels of the rule diff: stricter, looser, neutral, unknown — by example, and as
+a property: a change labelled stricter never turns a failing path into a passing one."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+
+from idefix_rules.cli import main
+from idefix_rules.diff import diff_rules
+from idefix_rules.rulebook import check_text
+from idefix_rules.rulebook.check import check
+from idefix_rules.rulebook.compile import compile_rulebook
+from idefix_rules.rulebook.strategies import (
+    RunRanges,
+    realistic_runs,
+    rulebook_variations,
+)
+from idefix_rules.testing.properties import check_direction
+
+ROOT = Path(__file__).parents[2]
+DEFAULT = (ROOT / "rulebooks" / "idefix-ops.rules").read_text(encoding="utf-8")
+HISTORY = ROOT / "rulebooks" / "history" / "idefix-ops-0.9.0.rules"
+
+
+SLIP = "const critical_slip            = "
+
+
+def labels(old_text: str, new_text: str) -> dict[tuple[str, str], str]:
+    old = check_text(old_text, "old.rules").checked
+    new = check_text(new_text, "new.rules").checked
+    assert old is not None and new is not None
+    return {(c.section, c.name): c.direction for c in diff_rules(old, new).changes}
+
+
+def edited(old: str, new: str, count: int = 1) -> str:
+    assert DEFAULT.count(old) >= 1, old
+    return DEFAULT.replace(old, new, count)
+
+
+@pytest.mark.parametrize(("old", "new", "where", "expected"), [
+    # a lower critical slip makes I_s larger: stricter; higher: looser
+    (SLIP + "70 %", SLIP + "50 %", ("constant", "critical_slip"), "stricter"),
+    (SLIP + "70 %", SLIP + "80 %", ("constant", "critical_slip"), "looser"),
+    (SLIP + "70 %", SLIP + "0.7", ("constant", "critical_slip"), "neutral"),
+    # verdict threshold on the path risk
+    ("require risk <= 70 %", "require risk <= 80 %", ("verdict", "acceptable_risk"), "looser"),
+    ("require risk <= 70 %", "require risk <= 60 %", ("verdict", "acceptable_risk"), "stricter"),
+    # command rule threshold
+    ("<= max_turn\n", "<= 60 deg\n", ("command", "max_turn_angle"), "unknown"),
+    ("const max_turn                 = 90 deg", "const max_turn                 = 120 deg",
+     ("constant", "max_turn"), "looser"),
+    ("const min_delta_position       = 5 cm", "const min_delta_position       = 8 cm",
+     ("constant", "min_delta_position"), "stricter"),
+    # weights and factors raise the risk
+    ("limit  = critical_sinkage\n  weight = 1", "limit  = critical_sinkage\n  weight = 0.5",
+     ("index", "I_ds"), "looser"),
+    ("{L1: 0.2, L2: 0.6, L3: 1}", "{L1: 0.3, L2: 0.6, L3: 1}", ("constant", "f_obs"), "stricter"),
+    ("{L1: 0.2, L2: 0.6, L3: 1}", "{L1: 0.3, L2: 0.5, L3: 1}", ("constant", "f_obs"), "unknown"),
+    # a chance threshold read by a verdict with an upper bound
+    ("const max_acceleration         = 3 mm/s^2", "const max_acceleration         = 2 mm/s^2",
+     ("chance", "too_abrupt"), "stricter"),
+    # a reducer swap changes the shape: monotonicity cannot say
+    ("max over time (abs(roll - ref.roll))", "min over time (abs(roll - ref.roll))",
+     ("index", "I_psi"), "unknown"),
+    # the percentile parameter: a higher percentile is a larger value
+    ("percentile 95 over time", "percentile 99 over time", ("index", "I_s"), "stricter"),
+    # settings and obstacle levels
+    ("tolerance_growth = 5 cm/rad", "tolerance_growth = 8 cm/rad", ("setting", "tolerance_growth"),
+     "looser"),
+    ("level L3             buffer 10 cm", "level L3             buffer 20 cm",
+     ("obstacle level", "L3"), "neutral"),
+    ("confidence = 95 %", "confidence = 99 %", ("combine", "combine"), "neutral"),
+    ("rank by risk, time, energy", "rank by risk, energy, time", ("ranking", "ranking"),
+     "neutral"),
+])
+def test_labels_of_single_changes(old, new, where, expected):
+    found = labels(DEFAULT, edited(old, new))
+    assert found[where] == expected
+
+
+def test_added_and_removed_requirements():
+    extra = DEFAULT + '\nverdict quick: require time <= 10 min\n'
+    assert labels(DEFAULT, extra)[("verdict", "quick")] == "stricter"
+    assert labels(extra, DEFAULT)[("verdict", "quick")] == "looser"
+    assert labels(DEFAULT, DEFAULT + "\nchance tilted = max over time (abs(roll)) > 5 deg\n")[
+        ("chance", "tilted")] == "neutral"
+
+
+def test_version_warnings():
+    changed = edited("require risk <= 70 %", "require risk <= 60 %")
+    old = check_text(DEFAULT, "old.rules").checked
+    same_version = check_text(changed, "new.rules").checked
+    assert diff_rules(old, same_version).warnings == (
+        "the rules changed but the version did not (still 1.0.0): raise it before uplink",)
+    backwards = check_text(changed.replace('version "1.0.0"', 'version "0.9.1"'), "n.rules")
+    assert diff_rules(old, backwards.checked).warnings == (
+        "the version went backwards: 1.0.0 → 0.9.1",)
+    forwards = check_text(changed.replace('version "1.0.0"', 'version "1.1.0"'), "n.rules")
+    assert diff_rules(old, forwards.checked).warnings == ()
+    assert diff_rules(old, old).warnings == ()
+
+
+def test_cli_table_json_and_markdown_carry_the_labels(capsys):
+    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules"),
+                 "--format", "json"]) == 0
+    rules = json.loads(capsys.readouterr().out)["rules"]
+    by_name = {(c["section"], c["name"]): c["direction"] for c in rules["changes"]}
+    assert by_name[("constant", "critical_tilt")] == "stricter"     # 20 deg → 15 deg
+    assert by_name[("constant", "critical_slip")] == "looser"       # 65 % → 70 %
+    assert by_name[("verdict", "acceptable_risk")] == "stricter"    # 75 % → 70 %
+    assert by_name[("prescreen", "reference_not_critical")] == "looser"  # removed
+    assert by_name[("index", "I_s")] == "unknown"                   # max → percentile 95
+    assert rules["directions"]["stricter"] >= 5
+    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules")]) == 0
+    table = capsys.readouterr().out
+    assert "direction" in table and "stricter" in table and "looser" in table
+    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules"),
+                 "--format", "md"]) == 0
+    md = capsys.readouterr().out
+    assert md.startswith("## idefix-ops 1.0.0 (from idefix-ops 0.9.0)")
+    assert "### Stricter" in md and "### Looser" in md
+    assert "- changed constant **critical_tilt**: value `20 deg` → `15 deg`" in md
+
+
+def test_cli_warns_when_the_version_did_not_move(tmp_path, capsys):
+    new = tmp_path / "new.rules"
+    new.write_text(edited("require risk <= 70 %", "require risk <= 60 %"), encoding="utf-8")
+    assert main(["diff", str(ROOT / "rulebooks" / "idefix-ops.rules"), str(new)]) == 0
+    assert "warning: the rules changed but the version did not" in capsys.readouterr().out
+
+
+MODEL = check_text(DEFAULT, "idefix-ops.rules").checked
+# Runs that sit around the default rulebook's limits, so paths both pass and fail.
+NARROW = RunRanges(slip=(0.0, 0.5), slip_angle=0.8, sinkage=0.035, tilt=0.16, drift=0.008,
+                   heading_drift=0.16, hits=0, stuck=False, max_wheel_rate=0.05, runs=(2, 6),
+                   samples=(12, 30), step=(2.0, 4.0))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_a_stricter_change_never_turns_a_fail_into_a_pass(data):
+    assert MODEL is not None
+    description, variant = data.draw(rulebook_variations(MODEL.rulebook))
+    checked = check(variant).checked
+    assert checked is not None
+    changes = [c for c in diff_rules(MODEL, checked).changes if c.section != "header"]
+    direction = changes[0].direction if len(changes) == 1 else \
+        ("neutral" if not changes else "unknown")
+    if len(changes) > 1:  # a constant and the rules that read it: all must agree
+        found = {c.direction for c in changes} - {"neutral"}
+        direction = found.pop() if len(found) == 1 else "unknown"
+    event(f"direction: {direction}")
+    event(f"changed: {description.split(' ')[0]}")
+    signals, context = data.draw(realistic_runs(NARROW))
+    before, after = check_direction(compile_rulebook(MODEL), compile_rulebook(checked),
+                                    direction, signals, context)
+    event(f"{direction}: {'pass' if before else 'fail'} → {'pass' if after else 'fail'}")

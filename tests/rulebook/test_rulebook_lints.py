@@ -1,0 +1,111 @@
+"""Lints of ``check --strict`` at their boundaries, and the default rulebooks stay clean."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli.check import check_file
+from idefix_rules.rulebook import check_text
+
+ROOT = Path(__file__).parents[2]
+
+HEAD = '''rulebook "t" version "1.0.0"
+purpose "lint boundaries"
+index I_s "slip" {
+  value  = max over time (max over wheels (abs(wheel.slip)))
+  limit  = LIMIT
+  weight = 1
+}
+chance moving = max over time (speed) > 1 mm/s
+verdict v: require CONDITION
+'''
+
+
+def codes(limit: str = "70 %", condition: str = "risk <= 70 %", extra: str = "") -> list[str]:
+    text = HEAD.replace("LIMIT", limit).replace("CONDITION", condition) + extra
+    return [d.code for d in check_text(text, "t.rules", strict=True).diagnostics]
+
+
+@pytest.mark.parametrize(("condition", "expected"), [
+    ("risk < 1", []),                        # a bare 1 is 100 %: fine
+    ("risk <= 1", ["W611"]),                 # … but risk never exceeds 1
+    ("risk <= 1.5", ["W610", "W611"]),       # just above 1: a percentage meant
+    ("risk <= 70", ["W610", "W611"]),
+    ("risk <= 70 %", []),
+    ("risk < 100 %", []),                    # can fail at risk = 1
+    ("risk <= 100 %", ["W611"]),             # never fails
+    ("chance(moving) >= 0 %", ["W611"]),
+    ("chance(moving) > 0 %", []),
+    ("mean(I_s) < 0.5 and max(I_s) <= 1", ["W611"]),
+    ("runs >= 100", []),                      # a count, not a ratio
+])
+def test_ratio_and_range_lints(condition, expected):
+    assert sorted(codes(condition=condition)) == expected
+
+
+@pytest.mark.parametrize(("limit", "expected"), [
+    ("70 %", []), ("0.7", []), ("1", []), ("1.01", ["W610"]), ("50", ["W610"])])
+def test_bare_ratio_limits(limit, expected):
+    assert codes(limit=limit) == expected
+
+
+@pytest.mark.parametrize(("constant", "expected"), [
+    ('const c = 70 % because "Slip above 70 % is critical"', []),
+    ('const c = 70 % because "Slip above 0.7 is critical"', []),
+    ('const c = 65 % because "Slip above 70 % is critical"', ["W612"]),
+    ('const c = 5 cm because "Assumption: half the 10 cm wheel radius"', []),
+    ('const c = 5 cm because "Sinkage above 6 cm digs in"', ["W612"]),
+    ('const c = 5 cm because "Speeds above 6 % of the limit"', []),  # another dimension
+])
+def test_rationale_numbers(constant, expected):
+    uses = "\nchance deep = max over time (max over wheels (wheel.sinkage)) > c\n" \
+        if "cm" in constant else "\nchance slips = max over time (wheel.slip[FL]) > c\n"
+    found = codes(extra=constant + uses)
+    assert [c for c in found if c != "W601"] == expected
+
+
+@pytest.mark.parametrize(("literal", "expected"), [
+    ("1e-300 %", []), ("1e-400 %", ["W613"]), ("0 %", []), ("1e-320", ["W613"])])
+def test_underflow(literal, expected):
+    assert codes(extra=f"chance tiny = max over time (wheel.slip[FL]) > {literal}\n") == \
+        expected
+
+
+def test_the_default_rulebook_has_no_lint():
+    report = check_file(ROOT / "rulebooks" / "idefix-ops.rules", strict=True)
+    assert report.diagnostics == ()
+
+
+def test_the_old_version_kept_a_rationale_that_disagrees():
+    # 0.9.0 raised acceptable_risk to 75 % but kept "mean risk above 0.7" in its rationale
+    report = check_file(ROOT / "rulebooks" / "history" / "idefix-ops-0.9.0.rules", strict=True)
+    assert [(d.code, d.span.line) for d in report.diagnostics] == [("W612", 131)]
+    assert "says 0.7 but the value is 75 %" in report.diagnostics[0].message
+
+
+@pytest.mark.parametrize(("rationale", "expected"), [
+    ("Slip above 70 % is critical", []), ("Slip above 60 % is critical", ["W612"])])
+def test_index_rationales_are_checked_against_the_limit(rationale, expected):
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %").replace(
+        "  weight = 1\n}", f'  weight = 1\n  because "{rationale}"\n}}')
+    assert [d.code for d in check_text(text, "t.rules", strict=True).diagnostics] == expected
+
+
+def test_used_here_notes_are_data_too():
+    text = (ROOT / "tests" / "rulebook" / "golden" /
+            "constant_unit_error_used_here.rules").read_text(encoding="utf-8")
+    result = check_text(text, "c.rules")
+    assert [d.code for d in result.diagnostics] == ["E201"]
+    related = result.diagnostics[0].to_dict()["related"]
+    assert [(r["line"], r["column"]) for r in related] == [(6, 19), (9, 12), (12, 52)]
+
+
+def test_a_commands_speed_is_signed_but_a_runs_is_not():
+    reverse_ok = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + \
+        "command forward_only: require speed >= 0 mm/s\n"
+    assert [d.code for d in check_text(reverse_ok, "t.rules", strict=True).diagnostics] == []
+    never = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + \
+        "chance backwards = min over time (speed) < 0 mm/s\n"
+    assert [d.code for d in check_text(never, "t.rules", strict=True).diagnostics] == ["W611"]

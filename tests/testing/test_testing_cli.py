@@ -1,0 +1,222 @@
+"""``idefix-verify test``: exit codes, located mistakes, expected-vs-actual failures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli import main
+
+RULEBOOK = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
+
+HEAD = f"""rulebook: {RULEBOOK}
+defaults:
+  chain:
+    - {{max_wheel_rate: 0.04 rad/s, delta_position: 20 cm, delta_heading: 0 deg}}
+cases:
+"""
+
+
+def write(tmp_path: Path, body: str, name: str = "cases.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(HEAD + body, encoding="utf-8")
+    return path
+
+
+def test_a_passing_file_exits_0_with_the_summary(tmp_path, capsys):
+    path = write(tmp_path, """  slip:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: 0.5}, dominant: I_s}
+""")
+    assert main(["test", str(path)]) == 0
+    assert capsys.readouterr().out.strip().splitlines()[-1].startswith("1 passed in ")
+
+
+def test_summary_counts_passed_and_failed_and_exits_1(tmp_path, capsys):
+    path = write(tmp_path, """  slip_ok:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: 0.5}}
+  slip_wrong:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: 0.7}}
+""")
+    assert main(["test", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert out.strip().splitlines()[-1].startswith("1 failed, 1 passed in ")
+    assert "FAILED" in out and "slip_wrong" in out
+    assert f"{path}:11:" in out  # the expectation's line
+    assert "index I_s: expected 0.7 ± 0.005, got 0.5" in out
+    assert "rule: index I_s: value = percentile 95 over time" in out
+    assert "raw value 0.35 against the limit 0.7" in out
+
+
+def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
+    inside = write(tmp_path, """  c:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: {value: 0.504, tolerance: 0.005}}}
+""", "inside.yaml")
+    outside = write(tmp_path, """  c:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: {value: 0.506, tolerance: 0.005}}}
+""", "outside.yaml")
+    assert main(["test", str(inside)]) == 0
+    assert main(["test", str(outside)]) == 1
+
+
+@pytest.mark.parametrize(("body", "code", "where", "words"), [
+    ("""  c:
+    signals: {"wheel.slp[FL]": 35 %}
+    expect: {verdict: pass}
+""", "T004", ":7:15:", "did you mean 'wheel.slip'"),
+    ("""  c:
+    signals: {roll: {0 s: 0 deg, 20 s: 20}}
+    expect: {verdict: pass}
+""", "T005", ":7:", "must be an angle"),
+    ("""  c:
+    signals: {roll: {10 s: 0 deg, 5 s: 2 deg}}
+    expect: {verdict: pass}
+""", "T006", ":7:", "increase"),
+    ("""  c:
+    expect: {indices: {I_slip: 0.5}}
+""", "T008", ":7:24:", "did you mean 'I_s'"),
+    ("""  c:
+    expect: {verdict: maybe}
+""", "T009", ":7:", "expected pass or fail"),
+    ("""  c:
+    collisions: [{part: wing, level: L2, at: 3 s}]
+    expect: {verdict: pass}
+""", "T010", ":7:", "part must be one of"),
+    ("""  c:
+    expectt: {verdict: pass}
+""", "T011", ":7:5:", "unknown key 'expectt'"),
+    ("""  c:
+    runs: 0
+    expect: {verdict: pass}
+""", "T012", ":7:", "whole number"),
+    ("""  c:
+    chain: [{max_wheel_rate: 0.04, delta_position: 20 cm, delta_heading: 0 deg}]
+    expect: {verdict: pass}
+""", "T005", ":7:", "an angular rate"),
+    ("""  c:
+    signals: {"wheel.slip[FL]": 35 %}
+""", "T002", ":6:3:", "expects nothing"),
+])
+def test_a_broken_case_file_exits_2_naming_line_and_column(tmp_path, capsys, body, code,
+                                                              where, words):
+    path = write(tmp_path, body)
+    assert main(["test", str(path)]) == 2
+    err = capsys.readouterr()
+    text = err.out + err.err
+    assert f"[{code}]" in text
+    assert f"{path}{where}" in text
+    assert words in text
+    assert "Traceback" not in text
+
+
+def test_invalid_yaml_and_missing_rulebook_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("rulebook: x.rules\ncases: [\n", encoding="utf-8")
+    assert main(["test", str(bad)]) == 2
+    assert "[T001]" in capsys.readouterr().out
+    missing = tmp_path / "missing.yaml"
+    missing.write_text("rulebook: nowhere.rules\ncases: {c: {expect: {verdict: pass}}}\n",
+                       encoding="utf-8")
+    assert main(["test", str(missing)]) == 2
+    out = capsys.readouterr().out
+    assert "[T003]" in out and f"{missing}:1:" in out
+    assert main(["test", str(tmp_path / "none")]) == 2
+
+
+def test_no_case_files_in_a_folder_exits_2(tmp_path, capsys):
+    assert main(["test", str(tmp_path)]) == 2
+    assert "[T013]" in capsys.readouterr().err
+
+
+def test_json_output_carries_mismatches(tmp_path, capsys):
+    path = write(tmp_path, """  c:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {dominant: I_pos}
+""")
+    assert main(["test", "--format", "json", str(path)]) == 1
+    data = json.loads(capsys.readouterr().out)
+    mismatch = data["files"][0]["cases"][0]["mismatches"][0]
+    assert (mismatch["expected"], mismatch["actual"]) == ("I_pos", "I_s")
+    assert data["failed"] == 1 and data["exit_code"] == 1
+
+
+def test_min_coverage_gates_the_exit_code(tmp_path, capsys):
+    path = write(tmp_path, """  c:
+    signals: {"wheel.slip[FL]": 80 %}
+    expect: {indices: {I_s: 1}}
+  d:
+    expect: {indices: {I_s: 0}}
+""")
+    assert main(["test", "--min-coverage", "5", str(path)]) == 0
+    assert main(["test", "--min-coverage", "50", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "rule coverage:" in out and "(minimum 50 %)" in out
+    assert main(["test", "--min-coverage", "150", str(path)]) == 2
+
+
+def test_coverage_states_across_near_and_untouched(tmp_path, capsys):
+    path = write(tmp_path, """  c:
+    signals: {"wheel.slip[FL]": 80 %, roll: {0 s: 0 deg, 20 s: 10 deg}}
+    expect: {indices: {I_s: 1}}
+  d:
+    expect: {indices: {I_s: 0}}
+""")
+    assert main(["test", "--coverage", "--format", "json", str(path)]) == 0
+    states = {item["name"]: item["state"] for item in json.loads(capsys.readouterr().out)
+              ["coverage"]}
+    assert states["I_s"] == "across"       # 80 % and 0 %: both sides of 70 %
+    assert states["I_psi"] == "near"       # 10 deg: within a factor 2 of 15 deg
+    assert states["I_ds"] == "untouched"   # never sank
+    assert states["min_motion"] == "untouched"  # 20 cm against 5 cm: a factor 4 away
+
+
+@pytest.mark.parametrize("body", [
+    "  c:\n    duration: -5 s\n    expect: {verdict: pass}\n",
+    "  c:\n    duration: 1000000 s\n    expect: {verdict: pass}\n",
+    "  c:\n    step: 0 s\n    expect: {verdict: pass}\n",
+    "  c:\n    runs: 1000000000\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {roll: {1000000000 s: 1 deg}}\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {stuck: {0 s: true}}\n    expect: {verdict: pass}\n",
+    "  c:\n    signals: {roll: [1, 2]}\n    expect: {verdict: pass}\n",
+    "  c:\n    expect: {indices: 5}\n",
+    "  c:\n    chain: x\n    expect: {verdict: pass}\n",
+    "  c:\n    runs: 2\n    variants: [{count: 1}]\n    expect: {verdict: pass}\n",
+    "  c: 5\n",
+    "  c:\n    expect: {rejected: {min_motion: [0]}}\n",
+])
+def test_odd_case_files_are_user_errors_never_tracebacks(tmp_path, capsys, body):
+    path = write(tmp_path, body)
+    assert main(["test", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    assert f"{path}:" in captured.out
+
+
+def test_a_zero_tolerance_is_kept(tmp_path):
+    path = write(tmp_path, "  c:\n    signals: {\"wheel.slip[FL]\": 35 %}\n"
+                           "    expect: {indices: {I_s: 0.5}}\n")
+    path.write_text(path.read_text(encoding="utf-8").replace("defaults:", "tolerance: 0\n"
+                                                             "defaults:"), encoding="utf-8")
+    assert main(["test", str(path)]) == 0  # 0.35 / 0.7 is exactly 0.5
+
+
+def test_a_chance_failure_says_where_its_time_reduction_found_the_value(tmp_path, capsys):
+    path = write(tmp_path, """  jolt:
+    offsets:
+      x: {10 s: 0 cm, 12 s: 2 cm}
+    expect: {chances: {too_fast: false}}
+  stuck:
+    signals: {stuck: {0 s: 0, 30 s: 1}}
+    expect: {chances: {got_stuck: false}}
+""")
+    assert main(["test", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "chance too_fast: expected does not hold, got holds" in out
+    assert "from: run 1: speed is highest at t = 11 s (sample 11): 0.014 (SI)" in out
+    assert "from: run 1: stuck > 0 first holds at t = 30 s (sample 30)" in out
