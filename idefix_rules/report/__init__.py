@@ -14,6 +14,7 @@ from html import escape
 from pathlib import Path
 
 from idefix_rules.campaign.store import ResultStore
+from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
@@ -108,7 +109,7 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
                 "zones; lines: reference runs.</p>")
     page = html.page(data, map_images, box_images, dominance, notes, map_text)
     target = out_dir / REPORT_FILE
-    target.write_text(page, encoding="utf-8")
+    write_atomic(target, page)
     return target
 
 
