@@ -47,6 +47,7 @@ from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 
 SUMMARY_FILE = "summary.json"
+STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
 REPORT_FILE = "report.html"
 
 
@@ -190,10 +191,9 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         stub = stored_campaign(store)
         model = stub.model
         if rulebook is None:
-            text = store.text("rulebook")
-            stored = store.file["provenance"]["rulebook"].attrs
-            rulebook_path = Path(str(stored.get("path", "rulebook.rules")))
-            evaluator = _compile_text(text, rulebook_path)
+            # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
+            rulebook_path = Path(f"{results}:{STORED_RULEBOOK}")
+            evaluator = _compile_text(store.text("rulebook"), str(rulebook_path))
         else:
             rulebook_path = rulebook
             evaluator = compile_rulebook_file(rulebook)
@@ -244,13 +244,14 @@ def _check_stored_signals(store: ResultStore, evaluator: Any, results: Path) -> 
         raise UserInputError(problems)
 
 
-def _compile_text(text: str, path: Path) -> Any:
-    import tempfile
+def _compile_text(text: str, name: str) -> Any:
+    """Check and compile rulebook text read from somewhere else than a file of its own."""
+    from idefix_rules.rulebook import check_text, compile_rulebook
 
-    with tempfile.TemporaryDirectory() as folder:
-        copy = Path(folder) / path.name
-        copy.write_text(text, encoding="utf-8")
-        return compile_rulebook_file(copy)
+    result = check_text(text, name)
+    if result.checked is None:
+        raise UserInputError(result.errors, {name: text})
+    return compile_rulebook(result.checked.rulebook)
 
 
 def stored_campaign(store: ResultStore) -> Campaign:
