@@ -12,7 +12,7 @@ as on the local pool, and the Dask worker lives on. What remains is the cluster'
   ``--resume`` runs again;
 * a cluster without workers for :data:`NO_WORKER_GRACE` seconds, a lost scheduler, or no run
   finishing for longer than the largest run timeout plus :data:`STALL_MARGIN` stops the campaign
-  with :class:`~idefix_rules.errors.InfrastructureError` (exit 3); every run stored so far is
+  with :class:`ClusterError` (exit 3); every run stored so far is
   kept and ``--resume`` continues. A campaign on Dask never waits forever.
 """
 
@@ -40,6 +40,11 @@ STALL_MARGIN = 120.0  # s
 POLL = 0.05  # s between looks at the cluster while no run finishes
 HEALTH_CHECK = 5.0  # s between asking the scheduler about its workers
 INFRASTRUCTURE = "infrastructure: "
+
+
+class ClusterError(InfrastructureError):
+    """The Dask cluster cannot go on (no workers, scheduler lost, no progress): exit 3; the
+    runs stored so far stay and ``--resume`` continues."""
 
 
 def is_infrastructure(reason: str) -> bool:
@@ -75,8 +80,8 @@ class DaskPool:
             except ValueError as failure:  # not an address at all: a usage mistake
                 raise UserInputError(f"--scheduler {address!r}: {failure}") from None
             except OSError as failure:  # no scheduler answers there
-                raise InfrastructureError(f"cannot reach the Dask scheduler {address}: "
-                                          f"{failure}") from None
+                raise ClusterError(f"cannot reach the Dask scheduler {address}: "
+                                   f"{failure}") from None
         self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
     def _submit(self, key: Hashable, payload: Any) -> Any:
@@ -147,7 +152,7 @@ class DaskPool:
                                                 "times while running it")
                 return None
         if self._client.status not in ("running", "connecting"):
-            raise InfrastructureError("lost the connection to the Dask scheduler")
+            raise ClusterError("lost the connection to the Dask scheduler")
         losses[key] += 1
         if losses[key] >= MAX_LOST_RESULTS:
             what = f"{type(failure).__name__}: {failure}" if failure is not None \
@@ -177,21 +182,21 @@ class _Watch:
     def check(self) -> None:
         now = time.monotonic()
         if self.stall is not None and now - self.last_progress > self.stall:
-            raise InfrastructureError(f"no run finished on the Dask cluster for "
+            raise ClusterError(f"no run finished on the Dask cluster for "
                                       f"{now - self.last_progress:.0f} s")
         if now - self.last_check < HEALTH_CHECK:
             return
         self.last_check = now
         if self.client.status not in ("running", "connecting"):
-            raise InfrastructureError("lost the connection to the Dask scheduler")
+            raise ClusterError("lost the connection to the Dask scheduler")
         try:
             workers = self.client.scheduler_info(n_workers=-1).get("workers", {})
         except (OSError, TimeoutError) as failure:
-            raise InfrastructureError(f"the Dask scheduler does not answer: {failure}") from None
+            raise ClusterError(f"the Dask scheduler does not answer: {failure}") from None
         if workers:
             self.no_workers_since = None
         elif self.no_workers_since is None:
             self.no_workers_since = now
         elif now - self.no_workers_since > NO_WORKER_GRACE:
-            raise InfrastructureError(f"the Dask cluster has had no worker for "
+            raise ClusterError(f"the Dask cluster has had no worker for "
                                       f"{NO_WORKER_GRACE:.0f} s")

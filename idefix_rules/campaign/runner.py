@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign import outputs
+from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
@@ -121,7 +122,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     except OSError as failure:  # the results file could not be written (disk full, locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
-    except InfrastructureError as failure:  # the cluster broke: the runs stored so far stay
+    except ClusterError as failure:  # the cluster broke: the runs stored so far stay
         raise InfrastructureError(f"{failure}; every run finished so far is stored, continue "
                                   f"with `{again}`") from failure
     simulated = time.perf_counter()

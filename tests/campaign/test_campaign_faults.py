@@ -19,7 +19,7 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import assert_same_datasets
 
-from idefix_rules.campaign import timeouts
+from idefix_rules.campaign import dask_pool, timeouts
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED
 from idefix_rules.cli import main
 
@@ -114,43 +114,61 @@ def test_a_local_dask_cluster_records_the_same_faults_and_datasets(
     assert_same_datasets(pool_results, faulty_dir / "dask" / "results.h5")
 
 
-@pytest.fixture
-def dask_cluster(tmp_path: Path) -> Iterator[str]:
-    """A ``dask scheduler`` and a ``dask worker`` (2 processes) on 127.0.0.1, ended after."""
-    from dask.distributed import Client
+class DaskProcesses:
+    """A ``dask scheduler`` on 127.0.0.1 and the ``dask worker`` processes started for it."""
 
-    scheduler_file = tmp_path / "scheduler.json"
-    environment = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
-    started = []
-    try:
-        started.append(subprocess.Popen(
-            [sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1", "--port", "0",
-             "--no-dashboard", "--scheduler-file", str(scheduler_file)],
-            env=environment, start_new_session=True,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    def __init__(self, folder: Path) -> None:
+        self.scheduler_file = folder / "scheduler.json"
+        self.environment = {**os.environ,
+                            "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
+        self.started: list[subprocess.Popen[bytes]] = []
+        self._start("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                    "--scheduler-file", str(self.scheduler_file))
         deadline = time.monotonic() + 60
-        while not scheduler_file.exists() and time.monotonic() < deadline:
+        while not self.scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
-        assert scheduler_file.exists(), "the Dask scheduler did not start"
-        started.append(subprocess.Popen(
-            [sys.executable, "-m", "dask", "worker", "--scheduler-file", str(scheduler_file),
-             "--nworkers", "2", "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard"],
-            env=environment, start_new_session=True,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-        address = json.loads(scheduler_file.read_text())["address"]
-        with Client(address) as client:
-            client.wait_for_workers(2, timeout=90)
-        yield address
-    finally:
-        for process in started:
+        assert self.scheduler_file.exists(), "the Dask scheduler did not start"
+        self.address = str(json.loads(self.scheduler_file.read_text())["address"])
+
+    def _start(self, *args: str) -> None:
+        self.started.append(subprocess.Popen(
+            [sys.executable, "-m", "dask", *args], env=self.environment,
+            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+
+    def start_workers(self, count: int) -> None:
+        from dask.distributed import Client
+
+        self._start("worker", "--scheduler-file", str(self.scheduler_file), "--nworkers",
+                    str(count), "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard")
+        with Client(self.address) as client:
+            client.wait_for_workers(count, timeout=90)
+
+    def end(self) -> None:
+        for process in self.started:
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGTERM)
-        for process in started:
+        for process in self.started:
             try:
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, signal.SIGKILL)
                 process.wait(timeout=20)
+
+
+@pytest.fixture
+def dask_processes(tmp_path: Path) -> Iterator[DaskProcesses]:
+    processes = DaskProcesses(tmp_path)
+    try:
+        yield processes
+    finally:
+        processes.end()
+
+
+@pytest.fixture
+def dask_cluster(dask_processes: DaskProcesses) -> str:
+    """A scheduler with a ``dask worker`` of 2 processes, on 127.0.0.1."""
+    dask_processes.start_workers(2)
+    return dask_processes.address
 
 
 def test_a_dask_scheduler_and_workers_record_the_same_faults_and_datasets(
@@ -174,3 +192,21 @@ def test_without_run_timeout_a_hanging_run_ends_at_the_default_timeout(
         for name, run_index in hangs:
             reason = stored[f"paths/{name}/runs/failure"][run_index].rstrip(b"\0").decode()
             assert reason == "exceeded the run timeout of 2 s"
+
+
+def test_a_cluster_without_workers_stops_with_exit_3_and_resumes_once_workers_come(
+        faulty_dir: Path, pool_results: Path, dask_processes: DaskProcesses,
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(dask_pool, "NO_WORKER_GRACE", 2.0)  # 60 s in production
+    monkeypatch.setattr(dask_pool, "HEALTH_CHECK", 0.5)
+    capsys.readouterr()
+    assert run(faulty_dir, "cluster", "--scheduler", dask_processes.address) == 3
+    err = capsys.readouterr().err
+    assert "the Dask cluster has had no worker for 2 s" in err
+    assert f"--resume --out {faulty_dir / 'cluster'} --runs 12 --seed 32" in err
+    results = faulty_dir / "cluster" / "results.h5"
+    with h5py.File(results) as stored:
+        assert stored.attrs["state"] == "interrupted"
+    dask_processes.start_workers(2)
+    assert run(faulty_dir, "cluster", "--scheduler", dask_processes.address, "--resume") == 1
+    assert_same_datasets(pool_results, results)
