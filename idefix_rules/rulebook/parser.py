@@ -105,8 +105,9 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
 
 
 _FIRST_WORD = re.compile(r"(?:[ \t\n]|#[^\n]*)*([A-Za-z_][A-Za-z0-9_]*|\S)")
-_DECLARATION_WORDS = frozenset(("rulebook", "const", "settings", "obstacles", "command",
-                                "index", "chance", "prescreen", "verdict", "combine", "rank"))
+_DECLARATION_WORDS = frozenset(("rulebook", "version", "purpose", "const", "settings",
+                                "obstacles", "command", "index", "chance", "prescreen",
+                                "verdict", "combine", "rank"))
 
 
 def _foreign_file(text: str, path: str) -> list[Diagnostic]:
