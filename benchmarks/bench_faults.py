@@ -3,7 +3,10 @@
 1. Refusing inputs that are too large: the wall time of ``idefix-verify check`` on a 50 MB
    rulebook (refused, exit 2) against the same command on the operations rulebook (parsed and
    checked, exit 0). A refusal should cost about as much as checking a normal rulebook.
-2. Executors: the rock-detour campaign with N runs per path on the local process pool and on
+2. Checking is linear in what is accepted: the time to check generated rulebooks of 16, 32, 64
+   and 128 KiB (the limit), constants holding sums of 250 lengths, per KiB; the ratio of the
+   largest to the smallest per-KiB figure is about 1 when the time is linear in the size.
+3. Executors: the rock-detour campaign with N runs per path on the local process pool and on
    a local Dask cluster (every Dask run in a child process of its worker, with a timeout): runs
    per second on each and the ratio.
 
@@ -49,6 +52,33 @@ def refusal(folder: Path) -> None:
           f"(ratio to the normal check: {refused / normal:.2f})")
 
 
+def generated_rulebook(size: int) -> str:
+    """The operations rulebook plus constants with long sums until ``size`` bytes."""
+    text = RULEBOOK.read_text(encoding="utf-8")
+    lines = []
+    index = 0
+    while len(text) + sum(map(len, lines)) < size - 2 * 1100:
+        lines.append(f"const generated_{index} = " + " + ".join(["1 m"] * 250) + "\n")
+        index += 1
+    return text + "".join(lines)
+
+
+def linearity() -> None:
+    from idefix_rules.rulebook import check_text
+
+    per_kib = []
+    for kib in (16, 32, 64, 128):
+        text = generated_rulebook(kib * 1024)
+        started = time.perf_counter()
+        result = check_text(text, "generated.rules")
+        seconds = time.perf_counter() - started
+        assert result.checked is not None, result.errors[:1]
+        per_kib.append(seconds / (len(text) / 1024))
+        print(f"check a {len(text) / 1024:.0f} KiB rulebook: {seconds:.2f} s "
+              f"({1000 * per_kib[-1]:.1f} ms per KiB)")
+    print(f"per-KiB time, 128 KiB against 16 KiB: {per_kib[-1] / per_kib[0]:.2f}")
+
+
 def campaign_rate(runs: int, folder: Path, options: SimulationOptions, name: str) -> float:
     campaign = load_campaign(CAMPAIGN).with_overrides(runs=runs, output=folder / name,
                                                       workers=2)
@@ -67,6 +97,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-faults-") as name:
         folder = Path(name)
         refusal(folder)
+        linearity()
         local = campaign_rate(args.runs, folder, SimulationOptions(workers=2), "process pool")
         dask = campaign_rate(args.runs, folder, SimulationOptions(workers=2, dask_local=True),
                              "local Dask cluster")

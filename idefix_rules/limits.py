@@ -12,7 +12,7 @@ from pathlib import Path
 
 from idefix_rules.errors import Span, UserInputError, error
 
-MAX_RULEBOOK_BYTES = 256 * 1024
+MAX_RULEBOOK_BYTES = 128 * 1024  # 18 times the operations rulebook
 MAX_RULEBOOK_LINE = 20_000  # characters; the formatter writes lines of at most 100
 MAX_CAMPAIGN_BYTES = 256 * 1024
 # A terrain file is a short text header (rocks included) and nx*ny float64 heights; the FMU

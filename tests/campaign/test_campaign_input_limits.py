@@ -38,7 +38,7 @@ def test_a_50_mb_rulebook_is_refused_before_it_is_read(tmp_path: Path) -> None:
     sparse(tmp_path / "huge.rules", 50 * 1024 * 1024, RULEBOOK.encode())
     done = cli("check", "huge.rules", cwd=tmp_path)
     assert done.returncode == 2, done.stdout
-    assert "huge.rules: error[E900]: rulebook file huge.rules is 50 MiB; at most 256 KiB " \
+    assert "huge.rules: error[E900]: rulebook file huge.rules is 50 MiB; at most 128 KiB " \
            "is accepted" in done.stdout
     assert "Traceback" not in done.stdout
 
