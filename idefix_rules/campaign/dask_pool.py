@@ -39,6 +39,7 @@ NO_WORKER_GRACE = 60.0  # s
 STALL_MARGIN = 120.0  # s
 POLL = 0.05  # s between looks at the cluster while no run finishes
 HEALTH_CHECK = 5.0  # s between asking the scheduler about its workers
+RESULT_WAIT = 60.0  # s to fetch a finished run's result before it counts as lost
 INFRASTRUCTURE = "infrastructure: "
 
 
@@ -136,7 +137,8 @@ class DaskPool:
         failure: BaseException | None = None
         if status == "finished":
             try:
-                value = future.result()
+                # a result lost with its worker is computed again, which may wait for a worker
+                value = future.result(timeout=RESULT_WAIT)
             except Exception as error:  # the result vanished with its worker
                 failure = error
             else:
