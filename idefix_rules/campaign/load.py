@@ -27,6 +27,7 @@ from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.commands import Command
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
+from idefix_rules.limits import CAMPAIGN_TOO_LARGE, MAX_CAMPAIGN_BYTES, check_file_size
 
 BUILTIN_FMU = "builtin"
 
@@ -156,11 +157,12 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
     source = Path(path)
     shown = str(path)
+    check_file_size(source, MAX_CAMPAIGN_BYTES, CAMPAIGN_TOO_LARGE, "campaign file")
     text = read_user_text(source, "C010", "campaign file")
     document = load_yaml(text, shown)
-    if not isinstance(document.data, dict):
+    if not isinstance(document.data, dict):  # maybe no campaign at all: quote none of it
         raise UserInputError(error("C101", "a campaign file is a mapping (key: value lines)",
-                                   Span(shown, 1, 1)), sources={shown: text})
+                                   Span(shown, 1, 1)), sources={shown: ""})
     try:
         model = CampaignFile.model_validate(document.data)
     except ValidationError as failure:

@@ -1,7 +1,12 @@
 """What a campaign hands back: expectation checks, ``summary.json``, JUnit XML, exit code.
 
 Exit codes (DESIGN.md): 0 every expectation holds (no expectations: every path passes),
-1 a path or expectation failed, 2 invalid input, 3 infrastructure error.
+1 a path or expectation failed, 2 invalid input, 3 infrastructure error (also when runs failed
+because of the cluster: ``--resume`` runs them again).
+
+Outputs never speak for another run: each names the campaign seed and the results file it was
+made from, is written to a temporary file and renamed, and a run sets the previous run's
+outputs aside (``summary.previous.json`` …) before it simulates anything.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules import __version__
+from idefix_rules.campaign.dask_pool import is_infrastructure
 from idefix_rules.campaign.decision import campaign_decision, reasons_of
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
 from idefix_rules.campaign.schema import (
@@ -24,9 +30,11 @@ from idefix_rules.campaign.schema import (
     PathVerdictExpectation,
     RankFirstExpectation,
 )
+from idefix_rules.files import write_atomic
 
 EXIT_OK = 0
 EXIT_FAILED = 1
+EXIT_INFRASTRUCTURE = 3
 
 
 @dataclass(frozen=True)
@@ -102,8 +110,16 @@ def check_expectations(expectations: list[Any],
     return results
 
 
+def infrastructure_failures(evaluation: CampaignEvaluation) -> int:
+    """Runs that failed because of the cluster, not for their own reason."""
+    return sum(is_infrastructure(reason) for path in evaluation.paths
+               for reason in path.failures.values())
+
+
 def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
               has_expectations: bool) -> int:
+    if infrastructure_failures(evaluation):
+        return EXIT_INFRASTRUCTURE  # not a verdict on the chains: run them again
     if has_expectations:
         return EXIT_OK if all(e.held for e in expectations) else EXIT_FAILED
     return EXIT_OK if all(p.verdict_text == "pass" for p in evaluation.paths) else EXIT_FAILED
@@ -169,11 +185,13 @@ def path_record(path: PathResult) -> dict[str, Any]:
 
 
 def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
-            code: int, sensitivity: dict[str, Any] | None = None) -> dict[str, Any]:
+            code: int, sensitivity: dict[str, Any] | None = None,
+            results: str | None = None) -> dict[str, Any]:
     prov = evaluation.provenance
     return {
         "format": "idefix-summary",
         "format_version": 1,
+        "results": results,
         "campaign": {"name": prov.get("campaign_name"), "path": prov.get("campaign_path"),
                      "sha256": prov.get("campaign_sha256")},
         "rulebook": evaluation.rulebook,
@@ -196,13 +214,24 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
 
 
 def write_summary(path: Path, data: dict[str, Any]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2, allow_nan=False, default=str) + "\n",
-                    encoding="utf-8")
+    write_atomic(path, json.dumps(data, indent=2, allow_nan=False, default=str) + "\n")
+
+
+def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
+                    results: str | None) -> None:
+    """The campaign seed, run count, results file and input hashes this suite belongs to."""
+    properties = ET.SubElement(suite, "properties")
+    prov = evaluation.provenance
+    for key, value in (("seed", prov.get("seed")), ("runs", prov.get("runs")),
+                       ("results", results), ("campaign_sha256", prov.get("campaign_sha256")),
+                       ("rulebook_sha256", evaluation.rulebook.get("sha256"))):
+        if value is not None:
+            ET.SubElement(properties, "property", name=key, value=str(value))
 
 
 def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
-              suite_name: str, seconds: Mapping[str, float] | None = None) -> str:
+              suite_name: str, seconds: Mapping[str, float] | None = None,
+              results: str | None = None) -> str:
     """JUnit XML whose failures are exactly what makes the exit code 1 (docs/ci.md).
 
     Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
@@ -211,12 +240,13 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
     pass. Without expectations, every path must pass: a path that does not is a failure (an
     error when its evaluation broke). ``seconds``: time spent per path (simulation in the
     workers and evaluation), the ``time`` of its case; each expectation case's time is its
-    check.
+    check. Each suite's properties name the campaign seed and the results file.
     """
     seconds = seconds or {}
     asserted_paths = not expectations
     root = ET.Element("testsuites", name=suite_name)
     paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
+    _run_properties(paths, evaluation, results)
     failures = errors = 0
     for path in evaluation.paths:
         case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
@@ -241,6 +271,7 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
                   sum(seconds.get(p.name, 0.0) for p in evaluation.paths))
     if expectations:
         suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
+        _run_properties(suite, evaluation, results)
         failed = 0
         for index, expectation in enumerate(expectations):
             case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.expect",

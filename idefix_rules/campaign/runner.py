@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign import outputs
+from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
@@ -24,6 +25,7 @@ from idefix_rules.campaign.evaluation import (
     evaluate_store,
 )
 from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.resume import resume_command
 from idefix_rules.campaign.schema import CampaignFile
 from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
@@ -44,8 +46,11 @@ from idefix_rules.campaign.validate import (
 )
 from idefix_rules.campaign.yamlsource import load_yaml
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.files import set_aside, write_atomic
 
 SUMMARY_FILE = "summary.json"
+STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
+REPORT_FILE = "report.html"
 
 
 @dataclass
@@ -146,6 +151,8 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     check_signal_map(campaign, evaluator.required_signals)
     check_simulation_size(campaign)
     prepare_output(campaign)
+    # From here on the folder is this run's: the last run's outputs must not speak for it.
+    set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit)
     fixed: dict[str, float | str] = {}
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
@@ -153,12 +160,16 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     if campaign.fmu is None or TERRAIN_PARAMETER in variables:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
+    again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed)
     try:
         simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
                                        collisions)
     except OSError as failure:  # the results file could not be written (disk full, locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
+    except ClusterError as failure:  # the cluster broke: the runs stored so far stay
+        raise InfrastructureError(f"{failure}; every run finished so far is stored, continue "
+                                  f"with `{again}`") from failure
     simulated = time.perf_counter()
     store = ResultStore.open(simulation.results, writable=True)
     checks = " (collision checks and rulebook)" if collisions is not None else ""
@@ -175,6 +186,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         store.close()
     evaluated = time.perf_counter()
     result.warnings.extend(simulation.warnings)
+    _warn_lost_runs(result, again)
     if report:
         say("writing the report (per-sample risk maps, figures)")
         result.report = write_report(result.results, campaign.output)
@@ -187,20 +199,27 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     return result
 
 
+def _warn_lost_runs(result: CampaignResult, again: str) -> None:
+    lost = outputs.infrastructure_failures(result.evaluation)
+    if lost:
+        result.warnings.append(f"{lost} run(s) failed because of the cluster, not for a reason "
+                               f"of their own (exit code 3); run them again with `{again}`")
+
+
 def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,
             output: Path, junit: Path | None, name: str,
             seconds: dict[str, float] | None = None) -> CampaignResult:
     checks = outputs.check_expectations(model.expect, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(model.expect))
-    data = outputs.summary(evaluation, checks, code, store_sensitivity(store.file))
+    results = str(Path(store.file.filename).resolve())
+    data = outputs.summary(evaluation, checks, code, store_sensitivity(store.file), results)
     store.file.require_group("evaluation").attrs["summary"] = json.dumps(data, default=str)
     store.file.flush()
     outputs.write_summary(output / SUMMARY_FILE, data)
     if junit is not None:
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
-            junit.write_text(outputs.junit_xml(evaluation, checks, name, seconds),
-                             encoding="utf-8")
+            write_atomic(junit, outputs.junit_xml(evaluation, checks, name, seconds, results))
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
@@ -223,15 +242,15 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         stub = stored_campaign(store)
         model = stub.model
         if rulebook is None:
-            text = store.text("rulebook")
-            stored = store.file["provenance"]["rulebook"].attrs
-            rulebook_path = Path(str(stored.get("path", "rulebook.rules")))
-            evaluator = _compile_text(text, rulebook_path)
+            # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
+            rulebook_path = Path(f"{results}:{STORED_RULEBOOK}")
+            evaluator = _compile_text(store.text("rulebook"), str(rulebook_path))
         else:
             rulebook_path = rulebook
             evaluator = compile_rulebook_file(rulebook)
         _check_stored_signals(store, evaluator, results)
         output = out or results.parent
+        set_aside(output / SUMMARY_FILE, junit)
         collisions = collision_function(model.environment, evaluator,
                                         read_terrain(results.parent))
         clock = PathClock()
@@ -241,12 +260,13 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
         state = str(store.attrs.get("state", "complete"))
+        again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
+                               store.attrs.get("seed"))
+        _warn_lost_runs(result, again)
         if state != "complete":  # its missing runs count as failed: say why
             result.warnings.append(
                 f"{results} holds a campaign that is {state}: runs never simulated count as "
-                f"failed; continue it with `idefix-verify {stub.source} --resume --out "
-                f"{results.parent} --runs {store.attrs.get('runs')} --seed "
-                f"{store.attrs.get('seed')}`")
+                f"failed; continue it with `{again}`")
         return result
     finally:
         store.close()
@@ -276,13 +296,14 @@ def _check_stored_signals(store: ResultStore, evaluator: Any, results: Path) -> 
         raise UserInputError(problems)
 
 
-def _compile_text(text: str, path: Path) -> Any:
-    import tempfile
+def _compile_text(text: str, name: str) -> Any:
+    """Check and compile rulebook text read from somewhere else than a file of its own."""
+    from idefix_rules.rulebook import check_text, compile_rulebook
 
-    with tempfile.TemporaryDirectory() as folder:
-        copy = Path(folder) / path.name
-        copy.write_text(text, encoding="utf-8")
-        return compile_rulebook_file(copy)
+    result = check_text(text, name)
+    if result.checked is None:
+        raise UserInputError(result.errors, {name: text})
+    return compile_rulebook(result.checked.rulebook)
 
 
 def stored_campaign(store: ResultStore) -> Campaign:

@@ -20,10 +20,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from idefix_rules import __version__
+from idefix_rules.campaign import resume as resuming
 from idefix_rules.campaign import sampling
+from idefix_rules.campaign import timeouts as run_timeouts
 from idefix_rules.campaign.load import Campaign, PathSpec
-from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
-from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome, Timeouts
+from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
@@ -66,7 +68,7 @@ class SilentProgress:
 @dataclass(frozen=True)
 class SimulationOptions:
     workers: int | None = None  # None: the campaign's, else all cores
-    run_timeout: float | None = None
+    run_timeout: float | None = None  # None: the default (campaign/timeouts.py); 0: none
     resume: bool = False
     scheduler: str | None = None  # Dask scheduler address
     dask_local: bool = False
@@ -137,12 +139,13 @@ def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathP
     return PathPlan(spec, steps * settings.output_interval, steps + 1, ideal)
 
 
-def _pool(function: Any, options: SimulationOptions, campaign: Campaign) -> Any:
+def _pool(function: Any, options: SimulationOptions, campaign: Campaign,
+          timeouts: Timeouts) -> Any:
     if options.scheduler or options.dask_local:
         return DaskPool(function, address=options.scheduler,
-                        workers=options.workers or campaign.workers)
+                        workers=options.workers or campaign.workers, run_timeout=timeouts)
     return LocalPool(function, workers=options.workers or campaign.workers,
-                     run_timeout=options.run_timeout)
+                     run_timeout=timeouts)
 
 
 @contextlib.contextmanager
@@ -170,12 +173,12 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     results = campaign.output / RESULTS_FILE
     rover = rover_geometry(campaign)
     summary = SimulationSummary(results)
-    for warning in (sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs),
-                    dask_timeout_warning(options)):
-        if warning:
-            summary.warnings.append(warning)
-            progress.message(warning)
+    warning = sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs)
+    if warning:
+        summary.warnings.append(warning)
+        progress.message(warning)
     store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
+    was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()
     try:
         fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, options, unpacked))
@@ -187,11 +190,11 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
                         options, progress, collisions, summary)
         _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress, summary)
-        complete = all(not store.has_runs(p.spec.name)
-                       or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
-                       for p in plans)
+        complete = resuming.nothing_left(store, [p.spec.name for p in plans])
         store.attrs["state"] = "complete" if complete else "interrupted"
-        store.attrs["finished"] = now_iso() if complete else ""
+        if not (complete and was_complete and summary.simulated_runs == 0):
+            # resuming a complete campaign simulates nothing: it keeps its finishing time
+            store.attrs["finished"] = now_iso() if complete else ""
     except BaseException:
         if store.file.id.valid:
             store.attrs["state"] = "interrupted"
@@ -200,16 +203,6 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         unpacked.close()  # the pools are closed by now: no worker uses the folder any more
         store.close()
     return summary
-
-
-def dask_timeout_warning(options: SimulationOptions) -> str | None:
-    """Dask cannot stop a task once it runs (cancelling its future leaves it running on the
-    worker), so a run timeout is enforced by the local pool only; say so when both are asked."""
-    if options.run_timeout is None or not (options.scheduler or options.dask_local):
-        return None
-    return (f"--run-timeout {options.run_timeout:g} s is not enforced on Dask: a running task "
-            "cannot be stopped there, so a hanging run holds its worker until the campaign "
-            "ends; use the local process pool to end hanging runs")
 
 
 @dataclass(frozen=True)
@@ -351,7 +344,8 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
     progress.message(f"reference runs of {len(todo)} path(s)")
     tasks = [(plan.spec.name, _task(campaign, fmu, plan, nominal)) for plan in todo]
     by_name = {plan.spec.name: plan for plan in todo}
-    pool = _pool(simulate, options, campaign)
+    pool = _pool(simulate, options, campaign,
+                 run_timeouts.reference_timeouts(by_name, options.run_timeout))
     with _map(pool, tasks) as results:
         for name, outcome in results:
             _reference_outcome(campaign, evaluator, rover, store, by_name[name], nominal,
@@ -381,6 +375,7 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
     summary.fmu_seconds += outcome.value.seconds
     summary.path_seconds[name] = summary.path_seconds.get(name, 0.0) + outcome.value.seconds
     store.write_reference(name, plan.reference, numeric)
+    store.path_group(name).attrs[run_timeouts.COST_ATTRIBUTE] = outcome.value.seconds
     findings = prescreen_reference(evaluator, plan.spec.chain, rover,
                                    initial_position_sigma(campaign), plan.reference, collisions)
     if findings:
@@ -426,8 +421,7 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
             shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
             store.allocate_runs(name, campaign.runs, shapes, sampled,
                                 parameter_info(campaign, list(sampled)))
-        status = store.run_status(name)
-        missing = np.flatnonzero(status == STATUS_MISSING)
+        missing = resuming.runs_to_simulate(store, name, reset=True)
         progress.start_path(name, campaign.runs, campaign.runs - len(missing))
         for run in missing:
             parameters = dict(base)
@@ -437,7 +431,9 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         return
     # Interleave paths so every progress bar moves from the start.
     tasks.sort(key=lambda item: (item[0][1], item[0][0]))
-    pool = _pool(simulate, options, campaign)
+    by_name = {plan.spec.name: plan for plan in plans}
+    pool = _pool(simulate, options, campaign,
+                 run_timeouts.monte_carlo_timeouts(by_name, store, options.run_timeout))
     with _map(pool, tasks) as results:
         for (name, run), outcome in results:
             _raise_input_problem(outcome)

@@ -116,6 +116,8 @@ def print_decision(console: Console, decision: Decision) -> None:
 def ci_line(expectations: Sequence[ExpectationResult], code: int,
             evaluation: CampaignEvaluation) -> str:
     """CI's outcome, kept apart from the decision: what the exit code asserts."""
+    if code == 3:  # runs lost to the cluster: no verdict on the chains until they are re-run
+        return "CI: runs were lost to the infrastructure, not a verdict (exit 3)"
     if expectations:
         held = sum(1 for e in expectations if e.held)
         return f"CI expectations: {held} of {len(expectations)} held (exit {code})"

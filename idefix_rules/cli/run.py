@@ -45,8 +45,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "`uncertainty.seed`)")
     parser.add_argument("--workers", type=_positive_int,
                         help="worker processes (default: the campaign's, else all cores)")
-    parser.add_argument("--run-timeout", type=_positive_float, metavar="SECONDS",
-                        help="a run taking longer is killed and recorded as failed")
+    parser.add_argument("--run-timeout", type=_timeout, metavar="SECONDS",
+                        help="a run taking longer is killed and recorded as failed (default: "
+                             "derived from the path's simulated duration and the measured "
+                             "cost of its reference run, see docs/operations.md; 0: none)")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted campaign: simulate only missing runs")
     parser.add_argument("--junit", type=output_file, metavar="FILE",
@@ -90,13 +92,14 @@ def _integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
 
 
-def _positive_float(text: str) -> float:
+def _timeout(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0 < value < math.inf:  # also refuses nan and inf (no timeout: leave it out)
-        raise argparse.ArgumentTypeError(f"expected a finite positive number, got {text}")
+    if not 0 <= value < math.inf:  # also refuses nan and inf (no timeout: 0)
+        raise argparse.ArgumentTypeError(f"expected a number of seconds >= 0 (0: no timeout), "
+                                         f"got {text}")
     return value
 
 

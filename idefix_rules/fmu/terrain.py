@@ -20,6 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.limits import (
+    MAX_CSV_DEM_BYTES,
+    MAX_NPY_DEM_BYTES,
+    MAX_TERRAIN_HEADER_BYTES,
+    TERRAIN_TOO_LARGE,
+    check_file_size,
+)
 
 MAGIC = "IDEFIX-TERRAIN 1"
 MAX_ROCKS = 4096
@@ -161,6 +168,8 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
 def read_terrain(path: str | Path) -> Terrain:
     """Read a terrain file written by :func:`write_terrain` (or by hand, same format)."""
     path = Path(path)
+    check_file_size(path, MAX_TERRAIN_HEADER_BYTES + 8 * MAX_NODES, TERRAIN_TOO_LARGE,
+                    "terrain file")
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -188,8 +197,10 @@ def read_terrain(path: str | Path) -> Terrain:
             raise fail("header line is not ASCII text") from None
         offset = end + 1
         if line_number == 1:
-            if text != MAGIC:
-                raise fail(f"expected '{MAGIC}' as the first line")
+            if text != MAGIC:  # another kind of file: quote none of it
+                raise UserInputError(error(
+                    "F204", f"expected '{MAGIC}' as the first line", Span(str(path), 1, 1),
+                    hint="a DEM of bare heights ends in .npy or .csv"), sources={str(path): ""})
             continue
         if not text:
             continue
@@ -262,6 +273,8 @@ def load_dem(path: str | Path, cell: float | None = None,
     if cell is None or cell <= 0:
         raise UserInputError(error("F205", "a .npy or .csv DEM needs a positive cell size",
                                    Span(str(path))))
+    check_file_size(path, MAX_NPY_DEM_BYTES if suffix == ".npy" else MAX_CSV_DEM_BYTES,
+                    TERRAIN_TOO_LARGE, "DEM file")
     if suffix == ".npy":
         try:
             heights = np.load(path, allow_pickle=False)
@@ -296,7 +309,13 @@ def _read_csv(path: Path) -> np.ndarray:
                 row.append(float(cell_text))
             except ValueError:
                 col = sum(len(c) + 1 for c in cells[:column]) + 1
-                raise UserInputError(error("F207", f"not a number: {cell_text.strip()!r}",
+                if not rows:  # before any row of numbers it may be any file: quote none of it
+                    raise UserInputError(error(
+                        "F207", "not a CSV grid of heights: this line is not a row of numbers",
+                        Span(str(path), number, 1)), sources={str(path): ""}) from None
+                token = cell_text.strip()
+                shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
+                raise UserInputError(error("F207", f"not a number: {shown}",
                                            Span(str(path), number, col))) from None
         if rows and len(row) != len(rows[0]):
             raise UserInputError(error("F208", f"row has {len(row)} values, the first row has "

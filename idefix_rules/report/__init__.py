@@ -19,6 +19,7 @@ from typing import Any
 from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits
+from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
@@ -173,7 +174,7 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
     ]
     page = html.page(data, parts, script.SCRIPT, script.CSS)
     target = out_dir / REPORT_FILE
-    target.write_text(page, encoding="utf-8")
+    write_atomic(target, page)
     return target
 
 

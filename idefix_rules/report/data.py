@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import h5py
@@ -45,6 +46,7 @@ class Header:
     finished: str
     state: str
     evaluated: str
+    results: str = ""  # the results file the report was made from
 
 
 @dataclass(frozen=True)
@@ -285,6 +287,7 @@ def read_header(file: h5py.File) -> Header:
         finished=_text(attrs.get("finished", "")),
         state=_text(attrs.get("state", "")),
         evaluated=_text(ev_attrs.get("evaluated", "")),
+        results=str(Path(file.filename).resolve()),
     )
 
 

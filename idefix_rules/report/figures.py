@@ -19,6 +19,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse, Polygon
 
+from idefix_rules.files import write_atomic
 from idefix_rules.report.environment import MapEnvironment, buffer_mask
 from idefix_rules.report.riskmap import RiskGrid
 
@@ -48,7 +49,7 @@ def png_bytes(figure: Figure) -> bytes:
 def save_png(figure: Figure, target: Path) -> bytes:
     """Write the figure as PNG and return the bytes (for embedding)."""
     data = png_bytes(figure)
-    target.write_bytes(data)
+    write_atomic(target, data)
     return data
 
 

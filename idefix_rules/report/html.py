@@ -156,6 +156,7 @@ def provenance_html(data: ReportData) -> str:
         ("FMU", f"{escape(h.fmu_path or '–')} · sha256 <span class=\"hash\">"
                 f"{escape(h.fmu_sha256 or '–')}</span>"),
         ("Runs", escape(f"{h.runs} per path · seed {h.seed} · sampling {h.sampling}")),
+        ("Results", escape(h.results or "–")),
         ("Time", escape(f"started {h.started or '–'} · finished {h.finished or '–'} · "
                         f"state {h.state or '–'} · evaluated {h.evaluated or '–'}")),
         ("Tool", escape(f"idefix-rules {h.package_version or '–'}")),

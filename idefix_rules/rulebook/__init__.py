@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from idefix_rules.errors import UserInputError, read_user_text
+from idefix_rules.limits import MAX_RULEBOOK_BYTES, RULEBOOK_TOO_LARGE, check_file_size
 from idefix_rules.rulebook.check import CheckedRulebook, CheckResult, check
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
 from idefix_rules.rulebook.derived import RunContext
@@ -17,7 +18,9 @@ from idefix_rules.rulebook.results import PathStatistics, RunEvaluation, Verdict
 
 
 def read_source(path: str | Path) -> str:
-    """The text of a rulebook file; a missing, unreadable or non-UTF-8 file is a user error."""
+    """The text of a rulebook file; a missing, unreadable, non-UTF-8 or too large file is a
+    user error."""
+    check_file_size(path, MAX_RULEBOOK_BYTES, RULEBOOK_TOO_LARGE, "rulebook file")
     return read_user_text(path, "E002", "rulebook file")
 
 

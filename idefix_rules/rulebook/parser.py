@@ -32,6 +32,7 @@ Number(value=70.0, unit='%')
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import re
 from collections.abc import Sequence
@@ -41,6 +42,7 @@ import lark
 from lark import Token, Transformer, v_args
 
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+from idefix_rules.limits import NOT_A_RULEBOOK, check_rulebook_text
 from idefix_rules.rulebook import model
 from idefix_rules.rulebook.comments import attach_comments
 from idefix_rules.rulebook.grammar import collecting_comments, rulebook_parser
@@ -76,10 +78,11 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
         raise UserInputError(error("E000", "a rulebook must be text", Span(path)))
     if text.startswith("\ufeff"):  # a byte-order mark some editors write: not content
         text = text[1:]
+    check_rulebook_text(text, path)
     tree, comments, diagnostics = _parse_tree(text, path)
     if diagnostics or tree is None:
         diagnostics.sort(key=_position)
-        raise UserInputError(diagnostics, sources={path: text})
+        raise UserInputError(_foreign_file(text, path) or diagnostics, sources={path: text})
     lowering = _Lowering(path)
     try:
         declarations = lowering.transform(tree)
@@ -99,6 +102,24 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
         lowering.diagnostics.sort(key=_position)
         raise UserInputError(lowering.diagnostics, sources={path: text})
     return rulebook
+
+
+_FIRST_WORD = re.compile(r"(?:[ \t\n]|#[^\n]*)*([A-Za-z_][A-Za-z0-9_]*|\S)")
+_DECLARATION_WORDS = frozenset(("rulebook", "version", "purpose", "const", "settings",
+                                "obstacles", "command", "index", "chance", "prescreen",
+                                "verdict", "combine", "rank"))
+
+
+def _foreign_file(text: str, path: str) -> list[Diagnostic]:
+    """One diagnostic, quoting at most the first word, for a file whose very first word starts
+    no declaration (another kind of file, named by mistake): none of its lines is shown."""
+    first = _FIRST_WORD.match(text)
+    if first is None or first.group(1) in _DECLARATION_WORDS \
+            or difflib.get_close_matches(first.group(1), _DECLARATION_WORDS, cutoff=0.75):
+        return []  # a rulebook with a mistake in its first word: the usual diagnostics
+    word = first.group(1)[:20]
+    return [error(NOT_A_RULEBOOK, f"{path} is not a rulebook: it begins with {word!r}",
+                  Span(path), hint='a rulebook begins with `rulebook "name" version "x.y.z"`')]
 
 
 def _deepest_declaration(tree: lark.Tree[Any], path: str) -> Span:

@@ -19,3 +19,14 @@ def misbehave(payload):
     if payload == "exit":
         os._exit(7)
     return payload
+
+
+def kill_worker(payload):
+    """Like misbehave, and "kill-worker" kills the process that runs the task's child (the Dask
+    worker), as the kernel's out-of-memory killer or an operator would."""
+    if payload == "kill-worker":
+        import signal
+
+        os.kill(os.getppid(), signal.SIGKILL)
+        time.sleep(600)
+    return misbehave(payload)

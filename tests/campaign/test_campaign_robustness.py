@@ -66,6 +66,7 @@ def test_one_worker_and_two_workers_give_identical_datasets(campaign_dir: Path,
 
 KILLER = textwrap.dedent("""\
     import os, signal, sys
+    from pathlib import Path
     from idefix_rules.campaign.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
     from idefix_rules.campaign.simulate import SimulationOptions
@@ -79,8 +80,13 @@ KILLER = textwrap.dedent("""\
             if self.seen == int(sys.argv[2]):
                 os.kill(os.getpid(), signal.SIGKILL)
 
-    run_campaign(load_campaign(sys.argv[1]), SimulationOptions(workers=2),
-                 progress=KillAfter(), report=False)
+    # optional: argv[3] another seed, argv[4] a JUnit file
+    campaign = load_campaign(sys.argv[1])
+    if len(sys.argv) > 3:
+        campaign = campaign.with_overrides(seed=int(sys.argv[3]))
+    junit = Path(sys.argv[4]) if len(sys.argv) > 4 else None
+    run_campaign(campaign, SimulationOptions(workers=2), progress=KillAfter(), report=False,
+                 junit=junit)
 """)
 
 

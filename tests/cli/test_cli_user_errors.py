@@ -392,7 +392,8 @@ CASES = [
     Case("option-seed-text", campaign(), ("campaign.yaml", "--seed", "abc"), 2,
          ("argument --seed: expected a whole number, got 'abc'",)),
     Case("option-run-timeout-infinite", campaign(), ("campaign.yaml", "--run-timeout", "inf"), 2,
-         ("argument --run-timeout: expected a finite positive number, got inf",)),
+         ("argument --run-timeout: expected a number of seconds >= 0 (0: no timeout), "
+          "got inf",)),
     # ----------------------------------------------------------------- results files
     Case("evaluate-not-hdf5", {"results.h5": "plain text"}, ("evaluate", "results.h5"), 2,
          ("results.h5: error[H002]: cannot open results file results.h5: not an HDF5 file",),

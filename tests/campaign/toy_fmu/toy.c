@@ -118,6 +118,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean last)
             while (spin) { }
         }
         if (m->r[VR_ERROR_AT] > 0.0 && now >= m->r[VR_ERROR_AT]) return fmi2Error;
+        if (m->r[VR_NAN_AT] > 0.0 && now >= m->r[VR_NAN_AT]) m->r[VR_X] = NAN;
         double moving = 0.0;
         while (m->cmd < m->count) {
             double duration = command_duration(m, m->cmd);

@@ -1,0 +1,51 @@
+"""What ``--resume`` simulates again, and the command that continues a campaign.
+
+A run is simulated (again) when it has no stored outcome (killed before it was written), or
+when it failed because of the infrastructure rather than for its own reason (its Dask workers
+died under it, its result was lost: reasons starting with ``infrastructure:``). A campaign is
+complete when no run of a simulated path is left to simulate.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.dask_pool import INFRASTRUCTURE, is_infrastructure
+from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, decode_reason
+
+__all__ = ["INFRASTRUCTURE", "is_infrastructure", "resume_command", "runs_to_simulate"]
+
+
+def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
+    """Indices of the runs of path ``name`` still to simulate.
+
+    With ``reset`` the runs failed for infrastructure are marked missing again first (their
+    reason cleared), so the file never shows an old reason beside new data.
+    """
+    runs = store.path_group(name)["runs"]
+    status = np.asarray(runs["status"][()])
+    failed = np.flatnonzero(status == STATUS_FAILED)
+    again = []
+    if failed.size:
+        reasons = runs["failure"][()]
+        again = [int(j) for j in failed if is_infrastructure(decode_reason(reasons[j]))]
+    if reset and again:
+        for run in again:
+            runs["failure"][run] = b""
+            runs["status"][run] = STATUS_MISSING
+        store.file.flush()
+    return np.union1d(np.flatnonzero(status == STATUS_MISSING),
+                      np.asarray(again, dtype=np.int64)).astype(np.int64)
+
+
+def nothing_left(store: Any, names: list[str]) -> bool:
+    """Whether every simulated path of ``names`` has all its runs done for good."""
+    return all(not store.has_runs(name) or runs_to_simulate(store, name).size == 0
+               for name in names)
+
+
+def resume_command(source: Any, output: Any, runs: Any, seed: Any) -> str:
+    """The command that continues this campaign into the same results file."""
+    return f"idefix-verify {source} --resume --out {output} --runs {runs} --seed {seed}"

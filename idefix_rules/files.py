@@ -1,0 +1,53 @@
+"""Writing output files so that a reader never sees half of one, and keeping the last one.
+
+>>> import tempfile, pathlib
+>>> folder = pathlib.Path(tempfile.mkdtemp())
+>>> write_atomic(folder / "summary.json", "{}\\n")
+>>> set_aside(folder / "summary.json")
+[PosixPath('.../summary.previous.json')]
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+
+def previous_path(path: Path) -> Path:
+    """Where :func:`set_aside` keeps ``path``: ``name.previous.ext`` beside it."""
+    return path.with_name(f"{path.stem}.previous{path.suffix}")
+
+
+def write_atomic(path: Path, data: str | bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``: a
+    kill or a full disk leaves the old file or the new one, never a part."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data.encode("utf-8") if isinstance(data, str) else data)
+        os.chmod(temporary, 0o666 & ~_umask())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    current = os.umask(0o022)
+    os.umask(current)
+    return current
+
+
+def set_aside(*paths: Path | None) -> list[Path]:
+    """Rename each existing file to its :func:`previous_path` (replacing an older copy), so no
+    output of an earlier run stays where this run's will be. Returns the new names."""
+    moved = []
+    for path in paths:
+        if path is not None and Path(path).is_file():
+            target = previous_path(Path(path))
+            os.replace(path, target)
+            moved.append(target)
+    return moved

@@ -1,0 +1,70 @@
+"""How large an input file may be: larger ones are refused at once (exit 2), before any of it
+is read, so a damaged or generated file cannot exhaust memory or time.
+
+The limits are far above what the files are for (the operations rulebook is 7 kB, a campaign
+3 kB) and below what parses in a few seconds; what is accepted is parsed in time linear in its
+size. ``docs/operations.md`` lists them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from idefix_rules.errors import Span, UserInputError, error
+
+MAX_RULEBOOK_BYTES = 128 * 1024  # 18 times the operations rulebook
+MAX_RULEBOOK_LINE = 20_000  # characters; the formatter writes lines of at most 100
+MAX_CAMPAIGN_BYTES = 256 * 1024
+# A terrain file is a short text header (rocks included) and nx*ny float64 heights; the FMU
+# reads at most 16 million nodes (fmu/terrain.py MAX_NODES).
+MAX_TERRAIN_HEADER_BYTES = 1024 * 1024
+MAX_NPY_DEM_BYTES = 16_000_000 * 8 + 64 * 1024
+MAX_CSV_DEM_BYTES = 64 * 1024 * 1024
+
+RULEBOOK_TOO_LARGE = "E900"
+RULEBOOK_LINE_TOO_LONG = "E901"
+NOT_A_RULEBOOK = "E902"
+CAMPAIGN_TOO_LARGE = "C600"
+TERRAIN_TOO_LARGE = "C601"
+
+
+def size_text(size: int) -> str:
+    """``262144`` → ``'256 KiB'``."""
+    for unit, scale in (("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if size >= scale:
+            return f"{size / scale:.3g} {unit}"
+    return f"{size} bytes"
+
+
+def check_file_size(path: str | Path, limit: int, code: str, what: str) -> None:
+    """Refuse a file larger than ``limit`` bytes (a missing file is left to the reader)."""
+    try:
+        size = Path(path).stat().st_size
+    except OSError:
+        return
+    if size > limit:
+        raise UserInputError(error(code, f"{what} {path} is {size_text(size)}; at most "
+                                         f"{size_text(limit)} is accepted", Span(str(path)),
+                                   hint="is this the file you meant? (limits: "
+                                        "docs/operations.md)"))
+
+
+def check_rulebook_text(text: str, path: str) -> None:
+    """Refuse rulebook text that is too large or has an overlong line (stored text too)."""
+    if len(text) > MAX_RULEBOOK_BYTES:
+        raise UserInputError(error(
+            RULEBOOK_TOO_LARGE, f"rulebook {path} has {len(text)} characters; at most "
+            f"{size_text(MAX_RULEBOOK_BYTES)} is accepted", Span(path)))
+    line_number, start = 1, 0
+    while True:
+        end = text.find("\n", start)
+        stop = len(text) if end < 0 else end
+        if stop - start > MAX_RULEBOOK_LINE:
+            raise UserInputError(error(
+                RULEBOOK_LINE_TOO_LONG, f"line {line_number} has {stop - start} characters; a "
+                f"rulebook line may have at most {MAX_RULEBOOK_LINE}",
+                Span(path, line_number, 1),
+                hint="split a long expression into named constants or derived values"))
+        if end < 0:
+            return
+        line_number, start = line_number + 1, end + 1
