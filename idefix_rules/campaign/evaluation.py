@@ -183,7 +183,8 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
 def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
                    required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
     extra = set(POSE_SIGNALS) if poses else set()
-    keys = None if required is None else sorted(required | extra | {"command", "done", "energy", "t"})
+    optional = {"command", "done", "energy", "t"}  # used when stored
+    keys = None if required is None else sorted(required | extra | optional)
     start, stop = int(rows[0]), int(rows[-1]) + 1
     chunk = store.read_runs(name, slice(start, stop), keys)
     if stop - start == len(rows):  # no gaps: the chunk as read

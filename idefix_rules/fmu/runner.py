@@ -236,8 +236,8 @@ class FmuRunner:
                 raise UserInputError(error(
                     "F401", f"'{fmu_name}' is a {variable.type}; a signal needs a Real, Integer, "
                     "Boolean or Enumeration output", Span(str(self.fmu_path))))
-            outputs.append((variable, _Slot(base, index, output_scale(variable, base, Span(str(self.fmu_path))),
-                                            base == DONE_SIGNAL)))
+            scale = output_scale(variable, base, Span(str(self.fmu_path)))
+            outputs.append((variable, _Slot(base, index, scale, base == DONE_SIGNAL)))
         for name in extra:
             variable = self._variables.get(name)
             if variable is None:
@@ -258,7 +258,8 @@ class FmuRunner:
                 raise UserInputError(error(
                     "F402", f"'{setpoint}' is not a set-point; one of "
                     f"{', '.join(SETPOINTS)}", Span(str(self.fmu_path))))
-            self._inputs.append((variable, setpoint, input_scale(variable, setpoint, Span(str(self.fmu_path)))))
+            scale = input_scale(variable, setpoint, Span(str(self.fmu_path)))
+            self._inputs.append((variable, setpoint, scale))
 
     def _fmu_name(self, name: str) -> str:
         return self.parameter_map.get(name, name)
