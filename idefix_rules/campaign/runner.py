@@ -23,6 +23,7 @@ from idefix_rules.campaign.evaluation import (
     collision_function,
     evaluate_store,
 )
+from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.schema import CampaignFile
 from idefix_rules.campaign.simulate import (
@@ -35,9 +36,7 @@ from idefix_rules.campaign.simulate import (
 )
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.validate import (
-    check_parameters,
     check_rocks_on_terrain,
-    check_signal_map,
     check_simulation_size,
     prepare_output,
 )
@@ -98,14 +97,17 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     started = time.perf_counter()
     evaluator = compile_rulebook_file(campaign.rulebook)
     fmu_path = resolve_fmu(campaign)
-    variables = check_parameters(campaign, fmu_path)
-    check_signal_map(campaign, evaluator.required_signals)
+    mapping = check_fmu(campaign, fmu_path, evaluator)
+    warnings = describe_warnings(mapping.warnings, {str(campaign.source): campaign.text})
+    for text in warnings:
+        if progress is not None:
+            progress.message(f"warning: {text}")
     check_simulation_size(campaign)
     prepare_output(campaign)
     fixed: dict[str, float | str] = {}
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
-    if campaign.fmu is None or TERRAIN_PARAMETER in variables:
+    if mapping.terrain_input:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
     try:
@@ -127,7 +129,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     finally:
         store.close()
     evaluated = time.perf_counter()
-    result.warnings.extend(simulation.warnings)
+    result.warnings.extend(warnings + simulation.warnings)
     if report:
         result.report = write_report(result.results, campaign.output)
     result.timings = {"preparation_and_simulation": simulated - started,

@@ -378,7 +378,8 @@ class FmuRunner:
             else:
                 failure = instance.step(k * output_interval, output_interval)
             if failure is not None:
-                raise InfrastructureError(f"{self.fmu_path.name}: doStep failed at t = "
+                call = "fmi3DoStep" if instance.fmi3 else "fmi2DoStep"
+                raise InfrastructureError(f"{self.fmu_path.name}: {call} failed at t = "
                                           f"{k * output_interval:g} s ({failure})"
                                           f"{self._log_detail()}")
             for read, base, row_bytes in reads:
