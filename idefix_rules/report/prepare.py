@@ -178,6 +178,7 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
             bounds = [min(bounds[0], np.nanmin(x)), max(bounds[1], np.nanmax(x)),
                       min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
 
+    setup.notes += missing_signal_notes(store, data)
     for path in data.paths:
         reference = store.reference(path.name)
         if reference is not None and "x" in reference and "y" in reference:
@@ -229,8 +230,29 @@ def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
     derived = DerivedSignals(signals, context, DerivedSettings(
         theoretical_slip=float(settings.get("theoretical_slip", 0.0)),
         tolerance_growth=float(settings.get("tolerance_growth", 0.0))))
-    return (np.asarray(derived.get("local_error"))[:, -1],
-            np.asarray(derived.get("heading_error"))[:, -1])
+    local = np.asarray(derived.get("local_error"))[:, -1]
+    if "yaw" not in signals or context.reference is None or "yaw" not in context.reference:
+        return local, np.full(local.shape, np.nan)  # a foreign FMU need not give yaw
+    return local, np.asarray(derived.get("heading_error"))[:, -1]
+
+
+# What the report draws from each optional signal, to name what a foreign FMU's runs lack.
+OPTIONAL_SIGNALS = {"yaw": "the final heading error box plot is not drawn",
+                    "energy": "Table 1 shows no energy",
+                    "command": "a run's time is its stop time"}
+
+
+def missing_signal_notes(store: ResultStore, data: ReportData) -> list[str]:
+    """One note per optional signal the stored runs lack, saying what is not drawn."""
+    stored: set[str] = set()
+    for path in data.paths:
+        reference = store.reference(path.name)
+        stored |= set(reference or ())
+    if not stored:
+        return []
+    return [f"the runs hold no '{name}' (the FMU's signal map does not provide it): {what}"
+            for name, what in OPTIONAL_SIGNALS.items()
+            if name not in stored and not (name == "command" and "done" in stored)]
 
 
 def _context(store: ResultStore, name: str, setup: Setup) -> Any:
@@ -248,6 +270,7 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     required = sorted(set(getattr(setup.evaluator, "required_signals", ()) or ())
                       | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"})
+    setup.notes += missing_signal_notes(store, data)
     for path in data.paths:
         reference = store.reference(path.name)
         if reference is not None and "x" in reference:
@@ -267,7 +290,8 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
         per_path[path.name] = accumulator
         if local:
             path.final_local_error = np.concatenate(local)
-            path.final_heading_error = np.concatenate(heading)
+            headings = np.concatenate(heading)
+            path.final_heading_error = None if np.isnan(headings).all() else headings
     combined = RiskAccumulator(grid)
     for accumulator in per_path.values():
         combined.merge(accumulator)
