@@ -353,7 +353,8 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     result.risk_ci = (float(risk.low), float(risk.high))
     result.chances = {str(k): float(v.value) for k, v in stats.chances.items()}
     result.collision_chance = collision_chances(result.chances)
-    result.energy = _float(stats.energy.value)
+    energy = _float(stats.energy.value)  # NaN: the FMU provides no 'energy'
+    result.energy = energy if energy is not None and energy == energy else None
     result.time = _float(stats.time.value)
     counts = dict(getattr(stats, "dominant_counts", {}) or {})
     result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \
