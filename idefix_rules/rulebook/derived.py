@@ -262,10 +262,14 @@ class DerivedSignals:
         return active, turned
 
     def _start_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # Without 'yaw' (a planar model may report position only) the path starts along +x,
+        # the start frame of the signal contract.
         if self.context.reference is not None:
-            return (self.get("ref.x")[:, :1], self.get("ref.y")[:, :1],
-                    self.get("ref.yaw")[:, :1])
-        return self.get("x")[:, :1], self.get("y")[:, :1], self.get("yaw")[:, :1]
+            x, y = self.get("ref.x")[:, :1], self.get("ref.y")[:, :1]
+            has_yaw = "yaw" in self.context.reference
+            return x, y, self.get("ref.yaw")[:, :1] if has_yaw else np.zeros_like(x)
+        x, y = self.get("x")[:, :1], self.get("y")[:, :1]
+        return x, y, self.get("yaw")[:, :1] if self.provides("yaw") else np.zeros_like(x)
 
     def _theory(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         active, since = self._command_progress()

@@ -1,0 +1,104 @@
+"""Whole campaigns on FMUs other exporters built (bring your own FMU), through the CLI: a
+position-only FMI 2.0 model, an FMI 3.0 model with units, and a model without a chain."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli import main
+
+POSITION_RULEBOOK = """\
+rulebook "position-only" version "1.0.0"
+purpose "Scores where the rover ends, from its position alone"
+
+index I_end "final distance to the commanded path" {
+  value  = final over time (local_error)
+  limit  = 5 cm
+  weight = 1
+  because "The target must be reached within 5 cm"
+}
+
+verdict close_enough: require risk <= 50 %
+  because "Mean risk limit"
+"""
+
+UNICYCLE_CAMPAIGN = """\
+name: unicycle
+fmu:
+  path: Unicycle.fmu
+  signals:
+    px: x
+    py: y
+  parameters:
+    x0: initial.x
+  chain:
+    delivery: inputs
+    inputs:
+      v: body.speed
+      w: body.yaw_rate
+rulebook: position.rules
+output: out
+runs: 8
+workers: 2
+uncertainty:
+  seed: 3
+  parameters:
+    initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}
+    slip: {distribution: uniform, low: 0.0, high: 0.08}
+paths:
+  short:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.2 m", delta_heading: "0 deg"}
+  long:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "1.2 m", delta_heading: "0 deg"}
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0 m", delta_heading: "30 deg"}
+simulation:
+  output_interval: "1 s"
+  extra_time: "5 s"
+"""
+
+
+def _campaign(folder: Path, fmu: Path, text: str, rules: str = POSITION_RULEBOOK) -> Path:
+    (folder / fmu.name).write_bytes(fmu.read_bytes())
+    (folder / "position.rules").write_text(rules, encoding="utf-8")
+    (folder / "campaign.yaml").write_text(text, encoding="utf-8")
+    return folder / "campaign.yaml"
+
+
+def _run(campaign: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str]:
+    code = main([str(campaign), "--quiet", *extra])
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert "Traceback" not in output
+    return code, " ".join(output.split())
+
+
+def test_a_position_only_fmu_runs_a_campaign_scored_on_position_with_a_report(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    campaign = _campaign(tmp_path, unicycle_fmu, UNICYCLE_CAMPAIGN)
+    code, output = _run(campaign, capsys)
+    # the long path drifts by up to 8 % of 1.2 m: beyond 5 cm in most runs; the short one
+    # stays within it
+    assert code == 1, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    verdicts = {path["name"]: path["verdict"] for path in summary["paths"]}
+    assert verdicts == {"short": "pass", "long": "fail"}
+    assert "warning: " in output and "[C506]" in output and "[C513]" in output
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "risk_map_short.png" in report
+    for missing in ("'yaw'", "'energy'", "'command'"):
+        assert f"the runs hold no {missing}" in report.replace("&#x27;", "'"), missing
+
+
+def test_without_command_a_mapped_phase_gives_the_run_time(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN.replace("    py: y\n", "    py: y\n    phase: done\n  done_at: 2\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    assert code == 1, output
+    assert "[C513]" not in output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    times = {path["name"]: path["time_s"] for path in summary["paths"]}
+    # 0.2 m at 5 mm/s: 40 s, done at the end of the first idle 1 s step; the stop time is 57 s
+    assert times["short"] == pytest.approx(41.0)
