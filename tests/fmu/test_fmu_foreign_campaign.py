@@ -102,3 +102,84 @@ def test_without_command_a_mapped_phase_gives_the_run_time(
     times = {path["name"]: path["time_s"] for path in summary["paths"]}
     # 0.2 m at 5 mm/s: 40 s, done at the end of the first idle 1 s step; the stop time is 57 s
     assert times["short"] == pytest.approx(41.0)
+
+
+DIFF_DRIVE_CAMPAIGN = """\
+name: diff-drive
+fmu:
+  path: DiffDrive.fmu
+  signals:
+    pos_x: x
+    pos_y: y
+    psi: yaw
+    arrived: done
+  chain:
+    delivery: inputs
+    inputs:
+      omega_l: wheel.rate[FL]
+      omega_r: wheel.rate[FR]
+rulebook: position.rules
+output: out
+runs: 4
+workers: 1
+uncertainty:
+  seed: 1
+  parameters:
+    slip: {distribution: uniform, low: 0.0, high: 0.05}
+paths:
+  arc:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.3 m", delta_heading: "20 deg"}
+simulation:
+  output_interval: "0.5 s"
+  extra_time: "5 s"
+"""
+
+
+def test_an_fmi3_fmu_with_units_runs_a_campaign(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, output = _run(_campaign(tmp_path, diff_drive_fmu, DIFF_DRIVE_CAMPAIGN), capsys)
+    assert code == 0, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (path,) = summary["paths"]
+    assert path["verdict"] == "pass" and path["completed_runs"] == 4
+    assert path["energy_mAs"] is None
+    # ideal duration of the arc: its outer wheels travel 0.3 + 0.26·20° m at 5 mm/s
+    ideal = (0.3 + 0.26 * 0.349065850) / 0.005
+    assert ideal < path["time_s"] <= ideal + 1.0
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    assert "the runs hold no 'energy'" in report and "no 'yaw'" not in report
+
+
+def test_a_model_that_takes_no_chain_runs_with_delivery_none(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN.replace("""    delivery: inputs
+    inputs:
+      v: body.speed
+      w: body.yaw_rate
+""", "    delivery: none\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    # the rover never moves: every run ends the commanded distance away from the target
+    assert code == 1, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {p["name"]: p["verdict"] for p in summary["paths"]} == {"short": "fail",
+                                                                  "long": "fail"}
+
+
+def test_foreign_fmu_runs_are_the_same_on_one_and_two_workers(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import h5py
+    import numpy as np
+
+    stored = []
+    for workers in ("1", "2"):
+        folder = tmp_path / workers
+        folder.mkdir()
+        code, output = _run(_campaign(folder, diff_drive_fmu, DIFF_DRIVE_CAMPAIGN), capsys,
+                            "--workers", workers, "--no-report")
+        assert code == 0, output
+        with h5py.File(folder / "out" / "results.h5") as results:
+            signals = results["paths/arc/runs/signals"]
+            stored.append({name: signals[name][()] for name in signals})
+    assert sorted(stored[0]) == ["done", "t", "x", "y", "yaw"]
+    for name, values in stored[0].items():
+        np.testing.assert_array_equal(values, stored[1][name], err_msg=name)
