@@ -89,7 +89,8 @@ def _fmu_loc(campaign: Campaign) -> Loc:
 
 
 def _did_you_mean(name: str, known: Iterable[str]) -> str | None:
-    close = difflib.get_close_matches(name, list(known), n=1)
+    # FMU variable names are often short ('px', 'v'): a lower cut-off than difflib's 0.6
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
     return f"did you mean {close[0]!r}?" if close else None
 
 
@@ -158,8 +159,10 @@ def _signal_entry(campaign: Campaign, description: FmuDescription, fmu_name: str
     fmu_file = description.path.name
     variable = description.variables.get(fmu_name)
     if variable is None:
+        outputs = [v.name for v in description.variables.values() if v.causality == "output"]
         return [error("C401", f"{where}: unknown FMU variable {fmu_name!r} in {fmu_file}",
-                      _span(campaign, loc), _did_you_mean(fmu_name, description.variables))]
+                      _span(campaign, loc),
+                      _did_you_mean(fmu_name, outputs or description.variables))]
     base, _, rest = target.partition("[")
     spec = FMU_SIGNALS.get(base)
     value_span = _span(campaign, loc, at_key=False)

@@ -5,7 +5,8 @@ variable names, types and units of their own, as a flight team's model would hav
 
 * ``Unicycle`` (FMI 2.0): inputs ``v`` (body speed) and ``w`` (yaw rate), parameters ``x0``,
   ``y0`` and ``slip``; outputs ``px``, ``py`` (Real), ``heading`` (Real), ``phase`` (Integer:
-  0 waiting, 1 driving, 2 stopped after driving), ``label`` (String).
+  0 waiting, 1 driving, 2 stopped after driving), ``label`` (String); a String parameter
+  ``site``.
 * ``DiffDrive`` (FMI 3.0): inputs ``omega_l``, ``omega_r`` (wheel rates, rad/s), parameters
   ``track`` and ``radius`` (m), ``slip``; outputs ``pos_x``, ``pos_y`` in mm (Float64),
   ``psi`` (rad), ``arrived`` (Boolean), ``steps`` (Int32).
@@ -36,6 +37,7 @@ class Unicycle(Fmi2Slave):
         self.heading = 0.0
         self.phase = 0
         self.label = "unicycle"
+        self.site = "phobos"
         self.started = False
         for name in ("v", "w"):
             self.register_variable(Real(name, causality=Fmi2Causality.input))
@@ -48,6 +50,8 @@ class Unicycle(Fmi2Slave):
                                        variability=Fmi2Variability.discrete))
         self.register_variable(String("label", causality=Fmi2Causality.output,
                                       variability=Fmi2Variability.discrete))
+        self.register_variable(String("site", causality=Fmi2Causality.parameter,
+                                      variability=Fmi2Variability.tunable))
 
     def exit_initialization_mode(self):
         self.px, self.py = self.x0, self.y0
