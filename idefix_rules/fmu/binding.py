@@ -54,13 +54,8 @@ class OutputGroup:
     count: int
     dtype: Any
     positions: list[int]  # columns of these outputs in the runner's slot order
-    fmi3: bool
+    fmi3: bool  # FMI 3.0 getters take the number of values as a fifth argument
 
-    def read(self, component: Any, address: int) -> int:
-        """Read all outputs of the group into the row at ``address``; the FMI status."""
-        if self.fmi3:
-            return int(self.function(component, self.refs, self.count, address, self.count))
-        return int(self.function(component, self.refs, self.count, address))
 
 
 class FmuInstance:

@@ -363,10 +363,12 @@ class FmuRunner:
         except FMICallException as exc:
             raise self._initialisation_error(exc) from None
         component = instance.component
-        reads = [(group.read, buffer.ctypes.data, buffer.strides[0])
+        # The raw getter calls, unpacked once: this loop runs for every communication step.
+        reads = [(group.function, group.refs, group.count, buffer.ctypes.data,
+                  buffer.strides[0], (group.count,) if group.fmi3 else ())
                  for group, buffer in zip(self._groups, buffers, strict=True)]
-        for read, base, _ in reads:
-            if read(component, base) not in OK_STATUSES:
+        for get, refs, count, base, _, tail in reads:
+            if get(component, refs, count, base, *tail) not in OK_STATUSES:
                 raise self._read_error(0.0)
         do_step = self._do_step
         for k in range(steps):
@@ -382,8 +384,9 @@ class FmuRunner:
                 raise InfrastructureError(f"{self.fmu_path.name}: {call} failed at t = "
                                           f"{k * output_interval:g} s ({failure})"
                                           f"{self._log_detail()}")
-            for read, base, row_bytes in reads:
-                if read(component, base + (k + 1) * row_bytes) not in OK_STATUSES:
+            for get, refs, count, base, row_bytes, tail in reads:
+                if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
+                        not in OK_STATUSES:
                     raise self._read_error((k + 1) * output_interval)
         return self._collect(buffers, steps, output_interval)
 
