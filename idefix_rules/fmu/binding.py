@@ -57,7 +57,6 @@ class OutputGroup:
     fmi3: bool  # FMI 3.0 getters take the number of values as a fifth argument
 
 
-
 class FmuInstance:
     """An instantiated co-simulation FMU (FMI 2.0 or 3.0), reset between runs."""
 
