@@ -144,5 +144,11 @@ def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping
              what: str, fmu_path: Path) -> Diagnostic:
     close = difflib.get_close_matches(name, list(known), n=1)
     hint = f"did you mean {close[0]!r}?" if close else None
+    if hint is None and what == "FMU parameter":
+        # `fmpy info` lists inputs and outputs only: name the parameters there are
+        names = [n for n in known if n]
+        listing = ", ".join(names[:8]) + (" …" if len(names) > 8 else "")
+        hint = (f"settable variables of {fmu_path.name}: {listing or 'none'}; or map one to "
+                f"this name: fmu.parameters: {{its_name: {name}}}")
     return error("C401", f"{format_loc(loc)}: unknown {what} {name!r} in {fmu_path.name}",
                  campaign.locations.span(loc, at_key=True), hint)

@@ -183,3 +183,29 @@ def test_foreign_fmu_runs_are_the_same_on_one_and_two_workers(
     assert sorted(stored[0]) == ["done", "t", "x", "y", "yaw"]
     for name, values in stored[0].items():
         np.testing.assert_array_equal(values, stored[1][name], err_msg=name)
+
+
+def test_the_bring_your_own_fmu_guide_runs_as_it_says(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import re
+
+    guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
+    first, fixed = re.findall(r"```yaml\n(.*?)```", guide, re.S)[:2]
+    (rules,) = re.findall(r"```rules\n(.*?)```", guide, re.S)
+    shown = re.findall(r"```console\n\$ idefix-verify campaign.yaml\n(.*?)\$ echo", guide, re.S)[0]
+    (tmp_path / "rover.fmu").write_bytes(unicycle_fmu.read_bytes())
+    (tmp_path / "position.rules").write_text(rules)
+    (tmp_path / "campaign.yaml").write_text(first)
+    code, output = _run(tmp_path / "campaign.yaml", capsys)
+    assert code == 2
+    heads = re.findall(r"^campaign\.yaml:\d+:\d+: \w+\[\w+\]: .*$", shown, re.M)
+    assert len(heads) == 5
+    for head in heads:
+        assert " ".join(head.split()) in output, head
+    assert not (tmp_path / "results").exists()
+    (tmp_path / "campaign.yaml").write_text(fixed)
+    code, output = _run(tmp_path / "campaign.yaml", capsys)
+    assert code == 0, output
+    summary = json.loads((tmp_path / "results" / "summary.json").read_text())
+    risks = {p["name"]: round(100 * p["mean_risk"], 1) for p in summary["paths"]}
+    assert risks == {"straight": 24.2, "arc": 29.4}  # the table the guide shows
