@@ -75,6 +75,15 @@ MISTAKES = [
     Mistake("a-signal-the-rulebook-reads-is-not-mapped", "unicycle", (), (
         ("signals:", "C405", "fmu.signals: the rulebook reads 'wheel.slip', which the signal "
          "map does not provide"),), SLIP_RULEBOOK),
+    Mistake("no-signal-map-and-no-variables-named-like-signals", "unicycle",
+            (("  signals:\n    px: x\n    py: y\n", ""),),
+            (("path: Unicycle.fmu", "C405", "the rulebook reads 'x', 'y', which Unicycle.fmu has "
+              "no variable of that name for (and the campaign gives no fmu.signals map)"),)),
+    Mistake("a-parameter-value-of-the-wrong-dimension", "diff_drive",
+            (("    slip: {", '    track: {distribution: uniform, low: "10 deg", high: "20 deg"}'
+              "\n    slip: {"),),
+            (('{distribution: uniform, low: "10 deg"', "C402",
+              "uncertainty.parameters.track: expected a length (FMU unit m), got an angle"),)),
     Mistake("collisions-without-a-pose", "unicycle", (), (
         ("signals:", "C512", "the rulebook reads collisions, which place the rover's bodies by "
          "its pose, but the map does not provide 'pitch', 'roll', 'yaw', 'z'"),),
