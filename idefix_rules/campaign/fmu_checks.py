@@ -3,7 +3,8 @@
 :func:`check_fmu` reads the FMU's model description and runs small passes, each returning
 diagnostics located at the campaign line that says the wrong thing:
 
-* ``fmu_interface``: FMI 2.0 or 3.0 co-simulation (C400, stops here when not);
+* ``fmu_interface``: FMI 2.0 or 3.0, co-simulation or model exchange (C400, stops here when
+  not);
 * ``parameter_problems`` (:mod:`idefix_rules.campaign.validate`): parameter names, settable,
   dimensions (C401, C402, C504, C505);
 * ``signal_problems``: every mapped output exists (did you mean), is an output, has a type a
@@ -103,16 +104,15 @@ def fmu_interface(campaign: Campaign, fmu_path: Path) -> FmuDescription:
         reason = failure.diagnostics[0].message.removeprefix("not a readable FMU: ")
         raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({reason})", span),
                              sources={str(campaign.source): campaign.text}) from None
-    if description.major in (2, 3) and description.co_simulation is not None:
-        return description
+    if description.major in (2, 3) and (description.co_simulation or description.model_exchange):
+        return description  # model exchange only: fmpy's solver integrates it
     kinds = ", ".join(kind for kind, part in (("co-simulation", description.co_simulation),
                                               ("model exchange", description.model_exchange))
                       if part)
     raise UserInputError(error(
         "C400", f"{fmu_path}: an FMI {description.fmi_version} FMU for {kinds or 'nothing'}; "
-                "the campaign runner needs FMI 2.0 or 3.0 co-simulation", span,
-        hint="export the model as an FMI 2.0 or 3.0 co-simulation FMU (model exchange needs "
-             "a solver the campaign does not run)"),
+                "the campaign runner needs FMI 2.0 or 3.0 co-simulation or model exchange",
+        span, hint="export the model as an FMI 2.0 or 3.0 co-simulation FMU"),
         sources={str(campaign.source): campaign.text})
 
 

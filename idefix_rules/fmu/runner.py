@@ -31,8 +31,9 @@ import numpy as np
 
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
-from idefix_rules.fmu.binding import OK_STATUSES, FmuInstance
+from idefix_rules.fmu.binding import OK_STATUSES, FmuInstance, OutputGroup
 from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu
+from idefix_rules.fmu.exchange import simulate_model_exchange
 from idefix_rules.fmu.setpoints import SETPOINTS, chain_setpoints
 from idefix_rules.fmu.terrain import read_terrain
 from idefix_rules.signals import AXIS_LABELS, FMU_SIGNALS
@@ -158,12 +159,14 @@ class FmuRunner:
         self.description = describe_fmu(source)
         if self.description.major not in (2, 3):
             raise UserInputError(error("F103", f"FMI {self.description.fmi_version} FMU; the "
-                                       "runner supports FMI 2.0 and 3.0 co-simulation",
+                                       "runner supports FMI 2.0 and 3.0",
                                        Span(str(self.fmu_path))))
-        if self.description.co_simulation is None:
+        if self.description.co_simulation is None and self.description.model_exchange is None:
             raise UserInputError(error(
-                "F103", "the FMU has no co-simulation interface (model exchange only)",
-                Span(str(self.fmu_path)), hint="export the model as a co-simulation FMU"))
+                "F103", "the FMU has neither a co-simulation nor a model-exchange interface",
+                Span(str(self.fmu_path))))
+        # Co-simulation when the FMU has it; else model exchange with fmpy's solver.
+        self.model_exchange = self.description.co_simulation is None
         self._variables = self.description.variables
         self.signal_map = dict(signal_map) if signal_map is not None else \
             default_signal_map(self.description, source)
@@ -176,16 +179,20 @@ class FmuRunner:
         # Only a folder the runner extracted itself is removed on close.
         self._owns_unzipdir = unzipped is None
         self._unzipdir = extract_fmu(self.fmu_path) if unzipped is None else Path(unzipped)
-        try:
-            self._instance = FmuInstance(self.description, str(self._unzipdir), "idefix")
-        except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
-            self._remove_unzipdir()
-            raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
-                from None
-        self._slave = self._instance.slave
-        self._log = self._instance.log
-        self._do_step = self._instance.do_step
-        self._groups = self._instance.output_groups([v for v, _ in self._outputs])
+        self._log: list[str] = []
+        self._instance: FmuInstance | None = None
+        self._groups: list[OutputGroup] = []
+        if not self.model_exchange:
+            try:
+                self._instance = FmuInstance(self.description, str(self._unzipdir), "idefix")
+            except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
+                self._remove_unzipdir()
+                raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
+                    from None
+            self._slave = self._instance.slave
+            self._log = self._instance.log
+            self._do_step = self._instance.do_step
+            self._groups = self._instance.output_groups([v for v, _ in self._outputs])
         self._runs = 0
         self._closed = False
         self._checked_terrain: tuple[str, int, int] | None = None
@@ -349,6 +356,12 @@ class FmuRunner:
 
         steps = round(stop_time / output_interval)
         feed = self._input_rows(chain, rover or RoverGeometry(), output_interval, steps)
+        if self._instance is None:  # model exchange: fmpy's solver, a new instance per run
+            self._runs += 1
+            columns = simulate_model_exchange(
+                self._unzipdir, self.fmu_path.name, self._start_values(parameters, chain), feed,
+                [variable for variable, _ in self._outputs], steps, output_interval)
+            return self._collect(columns, steps, output_interval)
         buffers = [np.empty((steps + 1, group.count), dtype=group.dtype)
                    for group in self._groups]
         self._log.clear()
@@ -388,7 +401,11 @@ class FmuRunner:
                 if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
                         not in OK_STATUSES:
                     raise self._read_error((k + 1) * output_interval)
-        return self._collect(buffers, steps, output_interval)
+        read: list[np.ndarray] = [np.empty(0)] * len(self._outputs)
+        for group, buffer in zip(self._groups, buffers, strict=True):
+            for offset, position in enumerate(group.positions):
+                read[position] = buffer[:, offset]
+        return self._collect(read, steps, output_interval)
 
     def _read_error(self, time: float) -> InfrastructureError:
         return InfrastructureError(f"{self.fmu_path.name}: reading the outputs failed at "
@@ -406,12 +423,9 @@ class FmuRunner:
             rows.append((variable, series))
         return rows
 
-    def _collect(self, buffers: list[np.ndarray], steps: int,
+    def _collect(self, columns: list[np.ndarray], steps: int,
                  interval: float) -> dict[str, np.ndarray]:
-        columns: list[np.ndarray] = [np.empty(0)] * len(self._outputs)
-        for group, buffer in zip(self._groups, buffers, strict=True):
-            for offset, position in enumerate(group.positions):
-                columns[position] = buffer[:, offset]
+        """Signals by contract name from the outputs' columns (slot order), SI, float64."""
         signals: dict[str, np.ndarray] = {}
         wheels: dict[str, np.ndarray] = {}
         for (_, slot), column in zip(self._outputs, columns, strict=True):
@@ -441,7 +455,8 @@ class FmuRunner:
             return
         self._closed = True
         try:
-            self._instance.close()
+            if self._instance is not None:
+                self._instance.close()
         finally:
             self._remove_unzipdir()
 

@@ -39,3 +39,11 @@ def diff_drive_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from foreign_fmus import build_diff_drive
 
     return build_diff_drive(tmp_path_factory.mktemp("diff-drive"))
+
+
+@pytest.fixture(scope="session")
+def planar_me_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An FMI 3.0 model-exchange-only FMU exported by pythonfmu3."""
+    from foreign_fmus import build_planar_me
+
+    return build_planar_me(tmp_path_factory.mktemp("planar-me"))

@@ -1,7 +1,8 @@
 """FMUs this project did not write the FMI side of, built at test time by exporters from the
 package registry: ``pythonfmu`` (FMI 2.0 co-simulation) and ``pythonfmu3`` (FMI 3.0
-co-simulation). Their models are small planar kinematic rovers written in Python below, with
-variable names, types and units of their own, as a flight team's model would have.
+co-simulation and model exchange). Their models are small planar kinematic rovers written in
+Python below, with variable names, types and units of their own, as a flight team's model
+would have.
 
 * ``Unicycle`` (FMI 2.0): inputs ``v`` (body speed) and ``w`` (yaw rate), parameters ``x0``,
   ``y0`` and ``slip``; outputs ``px``, ``py`` (Real), ``heading`` (Real), ``phase`` (Integer:
@@ -10,6 +11,8 @@ variable names, types and units of their own, as a flight team's model would hav
 * ``DiffDrive`` (FMI 3.0): inputs ``omega_l``, ``omega_r`` (wheel rates, rad/s), parameters
   ``track`` and ``radius`` (m), ``slip``; outputs ``pos_x``, ``pos_y`` in mm (Float64),
   ``psi`` (rad), ``arrived`` (Boolean), ``steps`` (Int32).
+* ``PlanarME`` (FMI 3.0 model exchange only): inputs ``v``, ``w``; states and outputs ``px``,
+  ``py``, ``psi`` integrated by the importer (fmpy's CVode).
 """
 
 from __future__ import annotations
@@ -142,4 +145,56 @@ def build_diff_drive(folder: Path) -> Path:
 
     script = folder / "diff_drive.py"
     script.write_text(DIFF_DRIVE, encoding="utf-8")
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+PLANAR_ME = '''
+import math
+from typing import List
+from pythonfmu3 import (Fmi3Causality, Fmi3Variability, Fmi3Initial, Fmi3SlaveBase,
+                        ModelExchange, Float64)
+
+
+class PlanarME(Fmi3SlaveBase, ModelExchange):
+    """States px, py, psi integrated by the importer's solver from inputs v and w."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.description = "planar kinematic rover, model exchange"
+        self.time = 0.0
+        self.v = 0.0
+        self.w = 0.0
+        self.px = 0.0
+        self.py = 0.0
+        self.psi = 0.0
+        self.der_px = 0.0
+        self.der_py = 0.0
+        self.der_psi = 0.0
+        self.register_variable(Float64("time", causality=Fmi3Causality.independent,
+                                       variability=Fmi3Variability.continuous))
+        for name in ("v", "w"):
+            self.register_variable(Float64(name, causality=Fmi3Causality.input, start=0.0))
+        for name in ("px", "py", "psi"):  # value references 3, 4, 5
+            self.register_variable(Float64(name, causality=Fmi3Causality.output, start=0.0,
+                                           variability=Fmi3Variability.continuous,
+                                           initial=Fmi3Initial.exact))
+        for index, name in enumerate(("der_px", "der_py", "der_psi")):
+            self.register_variable(Float64(name, causality=Fmi3Causality.local,
+                                           variability=Fmi3Variability.continuous,
+                                           derivative=3 + index))
+
+    def get_continuous_state_derivatives(self) -> List[float]:
+        self.der_px = self.v * math.cos(self.psi)
+        self.der_py = self.v * math.sin(self.psi)
+        self.der_psi = self.w
+        return [self.der_px, self.der_py, self.der_psi]
+'''
+
+
+def build_planar_me(folder: Path) -> Path:
+    """``PlanarME.fmu`` (FMI 3.0 model exchange only) built by pythonfmu3 into ``folder``."""
+    from pythonfmu3.builder import FmuBuilder
+
+    script = folder / "planar_me.py"
+    script.write_text(PLANAR_ME, encoding="utf-8")
     return Path(FmuBuilder.build_FMU(script, dest=folder))

@@ -209,3 +209,19 @@ def test_the_bring_your_own_fmu_guide_runs_as_it_says(
     summary = json.loads((tmp_path / "results" / "summary.json").read_text())
     risks = {p["name"]: round(100 * p["mean_risk"], 1) for p in summary["paths"]}
     assert risks == {"straight": 24.2, "arc": 29.4}  # the table the guide shows
+
+
+def test_a_model_exchange_fmu_runs_a_campaign_with_fmpys_solver(
+        tmp_path: Path, planar_me_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = (UNICYCLE_CAMPAIGN.replace("Unicycle.fmu", "PlanarME.fmu")
+            .replace("  parameters:\n    x0: initial.x\n", "")
+            .replace('    initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}\n'
+                     '    slip: {distribution: uniform, low: 0.0, high: 0.08}\n',
+                     "    {}\n").replace("  parameters:\n    {}\n", "  parameters: {}\n"))
+    code, output = _run(_campaign(tmp_path, planar_me_fmu, text), capsys)
+    # no slip in this model: both paths end on the commanded path
+    assert code == 0, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {p["name"]: p["verdict"] for p in summary["paths"]} == {"short": "pass",
+                                                                  "long": "pass"}
+    assert all(p["completed_runs"] == 8 for p in summary["paths"])

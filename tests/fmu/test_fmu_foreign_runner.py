@@ -75,3 +75,18 @@ def test_without_chain_delivery_the_model_sees_no_chain(unicycle_fmu: Path) -> N
         out = runner.run({"x0": 0.3}, CHAIN, 20.0, 0.5)
     np.testing.assert_array_equal(out["x"][1:], 0.3)
     np.testing.assert_array_equal(out["done"], 0.0)
+
+
+def test_a_model_exchange_fmu_is_integrated_by_fmpys_solver(planar_me_fmu: Path) -> None:
+    with FmuRunner(planar_me_fmu, signal_map={"px": "x", "py": "y", "psi": "yaw"},
+                   chain_delivery="inputs", chain_inputs=BODY_INPUTS) as runner:
+        assert runner.model_exchange
+        out = runner.run({}, CHAIN, 140.0, 0.7)
+        again = runner.run({}, CHAIN, 140.0, 0.7)
+    x, y, yaw = _ideal_end(CHAIN)
+    assert out["x"].shape == (201,)
+    # CVode's default tolerance, not the exact step means of a co-simulation step
+    assert out["x"][-1] == pytest.approx(x, abs=2e-3)
+    assert out["y"][-1] == pytest.approx(y, abs=2e-3)
+    assert out["yaw"][-1] == pytest.approx(yaw, abs=1e-3)
+    np.testing.assert_array_equal(out["x"], again["x"])
