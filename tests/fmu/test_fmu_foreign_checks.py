@@ -180,3 +180,16 @@ paths:
                 f"has no terrain input ('terrain.file'), so its runs do not see the campaign's "
                 f"{what}") in output, output
     assert "collisions are still evaluated geometrically" in output
+
+
+def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
+    import re
+
+    import idefix_rules.campaign.fmu_checks as checks
+    import idefix_rules.campaign.validate as validate
+
+    emitted = set(re.findall(r'"(C[45]\d\d)"', Path(checks.__file__).read_text()
+                             + Path(validate.__file__).read_text()))
+    guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
+    documented = set(re.findall(r"^\| (C[45]\d\d) \|", guide, re.M))
+    assert emitted - {"C404"} == documented  # C404 (run size) is docs/ci.md's

@@ -90,3 +90,10 @@ def test_a_model_exchange_fmu_is_integrated_by_fmpys_solver(planar_me_fmu: Path)
     assert out["y"][-1] == pytest.approx(y, abs=2e-3)
     assert out["yaw"][-1] == pytest.approx(yaw, abs=1e-3)
     np.testing.assert_array_equal(out["x"], again["x"])
+
+
+def test_an_unknown_set_point_is_refused_naming_the_known_ones(unicycle_fmu: Path) -> None:
+    with pytest.raises(UserInputError, match=r"'body.velocity' is not a set-point; one of "
+                                             r"wheel.rate\[FL\], .*body.speed, body.yaw_rate"):
+        FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="inputs",
+                  chain_inputs={"v": "body.velocity"})
