@@ -101,27 +101,14 @@ def contract_column(contract: str, span: Span) -> tuple[str, int | None]:
     return base, labels.index(column) if column in labels else int(column)
 
 
-def output_scale(variable: FmuVariable, signal: str, span: Span) -> float:
-    """Factor from the output's declared unit to the signal's SI unit (1 without a unit)."""
-    spec = FMU_SIGNALS.get(signal)
-    if variable.si is None or spec is None or signal == DONE_SIGNAL:
-        return 1.0
-    if variable.si.dimension != spec.dimension:
-        raise UserInputError(error(
-            "F403", f"'{variable.name}' is in {variable.unit}, but signal '{signal}' is in "
-            f"{spec.unit}", span))
-    return variable.si.scale
-
-
-def input_scale(variable: FmuVariable, setpoint: str, span: Span) -> float:
-    """Factor from the input's declared unit to the set-point's SI unit."""
-    unit = parse_unit(SETPOINTS[setpoint])
+def si_scale(variable: FmuVariable, what: str, unit: str, span: Span) -> float:
+    """Factor from the variable's declared unit to ``unit``, the SI unit of ``what`` (a signal
+    or set-point): 1 without a declared unit; F403 when the dimensions differ."""
     if variable.si is None:
         return 1.0
-    if variable.si.dimension != unit.dimension:
+    if variable.si.dimension != parse_unit(unit).dimension:
         raise UserInputError(error(
-            "F403", f"input '{variable.name}' is in {variable.unit}, but set-point "
-            f"'{setpoint}' is in {SETPOINTS[setpoint]}", span))
+            "F403", f"'{variable.name}' is in {variable.unit}, but {what} is in {unit}", span))
     return variable.si.scale
 
 
@@ -243,7 +230,8 @@ class FmuRunner:
                 raise UserInputError(error(
                     "F401", f"'{fmu_name}' is a {variable.type}; a signal needs a Real, Integer, "
                     "Boolean or Enumeration output", Span(str(self.fmu_path))))
-            scale = output_scale(variable, base, Span(str(self.fmu_path)))
+            scale = 1.0 if base == DONE_SIGNAL else si_scale(
+                variable, f"signal '{base}'", FMU_SIGNALS[base].unit, Span(str(self.fmu_path)))
             outputs.append((variable, _Slot(base, index, scale, base == DONE_SIGNAL)))
         for name in extra:
             variable = self._variables.get(name)
@@ -265,7 +253,8 @@ class FmuRunner:
                 raise UserInputError(error(
                     "F402", f"'{setpoint}' is not a set-point; one of "
                     f"{', '.join(SETPOINTS)}", Span(str(self.fmu_path))))
-            scale = input_scale(variable, setpoint, Span(str(self.fmu_path)))
+            scale = si_scale(variable, f"set-point '{setpoint}'", SETPOINTS[setpoint],
+                             Span(str(self.fmu_path)))
             self._inputs.append((variable, setpoint, scale))
 
     def _fmu_name(self, name: str) -> str:
