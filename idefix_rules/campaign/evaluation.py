@@ -183,7 +183,10 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
 def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
                    required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
     extra = set(POSE_SIGNALS) if poses else set()
-    optional = {"command", "done", "energy", "t"}  # used when stored
+    # Used when stored (a foreign FMU may lack them): run time, energy, and the height the
+    # global error adds to a position (rulebook.derived.DERIVED_INPUTS requires only x, y).
+    optional = {"command", "done", "energy", "t"} | ({"z"} if required and "x" in required
+                                                     else set())
     keys = None if required is None else sorted(required | extra | optional)
     start, stop = int(rows[0]), int(rows[-1]) + 1
     chunk = store.read_runs(name, slice(start, stop), keys)

@@ -1,0 +1,51 @@
+"""Signals used when a run has them (command, done, energy, z) are read from the results file
+whenever stored, though a rulebook does not require them of a foreign FMU."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from idefix_rules.campaign.evaluation import complete_chunks
+from idefix_rules.campaign.store import STATUS_COMPLETE
+
+
+class Stored:
+    """A stand-in results file holding every signal of two runs."""
+
+    def __init__(self) -> None:
+        names = ("t", "x", "y", "z", "yaw", "command", "energy", "wheel.slip")
+        self.signals = {name: np.zeros((2, 5)) for name in names}
+
+    def run_status(self, name: str) -> np.ndarray:
+        return np.full(2, STATUS_COMPLETE, dtype=np.int8)
+
+    def read_runs(self, name: str, selection: slice | np.ndarray,
+                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+        wanted = self.signals if keys is None else [k for k in keys if k in self.signals]
+        return {key: self.signals[key][selection] for key in wanted}
+
+
+def test_a_rulebook_reading_position_gets_height_run_time_and_energy_when_stored() -> None:
+    ((rows, signals),) = complete_chunks(Stored(), "p", {"t", "x", "y"}, poses=False)
+    assert sorted(signals) == ["command", "energy", "t", "x", "y", "z"]
+    np.testing.assert_array_equal(rows, [0, 1])
+
+
+def test_a_rulebook_reading_no_position_reads_no_height() -> None:
+    ((_, signals),) = complete_chunks(Stored(), "p", {"t", "wheel.slip"}, poses=False)
+    assert sorted(signals) == ["command", "energy", "t", "wheel.slip"]
+
+
+def test_the_global_error_adds_height_only_when_the_runs_have_it() -> None:
+    from idefix_rules.rulebook.derived import DerivedSignals, RunContext
+
+    t = np.arange(3.0)
+    flat = {"t": t[None], "x": np.array([[0.0, 0.3, 0.3]]), "y": np.array([[0.0, 0.0, 0.4]])}
+    reference = {"t": t, "x": np.zeros(3), "y": np.zeros(3), "z": np.zeros(3)}
+    planar = DerivedSignals(flat, RunContext(reference=reference)).get("global_error")
+    np.testing.assert_allclose(planar, [[0.0, 0.3, 0.5]])
+    raised = {**flat, "z": np.array([[0.0, 0.0, 1.2]])}
+    spatial = DerivedSignals(raised, RunContext(reference=reference)).get("global_error")
+    np.testing.assert_allclose(spatial, [[0.0, 0.3, 1.3]])
