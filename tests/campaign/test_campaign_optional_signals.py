@@ -49,3 +49,37 @@ def test_the_global_error_adds_height_only_when_the_runs_have_it() -> None:
     raised = {**flat, "z": np.array([[0.0, 0.0, 1.2]])}
     spatial = DerivedSignals(raised, RunContext(reference=reference)).get("global_error")
     np.testing.assert_allclose(spatial, [[0.0, 0.3, 1.3]])
+
+
+def test_both_evaluators_time_runs_by_command_then_done_then_stop_time() -> None:
+    from idefix_rules.commands import Command
+    from idefix_rules.rulebook import compile_rulebook
+    from idefix_rules.rulebook.check import check
+    from idefix_rules.rulebook.derived import RunContext
+    from idefix_rules.rulebook.interpret import interpret
+    from idefix_rules.rulebook.parser import parse_rulebook
+
+    text = ('rulebook "t" version "1.0.0"\npurpose "test"\n'
+            "index I_end { value = final over time (local_error) limit = 5 cm weight = 1 }\n"
+            "verdict ok: require risk <= 70 %\n")
+    checked = check(parse_rulebook(text, "t.rules")).checked
+    assert checked is not None
+    evaluator = compile_rulebook(checked)
+    t = np.arange(6.0)
+    x = np.array([[0.0, 0.002, 0.004, 0.006, 0.006, 0.006]] * 2)
+    base = {"t": np.tile(t, (2, 1)), "x": x, "y": np.zeros((2, 6))}
+    context = RunContext(chain=(Command(0.05, 0.015, 0.0),))  # 3 s at 5 mm/s
+    cases = [
+        ({"command": np.array([[0, 0, 0, -1, -1, -1]] * 2),
+          "energy": np.tile(np.arange(6.0), (2, 1))}, 3.0, 3.0),
+        ({"done": np.array([[0, 0, 0, 0, 1, 1], [0, 0, 0, 0, 0, 1]])}, [4.0, 5.0], np.nan),
+        ({}, 5.0, np.nan),
+    ]
+    for extra, time, energy in cases:
+        signals = {**base, **extra}
+        fast = evaluator.evaluate(signals, context)
+        slow = interpret(checked, signals, context)
+        for result in (fast, slow):
+            np.testing.assert_array_equal(result.time, np.broadcast_to(time, (2,)))
+            np.testing.assert_array_equal(result.energy, np.broadcast_to(energy, (2,)))
+        np.testing.assert_allclose(fast.values["I_end"], slow.values["I_end"])
