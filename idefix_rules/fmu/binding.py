@@ -70,13 +70,15 @@ class FmuInstance:
 
             self.slave: Any = FMU3Slave(guid=description.token, unzipDirectory=unzipped,
                                         modelIdentifier=identifier, instanceName=instance_name)
-            self.slave.instantiate(logMessage=self._fmi3_logger)
+            self.slave.instantiate(loggingOn=True, logMessage=self._fmi3_logger)
         else:
             from fmpy.fmi2 import FMU2Slave
 
             self.slave = FMU2Slave(guid=description.token, unzipDirectory=unzipped,
                                    modelIdentifier=identifier, instanceName=instance_name)
-            self.slave.instantiate(callbacks=self._fmi2_callbacks())
+            self.slave.instantiate(loggingOn=True, callbacks=self._fmi2_callbacks())
+        # Logging on (all categories: exporters file errors under categories of their own), so
+        # that FMUs which log only then, like pythonfmu's, explain a failed call.
         self.component = self.slave.component
         self.do_step: Callable[..., int] | None = None
         if not self.fmi3:

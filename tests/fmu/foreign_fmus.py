@@ -60,6 +60,8 @@ class Unicycle(Fmi2Slave):
         self.px, self.py = self.x0, self.y0
 
     def do_step(self, current_time, step_size):
+        if not 0.0 <= self.slip < 1.0:
+            raise ValueError(f"slip {self.slip} outside [0, 1)")
         moving = self.v != 0.0 or self.w != 0.0
         if moving:
             self.started = True

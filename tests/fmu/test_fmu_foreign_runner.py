@@ -97,3 +97,13 @@ def test_an_unknown_set_point_is_refused_naming_the_known_ones(unicycle_fmu: Pat
                                              r"wheel.rate\[FL\], .*body.speed, body.yaw_rate"):
         FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="inputs",
                   chain_inputs={"v": "body.velocity"})
+
+
+def test_a_failing_step_is_reported_with_the_fmus_own_message(unicycle_fmu: Path) -> None:
+    from idefix_rules.errors import InfrastructureError
+
+    expected = r"(?s)fmi2DoStep failed at t = 0 s .*slip 1.5 outside \[0, 1\)"
+    with FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="inputs",
+                   chain_inputs=BODY_INPUTS) as runner, \
+            pytest.raises(InfrastructureError, match=expected):
+        runner.run({"slip": 1.5}, CHAIN, 10.0, 0.5)
