@@ -391,5 +391,7 @@ def run_warnings(campaign: Campaign, evaluator: Any, check: FmuCheck) -> list[Di
 def describe_warnings(diagnostics: Iterable[Diagnostic], sources: Mapping[str, str]
                       ) -> list[str]:
     """Warnings as the texts the CLI prints (location, source line with a caret, hint)."""
+    # The CLI says "warning:" itself; the code stays, in brackets.
     return [d.format(sources.get(d.span.path) if d.span is not None else None)
+            .replace(f"{d.severity.value}[{d.code}]: ", f"[{d.code}] ", 1)
             for d in diagnostics]

@@ -176,9 +176,10 @@ paths:
     code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
     assert code == 1, output  # as without the environment: the long path fails
     for marker, what in (("terrain:", "terrain"), ("rocks:", "rocks")):
-        assert (f"{_location(text, marker)}: warning[C510]: environment.{what}: Unicycle.fmu "
+        assert (f"{_location(text, marker)}: [C510] environment.{what}: Unicycle.fmu "
                 f"has no terrain input ('terrain.file'), so its runs do not see the campaign's "
                 f"{what}") in output, output
+    assert output.count("warning: ") >= 2
     assert "collisions are still evaluated geometrically" in output
 
 
