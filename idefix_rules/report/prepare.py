@@ -178,13 +178,13 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
             bounds = [min(bounds[0], np.nanmin(x)), max(bounds[1], np.nanmax(x)),
                       min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
 
-    setup.notes += missing_signal_notes(store, data)
     for path in data.paths:
         reference = store.reference(path.name)
         if reference is not None and "x" in reference and "y" in reference:
             include(np.asarray(reference["x"]), np.asarray(reference["y"]))
         for _, chunk in _chunks(store, path.name, ["x", "y"], 256):
-            include(chunk["x"], chunk["y"])
+            if "x" in chunk and "y" in chunk:  # a foreign FMU need not give a position
+                include(chunk["x"], chunk["y"])
     obstacle_bounds = setup.environment.bounds()
     if obstacle_bounds is not None and not np.isfinite(bounds).all():
         bounds = list(obstacle_bounds)
@@ -195,6 +195,8 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
                   min(max(bounds[1], obstacle_bounds[1]), bounds[1] + reach),
                   max(min(bounds[2], obstacle_bounds[2]), bounds[2] - reach),
                   min(max(bounds[3], obstacle_bounds[3]), bounds[3] + reach)]
+    if not np.isfinite(bounds).all():  # no position and no obstacle: an empty map
+        bounds = [-1.0, 1.0, -1.0, 1.0]
     cell = cell_size_for(setup.rover)
     track = 2.0 * setup.rover.half_track
     xmin, xmax, ymin, ymax = (float(b) for b in bounds)
@@ -237,7 +239,9 @@ def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
 
 
 # What the report draws from each optional signal, to name what a foreign FMU's runs lack.
-OPTIONAL_SIGNALS = {"yaw": "the final heading error box plot is not drawn",
+OPTIONAL_SIGNALS = {"x": "the result maps show no runs and no box plots are drawn",
+                    "y": "the result maps show no runs and no box plots are drawn",
+                    "yaw": "the final heading error box plot is not drawn",
                     "energy": "Table 1 shows no energy",
                     "command": "a run's time is its stop time"}
 
@@ -265,17 +269,18 @@ def _context(store: ResultStore, name: str, setup: Setup) -> Any:
 
 def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
     """Fill the risk maps and each path's final errors in one chunked pass over the runs."""
+    setup.notes += missing_signal_notes(store, data)
     grid, reason = choose_grid(store, data, setup)
     per_path: dict[str, RiskAccumulator] = {}
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     required = sorted(set(getattr(setup.evaluator, "required_signals", ()) or ())
                       | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"})
-    setup.notes += missing_signal_notes(store, data)
     for path in data.paths:
         reference = store.reference(path.name)
         if reference is not None and "x" in reference:
             references[path.name] = (np.asarray(reference["x"]), np.asarray(reference["y"]))
-        if not path.evaluated or not path.complete.any():
+        if not path.evaluated or not path.complete.any() or reference is None \
+                or not {"x", "y"} <= set(reference):
             continue
         accumulator = RiskAccumulator(grid)
         context = _context(store, path.name, setup) if reference is not None else None

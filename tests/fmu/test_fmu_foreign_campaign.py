@@ -225,3 +225,16 @@ def test_a_model_exchange_fmu_runs_a_campaign_with_fmpys_solver(
     assert {p["name"]: p["verdict"] for p in summary["paths"]} == {"short": "pass",
                                                                   "long": "pass"}
     assert all(p["completed_runs"] == 8 for p in summary["paths"])
+
+
+def test_without_a_position_the_report_draws_no_tracks_and_says_why(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rules = POSITION_RULEBOOK.replace("final over time (local_error)",
+                                      "final over time (abs(yaw))").replace("5 cm", "2 rad")
+    text = UNICYCLE_CAMPAIGN.replace("    px: x\n    py: y\n", "    heading: yaw\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text, rules), capsys)
+    assert code == 0, output  # 30° of heading against a 2 rad limit
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    for name in ("x", "y"):
+        assert report.count(f"the runs hold no '{name}'") == 1
+    assert "the result maps show no runs and no box plots are drawn" in report
