@@ -14,7 +14,8 @@ diagnostics located at the campaign line that says the wrong thing:
 * ``chain_problems``: the chain delivery the campaign asks for is one the FMU can take
   (C403, C507-C509);
 * warnings: terrain or rocks the FMU cannot receive (C510), ranking by energy without
-  ``energy`` (C506), run time without ``command`` or ``done`` (C513).
+  ``energy`` (C506), run time without ``command`` or ``done`` (C513), a report without
+  positions (C514).
 """
 
 from __future__ import annotations
@@ -365,7 +366,7 @@ def terrain_warnings(campaign: Campaign, check: FmuCheck) -> list[Diagnostic]:
 
 
 def run_warnings(campaign: Campaign, evaluator: Any, check: FmuCheck) -> list[Diagnostic]:
-    """What the tool cannot do without 'energy' and 'command'/'done'."""
+    """What the tool cannot do without 'energy', 'command'/'done' and 'x'/'y'."""
     provided = check.provided
     problems = []
     ranking = getattr(getattr(getattr(evaluator, "checked", None), "rulebook", None),
@@ -379,6 +380,14 @@ def run_warnings(campaign: Campaign, evaluator: Any, check: FmuCheck) -> list[Di
                             "no 'energy'; paths equal in the other keys are ranked by name",
                     span, hint="map the FMU's cumulative charge output to 'energy', or rank "
                                "without energy"))
+    position = sorted({"x", "y"} - provided)
+    if position:
+        problems.append(warning(
+            "C514", f"the report draws no runs on its result maps and no box plots: the map "
+                    f"provides no {' or '.join(map(repr, position))}",
+            _span(campaign, ("fmu", "signals") if campaign.model.fmu.signals is not None
+                  else _fmu_loc(campaign)),
+            hint="map the FMU's body position outputs to 'x' and 'y'"))
     if not provided & {"command", DONE_SIGNAL} and campaign.model.fmu.chain.delivery != "none":
         problems.append(warning(
             "C513", "a run's time is its stop time: the map provides neither 'command' nor "

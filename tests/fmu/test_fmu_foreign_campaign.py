@@ -234,6 +234,8 @@ def test_without_a_position_the_report_draws_no_tracks_and_says_why(
     text = UNICYCLE_CAMPAIGN.replace("    px: x\n    py: y\n", "    heading: yaw\n")
     code, output = _run(_campaign(tmp_path, unicycle_fmu, text, rules), capsys)
     assert code == 0, output  # 30° of heading against a 2 rad limit
+    assert "[C514] the report draws no runs on its result maps and no box plots: the map " \
+           "provides no 'x' or 'y'" in output
     report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
     for name in ("x", "y"):
         assert report.count(f"the runs hold no '{name}'") == 1
