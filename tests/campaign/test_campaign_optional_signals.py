@@ -4,11 +4,32 @@ whenever stored, though a rulebook does not require them of a foreign FMU."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
+from typing import Any
 
 import numpy as np
+from hypothesis import event, given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays as hypothesis_arrays
 
 from idefix_rules.campaign.evaluation import complete_chunks
 from idefix_rules.campaign.store import STATUS_COMPLETE
+from idefix_rules.commands import Command
+
+POSITION_RULEBOOK = ('rulebook "t" version "1.0.0"\npurpose "test"\n'
+                     "index I_end { value = final over time (local_error) limit = 5 cm "
+                     "weight = 1 }\nverdict ok: require risk <= 70 %\n")
+
+
+@cache
+def _position_rulebook() -> tuple[Any, Any]:
+    from idefix_rules.rulebook import compile_rulebook
+    from idefix_rules.rulebook.check import check
+    from idefix_rules.rulebook.parser import parse_rulebook
+
+    checked = check(parse_rulebook(POSITION_RULEBOOK, "t.rules")).checked
+    assert checked is not None
+    return checked, compile_rulebook(checked)
 
 
 class Stored:
@@ -52,19 +73,10 @@ def test_the_global_error_adds_height_only_when_the_runs_have_it() -> None:
 
 
 def test_both_evaluators_time_runs_by_command_then_done_then_stop_time() -> None:
-    from idefix_rules.commands import Command
-    from idefix_rules.rulebook import compile_rulebook
-    from idefix_rules.rulebook.check import check
     from idefix_rules.rulebook.derived import RunContext
     from idefix_rules.rulebook.interpret import interpret
-    from idefix_rules.rulebook.parser import parse_rulebook
 
-    text = ('rulebook "t" version "1.0.0"\npurpose "test"\n'
-            "index I_end { value = final over time (local_error) limit = 5 cm weight = 1 }\n"
-            "verdict ok: require risk <= 70 %\n")
-    checked = check(parse_rulebook(text, "t.rules")).checked
-    assert checked is not None
-    evaluator = compile_rulebook(checked)
+    checked, evaluator = _position_rulebook()
     t = np.arange(6.0)
     x = np.array([[0.0, 0.002, 0.004, 0.006, 0.006, 0.006]] * 2)
     base = {"t": np.tile(t, (2, 1)), "x": x, "y": np.zeros((2, 6))}
@@ -83,3 +95,21 @@ def test_both_evaluators_time_runs_by_command_then_done_then_stop_time() -> None
             np.testing.assert_array_equal(result.time, np.broadcast_to(time, (2,)))
             np.testing.assert_array_equal(result.energy, np.broadcast_to(energy, (2,)))
         np.testing.assert_allclose(fast.values["I_end"], slow.values["I_end"])
+
+
+@given(done=hypothesis_arrays(np.int8, (3, 8), elements=st.integers(0, 1)))
+def test_both_evaluators_end_a_run_at_its_first_done_sample(done: np.ndarray) -> None:
+    from idefix_rules.rulebook.derived import RunContext
+    from idefix_rules.rulebook.interpret import interpret
+
+    checked, evaluator = _position_rulebook()
+    t = np.arange(8.0) * 0.5
+    signals = {"t": np.tile(t, (3, 1)), "x": np.zeros((3, 8)), "y": np.zeros((3, 8)),
+               "done": done.astype(float)}
+    context = RunContext(chain=(Command(0.05, 0.01, 0.0),))
+    finished = done.any(axis=1)
+    event(f"{int(finished.sum())} of 3 runs report done")
+    expected = np.where(finished, t[np.argmax(done, axis=1)], t[-1])
+    for result in (evaluator.evaluate(signals, context), interpret(checked, signals, context)):
+        np.testing.assert_array_equal(result.time, expected)
+        assert np.isnan(result.energy).all()
