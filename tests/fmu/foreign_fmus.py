@@ -18,6 +18,7 @@ would have.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 UNICYCLE = '''
 import math
@@ -200,3 +201,33 @@ def build_planar_me(folder: Path) -> Path:
     script = folder / "planar_me.py"
     script.write_text(PLANAR_ME, encoding="utf-8")
     return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+def run_in_child(fmu: Path, options: dict[str, Any],
+                 runs: list[tuple[Any, ...]]) -> tuple[list[dict[str, Any]], bool]:
+    """``FmuRunner(fmu, **options).run(*run)`` for each run, in a forked child process, and
+    whether the runner used model exchange. Exporters that embed an interpreter (pythonfmu)
+    are not always safe to load and unload many times in one process (the campaign runs them
+    in its worker processes): a child keeps the test session out of harm's way. A failure is
+    raised again here with its type and message."""
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        outputs, failure, exchange = pool.apply(_child_runs, (fmu, options, runs))
+    if failure is not None:
+        from idefix_rules import errors
+
+        kind, message = failure
+        raise getattr(errors, kind, RuntimeError)(message)
+    return outputs, exchange
+
+
+def _child_runs(fmu: Path, options: dict[str, Any], runs: list[tuple[Any, ...]]
+                ) -> tuple[Any, tuple[str, str] | None, bool]:
+    from idefix_rules.fmu import FmuRunner
+
+    try:
+        with FmuRunner(fmu, **options) as runner:
+            return [runner.run(*run) for run in runs], None, runner.model_exchange
+    except Exception as failure:  # sent back as data: FMU errors need not pickle
+        return None, (type(failure).__name__, str(failure)), False

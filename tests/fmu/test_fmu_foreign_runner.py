@@ -1,5 +1,8 @@
 """FmuRunner on FMUs other exporters built: FMI 2.0 (pythonfmu) and FMI 3.0 (pythonfmu3),
-typed outputs, declared units, and chains fed as set-points every communication step."""
+typed outputs, declared units, and chains fed as set-points every communication step.
+
+Runs go through ``run_in_child`` (a forked process per test, as campaign workers are): the
+exporters' embedded interpreters are not built to be loaded many times in one process."""
 
 from __future__ import annotations
 
@@ -7,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from foreign_fmus import run_in_child
 
 from idefix_rules.commands import Command, RoverGeometry, chain_duration, ideal_poses
 from idefix_rules.errors import UserInputError
@@ -27,9 +31,9 @@ def _ideal_end(chain: list[Command], scale: float = 1.0) -> np.ndarray:
 def test_an_fmi2_fmu_fed_body_set_points_ends_where_the_ideal_chain_ends(
         unicycle_fmu: Path) -> None:
     # 0.7 s steps do not divide the command durations: the step means keep distances exact.
-    with FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="inputs",
-                   chain_inputs=BODY_INPUTS, done_at=2) as runner:
-        out = runner.run({}, CHAIN, 140.0, 0.7)
+    (out,), _ = run_in_child(unicycle_fmu, {
+        "signal_map": UNICYCLE_MAP, "chain_delivery": "inputs", "chain_inputs": BODY_INPUTS,
+        "done_at": 2}, [({}, CHAIN, 140.0, 0.7)])
     x, y, yaw = _ideal_end(CHAIN)
     assert out["x"][-1] == pytest.approx(x, abs=2e-3)
     assert out["y"][-1] == pytest.approx(y, abs=2e-3)
@@ -44,11 +48,10 @@ def test_an_fmi2_fmu_fed_body_set_points_ends_where_the_ideal_chain_ends(
 
 def test_an_fmi3_fmu_fed_wheel_rates_is_read_in_si_with_its_booleans_and_integers(
         diff_drive_fmu: Path) -> None:
-    with FmuRunner(diff_drive_fmu, signal_map=DIFF_MAP, chain_delivery="inputs",
-                   chain_inputs=WHEEL_INPUTS) as runner:
-        out = runner.run({"slip": 0.2}, CHAIN, 140.0, 0.5)
-        again = runner.run({"slip": 0.2}, CHAIN, 140.0, 0.5)
-        no_slip = runner.run({"slip": 0.0}, CHAIN, 140.0, 0.5)
+    (out, again, no_slip), _ = run_in_child(diff_drive_fmu, {
+        "signal_map": DIFF_MAP, "chain_delivery": "inputs", "chain_inputs": WHEEL_INPUTS},
+        [({"slip": 0.2}, CHAIN, 140.0, 0.5), ({"slip": 0.2}, CHAIN, 140.0, 0.5),
+         ({"slip": 0.0}, CHAIN, 140.0, 0.5)])
     x, y, _ = _ideal_end(CHAIN, scale=0.8)
     # positions are declared in mm: converted to m
     assert out["x"][-1] == pytest.approx(x, abs=2e-3)
@@ -71,18 +74,18 @@ def test_a_string_output_is_not_a_signal(unicycle_fmu: Path) -> None:
 
 
 def test_without_chain_delivery_the_model_sees_no_chain(unicycle_fmu: Path) -> None:
-    with FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="none") as runner:
-        out = runner.run({"x0": 0.3}, CHAIN, 20.0, 0.5)
+    (out,), _ = run_in_child(unicycle_fmu, {"signal_map": UNICYCLE_MAP,
+                                            "chain_delivery": "none"},
+                             [({"x0": 0.3}, CHAIN, 20.0, 0.5)])
     np.testing.assert_array_equal(out["x"][1:], 0.3)
     np.testing.assert_array_equal(out["done"], 0.0)
 
 
 def test_a_model_exchange_fmu_is_integrated_by_fmpys_solver(planar_me_fmu: Path) -> None:
-    with FmuRunner(planar_me_fmu, signal_map={"px": "x", "py": "y", "psi": "yaw"},
-                   chain_delivery="inputs", chain_inputs=BODY_INPUTS) as runner:
-        assert runner.model_exchange
-        out = runner.run({}, CHAIN, 140.0, 0.7)
-        again = runner.run({}, CHAIN, 140.0, 0.7)
+    (out, again), exchange = run_in_child(planar_me_fmu, {
+        "signal_map": {"px": "x", "py": "y", "psi": "yaw"}, "chain_delivery": "inputs",
+        "chain_inputs": BODY_INPUTS}, [({}, CHAIN, 140.0, 0.7)] * 2)
+    assert exchange
     x, y, yaw = _ideal_end(CHAIN)
     assert out["x"].shape == (201,)
     # CVode's default tolerance, not the exact step means of a co-simulation step
@@ -103,7 +106,7 @@ def test_a_failing_step_is_reported_with_the_fmus_own_message(unicycle_fmu: Path
     from idefix_rules.errors import InfrastructureError
 
     expected = r"(?s)fmi2DoStep failed at t = 0 s .*slip 1.5 outside \[0, 1\)"
-    with FmuRunner(unicycle_fmu, signal_map=UNICYCLE_MAP, chain_delivery="inputs",
-                   chain_inputs=BODY_INPUTS) as runner, \
-            pytest.raises(InfrastructureError, match=expected):
-        runner.run({"slip": 1.5}, CHAIN, 10.0, 0.5)
+    with pytest.raises(InfrastructureError, match=expected):
+        run_in_child(unicycle_fmu, {"signal_map": UNICYCLE_MAP, "chain_delivery": "inputs",
+                                    "chain_inputs": BODY_INPUTS},
+                     [({"slip": 1.5}, CHAIN, 10.0, 0.5)])
