@@ -68,6 +68,9 @@ FMU_SIGNALS = _specs(
     SignalSpec("energy", "A·s", ("time",), "fmu", "cumulative charge drawn by the motors"),
     SignalSpec("command", "1", ("time",), "fmu", "index of the active command, -1 when done"),
     SignalSpec("stuck", "1", ("time",), "fmu", "1 while the controller reports the rover stuck"),
+    SignalSpec("done", "1", ("time",), "fmu",
+               "1 from the sample the FMU reports the chain complete (a mapped done/phase "
+               "output; gives the run time when there is no 'command')"),
 )
 
 # Derived by the evaluator. ``ref.<name>`` exists for every fmu signal too (see REF_PREFIX).

@@ -183,7 +183,11 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
 def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
                    required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
     extra = set(POSE_SIGNALS) if poses else set()
-    keys = None if required is None else sorted(required | extra | {"command", "energy", "t"})
+    # Used when stored (a foreign FMU may lack them): run time, energy, and the height the
+    # global error adds to a position (rulebook.derived.DERIVED_INPUTS requires only x, y).
+    optional = {"command", "done", "energy", "t"} | ({"z"} if required and "x" in required
+                                                     else set())
+    keys = None if required is None else sorted(required | extra | optional)
     start, stop = int(rows[0]), int(rows[-1]) + 1
     chunk = store.read_runs(name, slice(start, stop), keys)
     if stop - start == len(rows):  # no gaps: the chunk as read
@@ -356,7 +360,8 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     result.risk_ci = (float(risk.low), float(risk.high))
     result.chances = {str(k): float(v.value) for k, v in stats.chances.items()}
     result.collision_chance = collision_chances(result.chances)
-    result.energy = _float(stats.energy.value)
+    energy = _float(stats.energy.value)  # NaN: the FMU provides no 'energy'
+    result.energy = energy if energy is not None and energy == energy else None
     result.time = _float(stats.time.value)
     counts = dict(getattr(stats, "dominant_counts", {}) or {})
     result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \

@@ -24,6 +24,7 @@ from idefix_rules.campaign.evaluation import (
     collision_function,
     evaluate_store,
 )
+from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.resume import resume_command
 from idefix_rules.campaign.schema import CampaignFile
@@ -38,9 +39,7 @@ from idefix_rules.campaign.simulate import (
 )
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.validate import (
-    check_parameters,
     check_rocks_on_terrain,
-    check_signal_map,
     check_simulation_size,
     prepare_output,
 )
@@ -147,8 +146,11 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     if campaign.fmu is None and not _fmu_cached():
         say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
-    variables = check_parameters(campaign, fmu_path)
-    check_signal_map(campaign, evaluator.required_signals)
+    mapping = check_fmu(campaign, fmu_path, evaluator)
+    warnings = describe_warnings(mapping.warnings, {str(campaign.source): campaign.text})
+    for text in warnings:
+        if progress is not None:
+            progress.message(f"warning: {text}")
     check_simulation_size(campaign)
     prepare_output(campaign)
     # From here on the folder is this run's: the last run's outputs must not speak for it.
@@ -157,7 +159,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
-    if campaign.fmu is None or TERRAIN_PARAMETER in variables:
+    if mapping.terrain_input:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
     again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed)
@@ -185,7 +187,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     finally:
         store.close()
     evaluated = time.perf_counter()
-    result.warnings.extend(simulation.warnings)
+    result.warnings.extend(warnings + simulation.warnings)
     _warn_lost_runs(result, again)
     if report:
         say("writing the report (per-sample risk maps, figures)")

@@ -86,10 +86,30 @@ class Strict(BaseModel):
 
 # --- fmu -------------------------------------------------------------------------------------
 
+class ChainSection(Strict):
+    """How a chain reaches the FMU (docs/bring-your-own-fmu.md): ``parameters`` (the chain
+    arrays, as the built-in rover takes them), ``inputs`` (set-points along the ideal
+    kinematics fed each communication step: FMU input → set-point name) or ``none``."""
+
+    delivery: Literal["parameters", "inputs", "none"] = "parameters"
+    inputs: dict[str, str] = {}
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, int | float) and not isinstance(value, bool) \
+            and not math.isfinite(value):
+        raise PydanticCustomError("finite", "expected a finite number, got {got}",
+                                  {"got": _show(value)})
+    return value
+
+
 class FmuSection(Strict):
     path: str = "builtin"
     signals: dict[str, str] | None = None
     parameters: dict[str, str] | None = None
+    chain: ChainSection = ChainSection()
+    # An output mapped to the signal 'done' reports the chain complete from this value on.
+    done_at: Annotated[float, BeforeValidator(_finite)] = 1.0
 
 
 # --- environment -----------------------------------------------------------------------------

@@ -330,6 +330,10 @@ def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
         stop_time=plan.stop_time,
         output_interval=campaign.model.simulation.output_interval,
         samples=plan.samples,
+        chain_delivery=maps.chain.delivery,
+        chain_inputs=tuple(maps.chain.inputs.items()),
+        done_at=maps.done_at,
+        rover=rover_geometry(campaign) if maps.chain.delivery == "inputs" else None,
     )
 
 

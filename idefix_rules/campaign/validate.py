@@ -1,80 +1,48 @@
-"""Checks of a campaign against its FMU, before anything is simulated.
+"""Checks of a campaign before anything is simulated: parameters against the FMU, run sizes,
+rocks on the terrain, the output folder. Mistakes point at the campaign line.
 
-Parameter names (uncertainty, regolith) and the ``signals``/``parameters`` maps must name
-variables the FMU has; a value's dimension must match the FMU variable's unit where that unit is
-one we know. Mistakes point at the campaign line.
+Parameter names (uncertainty, regolith, ``fmu.parameters``) must name settable variables the FMU
+has; a value's dimension must match the FMU variable's unit where that unit is one we know. The
+rest of the FMU mapping is checked by :mod:`idefix_rules.campaign.fmu_checks`.
 """
 
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 
 from idefix_rules.campaign.load import Campaign, format_loc
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
-from idefix_rules.fmu.runner import CHAIN_ARRAYS
-from idefix_rules.signals import FMU_SIGNALS
-from idefix_rules.units import Dimension, UnitError, describe, parse_unit
+from idefix_rules.fmu.description import FmuDescription, FmuVariable
+from idefix_rules.units import Dimension, describe
 
 # Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
 # off by orders of magnitude, which would exhaust memory rather than simulate.
 MAX_SAMPLES = 1_000_000
 
-# FMI unit spellings → our unit parser's.
-_FMI_UNIT_SPELLING = {"m/s2": "m/s^2", "N/m2": "N/m^2", "N/m3": "N/m^3", "N.m": "N*m",
-                      "N.m/A": "N*m/A", "A.s": "A*s"}
-
-
-def model_variables(fmu_path: Path, span: Span | None = None) -> dict[str, tuple[str, str]]:
-    """FMU variable name → (causality, unit); ``span`` is where the campaign names the FMU."""
-    from fmpy import read_model_description
-
-    try:
-        description = read_model_description(str(fmu_path))
-    except Exception as failure:
-        raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({failure})",
-                                   span or Span(str(fmu_path)))) from None
-    if description.fmiVersion != "2.0" or description.coSimulation is None:
-        kinds = ", ".join(kind for kind, part in (("co-simulation", description.coSimulation),
-                                                  ("model exchange",
-                                                   description.modelExchange)) if part)
-        raise UserInputError(error(
-            "C400", f"{fmu_path}: an FMI {description.fmiVersion} FMU for {kinds or 'nothing'}; "
-                    "the campaign runner needs FMI 2.0 co-simulation", span or Span(str(fmu_path)),
-            hint="export the model as an FMI 2.0 co-simulation FMU"))
-    found = {}
-    for variable in description.modelVariables:
-        unit = ""
-        if variable.declaredType is not None and getattr(variable.declaredType, "unit", None):
-            unit = variable.declaredType.unit
-        if getattr(variable, "unit", None):
-            unit = variable.unit
-        found[variable.name] = (str(variable.causality), unit or "")
-    return found
-
-
-def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str, str]]:
-    """Validate parameter and signal names against the FMU; returns its variables."""
-    variables = model_variables(fmu_path, campaign.span(("fmu", "path"))
-                                if campaign.fmu is not None else None)
+def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[Diagnostic]:
+    """Parameter names (uncertainty, regolith, ``fmu.parameters``) against the FMU: each must
+    name a settable variable of a numeric type, with a value of its unit's dimension."""
+    variables = description.variables
+    fmu_path = description.path
     fmu = campaign.model.fmu
     problems: list[Diagnostic] = []
-    parameter_names = {name: name for name, (causality, _) in variables.items()
-                       if causality in ("parameter", "input")}
+    parameter_names = {name: name for name, variable in variables.items() if variable.settable}
     if fmu.parameters is not None:
         for fmu_name, our_name in fmu.parameters.items():
-            if fmu_name not in variables:
-                problems.append(_unknown(campaign, ("fmu", "parameters", fmu_name), fmu_name,
-                                         variables, "FMU variable", fmu_path))
+            map_loc = ("fmu", "parameters", fmu_name)
+            variable = variables.get(fmu_name)
+            if variable is None:
+                problems.append(_unknown(campaign, map_loc, fmu_name, variables, "FMU variable",
+                                         fmu_path))
                 parameter_names[our_name] = ""  # reported already; skip its unit check
                 continue
+            if not variable.settable:
+                problems.append(_not_settable(campaign, map_loc, variable))
+                parameter_names[our_name] = ""
+                continue
             parameter_names[our_name] = fmu_name
-    if fmu.signals is not None:
-        for fmu_name in fmu.signals:
-            if fmu_name not in variables:
-                problems.append(_unknown(campaign, ("fmu", "signals", fmu_name), fmu_name,
-                                         variables, "FMU variable", fmu_path))
     entries: list[tuple[tuple[str, ...], str, Dimension | None]] = [
         (("uncertainty", "parameters", name), name, spec.dimension)
         for name, spec in campaign.model.uncertainty.parameters.items()]
@@ -82,60 +50,38 @@ def check_parameters(campaign: Campaign, fmu_path: Path) -> dict[str, tuple[str,
                 for key in campaign.model.environment.regolith]
     for loc, name, dimension in entries:
         if name not in parameter_names:
-            problems.append(_unknown(campaign, loc, name, parameter_names, "FMU parameter",
-                                     fmu_path))
+            variable = variables.get(name)
+            problems.append(_not_settable(campaign, loc, variable) if variable is not None
+                            else _unknown(campaign, loc, name, parameter_names, "FMU parameter",
+                                          fmu_path))
             continue
-        if dimension is None or not parameter_names[name]:
+        if not parameter_names[name]:
             continue
-        unit = variables[parameter_names[name]][1]
-        try:
-            expected = parse_unit(_FMI_UNIT_SPELLING.get(unit, unit)).dimension if unit else None
-        except UnitError:
-            expected = None
+        variable = variables[parameter_names[name]]
+        if variable.reader not in ("real", "integer"):
+            problems.append(error(
+                "C505", f"{format_loc(loc)}: FMU parameter {variable.name!r} is a "
+                        f"{variable.type}; a sampled or regolith value needs a Real or Integer",
+                campaign.locations.span(loc, at_key=True)))
+            continue
+        if dimension is None:
+            continue
+        expected = variable.si.dimension if variable.si is not None else None
         if expected is not None and expected != dimension:
             problems.append(error(
-                "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit {unit}), "
-                        f"got {describe(dimension)}", campaign.span(loc)))
-    problems += _chain_capacity(campaign, variables, fmu_path)
-    if problems:
-        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
-    return variables
+                "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
+                        f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
+    return problems
 
 
-def _chain_capacity(campaign: Campaign, variables: Mapping[str, object],
-                    fmu_path: Path) -> list[Diagnostic]:
-    """Every chain must fit the FMU's chain arrays (``chain.max_wheel_rate[i]`` …)."""
-    fmu_name = {ours: theirs for theirs, ours in (campaign.model.fmu.parameters or {}).items()}
-    capacity = 0
-    while all(fmu_name.get(f"{array}[{capacity}]", f"{array}[{capacity}]") in variables
-              for array in CHAIN_ARRAYS):
-        capacity += 1
-    if capacity == 0:  # an FMU without chain arrays: the runner names what it lacks
-        return []
-    return [error("C403", f"paths.{spec.name}: {len(spec.chain)} commands, but "
-                          f"{fmu_path.name} takes at most {capacity} per chain "
-                          f"(chain.max_wheel_rate[0] … [{capacity - 1}])",
-                  campaign.locations.span(("paths", spec.name), at_key=True),
-                  hint="split the chain, or use an FMU built for longer chains")
-            for spec in campaign.paths if len(spec.chain) > capacity]
-
-
-def check_signal_map(campaign: Campaign, required: Iterable[str]) -> None:
-    """A campaign's own ``fmu.signals`` map must provide every FMU signal the rulebook reads
-    (without a map, the FMU's shipped map or its contract names are used as they are)."""
-    signals = campaign.model.fmu.signals
-    if signals is None:
-        return
-    provided = {contract.split("[", 1)[0] for contract in signals.values()}
-    provided.add("t")  # the runner fills in the output grid's times when the FMU has none
-    missing = sorted(name for name in required if name in FMU_SIGNALS and name not in provided)
-    if missing:
-        raise UserInputError(error(
-            "C405", f"fmu.signals: the rulebook reads {', '.join(map(repr, missing))}, which "
-                    "the signal map does not provide",
-            campaign.locations.span(("fmu", "signals"), at_key=True),
-            hint="map an FMU variable to each (FMU variable: signal), e.g. body.pos.y: y"),
-            sources={str(campaign.source): campaign.text})
+def _not_settable(campaign: Campaign, loc: tuple[str, ...], variable: FmuVariable
+                  ) -> Diagnostic:
+    kind = f"{variable.causality} ({variable.variability})" \
+        if variable.causality in ("parameter", "input") else variable.causality
+    return error("C504", f"{format_loc(loc)}: FMU variable {variable.name!r} is {kind}; a "
+                         "parameter must be settable (a parameter or input, not constant)",
+                 campaign.locations.span(loc, at_key=True),
+                 hint="`fmpy info` lists the FMU's parameters and inputs")
 
 
 def check_simulation_size(campaign: Campaign) -> None:
@@ -198,5 +144,11 @@ def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping
              what: str, fmu_path: Path) -> Diagnostic:
     close = difflib.get_close_matches(name, list(known), n=1)
     hint = f"did you mean {close[0]!r}?" if close else None
+    if hint is None and what == "FMU parameter":
+        # `fmpy info` lists inputs and outputs only: name the parameters there are
+        names = [n for n in known if n]
+        listing = ", ".join(names[:8]) + (" …" if len(names) > 8 else "")
+        hint = (f"settable variables of {fmu_path.name}: {listing or 'none'}; or map one to "
+                f"this name: fmu.parameters: {{its_name: {name}}}")
     return error("C401", f"{format_loc(loc)}: unknown {what} {name!r} in {fmu_path.name}",
                  campaign.locations.span(loc, at_key=True), hint)

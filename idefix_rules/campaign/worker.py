@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.commands import Command
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
 
 
@@ -34,6 +34,10 @@ class RunTask:
     output_interval: float
     samples: int
     unzipped: str | None = None  # the FMU extracted once by the campaign (None: extract here)
+    chain_delivery: str = "parameters"  # parameters, inputs or none (fmu.chain.delivery)
+    chain_inputs: tuple[tuple[str, str], ...] = ()  # FMU input → set-point (delivery inputs)
+    done_at: float = 1.0
+    rover: RoverGeometry | None = None  # geometry of the set-points (delivery inputs)
 
 
 @dataclass(frozen=True)
@@ -50,7 +54,8 @@ _RUNNERS: dict[tuple[Any, ...], Any] = {}
 def _runner(task: RunTask) -> Any:
     from idefix_rules.fmu import FmuRunner
 
-    key = (task.fmu_path, task.unzipped, task.signal_map, task.parameter_map)
+    key = (task.fmu_path, task.unzipped, task.signal_map, task.parameter_map,
+           task.chain_delivery, task.chain_inputs, task.done_at)
     runner = _RUNNERS.get(key)
     if runner is None:
         for old in _RUNNERS.values():
@@ -61,6 +66,9 @@ def _runner(task: RunTask) -> Any:
             signal_map=dict(task.signal_map) if task.signal_map is not None else None,
             parameter_map=dict(task.parameter_map) if task.parameter_map is not None else None,
             unzipped=task.unzipped,
+            chain_delivery=task.chain_delivery,
+            chain_inputs=dict(task.chain_inputs),
+            done_at=task.done_at,
         )
         _RUNNERS[key] = runner
     return runner
@@ -83,7 +91,8 @@ def simulate(task: RunTask) -> RunResult | InputProblem:
     started = time.perf_counter()
     try:
         signals = runner.run(parameters=dict(task.parameters), chain=list(task.chain),
-                             stop_time=task.stop_time, output_interval=task.output_interval)
+                             stop_time=task.stop_time, output_interval=task.output_interval,
+                             rover=task.rover)
     except UserInputError as failure:
         return InputProblem(tuple(failure.diagnostics))
     except BaseException:

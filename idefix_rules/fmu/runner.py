@@ -1,11 +1,12 @@
-"""Run an FMI 2.0 co-simulation FMU many times, cheaply: :class:`FmuRunner`.
+"""Run an FMI 2.0 or 3.0 co-simulation FMU many times, cheaply: :class:`FmuRunner`.
 
 One runner per process: the FMU is instantiated once; every run resets the instance, applies
-start values (with units), and steps it on the caller's time grid, reading all outputs with one
-``fmi2GetReal`` per communication step straight into a numpy array. Given a ``.fmu`` the runner
-extracts it itself (and removes the folder on close); given ``unzipped``, a folder the caller
-extracted once with :func:`extract_fmu` and owns, many runners (one per worker process) share
-it.
+start values (with units), and steps it on the caller's time grid, reading the outputs with one
+getter call per type (``fmi2GetReal``, ``fmi3GetInt32`` …) per communication step straight
+into numpy rows, then converting them to float64 in SI (the FMU's declared unit) by contract
+name. Given a ``.fmu`` the runner extracts it itself (and removes the folder on close); given
+``unzipped``, a folder the caller extracted once with :func:`extract_fmu` and owns, many
+runners (one per worker process) share it.
 
 >>> from idefix_rules.commands import Command
 >>> runner = FmuRunner(default_fmu_path())                      # doctest: +SKIP
@@ -17,19 +18,23 @@ it.
 
 from __future__ import annotations
 
-import ctypes
 import json
 import math
 import re
 import shutil
+import zipfile
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from idefix_rules.commands import Command
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.fmu.binding import OK_STATUSES, FmuInstance, OutputGroup
+from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu
+from idefix_rules.fmu.exchange import simulate_model_exchange
+from idefix_rules.fmu.setpoints import SETPOINTS, chain_setpoints
 from idefix_rules.fmu.terrain import read_terrain
 from idefix_rules.signals import AXIS_LABELS, FMU_SIGNALS
 from idefix_rules.units import UnitError, parse_quantity, parse_unit
@@ -38,8 +43,9 @@ SIGNAL_MAP_FILE = "signal_map.json"
 CHAIN_COUNT = "chain.count"
 TERRAIN_FILE = "terrain.file"
 CHAIN_ARRAYS = ("chain.max_wheel_rate", "chain.delta_position", "chain.delta_heading")
+DONE_SIGNAL = "done"
+CHAIN_DELIVERIES = ("parameters", "inputs", "none")
 _INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
-_OK_STATUSES = (0, 1)  # fmi2OK, fmi2Warning
 # How the rover FMU (and any FMU following its wording) names a parameter it rejects.
 _PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
 
@@ -62,92 +68,123 @@ def extract_fmu(fmu_path: str | Path, folder: str | Path | None = None) -> Path:
             from None
 
 
+def default_signal_map(description: FmuDescription, source: Path) -> dict[str, str]:
+    """The map used when a campaign gives none: the FMU's shipped ``signal_map.json``, else
+    every variable named like a contract signal."""
+    text = None
+    if source.is_dir():
+        shipped = source / SIGNAL_MAP_FILE
+        text = shipped.read_text(encoding="utf-8") if shipped.is_file() else None
+    else:
+        with zipfile.ZipFile(source) as archive:
+            if SIGNAL_MAP_FILE in archive.namelist():
+                text = archive.read(SIGNAL_MAP_FILE).decode("utf-8")
+    if text is not None:
+        return dict(json.loads(text))
+    return {name: name for name in FMU_SIGNALS
+            if name in description.variables and name != DONE_SIGNAL}
+
+
+def contract_column(contract: str, span: Span) -> tuple[str, int | None]:
+    """The signal and wheel column a map target names (``wheel.rate[FL]`` → wheel.rate, 0)."""
+    match = _INDEXED.match(contract)
+    base, column = (match["name"], match["index"]) if match else (contract, None)
+    spec = FMU_SIGNALS.get(base)
+    if spec is None:
+        raise UserInputError(error("F105", f"'{contract}' is not an fmu signal of the "
+                                   "contract", span))
+    if "wheel" not in spec.axes:
+        return base, None
+    labels = AXIS_LABELS["wheel"]
+    if column is None or (column not in labels and not column.isdigit()):
+        raise UserInputError(error("F105", f"'{contract}' needs a wheel, e.g. {base}[FL]", span))
+    return base, labels.index(column) if column in labels else int(column)
+
+
+def si_scale(variable: FmuVariable, what: str, unit: str, span: Span) -> float:
+    """Factor from the variable's declared unit to ``unit``, the SI unit of ``what`` (a signal
+    or set-point): 1 without a declared unit; F403 when the dimensions differ."""
+    if variable.si is None:
+        return 1.0
+    if variable.si.dimension != parse_unit(unit).dimension:
+        raise UserInputError(error(
+            "F403", f"'{variable.name}' is in {variable.unit}, but {what} is in {unit}", span))
+    return variable.si.scale
+
+
+@dataclass(frozen=True)
+class _Slot:
+    """Where an output goes: signal, wheel column (None: a time signal), SI factor, done."""
+
+    signal: str
+    index: int | None
+    scale: float
+    done: bool
+
+
 class FmuRunner:
     """Runs one FMU repeatedly in this process (see the module docstring).
 
     ``unzipped``: the FMU already extracted by the caller (:func:`extract_fmu`), who keeps the
-    folder; ``fmu_path`` then only names the FMU in messages.
+    folder; ``fmu_path`` then only names the FMU in messages. ``chain_delivery`` says how a
+    chain reaches the FMU: ``parameters`` (``chain.count`` and the chain arrays, renamed by
+    ``parameter_map``), ``inputs`` (the set-points of ``chain_inputs``, FMU input → set-point
+    name of :data:`~idefix_rules.fmu.setpoints.SETPOINTS`, fed every communication step) or
+    ``none``. A signal mapped to ``done`` is 1 from the sample where the FMU's variable
+    reaches ``done_at``.
     """
 
     def __init__(self, fmu_path: str | Path, signal_map: Mapping[str, str] | None = None,
                  parameter_map: Mapping[str, str] | None = None,
-                 extra_outputs: Sequence[str] = (), unzipped: str | Path | None = None) -> None:
-        from fmpy import read_model_description
-        from fmpy.fmi2 import FMU2Slave
-
+                 extra_outputs: Sequence[str] = (), unzipped: str | Path | None = None,
+                 chain_delivery: str = "parameters",
+                 chain_inputs: Mapping[str, str] | None = None, done_at: float = 1.0) -> None:
         self.fmu_path = Path(fmu_path)
         if unzipped is None and not self.fmu_path.exists():
             raise UserInputError(error("F101", "FMU file not found", Span(str(self.fmu_path))))
         source = self.fmu_path if unzipped is None else Path(unzipped)
-        try:
-            description = read_model_description(str(source), validate=False)
-        except Exception as exc:  # fmpy raises plain exceptions for unreadable archives
-            raise UserInputError(error("F102", f"not a readable FMU: {exc}",
-                                       Span(str(source)))) from None
-        if description.fmiVersion != "2.0":
-            raise UserInputError(error("F103", f"FMI {description.fmiVersion} FMU; the runner "
-                                       "supports FMI 2.0 co-simulation", Span(str(self.fmu_path))))
-        if description.coSimulation is None:
-            raise UserInputError(error("F103", "the FMU has no co-simulation interface",
+        self.description = describe_fmu(source)
+        if self.description.major not in (2, 3):
+            raise UserInputError(error("F103", f"FMI {self.description.fmi_version} FMU; the "
+                                       "runner supports FMI 2.0 and 3.0",
                                        Span(str(self.fmu_path))))
+        if self.description.co_simulation is None and self.description.model_exchange is None:
+            raise UserInputError(error(
+                "F103", "the FMU has neither a co-simulation nor a model-exchange interface",
+                Span(str(self.fmu_path))))
+        # Co-simulation when the FMU has it; else model exchange with fmpy's solver.
+        self.model_exchange = self.description.co_simulation is None
+        self._variables = self.description.variables
+        self.signal_map = dict(signal_map) if signal_map is not None else \
+            default_signal_map(self.description, source)
+        self.parameter_map = dict(parameter_map or {})
+        self.chain_delivery = chain_delivery
+        self.chain_inputs = dict(chain_inputs or {})
+        self.done_at = float(done_at)
+        self._plan_outputs(list(extra_outputs))
+        self._plan_inputs()
         # Only a folder the runner extracted itself is removed on close.
         self._owns_unzipdir = unzipped is None
         self._unzipdir = extract_fmu(self.fmu_path) if unzipped is None else Path(unzipped)
-        self._variables = {v.name: v for v in description.modelVariables}
-        self._units = {u.name for u in description.unitDefinitions}
-        if signal_map is None:
-            signal_map = self._default_signal_map()
-        self.signal_map = dict(signal_map)
-        self.parameter_map = dict(parameter_map or {})
-        self._plan_outputs(list(extra_outputs))
-        self._slave = FMU2Slave(guid=description.guid, unzipDirectory=str(self._unzipdir),
-                                modelIdentifier=description.coSimulation.modelIdentifier,
-                                instanceName="idefix")
         self._log: list[str] = []
-        try:
-            self._slave.instantiate(callbacks=self._callbacks())
-        except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
-            self._remove_unzipdir()
-            raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
-                from None
-        dll = self._slave.dll
-        self._do_step = dll.fmi2DoStep
-        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
-        self._do_step.restype = ctypes.c_int
-        self._get_real = dll.fmi2GetReal
-        self._get_real.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t,
-                                   ctypes.c_void_p]
-        self._get_real.restype = ctypes.c_int
+        self._instance: FmuInstance | None = None
+        self._groups: list[OutputGroup] = []
+        if not self.model_exchange:
+            try:
+                self._instance = FmuInstance(self.description, str(self._unzipdir), "idefix")
+            except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
+                self._remove_unzipdir()
+                raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
+                    from None
+            self._slave = self._instance.slave
+            self._log = self._instance.log
+            self._do_step = self._instance.do_step
+            self._groups = self._instance.output_groups([v for v, _ in self._outputs])
         self._runs = 0
         self._closed = False
         self._checked_terrain: tuple[str, int, int] | None = None
 
     # ------------------------------------------------------------------ set-up
-    def _callbacks(self) -> Any:
-        """FMI callbacks whose logger keeps the FMU's messages (to explain a failed call).
-
-        The logger reads the format string as the message (the rover FMU passes its text as the
-        format); fmpy's variadic logger proxy is process-wide, so it is not used here.
-        """
-        from fmpy.fmi2 import (
-            calloc,
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-            free,
-        )
-        def logger(component: Any, instance: bytes, status: int, category: bytes,
-                   message: bytes) -> None:
-            self._log.append(message.decode("utf-8", "replace"))
-            del self._log[:-20]
-
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        return callbacks
-
     def _initialisation_error(self, exc: Exception) -> Exception:
         """A parameter the FMU rejects is the user's mistake; anything else is not."""
         for message in reversed(self._log):
@@ -159,8 +196,11 @@ class FmuRunner:
                 text = message if name == fmu_name else f"{message} (FMU variable of '{name}')"
                 return UserInputError(error("F110", text, Span(str(self.fmu_path)),
                                             hint=f"set '{name}' within the allowed range"))
-        detail = f": {self._log[-1]}" if self._log else "; see the FMU's log for the reason"
-        return InfrastructureError(f"{self.fmu_path.name}: initialisation failed ({exc}){detail}")
+        return InfrastructureError(f"{self.fmu_path.name}: initialisation failed "
+                                   f"({exc}){self._log_detail()}")
+
+    def _log_detail(self) -> str:
+        return f": {self._log[-1]}" if self._log else "; the FMU logged no reason"
 
     @property
     def unzipped(self) -> Path:
@@ -172,12 +212,6 @@ class FmuRunner:
         """Names of all variables of the FMU."""
         return tuple(self._variables)
 
-    def _default_signal_map(self) -> dict[str, str]:
-        shipped = self._unzipdir / SIGNAL_MAP_FILE
-        if shipped.is_file():
-            return dict(json.loads(shipped.read_text(encoding="utf-8")))
-        return {name: name for name in FMU_SIGNALS if name in self._variables}
-
     def _missing(self, name: str, role: str) -> UserInputError:
         return UserInputError(error(
             "F104", f"{role} variable '{name}' does not exist in the FMU",
@@ -185,56 +219,49 @@ class FmuRunner:
             "`fmpy info` of the FMU"))
 
     def _plan_outputs(self, extra: list[str]) -> None:
-        """Value references and destination (signal, column) of every mapped output."""
-        refs: list[int] = []
-        slots: list[tuple[str, int | None]] = []
+        """Variable, destination (signal, column), SI scale and kind of every mapped output."""
+        outputs: list[tuple[FmuVariable, _Slot]] = []
         for fmu_name, contract in self.signal_map.items():
             variable = self._variables.get(fmu_name)
             if variable is None:
                 raise self._missing(fmu_name, "mapped")
-            match = _INDEXED.match(contract)
-            base, column = (match["name"], match["index"]) if match else (contract, None)
-            spec = FMU_SIGNALS.get(base)
-            if spec is None:
-                raise UserInputError(error("F105", f"'{contract}' is not an fmu signal of the "
-                                           "contract", Span(str(self.fmu_path))))
-            index = None
-            if "wheel" in spec.axes:
-                labels = AXIS_LABELS["wheel"]
-                if column is None or (column not in labels and not column.isdigit()):
-                    raise UserInputError(error("F105", f"'{contract}' needs a wheel, e.g. "
-                                               f"{base}[FL]", Span(str(self.fmu_path))))
-                index = labels.index(column) if column in labels else int(column)
-            refs.append(variable.valueReference)
-            slots.append((base, index))
+            base, index = contract_column(contract, Span(str(self.fmu_path)))
+            if variable.reader not in ("real", "integer", "boolean"):
+                raise UserInputError(error(
+                    "F401", f"'{fmu_name}' is a {variable.type}; a signal needs a Real, Integer, "
+                    "Boolean or Enumeration output", Span(str(self.fmu_path))))
+            scale = 1.0 if base == DONE_SIGNAL else si_scale(
+                variable, f"signal '{base}'", FMU_SIGNALS[base].unit, Span(str(self.fmu_path)))
+            outputs.append((variable, _Slot(base, index, scale, base == DONE_SIGNAL)))
         for name in extra:
             variable = self._variables.get(name)
             if variable is None:
                 raise self._missing(name, "requested")
-            refs.append(variable.valueReference)
-            slots.append((name, None))
-        self._output_refs = (ctypes.c_uint * len(refs))(*refs)
-        self._slots = slots
-        self._wheel_columns: dict[str, list[tuple[int, int]]] = {}
-        self._scalar_columns: dict[str, int] = {}
-        for position, (name, index) in enumerate(slots):
-            if index is None:
-                self._scalar_columns[name] = position
-            else:
-                self._wheel_columns.setdefault(name, []).append((index, position))
+            outputs.append((variable, _Slot(name, None, 1.0, False)))
+        self._outputs = outputs
+
+    def _plan_inputs(self) -> None:
+        """The FMU inputs fed with set-points each communication step (delivery ``inputs``)."""
+        self._inputs: list[tuple[FmuVariable, str, float]] = []
+        if self.chain_delivery != "inputs":
+            return
+        for fmu_name, setpoint in self.chain_inputs.items():
+            variable = self._variables.get(fmu_name)
+            if variable is None:
+                raise self._missing(fmu_name, "chain input")
+            if setpoint not in SETPOINTS:
+                raise UserInputError(error(
+                    "F402", f"'{setpoint}' is not a set-point; one of "
+                    f"{', '.join(SETPOINTS)}", Span(str(self.fmu_path))))
+            scale = si_scale(variable, f"set-point '{setpoint}'", SETPOINTS[setpoint],
+                             Span(str(self.fmu_path)))
+            self._inputs.append((variable, setpoint, scale))
 
     def _fmu_name(self, name: str) -> str:
         return self.parameter_map.get(name, name)
 
-    def _value_in_fmu_unit(self, name: str, variable: Any, value: float | str) -> float:
-        unit = variable.declaredType.unit if variable.unit is None and variable.declaredType \
-            else variable.unit
-        target = None
-        if unit:
-            try:
-                target = parse_unit(unit.replace(".", "*"))
-            except UnitError:
-                target = None
+    def _value_in_fmu_unit(self, name: str, variable: FmuVariable, value: float | str) -> float:
+        unit, target = variable.unit, variable.si
         if isinstance(value, str):
             try:
                 quantity = parse_quantity(value)
@@ -266,30 +293,29 @@ class FmuRunner:
             read_terrain(path)
             self._checked_terrain = key
 
-    def _apply(self, parameters: Mapping[str, float | str], chain: Sequence[Command]) -> None:
-        reals: dict[int, float] = {}
-        integers: dict[int, int] = {}
-        strings: dict[int, str] = {}
+    def _start_values(self, parameters: Mapping[str, float | str], chain: Sequence[Command]
+                      ) -> list[tuple[FmuVariable, float | int | str]]:
+        values: list[tuple[FmuVariable, float | int | str]] = []
         for name, value in parameters.items():
             fmu_name = self._fmu_name(name)
             variable = self._variables.get(fmu_name)
             if variable is None:
                 raise self._missing(fmu_name, "parameter")
-            if variable.type == "String":
+            if variable.reader == "string":
                 if fmu_name == TERRAIN_FILE and value:
                     self._check_terrain(str(value))
-                strings[variable.valueReference] = str(value)
-            elif variable.type in ("Integer", "Enumeration"):
-                integers[variable.valueReference] = int(value)
-            elif variable.type == "Boolean":
+                values.append((variable, str(value)))
+            elif variable.reader == "integer":
+                values.append((variable, int(value)))
+            elif variable.reader == "boolean":
                 raise UserInputError(error("F108", f"Boolean parameter '{name}' not supported"))
             else:
-                reals[variable.valueReference] = self._value_in_fmu_unit(name, variable, value)
-        if chain:
+                values.append((variable, self._value_in_fmu_unit(name, variable, value)))
+        if chain and self.chain_delivery == "parameters":
             count = self._variables.get(self._fmu_name(CHAIN_COUNT))
             if count is None:
                 raise self._missing(self._fmu_name(CHAIN_COUNT), "chain")
-            integers[count.valueReference] = len(chain)
+            values.append((count, len(chain)))
             for array, field in zip(CHAIN_ARRAYS, ("max_wheel_rate", "delta_position",
                                                    "delta_heading"), strict=True):
                 for i, command in enumerate(chain):
@@ -297,23 +323,19 @@ class FmuRunner:
                     variable = self._variables.get(name)
                     if variable is None:
                         raise self._missing(name, "chain")
-                    reals[variable.valueReference] = self._value_in_fmu_unit(
-                        name, variable, float(getattr(command, field)))
-        slave = self._slave
-        if reals:
-            slave.setReal(list(reals), list(reals.values()))
-        if integers:
-            slave.setInteger(list(integers), list(integers.values()))
-        if strings:
-            slave.setString(list(strings), list(strings.values()))
+                    values.append((variable, self._value_in_fmu_unit(
+                        name, variable, float(getattr(command, field)))))
+        return values
 
     # ------------------------------------------------------------------ running
     def run(self, parameters: Mapping[str, float | str], chain: Sequence[Command],
-            stop_time: float, output_interval: float) -> dict[str, np.ndarray]:
+            stop_time: float, output_interval: float,
+            rover: RoverGeometry | None = None) -> dict[str, np.ndarray]:
         """Simulate one run and return its signals by contract name.
 
         Samples are at ``k * output_interval`` for ``k = 0 .. round(stop_time /
         output_interval)``; time signals have shape (samples,), wheel signals (samples, 4).
+        ``rover``: the geometry the ``inputs`` delivery computes set-points with.
         """
         if self._closed:
             raise InfrastructureError("FmuRunner used after close()")
@@ -321,44 +343,93 @@ class FmuRunner:
             raise UserInputError(error("F109", "need output_interval > 0 and stop_time >= 0"))
         from fmpy.fmi1 import FMICallException
 
-        slave = self._slave
         steps = round(stop_time / output_interval)
-        out = np.empty((steps + 1, len(self._slots)), dtype=np.float64)
-        self._log.clear()
-        try:
-            if self._runs:
-                slave.reset()
+        feed = self._input_rows(chain, rover or RoverGeometry(), output_interval, steps)
+        if self._instance is None:  # model exchange: fmpy's solver, a new instance per run
             self._runs += 1
-            slave.setupExperiment(startTime=0.0, stopTime=steps * output_interval)
-            slave.enterInitializationMode()
-            self._apply(parameters, chain)
-            slave.exitInitializationMode()
+            columns = simulate_model_exchange(
+                self._unzipdir, self.fmu_path.name, self._start_values(parameters, chain), feed,
+                [variable for variable, _ in self._outputs], steps, output_interval)
+            return self._collect(columns, steps, output_interval)
+        buffers = [np.empty((steps + 1, group.count), dtype=group.dtype)
+                   for group in self._groups]
+        self._log.clear()
+        instance = self._instance
+        try:
+            self._runs += 1
+            instance.start(steps * output_interval)
+            instance.set_values(self._start_values(parameters, chain))
+            if feed:
+                instance.set_values([(v, row[0]) for v, row in feed])
+            instance.end_initialisation()
         except FMICallException as exc:
             raise self._initialisation_error(exc) from None
-        component = slave.component
-        refs, n = self._output_refs, len(self._slots)
-        row_bytes = out.strides[0]
-        base = out.ctypes.data
-        if self._get_real(component, refs, n, base) not in _OK_STATUSES:
-            raise InfrastructureError(f"{self.fmu_path.name}: fmi2GetReal failed")
-        do_step, get_real = self._do_step, self._get_real
+        component = instance.component
+        # The raw getter calls, unpacked once: this loop runs for every communication step.
+        reads = [(group.function, group.refs, group.count, buffer.ctypes.data,
+                  buffer.strides[0], (group.count,) if group.fmi3 else ())
+                 for group, buffer in zip(self._groups, buffers, strict=True)]
+        for get, refs, count, base, _, tail in reads:
+            if get(component, refs, count, base, *tail) not in OK_STATUSES:
+                raise self._read_error(0.0)
+        do_step = self._do_step
         for k in range(steps):
-            status = do_step(component, k * output_interval, output_interval, 1)
-            if status not in _OK_STATUSES:
-                raise InfrastructureError(f"{self.fmu_path.name}: fmi2DoStep failed at "
-                                          f"t = {k * output_interval:g} s (status {status})")
-            get_real(component, refs, n, base + (k + 1) * row_bytes)
-        return self._collect(out, steps, output_interval)
+            if feed:
+                instance.set_values([(v, row[k]) for v, row in feed])
+            if do_step is not None:
+                status = do_step(component, k * output_interval, output_interval, 1)
+                failure = None if status in OK_STATUSES else f"status {status}"
+            else:
+                failure = instance.step(k * output_interval, output_interval)
+            if failure is not None:
+                call = "fmi3DoStep" if instance.fmi3 else "fmi2DoStep"
+                raise InfrastructureError(f"{self.fmu_path.name}: {call} failed at t = "
+                                          f"{k * output_interval:g} s ({failure})"
+                                          f"{self._log_detail()}")
+            for get, refs, count, base, row_bytes, tail in reads:
+                if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
+                        not in OK_STATUSES:
+                    raise self._read_error((k + 1) * output_interval)
+        read: list[np.ndarray] = [np.empty(0)] * len(self._outputs)
+        for group, buffer in zip(self._groups, buffers, strict=True):
+            for offset, position in enumerate(group.positions):
+                read[position] = buffer[:, offset]
+        return self._collect(read, steps, output_interval)
 
-    def _collect(self, out: np.ndarray, steps: int, interval: float) -> dict[str, np.ndarray]:
+    def _read_error(self, time: float) -> InfrastructureError:
+        return InfrastructureError(f"{self.fmu_path.name}: reading the outputs failed at "
+                                   f"t = {time:g} s{self._log_detail()}")
+
+    def _input_rows(self, chain: Sequence[Command], rover: RoverGeometry, interval: float,
+                    steps: int) -> list[tuple[FmuVariable, np.ndarray]]:
+        """Per chain input its value for every step (and the initial value), FMU units."""
+        if not self._inputs:
+            return []
+        values = chain_setpoints(chain, rover, interval, max(steps, 1))
+        rows = []
+        for variable, setpoint, scale in self._inputs:
+            series = values[setpoint] / scale if scale != 1.0 else values[setpoint]
+            rows.append((variable, series))
+        return rows
+
+    def _collect(self, columns: list[np.ndarray], steps: int,
+                 interval: float) -> dict[str, np.ndarray]:
+        """Signals by contract name from the outputs' columns (slot order), SI, float64."""
         signals: dict[str, np.ndarray] = {}
-        for name, position in self._scalar_columns.items():
-            signals[name] = out[:, position].copy()
-        for name, columns in self._wheel_columns.items():
-            array = np.full((out.shape[0], len(AXIS_LABELS["wheel"])), np.nan)
-            for index, position in columns:
-                array[:, index] = out[:, position]
-            signals[name] = array
+        wheels: dict[str, np.ndarray] = {}
+        for (_, slot), column in zip(self._outputs, columns, strict=True):
+            values = column.astype(np.float64)  # always a copy, whatever the type read
+            if slot.done:
+                values = (values >= self.done_at).astype(np.float64)
+            elif slot.scale != 1.0:
+                values *= slot.scale
+            if slot.index is None:
+                signals[slot.signal] = values
+            else:
+                array = wheels.setdefault(slot.signal, np.full(
+                    (steps + 1, len(AXIS_LABELS["wheel"])), np.nan))
+                array[:, slot.index] = values
+        signals.update(wheels)
         if "t" not in signals:
             signals["t"] = np.arange(steps + 1) * interval
         return signals
@@ -373,8 +444,8 @@ class FmuRunner:
             return
         self._closed = True
         try:
-            self._slave.terminate()
-            self._slave.freeInstance()
+            if self._instance is not None:
+                self._instance.close()
         finally:
             self._remove_unzipdir()
 

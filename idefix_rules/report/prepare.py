@@ -204,7 +204,8 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
         if reference is not None and "x" in reference and "y" in reference:
             include(np.asarray(reference["x"]), np.asarray(reference["y"]))
         for _, chunk in _chunks(store, path.name, ["x", "y"], 256):
-            include(chunk["x"], chunk["y"])
+            if "x" in chunk and "y" in chunk:  # a foreign FMU need not give a position
+                include(chunk["x"], chunk["y"])
     obstacle_bounds = setup.environment.bounds()
     if obstacle_bounds is not None and not np.isfinite(bounds).all():
         bounds = list(obstacle_bounds)
@@ -215,6 +216,8 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
                   min(max(bounds[1], obstacle_bounds[1]), bounds[1] + reach),
                   max(min(bounds[2], obstacle_bounds[2]), bounds[2] - reach),
                   min(max(bounds[3], obstacle_bounds[3]), bounds[3] + reach)]
+    if not np.isfinite(bounds).all():  # no position and no obstacle: an empty map
+        bounds = [-1.0, 1.0, -1.0, 1.0]
     cell = cell_size_for(setup.rover)
     track = 2.0 * setup.rover.half_track
     xmin, xmax, ymin, ymax = (float(b) for b in bounds)
@@ -252,8 +255,31 @@ def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
     derived = DerivedSignals(signals, context, DerivedSettings(
         theoretical_slip=float(settings.get("theoretical_slip", 0.0)),
         tolerance_growth=float(settings.get("tolerance_growth", 0.0))))
-    return (np.asarray(derived.get("local_error"))[:, -1],
-            np.asarray(derived.get("heading_error"))[:, -1])
+    local = np.asarray(derived.get("local_error"))[:, -1]
+    if "yaw" not in signals or context.reference is None or "yaw" not in context.reference:
+        return local, np.full(local.shape, np.nan)  # a foreign FMU need not give yaw
+    return local, np.asarray(derived.get("heading_error"))[:, -1]
+
+
+# What the report draws from each optional signal, to name what a foreign FMU's runs lack.
+OPTIONAL_SIGNALS = {"x": "the result maps show no runs and no box plots are drawn",
+                    "y": "the result maps show no runs and no box plots are drawn",
+                    "yaw": "the final heading error box plot is not drawn",
+                    "energy": "Table 1 shows no energy",
+                    "command": "a run's time is its stop time"}
+
+
+def missing_signal_notes(store: ResultStore, data: ReportData) -> list[str]:
+    """One note per optional signal the stored runs lack, saying what is not drawn."""
+    stored: set[str] = set()
+    for path in data.paths:
+        reference = store.reference(path.name)
+        stored |= set(reference or ())
+    if not stored:
+        return []
+    return [f"the runs hold no '{name}' (the FMU's signal map does not provide it): {what}"
+            for name, what in OPTIONAL_SIGNALS.items()
+            if name not in stored and not (name == "command" and "done" in stored)]
 
 
 def _context(store: ResultStore, name: str, setup: Setup) -> Any:
@@ -284,6 +310,7 @@ def _details(store: ResultStore, name: str) -> Any:
 def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
     """Fill the risk maps, each path's final errors and the interactive page's per-run data
     (cells, thinned runs, contacts) in one chunked pass over the runs."""
+    setup.notes += missing_signal_notes(store, data)
     grid, reason = choose_grid(store, data, setup)
     per_path: dict[str, RiskAccumulator] = {}
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -307,7 +334,8 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
                 maps.wheel_bands[path.name] = wheel_bands(
                     np.asarray(reference["x"]), np.asarray(reference["y"]),
                     np.asarray(reference["yaw"]), setup.rover, WHEEL_WIDTH)
-        if not path.evaluated or not path.complete.any():
+        if not path.evaluated or not path.complete.any() or reference is None \
+                or not {"x", "y"} <= set(reference):
             continue
         accumulator = RiskAccumulator(grid)
         cells = CellRuns(grid, len(path.index_names))
@@ -338,7 +366,8 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
         maps.contacts[path.name] = contacts
         if local:
             path.final_local_error = np.concatenate(local)
-            path.final_heading_error = np.concatenate(heading)
+            headings = np.concatenate(heading)
+            path.final_heading_error = None if np.isnan(headings).all() else headings
     for accumulator in per_path.values():
         maps.combined.merge(accumulator)
     return maps

@@ -162,7 +162,9 @@ class CompiledRulebook:
         read = set().union(*(set(i.reads) for i in self._indices),
                            *(set(c.reads) for c in self._chances))
         provided = set().union(*(inputs_of(name) for name in read)) if read else set()
-        self.required_signals: frozenset[str] = frozenset(provided | {"t", "command", "energy"})
+        # 'command' (run time) and 'energy' are used when present, not required (a foreign
+        # FMU may lack them): see DerivedSignals.provides.
+        self.required_signals: frozenset[str] = frozenset(provided | {"t"})
         self.needs_collisions = any(name.startswith("collision.") for name in provided)
 
     def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
@@ -291,9 +293,17 @@ class CompiledRulebook:
 
     @staticmethod
     def _time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
-        command = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples))
-        done = command == -1
+        # The run ends where the chain is complete: 'command' -1, else a mapped 'done', else
+        # the last sample; without 'energy' the run's energy is unknown (NaN).
+        if source.provides("command"):
+            done = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples)) == -1
+        elif source.provides("done"):
+            done = np.broadcast_to(source.get("done"), (runs, source.samples)) >= 0.5
+        else:
+            done = np.zeros((runs, source.samples), dtype=bool)
         sample = np.where(done.any(axis=1), np.argmax(done, axis=1), source.samples - 1)
+        if not source.provides("energy"):
+            return source.t[sample], np.full(runs, np.nan)
         energy = np.broadcast_to(source.get("energy"), (runs, source.samples))
         return source.t[sample], energy[np.arange(runs), sample]
 

@@ -79,12 +79,14 @@ class DerivedSettings:
 # Contract names each derived signal reads (for ``required_signals``); ``ref.*`` read the
 # reference run's signals of the same name.
 DERIVED_INPUTS: dict[str, frozenset[str]] = {
-    "theory.x": frozenset({"t", "command"}),
-    "theory.y": frozenset({"t", "command"}),
-    "theory.yaw": frozenset({"t", "command"}),
-    "local_error": frozenset({"t", "command", "x", "y"}),
-    "global_error": frozenset({"x", "y", "z"}),
-    "tolerance_radius": frozenset({"t", "command"}),
+    # 'command' is used when the FMU gives it, else the ideal schedule (see _ideal_command);
+    # 'z' likewise adds to the global error only when given (a planar model has none).
+    "theory.x": frozenset({"t"}),
+    "theory.y": frozenset({"t"}),
+    "theory.yaw": frozenset({"t"}),
+    "local_error": frozenset({"t", "x", "y"}),
+    "global_error": frozenset({"x", "y"}),
+    "tolerance_radius": frozenset({"t"}),
     "heading_error": frozenset({"yaw"}),
     "speed": frozenset({"t", "x", "y"}),
     "acceleration": frozenset({"t", "x", "y"}),
@@ -124,6 +126,10 @@ class DerivedSignals:
         self.t: np.ndarray = t_all[0] if t_all.ndim == 2 else t_all
         self.runs = int(t_all.shape[0]) if t_all.ndim == 2 else 1
         self.samples = int(self.t.shape[0])
+
+    def provides(self, name: str) -> bool:
+        """Whether the run signals hold ``name`` (optional ones: 'command', 'done', 'energy')."""
+        return name in self._signals
 
     def get(self, name: str) -> np.ndarray:
         cached = self._cache.get(name)
@@ -177,7 +183,7 @@ class DerivedSignals:
                                        self.get("y") - self.get("theory.y")))
         if name == "global_error":
             total = np.square(self.get("x") - self.get("ref.x"))
-            for axis in ("y", "z"):
+            for axis in ("y", "z") if self.provides("z") else ("y",):
                 difference = self.get(axis) - self.get(f"ref.{axis}")
                 total += np.square(difference, out=difference)
             return np.asarray(np.sqrt(total, out=total))
@@ -206,7 +212,10 @@ class DerivedSignals:
         the time since that command started."""
         if self._command_cache is not None:
             return self._command_cache
-        command = np.rint(self._given("command")).astype(int)
+        if self.provides("command"):
+            command = np.rint(self._given("command")).astype(int)
+        else:
+            command = self._ideal_command()
         command = np.broadcast_to(command, (self.runs, self.samples))
         n = len(self.context.chain)
         started = np.maximum.accumulate(command >= 0, axis=1)
@@ -221,6 +230,18 @@ class DerivedSignals:
         since = self.t[np.newaxis] - np.take_along_axis(starts, active + 1, axis=1)
         self._command_cache = (active, since)
         return active, since
+
+    def _ideal_command(self) -> np.ndarray:
+        """The active command per sample when the FMU reports none ('command' is optional):
+        the commands follow each other at their ideal durations from t = 0, -1 after."""
+        chain, rover = self.context.chain, self.context.rover
+        durations = np.array([command_kinematics(c, rover).duration for c in chain])
+        starts = np.concatenate([[0.0], np.cumsum(durations)])
+        active = np.searchsorted(starts, self.t - self.t[0], side="right") - 1
+        running = active < len(chain)
+        if len(chain):
+            running &= durations[np.minimum(active, len(chain) - 1)] > 0
+        return np.where(running, active, -1)[np.newaxis]
 
     def _progress(self) -> tuple[np.ndarray, np.ndarray]:
         """Active command and absolute heading turned so far along the theoretical path."""
@@ -241,10 +262,14 @@ class DerivedSignals:
         return active, turned
 
     def _start_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # Without 'yaw' (a planar model may report position only) the path starts along +x,
+        # the start frame of the signal contract.
         if self.context.reference is not None:
-            return (self.get("ref.x")[:, :1], self.get("ref.y")[:, :1],
-                    self.get("ref.yaw")[:, :1])
-        return self.get("x")[:, :1], self.get("y")[:, :1], self.get("yaw")[:, :1]
+            x, y = self.get("ref.x")[:, :1], self.get("ref.y")[:, :1]
+            has_yaw = "yaw" in self.context.reference
+            return x, y, self.get("ref.yaw")[:, :1] if has_yaw else np.zeros_like(x)
+        x, y = self.get("x")[:, :1], self.get("y")[:, :1]
+        return x, y, self.get("yaw")[:, :1] if self.provides("yaw") else np.zeros_like(x)
 
     def _theory(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         active, since = self._command_progress()

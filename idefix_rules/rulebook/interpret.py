@@ -367,10 +367,19 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
     row["dominant"] = weighted.index(row["i_max"])
     per_sample = row["per_sample"][names[row["dominant"]]]
     row["dominant_sample"] = per_sample.index(max(per_sample))
-    command = [round(float(c)) for c in np.asarray(evaluator.source.get("command"))[0]]
-    done = command.index(-1) if -1 in command else samples - 1
+    # The run ends where the chain is complete: 'command' -1, else a mapped 'done', else the
+    # last sample; without 'energy' the run's energy is unknown (NaN).
+    source = evaluator.source
+    if source.provides("command"):
+        ended = [round(float(c)) == -1 for c in np.asarray(source.get("command"))[0]]
+    elif source.provides("done"):
+        ended = [float(d) >= 0.5 for d in np.asarray(source.get("done"))[0]]
+    else:
+        ended = []
+    done = ended.index(True) if True in ended else samples - 1
     row["time"] = evaluator.t[done]
-    row["energy"] = float(np.asarray(evaluator.source.get("energy"))[0][done])
+    row["energy"] = float(np.asarray(source.get("energy"))[0][done]) \
+        if source.provides("energy") else math.nan
     return row
 
 

@@ -23,3 +23,27 @@ def rover(rover_fmu: Path) -> Iterator[FmuRunner]:
                                                                               "RR")])
     yield runner
     runner.close()
+
+
+@pytest.fixture(scope="session")
+def unicycle_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An FMI 2.0 co-simulation FMU exported by pythonfmu (tests/fmu/foreign_fmus.py)."""
+    from foreign_fmus import build_unicycle
+
+    return build_unicycle(tmp_path_factory.mktemp("unicycle"))
+
+
+@pytest.fixture(scope="session")
+def diff_drive_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An FMI 3.0 co-simulation FMU exported by pythonfmu3 (tests/fmu/foreign_fmus.py)."""
+    from foreign_fmus import build_diff_drive
+
+    return build_diff_drive(tmp_path_factory.mktemp("diff-drive"))
+
+
+@pytest.fixture(scope="session")
+def planar_me_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An FMI 3.0 model-exchange-only FMU exported by pythonfmu3."""
+    from foreign_fmus import build_planar_me
+
+    return build_planar_me(tmp_path_factory.mktemp("planar-me"))

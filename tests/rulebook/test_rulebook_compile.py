@@ -197,7 +197,8 @@ settings { tolerance_growth = 5 cm/rad }
 index I_pos { value = final over time (global_error / tolerance_radius) limit = 1 weight = 1 }
 """)
     evaluator = compile_rulebook(checked)
-    assert evaluator.required_signals == {"t", "command", "energy", "x", "y", "z"}
+    # command, energy and z are used when present, not required
+    assert evaluator.required_signals == {"t", "x", "y"}
     assert not evaluator.needs_collisions
     assert evaluator.name == "t" and evaluator.version == "1.0.0"
     assert len(evaluator.source_hash) == 64

@@ -1,0 +1,191 @@
+"""One FMU instance behind a small interface for FMI 2.0 and FMI 3.0 co-simulation.
+
+:class:`FmuInstance` hides the differences the runner meets: how an instance is made and
+initialised, which setter takes a variable of a given type, and which getter (with which C
+type) reads it. Outputs are read by raw ``fmi2Get*``/``fmi3Get*`` calls straight into numpy
+rows (one call per getter family and communication step); everything else goes through fmpy.
+The FMU's log messages are kept (the last 20) to explain a failed call.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.fmu.description import FmuDescription, FmuVariable
+
+OK_STATUSES = (0, 1)  # OK, Warning (FMI 2.0 and 3.0 alike)
+
+# FMI 3.0 type → (getter/setter suffix, C type, numpy type).
+_FMI3_TYPES: dict[str, tuple[str, Any, Any]] = {
+    "Float64": ("Float64", ctypes.c_double, np.float64),
+    "Float32": ("Float32", ctypes.c_float, np.float32),
+    "Int8": ("Int8", ctypes.c_int8, np.int8), "UInt8": ("UInt8", ctypes.c_uint8, np.uint8),
+    "Int16": ("Int16", ctypes.c_int16, np.int16),
+    "UInt16": ("UInt16", ctypes.c_uint16, np.uint16),
+    "Int32": ("Int32", ctypes.c_int32, np.int32),
+    "UInt32": ("UInt32", ctypes.c_uint32, np.uint32),
+    "Int64": ("Int64", ctypes.c_int64, np.int64),
+    "UInt64": ("UInt64", ctypes.c_uint64, np.uint64),
+    "Enumeration": ("Int64", ctypes.c_int64, np.int64),
+    "Boolean": ("Boolean", ctypes.c_bool, np.bool_),
+    "String": ("String", None, None),
+}
+# FMI 2.0 type → (getter/setter suffix, C type, numpy type); fmi2Boolean is an int.
+_FMI2_TYPES: dict[str, tuple[str, Any, Any]] = {
+    "Real": ("Real", ctypes.c_double, np.float64),
+    "Integer": ("Integer", ctypes.c_int, np.intc),
+    "Enumeration": ("Integer", ctypes.c_int, np.intc),
+    "Boolean": ("Boolean", ctypes.c_int, np.intc),
+    "String": ("String", None, None),
+}
+
+
+@dataclass
+class OutputGroup:
+    """Outputs read by one getter: its C function, value references and row buffer type."""
+
+    function: Any
+    refs: Any  # ctypes array of value references
+    count: int
+    dtype: Any
+    positions: list[int]  # columns of these outputs in the runner's slot order
+    fmi3: bool  # FMI 3.0 getters take the number of values as a fifth argument
+
+
+class FmuInstance:
+    """An instantiated co-simulation FMU (FMI 2.0 or 3.0), reset between runs."""
+
+    def __init__(self, description: FmuDescription, unzipped: str, instance_name: str) -> None:
+        self.fmi3 = description.major == 3
+        self.types = _FMI3_TYPES if self.fmi3 else _FMI2_TYPES
+        self.log: list[str] = []
+        identifier = description.co_simulation
+        if self.fmi3:
+            from fmpy.fmi3 import FMU3Slave
+
+            self.slave: Any = FMU3Slave(guid=description.token, unzipDirectory=unzipped,
+                                        modelIdentifier=identifier, instanceName=instance_name)
+            self.slave.instantiate(loggingOn=True, logMessage=self._fmi3_logger)
+        else:
+            from fmpy.fmi2 import FMU2Slave
+
+            self.slave = FMU2Slave(guid=description.token, unzipDirectory=unzipped,
+                                   modelIdentifier=identifier, instanceName=instance_name)
+            self.slave.instantiate(loggingOn=True, callbacks=self._fmi2_callbacks())
+        # Logging on (all categories: exporters file errors under categories of their own), so
+        # that FMUs which log only then, like pythonfmu's, explain a failed call.
+        self.component = self.slave.component
+        self.do_step: Callable[..., int] | None = None
+        if not self.fmi3:
+            do_step = self.slave.dll.fmi2DoStep
+            do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
+            do_step.restype = ctypes.c_int
+            self.do_step = do_step
+        self._started = False
+
+    # ------------------------------------------------------------------ logging
+    def _keep(self, message: bytes | None) -> None:
+        self.log.append((message or b"").decode("utf-8", "replace"))
+        del self.log[:-20]
+
+    def _fmi2_callbacks(self) -> Any:
+        """Callbacks whose logger reads the format string as the message (the rover FMU
+        passes its text as the format); fmpy's variadic logger proxy is process-wide."""
+        from fmpy.fmi2 import (
+            calloc,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+            free,
+        )
+
+        def logger(component: Any, instance: bytes, status: int, category: bytes,
+                   message: bytes) -> None:
+            self._keep(message)
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        return callbacks
+
+    def _fmi3_logger(self, environment: Any, status: int, category: bytes,
+                     message: bytes) -> None:
+        self._keep(message)
+
+    # ------------------------------------------------------------------ runs
+    def start(self, stop_time: float) -> None:
+        """Reset (after the first run) and enter initialisation mode for 0 … ``stop_time``."""
+        if self._started:
+            self.slave.reset()
+        self._started = True
+        if self.fmi3:
+            self.slave.enterInitializationMode(startTime=0.0, stopTime=stop_time)
+        else:
+            self.slave.setupExperiment(startTime=0.0, stopTime=stop_time)
+            self.slave.enterInitializationMode()
+
+    def end_initialisation(self) -> None:
+        self.slave.exitInitializationMode()
+
+    def set_values(self, values: Sequence[tuple[FmuVariable, float | int | str]]) -> None:
+        """Set variables by type, one setter call per type."""
+        by_setter: dict[str, tuple[list[int], list[Any]]] = {}
+        for variable, value in values:
+            suffix = self.types[variable.type][0]
+            refs, items = by_setter.setdefault(suffix, ([], []))
+            refs.append(variable.value_reference)
+            if suffix == "String":
+                items.append(str(value))
+            elif suffix in ("Real", "Float64", "Float32"):
+                items.append(float(value))
+            elif suffix == "Boolean":
+                items.append(bool(value))
+            else:
+                items.append(int(value))
+        for suffix, (refs, items) in by_setter.items():
+            getattr(self.slave, f"set{suffix}")(refs, items)
+
+    def step(self, time: float, step: float) -> str | None:
+        """One communication step; None when it succeeded, else why not."""
+        if self.do_step is not None:
+            status = self.do_step(self.component, time, step, 1)
+            return None if status in OK_STATUSES else f"status {status}"
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            _, terminate, _, _ = self.slave.doStep(time, step)
+        except FMICallException as failure:
+            return str(failure)
+        return "the FMU asked to terminate the simulation" if terminate else None
+
+    def output_groups(self, variables: Sequence[FmuVariable]) -> list[OutputGroup]:
+        """Getter calls reading ``variables`` (in that column order), one per getter type."""
+        grouped: dict[str, list[int]] = {}
+        for position, variable in enumerate(variables):
+            grouped.setdefault(self.types[variable.type][0], []).append(position)
+        groups = []
+        prefix = "fmi3Get" if self.fmi3 else "fmi2Get"
+        for suffix, positions in grouped.items():
+            _, c_type, dtype = self.types[variables[positions[0]].type]
+            function = getattr(self.slave.dll, prefix + suffix)
+            arguments = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p]
+            function.argtypes = arguments + ([ctypes.c_size_t] if self.fmi3 else [])
+            function.restype = ctypes.c_int
+            reference_type = ctypes.c_uint32 if self.fmi3 else ctypes.c_uint
+            refs = (reference_type * len(positions))(
+                *(variables[p].value_reference for p in positions))
+            assert c_type is not None
+            groups.append(OutputGroup(function, refs, len(positions), dtype, positions,
+                                      self.fmi3))
+        return groups
+
+    def close(self) -> None:
+        self.slave.terminate()
+        self.slave.freeInstance()

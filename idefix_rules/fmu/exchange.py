@@ -1,0 +1,50 @@
+"""One run of a model-exchange FMU (FMI 2.0 or 3.0) with fmpy's own solver (CVode).
+
+A model-exchange FMU has no solver inside: fmpy integrates it (:func:`fmpy.simulate_fmu`),
+instantiating it for every run. Set-points fed as inputs are held over each communication step
+(two input rows per step boundary, which fmpy reads as a discontinuity); outputs are sampled on
+the same grid, events not recorded, so a run has exactly ``steps + 1`` samples like a
+co-simulation run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from idefix_rules.errors import InfrastructureError
+from idefix_rules.fmu.description import FmuVariable
+
+
+def simulate_model_exchange(unzipped: Path, name: str,
+                            start: Sequence[tuple[FmuVariable, float | int | str]],
+                            feed: Sequence[tuple[FmuVariable, np.ndarray]],
+                            outputs: Sequence[FmuVariable], steps: int,
+                            interval: float) -> list[np.ndarray]:
+    """The outputs' columns (``steps + 1`` samples each, in ``outputs`` order)."""
+    from fmpy import simulate_fmu
+
+    signal = None
+    if feed and steps > 0:
+        edges = np.arange(steps + 1) * interval
+        signal = np.zeros(2 * steps, dtype=[("time", np.float64)]
+                          + [(variable.name, np.float64) for variable, _ in feed])
+        signal["time"] = np.repeat(edges, 2)[1:-1]
+        for variable, values in feed:
+            signal[variable.name] = np.repeat(np.asarray(values[:steps], dtype=float), 2)
+    names = list(dict.fromkeys(variable.name for variable in outputs))
+    try:
+        result = simulate_fmu(
+            str(unzipped), validate=False, fmi_type="ModelExchange", solver="CVode",
+            start_values={variable.name: value for variable, value in start},
+            input=signal, output=names, stop_time=steps * interval,
+            output_interval=interval, record_events=False)
+    except Exception as failure:  # fmpy raises plain exceptions for failed FMI calls
+        raise InfrastructureError(f"{name}: model exchange simulation failed ({failure})") \
+            from None
+    if len(result) != steps + 1:
+        raise InfrastructureError(f"{name}: the solver returned {len(result)} samples, "
+                                  f"expected {steps + 1}")
+    return [np.asarray(result[variable.name]) for variable in outputs]

@@ -1,0 +1,242 @@
+"""Whole campaigns on FMUs other exporters built (bring your own FMU), through the CLI: a
+position-only FMI 2.0 model, an FMI 3.0 model with units, and a model without a chain."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli import main
+
+POSITION_RULEBOOK = """\
+rulebook "position-only" version "1.0.0"
+purpose "Scores where the rover ends, from its position alone"
+
+index I_end "final distance to the commanded path" {
+  value  = final over time (local_error)
+  limit  = 5 cm
+  weight = 1
+  because "The target must be reached within 5 cm"
+}
+
+verdict close_enough: require risk <= 50 %
+  because "Mean risk limit"
+"""
+
+UNICYCLE_CAMPAIGN = """\
+name: unicycle
+fmu:
+  path: Unicycle.fmu
+  signals:
+    px: x
+    py: y
+  parameters:
+    x0: initial.x
+  chain:
+    delivery: inputs
+    inputs:
+      v: body.speed
+      w: body.yaw_rate
+rulebook: position.rules
+output: out
+runs: 8
+workers: 2
+uncertainty:
+  seed: 3
+  parameters:
+    initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}
+    slip: {distribution: uniform, low: 0.0, high: 0.08}
+paths:
+  short:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.2 m", delta_heading: "0 deg"}
+  long:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "1.2 m", delta_heading: "0 deg"}
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0 m", delta_heading: "30 deg"}
+simulation:
+  output_interval: "1 s"
+  extra_time: "5 s"
+"""
+
+
+def _campaign(folder: Path, fmu: Path, text: str, rules: str = POSITION_RULEBOOK) -> Path:
+    (folder / fmu.name).write_bytes(fmu.read_bytes())
+    (folder / "position.rules").write_text(rules, encoding="utf-8")
+    (folder / "campaign.yaml").write_text(text, encoding="utf-8")
+    return folder / "campaign.yaml"
+
+
+def _run(campaign: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str]:
+    code = main([str(campaign), "--quiet", *extra])
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert "Traceback" not in output
+    return code, " ".join(output.split())
+
+
+def test_a_position_only_fmu_runs_a_campaign_scored_on_position_with_a_report(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    campaign = _campaign(tmp_path, unicycle_fmu, UNICYCLE_CAMPAIGN)
+    code, output = _run(campaign, capsys)
+    # the long path drifts by up to 8 % of 1.2 m: beyond 5 cm in most runs; the short one
+    # stays within it
+    assert code == 1, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    verdicts = {path["name"]: path["verdict"] for path in summary["paths"]}
+    assert verdicts == {"short": "pass", "long": "fail"}
+    assert "warning: " in output and "[C506]" in output and "[C513]" in output
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "risk_map_short.png" in report
+    for missing in ("'yaw'", "'energy'", "'command'"):
+        assert f"the runs hold no {missing}" in report.replace("&#x27;", "'"), missing
+
+
+def test_without_command_a_mapped_phase_gives_the_run_time(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN.replace("    py: y\n", "    py: y\n    phase: done\n  done_at: 2\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    assert code == 1, output
+    assert "[C513]" not in output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    times = {path["name"]: path["time_s"] for path in summary["paths"]}
+    # 0.2 m at 5 mm/s: 40 s, done at the end of the first idle 1 s step; the stop time is 57 s
+    assert times["short"] == pytest.approx(41.0)
+
+
+DIFF_DRIVE_CAMPAIGN = """\
+name: diff-drive
+fmu:
+  path: DiffDrive.fmu
+  signals:
+    pos_x: x
+    pos_y: y
+    psi: yaw
+    arrived: done
+  chain:
+    delivery: inputs
+    inputs:
+      omega_l: wheel.rate[FL]
+      omega_r: wheel.rate[FR]
+rulebook: position.rules
+output: out
+runs: 4
+workers: 1
+uncertainty:
+  seed: 1
+  parameters:
+    slip: {distribution: uniform, low: 0.0, high: 0.05}
+paths:
+  arc:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.3 m", delta_heading: "20 deg"}
+simulation:
+  output_interval: "0.5 s"
+  extra_time: "5 s"
+"""
+
+
+def test_an_fmi3_fmu_with_units_runs_a_campaign(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, output = _run(_campaign(tmp_path, diff_drive_fmu, DIFF_DRIVE_CAMPAIGN), capsys)
+    assert code == 0, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (path,) = summary["paths"]
+    assert path["verdict"] == "pass" and path["completed_runs"] == 4
+    assert path["energy_mAs"] is None
+    # ideal duration of the arc: its outer wheels travel 0.3 + 0.26·20° m at 5 mm/s
+    ideal = (0.3 + 0.26 * 0.349065850) / 0.005
+    assert ideal < path["time_s"] <= ideal + 1.0
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    assert "the runs hold no 'energy'" in report and "no 'yaw'" not in report
+
+
+def test_a_model_that_takes_no_chain_runs_with_delivery_none(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN.replace("""    delivery: inputs
+    inputs:
+      v: body.speed
+      w: body.yaw_rate
+""", "    delivery: none\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    # the rover never moves: every run ends the commanded distance away from the target
+    assert code == 1, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {p["name"]: p["verdict"] for p in summary["paths"]} == {"short": "fail",
+                                                                  "long": "fail"}
+
+
+def test_foreign_fmu_runs_are_the_same_on_one_and_two_workers(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import h5py
+    import numpy as np
+
+    stored = []
+    for workers in ("1", "2"):
+        folder = tmp_path / workers
+        folder.mkdir()
+        code, output = _run(_campaign(folder, diff_drive_fmu, DIFF_DRIVE_CAMPAIGN), capsys,
+                            "--workers", workers, "--no-report")
+        assert code == 0, output
+        with h5py.File(folder / "out" / "results.h5") as results:
+            signals = results["paths/arc/runs/signals"]
+            stored.append({name: signals[name][()] for name in signals})
+    assert sorted(stored[0]) == ["done", "t", "x", "y", "yaw"]
+    for name, values in stored[0].items():
+        np.testing.assert_array_equal(values, stored[1][name], err_msg=name)
+
+
+def test_the_bring_your_own_fmu_guide_runs_as_it_says(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import re
+
+    guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
+    first, fixed = re.findall(r"```yaml\n(.*?)```", guide, re.S)[:2]
+    (rules,) = re.findall(r"```rules\n(.*?)```", guide, re.S)
+    shown = re.findall(r"```console\n\$ idefix-verify campaign.yaml\n(.*?)\$ echo", guide, re.S)[0]
+    (tmp_path / "rover.fmu").write_bytes(unicycle_fmu.read_bytes())
+    (tmp_path / "position.rules").write_text(rules)
+    (tmp_path / "campaign.yaml").write_text(first)
+    code, output = _run(tmp_path / "campaign.yaml", capsys)
+    assert code == 2
+    heads = re.findall(r"^campaign\.yaml:\d+:\d+: \w+\[\w+\]: .*$", shown, re.M)
+    assert len(heads) == 5
+    for head in heads:
+        assert " ".join(head.split()) in output, head
+    assert not (tmp_path / "results").exists()
+    (tmp_path / "campaign.yaml").write_text(fixed)
+    code, output = _run(tmp_path / "campaign.yaml", capsys)
+    assert code == 0, output
+    summary = json.loads((tmp_path / "results" / "summary.json").read_text())
+    risks = {p["name"]: round(100 * p["mean_risk"], 1) for p in summary["paths"]}
+    assert risks == {"straight": 24.2, "arc": 29.4}  # the table the guide shows
+
+
+def test_a_model_exchange_fmu_runs_a_campaign_with_fmpys_solver(
+        tmp_path: Path, planar_me_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = (UNICYCLE_CAMPAIGN.replace("Unicycle.fmu", "PlanarME.fmu")
+            .replace("  parameters:\n    x0: initial.x\n", "")
+            .replace('    initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}\n'
+                     '    slip: {distribution: uniform, low: 0.0, high: 0.08}\n',
+                     "    {}\n").replace("  parameters:\n    {}\n", "  parameters: {}\n"))
+    code, output = _run(_campaign(tmp_path, planar_me_fmu, text), capsys)
+    # no slip in this model: both paths end on the commanded path
+    assert code == 0, output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {p["name"]: p["verdict"] for p in summary["paths"]} == {"short": "pass",
+                                                                  "long": "pass"}
+    assert all(p["completed_runs"] == 8 for p in summary["paths"])
+
+
+def test_without_a_position_the_report_draws_no_tracks_and_says_why(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rules = POSITION_RULEBOOK.replace("final over time (local_error)",
+                                      "final over time (abs(yaw))").replace("5 cm", "2 rad")
+    text = UNICYCLE_CAMPAIGN.replace("    px: x\n    py: y\n", "    heading: yaw\n")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text, rules), capsys)
+    assert code == 0, output  # 30° of heading against a 2 rad limit
+    assert "[C514] the report draws no runs on its result maps and no box plots: the map " \
+           "provides no 'x' or 'y'" in output
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    for name in ("x", "y"):
+        assert report.count(f"the runs hold no '{name}'") == 1
+    assert "the result maps show no runs and no box plots are drawn" in report

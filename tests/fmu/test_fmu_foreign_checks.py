@@ -1,0 +1,196 @@
+"""Every mapping mistake on a foreign FMU is an exit-2 diagnostic at its campaign line and
+column, reported together with the others, before any run is simulated."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from test_fmu_foreign_campaign import (
+    DIFF_DRIVE_CAMPAIGN,
+    POSITION_RULEBOOK,
+    UNICYCLE_CAMPAIGN,
+    _campaign,
+    _run,
+)
+
+SLIP_RULEBOOK = POSITION_RULEBOOK.replace('''verdict close_enough''', '''index I_s "slip" {
+  value  = max over time (max over wheels (abs(wheel.slip)))
+  limit  = 70 %
+  weight = 1
+  because "Slip"
+}
+
+verdict close_enough''')
+
+COLLISION_RULEBOOK = POSITION_RULEBOOK.replace('''index I_end''', '''obstacles {
+  level L1 below 3 cm  buffer 2 cm
+  level L2 below 10 cm buffer 5 cm
+  level L3             buffer 10 cm
+}
+
+index I_obs "obstacle collisions" {
+  value  = sum over parts (sum over levels (collision.hits))
+  limit  = 1
+  weight = 1
+  because "No rock may be hit"
+}
+
+index I_end''')
+
+
+@dataclass(frozen=True)
+class Mistake:
+    id: str
+    fmu: str  # "unicycle" or "diff_drive"
+    replace: tuple[tuple[str, str], ...]
+    # (marker on the campaign line the diagnostic points at, code, message fragment)
+    expected: tuple[tuple[str, str, str], ...]
+    rulebook: str = POSITION_RULEBOOK
+
+
+MISTAKES = [
+    Mistake("misspelled-signal-variable", "unicycle", (("    px: x", "    p_x: x"),),
+            (("p_x: x", "C401", "fmu.signals.p_x: unknown FMU variable 'p_x' in Unicycle.fmu "
+              "hint: did you mean 'px'?"),)),
+    Mistake("not-a-signal", "unicycle", (("    px: x", "    px: position.x"),),
+            (("position.x", "C500", "fmu.signals.px: 'position.x' is not a signal an FMU "
+              "provides"),)),
+    Mistake("wheel-signal-without-a-wheel", "unicycle", (("    px: x", "    px: wheel.rate"),),
+            (("wheel.rate", "C500", "'wheel.rate' needs one wheel, e.g. 'wheel.rate[FL]'"),)),
+    Mistake("an-input-mapped-as-a-signal", "unicycle",
+            (("    py: y\n", "    py: y\n    w: yaw\n"),),
+            (("w: yaw", "C501", "fmu.signals.w: 'w' is an input; a signal must be an output "
+              "of the FMU"),)),
+    Mistake("a-string-output-mapped-as-a-signal", "unicycle", (("    px: x", "    label: x"),),
+            (("label: x", "C502", "'label' is a String; a signal is read from a Real/Float, "
+              "Integer, Boolean or Enumeration output"),)),
+    Mistake("an-output-of-the-wrong-unit", "diff_drive", (("    psi: yaw", "    psi: x"),
+                                                           ("    pos_x: x", "    pos_x: yaw")),
+            (("yaw\n", "C503", "fmu.signals.pos_x: 'pos_x' is in mm, but 'yaw' is in rad"),
+             ("x\n    arrived", "C503", "fmu.signals.psi: 'psi' is in rad, but 'x' is in m"))),
+    Mistake("a-signal-mapped-twice", "unicycle", (("    py: y\n", "    py: y\n    heading: x\n"),),
+            (("heading: x", "C511", "signal 'x' is mapped from both 'px' and 'heading'"),)),
+    Mistake("a-signal-the-rulebook-reads-is-not-mapped", "unicycle", (), (
+        ("signals:", "C405", "fmu.signals: the rulebook reads 'wheel.slip', which the signal "
+         "map does not provide"),), SLIP_RULEBOOK),
+    Mistake("no-signal-map-and-no-variables-named-like-signals", "unicycle",
+            (("  signals:\n    px: x\n    py: y\n", ""),),
+            (("path: Unicycle.fmu", "C405", "the rulebook reads 'x', 'y', which Unicycle.fmu has "
+              "no variable of that name for (and the campaign gives no fmu.signals map)"),)),
+    Mistake("a-parameter-value-of-the-wrong-dimension", "diff_drive",
+            (("    slip: {", '    track: {distribution: uniform, low: "10 deg", high: "20 deg"}'
+              "\n    slip: {"),),
+            (('{distribution: uniform, low: "10 deg"', "C402",
+              "uncertainty.parameters.track: expected a length (FMU unit m), got an angle"),)),
+    Mistake("collisions-without-a-pose", "unicycle", (), (
+        ("signals:", "C512", "the rulebook reads collisions, which place the rover's bodies by "
+         "its pose, but the map does not provide 'pitch', 'roll', 'yaw', 'z'"),),
+            COLLISION_RULEBOOK),
+    Mistake("an-output-as-a-sampled-parameter", "unicycle",
+            (("    slip: {", "    px: {distribution: fixed, value: 1}\n    slip: {"),),
+            (("px: {", "C504", "uncertainty.parameters.px: FMU variable 'px' is output; a "
+              "parameter must be settable"),)),
+    Mistake("a-string-parameter-sampled", "unicycle",
+            (("    slip: {", "    site: {distribution: fixed, value: 1}\n    slip: {"),),
+            (("site: {", "C505", "FMU parameter 'site' is a String; a sampled or regolith "
+              "value needs a Real or Integer"),)),
+    Mistake("misspelled-parameter-map", "unicycle", (("    x0: initial.x", "    x00: initial.x"),),
+            (("x00:", "C401", "fmu.parameters.x00: unknown FMU variable 'x00' in Unicycle.fmu "
+              "hint: did you mean 'x0'?"),)),
+    Mistake("chain-as-parameters-to-an-fmu-without-them", "unicycle",
+            (("    delivery: inputs\n    inputs:\n      v: body.speed\n      w: body.yaw_rate\n",
+              "    delivery: parameters\n"),),
+            (("chain:", "C507", "Unicycle.fmu takes no command chain as parameters: it has no "
+              "'chain.count', 'chain.max_wheel_rate[0]'"),
+             ("chain:", "C507", "hint: map its chain parameters in fmu.parameters (FMU variable: "
+              "chain.count, …), or set fmu.chain.delivery to 'inputs'"))),
+    Mistake("misspelled-chain-input", "unicycle",
+            (("      v: body.speed", "      vv: body.speed"),),
+            (("vv:", "C401", "fmu.chain.inputs.vv: unknown FMU variable 'vv' in Unicycle.fmu "
+              "hint: did you mean 'v'?"),)),
+    Mistake("not-a-set-point", "unicycle", (("v: body.speed", "v: body.velocity"),),
+            (("body.velocity", "C509", "fmu.chain.inputs.v: 'body.velocity' is not a "
+              "set-point"),)),
+    Mistake("a-set-point-fed-to-an-output", "unicycle",
+            (("      w: body.yaw_rate", "      w: body.yaw_rate\n      px: command"),),
+            (("px: command", "C501", "fmu.chain.inputs.px: 'px' is an output; set-points are "
+              "fed to inputs of the FMU every step"),)),
+    Mistake("a-set-point-of-the-wrong-unit", "diff_drive",
+            (("omega_l: wheel.rate[FL]", "omega_l: body.speed"),),
+            (("body.speed", "C503", "fmu.chain.inputs.omega_l: 'omega_l' is in rad/s, but "
+              "'body.speed' is in m/s"),)),
+    Mistake("inputs-without-delivery-inputs", "unicycle",
+            (("    delivery: inputs\n", "    delivery: none\n"),),
+            (("inputs:\n", "C508", "fmu.chain.inputs: set-points given, but "
+              "fmu.chain.delivery is 'none'"),)),
+    Mistake("delivery-inputs-without-inputs", "unicycle",
+            (("    inputs:\n      v: body.speed\n      w: body.yaw_rate\n", ""),),
+            (("chain:", "C508", "fmu.chain: delivery 'inputs' needs fmu.chain.inputs"),)),
+    Mistake("four-mistakes-at-once", "unicycle",
+            (("    px: x", "    pz: x"), ("    py: y\n", "    py: y\n    w: yaw\n"),
+             ("      v: body.speed", "      vv: body.speed"),
+             ("    slip: {", "    px: {distribution: fixed, value: 1}\n    slip: {")),
+            (("pz: x", "C401", "unknown FMU variable 'pz'"), ("w: yaw", "C501", "'w' is an input"),
+             ("vv:", "C401", "unknown FMU variable 'vv'"), ("px: {", "C504", "'px' is output"))),
+]
+
+
+def _location(text: str, marker: str) -> str:
+    """``campaign.yaml:line:column`` of the first ``marker`` in ``text``."""
+    offset = text.index(marker)
+    line = text.count("\n", 0, offset) + 1
+    column = offset - (text.rfind("\n", 0, offset) + 1) + 1
+    return f"campaign.yaml:{line}:{column}"
+
+
+@pytest.mark.parametrize("mistake", MISTAKES, ids=[m.id for m in MISTAKES])
+def test_a_mapping_mistake_is_a_located_exit_2_before_any_run(
+        mistake: Mistake, tmp_path: Path, unicycle_fmu: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN if mistake.fmu == "unicycle" else DIFF_DRIVE_CAMPAIGN
+    for old, new in mistake.replace:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    fmu = unicycle_fmu if mistake.fmu == "unicycle" else diff_drive_fmu
+    code, output = _run(_campaign(tmp_path, fmu, text, mistake.rulebook), capsys)
+    assert code == 2, output
+    for marker, code_name, fragment in mistake.expected:
+        head = f"{_location(text, marker)}: error[{code_name}]:"
+        assert head in output, (head, output)
+        for part in fragment.split(" hint: "):  # the source line and caret come between
+            assert " ".join(part.split()) in output, (part, output)
+    assert not (tmp_path / "out" / "results.h5").exists()  # nothing was simulated
+
+
+def test_terrain_and_rocks_the_fmu_cannot_receive_are_warnings_and_the_campaign_runs(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = UNICYCLE_CAMPAIGN.replace("paths:\n", """environment:
+  terrain:
+    synthetic: {size: "4 m", cell: "5 cm", slope: "2 deg"}
+  rocks:
+    - {x: "0.5 m", y: "0.3 m", radius: "4 cm", level: L2}
+paths:
+""")
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    assert code == 1, output  # as without the environment: the long path fails
+    for marker, what in (("terrain:", "terrain"), ("rocks:", "rocks")):
+        assert (f"{_location(text, marker)}: [C510] environment.{what}: Unicycle.fmu "
+                f"has no terrain input ('terrain.file'), so its runs do not see the campaign's "
+                f"{what}") in output, output
+    assert output.count("warning: ") >= 2
+    assert "collisions are still evaluated geometrically" in output
+
+
+def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
+    import re
+
+    import idefix_rules.campaign.fmu_checks as checks
+    import idefix_rules.campaign.validate as validate
+
+    emitted = set(re.findall(r'"(C[45]\d\d)"', Path(checks.__file__).read_text()
+                             + Path(validate.__file__).read_text()))
+    guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
+    documented = set(re.findall(r"^\| (C[45]\d\d) \|", guide, re.M))
+    assert emitted - {"C404"} == documented  # C404 (run size) is docs/ci.md's
