@@ -85,6 +85,8 @@ def per_sample_form(expr: Expr) -> Expr:
     Name(name='pitch')
     """
     if isinstance(expr, Reduce):
+        if expr.domain == "runs":  # a path-level value: the same at every sample of every run
+            return expr
         if expr.domain == "time":
             operand = expr.operand
             return operand if expr.window is None else Masked(operand, expr.window)  # type: ignore[return-value]
