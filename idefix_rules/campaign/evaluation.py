@@ -260,6 +260,9 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     context = run_context(chain, rover, sigma, reference)
     complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
     required = set(getattr(evaluator, "required_signals", ())) or None
+    # Path-level values (reductions over runs) need every run first: a pass reading only
+    # what they read, then the chunks are evaluated with them.
+    across = _first_pass(store, name, evaluator, context, chunk_runs)
     parts = []
     hits, buffers, details = [], [], []
     chunks = complete_chunks(store, name, required, chunk_runs)
@@ -272,7 +275,7 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             hits.append(extra.get("collision.hits"))
             buffers.append(extra.get("collision.buffer"))
             details.extend(chunk_details)
-        parts.append(without_samples(evaluator.evaluate(signals, context)))
+        parts.append(without_samples(evaluator.evaluate(signals, context, across=across)))
     evaluation = concatenate(parts) if parts else None
     extra_store: dict[str, Any] = {"rows": complete}
     if collisions is not None and parts:
@@ -282,6 +285,18 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             if any(b is not None for b in buffers) else None
         extra_store["details"] = details
     return evaluation, extra_store
+
+
+def _first_pass(store: RunReader, name: str, evaluator: Any, context: Any,
+                chunk_runs: int) -> Any:
+    """The path-level values of ``evaluator`` over the path's complete runs (None: none)."""
+    if not getattr(evaluator, "runs_reductions", ()):
+        return None
+    from idefix_rules.rulebook.across import first_pass
+
+    return first_pass([evaluator], lambda names: (
+        signals for _, signals in complete_chunks(store, name, names, chunk_runs, poses=False)),
+        context)[0]
 
 
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
