@@ -1,0 +1,47 @@
+"""The no-obstacle control campaign on the built-in rover FMU: on flat ground, nominal soil and
+only the initial position uncertain, no chain is critical on position (the default rulebook's
+I_pos reads the runs' average position); read per run (rulebook 1.0.0) the same runs saturate."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.cli import main
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _paths(summary_file: Path) -> dict[str, dict]:
+    return {p["name"]: p for p in json.loads(summary_file.read_text())["paths"]}
+
+
+def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    out = tmp_path / "flat"
+    code = main([str(ROOT / "campaigns" / "flat-control.yaml"), "--runs", "24", "--out",
+                 str(out), "--workers", "2", "--quiet", "--no-report"])
+    assert code == 0, capsys.readouterr().out
+    paths = _paths(out / "summary.json")
+    assert set(paths) == {"straight", "wide-detour", "smooth-detour"}
+    for name, record in paths.items():
+        statistics = record["statistics"]
+        assert record["completed_runs"] == 24, name
+        assert statistics["index_max"]["I_pos"] < 0.5, name
+        assert statistics["index_mean"]["I_pos"]["value"] < 0.5, name
+        assert record["collision_chance"] == {"L1": 0.0, "L2": 0.0, "L3": 0.0}
+    assert paths["straight"]["mean_risk"] <= 0.3
+
+    # The same runs scored by the per-run position rule of rulebook 1.0.0: on the straight chain
+    # (its tolerance stays at 1 sigma) the initial spread alone, about 1.25 sigma per run, makes
+    # I_pos near critical. (The turning chains' tolerance grows with the turns.)
+    earlier = ROOT / "rulebooks" / "history" / "idefix-ops-1.0.0.rules"
+    assert main(["evaluate", str(out / "results.h5"), "--rulebook", str(earlier), "--out",
+                 str(tmp_path / "earlier")]) in (0, 1)
+    straight = _paths(tmp_path / "earlier" / "summary.json")["straight"]
+    assert straight["statistics"]["index_mean"]["I_pos"]["value"] > 0.5
