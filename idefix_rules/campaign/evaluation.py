@@ -91,6 +91,8 @@ class CampaignEvaluation:
     ranking: list[str]
     rulebook: dict[str, str]
     provenance: dict[str, Any]
+    # Assumed vs simulated slip per path (idefix_rules.campaign.slip.SlipCheck).
+    slip: list[Any] = field(default_factory=list)
 
     def path(self, name: str) -> PathResult:
         for result in self.paths:
@@ -331,7 +333,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             if result.name == name:
                 result.rank = position
     provenance = {key: as_plain(value) for key, value in store.attrs.items()}
-    campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance)
+    campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance,
+                                       _slip_checks(store, evaluator, rulebook_info))
     if write:
         root = store.file.require_group("evaluation")
         for key, value in rulebook_info.items():
@@ -342,6 +345,17 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         root.attrs["evaluated"] = now_iso()
         store.file.flush()
     return campaign_eval
+
+
+def _slip_checks(store: ResultStore, evaluator: Any, info: Mapping[str, str]) -> list[Any]:
+    """The rulebook's assumed slip beside each reference run's (see campaign/slip.py)."""
+    settings = getattr(evaluator, "derived_settings", None)
+    if settings is None:
+        return []
+    from idefix_rules.campaign.slip import slip_checks
+
+    name = f"rulebook {info.get('name', '')} {info.get('version', '')}".strip()
+    return slip_checks(store, float(settings.theoretical_slip), name)
 
 
 def stored_path_result(store: ResultStore, name: str) -> PathResult:
