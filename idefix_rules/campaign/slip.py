@@ -125,12 +125,12 @@ def slip_checks(store: Any, assumed: float, rulebook: str = "the rulebook"
     return checks
 
 
-def stored_warnings(file: Any) -> list[str]:
-    """The slip warnings of a results file's stored summary (for the report)."""
+def stored_records(file: Any) -> list[dict[str, Any]]:
+    """The slip records (:meth:`SlipCheck.to_dict`) of a results file's stored summary."""
     evaluation = file.get("evaluation") if file is not None else None
     try:
         summary = json.loads(str(evaluation.attrs.get("summary", "{}"))) if evaluation else {}
     except ValueError:
         return []
     records = (summary.get("slip") or {}).get("paths", []) if isinstance(summary, dict) else []
-    return [str(r["warning"]) for r in records if isinstance(r, dict) and r.get("warning")]
+    return [record for record in records if isinstance(record, dict)]

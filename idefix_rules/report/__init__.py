@@ -98,7 +98,7 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
         dominance = html.Image("dominant_index.png",
                                figures.save_png(figure, out_dir / "dominant_index.png"),
                                "Share of runs in which each index set the run risk I_max.")
-    notes = list(setup.notes) + _slip_warnings(Path(results_h5))
+    notes = list(setup.notes)
     if not data.evaluated_paths:
         notes.append("no path has an evaluation: run `idefix-verify evaluate` first")
     map_text = (f"<p>Grid: {escape(maps.cell_reason)}. A cell crossed by one run shows "
@@ -106,20 +106,21 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
                 "the mean of the run-specific maxima (body-centre positions; segments between "
                 "samples are rasterised so fast segments leave no gap). Dashed outlines: buffer "
                 "zones; lines: reference runs.</p>")
-    page = html.page(data, map_images, box_images, dominance, notes, map_text)
+    page = html.page(data, map_images, box_images, dominance, notes, map_text,
+                     _slip_records(Path(results_h5)))
     target = out_dir / REPORT_FILE
     target.write_text(page, encoding="utf-8")
     return target
 
 
-def _slip_warnings(results_h5: Path) -> list[str]:
-    """Assumed vs simulated slip warnings of the stored summary (campaign/slip.py)."""
+def _slip_records(results_h5: Path) -> list[dict[str, object]]:
+    """Assumed vs simulated slip per path from the stored summary (campaign/slip.py)."""
     import h5py
 
-    from idefix_rules.campaign.slip import stored_warnings
+    from idefix_rules.campaign.slip import stored_records
 
     with h5py.File(results_h5, "r") as file:
-        return stored_warnings(file)
+        return stored_records(file)
 
 
 __all__ = ["REPORT_FILE", "prepare_report", "write_report"]

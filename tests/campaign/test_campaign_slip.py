@@ -13,7 +13,7 @@ from idefix_rules.campaign.slip import (
     SlipCheck,
     effective_slip,
     mean_wheel_slip,
-    stored_warnings,
+    stored_records,
 )
 from idefix_rules.commands import Command
 
@@ -71,10 +71,17 @@ def test_a_negative_measured_slip_suggests_zero():
     assert check.warning is not None and "set `theoretical_slip = 0 %`" in check.warning
 
 
-def test_the_report_reads_the_warnings_of_the_stored_summary(tmp_path):
+def test_the_report_shows_assumed_and_measured_slip_and_the_warnings(tmp_path):
+    from idefix_rules.report.html import slip_html
+
     summary = {"slip": {"paths": [SlipCheck("a", 0.2, 0.01, None).to_dict(),
-                                  SlipCheck("b", 0.2, 0.19, None).to_dict()]}}
+                                  SlipCheck("b", 0.2, 0.19, 0.18).to_dict()]}}
     with h5py.File(tmp_path / "r.h5", "w") as file:
         file.create_group("evaluation").attrs["summary"] = json.dumps(summary)
-        warnings = stored_warnings(file)
-    assert len(warnings) == 1 and warnings[0].startswith("a: the reference run slipped 1.0%")
+        records = stored_records(file)
+    assert [r["path"] for r in records] == ["a", "b"]
+    page = slip_html(records)
+    assert "Assumed vs simulated slip" in page and "theoretical_slip" in page
+    assert page.count("class=\"note\"") == 1  # only path a disagrees
+    assert "a: the reference run slipped 1.0%" in page
+    assert ">19.0<" in page and ">18.0<" in page and ">20.0<" in page
