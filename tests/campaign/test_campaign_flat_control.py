@@ -59,6 +59,8 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
     assert 0.0 <= straight["measured"] < 0.1 and straight["disagrees"]
     assert "warning: straight: the reference run slipped" in " ".join(console.split())
     assert "set `theoretical_slip =" in console
+    assert "slip: rulebook assumes theoretical_slip = 20.0%; reference runs measured straight" \
+        in " ".join(console.split())
     assert set(paths) == {"straight", "wide-detour", "smooth-detour"}
     for name, record in paths.items():
         statistics = record["statistics"]
