@@ -34,8 +34,8 @@ reducer         value over the n runs                       no runs (n=0)
 >>> node = Reduce("mean", "runs", Name("x"))
 >>> accumulator = RunsAccumulator(node)
 >>> accumulator.add(np.array([1.0, 2.0])); accumulator.add(np.array([6.0]))
->>> float(accumulator.result())
-3.0
+>>> accumulator.result().tolist()
+[3.0]
 """
 
 from __future__ import annotations
