@@ -89,19 +89,14 @@ class RunsAccumulator:
     def add(self, values: Any) -> None:
         """Add the operand's values of a chunk of runs (axis 0 = run)."""
         array = np.asarray(values)
-        if array.ndim == 0:  # constant across runs: the chunk's runs all have that value
-            raise ValueError("add() needs the run axis; use add_constant() for constants")
+        if array.ndim == 0:
+            raise ValueError("add() needs the run axis (expressions.runs_first spells it out)")
         self.runs += array.shape[0]
         if self.reducer == "percentile":
             self.values.append(np.asarray(array, dtype=float))
             return
         part = self._partial(array)
         self.state = part if self.state is None else self._combine(self.state, part)
-
-    def add_constant(self, value: Any, runs: int) -> None:
-        """A chunk of ``runs`` runs whose operand is the same constant ``value``."""
-        if runs:
-            self.add(np.broadcast_to(np.asarray(value)[np.newaxis], (runs,)))
 
     def _partial(self, array: np.ndarray) -> np.ndarray:
         if self.reducer in ("any", "all", "count", "fraction"):
