@@ -46,8 +46,9 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.rulebook import reducers
+from idefix_rules.rulebook.expressions import children
 from idefix_rules.rulebook.fold import number_si
-from idefix_rules.rulebook.model import Binary, Call, Expr, Number, Reduce, Select, Unary
+from idefix_rules.rulebook.model import Expr, Number, Reduce
 
 
 def runs_reductions(expressions: Iterable[Expr]) -> tuple[Reduce, ...]:
@@ -62,16 +63,8 @@ def runs_reductions(expressions: Iterable[Expr]) -> tuple[Reduce, ...]:
 
 def _walk(expr: Any) -> Iterator[Any]:
     yield expr
-    if isinstance(expr, Unary | Select | Reduce):
-        yield from _walk(expr.operand)
-    elif isinstance(expr, Binary):
-        yield from _walk(expr.left)
-        yield from _walk(expr.right)
-    elif isinstance(expr, Call):
-        for arg in expr.args:
-            yield from _walk(arg)
-    elif hasattr(expr, "operand"):  # the per-sample form's Masked node
-        yield from _walk(expr.operand)
+    for child in children(expr):
+        yield from _walk(child)
 
 
 class RunsAccumulator:

@@ -139,7 +139,7 @@ class ExpressionCompiler:
         self._uses[expr] = self._uses.get(expr, 0) + 1
         if self._uses[expr] > 1:
             return
-        for child in _children(expr):
+        for child in children(expr):
             self._count(child)
 
     # ------------------------------------------------------------------ compiling
@@ -339,7 +339,8 @@ def _memoised(closure: Closure) -> Closure:
     return run
 
 
-def _children(expr: Any) -> tuple[Any, ...]:
+def children(expr: Any) -> tuple[Any, ...]:
+    """The sub-expressions an expression node evaluates (its operands and arguments)."""
     if isinstance(expr, Unary | Select | Masked):
         return (expr.operand,)
     if isinstance(expr, Binary):
