@@ -91,6 +91,8 @@ class CampaignEvaluation:
     ranking: list[str]
     rulebook: dict[str, str]
     provenance: dict[str, Any]
+    # Assumed vs simulated slip per path (idefix_rules.campaign.slip.SlipCheck).
+    slip: list[Any] = field(default_factory=list)
 
     def path(self, name: str) -> PathResult:
         for result in self.paths:
@@ -264,6 +266,9 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     context = run_context(chain, rover, sigma, reference)
     complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
     required = set(getattr(evaluator, "required_signals", ())) or None
+    # Path-level values (reductions over runs) need every run first: a pass reading only
+    # what they read, then the chunks are evaluated with them.
+    across = _first_pass(store, name, evaluator, context, chunk_runs)
     parts = []
     hits, buffers, details = [], [], []
     chunks = complete_chunks(store, name, required, chunk_runs)
@@ -276,7 +281,7 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             hits.append(extra.get("collision.hits"))
             buffers.append(extra.get("collision.buffer"))
             details.extend(chunk_details)
-        parts.append(without_samples(evaluator.evaluate(signals, context)))
+        parts.append(without_samples(evaluator.evaluate(signals, context, across=across)))
     evaluation = concatenate(parts) if parts else None
     extra_store: dict[str, Any] = {"rows": complete}
     if collisions is not None and parts:
@@ -286,6 +291,18 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             if any(b is not None for b in buffers) else None
         extra_store["details"] = details
     return evaluation, extra_store
+
+
+def _first_pass(store: RunReader, name: str, evaluator: Any, context: Any,
+                chunk_runs: int) -> Any:
+    """The path-level values of ``evaluator`` over the path's complete runs (None: none)."""
+    if not getattr(evaluator, "runs_reductions", ()):
+        return None
+    from idefix_rules.rulebook.across import first_pass
+
+    return first_pass([evaluator], lambda names: (
+        signals for _, signals in complete_chunks(store, name, names, chunk_runs, poses=False)),
+        context)[0]
 
 
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
@@ -324,7 +341,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             if result.name == name:
                 result.rank = position
     provenance = {key: as_plain(value) for key, value in store.attrs.items()}
-    campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance)
+    campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance,
+                                       _slip_checks(store, evaluator, rulebook_info))
     if write:
         root = store.file.require_group("evaluation")
         for key, value in rulebook_info.items():
@@ -335,6 +353,17 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         root.attrs["evaluated"] = now_iso()
         store.file.flush()
     return campaign_eval
+
+
+def _slip_checks(store: ResultStore, evaluator: Any, info: Mapping[str, str]) -> list[Any]:
+    """The rulebook's assumed slip beside each reference run's (see campaign/slip.py)."""
+    settings = getattr(evaluator, "derived_settings", None)
+    if settings is None:
+        return []
+    from idefix_rules.campaign.slip import slip_checks
+
+    name = f"rulebook {info.get('name', '')} {info.get('version', '')}".strip()
+    return slip_checks(store, float(settings.theoretical_slip), name)
 
 
 def stored_path_result(store: ResultStore, name: str) -> PathResult:

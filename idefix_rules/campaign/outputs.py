@@ -209,8 +209,17 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "sensitivity": sensitivity or {},
         "expectations": [{"description": e.description, "held": e.held, "message": e.message}
                          for e in expectations],
+        "slip": slip_record(evaluation),
         "exit_code": code,
     }
+
+
+def slip_record(evaluation: CampaignEvaluation) -> dict[str, Any]:
+    """Assumed vs simulated slip (idefix_rules.campaign.slip), with the margin it warns at."""
+    from idefix_rules.campaign.slip import SETTING, SLIP_MARGIN
+
+    return {"setting": SETTING, "margin": SLIP_MARGIN,
+            "paths": [check.to_dict() for check in evaluation.slip]}
 
 
 def write_summary(path: Path, data: dict[str, Any]) -> None:

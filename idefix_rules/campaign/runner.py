@@ -226,7 +226,8 @@ def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignF
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
                 Span(str(junit)), hint=f"the results are in {store.file.filename}")) from None
-    return CampaignResult(Path(store.file.filename), evaluation, checks, data, code)
+    warnings = [check.warning for check in evaluation.slip if check.warning]
+    return CampaignResult(Path(store.file.filename), evaluation, checks, data, code, warnings)
 
 
 def write_report(results: Path, output: Path) -> Path:

@@ -16,6 +16,7 @@ from rich.console import Console
 from rich.table import Table
 
 from idefix_rules.rulebook import load_checked
+from idefix_rules.rulebook.across import runs_reductions
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.fold import NotConstant
 from idefix_rules.rulebook.format import format_expr, format_number
@@ -75,13 +76,18 @@ def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
         formula = format_expr(index.value)
         if index.map is not None:
             formula += f"\nmap: {format_expr(index.map)}"
+        if runs_reductions([index.value]):
+            formula += "\npath-level: reduces over the runs of the path (the same in each run)"
         title = f"{index.name}\n{index.title}" if index.title else index.name
         yield ("index", title, formula, str(dimension) if dimension is not None else "",
                _threshold(checked, index.limit, dimension),
                format_number(checked.weights.get(index.name, float("nan"))),
                index.rationale or "")
     for chance in rulebook.chances:
-        yield ("chance", chance.name, format_expr(chance.condition), "fraction of runs", "", "",
+        formula = format_expr(chance.condition)
+        if runs_reductions([chance.condition]):
+            formula += "\npath-level: reads values over the runs of the path"
+        yield ("chance", chance.name, formula, "fraction of runs", "", "",
                chance.rationale or "")
     for prescreen in rulebook.prescreens:
         yield ("prescreen", prescreen.name, format_expr(prescreen.condition), "condition",

@@ -155,6 +155,11 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
             console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
     if evaluation.ranking:
         console.print("ranking: " + " > ".join(escape(n) for n in evaluation.ranking))
+    measured = [c for c in evaluation.slip if c.measured is not None]
+    if measured:  # assumed vs simulated slip (campaign/slip.py); disagreements warn below
+        console.print(f"slip: rulebook assumes theoretical_slip = {measured[0].assumed:.1%}; "
+                      "reference runs measured " + ", ".join(
+                          f"{c.path} {c.measured:.1%}" for c in measured), markup=False)
     for expectation in expectations:
         mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
         console.print(f"{mark} expect {escape(expectation.description)}: "

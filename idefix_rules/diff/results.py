@@ -48,6 +48,7 @@ from idefix_rules.diff.evaluators import (
 from idefix_rules.diff.reader import MappedRuns
 from idefix_rules.diff.source import RulebookSource
 from idefix_rules.errors import UserInputError, error
+from idefix_rules.rulebook.across import first_pass
 
 DEFAULT_CHUNK_RUNS = 128
 DEFAULT_TOP_RUNS = 5
@@ -376,14 +377,16 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
 
 
 def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, np.ndarray],
-                    extra: list[dict[str, np.ndarray]], context: Any) -> list[Any]:
+                    extra: list[dict[str, np.ndarray]], context: Any,
+                    across: dict[int, Any] | None = None) -> list[Any]:
     """One chunk under every active side (their evaluations, in order). Sides with equal
     derived settings and the same collision signals share one signal source: derived signals
     are computed once, and so is every index value or chance the two rulebooks write the same
-    (same expression, same constant values)."""
+    (same expression, same constant values). ``across``: each side's path-level values, by
+    position in ``sides``."""
     sources: dict[tuple[Any, int], tuple[Any, dict[Any, Any]]] = {}
     parts = []
-    for side, collision_signals in zip(sides, extra, strict=True):
+    for position, (side, collision_signals) in enumerate(zip(sides, extra, strict=True)):
         if side not in active:
             continue
         chunk = {**signals, **collision_signals} if collision_signals else signals
@@ -393,7 +396,7 @@ def _evaluate_chunk(sides: list[_Side], active: list[_Side], signals: dict[str, 
             sources[key] = (evaluator.derived_signals(chunk, context), {})
         source, shared = sources[key]
         parts.append(evaluator.evaluate(chunk, context, per_sample=False, source=source,
-                                        shared=shared))
+                                        shared=shared, across=(across or {}).get(position)))
     return parts
 
 
@@ -410,6 +413,11 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
     poses = collisions.mode == "recomputed" or (collisions.mode == "stored" and stored is None)
     all_rows = []
     runs = MappedRuns(store)
+    # Path-level values (reductions over runs) of each side: a first pass over the runs.
+    evaluating = [side.evaluator if side in active else None for side in sides]
+    across = dict(enumerate(first_pass(
+        evaluating, lambda names: (signals for _, signals in complete_chunks(
+            runs, name, names, chunk_runs, False)), run_context_)))
     pending: deque[Future[list[Any]]] = deque()
 
     def collect(future: Future[list[Any]]) -> None:
@@ -435,7 +443,7 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
             extra = collisions.chunk(signals, rows, stored)
             mark = time.perf_counter()
             timings["collisions"] += mark - now
-            pending.append(submit(sides, active, signals, extra, run_context_))
+            pending.append(submit(sides, active, signals, extra, run_context_, across))
             all_rows.append(rows)
             while len(pending) >= max(1, threads):
                 collect(pending.popleft())

@@ -163,6 +163,7 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
         sections.decision_html(data),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
+        html.slip_html(_slip_records(Path(results_h5))),
         sections.interactive_html(payload, order, colours),
         html.figures_html("Result maps (printable)", map_images, map_text, wide=True),
         html.figures_html("Final errors (paper Fig. 9)", box_images),
@@ -176,6 +177,16 @@ def write_report(results_h5: Path, out_dir: Path) -> Path:
     target = out_dir / REPORT_FILE
     write_atomic(target, page)
     return target
+
+
+def _slip_records(results_h5: Path) -> list[dict[str, object]]:
+    """Assumed vs simulated slip per path from the stored summary (campaign/slip.py)."""
+    import h5py
+
+    from idefix_rules.campaign.slip import stored_records
+
+    with h5py.File(results_h5, "r") as file:
+        return stored_records(file)
 
 
 __all__ = ["REPORT_FILE", "prepare_report", "write_report"]

@@ -309,6 +309,33 @@ def expectations_html(expectations: Sequence[Mapping[str, object]]) -> str:
             _table(("Expectation", "Result", "Message"), rows, raw=True) + "</section>")
 
 
+def slip_html(records: Sequence[Mapping[str, object]]) -> str:
+    """Assumed vs simulated slip per path (campaign/slip.py), warnings below the table."""
+    if not records:
+        return ""
+
+    def percent(value: object) -> str:
+        return "n/a" if not isinstance(value, int | float) else f"{100.0 * value:.1f}"
+
+    rows = []
+    for record in records:
+        disagrees = bool(record.get("disagrees"))
+        rows.append((escape(str(record.get("path", ""))), percent(record.get("assumed")),
+                     percent(record.get("measured")), percent(record.get("wheel_slip")),
+                     f"<span class=\"{'fail' if disagrees else 'pass'}\">"
+                     f"{'disagree' if disagrees else 'agree'}</span>"))
+    margin = percent(records[0].get("margin"))
+    warnings = "".join(f"<div class=\"note\">{escape(str(record['warning']))}</div>"
+                       for record in records if record.get("warning"))
+    return ("<section><h2>Assumed vs simulated slip</h2><p>The theoretical path (local error) "
+            "assumes the rulebook's <code>theoretical_slip</code>; <em>measured</em> is each "
+            "reference run's effective slip along the path (1 − travelled / commanded), "
+            "<em>wheel slip</em> its mean longitudinal wheel slip while driving. They should "
+            f"agree within {margin} percentage points.</p>"
+            + _table(("Path", "assumed %", "measured %", "wheel slip %", "assumed vs measured"),
+                     rows, numeric={1, 2, 3}, raw=True) + warnings + "</section>")
+
+
 def notes_html(notes: Sequence[str]) -> str:
     if not notes:
         return ""

@@ -232,17 +232,30 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
 
 
 def _risk_of_chunk(setup: Setup, path: PathReport, rows: np.ndarray,
-                   signals: dict[str, np.ndarray], context: Any) -> np.ndarray:
+                   signals: dict[str, np.ndarray], context: Any,
+                   across: Any = None) -> np.ndarray:
     if setup.evaluator is None or setup.checked is None:
         return np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
     if setup.collisions is not None:
         extra, _ = setup.collisions(signals)
         signals.update(extra)
-    evaluation = setup.evaluator.evaluate(signals, context)
+    evaluation = setup.evaluator.evaluate(signals, context, across=across)
     shape = signals["x"].shape
     per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
                   for name, values in evaluation.per_sample.items()}
     return per_sample_risk(per_sample, setup.checked.weights)
+
+
+def _first_pass(store: ResultStore, name: str, setup: Setup, context: Any) -> Any:
+    """Path-level values (reductions over runs) of the path, so that each chunk's map shows
+    the path's value rather than the chunk's (None when the rulebook has none)."""
+    if setup.evaluator is None or context is None \
+            or not getattr(setup.evaluator, "runs_reductions", ()):
+        return None
+    from idefix_rules.rulebook.across import first_pass
+
+    return first_pass([setup.evaluator], lambda names: (
+        signals for _, signals in _chunks(store, name, sorted(names))), context)[0]
 
 
 def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
@@ -345,10 +358,11 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
         details = _details(store, path.name)
         context = _context(store, path.name, setup) if reference is not None else None
         local, heading = [], []
+        across = _first_pass(store, path.name, setup, context)
         stored = store.path_group(path.name)["runs"]["signals"]
         keys = [key for key in required if key in stored]
         for rows, signals in _chunks(store, path.name, keys):
-            risk = _risk_of_chunk(setup, path, rows, signals, context)
+            risk = _risk_of_chunk(setup, path, rows, signals, context, across)
             accumulator.add(signals["x"], signals["y"], risk)
             cells.add(rows, signals["x"], signals["y"], risk, path.dominant, embedded)
             for position, run in enumerate(rows):

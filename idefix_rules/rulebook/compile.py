@@ -25,6 +25,7 @@ import numpy as np
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
+from idefix_rules.rulebook.across import AcrossRuns, finished, runs_reductions
 from idefix_rules.rulebook.check import CheckedRulebook, ObstacleLevelSpec, check
 from idefix_rules.rulebook.derived import (
     DerivedSettings,
@@ -39,9 +40,10 @@ from idefix_rules.rulebook.expressions import (
     layout,
     per_run,
     per_run_sample,
+    runs_first,
     signal_closure,
 )
-from idefix_rules.rulebook.model import Expr, Rulebook
+from idefix_rules.rulebook.model import Expr, Reduce, Rulebook
 from idefix_rules.rulebook.results import (
     CommandViolation,
     PathStatistics,
@@ -144,6 +146,11 @@ class CompiledRulebook:
             _Condition(c.name, run.compile(c.condition), self._signals_read(c.condition),
                        c.rationale, c.condition)
             for c in model.chances)
+        # Reductions over the runs of a path: their operands, evaluated in a first pass.
+        self.runs_reductions: tuple[Reduce, ...] = runs_reductions(
+            [e for pair in forms for e in pair] + [c.condition for c in model.chances])
+        self._runs_operands = {node: run.compile(node.operand)
+                               for node in self.runs_reductions}
 
         scoped = ExpressionCompiler(self.constants, _scope_closure)
         self._command_rules = tuple(
@@ -166,6 +173,11 @@ class CompiledRulebook:
         # FMU may lack them): see DerivedSignals.provides.
         self.required_signals: frozenset[str] = frozenset(provided | {"t"})
         self.needs_collisions = any(name.startswith("collision.") for name in provided)
+        across_read = set(self._signals_read(*(n.operand for n in self.runs_reductions)))
+        # What the first pass over a path's runs reads (never collision signals: E802).
+        self.across_signals: frozenset[str] = frozenset(
+            set().union(*(inputs_of(name) for name in across_read)) | {"t", "command"}
+            if self.runs_reductions else ())
 
     def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
         """Pickle as the checked model and compile again on loading (closures do not pickle),
@@ -217,9 +229,31 @@ class CompiledRulebook:
         computed once); rulebooks with equal ``derived_settings`` can share one."""
         return DerivedSignals(signals, context, self.derived_settings)
 
+    def across_runs(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
+                    source: DerivedSignals | None = None,
+                    into: AcrossRuns | None = None) -> AcrossRuns:
+        """Fold a batch of a path's runs into the path-level values (the first pass).
+
+        Call it on every chunk of a path's complete runs (``into`` the same accumulator), then
+        pass the accumulator to :meth:`evaluate` of each chunk. ``source`` as in
+        :meth:`evaluate`.
+        """
+        across = into if into is not None else AcrossRuns(self.runs_reductions)
+        if not self.runs_reductions:
+            return across
+        if source is None:
+            source = self.derived_signals(signals, context)
+        frame = Frame(source=source)
+        with np.errstate(all="ignore"):
+            for node, operand in self._runs_operands.items():
+                across.accumulators[node].add(runs_first(operand(frame), source.runs))
+        return across
+
     def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
                  per_sample: bool = True, source: DerivedSignals | None = None,
-                 shared: dict[Any, Any] | None = None) -> RunEvaluation:
+                 shared: dict[Any, Any] | None = None,
+                 across: AcrossRuns | Mapping[Reduce, np.ndarray] | None = None
+                 ) -> RunEvaluation:
         """Every index, I_max, dominant index and sample, chances, time and energy per run.
 
         ``per_sample=False`` skips the per-sample values (``per_sample`` arrays are
@@ -229,13 +263,18 @@ class CompiledRulebook:
         ``shared``: a dict passed to the evaluations of several rulebooks on the same
         ``source``; an index value or chance whose expression and constants equal one already
         computed there is taken from it, not computed again.
+        ``across``: the path-level values of the reductions over runs (:meth:`across_runs`
+        over every chunk of the path); None when the given runs are the whole path (they are
+        then computed from them).
         """
         if source is None:
             source = self.derived_signals(signals, context)
         elif source.settings != self.derived_settings:
             raise ValueError("a shared signal source needs equal derived settings")
         runs, samples = source.runs, source.samples
-        frame = Frame(source=source)
+        if across is None and self.runs_reductions:
+            across = self.across_runs(signals, context, source=source)
+        frame = Frame(source=source, across=finished(across) if across is not None else {})
         # Which runs hold only finite values, per signal: shared like the values are.
         finite: dict[str, np.ndarray] = {} if shared is None else shared.setdefault(_FINITE, {})
 

@@ -52,6 +52,8 @@ class Frame:
     source: DerivedSignals | None = None
     scope: Mapping[str, Any] = field(default_factory=dict)
     memo: dict[int, Any] = field(default_factory=dict)
+    # Path-level values of the reductions over runs, by node (idefix_rules.rulebook.across).
+    across: Mapping[Any, Any] = field(default_factory=dict)
 
     @property
     def samples(self) -> int:
@@ -137,7 +139,7 @@ class ExpressionCompiler:
         self._uses[expr] = self._uses.get(expr, 0) + 1
         if self._uses[expr] > 1:
             return
-        for child in _children(expr):
+        for child in children(expr):
             self._count(child)
 
     # ------------------------------------------------------------------ compiling
@@ -250,6 +252,8 @@ class ExpressionCompiler:
                 return result
 
             return extreme
+        if name == "hypot" and len(args) == 2:
+            return lambda frame: np.hypot(_float(args[0](frame)), _float(args[1](frame)))
         if name == "clamp" and len(args) == 3:
             return lambda frame: np.minimum(np.maximum(_float(args[0](frame)),
                                                        _float(args[1](frame))),
@@ -274,6 +278,8 @@ class ExpressionCompiler:
         return _memoised(lambda frame: layout(_time(frame) < value, ("time",)))
 
     def _reduce(self, expr: Reduce) -> Closure:
+        if expr.domain == "runs":
+            return self._across(expr)
         operand = self.compile(expr.operand)
         axis_name = DOMAIN_AXES[expr.domain]
         axis = 1 + AXES.index(axis_name)
@@ -291,6 +297,28 @@ class ExpressionCompiler:
                                    parameter, t)
 
         return run
+
+
+    def _across(self, expr: Reduce) -> Closure:
+        """A reduction over runs reads its path-level value, computed beforehand over every
+        run of the path (:class:`~idefix_rules.rulebook.across.AcrossRuns`)."""
+
+        def run(frame: Frame) -> Any:
+            try:
+                return frame.across[expr]
+            except KeyError:
+                raise InternalError("a reduction over runs was evaluated before its "
+                                    "path-level value was computed") from None
+
+        return run
+
+
+def runs_first(value: Any, runs: int) -> np.ndarray:
+    """A compiled value with its run axis spelled out: (runs, time, wheel, part, level)."""
+    array = np.asarray(value)
+    if array.ndim == 0:
+        array = array.reshape((1,) * _NDIM)
+    return np.broadcast_to(array, (runs, *array.shape[1:]))
 
 
 def _time(frame: Frame) -> np.ndarray:
@@ -311,7 +339,8 @@ def _memoised(closure: Closure) -> Closure:
     return run
 
 
-def _children(expr: Any) -> tuple[Any, ...]:
+def children(expr: Any) -> tuple[Any, ...]:
+    """The sub-expressions an expression node evaluates (its operands and arguments)."""
     if isinstance(expr, Unary | Select | Masked):
         return (expr.operand,)
     if isinstance(expr, Binary):

@@ -106,6 +106,8 @@ def _call(function: str, args: list[Value]) -> Value:
         for arg in args[1:]:
             result = _zip(pick, result, arg)
         return result
+    if function == "hypot":
+        return _zip(math.hypot, args[0], args[1])
     if function == "clamp":
         low = _zip(max, args[0], args[1])
         return _zip(min, low, args[2])

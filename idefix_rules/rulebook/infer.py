@@ -19,6 +19,8 @@ from collections.abc import Callable
 
 from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, error
+from idefix_rules.rulebook import semantics
+from idefix_rules.rulebook.across import runs_reductions
 from idefix_rules.rulebook.model import (
     DOMAIN_AXES,
     PARAMETRIC_REDUCERS,
@@ -223,7 +225,8 @@ def _call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
                               did_you_mean(expr.function, known)
                               or f"functions are {', '.join(known)}"))
         return None
-    arity = {"abs": (1, 1), "sqrt": (1, 1), "clamp": (3, 3), "min": (2, 99), "max": (2, 99)}
+    arity = {"abs": (1, 1), "sqrt": (1, 1), "clamp": (3, 3), "hypot": (2, 2), "min": (2, 99),
+             "max": (2, 99)}
     low, high = arity[expr.function]
     if not low <= len(expr.args) <= high:
         wanted = str(low) if low == high else f"at least {low}"
@@ -277,7 +280,45 @@ def _path_call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
     return RATIO
 
 
+# Reducers that make sense across the runs of a path (run order carries no meaning, so no
+# final/initial; integral and time_above are time reductions).
+RUN_REDUCERS = frozenset({"mean", "max", "min", "sum", "rms", "percentile", "any", "all",
+                          "count", "fraction"})
+
+
+def _runs_allowed(expr: Reduce, scope: Scope, problems: Problems) -> bool:
+    """Where a reduction over runs may stand and what it may read (E800-E803)."""
+    if scope.kind != "run":
+        hint = {"path": "verdicts read path statistics already: mean(INDEX), max(INDEX), "
+                        "chance(NAME)",
+                "prescreen": "a prescreen sees the reference run alone"}.get(
+            scope.kind, "use it in an index value, a map or a chance")
+        problems.append(error("E800", f"'{expr.reducer} over runs' cannot be used in "
+                              f"{SCOPE_DESCRIPTIONS[scope.kind]}: it reduces the runs of a "
+                              "path, which only indices, maps and chances see", expr.span,
+                              hint))
+        return False
+    if expr.reducer not in RUN_REDUCERS:
+        problems.append(error("E803", f"'{expr.reducer}' cannot reduce over runs", expr.span,
+                              "over runs: " + ", ".join(sorted(RUN_REDUCERS))))
+        return False
+    if runs_reductions([expr.operand]):
+        problems.append(error("E801", "a reduction over runs cannot contain another one",
+                              expr.span, "reduce over runs once, outermost"))
+        return False
+    collision = sorted(n for n in semantics.names_in(expr.operand)
+                       if n.startswith("collision."))
+    if collision:
+        problems.append(error("E802", f"'{collision[0]}' cannot be reduced over runs",
+                              expr.span, "collision signals are per run: declare a chance and "
+                              "read chance(NAME) in a verdict"))
+        return False
+    return True
+
+
 def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
+    if expr.domain == "runs" and not _runs_allowed(expr, scope, problems):
+        return None
     operand = infer_type(expr.operand, scope, problems)
     axis = DOMAIN_AXES[expr.domain]
     parameter = None
@@ -296,24 +337,32 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
                                       f"{describe(window_type.dimension)}", expr.window.span))
     if operand is None:
         return None
-    if axis not in operand.axes:
+    if expr.domain == "runs":
+        if expr.reducer == "percentile" and operand.axes:
+            problems.append(error(
+                "E804", "'percentile over runs' needs one value per run; this one still has a "
+                + " and a ".join(operand.axes) + (" axis" if len(operand.axes) == 1 else " axes"),
+                expr.span,
+                "reduce it first, e.g. 'percentile 95 over runs (final over time (…))'"))
+            return None
+    elif axis not in operand.axes:
         shape = ", ".join(operand.axes) if operand.axes else "a single value per run"
         problems.append(error(
             "E301", f"'{expr.reducer} over {expr.domain}' needs a quantity with a {axis} axis; "
             f"this one has {shape}", expr.span))
         return None
-    if expr.reducer in ("any", "all", "count"):
+    if expr.reducer in ("any", "all", "count", "fraction"):
         if not operand.boolean:
             problems.append(error("E303", f"'{expr.reducer}' needs a condition",
                                   expr.operand.span))
             return None
         result = operand.without(axis)
-        if expr.reducer == "count":
+        if expr.reducer in ("count", "fraction"):
             return ExprType(DIMENSIONLESS, result.axes)
         return result
     if operand.boolean:
         problems.append(error("E304", f"'{expr.reducer}' needs a quantity, not a condition",
-                              expr.operand.span, "use any/all/count for conditions"))
+                              expr.operand.span, "use any/all/count/fraction for conditions"))
         return None
     if (expr.reducer in PARAMETRIC_REDUCERS) != (expr.parameter is not None):
         if expr.parameter is None:

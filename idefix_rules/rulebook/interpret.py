@@ -101,6 +101,9 @@ def reduce_series(reducer: str, xs: Sequence[Scalar], inside: Sequence[bool],
         return all(bool(x) for x in window)
     if reducer == "count":
         return np.float64(sum(1 for x in window if x))
+    if reducer == "fraction":
+        return np.float64(sum(1 for x in window if x) / len(window)) if window else \
+            np.float64(0.0)
     if not window:
         return np.float64(0.0)
     window = [np.float64(x) for x in window]
@@ -150,6 +153,9 @@ class _Run:
         self.constants = constants
         self.scope = scope or {}
         self.t = [float(v) for v in source.t] if source is not None else []
+        # Every run of the batch (for reductions over runs) and their results, shared.
+        self.peers: list[_Run] = [self]
+        self.across: dict[Reduce, Value] = {}
 
     def size(self, axis: str) -> int:
         return len(self.t) if axis == "time" else len(AXIS_LABELS[axis])
@@ -205,6 +211,8 @@ class _Run:
         raise AssertionError(f"cannot interpret {type(expr).__name__}")
 
     def reduce(self, expr: Reduce) -> Value:
+        if expr.domain == "runs":
+            return self.reduce_runs(expr)
         operand = self.evaluate(expr.operand)
         axis = DOMAIN_AXES[expr.domain]
         size = self.size(axis)
@@ -221,6 +229,20 @@ class _Run:
             groups.setdefault(key[:position] + key[position + 1:], []).append(operand.data[key])
         return Value(rest, {key: reduce_series(expr.reducer, xs, inside, times, parameter)
                             for key, xs in groups.items()})
+
+
+    def reduce_runs(self, expr: Reduce) -> Value:
+        """The operand in every run of the batch, reduced label by label across the runs."""
+        if expr not in self.across:
+            values = [peer.evaluate(expr.operand) for peer in self.peers]
+            parameter = (None if expr.parameter is None
+                         else float(constant_value(expr.parameter, self.constants).only()))
+            everyone = [True] * len(values)
+            self.across[expr] = Value(values[0].axes, {
+                key: reduce_series(expr.reducer, [value.data[key] for value in values],
+                                   everyone, None, parameter)
+                for key in values[0].data})
+        return self.across[expr]
 
 
 def _ones(axis: str, size: int) -> Value:
@@ -287,6 +309,7 @@ CALLS: dict[str, Callable[..., Scalar]] = {
     "sqrt": lambda x: np.sqrt(_f(x)),
     "min": lambda *xs: _nan_min([_f(x) for x in xs]),
     "max": lambda *xs: _nan_max([_f(x) for x in xs]),
+    "hypot": lambda a, b: np.float64(math.hypot(_f(a), _f(b))),
     "clamp": lambda x, low, high: _nan_min([_nan_max([_f(x), _f(low)]), _f(high)]),
 }
 
@@ -319,10 +342,14 @@ def interpret(rulebook: CheckedRulebook, signals: Mapping[str, np.ndarray],
     chance_names = tuple(c.name for c in model.chances)
     runs = int(np.asarray(signals["t"]).shape[0])
     rows = []
-    for run in range(runs):
-        one = {k: np.asarray(v)[run:run + 1] for k, v in signals.items()}
-        source = DerivedSignals(one, context, settings)
-        evaluator = _Run(source, constants)
+    evaluators = [_Run(DerivedSignals({k: np.asarray(v)[run:run + 1]
+                                       for k, v in signals.items()}, context, settings),
+                       constants)
+                  for run in range(runs)]
+    across: dict[Reduce, Value] = {}
+    for evaluator in evaluators:  # reductions over runs see every run of the batch
+        evaluator.peers, evaluator.across = evaluators, across
+    for evaluator in evaluators:
         with np.errstate(all="ignore"):  # IEEE results (inf, NaN) are the semantics
             rows.append(_evaluate_run(model, rulebook, evaluator, constants, names,
                                       chance_names))

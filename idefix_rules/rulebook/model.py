@@ -111,21 +111,23 @@ class Window:
 
 Reducer = Literal[
     "final", "initial", "max", "min", "mean", "rms", "sum", "integral",
-    "percentile", "time_above", "any", "all", "count",
+    "percentile", "time_above", "any", "all", "count", "fraction",
 ]
-Domain = Literal["time", "wheels", "parts", "levels"]
+Domain = Literal["time", "wheels", "parts", "levels", "runs"]
 
 # Reducers that take a parameter: ``percentile 95 over time (x)``, ``time_above 30 deg over
 # time (abs(pitch))``.
 PARAMETRIC_REDUCERS: frozenset[str] = frozenset({"percentile", "time_above"})
-# Domain word → axis name of the signal contract.
+# Domain word → axis name of the signal contract. ``runs`` is the run axis itself: a reduction
+# over the runs of a path gives one value for the whole path (``idefix_rules.rulebook.across``).
 DOMAIN_AXES: dict[str, str] = {"time": "time", "wheels": "wheel", "parts": "part",
-                               "levels": "level"}
+                               "levels": "level", "runs": "run"}
 
 
 @dataclass(frozen=True)
 class Reduce:
-    """``max over time after 5 s (abs(roll - ref.roll))``, ``any over wheels (x > 1)``."""
+    """``max over time after 5 s (abs(roll - ref.roll))``, ``any over wheels (x > 1)``,
+    ``mean over runs (final over time (x - ref.x))`` (a path-level value, the same in every run)."""
 
     reducer: Reducer
     domain: Domain

@@ -34,6 +34,12 @@ def reduce(reducer: str, x: np.ndarray, axis: int, size: int, mask: np.ndarray |
         shape = list(x.shape)
         shape[axis] = 1
         return np.full(tuple(shape), empty)
+    if reducer == "fraction":  # share of true values in the window; an empty window gives 0
+        counted = reduce("count", x, axis, size, mask)
+        total = (np.asarray(float(size)) if mask is None
+                 else np.asarray(_full(mask, axis, size).sum(axis=axis, keepdims=True),
+                                 dtype=float))
+        return np.asarray(np.where(total > 0, counted / np.maximum(total, 1.0), 0.0))
     if reducer in ("any", "all", "count"):
         truth = _truth(x)
         if mask is None and axis != 1 and size <= _SMALL:

@@ -20,6 +20,7 @@ reducer               value                                                     
 ``mean``               arithmetic mean of the samples (not time-weighted)         0
 ``rms``                ``sqrt(mean(x²))``                                         0
 ``count``              number of samples where the operand is true (non-zero)     0
+``fraction``           ``count`` / number of samples in the window                 0
 ``any``/``all``        some / every sample true                                   false / true
 ``integral``           trapezoid ``Σ ½(xᵢ+xᵢ₊₁)(tᵢ₊₁-tᵢ)`` over consecutive window samples  0
 ``time_above T``       ``Σ (tᵢ₊₁-tᵢ)`` over window samples with ``xᵢ > T`` (last: 0)    0
@@ -31,6 +32,12 @@ Over ``wheels``/``parts``/``levels`` the same reducers apply to the axis's label
 order (``final`` = the last label). An operand without the reduced axis counts as constant along
 it (``sum over wheels (1)`` is 4). Windows: ``during command K`` ⇔ ``command == K - 1``;
 ``after Q`` ⇔ ``t >= Q``; ``before Q`` ⇔ ``t < Q`` (simulation time, which starts at 0).
+
+Over ``runs`` (a path-level value): the same reducers (no ``final``/``initial``/``integral``/
+``time_above``) apply across the runs of the evaluation, label by label of the operand's other
+axes, the runs in any order; ``fraction`` is ``count / n``. The value is the same in every run,
+and the per-sample form leaves it whole (:mod:`.across` has the table and the two-pass
+evaluation of chunked runs).
 
 Non-finite data: an index whose signals hold NaN or ±inf in a run is 1 (critical) for that run,
 and so is an index whose raw value is NaN (e.g. 0/0); a chance whose signals hold non-finite
@@ -85,6 +92,8 @@ def per_sample_form(expr: Expr) -> Expr:
     Name(name='pitch')
     """
     if isinstance(expr, Reduce):
+        if expr.domain == "runs":  # a path-level value: the same at every sample of every run
+            return expr
         if expr.domain == "time":
             operand = expr.operand
             return operand if expr.window is None else Masked(operand, expr.window)  # type: ignore[return-value]

@@ -178,6 +178,8 @@ def _call(function: str, args: list[_Value], interval: bool) -> _Value:
             return min(args)
         if function == "max":
             return max(args)
+        if function == "hypot":
+            return math.hypot(args[0], args[1])
         if function == "clamp":
             return min(max(args[0], args[1]), args[2])
     else:
@@ -194,6 +196,11 @@ def _call(function: str, args: list[_Value], interval: bool) -> _Value:
             return (max(lows), max(highs))
         if function == "clamp":
             return (min(max(lows[0], lows[1]), lows[2]), min(max(highs[0], highs[1]), highs[2]))
+        if function == "hypot":  # grows with |a| and |b|: the corners nearest and farthest
+            near = [0.0 if low <= 0 <= high else min(abs(low), abs(high))
+                    for low, high in args]
+            far = [max(abs(low), abs(high)) for low, high in args]
+            return (math.hypot(*near), math.hypot(*far))
     raise ValueError(f"unknown function {function}")
 
 

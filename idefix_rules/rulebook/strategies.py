@@ -132,10 +132,11 @@ def index_values(draw: Any) -> tuple[Expr, str]:
         operand = Binary("/", Name("global_error"), Name("tolerance_radius"))
         dimension = "ratio"
     reducer = draw(st.sampled_from(["final", "initial", "max", "min", "mean", "rms",
-                                    "percentile", "time_above", "max", "integral", "count"]))
+                                    "percentile", "time_above", "max", "integral", "count",
+                                    "fraction"]))
     parameter = None
     result = dimension
-    if reducer == "count":
+    if reducer in ("count", "fraction"):
         operand = Binary(">", operand, draw(_quantity(dimension, 0, 50)))
         result = "ratio"
     elif reducer == "percentile":
@@ -145,7 +146,19 @@ def index_values(draw: Any) -> tuple[Expr, str]:
         result = "time"
     elif reducer == "integral":
         result = dimension + "*time"
+    across = draw(st.integers(0, 7))  # path-level values: reductions over runs
+    if across == 0:  # inside the time reduction: e.g. the mean trajectory, sample by sample
+        operand = Reduce(draw(st.sampled_from(["any", "all"] if reducer in ("count", "fraction")
+                                              else ["mean", "max", "min", "rms", "sum"])),
+                         "runs", operand)
     value: Expr = Reduce(reducer, "time", operand, parameter, draw(_window()))
+    if across == 1:  # around it: one number for the path
+        runs_reducer = draw(st.sampled_from(["mean", "max", "min", "rms", "percentile"]))
+        value = Reduce(runs_reducer, "runs", value,
+                       Number(float(draw(st.integers(0, 100))))
+                       if runs_reducer == "percentile" else None)
+    elif across == 2:  # a run against the path's mean
+        value = Binary("-", value, Reduce("mean", "runs", value))
     if draw(st.integers(0, 4)) == 0:
         value = Call("abs", (value,))
     return value, result

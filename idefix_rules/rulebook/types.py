@@ -91,7 +91,8 @@ PATH_NAMES: dict[str, ExprType] = {
 # Functions of the path scope: argument kind → result.
 PATH_FUNCTIONS: dict[str, str] = {"chance": "chance", "mean": "index", "max": "index"}
 
-ELEMENTWISE_FUNCTIONS: frozenset[str] = frozenset({"abs", "min", "max", "sqrt", "clamp"})
+ELEMENTWISE_FUNCTIONS: frozenset[str] = frozenset({"abs", "min", "max", "sqrt", "clamp",
+                                                 "hypot"})
 
 SETTINGS: dict[str, tuple[Dimension, float]] = {
     # name: (dimension, default in SI)

@@ -97,6 +97,7 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
     assert page.exists() and (out / "risk_map_all.png").exists()
     text = page.read_text(encoding="utf-8")
     assert "report-e2e 0.2.0" in text and "Notes" not in text
+    assert "Assumed vs simulated slip" in text  # the reference runs' slip beside the rulebook's
     data, setup, maps = prepare_report(out / "results.h5")
     assert maps.per_sample and setup.notes == []
     # The rock near the straight path and the keep-out area are drawn, with their levels.

@@ -134,6 +134,15 @@ def test_explain_lists_every_rule(capsys):
         assert name in out, name
 
 
+def test_explain_marks_the_path_level_position_index():
+    from idefix_rules.cli.explain import rows
+    from idefix_rules.rulebook import load_checked
+
+    marked = {row[1].split("\n")[0] for row in rows(load_checked(DEFAULT))
+              if "path-level" in row[2]}
+    assert marked == {"I_pos"}  # only I_pos reduces over runs
+
+
 def test_explain_of_an_invalid_rulebook_is_exit_2(write, capsys):
     assert main(["explain", str(write("x.rules", "rulebook"))]) == 2
 

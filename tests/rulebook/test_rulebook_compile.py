@@ -292,3 +292,83 @@ def test_compiled_rulebook_pickles_for_worker_processes():
     np.testing.assert_array_equal(copy.evaluate(signals, context).i_max,
                                   evaluator.evaluate(signals, context).i_max)
     assert copy.source_hash == evaluator.source_hash
+
+
+# ---------------------------------------------------------------- reductions over runs
+X3 = [[0.0, 0.0, 0.1, 0.2, 0.3, 0.3], [0.0, 0.0, 0.0, 0.0, -0.1, -0.1],
+      [0.0, 0.0, 0.0, 0.0, 0.0, 0.05]]  # final x: 0.3, -0.1, 0.05 (reference: 0)
+
+
+@pytest.mark.parametrize(("value", "expected"), [
+    ("mean over runs (final over time (x))", 0.25 / 3),
+    ("max over runs (final over time (x))", 0.3),
+    ("min over runs (final over time (x))", -0.1),
+    ("sum over runs (final over time (x))", 0.25),
+    ("rms over runs (final over time (x))", math.sqrt((0.09 + 0.01 + 0.0025) / 3)),
+    ("percentile 50 over runs (final over time (x))", 0.05),
+    ("count over runs (final over time (x) > 0 m) * 1 m", 2.0),
+    ("fraction over runs (final over time (x) > 0 m) * 1 m", 2 / 3),
+    ("final over time (mean over runs (x))", 0.25 / 3),  # the mean trajectory, then its end
+    ("max over time (mean over runs (x))", 0.25 / 3),
+    ("final over time (hypot(mean over runs (x - ref.x), mean over runs (y - ref.y)))",
+     0.25 / 3),
+    ("hypot(3 m, 4 m)", 5.0),
+])
+def test_a_reduction_over_runs_gives_one_value_for_the_path(value, expected):
+    checked = rulebook(f"index I_a {{\n  value = {value}\n  limit = 1 m\n  weight = 1\n}}\n")
+    signals, context = batch(3, x=X3)
+    evaluation = evaluate(checked, signals, context)
+    np.testing.assert_allclose(evaluation.raw["I_a"], [expected] * 3, rtol=1e-12)
+
+
+def test_a_run_can_be_compared_with_the_path_and_counted_as_a_fraction():
+    checked = rulebook(
+        "index I_f {\n  value = fraction over runs (final over time (abs(x)) > 5 cm)\n"
+        "  limit = 100 %\n  weight = 1\n}\n"
+        "index I_t {\n  value = fraction over time (abs(x) > 5 cm)\n  limit = 1\n"
+        "  weight = 1\n}\n"
+        "chance above_mean = final over time (x) > mean over runs (final over time (x))\n")
+    signals, context = batch(3, x=X3)
+    evaluation = evaluate(checked, signals, context)
+    np.testing.assert_allclose(evaluation.raw["I_f"], [2 / 3] * 3)  # 0.3 and 0.1 are > 5 cm
+    np.testing.assert_allclose(evaluation.raw["I_t"], [4 / 6, 2 / 6, 0.0])
+    assert evaluation.chances["above_mean"].tolist() == [True, False, False]
+
+
+def test_the_map_of_a_path_level_index_follows_the_mean_trajectory():
+    checked = rulebook("index I_pos {\n  value = final over time (hypot(mean over runs "
+                       "(x - ref.x), mean over runs (y - ref.y)) / tolerance_radius)\n"
+                       "  limit = 1\n  weight = 1\n}\n")
+    signals, context = batch(3, x=X3)  # sigma 0.1 m, no growth: the tolerance stays 0.1 m
+    evaluation = evaluate(checked, signals, context)
+    mean_x = np.mean(np.asarray(X3), axis=0)
+    for run in range(3):  # the same map in every run: the path's value, sample by sample
+        np.testing.assert_allclose(evaluation.per_sample["I_pos"][run], np.abs(mean_x) / 0.1)
+
+
+def test_a_chunked_evaluation_reads_the_path_level_value_of_every_run():
+    checked = rulebook("index I_m {\n  value = mean over runs (final over time (x))\n"
+                       "  limit = 1 m\n  weight = 1\n}\n")
+    evaluator = compile_rulebook(checked)
+    signals, context = batch(3, x=X3)
+    first, rest = ({k: v[:1] for k, v in signals.items()}, {k: v[1:] for k, v in signals.items()})
+    across = evaluator.across_runs(rest, context, into=evaluator.across_runs(first, context))
+    assert across.runs == 3
+    chunk = evaluator.evaluate(first, context, across=across)
+    np.testing.assert_allclose(chunk.raw["I_m"], [0.25 / 3])
+    # Without the first pass, a chunk alone is the whole path: its own mean.
+    np.testing.assert_allclose(evaluator.evaluate(first, context).raw["I_m"], [0.3])
+
+
+def test_a_non_finite_value_across_runs_makes_a_path_level_index_critical_in_every_run():
+    checked = rulebook("index I_m {\n  value = abs(mean over runs (final over time (x)))\n"
+                       "  limit = 1 m\n  weight = 1\n}\n")
+    x = np.asarray(X3)
+    x[1, 5] = np.nan  # the value the mean reads: the path-level value is NaN
+    evaluation = evaluate(checked, *batch(3, x=x))
+    assert evaluation.values["I_m"].tolist() == [1.0, 1.0, 1.0]
+    x = np.asarray(X3)
+    x[1, 3] = np.nan  # a sample the mean does not read: only that run is critical
+    evaluation = evaluate(checked, *batch(3, x=x))
+    assert evaluation.values["I_m"][1] == 1.0
+    np.testing.assert_allclose(evaluation.values["I_m"][[0, 2]], 0.25 / 3)

@@ -4,7 +4,7 @@ import dataclasses
 import math
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from idefix_rules.rulebook.check import check
@@ -52,6 +52,7 @@ def assert_same(a: RunEvaluation, b: RunEvaluation) -> None:
 def test_compiled_evaluator_equals_the_per_run_interpreter(model, batch):
     rules = checked(model)
     signals, context = batch
+    event(f"reductions over runs: {len(compile_rulebook(rules).runs_reductions) > 0}")
     assert_same(compile_rulebook(rules).evaluate(signals, context),
                 interpret(rules, signals, context))
 
@@ -139,6 +140,11 @@ def position_rulebooks(draw):
             getattr(operand, "name", ""), "deg" if isinstance(operand, Call) else None)
         indices.append(Index(f"I_{number}", Reduce(reducer, "time", operand, parameter),
                              Number(float(draw(st.integers(1, 50))), unit), Number(1.0)))
+    if draw(st.booleans()):  # the default rulebook's I_pos: the runs' average position
+        offset = Call("hypot", (Reduce("mean", "runs", Binary("-", Name("x"), Name("ref.x"))),
+                                Reduce("mean", "runs", Binary("-", Name("y"), Name("ref.y")))))
+        indices.append(Index("I_pos", Reduce("final", "time", Binary(
+            "/", offset, Name("tolerance_radius"))), Number(1.0), Number(1.0)))
     return Rulebook(Header("pos", "1.0.0", "position indices"), indices=tuple(indices),
                     verdicts=(VerdictRule("v", Binary("<=", Name("risk"), Number(70.0, "%"))),))
 
@@ -176,6 +182,10 @@ def test_chunked_evaluation_equals_one_call(model, batch):
     evaluator = compile_rulebook(checked(model))
     whole = evaluator.evaluate(signals, context)
     runs = signals["t"].shape[0]
-    chunks = [evaluator.evaluate({k: v[i:i + 1] for k, v in signals.items()}, context)
-              for i in range(runs)]
-    assert_same(RunEvaluation.concat(chunks), whole)
+    chunks = [{k: v[i:i + 1] for k, v in signals.items()} for i in range(runs)]
+    across = None  # path-level values: a first pass over every chunk
+    for chunk in chunks:
+        across = evaluator.across_runs(chunk, context, into=across)
+    event(f"reductions over runs: {len(evaluator.runs_reductions) > 0}")
+    parts = [evaluator.evaluate(chunk, context, across=across) for chunk in chunks]
+    assert_same(RunEvaluation.concat(parts), whole)

@@ -1,0 +1,136 @@
+"""Assumed against simulated slip: the rulebook's ``theoretical_slip`` beside the reference run's.
+
+The theoretical path (``theory.*``, ``local_error``) shortens every command's travel by the
+rulebook's assumed fixed slip *s* (``scale = 1 - s``). When the rover model slips much less (or
+more), every local error measures that assumption rather than the drive. So each simulated path
+reports the slip its **reference run** (nominal values) actually had, measured the way the
+theoretical path uses it:
+
+* ``measured`` — effective slip: ``1 - travelled / commanded``, where *commanded* is the
+  ``Σ |delta_position|`` of the chain's translating commands and *travelled* the body centre's
+  planar path length while those commands were active (``command`` signal). A chain of point
+  turns only uses the heading instead: ``1 - Σ |Δyaw| / Σ |delta_heading|``.
+* ``wheel_slip`` — for information: the mean longitudinal slip ratio (``wheel.slip``) of the four
+  wheels over the samples where a command is active.
+
+When ``|measured - assumed| > SLIP_MARGIN`` the campaign warns (console, ``summary.json`` under
+``slip``, the HTML report) and names the setting to change.
+
+>>> import numpy as np
+>>> from idefix_rules.commands import Command
+>>> reference = {"x": np.array([0.0, 0.4, 0.8, 0.8]), "y": np.zeros(4),
+...              "command": np.array([0, 0, 0, -1])}
+>>> round(effective_slip(reference, (Command(0.05, 1.0, 0.0),)), 3)
+0.2
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.commands import Command
+
+SLIP_MARGIN = 0.05  # 5 percentage points between assumed and measured slip
+SETTING = "theoretical_slip"
+
+
+@dataclass(frozen=True)
+class SlipCheck:
+    """One path: the rulebook's assumed slip beside its reference run's measured slip."""
+
+    path: str
+    assumed: float
+    measured: float | None
+    wheel_slip: float | None
+    margin: float = SLIP_MARGIN
+    rulebook: str = "the rulebook"
+
+    @property
+    def disagrees(self) -> bool:
+        return self.measured is not None and abs(self.measured - self.assumed) > self.margin
+
+    @property
+    def warning(self) -> str | None:
+        if not self.disagrees or self.measured is None:
+            return None
+        return (f"{self.path}: the reference run slipped {self.measured:.1%} (effective, along "
+                f"the path) but {self.rulebook} assumes {SETTING} = {self.assumed:.1%} for the "
+                f"theoretical path: they differ by more than {self.margin:.0%}, so local errors "
+                f"measure the assumption; set `{SETTING} = {100 * max(self.measured, 0.0):.0f} %` "
+                f"in the "
+                f"rulebook's settings if this reference run is representative")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"path": self.path, "assumed": self.assumed, "measured": _finite(self.measured),
+                "wheel_slip": _finite(self.wheel_slip), "margin": self.margin,
+                "setting": SETTING, "disagrees": self.disagrees, "warning": self.warning}
+
+
+def _finite(value: float | None) -> float | None:
+    return value if value is not None and math.isfinite(value) else None
+
+
+def effective_slip(reference: Mapping[str, np.ndarray], chain: Sequence[Command]
+                   ) -> float | None:
+    """``1 - travelled / commanded`` of a reference run (see the module docstring); None
+    when the run lacks the signals or the chain commands no motion."""
+    if not all(name in reference for name in ("x", "y", "command")):
+        return None
+    command = np.rint(np.asarray(reference["command"], dtype=float)).astype(int)
+    x, y = np.asarray(reference["x"], dtype=float), np.asarray(reference["y"], dtype=float)
+    step = np.hypot(np.diff(x), np.diff(y))  # step i → i+1 belongs to command[i]
+    translating = [k for k, c in enumerate(chain) if c.delta_position != 0.0]
+    if translating:
+        commanded = sum(abs(chain[k].delta_position) for k in translating)
+        travelled = float(step[np.isin(command[:-1], translating)].sum())
+    else:
+        turning = [k for k, c in enumerate(chain) if c.delta_heading != 0.0]
+        if not turning or "yaw" not in reference:
+            return None
+        commanded = sum(abs(chain[k].delta_heading) for k in turning)
+        turned = np.abs(np.diff(np.asarray(reference["yaw"], dtype=float)))
+        travelled = float(turned[np.isin(command[:-1], turning)].sum())
+    value = 1.0 - travelled / commanded
+    return value if math.isfinite(value) else None
+
+
+def mean_wheel_slip(reference: Mapping[str, np.ndarray]) -> float | None:
+    """Mean ``wheel.slip`` of the four wheels while a command is active (None: not stored)."""
+    if "wheel.slip" not in reference or "command" not in reference:
+        return None
+    active = np.rint(np.asarray(reference["command"], dtype=float)) >= 0
+    slip = np.asarray(reference["wheel.slip"], dtype=float)[active]
+    value = float(np.mean(slip)) if slip.size else math.nan
+    return value if math.isfinite(value) else None
+
+
+def slip_checks(store: Any, assumed: float, rulebook: str = "the rulebook"
+                ) -> list[SlipCheck]:
+    """A :class:`SlipCheck` per path of a results file that has a reference run."""
+    checks = []
+    for name in store.path_names:
+        reference = store.reference(name)
+        if reference is None:
+            continue
+        group = store.path_group(name)
+        chain = tuple(Command(*map(float, row)) for row in group["chain"][()])
+        checks.append(SlipCheck(name, assumed, effective_slip(reference, chain),
+                                mean_wheel_slip(reference), rulebook=rulebook))
+    return checks
+
+
+def stored_records(file: Any) -> list[dict[str, Any]]:
+    """The slip records (:meth:`SlipCheck.to_dict`) of a results file's stored summary."""
+    evaluation = file.get("evaluation") if file is not None else None
+    try:
+        summary = json.loads(str(evaluation.attrs.get("summary", "{}"))) if evaluation else {}
+    except ValueError:
+        return []
+    records = (summary.get("slip") or {}).get("paths", []) if isinstance(summary, dict) else []
+    return [record for record in records if isinstance(record, dict)]
