@@ -304,7 +304,8 @@ def render_signal_map() -> str:
     return json.dumps(default_signal_map(), indent=2) + "\n"
 
 
-SOURCE_FILES = ("terrain.c", "soil.c", "wheel.c", "rover.c", "controller.c", "fmi2_glue.c")
+SOURCE_FILES = ("terrain.c", "soil.c", "wheel.c", "contact.c", "loads.c", "balance.c", "rover.c",
+                "parameters.c", "controller.c", "fmi2_glue.c")
 
 
 def write_generated_files(fmu_dir: Path) -> None:

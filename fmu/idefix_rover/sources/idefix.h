@@ -150,6 +150,30 @@ void controller_start(Instance *inst);
 void controller_step(Instance *inst, double dt);
 void controller_after_step(Instance *inst, double dt, double progress);
 
+/* ---------------------------------------------------------------- wheel.c (ground state) */
+void wheel_ground_state(Instance *inst, int i);
+
+/* ---------------------------------------------------------------- contact.c */
+void contact_wheel_position(const Instance *inst, double x, double y, double yaw, const Wheel *w,
+                            double *wx, double *wy);
+void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_slope[N_WHEELS]);
+void contact_update_blocking(Instance *inst);
+int contact_penetrates(const Instance *inst, const double prev_centre[N_WHEELS]);
+
+/* ---------------------------------------------------------------- loads.c */
+extern const double SIDE_X[N_WHEELS], SIDE_Y[N_WHEELS];
+void loads_update(Instance *inst, const double contact_angle[N_WHEELS]);
+
+/* ---------------------------------------------------------------- balance.c */
+void balance_residual(Instance *inst, const double q[3], double gx, double gy, double out[3]);
+int balance_can_hold(const Instance *inst);
+int balance_solve(Instance *inst, double gx, double gy, double q[3], int from_rest);
+void balance_limit_acceleration(Instance *inst, const double previous[3], double q[3], double dt);
+
+/* ---------------------------------------------------------------- parameters.c */
+int parameters_check(const Instance *inst, char *message, size_t message_size);
+
+/* ---------------------------------------------------------------- rover.c */
 int rover_initialise(Instance *inst, char *message, size_t message_size);
 void rover_step(Instance *inst, double dt);
 void rover_write_outputs(Instance *inst);

@@ -43,3 +43,40 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
     *fy = ty;
     *thrust = tx;
 }
+
+/* Ground state of wheel i for this step, from its load: on a rock the Coulomb contact; on soil
+ * Bekker sinkage with slip sinkage, the rut under its patch, patch length, shear strength and
+ * compaction resistance (docs/rover-model.md, "Soil"). */
+void wheel_ground_state(Instance *inst, int i)
+{
+    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
+    const SoilParameters *soil = &inst->soil;
+    Wheel *w = &inst->wheels[i];
+    double hx = cos(inst->yaw), hy = sin(inst->yaw);
+    if (w->on_rock) {
+        w->capacity = inst->r[VR_ROCK_FRICTION_COEFFICIENT] * w->load;
+        w->contact_length = inst->r[VR_ROCK_CONTACT_LENGTH];
+        w->shear_K = inst->r[VR_ROCK_SHEAR_K];
+        w->resistance = 0.0;
+        w->sinkage = 0.0;
+        w->rut_depth = 0.0;
+        w->disturbed = 0.0;
+    } else {
+        double z0 = bekker_static_sinkage(soil, w->load, radius, width);
+        double zs = slip_sinkage(z0, w->slip);
+        double patch = sqrt(2.0 * radius * zs);
+        RutState rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i,
+                                  w->travel, w->own_span + w->contact_length);
+        double cohesion = soil->cohesion *
+                          (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
+        /* multi-pass: a wheel in a rut sinks on by a fraction of its first-pass sinkage */
+        double rut_floor = rut.rut_depth + soil->multipass_factor * rut.disturbed * zs;
+        w->rut_depth = rut.rut_depth;
+        w->disturbed = rut.disturbed;
+        w->sinkage = zs > rut_floor ? zs : rut_floor;
+        w->contact_length = sqrt(2.0 * radius * w->sinkage);
+        w->capacity = width * w->contact_length * cohesion + w->load * tan(soil->friction_angle);
+        w->shear_K = soil->K;
+        w->resistance = compaction_resistance(soil, w->sinkage, rut.rut_depth, width);
+    }
+}
