@@ -116,6 +116,10 @@ typedef struct {
     double commanded_speed;  /* ideal body speed of the active command, m/s */
     double commanded_yaw_rate;
     double profile;          /* share of the commanded rates applied in the last step, 0..1 */
+    double max_rate, delta_position, delta_heading;  /* the active command */
+    double travel;           /* mean odometry of the left and right wheels in the command, m */
+    double heading;          /* gyro yaw change in the command (bias and scale error), rad */
+    int trimming;            /* closed loop: turning on the spot to the commanded heading */
     double ramp_time;        /* extra time of the ramps over the ideal duration, s */
     int stalled[N_WHEELS];
     /* stuck observer: ring of progress samples */
@@ -148,7 +152,7 @@ typedef struct {
 
 void controller_start(Instance *inst);
 void controller_step(Instance *inst, double dt);
-void controller_after_step(Instance *inst, double dt, double progress);
+void controller_after_step(Instance *inst, double dt, double progress, double yaw_rate);
 
 /* ---------------------------------------------------------------- wheel.c (ground state) */
 void wheel_ground_state(Instance *inst, int i);

@@ -43,6 +43,11 @@ static const Range RANGES[] = {
     {VR_CONTROLLER_TIMEOUT_FACTOR, "controller.timeout_factor", 1.0, 1000.0, 0, 0},
     {VR_CONTROLLER_STUCK_TIME, "controller.stuck_time", 0.0, 1e5, 1, 0},
     {VR_CONTROLLER_STUCK_PROGRESS, "controller.stuck_progress", 0.0, 1.0, 0, 0},
+    {VR_CONTROLLER_HEADING_FEEDBACK, "controller.heading_feedback", 0.0, 1.0, 0, 0},
+    {VR_CONTROLLER_HEADING_GAIN, "controller.heading_gain", 0.0, 100.0, 0, 0},
+    {VR_CONTROLLER_HEADING_TOLERANCE, "controller.heading_tolerance", 0.0, 1.0, 1, 0},
+    {VR_GYRO_BIAS, "gyro.bias", -1.0, 1.0, 0, 0},
+    {VR_GYRO_SCALE_ERROR, "gyro.scale_error", -0.5, 0.5, 0, 0},
     {VR_INITIAL_X, "initial.x", -1e6, 1e6, 0, 0},
     {VR_INITIAL_Y, "initial.y", -1e6, 1e6, 0, 0},
     {VR_INITIAL_YAW, "initial.yaw", -1e6, 1e6, 0, 0},
@@ -70,6 +75,12 @@ int parameters_check(const Instance *inst, char *message, size_t message_size)
     if (!(inst->r[VR_SOIL_K_C] > 0.0 || inst->r[VR_SOIL_K_PHI] > 0.0)) {
         snprintf(message, message_size, "parameter soil.k_phi = %.17g out of range: soil.k_c and "
                  "soil.k_phi must not both be 0", inst->r[VR_SOIL_K_PHI]);
+        return -1;
+    }
+    if (inst->r[VR_CONTROLLER_HEADING_FEEDBACK] != 0.0 &&
+        inst->r[VR_CONTROLLER_HEADING_FEEDBACK] != 1.0) {
+        snprintf(message, message_size, "parameter controller.heading_feedback = %.17g out of "
+                 "range: allowed 0 (odometry) or 1 (gyro)", inst->r[VR_CONTROLLER_HEADING_FEEDBACK]);
         return -1;
     }
     for (i = 0; i < inst->chain_count; i++) {

@@ -148,7 +148,7 @@ void rover_step(Instance *inst, double dt)
     progress = (inst->ctrl.commanded_speed >= 0.0 ? inst->u : -inst->u) * dt +
                (inst->ctrl.commanded_yaw_rate >= 0.0 ? inst->omega : -inst->omega) *
                inst->r[VR_ROVER_HALF_TRACK] * dt;
-    controller_after_step(inst, dt, progress);
+    controller_after_step(inst, dt, progress, inst->omega);
 
     update_geometry(inst);
     hx = cos(inst->yaw);

@@ -3,7 +3,7 @@
 #define IDEFIX_VARIABLES_H
 
 #define MAX_COMMANDS 32
-#define N_REAL 163
+#define N_REAL 168
 #define VR_CHAIN_COUNT 0 /* Integer */
 #define VR_TERRAIN_FILE 0 /* String */
 
@@ -36,56 +36,61 @@
 #define VR_CONTROLLER_TIMEOUT_FACTOR 25
 #define VR_CONTROLLER_STUCK_TIME 26
 #define VR_CONTROLLER_STUCK_PROGRESS 27
-#define VR_INITIAL_X 28
-#define VR_INITIAL_Y 29
-#define VR_INITIAL_YAW 30
-#define VR_SOLVER_STEP 31
-#define VR_SOLVER_VELOCITY_EPSILON 32
-#define VR_CHAIN_MAX_WHEEL_RATE 33
-#define VR_CHAIN_DELTA_POSITION 65
-#define VR_CHAIN_DELTA_HEADING 97
-#define VR_T 129
-#define VR_X 130
-#define VR_Y 131
-#define VR_Z 132
-#define VR_ROLL 133
-#define VR_PITCH 134
-#define VR_YAW 135
-#define VR_WHEEL_FL_RATE 136
-#define VR_WHEEL_FR_RATE 137
-#define VR_WHEEL_RL_RATE 138
-#define VR_WHEEL_RR_RATE 139
-#define VR_WHEEL_FL_SLIP 140
-#define VR_WHEEL_FR_SLIP 141
-#define VR_WHEEL_RL_SLIP 142
-#define VR_WHEEL_RR_SLIP 143
-#define VR_WHEEL_FL_SLIP_ANGLE 144
-#define VR_WHEEL_FR_SLIP_ANGLE 145
-#define VR_WHEEL_RL_SLIP_ANGLE 146
-#define VR_WHEEL_RR_SLIP_ANGLE 147
-#define VR_WHEEL_FL_SINKAGE 148
-#define VR_WHEEL_FR_SINKAGE 149
-#define VR_WHEEL_RL_SINKAGE 150
-#define VR_WHEEL_RR_SINKAGE 151
-#define VR_WHEEL_FL_CURRENT 152
-#define VR_WHEEL_FR_CURRENT 153
-#define VR_WHEEL_RL_CURRENT 154
-#define VR_WHEEL_RR_CURRENT 155
-#define VR_WHEEL_FL_LOAD 156
-#define VR_WHEEL_FR_LOAD 157
-#define VR_WHEEL_RL_LOAD 158
-#define VR_WHEEL_RR_LOAD 159
-#define VR_ENERGY 160
-#define VR_COMMAND 161
-#define VR_STUCK 162
+#define VR_CONTROLLER_HEADING_FEEDBACK 28
+#define VR_CONTROLLER_HEADING_GAIN 29
+#define VR_CONTROLLER_HEADING_TOLERANCE 30
+#define VR_GYRO_BIAS 31
+#define VR_GYRO_SCALE_ERROR 32
+#define VR_INITIAL_X 33
+#define VR_INITIAL_Y 34
+#define VR_INITIAL_YAW 35
+#define VR_SOLVER_STEP 36
+#define VR_SOLVER_VELOCITY_EPSILON 37
+#define VR_CHAIN_MAX_WHEEL_RATE 38
+#define VR_CHAIN_DELTA_POSITION 70
+#define VR_CHAIN_DELTA_HEADING 102
+#define VR_T 134
+#define VR_X 135
+#define VR_Y 136
+#define VR_Z 137
+#define VR_ROLL 138
+#define VR_PITCH 139
+#define VR_YAW 140
+#define VR_WHEEL_FL_RATE 141
+#define VR_WHEEL_FR_RATE 142
+#define VR_WHEEL_RL_RATE 143
+#define VR_WHEEL_RR_RATE 144
+#define VR_WHEEL_FL_SLIP 145
+#define VR_WHEEL_FR_SLIP 146
+#define VR_WHEEL_RL_SLIP 147
+#define VR_WHEEL_RR_SLIP 148
+#define VR_WHEEL_FL_SLIP_ANGLE 149
+#define VR_WHEEL_FR_SLIP_ANGLE 150
+#define VR_WHEEL_RL_SLIP_ANGLE 151
+#define VR_WHEEL_RR_SLIP_ANGLE 152
+#define VR_WHEEL_FL_SINKAGE 153
+#define VR_WHEEL_FR_SINKAGE 154
+#define VR_WHEEL_RL_SINKAGE 155
+#define VR_WHEEL_RR_SINKAGE 156
+#define VR_WHEEL_FL_CURRENT 157
+#define VR_WHEEL_FR_CURRENT 158
+#define VR_WHEEL_RL_CURRENT 159
+#define VR_WHEEL_RR_CURRENT 160
+#define VR_WHEEL_FL_LOAD 161
+#define VR_WHEEL_FR_LOAD 162
+#define VR_WHEEL_RL_LOAD 163
+#define VR_WHEEL_RR_LOAD 164
+#define VR_ENERGY 165
+#define VR_COMMAND 166
+#define VR_STUCK 167
 
 /* per-wheel outputs: base + wheel index (FL, FR, RL, RR) */
-#define VR_WHEEL_RATE 136
-#define VR_WHEEL_SLIP 140
-#define VR_WHEEL_SLIP_ANGLE 144
-#define VR_WHEEL_SINKAGE 148
-#define VR_WHEEL_CURRENT 152
-#define VR_WHEEL_LOAD 156
+#define VR_WHEEL_RATE 141
+#define VR_WHEEL_SLIP 145
+#define VR_WHEEL_SLIP_ANGLE 149
+#define VR_WHEEL_SINKAGE 153
+#define VR_WHEEL_CURRENT 157
+#define VR_WHEEL_LOAD 161
 
 /* start values of every Real, indexed by value reference */
 #define REAL_DEFAULTS { \
@@ -117,6 +122,11 @@
     2.0, /* controller.timeout_factor */ \
     10.0, /* controller.stuck_time */ \
     0.1, /* controller.stuck_progress */ \
+    1.0, /* controller.heading_feedback */ \
+    0.5, /* controller.heading_gain */ \
+    0.003490658503988659, /* controller.heading_tolerance */ \
+    0.0, /* gyro.bias */ \
+    0.0, /* gyro.scale_error */ \
     0.0, /* initial.x */ \
     0.0, /* initial.y */ \
     0.0, /* initial.yaw */ \
@@ -253,6 +263,6 @@
     0.0, /* command */ \
     0.0, /* stuck */ \
 }
-#define FIRST_OUTPUT_VR 129
+#define FIRST_OUTPUT_VR 134
 
 #endif
