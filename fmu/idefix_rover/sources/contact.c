@@ -94,17 +94,49 @@ void contact_update_blocking(Instance *inst)
     }
 }
 
-/* After a move, would any wheel have to touch a rock above where its axle was? */
-int contact_penetrates(const Instance *inst, const double prev_centre[N_WHEELS])
+/* Would wheel i, at the body pose (x, y, yaw), have to touch a rock above where its axle was? */
+static int wheel_penetrates(const Instance *inst, int i, double x, double y, double yaw,
+                            const double prev_centre[N_WHEELS])
 {
     const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
-    double hx = cos(inst->yaw), hy = sin(inst->yaw);
+    double wx, wy, d, cz, env;
+    contact_wheel_position(inst, x, y, yaw, &inst->wheels[i], &wx, &wy);
+    env = rock_wheel_centre(&inst->terrain, wx, wy, cos(yaw), sin(yaw), radius, width, &d, &cz);
+    return env > NO_ROCK_LIMIT && cz > prev_centre[i] + 1e-6;
+}
+
+/* After a move, the first wheel that would have to touch a rock above where its axle was, or -1. */
+int contact_penetrating_wheel(const Instance *inst, const double prev_centre[N_WHEELS])
+{
     int i;
-    for (i = 0; i < N_WHEELS; i++) {
-        double wx, wy, d, cz, env;
-        contact_wheel_position(inst, inst->x, inst->y, inst->yaw, &inst->wheels[i], &wx, &wy);
-        env = rock_wheel_centre(&inst->terrain, wx, wy, hx, hy, radius, width, &d, &cz);
-        if (env > NO_ROCK_LIMIT && cz > prev_centre[i] + 1e-6) return 1;
+    for (i = 0; i < N_WHEELS; i++)
+        if (wheel_penetrates(inst, i, inst->x, inst->y, inst->yaw, prev_centre)) return i;
+    return -1;
+}
+
+/* One-sided rock contact: wheel i moved into a face above its axle. The body is pushed back
+ * along the heading, in the direction the wheel came from, by the least distance (to 0.01 mm)
+ * that puts the wheel against the face instead of into it; the rest of the step (yaw, sliding
+ * across the heading) is kept, so a blocked wheel becomes a pivot. `reach` is the largest push
+ * tried. Returns 0 when no push within reach frees the wheel. */
+int contact_push_out(Instance *inst, int i, const double prev_centre[N_WHEELS], double reach)
+{
+    const Wheel *w = &inst->wheels[i];
+    double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
+    double hx = cos(inst->yaw), hy = sin(inst->yaw), lo = 0.0, hi = reach;
+    int k;
+    if (wheel_penetrates(inst, i, inst->x - dir * hi * hx, inst->y - dir * hi * hy, inst->yaw,
+                         prev_centre))
+        return 0;
+    for (k = 0; k < 40 && hi - lo > 1e-8; k++) {
+        double mid = 0.5 * (lo + hi);
+        if (wheel_penetrates(inst, i, inst->x - dir * mid * hx, inst->y - dir * mid * hy,
+                             inst->yaw, prev_centre))
+            lo = mid;
+        else
+            hi = mid;
     }
-    return 0;
+    inst->x -= dir * hi * hx;
+    inst->y -= dir * hi * hy;
+    return 1;
 }

@@ -82,6 +82,7 @@ typedef struct {
     int on_rock;
     int dropping;            /* on a rock face too steep to rest on: carries no load */
     int blocked;             /* a rock face above the axle in the driving direction */
+    double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */
     double contact_length;   /* m */
@@ -162,7 +163,8 @@ void contact_wheel_position(const Instance *inst, double x, double y, double yaw
                             double *wx, double *wy);
 void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_slope[N_WHEELS]);
 void contact_update_blocking(Instance *inst);
-int contact_penetrates(const Instance *inst, const double prev_centre[N_WHEELS]);
+int contact_penetrating_wheel(const Instance *inst, const double prev_centre[N_WHEELS]);
+int contact_push_out(Instance *inst, int i, const double prev_centre[N_WHEELS], double reach);
 
 /* ---------------------------------------------------------------- loads.c */
 extern const double SIDE_X[N_WHEELS], SIDE_Y[N_WHEELS];

@@ -69,7 +69,7 @@ void rover_step(Instance *inst, double dt)
     const double eps = inst->r[VR_SOLVER_VELOCITY_EPSILON];
     const double i0 = inst->r[VR_MOTOR_NO_LOAD_CURRENT], kt = inst->r[VR_MOTOR_TORQUE_CONSTANT];
     double q[3] = {inst->u, inst->v, inst->omega}, gx, gy, prev_centre[N_WHEELS];
-    double x0 = inst->x, y0 = inst->y, yaw0 = inst->yaw, fraction = 1.0, progress, hx, hy;
+    double x0 = inst->x, y0 = inst->y, yaw0 = inst->yaw, progress, hx, hy;
     int i, k;
 
     controller_step(inst, dt);
@@ -117,29 +117,44 @@ void rover_step(Instance *inst, double dt)
 
     for (i = 0; i < N_WHEELS; i++) prev_centre[i] = inst->wheels[i].centre_z;
     move(inst, q, dt, 1.0);
-    /* never step into a rock face: bisect the step back to a contact below the axles */
-    for (k = 0; k < 8 && contact_penetrates(inst, prev_centre); k++) {
-        fraction *= 0.5;
-        inst->x = x0;
-        inst->y = y0;
-        inst->yaw = yaw0;
-        move(inst, q, dt, fraction);
+    /* Rock faces above the axle are one-sided constraints: a wheel that moved into one is put
+     * back against it along the heading, the rest of the motion kept (a pivot). Only if no push
+     * frees it (a face reached by the yaw alone) is the step's rotation, then all of it, undone. */
+    for (k = 0; k < 2 * N_WHEELS; k++) {
+        int wheel = contact_penetrating_wheel(inst, prev_centre);
+        double reach = fabs(q[0]) * dt + inst->r[VR_ROVER_HALF_TRACK] * fabs(q[2]) * dt + 0.002;
+        if (wheel < 0 || contact_push_out(inst, wheel, prev_centre, reach)) continue;
+        if (inst->yaw != yaw0) {
+            double keep[3] = {q[0], q[1], 0.0};
+            inst->x = x0;
+            inst->y = y0;
+            inst->yaw = yaw0;
+            move(inst, keep, dt, 1.0);
+        } else {
+            inst->x = x0;
+            inst->y = y0;
+            break;
+        }
     }
-    if (k == 8 && contact_penetrates(inst, prev_centre)) {
-        inst->x = x0;
-        inst->y = y0;
-        inst->yaw = yaw0;
-        fraction = 0.0;
+    /* the velocity actually reached (slip, progress and the next warm start follow it) */
+    {
+        double dx = inst->x - x0, dy = inst->y - y0, mid = 0.5 * (inst->yaw + yaw0);
+        inst->u = (dx * cos(mid) + dy * sin(mid)) / (dt * cos(inst->pitch));
+        inst->v = (-dx * sin(mid) + dy * cos(mid)) / (dt * cos(inst->roll));
+        inst->omega = (inst->yaw - yaw0) / dt;
     }
-    inst->u = q[0] * fraction;
-    inst->v = q[1] * fraction;
-    inst->omega = q[2] * fraction;
     inst->time += dt;
 
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         double vx = inst->u - inst->omega * w->py, vy = inst->v + inst->omega * w->px;
         w->slip = wheel_slip(radius * w->rate, vx, eps);
+        /* a wheel turning against a face above its axle without getting on (under 5 % of its
+         * rim speed) for controller.stuck_time truly cannot progress: `stuck`, the run goes on */
+        if (w->blocked && w->rate != 0.0 && vx * w->blocked < 0.05 * fabs(radius * w->rate))
+            w->blocked_time += dt;
+        else
+            w->blocked_time = 0.0;
         w->slip_angle = sqrt(vx * vx + vy * vy) > eps ? atan2(vy, fabs(vx)) : 0.0;
         w->current = (w->rate != 0.0 ? i0 : 0.0) + fabs(w->thrust * radius) / kt;
         inst->energy += w->current * dt;
@@ -220,7 +235,7 @@ int rover_initialise(Instance *inst, char *message, size_t message_size)
 
 void rover_write_outputs(Instance *inst)
 {
-    int i;
+    int i, wheel_stuck = 0;
     inst->r[VR_T] = inst->time;
     inst->r[VR_X] = inst->x;
     inst->r[VR_Y] = inst->y;
@@ -239,6 +254,9 @@ void rover_write_outputs(Instance *inst)
     }
     inst->r[VR_ENERGY] = inst->energy;
     inst->r[VR_COMMAND] = (double)inst->ctrl.active;
-    /* stuck: no progress during a command, or an uncontrolled slide (no balance) at any time */
-    inst->r[VR_STUCK] = (double)(inst->ctrl.stuck || inst->sliding);
+    /* stuck: no progress during a command, a wheel that cannot get past a rock face, or an
+     * uncontrolled slide (no balance) at any time */
+    for (i = 0; i < N_WHEELS; i++)
+        if (inst->wheels[i].blocked_time >= inst->r[VR_CONTROLLER_STUCK_TIME]) wheel_stuck = 1;
+    inst->r[VR_STUCK] = (double)(inst->ctrl.stuck || inst->sliding || wheel_stuck);
 }
