@@ -159,6 +159,9 @@ void controller_step(Instance *inst, double dt)
         if (speed * scale * dt > remaining) scale = remaining / (speed * dt);
         reference = c->delta_heading * (fraction < 1.0 ? fraction : 1.0);
         correction = inst->r[VR_CONTROLLER_HEADING_GAIN] * (reference - c->heading);
+        /* the loop steers with at most half the command's wheel rate: both sides keep driving */
+        if (fabs(correction) * b / radius > 0.5 * c->max_rate)
+            correction = (correction > 0.0 ? 0.5 : -0.5) * c->max_rate * radius / b;
     }
     c->profile = fabs(scale);
     for (i = 0; i < N_WHEELS; i++) {

@@ -51,6 +51,7 @@ typedef struct {
 
 typedef struct {
     double k_c, k_phi, n, cohesion, friction_angle, K, rut_cohesion_factor, multipass_factor;
+    double gravity, reference_gravity, reference_cohesion, max_sinkage;
 } SoilParameters;
 
 typedef struct {
@@ -68,6 +69,8 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
                double width, double sinkage, int wheel, double travel, double own_span);
 double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width);
 double slip_sinkage(double static_sinkage, double slip);
+double soil_modulus(const SoilParameters *s, double width);
+double lateral_bulldozing(const SoilParameters *s, double cohesion, double length, double sinkage);
 double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,
                              double width);
 double janosi_mobilisation(double displacement, double K);
@@ -85,7 +88,11 @@ typedef struct {
     double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */
-    double contact_length;   /* m */
+    double contact_length;   /* sheared length of the contact (soil: at least the grousers'), m */
+    double patch_length;     /* geometric patch length sqrt(2 r z) (ruts), m */
+    double slip_excavation;  /* sinkage dug by slip so far, m (builds up over the rim's travel) */
+    double step_travel;      /* rim or ground travel in the last step, whichever is longer, m */
+    double bulldozing;       /* lateral (bulldozing) resistance of the soil beside the wheel, N */
     double capacity;         /* shear strength of the patch (soil) or mu*N (rock), N */
     double shear_K;          /* m */
     double resistance;       /* compaction resistance, N */

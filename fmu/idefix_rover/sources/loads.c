@@ -7,6 +7,42 @@
 const double SIDE_X[N_WHEELS] = {1.0, 1.0, -1.0, -1.0};  /* FL FR RL RR: front +1 */
 const double SIDE_Y[N_WHEELS] = {1.0, -1.0, 1.0, -1.0};  /* left +1 */
 
+/* Uneven ground under a rigid chassis: the four support heights h_i (soil surface, or the rock
+ * contact) need not lie in a plane. Their twist w = sum s_i h_i / 4 (s_i = +1 for FL and RR,
+ * -1 for FR and RL; zero for any plane) is taken up by the compliance of the supports, and the
+ * only self-equilibrated load pattern on a rectangle is s_i T: the wheels of one diagonal gain
+ * T, the others lose it. Compatibility, sum s_i (s_i T c_i) = 4 w, gives T = 4 w / sum c_i, with
+ * c_i = c_leg + z_i / ((n + 1/2) W_i): the leg's compliance (rover.leg_compliance) in series
+ * with that of a Bekker wheel (W grows as z^(n+1/2)), which is 0 on a rock. T is bounded where a wheel unloads: the chassis then rests on three wheels, the
+ * diagonal pair carrying what the lifted wheel gave up. */
+static void twist_loads(Instance *inst)
+{
+    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
+    double twist = 0.0, compliance = 0.0, gain = 1e300, loss = 1e300, transfer;
+    int i;
+    for (i = 0; i < N_WHEELS; i++) {
+        const Wheel *w = &inst->wheels[i];
+        double sign = SIDE_X[i] * SIDE_Y[i];
+        double support = w->centre_z - radius + (w->on_rock ? 0.0 : w->sinkage);
+        twist += 0.25 * sign * support;
+        compliance += inst->r[VR_ROVER_LEG_COMPLIANCE];
+        if (!w->on_rock && w->load > 0.0)
+            compliance += bekker_static_sinkage(&inst->soil, w->load, radius, width) /
+                          ((inst->soil.n + 0.5) * w->load);
+        /* largest transfer each way before a wheel of the losing diagonal lifts off */
+        if (sign > 0.0 && w->load < loss) loss = w->load;
+        if (sign < 0.0 && w->load < gain) gain = w->load;
+    }
+    transfer = compliance > 0.0 ? 4.0 * twist / compliance : (twist > 0.0 ? 1e300 : -1e300);
+    if (twist == 0.0) transfer = 0.0;
+    transfer = transfer > gain ? gain : (transfer < -loss ? -loss : transfer);
+    for (i = 0; i < N_WHEELS; i++) {
+        Wheel *w = &inst->wheels[i];
+        double load = w->load + SIDE_X[i] * SIDE_Y[i] * transfer;
+        w->load = load > 0.0 ? load : 0.0;
+    }
+}
+
 /* Sets inst->gx, gy (in-plane gravity) and every wheel's load and `dropping` flag from the body
  * plane (inst->roll, pitch) and the contact angles on rocks. */
 void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
@@ -29,11 +65,14 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
      * (slowly in milli-g), the chassis rocking onto the other wheels. Its static share of the
      * load goes to them instead of a face that could carry it only by pushing the rover on. */
     for (i = 0; i < N_WHEELS; i++) {
-        Wheel *w = &inst->wheels[i];
-        double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
         double load = mass * gz / 4.0 + SIDE_X[i] * mass * gx * cog / (4.0 * hw) +
                       SIDE_Y[i] * mass * gy * cog / (4.0 * ht);
-        w->load = load > 0.0 ? load : 0.0;
+        inst->wheels[i].load = load > 0.0 ? load : 0.0;
+    }
+    twist_loads(inst);
+    for (i = 0; i < N_WHEELS; i++) {
+        Wheel *w = &inst->wheels[i];
+        double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
         w->dropping = w->on_rock && dir * (contact_angle[i] - atan(plane_x)) < -atan(mu);
         total += w->load;
         if (!w->dropping) kept += w->load;

@@ -149,6 +149,7 @@ void rover_step(Instance *inst, double dt)
         Wheel *w = &inst->wheels[i];
         double vx = inst->u - inst->omega * w->py, vy = inst->v + inst->omega * w->px;
         w->slip = wheel_slip(radius * w->rate, vx, eps);
+        w->step_travel = fmax(fabs(radius * w->rate), sqrt(vx * vx + vy * vy)) * dt;
         /* a wheel turning against a face above its axle without getting on (under 5 % of its
          * rim speed) for controller.stuck_time truly cannot progress: `stuck`, the run goes on */
         if (w->blocked && w->rate != 0.0 && vx * w->blocked < 0.05 * fabs(radius * w->rate))
@@ -171,8 +172,8 @@ void rover_step(Instance *inst, double dt)
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         if (!w->on_rock && w->load > 0.0)
-            soil_mark(&inst->grid, w->wx, w->wy, hx, hy, w->contact_length, width, w->sinkage, i,
-                      w->travel, w->own_span + w->contact_length);
+            soil_mark(&inst->grid, w->wx, w->wy, hx, hy, w->patch_length, width, w->sinkage, i,
+                      w->travel, w->own_span + w->patch_length);
     }
 }
 
@@ -191,6 +192,10 @@ int rover_initialise(Instance *inst, char *message, size_t message_size)
     s->K = inst->r[VR_SOIL_SHEAR_MODULUS_K];
     s->rut_cohesion_factor = inst->r[VR_SOIL_RUT_COHESION_FACTOR];
     s->multipass_factor = inst->r[VR_SOIL_MULTIPASS_FACTOR];
+    s->gravity = inst->r[VR_ROVER_GRAVITY];
+    s->reference_gravity = inst->r[VR_SOIL_REFERENCE_GRAVITY];
+    s->reference_cohesion = inst->r[VR_SOIL_REFERENCE_COHESION];
+    s->max_sinkage = inst->r[VR_SOIL_MAX_SINKAGE];
 
     if (terrain_load(&inst->terrain, inst->terrain_file, message, message_size) != 0) return -1;
     if (inst->terrain.loaded) {

@@ -37,6 +37,7 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
+        ty -= w->bulldozing * vy / sqrt(vy * vy + v_eps * v_eps);
     }
     if (w->blocked && vx * w->blocked > 0.0) force_x -= WALL_DAMPING * vx;
     *fx = force_x;
@@ -61,22 +62,42 @@ void wheel_ground_state(Instance *inst, int i)
         w->sinkage = 0.0;
         w->rut_depth = 0.0;
         w->disturbed = 0.0;
+        w->patch_length = 0.0;
+        w->slip_excavation = 0.0;
+        w->bulldozing = 0.0;
     } else {
         double z0 = bekker_static_sinkage(soil, w->load, radius, width);
-        double zs = slip_sinkage(z0, w->slip);
-        double patch = sqrt(2.0 * radius * zs);
-        RutState rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i,
-                                  w->travel, w->own_span + w->contact_length);
-        double cohesion = soil->cohesion *
-                          (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
+        /* Slip digs the wheel in (Lyasko's steady slip sinkage), but only as the rim moves the
+         * soil: the excavation approaches its steady value over one patch length of travel and
+         * fills in again the same way on fresh soil. */
+        double target = slip_sinkage(z0, w->slip) - z0;
+        double relax = w->patch_length > 0.0 ? w->patch_length : sqrt(2.0 * radius * z0);
+        double zs, patch, cohesion, rut_floor, floor_length;
+        RutState rut;
+        if (relax > 0.0)
+            w->slip_excavation += (target - w->slip_excavation) * (1.0 - exp(-w->step_travel / relax));
+        zs = z0 + w->slip_excavation;
+        if (zs > soil->max_sinkage) zs = soil->max_sinkage;
+        patch = sqrt(2.0 * radius * zs);
+        rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i, w->travel,
+                         w->own_span + w->patch_length);
+        cohesion = soil->cohesion * (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
         /* multi-pass: a wheel in a rut sinks on by a fraction of its first-pass sinkage */
-        double rut_floor = rut.rut_depth + soil->multipass_factor * rut.disturbed * zs;
+        rut_floor = rut.rut_depth + soil->multipass_factor * rut.disturbed * zs;
         w->rut_depth = rut.rut_depth;
         w->disturbed = rut.disturbed;
         w->sinkage = zs > rut_floor ? zs : rut_floor;
-        w->contact_length = sqrt(2.0 * radius * w->sinkage);
+        if (w->sinkage > soil->max_sinkage) w->sinkage = soil->max_sinkage;
+        w->patch_length = sqrt(2.0 * radius * w->sinkage);
+        /* the grousers shear at least the soil of a patch as deep as they are tall */
+        floor_length = sqrt(2.0 * radius * inst->r[VR_ROVER_GROUSER_HEIGHT]);
+        w->contact_length = w->patch_length > floor_length ? w->patch_length : floor_length;
         w->capacity = width * w->contact_length * cohesion + w->load * tan(soil->friction_angle);
         w->shear_K = soil->K;
         w->resistance = compaction_resistance(soil, w->sinkage, rut.rut_depth, width);
+        /* passive soil pressure beside the wheel: no more than the load that keeps it down (a
+         * pushed wheel rides out of its rut rather than shear a wedge it cannot hold down) */
+        w->bulldozing = lateral_bulldozing(soil, cohesion, w->patch_length, w->sinkage);
+        if (w->bulldozing > w->load) w->bulldozing = w->load;
     }
 }
