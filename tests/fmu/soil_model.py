@@ -6,6 +6,7 @@ Defaults are the FMU's: a 25 kg rover at Phobos' gravity on the default regolith
 
 from __future__ import annotations
 
+import itertools
 import math
 
 RADIUS, WIDTH, MASS, GRAVITY = 0.1, 0.06, 25.0, 0.0057
@@ -58,7 +59,8 @@ def janosi(j: float, k: float = SHEAR_K) -> float:
 def driving_slip(cohesion: float = COHESION, k_phi: float = K_PHI,
                  load: float = WHEEL_LOAD) -> float:
     """Steady slip of a driven wheel on flat fresh soil: strength(z) f(L s) = compaction(z),
-    z = the slip sinkage of the static one."""
+    z = the slip sinkage of the static one. On weak soil the slip sinkage gives a second,
+    runaway balance at high slip; this is the first (driving) one."""
     from scipy.optimize import brentq
 
     z0 = static_sinkage(load, cohesion, k_phi)
@@ -68,7 +70,9 @@ def driving_slip(cohesion: float = COHESION, k_phi: float = K_PHI,
         return strength(load, z, cohesion) * janosi(shear_length(z) * s) - compaction(
             z, cohesion, k_phi)
 
-    return float(brentq(excess, 1e-7, 0.95))
+    grid = [1e-7 + 0.005 * k for k in range(190)]
+    low = next(a for a, b in itertools.pairwise(grid) if excess(a) < 0 <= excess(b))
+    return float(brentq(excess, low, low + 0.005))
 
 
 def wheel_at_rest(load: float, cohesion: float = COHESION) -> tuple[float, float, float]:
@@ -107,3 +111,23 @@ def point_turn_efficiency() -> float:
         return shear * ((1 - eta) * b * b - eta * a * a) / sliding - a * lateral - b * rolling
 
     return float(brentq(moment, 1e-6, b * b / (a * a + b * b)))
+
+
+def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) -> float:
+    """Steady slip driving straight up a uniform slope: the four wheels' net pull (strength
+    f(L s) minus compaction, with slip sinkage and the loads shifted to the rear by the slope,
+    W_i = m g (cos / 4 -+ sin h / (4 l))) carries m g sin(slope)."""
+    from scipy.optimize import brentq
+
+    normal, along = MASS * GRAVITY * math.cos(slope), MASS * GRAVITY * math.sin(slope)
+    loads = [normal / 4 + side * along * COG / (4 * HALF_WHEELBASE) for side in (-1, -1, 1, 1)]
+
+    def excess(s: float) -> float:
+        pull = 0.0
+        for load in loads:
+            z = slip_sinkage(static_sinkage(load, cohesion, k_phi), s)
+            pull += strength(load, z, cohesion) * janosi(shear_length(z) * s) - compaction(
+                z, cohesion, k_phi)
+        return pull - along
+
+    return float(brentq(excess, 1e-7, 0.9))

@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from idefix_rules.commands import Command
-from idefix_rules.fmu import FmuRunner
+from idefix_rules.fmu import FmuRunner, synthetic_terrain, write_terrain
 
 GYRO = {"controller.heading_feedback": 1.0}
 ODOMETRY = {"controller.heading_feedback": 0.0}
@@ -62,9 +63,7 @@ def test_a_gyro_scale_error_scales_the_turn_by_one_over_one_plus_the_error(
 
 
 def test_the_straight_drive_holds_its_heading_on_a_side_slope(
-        rover: FmuRunner, tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from idefix_rules.fmu import synthetic_terrain, write_terrain
-
+        rover: FmuRunner, tmp_path: Path) -> None:
     slope = write_terrain(tmp_path / "side.terrain", synthetic_terrain(
         size=5.0, cell=0.05, slope=math.radians(10), slope_direction=-math.pi / 2))
     parameters = {"terrain.file": str(slope)}

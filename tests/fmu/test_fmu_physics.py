@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import soil_model
+
 from idefix_rules.commands import Command
 from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
 
