@@ -114,29 +114,61 @@ int contact_penetrating_wheel(const Instance *inst, const double prev_centre[N_W
     return -1;
 }
 
-/* One-sided rock contact: wheel i moved into a face above its axle. The body is pushed back
- * along the heading, in the direction the wheel came from, by the least distance (to 0.01 mm)
- * that puts the wheel against the face instead of into it; the rest of the step (yaw, sliding
- * across the heading) is kept, so a blocked wheel becomes a pivot. `reach` is the largest push
- * tried. Returns 0 when no push within reach frees the wheel. */
-int contact_push_out(Instance *inst, int i, const double prev_centre[N_WHEELS], double reach)
+/* Least push (to 0.01 mm, at most `reach`) of the body along (ux, uy) that frees wheel i, or
+ * -1 when none within reach does. */
+static double least_push(const Instance *inst, int i, const double prev_centre[N_WHEELS],
+                         double ux, double uy, double reach)
 {
-    const Wheel *w = &inst->wheels[i];
-    double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
-    double hx = cos(inst->yaw), hy = sin(inst->yaw), lo = 0.0, hi = reach;
+    double lo = 0.0, hi = reach;
     int k;
-    if (wheel_penetrates(inst, i, inst->x - dir * hi * hx, inst->y - dir * hi * hy, inst->yaw,
-                         prev_centre))
-        return 0;
+    if (wheel_penetrates(inst, i, inst->x + hi * ux, inst->y + hi * uy, inst->yaw, prev_centre))
+        return -1.0;
     for (k = 0; k < 40 && hi - lo > 1e-8; k++) {
         double mid = 0.5 * (lo + hi);
-        if (wheel_penetrates(inst, i, inst->x - dir * mid * hx, inst->y - dir * mid * hy,
-                             inst->yaw, prev_centre))
+        if (wheel_penetrates(inst, i, inst->x + mid * ux, inst->y + mid * uy, inst->yaw,
+                             prev_centre))
             lo = mid;
         else
             hi = mid;
     }
-    inst->x -= dir * hi * hx;
-    inst->y -= dir * hi * hy;
+    return hi;
+}
+
+/* One-sided rock contact: wheel i moved into a face above its axle. The body is pushed out by
+ * the least distance that puts the wheel against the face instead of into it, back along the
+ * heading (the way the wheel came), or across it, or both at 45° (whichever is least: the
+ * face's normal is not known, these bracket it); the rest of the step (yaw, sliding along the
+ * face) is kept, so a blocked wheel becomes a pivot. `reach` is the largest push tried.
+ * Returns 0 when no push within reach frees the wheel. */
+int contact_push_out(Instance *inst, int i, const double prev_centre[N_WHEELS], double reach)
+{
+    const Wheel *w = &inst->wheels[i];
+    double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
+    double hx = cos(inst->yaw), hy = sin(inst->yaw), best = -1.0, best_x = 0.0, best_y = 0.0;
+    const double c45 = 0.7071067811865476;
+    /* back along the heading, across it (left, right), and the two diagonals behind */
+    double ux[5], uy[5];
+    int k;
+    ux[0] = -dir * hx;
+    uy[0] = -dir * hy;
+    ux[1] = -hy;
+    uy[1] = hx;
+    ux[2] = hy;
+    uy[2] = -hx;
+    ux[3] = c45 * (ux[0] + ux[1]);
+    uy[3] = c45 * (uy[0] + uy[1]);
+    ux[4] = c45 * (ux[0] + ux[2]);
+    uy[4] = c45 * (uy[0] + uy[2]);
+    for (k = 0; k < 5; k++) {
+        double push = least_push(inst, i, prev_centre, ux[k], uy[k], reach);
+        if (push >= 0.0 && (best < 0.0 || push < best)) {
+            best = push;
+            best_x = push * ux[k];
+            best_y = push * uy[k];
+        }
+    }
+    if (best < 0.0) return 0;
+    inst->x += best_x;
+    inst->y += best_y;
     return 1;
 }
