@@ -47,7 +47,7 @@ def test_a_wheel_against_a_face_above_its_axle_is_a_pivot_and_the_rover_drifts_t
     # the right" (the paper). Open loop, as a rover without heading control.
     terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
     out = rover.run({**ODOMETRY, "terrain.file": terrain}, STRAIGHT, 250.0, 0.1)
-    assert out["yaw"].min() < math.radians(-10)  # towards the blocked side
+    assert out["yaw"].min() < math.radians(-5)  # towards the blocked side, clearly
     assert out["y"][-1] < -0.03
     assert out["x"][-1] > 0.5  # past the rock: the front right wheel slid along its face
     assert _longest_still_while_driving(out) <= 2  # never frozen while the wheels turn
