@@ -90,6 +90,17 @@ def bulldozing(sinkage: float, cohesion: float = COHESION) -> float:
     return math.sqrt(2 * RADIUS * sinkage) * sinkage * cohesion * k_c
 
 
+def _turning_wheel(eta: float) -> tuple[float, float, float, float]:
+    """Sliding speed per unit commanded yaw rate, rim shear S, bulldozing and compaction of a
+    point-turning wheel at efficiency eta; its rim slips by 1 - eta (Lyasko slip sinkage)."""
+    a, b = HALF_WHEELBASE, HALF_TRACK
+    z = slip_sinkage(static_sinkage(WHEEL_LOAD), 1 - eta)
+    sliding = math.hypot((1 - eta) * b, eta * a)
+    reference = max(b, eta * math.hypot(a, b))
+    shear = strength(WHEEL_LOAD, z) * janosi(shear_length(z) * sliding / reference)
+    return sliding, shear, min(bulldozing(z), WHEEL_LOAD), compaction(z)
+
+
 def point_turn_efficiency() -> float:
     """Body yaw rate over commanded yaw rate of a point turn on fresh soil: the yaw moment of
     the four wheels at (+-a, +-b) balances, each with isotropic shear S(j) along its sliding
@@ -99,35 +110,28 @@ def point_turn_efficiency() -> float:
     from scipy.optimize import brentq
 
     a, b = HALF_WHEELBASE, HALF_TRACK
-    z = static_sinkage(WHEEL_LOAD)
-    length = shear_length(z)
-    lateral = min(bulldozing(z), WHEEL_LOAD)
-    rolling = compaction(z)
 
     def moment(eta: float) -> float:
-        sliding = math.hypot((1 - eta) * b, eta * a)
-        reference = max(b, eta * math.hypot(a, b))
-        shear = strength(WHEEL_LOAD, z) * janosi(length * sliding / reference)
+        sliding, shear, lateral, rolling = _turning_wheel(eta)
         return shear * ((1 - eta) * b * b - eta * a * a) / sliding - a * lateral - b * rolling
 
     return float(brentq(moment, 1e-6, b * b / (a * a + b * b)))
 
 
-def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) -> float:
-    """Steady slip driving straight up a uniform slope: the four wheels' net pull (strength
-    f(L s) minus compaction, with slip sinkage and the loads shifted to the rear by the slope,
-    W_i = m g (cos / 4 -+ sin h / (4 l))) carries m g sin(slope)."""
-    from scipy.optimize import brentq
+NO_LOAD_CURRENT, TORQUE_CONSTANT = 0.0003, 2.0
 
-    normal, along = MASS * GRAVITY * math.cos(slope), MASS * GRAVITY * math.sin(slope)
-    loads = [normal / 4 + side * along * COG / (4 * HALF_WHEELBASE) for side in (-1, -1, 1, 1)]
 
-    def excess(s: float) -> float:
-        pull = 0.0
-        for load in loads:
-            z = slip_sinkage(static_sinkage(load, cohesion, k_phi), s)
-            pull += strength(load, z, cohesion) * janosi(shear_length(z) * s) - compaction(
-                z, cohesion, k_phi)
-        return pull - along
+def straight_current() -> float:
+    """Total motor current driving straight on flat fresh soil: each wheel's thrust equals its
+    compaction resistance, I = 4 (I0 + r R_c / k_T)."""
+    z = slip_sinkage(static_sinkage(WHEEL_LOAD), driving_slip())
+    return 4 * (NO_LOAD_CURRENT + RADIUS * compaction(z) / TORQUE_CONSTANT)
 
-    return float(brentq(excess, 1e-7, 0.9))
+
+def point_turn_current() -> float:
+    """Total motor current of a point turn on fresh soil at the balance of point_turn_efficiency:
+    each wheel's shear along its rim, S (1 - eta) b / |s|, through the motor constant."""
+    eta = point_turn_efficiency()
+    sliding, shear, _, _ = _turning_wheel(eta)
+    rim = shear * (1 - eta) * HALF_TRACK / sliding
+    return 4 * (NO_LOAD_CURRENT + RADIUS * rim / TORQUE_CONSTANT)

@@ -88,3 +88,17 @@ def test_sinkage_is_bounded_by_the_compressible_layer(rover: FmuRunner) -> None:
     assert out["wheel.sinkage"].max() == pytest.approx(bound, abs=1e-9)
     unbounded = rover.run({"soil.cohesion": 20.0}, [Command(0.05, 0.0, 4 * math.pi)], 900.0, 0.1)
     assert unbounded["wheel.sinkage"].max() > 1.5 * bound
+
+
+def test_motor_current_straight_and_turning_follows_the_wheel_forces(rover: FmuRunner) -> None:
+    # I = sum (I0 + r |F_rim| / k_T). Straight on flat soil each rim pulls its compaction
+    # resistance: 1.67 mA in all, near the paper's ~2 mA mean. A point turn shears the soil
+    # sideways along the whole patch: 24 mA (docs/rover-model.md says where this departs from
+    # the paper's Table 1).
+    straight = rover.run({}, STRAIGHT, 60.0, 0.1)
+    assert straight["wheel.current"][FIRST_PASS].sum() == pytest.approx(
+        soil_model.straight_current(), rel=0.02)
+    turn = rover.run({"controller.heading_feedback": 0.0}, [Command(0.05, 0.0, math.pi / 2)],
+                     100.0, 0.1)
+    assert turn["wheel.current"][400].sum() == pytest.approx(soil_model.point_turn_current(),
+                                                             rel=0.02)
