@@ -135,3 +135,23 @@ def point_turn_current() -> float:
     sliding, shear, _, _ = _turning_wheel(eta)
     rim = shear * (1 - eta) * HALF_TRACK / sliding
     return 4 * (NO_LOAD_CURRENT + RADIUS * rim / TORQUE_CONSTANT)
+
+
+def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) -> float:
+    """Steady slip driving straight up a uniform slope: the four wheels' net pull (strength
+    f(L s) minus compaction, with slip sinkage and the loads shifted to the rear by the slope,
+    W_i = m g (cos / 4 -+ sin h / (4 l))) carries m g sin(slope)."""
+    from scipy.optimize import brentq
+
+    normal, along = MASS * GRAVITY * math.cos(slope), MASS * GRAVITY * math.sin(slope)
+    loads = [normal / 4 + side * along * COG / (4 * HALF_WHEELBASE) for side in (-1, -1, 1, 1)]
+
+    def excess(s: float) -> float:
+        pull = 0.0
+        for load in loads:
+            z = slip_sinkage(static_sinkage(load, cohesion, k_phi), s)
+            pull += strength(load, z, cohesion) * janosi(shear_length(z) * s) - compaction(
+                z, cohesion, k_phi)
+        return pull - along
+
+    return float(brentq(excess, 1e-7, 0.9))
