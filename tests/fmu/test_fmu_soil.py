@@ -80,8 +80,8 @@ def test_slip_sinkage_builds_up_over_the_rims_travel(rover: FmuRunner) -> None:
 
 
 def test_sinkage_is_bounded_by_the_compressible_layer(rover: FmuRunner) -> None:
-    # A 720° point turn runs every wheel over the others' tracks again and again (multi-pass
-    # sinkage adds up); the sinkage stops at soil.max_sinkage.
+    # A long point turn on weak soil digs the wheels in (slip sinkage, then multi-pass over
+    # their own tracks: 18.6 mm unbounded); the sinkage stops at soil.max_sinkage.
     bound = 0.004
     out = rover.run({"soil.max_sinkage": bound, "soil.cohesion": 20.0},
                     [Command(0.05, 0.0, 4 * math.pi)], 900.0, 0.1)
