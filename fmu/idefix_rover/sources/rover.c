@@ -44,11 +44,11 @@ static void update_geometry(Instance *inst)
     }
 }
 
-static void move(Instance *inst, const double q[3], double dt, double fraction)
+static void move(Instance *inst, const double q[3], double dt)
 {
     double c_pitch = cos(inst->pitch), c_roll = cos(inst->roll);
-    double dyaw = q[2] * dt * fraction, mid = inst->yaw + 0.5 * dyaw;
-    double fx = q[0] * dt * fraction * c_pitch, fy = q[1] * dt * fraction * c_roll;
+    double dyaw = q[2] * dt, mid = inst->yaw + 0.5 * dyaw;
+    double fx = q[0] * dt * c_pitch, fy = q[1] * dt * c_roll;
     inst->x += fx * cos(mid) - fy * sin(mid);
     inst->y += fx * sin(mid) + fy * cos(mid);
     inst->yaw += dyaw;
@@ -116,20 +116,21 @@ void rover_step(Instance *inst, double dt)
     }
 
     for (i = 0; i < N_WHEELS; i++) prev_centre[i] = inst->wheels[i].centre_z;
-    move(inst, q, dt, 1.0);
-    /* Rock faces above the axle are one-sided constraints: a wheel that moved into one is put
-     * back against it along the heading, the rest of the motion kept (a pivot). Only if no push
-     * frees it (a face reached by the yaw alone) is the step's rotation, then all of it, undone. */
+    move(inst, q, dt);
+    /* Rock faces above the axle are one-sided constraints: a wheel that moved into one is pushed
+     * out against it, the rest of the motion kept (a pivot). Only if no push frees it (a face
+     * reached by the yaw alone) is the step's rotation, then all of it, undone. */
     for (k = 0; k < 2 * N_WHEELS; k++) {
         int wheel = contact_penetrating_wheel(inst, prev_centre);
         double reach = fabs(q[0]) * dt + inst->r[VR_ROVER_HALF_TRACK] * fabs(q[2]) * dt + 0.002;
-        if (wheel < 0 || contact_push_out(inst, wheel, prev_centre, reach)) continue;
+        if (wheel < 0) break;
+        if (contact_push_out(inst, wheel, prev_centre, reach)) continue;
         if (inst->yaw != yaw0) {
             double keep[3] = {q[0], q[1], 0.0};
             inst->x = x0;
             inst->y = y0;
             inst->yaw = yaw0;
-            move(inst, keep, dt, 1.0);
+            move(inst, keep, dt);
         } else {
             inst->x = x0;
             inst->y = y0;
