@@ -36,14 +36,20 @@ def slip_sinkage(static: float, slip: float) -> float:
     return min(static * (1 + s) / (1 - s / 2), MAX_SINKAGE)
 
 
+def patch_length(sinkage: float) -> float:
+    """Geometric patch length sqrt(2 r z)."""
+    return math.sqrt(2 * RADIUS * sinkage)
+
+
 def shear_length(sinkage: float) -> float:
-    """Patch length sqrt(2 r z), at least the grousers' sqrt(2 r h_g)."""
-    return max(math.sqrt(2 * RADIUS * sinkage), math.sqrt(2 * RADIUS * GROUSER_HEIGHT))
+    """Length the shear displacement builds over: the patch, at least the grousers'
+    sqrt(2 r h_g)."""
+    return max(patch_length(sinkage), math.sqrt(2 * RADIUS * GROUSER_HEIGHT))
 
 
 def strength(load: float, sinkage: float, cohesion: float = COHESION) -> float:
-    """Mohr-Coulomb strength of the patch: b L c + W tan(phi)."""
-    return WIDTH * shear_length(sinkage) * cohesion + load * math.tan(FRICTION)
+    """Mohr-Coulomb strength of the pressed patch: b sqrt(2 r z) c + W tan(phi)."""
+    return WIDTH * patch_length(sinkage) * cohesion + load * math.tan(FRICTION)
 
 
 def compaction(sinkage: float, cohesion: float = COHESION, k_phi: float = K_PHI) -> float:
@@ -87,7 +93,7 @@ def bulldozing(sinkage: float, cohesion: float = COHESION) -> float:
     n_q = math.exp(math.pi * t) * math.tan(math.pi / 4 + FRICTION / 2) ** 2
     n_c = (n_q - 1) / t
     k_c = (n_c - t) * math.cos(FRICTION) ** 2
-    return math.sqrt(2 * RADIUS * sinkage) * sinkage * cohesion * k_c
+    return patch_length(sinkage) * sinkage * cohesion * k_c
 
 
 def _turning_wheel(eta: float) -> tuple[float, float, float, float]:

@@ -39,8 +39,9 @@ def test_weaker_regolith_slips_more(rover: FmuRunner) -> None:
 def test_firm_soil_keeps_its_traction_through_the_grousers(
         rover: FmuRunner, tmp_path: Path) -> None:
     # 100 x k_phi: the static sinkage (0.34 mm) gives a patch of 8 mm, shorter than the
-    # grousers' floor sqrt(2 r h_g) = 14 mm, which then sets the sheared length. Up a 15° slope
-    # the rover climbs at the slip where the wheels' net pull carries m g sin(15°).
+    # grousers' floor sqrt(2 r h_g) = 14 mm, over which the shear displacement then builds up
+    # (the strength stays that of the pressed patch). Up a 15° slope the rover climbs at the
+    # slip where the wheels' net pull carries m g sin(15°), instead of sliding back.
     firm = 100 * soil_model.K_PHI
     static = soil_model.static_sinkage(soil_model.WHEEL_LOAD, k_phi=firm)
     assert math.sqrt(2 * soil_model.RADIUS * static) < soil_model.shear_length(static)
@@ -49,9 +50,9 @@ def test_firm_soil_keeps_its_traction_through_the_grousers(
         size=6.0, cell=0.05, slope=slope, slope_direction=math.pi))  # uphill towards +x
     for k_phi in (soil_model.K_PHI, firm):
         out = rover.run({"terrain.file": str(uphill), "soil.k_phi": k_phi}, STRAIGHT, 250.0, 0.1)
-        slip = soil_model.uphill_slip(slope, k_phi=k_phi)  # 6.0 % and 7.8 %
+        slip = soil_model.uphill_slip(slope, k_phi=k_phi)
         assert out["wheel.slip"][FIRST_PASS] == pytest.approx(np.full(4, slip), rel=0.03)
-        assert out["x"][-1] > 0.85 and out["stuck"].max() == 0.0
+        assert out["x"][-1] > 0.75 and out["stuck"].max() == 0.0  # climbs, no slide back
 
 
 def test_stepped_wheel_rates_settle_at_the_same_slip_as_ramped_ones(rover: FmuRunner) -> None:

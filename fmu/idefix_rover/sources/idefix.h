@@ -88,7 +88,8 @@ typedef struct {
     double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */
-    double contact_length;   /* sheared length of the contact (soil: at least the grousers'), m */
+    double contact_length;   /* length the shear displacement builds over (soil: at least the
+                              * grousers'), m */
     double patch_length;     /* geometric patch length sqrt(2 r z) (ruts), m */
     double slip_excavation;  /* sinkage dug by slip so far, m (builds up over the rim's travel) */
     double step_travel;      /* rim or ground travel in the last step, whichever is longer, m */

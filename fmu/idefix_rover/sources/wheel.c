@@ -89,10 +89,12 @@ void wheel_ground_state(Instance *inst, int i)
         w->sinkage = zs > rut_floor ? zs : rut_floor;
         if (w->sinkage > soil->max_sinkage) w->sinkage = soil->max_sinkage;
         w->patch_length = sqrt(2.0 * radius * w->sinkage);
-        /* the grousers shear at least the soil of a patch as deep as they are tall */
+        /* The soil's strength acts on the patch the wheel presses (none for a lifted wheel);
+         * the shear displacement builds up over at least the length the grousers engage, a
+         * patch as deep as they are tall, however firm the soil. */
         floor_length = sqrt(2.0 * radius * inst->r[VR_ROVER_GROUSER_HEIGHT]);
         w->contact_length = w->patch_length > floor_length ? w->patch_length : floor_length;
-        w->capacity = width * w->contact_length * cohesion + w->load * tan(soil->friction_angle);
+        w->capacity = width * w->patch_length * cohesion + w->load * tan(soil->friction_angle);
         w->shear_K = soil->K;
         w->resistance = compaction_resistance(soil, w->sinkage, rut.rut_depth, width);
         /* passive soil pressure beside the wheel: no more than the load that keeps it down (a
