@@ -62,10 +62,16 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("rover.half_wheelbase", "m", 0.20, "longitudinal distance body centre to wheel axle"),
     _p("rover.yaw_inertia", "kg.m2", 1.0, "moment of inertia about the vertical axis"),
     _p("rover.cog_height", "m", 0.25, "centre of gravity height above the wheel contact plane"),
+    _p("rover.grouser_height", "m", 0.001,
+       "grouser height: the shear length of a soil contact is at least sqrt(2 r h_g)"),
+    _p("rover.leg_compliance", "m/N", 0.03,
+       "vertical compliance of each leg and its held joint at the wheel (series with the soil)"),
     _p("rover.body_centre_height", "m", 0.30,
        "body centre height above the wheel contact plane (pose z is this point)"),
-    _p("soil.k_c", "N/m2", 1.4e3, "Bekker cohesive modulus k_c (unit for n = 1)"),
-    _p("soil.k_phi", "N/m3", 820e3, "Bekker frictional modulus k_phi (unit for n = 1)"),
+    _p("soil.k_c", "N/m2", 1.4e3,
+       "Bekker cohesive modulus k_c at soil.reference_cohesion (unit for n = 1)"),
+    _p("soil.k_phi", "N/m3", 820e3,
+       "Bekker frictional modulus k_phi at soil.reference_gravity (unit for n = 1)"),
     _p("soil.n", "1", 1.0, "Bekker sinkage exponent n"),
     _p("soil.cohesion", "Pa", 250.0, "Mohr-Coulomb cohesion c of undisturbed regolith"),
     _p("soil.friction_angle", "rad", math.radians(35.0), "Mohr-Coulomb internal friction angle",
@@ -75,6 +81,12 @@ _PARAMETERS: tuple[Variable, ...] = (
        "fraction of cohesion left in soil already sheared by a wheel (ruts)"),
     _p("soil.multipass_factor", "1", 0.3,
        "extra sinkage of a wheel in a rut, as a fraction of its first-pass sinkage"),
+    _p("soil.reference_gravity", "m/s2", 1.62,
+       "gravity at which soil.k_phi was measured (its frictional part scales with g)"),
+    _p("soil.reference_cohesion", "Pa", 170.0,
+       "cohesion of the soil soil.k_c was measured on (its cohesive part scales with c; 0: "
+       "k_c as given)"),
+    _p("soil.max_sinkage", "m", 0.03, "largest sinkage: depth of the compressible layer"),
     _p("soil.grid_cell", "m", 0.01, "cell size of the plastic sinkage (rut) grid"),
     _p("rock.friction_coefficient", "1", 0.6, "wheel-rock Coulomb friction coefficient"),
     _p("rock.shear_K", "m", 0.001, "shear displacement to mobilise wheel-rock friction"),
@@ -91,6 +103,15 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("controller.stuck_time", "s", 10.0, "window of the stuck observer"),
     _p("controller.stuck_progress", "1", 0.1,
        "stuck when progress over the window is below this fraction of the commanded"),
+    _p("controller.heading_feedback", "1", 1.0,
+       "1: heading closed-loop on the gyro yaw measurement; 0: open-loop on wheel odometry"),
+    _p("controller.heading_gain", "1/s", 0.5,
+       "closed loop: yaw-rate correction per radian of heading lag during arcs and straights"),
+    _p("controller.heading_tolerance", "rad", math.radians(0.2),
+       "closed loop: a command ends when the gyro heading is this close to the commanded one",
+       "deg"),
+    _p("gyro.bias", "rad/s", 0.0, "gyro yaw-rate bias"),
+    _p("gyro.scale_error", "1", 0.0, "gyro scale-factor error (measured = (1 + e) x true + bias)"),
     _p("initial.x", "m", 0.0, "initial body centre x"),
     _p("initial.y", "m", 0.0, "initial body centre y"),
     _p("initial.yaw", "rad", 0.0, "initial yaw", "deg"),
@@ -157,12 +178,14 @@ _UNITS: dict[str, tuple[dict[str, int], float]] = {
     "m": ({"m": 1}, 1.0),
     "kg": ({"kg": 1}, 1.0),
     "s": ({"s": 1}, 1.0),
+    "1/s": ({"s": -1}, 1.0),
     "A": ({"A": 1}, 1.0),
     "N": ({"kg": 1, "m": 1, "s": -2}, 1.0),
     "rad": ({"rad": 1}, 1.0),
     "rad/s": ({"rad": 1, "s": -1}, 1.0),
     "rad/s2": ({"rad": 1, "s": -2}, 1.0),
     "m/s": ({"m": 1, "s": -1}, 1.0),
+    "m/N": ({"kg": -1, "s": 2}, 1.0),
     "m/s2": ({"m": 1, "s": -2}, 1.0),
     "Pa": ({"kg": 1, "m": -1, "s": -2}, 1.0),
     "N/m2": ({"kg": 1, "m": -1, "s": -2}, 1.0),
@@ -304,7 +327,8 @@ def render_signal_map() -> str:
     return json.dumps(default_signal_map(), indent=2) + "\n"
 
 
-SOURCE_FILES = ("terrain.c", "soil.c", "wheel.c", "rover.c", "controller.c", "fmi2_glue.c")
+SOURCE_FILES = ("terrain.c", "soil.c", "wheel.c", "contact.c", "loads.c", "balance.c", "rover.c",
+                "parameters.c", "controller.c", "fmi2_glue.c")
 
 
 def write_generated_files(fmu_dir: Path) -> None:

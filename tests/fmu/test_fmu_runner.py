@@ -37,17 +37,20 @@ def test_runs_after_reset_are_identical_and_leave_no_ruts(rover: FmuRunner) -> N
 
 
 def test_commanded_wheel_rates_equal_the_shared_kinematics(rover: FmuRunner) -> None:
+    # open loop on odometry: the wheels turn exactly the commanded kinematics (the closed loop
+    # adds a heading correction: tests/fmu/test_fmu_heading.py)
     geometry = RoverGeometry()
+    odometry = {"controller.heading_feedback": 0.0}
     for command in (Command(0.05, 0.2, 0.0), Command(0.04, 0.3, 0.5), Command(0.05, 0.0, -0.8),
                     Command(0.03, -0.2, 0.3)):
         expected = command_kinematics(command, geometry)
-        out = rover.run({}, [command], expected.duration + 5.0, 0.1)
+        out = rover.run(odometry, [command], expected.duration + 5.0, 0.1)
         middle = int(expected.duration / 2 / 0.1)
         np.testing.assert_allclose(out["wheel.rate"][middle], expected.wheel_rates, rtol=1e-12)
         finished = int(np.argmax(out["command"] < 0))
         ramp = abs(command.max_wheel_rate) / 0.015  # trapezoid: ramps add rate / acceleration
         assert finished * 0.1 == pytest.approx(expected.duration + ramp, abs=0.3)
-        stepped = rover.run({"controller.wheel_acceleration": 0.0}, [command],
+        stepped = rover.run({**odometry, "controller.wheel_acceleration": 0.0}, [command],
                             expected.duration + 5.0, 0.1)
         np.testing.assert_allclose(stepped["wheel.rate"][1], expected.wheel_rates, rtol=1e-12)
         finished = int(np.argmax(stepped["command"] < 0))
@@ -113,7 +116,8 @@ def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path
         write_terrain(path, synthetic_terrain(size=3.0, cell=0.05, slope=slope))
         results.append(rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1])
     assert results[0] == pytest.approx(0.0, abs=1e-9)
-    assert results[1] == pytest.approx(0.3, abs=1e-3)
+    # the front wheels, unloaded by the slope, sink less than the rear ones: 0.3 rad within 3 mrad
+    assert results[1] == pytest.approx(0.3, abs=3e-3)
 
 
 @pytest.mark.parametrize(("name", "value"), [
@@ -151,7 +155,7 @@ def test_a_replaced_terrain_file_with_preserved_mtime_is_read_again(
     os.utime(path, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
     sloped = rover.run({"terrain.file": str(path)}, [], 5.0, 0.1)["pitch"][-1]
     assert flat == pytest.approx(0.0, abs=1e-9)
-    assert sloped == pytest.approx(0.3, abs=1e-3)
+    assert sloped == pytest.approx(0.3, abs=3e-3)  # front and rear sinkage differ
 
 
 def test_two_instances_in_one_process_do_not_share_state(rover_fmu: Path) -> None:

@@ -111,9 +111,10 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
         assert np.nanmin(values) >= 0.0 and np.nanmax(values) <= 1.0
         complete = int(path.complete.sum())
         assert accumulator.runs == complete
-        # Each run crosses cells along its whole track (0.6 m: more than 20 cells of 2.5 cm).
+        # Each run crosses cells along its track (0.6 m commanded; a straight run held at the
+        # rock still covers 0.3 m: more than 10 cells of 2.5 cm).
         assert accumulator.counts().max() <= complete
-        assert accumulator.counts().sum() >= 20 * complete
+        assert accumulator.counts().sum() >= 10 * complete
         assert path.final_local_error is not None
         assert path.final_local_error.size == int(path.complete.sum())
     # The rock beside the right wheels of 'straight': where they touch it (body centre near

@@ -51,6 +51,7 @@ typedef struct {
 
 typedef struct {
     double k_c, k_phi, n, cohesion, friction_angle, K, rut_cohesion_factor, multipass_factor;
+    double gravity, reference_gravity, reference_cohesion, max_sinkage;
 } SoilParameters;
 
 typedef struct {
@@ -68,6 +69,8 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
                double width, double sinkage, int wheel, double travel, double own_span);
 double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width);
 double slip_sinkage(double static_sinkage, double slip);
+double soil_modulus(const SoilParameters *s, double width);
+double lateral_bulldozing(const SoilParameters *s, double cohesion, double length, double sinkage);
 double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,
                              double width);
 double janosi_mobilisation(double displacement, double K);
@@ -82,9 +85,15 @@ typedef struct {
     int on_rock;
     int dropping;            /* on a rock face too steep to rest on: carries no load */
     int blocked;             /* a rock face above the axle in the driving direction */
+    double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */
-    double contact_length;   /* m */
+    double contact_length;   /* length the shear displacement builds over (soil: at least the
+                              * grousers'), m */
+    double patch_length;     /* geometric patch length sqrt(2 r z) (ruts), m */
+    double slip_excavation;  /* sinkage dug by slip so far, m (builds up over the rim's travel) */
+    double step_travel;      /* rim or ground travel in the last step, whichever is longer, m */
+    double bulldozing;       /* lateral (bulldozing) resistance of the soil beside the wheel, N */
     double capacity;         /* shear strength of the patch (soil) or mu*N (rock), N */
     double shear_K;          /* m */
     double resistance;       /* compaction resistance, N */
@@ -116,6 +125,10 @@ typedef struct {
     double commanded_speed;  /* ideal body speed of the active command, m/s */
     double commanded_yaw_rate;
     double profile;          /* share of the commanded rates applied in the last step, 0..1 */
+    double max_rate, delta_position, delta_heading;  /* the active command */
+    double travel;           /* mean odometry of the left and right wheels in the command, m */
+    double heading;          /* gyro yaw change in the command (bias and scale error), rad */
+    int trimming;            /* closed loop: turning on the spot to the commanded heading */
     double ramp_time;        /* extra time of the ramps over the ideal duration, s */
     int stalled[N_WHEELS];
     /* stuck observer: ring of progress samples */
@@ -148,8 +161,33 @@ typedef struct {
 
 void controller_start(Instance *inst);
 void controller_step(Instance *inst, double dt);
-void controller_after_step(Instance *inst, double dt, double progress);
+void controller_after_step(Instance *inst, double dt, double progress, double yaw_rate);
 
+/* ---------------------------------------------------------------- wheel.c (ground state) */
+void wheel_ground_state(Instance *inst, int i);
+
+/* ---------------------------------------------------------------- contact.c */
+void contact_wheel_position(const Instance *inst, double x, double y, double yaw, const Wheel *w,
+                            double *wx, double *wy);
+void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_slope[N_WHEELS]);
+void contact_update_blocking(Instance *inst);
+int contact_penetrating_wheel(const Instance *inst, const double prev_centre[N_WHEELS]);
+int contact_push_out(Instance *inst, int i, const double prev_centre[N_WHEELS], double reach);
+
+/* ---------------------------------------------------------------- loads.c */
+extern const double SIDE_X[N_WHEELS], SIDE_Y[N_WHEELS];
+void loads_update(Instance *inst, const double contact_angle[N_WHEELS]);
+
+/* ---------------------------------------------------------------- balance.c */
+void balance_residual(Instance *inst, const double q[3], double gx, double gy, double out[3]);
+int balance_can_hold(const Instance *inst);
+int balance_solve(Instance *inst, double gx, double gy, double q[3], int from_rest);
+void balance_limit_acceleration(Instance *inst, const double previous[3], double q[3], double dt);
+
+/* ---------------------------------------------------------------- parameters.c */
+int parameters_check(const Instance *inst, char *message, size_t message_size);
+
+/* ---------------------------------------------------------------- rover.c */
 int rover_initialise(Instance *inst, char *message, size_t message_size);
 void rover_step(Instance *inst, double dt);
 void rover_write_outputs(Instance *inst);

@@ -157,13 +157,27 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
     }
 }
 
-/* Rigid wheel on Bekker soil, p = (k_c/b + k_phi) z^n, integrated over the front arc:
- * W = b k sqrt(2r) z^(n+1/2) (3-n)/3  =>  z = [3W / ((3-n) b k sqrt(2r))]^(2/(2n+1)). */
+/* Pressure-sinkage modulus for milli-g: Reece's form p = (c k_c' + rho g b k_phi') (z/b)^n,
+ * written with Bekker's moduli k_c, k_phi as measured on a reference soil (cohesion c_ref,
+ * gravity g_ref): k_c' = k_c / c_ref, rho k_phi' = k_phi / g_ref. The cohesive part follows the
+ * soil's cohesion, the frictional part the overburden rho g, so at Phobos' gravity it almost
+ * vanishes. For n = 1 (the default) this is exact: p = ((c/c_ref) k_c / b + (g/g_ref) k_phi) z. */
+double soil_modulus(const SoilParameters *s, double width)
+{
+    double kc = s->k_c * (s->reference_cohesion > 0.0 ? s->cohesion / s->reference_cohesion : 1.0);
+    return kc / width + s->k_phi * s->gravity / s->reference_gravity;
+}
+
+/* Rigid wheel, p = k z^n integrated over the front arc:
+ * W = b k sqrt(2r) z^(n+1/2) (3-n)/3  =>  z = [3W / ((3-n) b k sqrt(2r))]^(2/(2n+1)), bounded by
+ * soil.max_sinkage. */
 double bekker_static_sinkage(const SoilParameters *s, double load, double radius, double width)
 {
-    double k = s->k_c / width + s->k_phi, n = s->n;
-    if (load <= 0.0 || k <= 0.0 || width <= 0.0) return 0.0;
-    return pow(3.0 * load / ((3.0 - n) * width * k * sqrt(2.0 * radius)), 2.0 / (2.0 * n + 1.0));
+    double k = soil_modulus(s, width), n = s->n, z;
+    if (load <= 0.0 || width <= 0.0) return 0.0;
+    if (k <= 0.0) return s->max_sinkage;
+    z = pow(3.0 * load / ((3.0 - n) * width * k * sqrt(2.0 * radius)), 2.0 / (2.0 * n + 1.0));
+    return z < s->max_sinkage ? z : s->max_sinkage;
 }
 
 /* Slip sinkage (Lyasko): z = z0 (1 + s) / (1 - 0.5 s) for driving slip s in [0, 1). */
@@ -173,11 +187,30 @@ double slip_sinkage(double static_sinkage, double slip)
     return static_sinkage * (1.0 + s) / (1.0 - 0.5 * s);
 }
 
+/* Passive resistance of the soil beside a wheel sliding sideways (Bekker's bulldozing on the
+ * wheel's side face, length x sinkage): R = L z c K_c, K_c = (N_c - tan phi) cos^2 phi with
+ * Prandtl's N_c = (N_q - 1) cot phi, N_q = e^(pi tan phi) tan^2(45 deg + phi/2). The gravity
+ * term (z^2 rho g K_gamma / 2) is left out: at Phobos' gravity it is below 1e-4 of the cohesive
+ * one. The caller bounds R by the wheel load. */
+double lateral_bulldozing(const SoilParameters *s, double cohesion, double length, double sinkage)
+{
+    const double pi = 3.141592653589793;
+    double t = tan(s->friction_angle), nq, nc, kc;
+    if (t < 1e-6) {
+        nc = 2.0 + pi;  /* the limit phi -> 0 */
+    } else {
+        nq = exp(pi * t) * pow(tan(0.25 * pi + 0.5 * s->friction_angle), 2.0);
+        nc = (nq - 1.0) / t;
+    }
+    kc = (nc - t) * pow(cos(s->friction_angle), 2.0);
+    return length * sinkage * cohesion * kc;
+}
+
 /* Work of compacting the soil from the rut depth to the new sinkage, per unit travel. */
 double compaction_resistance(const SoilParameters *s, double sinkage, double rut_depth,
                              double width)
 {
-    double k = s->k_c / width + s->k_phi, n = s->n;
+    double k = soil_modulus(s, width), n = s->n;
     if (sinkage <= rut_depth) return 0.0;
     return width * k * (pow(sinkage, n + 1.0) - pow(rut_depth, n + 1.0)) / (n + 1.0);
 }

@@ -3,7 +3,7 @@
 #define IDEFIX_VARIABLES_H
 
 #define MAX_COMMANDS 32
-#define N_REAL 163
+#define N_REAL 173
 #define VR_CHAIN_COUNT 0 /* Integer */
 #define VR_TERRAIN_FILE 0 /* String */
 
@@ -16,76 +16,86 @@
 #define VR_ROVER_HALF_WHEELBASE 5
 #define VR_ROVER_YAW_INERTIA 6
 #define VR_ROVER_COG_HEIGHT 7
-#define VR_ROVER_BODY_CENTRE_HEIGHT 8
-#define VR_SOIL_K_C 9
-#define VR_SOIL_K_PHI 10
-#define VR_SOIL_N 11
-#define VR_SOIL_COHESION 12
-#define VR_SOIL_FRICTION_ANGLE 13
-#define VR_SOIL_SHEAR_MODULUS_K 14
-#define VR_SOIL_RUT_COHESION_FACTOR 15
-#define VR_SOIL_MULTIPASS_FACTOR 16
-#define VR_SOIL_GRID_CELL 17
-#define VR_ROCK_FRICTION_COEFFICIENT 18
-#define VR_ROCK_SHEAR_K 19
-#define VR_ROCK_CONTACT_LENGTH 20
-#define VR_MOTOR_NO_LOAD_CURRENT 21
-#define VR_MOTOR_TORQUE_CONSTANT 22
-#define VR_MOTOR_MAX_TORQUE 23
-#define VR_CONTROLLER_WHEEL_ACCELERATION 24
-#define VR_CONTROLLER_TIMEOUT_FACTOR 25
-#define VR_CONTROLLER_STUCK_TIME 26
-#define VR_CONTROLLER_STUCK_PROGRESS 27
-#define VR_INITIAL_X 28
-#define VR_INITIAL_Y 29
-#define VR_INITIAL_YAW 30
-#define VR_SOLVER_STEP 31
-#define VR_SOLVER_VELOCITY_EPSILON 32
-#define VR_CHAIN_MAX_WHEEL_RATE 33
-#define VR_CHAIN_DELTA_POSITION 65
-#define VR_CHAIN_DELTA_HEADING 97
-#define VR_T 129
-#define VR_X 130
-#define VR_Y 131
-#define VR_Z 132
-#define VR_ROLL 133
-#define VR_PITCH 134
-#define VR_YAW 135
-#define VR_WHEEL_FL_RATE 136
-#define VR_WHEEL_FR_RATE 137
-#define VR_WHEEL_RL_RATE 138
-#define VR_WHEEL_RR_RATE 139
-#define VR_WHEEL_FL_SLIP 140
-#define VR_WHEEL_FR_SLIP 141
-#define VR_WHEEL_RL_SLIP 142
-#define VR_WHEEL_RR_SLIP 143
-#define VR_WHEEL_FL_SLIP_ANGLE 144
-#define VR_WHEEL_FR_SLIP_ANGLE 145
-#define VR_WHEEL_RL_SLIP_ANGLE 146
-#define VR_WHEEL_RR_SLIP_ANGLE 147
-#define VR_WHEEL_FL_SINKAGE 148
-#define VR_WHEEL_FR_SINKAGE 149
-#define VR_WHEEL_RL_SINKAGE 150
-#define VR_WHEEL_RR_SINKAGE 151
-#define VR_WHEEL_FL_CURRENT 152
-#define VR_WHEEL_FR_CURRENT 153
-#define VR_WHEEL_RL_CURRENT 154
-#define VR_WHEEL_RR_CURRENT 155
-#define VR_WHEEL_FL_LOAD 156
-#define VR_WHEEL_FR_LOAD 157
-#define VR_WHEEL_RL_LOAD 158
-#define VR_WHEEL_RR_LOAD 159
-#define VR_ENERGY 160
-#define VR_COMMAND 161
-#define VR_STUCK 162
+#define VR_ROVER_GROUSER_HEIGHT 8
+#define VR_ROVER_LEG_COMPLIANCE 9
+#define VR_ROVER_BODY_CENTRE_HEIGHT 10
+#define VR_SOIL_K_C 11
+#define VR_SOIL_K_PHI 12
+#define VR_SOIL_N 13
+#define VR_SOIL_COHESION 14
+#define VR_SOIL_FRICTION_ANGLE 15
+#define VR_SOIL_SHEAR_MODULUS_K 16
+#define VR_SOIL_RUT_COHESION_FACTOR 17
+#define VR_SOIL_MULTIPASS_FACTOR 18
+#define VR_SOIL_REFERENCE_GRAVITY 19
+#define VR_SOIL_REFERENCE_COHESION 20
+#define VR_SOIL_MAX_SINKAGE 21
+#define VR_SOIL_GRID_CELL 22
+#define VR_ROCK_FRICTION_COEFFICIENT 23
+#define VR_ROCK_SHEAR_K 24
+#define VR_ROCK_CONTACT_LENGTH 25
+#define VR_MOTOR_NO_LOAD_CURRENT 26
+#define VR_MOTOR_TORQUE_CONSTANT 27
+#define VR_MOTOR_MAX_TORQUE 28
+#define VR_CONTROLLER_WHEEL_ACCELERATION 29
+#define VR_CONTROLLER_TIMEOUT_FACTOR 30
+#define VR_CONTROLLER_STUCK_TIME 31
+#define VR_CONTROLLER_STUCK_PROGRESS 32
+#define VR_CONTROLLER_HEADING_FEEDBACK 33
+#define VR_CONTROLLER_HEADING_GAIN 34
+#define VR_CONTROLLER_HEADING_TOLERANCE 35
+#define VR_GYRO_BIAS 36
+#define VR_GYRO_SCALE_ERROR 37
+#define VR_INITIAL_X 38
+#define VR_INITIAL_Y 39
+#define VR_INITIAL_YAW 40
+#define VR_SOLVER_STEP 41
+#define VR_SOLVER_VELOCITY_EPSILON 42
+#define VR_CHAIN_MAX_WHEEL_RATE 43
+#define VR_CHAIN_DELTA_POSITION 75
+#define VR_CHAIN_DELTA_HEADING 107
+#define VR_T 139
+#define VR_X 140
+#define VR_Y 141
+#define VR_Z 142
+#define VR_ROLL 143
+#define VR_PITCH 144
+#define VR_YAW 145
+#define VR_WHEEL_FL_RATE 146
+#define VR_WHEEL_FR_RATE 147
+#define VR_WHEEL_RL_RATE 148
+#define VR_WHEEL_RR_RATE 149
+#define VR_WHEEL_FL_SLIP 150
+#define VR_WHEEL_FR_SLIP 151
+#define VR_WHEEL_RL_SLIP 152
+#define VR_WHEEL_RR_SLIP 153
+#define VR_WHEEL_FL_SLIP_ANGLE 154
+#define VR_WHEEL_FR_SLIP_ANGLE 155
+#define VR_WHEEL_RL_SLIP_ANGLE 156
+#define VR_WHEEL_RR_SLIP_ANGLE 157
+#define VR_WHEEL_FL_SINKAGE 158
+#define VR_WHEEL_FR_SINKAGE 159
+#define VR_WHEEL_RL_SINKAGE 160
+#define VR_WHEEL_RR_SINKAGE 161
+#define VR_WHEEL_FL_CURRENT 162
+#define VR_WHEEL_FR_CURRENT 163
+#define VR_WHEEL_RL_CURRENT 164
+#define VR_WHEEL_RR_CURRENT 165
+#define VR_WHEEL_FL_LOAD 166
+#define VR_WHEEL_FR_LOAD 167
+#define VR_WHEEL_RL_LOAD 168
+#define VR_WHEEL_RR_LOAD 169
+#define VR_ENERGY 170
+#define VR_COMMAND 171
+#define VR_STUCK 172
 
 /* per-wheel outputs: base + wheel index (FL, FR, RL, RR) */
-#define VR_WHEEL_RATE 136
-#define VR_WHEEL_SLIP 140
-#define VR_WHEEL_SLIP_ANGLE 144
-#define VR_WHEEL_SINKAGE 148
-#define VR_WHEEL_CURRENT 152
-#define VR_WHEEL_LOAD 156
+#define VR_WHEEL_RATE 146
+#define VR_WHEEL_SLIP 150
+#define VR_WHEEL_SLIP_ANGLE 154
+#define VR_WHEEL_SINKAGE 158
+#define VR_WHEEL_CURRENT 162
+#define VR_WHEEL_LOAD 166
 
 /* start values of every Real, indexed by value reference */
 #define REAL_DEFAULTS { \
@@ -97,6 +107,8 @@
     0.2, /* rover.half_wheelbase */ \
     1.0, /* rover.yaw_inertia */ \
     0.25, /* rover.cog_height */ \
+    0.001, /* rover.grouser_height */ \
+    0.03, /* rover.leg_compliance */ \
     0.3, /* rover.body_centre_height */ \
     1400.0, /* soil.k_c */ \
     820000.0, /* soil.k_phi */ \
@@ -106,6 +118,9 @@
     0.012, /* soil.shear_modulus_K */ \
     0.5, /* soil.rut_cohesion_factor */ \
     0.3, /* soil.multipass_factor */ \
+    1.62, /* soil.reference_gravity */ \
+    170.0, /* soil.reference_cohesion */ \
+    0.03, /* soil.max_sinkage */ \
     0.01, /* soil.grid_cell */ \
     0.6, /* rock.friction_coefficient */ \
     0.001, /* rock.shear_K */ \
@@ -117,6 +132,11 @@
     2.0, /* controller.timeout_factor */ \
     10.0, /* controller.stuck_time */ \
     0.1, /* controller.stuck_progress */ \
+    1.0, /* controller.heading_feedback */ \
+    0.5, /* controller.heading_gain */ \
+    0.003490658503988659, /* controller.heading_tolerance */ \
+    0.0, /* gyro.bias */ \
+    0.0, /* gyro.scale_error */ \
     0.0, /* initial.x */ \
     0.0, /* initial.y */ \
     0.0, /* initial.yaw */ \
@@ -253,6 +273,6 @@
     0.0, /* command */ \
     0.0, /* stuck */ \
 }
-#define FIRST_OUTPUT_VR 129
+#define FIRST_OUTPUT_VR 139
 
 #endif

@@ -37,9 +37,69 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
+        ty -= w->bulldozing * vy / sqrt(vy * vy + v_eps * v_eps);
     }
     if (w->blocked && vx * w->blocked > 0.0) force_x -= WALL_DAMPING * vx;
     *fx = force_x;
     *fy = ty;
     *thrust = tx;
+}
+
+/* Ground state of wheel i for this step, from its load: on a rock the Coulomb contact; on soil
+ * Bekker sinkage with slip sinkage, the rut under its patch, patch length, shear strength and
+ * compaction resistance (docs/rover-model.md, "Soil"). */
+void wheel_ground_state(Instance *inst, int i)
+{
+    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
+    const SoilParameters *soil = &inst->soil;
+    Wheel *w = &inst->wheels[i];
+    double hx = cos(inst->yaw), hy = sin(inst->yaw);
+    if (w->on_rock) {
+        w->capacity = inst->r[VR_ROCK_FRICTION_COEFFICIENT] * w->load;
+        w->contact_length = inst->r[VR_ROCK_CONTACT_LENGTH];
+        w->shear_K = inst->r[VR_ROCK_SHEAR_K];
+        w->resistance = 0.0;
+        w->sinkage = 0.0;
+        w->rut_depth = 0.0;
+        w->disturbed = 0.0;
+        w->patch_length = 0.0;
+        w->slip_excavation = 0.0;
+        w->bulldozing = 0.0;
+    } else {
+        double z0 = bekker_static_sinkage(soil, w->load, radius, width);
+        /* Slip digs the wheel in (Lyasko's steady slip sinkage), but only as the rim moves the
+         * soil: the excavation approaches its steady value over one patch length of travel and
+         * fills in again the same way on fresh soil. */
+        double target = slip_sinkage(z0, w->slip) - z0;
+        double relax = w->patch_length > 0.0 ? w->patch_length : sqrt(2.0 * radius * z0);
+        double zs, patch, cohesion, rut_floor, floor_length;
+        RutState rut;
+        if (relax > 0.0)
+            w->slip_excavation += (target - w->slip_excavation) * (1.0 - exp(-w->step_travel / relax));
+        zs = z0 + w->slip_excavation;
+        if (zs > soil->max_sinkage) zs = soil->max_sinkage;
+        patch = sqrt(2.0 * radius * zs);
+        rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i, w->travel,
+                         w->own_span + w->patch_length);
+        cohesion = soil->cohesion * (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
+        /* multi-pass: a wheel in a rut sinks on by a fraction of its first-pass sinkage */
+        rut_floor = rut.rut_depth + soil->multipass_factor * rut.disturbed * zs;
+        w->rut_depth = rut.rut_depth;
+        w->disturbed = rut.disturbed;
+        w->sinkage = zs > rut_floor ? zs : rut_floor;
+        if (w->sinkage > soil->max_sinkage) w->sinkage = soil->max_sinkage;
+        w->patch_length = sqrt(2.0 * radius * w->sinkage);
+        /* The soil's strength acts on the patch the wheel presses (none for a lifted wheel);
+         * the shear displacement builds up over at least the length the grousers engage, a
+         * patch as deep as they are tall, however firm the soil. */
+        floor_length = sqrt(2.0 * radius * inst->r[VR_ROVER_GROUSER_HEIGHT]);
+        w->contact_length = w->patch_length > floor_length ? w->patch_length : floor_length;
+        w->capacity = width * w->patch_length * cohesion + w->load * tan(soil->friction_angle);
+        w->shear_K = soil->K;
+        w->resistance = compaction_resistance(soil, w->sinkage, rut.rut_depth, width);
+        /* passive soil pressure beside the wheel: no more than the load that keeps it down (a
+         * pushed wheel rides out of its rut rather than shear a wedge it cannot hold down) */
+        w->bulldozing = lateral_bulldozing(soil, cohesion, w->patch_length, w->sinkage);
+        if (w->bulldozing > w->load) w->bulldozing = w->load;
+    }
 }

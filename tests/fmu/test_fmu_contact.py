@@ -1,0 +1,100 @@
+"""Rock contact and wheel loads (docs/rover-model.md, "Rocks" and "Loads"): a face above the
+axle is a one-sided constraint, a blocked wheel a pivot, and loads follow the ground's twist."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soil_model
+
+from idefix_rules.commands import Command
+from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
+
+ODOMETRY = {"controller.heading_feedback": 0.0}
+STRAIGHT = [Command(0.05, 1.0, 0.0)]
+WHEELS = ("FL", "FR", "RL", "RR")
+
+
+def _terrain(tmp_path: Path, rock: Rock, name: str) -> str:
+    return str(write_terrain(tmp_path / name, synthetic_terrain(size=4.0, cell=0.02,
+                                                                rocks=[rock])))
+
+
+def _loads(out: dict[str, np.ndarray]) -> np.ndarray:
+    return np.stack([out[f"wheel.{w}.load"] for w in WHEELS], axis=1)
+
+
+def _longest_still_while_driving(out: dict[str, np.ndarray]) -> int:
+    """Longest run of samples in which the pose did not change at all while a wheel turned."""
+    still = (np.diff(out["x"]) == 0) & (np.diff(out["y"]) == 0) & (np.diff(out["yaw"]) == 0)
+    driving = np.abs(out["wheel.rate"][1:]).max(axis=1) > 0
+    longest = current = 0
+    for frozen in still & driving:
+        current = current + 1 if frozen else 0
+        longest = max(longest, current)
+    return longest
+
+
+def test_a_wheel_against_a_face_above_its_axle_is_a_pivot_and_the_rover_drifts_to_its_side(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # A 15 cm rock (taller than the 10 cm axle) in the right wheels' track only. The front right
+    # wheel stops at the face; only its motion into the face is removed, so the left wheels
+    # drive on and the rover yaws and drifts towards the blocked (right) side, past the rock:
+    # "the entire wheel hits the rock, causing the wheel to get stuck and the rover to drift to
+    # the right" (the paper). Open loop, as a rover without heading control.
+    terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
+    out = rover.run({**ODOMETRY, "terrain.file": terrain}, STRAIGHT, 250.0, 0.1)
+    assert out["yaw"].min() < math.radians(-5)  # towards the blocked side, clearly
+    assert out["y"][-1] < -0.03
+    assert out["x"][-1] > 0.5  # past the rock: the front right wheel slid along its face
+    assert _longest_still_while_driving(out) <= 2  # never frozen while the wheels turn
+    # the wheel rests against the face, never in it: its centre stays outside the rock's
+    # section at axle height (radius 0.06 sqrt(1 - (0.1/0.15)^2) = 4.5 cm) by half its width
+    fr_x = out["x"] + 0.20 * np.cos(out["yaw"]) + 0.26 * np.sin(out["yaw"])
+    fr_y = out["y"] + 0.20 * np.sin(out["yaw"]) - 0.26 * np.cos(out["yaw"])
+    section = 0.06 * math.sqrt(1 - (0.1 / 0.15) ** 2)
+    assert np.all(np.hypot(fr_x - 0.55, fr_y + 0.26) > section + 0.03 - 1e-3)
+
+
+def test_a_wheel_that_cannot_get_past_is_stuck_and_the_chain_goes_on(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # With heading control the rover holds its heading against the pivot, so the right wheel
+    # stays at the face: it cannot progress, `stuck` says so, the command ends by its odometry
+    # or timeout and the next command (reverse 0.2 m) backs the rover away.
+    terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
+    chain = [Command(0.05, 1.0, 0.0), Command(0.05, -0.2, 0.0)]
+    out = rover.run({"terrain.file": terrain}, chain, 700.0, 0.1)
+    assert out["stuck"].max() == 1.0
+    reversing = out["command"] == 1
+    assert reversing.any() and out["command"][-1] == -1
+    assert out["x"][reversing][-1] < out["x"][reversing][0] - 0.15
+    assert _longest_still_while_driving(out) <= 2
+
+
+def test_a_wheel_on_a_rock_puts_the_rigid_chassis_on_its_diagonal(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # A 4 cm rock under the right wheels lifts the front right wheel far more than the soil
+    # and legs can give (twist T = 4 w / sum c_i saturates): the chassis rests on the FR-RL
+    # diagonal, each carrying about half the weight, and FL, RR unload (a rigid plate on three
+    # supports at rectangle corners: W/2, W/2, 0).
+    terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.04, z=0.0), "rock.terrain")
+    out = rover.run({**ODOMETRY, "terrain.file": terrain}, STRAIGHT, 250.0, 0.1)
+    loads = _loads(out)
+    static = soil_model.WHEEL_LOAD
+    k = int(np.argmax(loads[:, 1]))
+    assert loads[k, 1] == pytest.approx(2 * static, rel=0.1)
+    assert loads[k, 2] == pytest.approx(2 * static, rel=0.1)
+    assert loads[k, 0] < 0.1 * static and loads[k, 3] < 0.1 * static
+    np.testing.assert_allclose(loads[k].sum(), 4 * static, rtol=0.02)
+    # the same rock under very compliant legs: the twist goes into the legs, loads stay equal
+    soft = _loads(rover.run({**ODOMETRY, "terrain.file": terrain, "rover.leg_compliance": 1e3},
+                            STRAIGHT, 250.0, 0.1))
+    assert np.abs(soft[k] - static).max() < 0.05 * static
+
+
+def test_loads_are_equal_on_flat_ground(rover: FmuRunner) -> None:
+    loads = _loads(rover.run({}, STRAIGHT, 50.0, 0.1))
+    np.testing.assert_allclose(loads, soil_model.WHEEL_LOAD, rtol=1e-9)
