@@ -9,7 +9,8 @@ from the rule model, never from data:
    expression can only grow (or stay) as ``v`` grows, ``-1`` when it can only shrink, ``0``
    when it does not read ``v``, and unknown otherwise. It is computed node by node:
    ``a + b``, ``min``, ``max``, ``clamp``, ``sqrt`` and every reducer except ``rms`` and
-   ``time_above`` keep the polarities of their operands; ``-`` and ``not`` flip them; ``a * b``
+   ``time_above`` (over time, wheels, parts, levels or runs) keep the polarities of their
+   operands; ``abs`` and ``hypot`` keep them for non-negative arguments; ``-`` and ``not`` flip them; ``a * b``
    and ``a / b`` keep them when the other factor is known to be ≥ 0 (signals such as hits,
    sinkage or speed, ``abs(…)``, non-negative constants); ``a <= b`` is true more often as
    ``b`` grows and ``a`` shrinks; ``and``/``or`` combine; ``percentile P`` grows with ``P``,
@@ -62,7 +63,8 @@ Polarity = int | None  # +1, -1, 0, or None (unknown)
 # Names that are never negative (counts, distances, magnitudes; shared with the lints).
 NON_NEGATIVE_SIGNALS = NON_NEGATIVE
 _MONOTONE_REDUCERS = frozenset({"final", "initial", "max", "min", "mean", "sum", "integral",
-                                "percentile", "any", "all", "count", "time_above"})
+                                "percentile", "any", "all", "count", "fraction",
+                                "time_above"})
 
 
 def combine(*polarities: Polarity) -> Polarity:
@@ -124,12 +126,12 @@ class Polarities:
         if isinstance(expr, Table):
             return all(self.non_negative(v) for _, v in expr.entries)
         if isinstance(expr, Call):
-            if expr.function in ("abs", "sqrt") or (
+            if expr.function in ("abs", "sqrt", "hypot") or (
                     expr.function in ("chance", "mean") and len(expr.args) == 1):
                 return True
             return all(self.non_negative(a) for a in expr.args)
         if isinstance(expr, Reduce):
-            if expr.reducer in ("count", "time_above", "any", "all"):
+            if expr.reducer in ("count", "fraction", "time_above", "any", "all"):
                 return True
             return self.non_negative(expr.operand)
         if isinstance(expr, Binary) and expr.op in ("+", "*", "/"):
@@ -198,10 +200,10 @@ class Polarities:
         parts = [self.of(a) for a in expr.args]
         if expr.function in ("min", "max", "clamp", "sqrt"):
             return combine(*parts)
-        if expr.function == "abs":
-            if parts[0] == 0:
+        if expr.function in ("abs", "hypot"):  # grows with each |argument|
+            if all(p == 0 for p in parts):
                 return 0
-            return parts[0] if self.non_negative(expr.args[0]) else None
+            return combine(*parts) if all(self.non_negative(a) for a in expr.args) else None
         return None if any(p != 0 for p in parts) else 0
 
     def _reduce(self, expr: Reduce) -> Polarity:

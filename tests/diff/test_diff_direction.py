@@ -96,11 +96,11 @@ def test_version_warnings():
     old = check_text(DEFAULT, "old.rules").checked
     same_version = check_text(changed, "new.rules").checked
     assert diff_rules(old, same_version).warnings == (
-        "the rules changed but the version did not (still 1.0.0): raise it before uplink",)
-    backwards = check_text(changed.replace('version "1.0.0"', 'version "0.9.1"'), "n.rules")
+        "the rules changed but the version did not (still 1.1.0): raise it before uplink",)
+    backwards = check_text(changed.replace('version "1.1.0"', 'version "0.9.1"'), "n.rules")
     assert diff_rules(old, backwards.checked).warnings == (
-        "the version went backwards: 1.0.0 → 0.9.1",)
-    forwards = check_text(changed.replace('version "1.0.0"', 'version "1.1.0"'), "n.rules")
+        "the version went backwards: 1.1.0 → 0.9.1",)
+    forwards = check_text(changed.replace('version "1.1.0"', 'version "1.2.0"'), "n.rules")
     assert diff_rules(old, forwards.checked).warnings == ()
     assert diff_rules(old, old).warnings == ()
 
@@ -122,7 +122,7 @@ def test_cli_table_json_and_markdown_carry_the_labels(capsys):
     assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules"),
                  "--format", "md"]) == 0
     md = capsys.readouterr().out
-    assert md.startswith("## idefix-ops 1.0.0 (from idefix-ops 0.9.0)")
+    assert md.startswith("## idefix-ops 1.1.0 (from idefix-ops 0.9.0)")
     assert "### Stricter" in md and "### Looser" in md
     assert "- changed constant **critical_tilt**: value `20 deg` → `15 deg`" in md
 

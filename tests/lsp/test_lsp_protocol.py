@@ -318,7 +318,7 @@ def test_completion_in_context(client: LspClient, default_text: str, tmp_path: P
     assert signals["wheel.sinkage"]["textEdit"]["range"] == span_of(text, "wheel.si")
     domains = complete(client, uri, at(text, "max over time (max over wheels (abs(wheel.slip_",
                                        offset=9))
-    assert set(domains) == {"time", "wheels", "parts", "levels"}
+    assert set(domains) == {"time", "wheels", "parts", "levels", "runs"}
     command = complete(client, uri, at(text, "require abs(delta_heading)", offset=12))
     assert "delta_heading" in command and "wheel.slip" not in command
     verdict = complete(client, uri, at(text, "chance(hit_L3)", offset=7))
