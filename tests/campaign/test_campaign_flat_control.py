@@ -83,14 +83,16 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
         store.close()
     assert whole.raw["I_pos"].shape == (24,) and np.ptp(whole.raw["I_pos"]) == 0.0
     np.testing.assert_allclose(chunked.raw["I_pos"], whole.raw["I_pos"], rtol=1e-12)
+    # summary.json keeps 4 significant digits
     np.testing.assert_allclose(whole.values["I_pos"],
-                               paths["straight"]["statistics"]["index_mean"]["I_pos"]["value"])
+                               paths["straight"]["statistics"]["index_mean"]["I_pos"]["value"],
+                               rtol=1e-3)
 
     # The same runs scored by the per-run position rule of rulebook 1.0.0: on the straight chain
     # (its tolerance stays at 1 sigma) the initial spread alone, about 1.25 sigma per run, makes
     # I_pos near critical. (The turning chains' tolerance grows with the turns.)
     earlier = ROOT / "rulebooks" / "history" / "idefix-ops-1.0.0.rules"
     assert main(["evaluate", str(out / "results.h5"), "--rulebook", str(earlier), "--out",
-                 str(tmp_path / "earlier")]) in (0, 1)
+                 str(tmp_path / "earlier")]) == 1  # straight's mean risk is above 30 %
     straight = _paths(tmp_path / "earlier" / "summary.json")["straight"]
     assert straight["statistics"]["index_mean"]["I_pos"]["value"] > 0.5
