@@ -1,10 +1,18 @@
 """The results file (``results.h5``): layout in ``docs/results-format.md``.
 
-Only the parent process writes. A path's datasets are created in full (contiguous, storage
-allocated at creation, filled with NaN) and flushed before its first run is written, so from
-then on writing a run changes raw data only, never the file's structure. Each run is written as
-its data, then its ``status`` entry (1 complete, 2 failed), then a flush: a kill at any moment
-leaves every run either complete-and-valid or not marked complete, which ``--resume`` re-runs.
+Only the parent process writes. A path's datasets are created in full and flushed before its
+first run is written: run signals chunked one run per chunk, shuffled and gzip-compressed (HDF5
+built-in filters), with every chunk allocated at creation; ``status`` and ``failure``
+contiguous. Writing a run replaces its own chunks only: the dataset's chunk index already holds
+an entry for every run, so a write updates entries in place and never adds index nodes or
+objects. Each run is written as its data, then its ``status`` entry (1 complete, 2 failed), then
+a flush: a kill at any moment leaves every run either complete-and-valid or not marked complete,
+which ``--resume`` re-runs (``tests/campaign/test_campaign_store_kill.py`` kills a writer at
+random moments to check it).
+
+Signals are stored with the precision they need (:func:`storage_dtype`): the pose, time and
+energy signals, which the evaluator differentiates, as float64; the per-wheel signals and the
+integer-valued ``command`` / ``stuck`` as float32 (docs/results-format.md gives the error).
 """
 
 from __future__ import annotations
@@ -22,11 +30,19 @@ from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
 
 FORMAT = "idefix-results"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 STATUS_MISSING = 0
 STATUS_COMPLETE = 1
 STATUS_FAILED = 2
+STATUS_NOT_NEEDED = 3  # an adaptive campaign stopped its path before this run
+
+# Read only through max / percentile / comparisons, never differentiated: float32 keeps them to
+# 6e-8 of their value, far inside any rulebook tolerance (docs/results-format.md).
+FLOAT32_SIGNALS = frozenset({"wheel.rate", "wheel.slip", "wheel.slip_angle", "wheel.sinkage",
+                             "wheel.current", "command", "stuck"})
+COMPRESSION = "gzip"
+COMPRESSION_LEVEL = 4
 
 REASON_BYTES = 240
 _REASON_DTYPE = f"S{REASON_BYTES}"
@@ -39,6 +55,11 @@ def _early_dcpl() -> h5py.h5p.PropDCID:
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
     dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
     return dcpl
+
+
+def storage_dtype(name: str) -> np.dtype[Any]:
+    """The dtype a run signal is stored with (float32 where that is enough, else float64)."""
+    return np.dtype(np.float32 if name in FLOAT32_SIGNALS else np.float64)
 
 
 def encode_reason(reason: str) -> bytes:
@@ -214,8 +235,13 @@ class ResultStore:
         group.attrs["count"] = runs
         signals = group.create_group("signals", track_order=True)
         for key, shape in shapes.items():
-            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=np.float64,
-                                             fillvalue=np.nan, dcpl=_early_dcpl())
+            # One run per chunk, every chunk allocated now: a run's write touches its own chunk
+            # and index entry only (see the module docstring).
+            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=storage_dtype(key),
+                                             fillvalue=np.nan, chunks=(1, *shape),
+                                             compression=COMPRESSION,
+                                             compression_opts=COMPRESSION_LEVEL, shuffle=True,
+                                             dcpl=_early_dcpl())
             for attr, value in signal_attrs(key).items():
                 dataset.attrs[attr] = value
         params = group.create_group("parameters", track_order=True)
@@ -236,7 +262,7 @@ class ResultStore:
     def write_run(self, name: str, run: int, signals: Mapping[str, np.ndarray]) -> None:
         datasets, status, _ = self._run_handles(name)
         for key, dataset in datasets.items():
-            dataset[run] = np.asarray(signals[key], dtype=np.float64)
+            dataset[run] = np.asarray(signals[key], dtype=dataset.dtype)
         self.file.flush()
         status[run] = STATUS_COMPLETE
         self.file.flush()
@@ -259,12 +285,21 @@ class ResultStore:
 
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name."""
+        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name, as float64
+        whatever their stored precision."""
         datasets = self.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
-        if isinstance(selection, np.ndarray):
-            return {key: datasets[key][np.sort(selection)] for key in wanted}
-        return {key: datasets[key][selection] for key in wanted}
+        chosen = np.sort(selection) if isinstance(selection, np.ndarray) else selection
+        return {key: np.asarray(datasets[key][chosen], dtype=np.float64) for key in wanted}
+
+    def mark_not_needed(self, name: str, first: int) -> None:
+        """Rows from ``first`` on that are still missing will never be simulated: an adaptive
+        campaign stopped the path (raw data written in place, like a run's status)."""
+        _, status, _ = self._run_handles(name)
+        current = status[first:]
+        if current.size:
+            status[first:] = np.where(current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
+        self.file.flush()
 
     def signal_names(self, name: str) -> list[str]:
         return list(self.path_group(name)["runs"]["signals"])
