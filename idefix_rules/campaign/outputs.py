@@ -120,6 +120,9 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "verdict": path.verdict_text,
         "undecided": path.undecided,
         "verdict_reasons": path.verdict_reasons,
+        "runs_used": path.runs,
+        "stop_reason": path.stop_reason,
+        "runs_needed": path.runs_needed,
         "rank": path.rank,
         "statistics": as_plain(path.statistics),
     }

@@ -256,5 +256,5 @@ def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Cam
     return Campaign(source=Path(path), text=text,
                     sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(), model=model,
                     paths=paths, rulebook=base / model.rulebook, output=base / model.output,
-                    fmu=None, dem=None, runs=model.runs, seed=model.uncertainty.seed,
-                    workers=None, locations=SourceMap(path))
+                    fmu=None, dem=None, runs=model.run_count, seed=model.uncertainty.seed,
+                    workers=None, locations=SourceMap(path), adaptive=model.adaptive)

@@ -23,7 +23,7 @@ from idefix_rules import __version__
 from idefix_rules.campaign import sampling
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome
-from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.store import FORMAT_VERSION, STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
@@ -168,8 +168,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     results = campaign.output / RESULTS_FILE
     rover = rover_geometry(campaign)
     summary = SimulationSummary(results)
-    for warning in (sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs),
-                    dask_timeout_warning(options)):
+    for warning in (_sampling_warning(campaign), dask_timeout_warning(options)):
         if warning:
             summary.warnings.append(warning)
             progress.message(warning)
@@ -184,7 +183,14 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         _command_rules(campaign, evaluator, rover, plans, store)
         _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
                         options, progress, collisions, summary)
-        _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress, summary)
+        if campaign.adaptive is not None:
+            from idefix_rules.campaign.adaptive import adaptive_monte_carlo
+
+            adaptive_monte_carlo(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
+                                 options, progress, summary, collisions)
+        else:
+            _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress,
+                         summary)
         complete = all(not store.has_runs(p.spec.name)
                        or not np.any(store.run_status(p.spec.name) == STATUS_MISSING)
                        for p in plans)
@@ -198,6 +204,27 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         unpacked.close()  # the pools are closed by now: no worker uses the folder any more
         store.close()
     return summary
+
+
+def _sampling_warning(campaign: Campaign) -> str | None:
+    method = campaign.model.uncertainty.method
+    if campaign.adaptive is not None:
+        from idefix_rules.campaign.adaptive import sampling_note
+
+        return sampling_note(method)
+    return sampling.sobol_warning(method, campaign.runs)
+
+
+def run_settings(campaign: Campaign) -> dict[str, Any]:
+    """The root attributes that say how many runs a campaign asked for (compared on resume)."""
+    adaptive = campaign.adaptive
+    if adaptive is None:
+        return {"runs": campaign.runs, "runs_mode": "fixed",
+                "sampling": campaign.model.uncertainty.method}
+    from idefix_rules.campaign.adaptive import SAMPLING
+
+    return {"runs": adaptive.max_runs, "runs_mode": "auto", "min_runs": adaptive.min_runs,
+            "batch_runs": adaptive.batch_runs, "sampling": SAMPLING}
 
 
 def dask_timeout_warning(options: SimulationOptions) -> str | None:
@@ -239,8 +266,8 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
         store = ResultStore.open(results, writable=True)
-        expected = {"campaign_sha256": campaign.sha256, "runs": campaign.runs,
-                    "seed": campaign.seed, "fmu_sha256": fmu_hash}
+        expected = {"format_version": FORMAT_VERSION, "campaign_sha256": campaign.sha256,
+                    **run_settings(campaign), "seed": campaign.seed, "fmu_sha256": fmu_hash}
         for key, value in expected.items():
             stored = store.attrs.get(key)
             if stored != value:
@@ -249,8 +276,8 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                 raise UserInputError(error(
                     "H010", f"cannot resume {results}: its {key} is {shown!r}, "
                             f"this campaign's is {value!r}", Span(str(results)),
-                    hint="resume with the same campaign file, --runs, --seed and FMU, or "
-                         "choose another --out"))
+                    hint="resume with the same campaign file, --runs, --max-runs, --min-runs, "
+                         "--seed and FMU, or choose another --out"))
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))
         store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
         return store
@@ -263,8 +290,7 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
         "fmu_path": str(fmu_path),
         "fmu_sha256": fmu_hash,
         "seed": campaign.seed,
-        "runs": campaign.runs,
-        "sampling": campaign.model.uncertainty.method,
+        **run_settings(campaign),
         "seed_derivation": SEED_DERIVATION,
         "started": now_iso(),
         "resumed": "[]",
