@@ -31,17 +31,15 @@ from idefix_rules.campaign.simulate import (
     Progress,
     SimulationOptions,
     SimulationSummary,
-    _map,
-    _pool,
-    _raise_input_problem,
     _task,
     initial_position_sigma,
     nominal_parameters,
     parameter_info,
+    run_and_store,
 )
 from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
 from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, ResultStore
-from idefix_rules.campaign.worker import RunTask, simulate
+from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
 
 SAMPLING: SamplingMethod = "monte_carlo"
@@ -127,20 +125,7 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
             tasks.append(((name, run), _task(campaign, fmu, plan, parameters)))
-    if not tasks:
-        return
-    tasks.sort(key=lambda item: (item[0][1], item[0][0]))  # paths interleaved
-    pool = _pool(simulate, options, campaign)
-    with _map(pool, tasks) as results:
-        for (name, run), outcome in results:
-            _raise_input_problem(outcome)
-            summary.simulated_runs += 1
-            if outcome.ok:
-                store.write_run(name, run, outcome.value.signals)
-                summary.fmu_seconds += outcome.value.seconds
-            else:
-                store.write_failure(name, run, outcome.reason)
-            progress.run_finished(name, outcome.ok)
+    run_and_store(campaign, tasks, store, options, progress, summary)
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

@@ -455,6 +455,13 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled.items()})
             tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters)))
+    run_and_store(campaign, tasks, store, options, progress, summary)
+
+
+def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask]],
+                  store: ResultStore, options: SimulationOptions, progress: Progress,
+                  summary: SimulationSummary) -> None:
+    """Simulate Monte Carlo runs ``((path, run), task)`` and store each as it finishes."""
     if not tasks:
         return
     # Interleave paths so every progress bar moves from the start.

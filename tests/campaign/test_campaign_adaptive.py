@@ -1,0 +1,193 @@
+"""Adaptive campaigns (``runs: auto``) end to end on the toy FMU: where paths stop and why, the
+same stopping point and datasets for any worker count and after a kill + ``--resume``, and the
+user's mistakes (exit 2)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from campaign_texts import CAMPAIGN
+
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.runner import run_campaign
+from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED
+from idefix_rules.cli import main
+
+pytestmark = pytest.mark.slow
+
+ADAPTIVE = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\nbatch_runs: 16")
+
+
+def write_campaign(folder: Path, source: Path, text: str) -> Path:
+    folder.mkdir(exist_ok=True)
+    for name in ("toy.fmu", "test.rules"):
+        (folder / name).write_bytes((source / name).read_bytes())
+    (folder / "campaign.yaml").write_text(text)
+    return folder / "campaign.yaml"
+
+
+def datasets(path: Path) -> dict[str, np.ndarray]:
+    found: dict[str, np.ndarray] = {}
+    with h5py.File(path) as results:
+        def visit(name: str, item: object) -> None:
+            if isinstance(item, h5py.Dataset):
+                found[name] = item[()]
+        results["paths"].visititems(visit)
+    return found
+
+
+def assert_same(first: Path, second: Path) -> None:
+    a, b = datasets(first), datasets(second)
+    assert a.keys() == b.keys()
+    for name in a:
+        assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
+
+
+def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    code = main([str(path), "--quiet", "--no-report"])
+    out = capsys.readouterr().out
+    assert code == 1  # straight fails its risk rule
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    for name in ("straight", "arc"):
+        record = paths[name]
+        # looks at 10, 26, 42 …: both are decided well before the cap of 200
+        assert record["runs_used"] in (10, 26, 42, 58)
+        assert record["stop_reason"].startswith(f"decided after {record['runs_used']} runs")
+        assert f"{name}: runs: decided after {record['runs_used']} runs" in out
+        assert not record["undecided"]
+    assert paths["straight"]["verdict"] == "fail" and paths["arc"]["verdict"] == "pass"
+    with h5py.File(campaign_dir / "out" / "results.h5") as results:
+        assert results.attrs["runs_mode"] == "auto" and results.attrs["runs"] == 200
+        status = results["paths/arc/runs/status"][()]
+        used = paths["arc"]["runs_used"]
+        assert np.all(status[:used] == STATUS_COMPLETE)
+        assert np.all(status[used:] == STATUS_NOT_NEEDED)
+        assert results["paths/arc"].attrs["stop_reason"] == paths["arc"]["stop_reason"]
+
+
+def test_a_path_at_the_cap_says_so_and_how_many_runs_would_decide(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # risk <= 36 % sits inside the arc's interval: not decided at the cap
+    text = ADAPTIVE.replace("max_runs: 200", "max_runs: 26")
+    path = write_campaign(campaign_dir, campaign_dir, text)
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace("risk <= 50 %", "risk <= 36 %"))
+    main([str(path), "--quiet", "--no-report"])
+    out = capsys.readouterr().out
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    arc = next(p for p in summary["paths"] if p["name"] == "arc")
+    assert arc["runs_used"] == 26 and arc["undecided"]
+    assert arc["stop_reason"].startswith("cap of 26 runs reached: verdict not decided")
+    needed = arc["runs_needed"]["acceptable_risk"]
+    assert needed is None or needed > 26
+    assert "would decide it" in out or "no run count up to" in out
+
+
+def test_a_fixed_count_says_how_many_runs_would_decide_an_open_verdict(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace("risk <= 50 %", "risk <= 40 %"))
+    main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"])
+    out = capsys.readouterr().out
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    arc = next(p for p in summary["paths"] if p["name"] == "arc")
+    assert arc["stop_reason"] == "fixed run count (6 runs)"
+    assert arc["undecided"] and arc["runs_needed"]["acceptable_risk"] > 6
+    assert f"about {arc['runs_needed']['acceptable_risk']:,} runs would decide it" in out
+
+
+def test_the_stopping_point_and_datasets_do_not_depend_on_workers(campaign_dir: Path,
+                                                                  tmp_path: Path) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    one = load_campaign(path).with_overrides(output=tmp_path / "one", workers=1)
+    two = load_campaign(path).with_overrides(output=tmp_path / "two", workers=2)
+    first = run_campaign(one, SimulationOptions(workers=1), report=False)
+    second = run_campaign(two, SimulationOptions(workers=2), report=False)
+    assert [p["runs_used"] for p in first.summary["paths"]] == \
+        [p["runs_used"] for p in second.summary["paths"]]
+    assert_same(tmp_path / "one" / "results.h5", tmp_path / "two" / "results.h5")
+
+
+KILLER = textwrap.dedent("""\
+    import os, signal, sys
+    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.campaign.simulate import SimulationOptions
+
+    class KillAfter:
+        seen = 0
+        def message(self, text): pass
+        def start_path(self, name, total, done): pass
+        def run_finished(self, name, ok):
+            self.seen += 1
+            if self.seen == int(sys.argv[2]):
+                os.kill(os.getpid(), signal.SIGKILL)
+
+    run_campaign(load_campaign(sys.argv[1]), SimulationOptions(workers=2),
+                 progress=KillAfter(), report=False)
+""")
+
+
+def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Path,
+                                                               tmp_path: Path) -> None:
+    killed = write_campaign(tmp_path / "killed", campaign_dir, ADAPTIVE)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    script = tmp_path / "killer.py"
+    script.write_text(KILLER)
+    # killed in the second batch, after the first look
+    process = subprocess.run([sys.executable, str(script), str(killed), "30"],
+                             capture_output=True, text=True, timeout=120)
+    assert process.returncode == -9, process.stderr
+    resumed = run_campaign(load_campaign(killed), SimulationOptions(resume=True), report=False)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    assert resumed.exit_code == uninterrupted.exit_code
+    assert [p["stop_reason"] for p in resumed.summary["paths"]] == \
+        [p["stop_reason"] for p in uninterrupted.summary["paths"]]
+    assert_same(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
+
+
+def test_resume_refuses_another_cap(campaign_dir: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    main([str(path), "--quiet", "--no-report"])
+    capsys.readouterr()
+    assert main([str(path), "--quiet", "--no-report", "--resume", "--max-runs", "300"]) == 2
+    assert "its runs is 200, this campaign's is 300" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("text", "code", "line", "column"), [
+    (CAMPAIGN + "max_runs: 50\n", "C700", "max_runs: 50", 1),
+    (CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 100\nmin_runs: 500"), "C701",
+     "min_runs: 500", 11),
+])
+def test_mistakes_in_the_runs_keys_name_their_line(campaign_dir: Path, text: str, code: str,
+                                                   line: str, column: int,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    where = f"campaign.yaml:{text.splitlines().index(line) + 1}:{column}:"
+    (campaign_dir / "campaign.yaml").write_text(text)
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) == 2
+    err = capsys.readouterr().err
+    assert f"error[{code}]" in err and where in err
+    assert "Traceback" not in err
+
+
+def test_max_runs_on_the_command_line_needs_runs_auto(campaign_dir: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    path = campaign_dir / "campaign.yaml"
+    assert main([str(path), "--quiet", "--no-report", "--max-runs", "20"]) == 2
+    assert "error[C702]" in capsys.readouterr().err
+    assert main([str(path), "--quiet", "--no-report", "--runs", "auto", "--max-runs", "5",
+                 "--min-runs", "8"]) == 2
+    assert "error[C701]" in capsys.readouterr().err
+    assert main([str(path), "--quiet", "--no-report", "--runs", "sometimes"]) == 2
