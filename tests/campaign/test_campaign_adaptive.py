@@ -7,13 +7,13 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import textwrap
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 from campaign_texts import CAMPAIGN
+from test_campaign_robustness import KILLER, assert_same_datasets
 
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
@@ -32,23 +32,6 @@ def write_campaign(folder: Path, source: Path, text: str) -> Path:
         (folder / name).write_bytes((source / name).read_bytes())
     (folder / "campaign.yaml").write_text(text)
     return folder / "campaign.yaml"
-
-
-def datasets(path: Path) -> dict[str, np.ndarray]:
-    found: dict[str, np.ndarray] = {}
-    with h5py.File(path) as results:
-        def visit(name: str, item: object) -> None:
-            if isinstance(item, h5py.Dataset):
-                found[name] = item[()]
-        results["paths"].visititems(visit)
-    return found
-
-
-def assert_same(first: Path, second: Path) -> None:
-    a, b = datasets(first), datasets(second)
-    assert a.keys() == b.keys()
-    for name in a:
-        assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
 
 
 def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
@@ -116,27 +99,7 @@ def test_the_stopping_point_and_datasets_do_not_depend_on_workers(campaign_dir: 
     second = run_campaign(two, SimulationOptions(workers=2), report=False)
     assert [p["runs_used"] for p in first.summary["paths"]] == \
         [p["runs_used"] for p in second.summary["paths"]]
-    assert_same(tmp_path / "one" / "results.h5", tmp_path / "two" / "results.h5")
-
-
-KILLER = textwrap.dedent("""\
-    import os, signal, sys
-    from idefix_rules.campaign.load import load_campaign
-    from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulate import SimulationOptions
-
-    class KillAfter:
-        seen = 0
-        def message(self, text): pass
-        def start_path(self, name, total, done): pass
-        def run_finished(self, name, ok):
-            self.seen += 1
-            if self.seen == int(sys.argv[2]):
-                os.kill(os.getpid(), signal.SIGKILL)
-
-    run_campaign(load_campaign(sys.argv[1]), SimulationOptions(workers=2),
-                 progress=KillAfter(), report=False)
-""")
+    assert_same_datasets(tmp_path / "one" / "results.h5", tmp_path / "two" / "results.h5")
 
 
 def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Path,
@@ -154,7 +117,7 @@ def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Pat
     assert resumed.exit_code == uninterrupted.exit_code
     assert [p["stop_reason"] for p in resumed.summary["paths"]] == \
         [p["stop_reason"] for p in uninterrupted.summary["paths"]]
-    assert_same(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
+    assert_same_datasets(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
 
 
 def test_resume_refuses_another_cap(campaign_dir: Path,
