@@ -353,6 +353,17 @@ PathName = Annotated[str, BeforeValidator(_path_name)]
 MAX_RUNS = 1_000_000
 RunCount = Annotated[StrictInt, Field(ge=1, le=MAX_RUNS)]
 
+def _runs(value: Any) -> Any:
+    """A whole run count in range, or ``auto``; one message for either mistake."""
+    if value == "auto" or (isinstance(value, int) and not isinstance(value, bool)
+                           and 1 <= value <= MAX_RUNS):
+        return value
+    raise PydanticCustomError("runs", "expected a whole number of runs from 1 to {limit} or "
+                              "'auto', got {got}", {"limit": MAX_RUNS, "got": _show(value)})
+
+
+Runs = Annotated[StrictInt | Literal["auto"], BeforeValidator(_runs)]
+
 # `runs: auto` (docs/campaign-format.md): the cap, the first look and the batch between looks.
 DEFAULT_MAX_RUNS = 1000
 DEFAULT_MIN_RUNS = 32
@@ -387,7 +398,7 @@ class CampaignFile(Strict):
     paths: dict[PathName, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(
         min_length=1)
     # StrictInt: YAML's `true` is not a run count or a seed
-    runs: RunCount | Literal["auto"] = 100
+    runs: Runs = 100
     max_runs: RunCount | None = None  # only with `runs: auto`
     min_runs: RunCount | None = None
     batch_runs: RunCount | None = None
