@@ -50,7 +50,8 @@ BLOCK = 1000  # synthetic runs written per block
 # A rulebook on the stored signals only (no collisions), so the scale part measures reading and
 # evaluating, not the obstacle checker (bench_collisions.py measures that).
 RULEBOOK = """\
-rulebook "scale" version "1"
+rulebook "scale" version "1.0.0"
+purpose "Scale benchmark: stored signals only"
 settings {
   theoretical_slip = 20 %
   tolerance_growth = 5 cm/rad
@@ -273,6 +274,11 @@ def main() -> None:
                          f"{old_mb / new_mb:.1f}x smaller"))
         lines.append(row("example: write throughput, per-run protocol", f"{new_rate:.0f} runs/s",
                          f"{old_rate:.0f} runs/s (format 1)", f"{new_rate / old_rate:.2f}x"))
+        simulated = fixed.timings["simulated_runs"] / fixed.timings["preparation_and_simulation"]
+        lines.append(row("example: writer throughput against the simulation rate",
+                         f"{new_rate:.0f} runs/s written",
+                         f"{simulated:.1f} runs/s simulated ({args.workers} workers)",
+                         f"{new_rate / simulated:.0f}x headroom"))
         base: dict[str, float] | None = None
         for runs in args.scale:
             path = folder / f"synthetic-{runs}.h5"

@@ -238,7 +238,7 @@ class DaskPool:
             futures[future] = key
         try:
             for future in as_completed(list(futures)):  # type: ignore[no-untyped-call]
-                key = futures[future]
+                key = futures.pop(future)  # the cluster may drop the result once read
                 if future.status == "finished":
                     yield key, Outcome(True, future.result())
                 else:

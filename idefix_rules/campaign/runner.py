@@ -191,11 +191,14 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         result = _finish(store, evaluation, model, output, junit, name)
         state = str(store.attrs.get("state", "complete"))
         if state != "complete":  # its missing runs count as failed: say why
+            runs = f"--runs {store.attrs.get('runs')}"
+            if str(store.attrs.get("runs_mode", "fixed")) == "auto":
+                runs = (f"--runs auto --max-runs {store.attrs.get('runs')} --min-runs "
+                        f"{store.attrs.get('min_runs')}")
             result.warnings.append(
                 f"{results} holds a campaign that is {state}: runs never simulated count as "
                 f"failed; continue it with `idefix-verify {stub.source} --resume --out "
-                f"{results.parent} --runs {store.attrs.get('runs')} --seed "
-                f"{store.attrs.get('seed')}`")
+                f"{results.parent} {runs} --seed {store.attrs.get('seed')}`")
         return result
     finally:
         store.close()

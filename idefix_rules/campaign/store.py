@@ -42,7 +42,7 @@ STATUS_NOT_NEEDED = 3  # an adaptive campaign stopped its path before this run
 FLOAT32_SIGNALS = frozenset({"wheel.rate", "wheel.slip", "wheel.slip_angle", "wheel.sinkage",
                              "wheel.current", "command", "stuck"})
 COMPRESSION = "gzip"
-COMPRESSION_LEVEL = 4
+COMPRESSION_LEVEL = 1
 
 REASON_BYTES = 240
 _REASON_DTYPE = f"S{REASON_BYTES}"

@@ -154,3 +154,15 @@ def test_max_runs_on_the_command_line_needs_runs_auto(campaign_dir: Path,
                  "--min-runs", "8"]) == 2
     assert "error[C701]" in capsys.readouterr().err
     assert main([str(path), "--quiet", "--no-report", "--runs", "sometimes"]) == 2
+
+
+def test_dask_gives_the_same_stopping_point_and_datasets(campaign_dir: Path,
+                                                        tmp_path: Path) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    local = load_campaign(path).with_overrides(output=tmp_path / "local", workers=2)
+    dask = load_campaign(path).with_overrides(output=tmp_path / "dask", workers=2)
+    first = run_campaign(local, SimulationOptions(workers=2), report=False)
+    second = run_campaign(dask, SimulationOptions(workers=2, dask_local=True), report=False)
+    assert [p["stop_reason"] for p in first.summary["paths"]] == \
+        [p["stop_reason"] for p in second.summary["paths"]]
+    assert_same_datasets(tmp_path / "local" / "results.h5", tmp_path / "dask" / "results.h5")

@@ -50,6 +50,7 @@ WRITER = textwrap.dedent(f"""\
         if not store.has_runs(name):
             store.allocate_runs(name, {RUNS}, {{"x": ({SAMPLES},), "wheel.slip": ({SAMPLES}, 4),
                                                "command": ({SAMPLES},)}}, {{}}, {{}})
+    print("ready", flush=True)
     for run in range({RUNS}):
         for index, name in enumerate(("a", "b")):
             if store.run_status(name)[run] == STATUS_MISSING:
@@ -84,18 +85,21 @@ def test_a_writer_killed_at_random_moments_loses_only_runs_in_flight(tmp_path: P
     script = tmp_path / "writer.py"
     script.write_text(WRITER)
     whole = tmp_path / "whole.h5"
-    subprocess.run([sys.executable, str(script), str(whole)], check=True, timeout=300)
+    subprocess.run([sys.executable, str(script), str(whole)], check=True, timeout=300,
+                   stdout=subprocess.DEVNULL)
     reference = stored(whole)
     chooser = random.Random(12)
     killed_mid_campaign = 0
     for trial in range(5):
         target = tmp_path / f"killed-{trial}.h5"
-        process = subprocess.Popen([sys.executable, str(script), str(target)])
-        time.sleep(chooser.uniform(1.0, 3.0))
+        process = subprocess.Popen([sys.executable, str(script), str(target)],
+                                   stdout=subprocess.PIPE, text=True)
+        assert process.stdout is not None
+        assert process.stdout.readline().strip() == "ready"  # the runs are allocated
+        time.sleep(chooser.uniform(0.0, 1.5))  # somewhere in the writing of the runs
         process.send_signal(signal.SIGKILL)
         process.wait(timeout=30)
-        if not target.exists():
-            continue  # killed before the file existed: nothing to check
+        process.stdout.close()
         store = ResultStore.open(target, writable=True)
         try:
             for index, name in enumerate(("a", "b")):
@@ -111,7 +115,8 @@ def test_a_writer_killed_at_random_moments_loses_only_runs_in_flight(tmp_path: P
         finally:
             store.close()
         # resume: the same writer fills what is missing
-        subprocess.run([sys.executable, str(script), str(target)], check=True, timeout=300)
+        subprocess.run([sys.executable, str(script), str(target)], check=True, timeout=300,
+                       stdout=subprocess.DEVNULL)
         again = stored(target)
         assert again.keys() == reference.keys()
         for key in reference:
