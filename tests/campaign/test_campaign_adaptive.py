@@ -90,16 +90,24 @@ def test_a_fixed_count_says_how_many_runs_would_decide_an_open_verdict(
     assert f"about {arc['runs_needed']['acceptable_risk']:,} runs would decide it" in out
 
 
+def assert_same_campaign(path: Path, tmp_path: Path, first: SimulationOptions,
+                         second: SimulationOptions) -> None:
+    """The adaptive campaign run with two sets of options stops alike and stores alike."""
+    results = []
+    for label, options in (("first", first), ("second", second)):
+        campaign = load_campaign(path).with_overrides(output=tmp_path / label,
+                                                      workers=options.workers)
+        results.append(run_campaign(campaign, options, report=False))
+    assert [(p["runs_used"], p["stop_reason"]) for p in results[0].summary["paths"]] == \
+        [(p["runs_used"], p["stop_reason"]) for p in results[1].summary["paths"]]
+    assert_same_datasets(tmp_path / "first" / "results.h5", tmp_path / "second" / "results.h5")
+
+
 def test_the_stopping_point_and_datasets_do_not_depend_on_workers(campaign_dir: Path,
                                                                   tmp_path: Path) -> None:
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
-    one = load_campaign(path).with_overrides(output=tmp_path / "one", workers=1)
-    two = load_campaign(path).with_overrides(output=tmp_path / "two", workers=2)
-    first = run_campaign(one, SimulationOptions(workers=1), report=False)
-    second = run_campaign(two, SimulationOptions(workers=2), report=False)
-    assert [p["runs_used"] for p in first.summary["paths"]] == \
-        [p["runs_used"] for p in second.summary["paths"]]
-    assert_same_datasets(tmp_path / "one" / "results.h5", tmp_path / "two" / "results.h5")
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
+                         SimulationOptions(workers=2))
 
 
 def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Path,
@@ -159,10 +167,5 @@ def test_max_runs_on_the_command_line_needs_runs_auto(campaign_dir: Path,
 def test_dask_gives_the_same_stopping_point_and_datasets(campaign_dir: Path,
                                                         tmp_path: Path) -> None:
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
-    local = load_campaign(path).with_overrides(output=tmp_path / "local", workers=2)
-    dask = load_campaign(path).with_overrides(output=tmp_path / "dask", workers=2)
-    first = run_campaign(local, SimulationOptions(workers=2), report=False)
-    second = run_campaign(dask, SimulationOptions(workers=2, dask_local=True), report=False)
-    assert [p["stop_reason"] for p in first.summary["paths"]] == \
-        [p["stop_reason"] for p in second.summary["paths"]]
-    assert_same_datasets(tmp_path / "local" / "results.h5", tmp_path / "dask" / "results.h5")
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=2),
+                         SimulationOptions(workers=2, dask_local=True))
