@@ -358,8 +358,9 @@ def _runs(value: Any) -> Any:
     if value == "auto" or (isinstance(value, int) and not isinstance(value, bool)
                            and 1 <= value <= MAX_RUNS):
         return value
+    got = str(value).lower() if isinstance(value, bool) else _show(value)  # as YAML wrote it
     raise PydanticCustomError("runs", "expected a whole number of runs from 1 to {limit} or "
-                              "'auto', got {got}", {"limit": MAX_RUNS, "got": _show(value)})
+                              "'auto', got {got}", {"limit": MAX_RUNS, "got": got})
 
 
 Runs = Annotated[StrictInt | Literal["auto"], BeforeValidator(_runs)]
