@@ -124,7 +124,7 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                 continue  # stored before a --resume
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
-            tasks.append(((name, run), _task(campaign, fmu, plan, parameters)))
+            tasks.append(((name, run), _task(campaign, fmu, plan, parameters, encode=True)))
     run_and_store(campaign, tasks, store, options, progress, summary)
 
 

@@ -346,7 +346,7 @@ def _describe(item: Any) -> str:
 
 
 def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
-          parameters: Mapping[str, float | str]) -> RunTask:
+          parameters: Mapping[str, float | str], encode: bool = False) -> RunTask:
     maps = campaign.model.fmu
     return RunTask(
         fmu_path=fmu.path,
@@ -360,6 +360,7 @@ def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
         stop_time=plan.stop_time,
         output_interval=campaign.model.simulation.output_interval,
         samples=plan.samples,
+        encode=encode,
     )
 
 
@@ -454,7 +455,8 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         for run in missing:
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled.items()})
-            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters)))
+            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters,
+                                                  encode=True)))
     run_and_store(campaign, tasks, store, options, progress, summary)
 
 
@@ -472,7 +474,7 @@ def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
             if outcome.ok:
-                store.write_run(name, run, outcome.value.signals)
+                store.write_run(name, run, outcome.value.stored)
                 summary.fmu_seconds += outcome.value.seconds
             else:
                 store.write_failure(name, run, outcome.reason)

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.campaign.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command
 from idefix_rules.errors import Diagnostic, UserInputError
 
@@ -34,6 +35,7 @@ class RunTask:
     output_interval: float
     samples: int
     unzipped: str | None = None  # the FMU extracted once by the campaign (None: extract here)
+    encode: bool = False  # hand back the stored chunks (compressed here), not the arrays
 
 
 @dataclass(frozen=True)
@@ -68,10 +70,18 @@ def _runner(task: RunTask) -> Any:
 
 @dataclass(frozen=True)
 class RunResult:
-    """A run's signals and the seconds spent inside ``FmuRunner.run`` (for the benchmark)."""
+    """A run's signals — as arrays, or (``RunTask.encode``) as the compressed chunks the results
+    file stores, so compression runs in the workers — and the seconds spent inside
+    ``FmuRunner.run`` (for the benchmark)."""
 
     signals: dict[str, np.ndarray]
     seconds: float
+    encoded: dict[str, EncodedChunk] | None = None
+
+    @property
+    def stored(self) -> Mapping[str, np.ndarray | EncodedChunk]:
+        """What :meth:`ResultStore.write_run` takes."""
+        return self.encoded if self.encoded is not None else self.signals
 
 
 def simulate(task: RunTask) -> RunResult | InputProblem:
@@ -92,7 +102,10 @@ def simulate(task: RunTask) -> RunResult | InputProblem:
             runner.close()
         raise
     seconds = time.perf_counter() - started
-    return RunResult(check_outputs(signals, task.samples), seconds)
+    checked = check_outputs(signals, task.samples)
+    if task.encode:
+        return RunResult({}, seconds, encode_run(checked))
+    return RunResult(checked, seconds)
 
 
 def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
