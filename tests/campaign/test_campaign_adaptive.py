@@ -37,9 +37,10 @@ def write_campaign(folder: Path, source: Path, text: str) -> Path:
 def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
-    code = main([str(path), "--quiet", "--no-report"])
+    code = main([str(path), "--quiet"])
     out = capsys.readouterr().out
     assert code == 1  # straight fails its risk rule
+    report = (campaign_dir / "out" / "report.html").read_text(encoding="utf-8")
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     paths = {p["name"]: p for p in summary["paths"]}
     for name in ("straight", "arc"):
@@ -48,6 +49,7 @@ def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
         assert record["runs_used"] in (10, 26, 42, 58)
         assert record["stop_reason"].startswith(f"decided after {record['runs_used']} runs")
         assert f"{name}: runs: decided after {record['runs_used']} runs" in out
+        assert f"Runs: decided after {record['runs_used']} runs" in report
         assert not record["undecided"]
     assert paths["straight"]["verdict"] == "fail" and paths["arc"]["verdict"] == "pass"
     with h5py.File(campaign_dir / "out" / "results.h5") as results:
