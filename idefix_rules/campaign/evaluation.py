@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import h5py
 import numpy as np
 
+from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.signals import AXIS_LABELS
@@ -305,8 +306,6 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
                    chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1) -> CampaignEvaluation:
     """Score every path of a results file; writes the evaluation groups when ``write``.
     ``workers`` processes share the collision checks."""
-    from idefix_rules.campaign.stopping import STOP_FIXED, sequential_statistics
-
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
@@ -358,8 +357,6 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
 def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, confidence: float,
                      sequential: bool, stop_time: float) -> None:
     """Roughly how many runs would decide each verdict rule that is not decided."""
-    from idefix_rules.campaign.stopping import runs_needed
-
     result.runs_needed = {rule.name: runs_needed(rule, evaluation, confidence, sequential,
                                                  stop_time)
                           for rule in verdict.rules if not rule.decided}
