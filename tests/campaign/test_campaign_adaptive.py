@@ -171,3 +171,23 @@ def test_dask_gives_the_same_stopping_point_and_datasets(campaign_dir: Path,
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
     assert_same_campaign(path, tmp_path, SimulationOptions(workers=2),
                          SimulationOptions(workers=2, dask_local=True))
+
+
+def test_the_diff_of_an_adaptive_campaign_uses_its_confidence_sequences(
+        campaign_dir: Path) -> None:
+    from idefix_rules.diff import load_source
+    from idefix_rules.diff.results import diff_results
+
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    main([str(path), "--quiet", "--no-report"])
+    results = campaign_dir / "out" / "results.h5"
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    rules = load_source(str(campaign_dir / "test.rules"))
+    diffed = diff_results([results], rules, rules).files[0]
+    for path_diff in diffed.paths:
+        stored = next(p for p in summary["paths"] if p["name"] == path_diff.name)
+        assert path_diff.new.verdict == stored["verdict"]
+        assert path_diff.new.undecided == stored["undecided"]
+        if stored["risk_ci95"] is not None:  # the confidence sequence, not a Student-t CI
+            assert path_diff.new.risk_ci == pytest.approx(tuple(stored["risk_ci95"]),
+                                                          abs=1e-12)
