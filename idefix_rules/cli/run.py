@@ -34,7 +34,8 @@ HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo),
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (YAML)")
-    parser.add_argument("--runs", type=_run_count, help="Monte Carlo runs per path "
+    parser.add_argument("--runs", type=_run_count, metavar="N|auto",
+                        help="Monte Carlo runs per path "
                         f"(overrides the campaign's `runs`; at most {MAX_RUNS}), or `auto`: "
                         "simulate in batches and stop each path once its verdict is decided "
                         "and its rank settled")
