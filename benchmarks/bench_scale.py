@@ -8,6 +8,8 @@ Prints one table; each figure with its baseline measured in the same invocation:
 * evaluation throughput (runs/s) and peak RSS of evaluating a synthetic results file of 1k, 10k
   and 100k stored runs (each in a fresh process; baseline: the 1k file), plus the write
   throughput of building it in blocks;
+* the share of the simulation time the writer is busy storing runs streamed back from a local
+  Dask cluster (baseline: the local process pool);
 * runs an adaptive campaign (``--runs auto --max-runs N``) needs to reach the decisions of a
   fixed campaign of N runs per path on the example (baseline: the fixed campaign).
 
@@ -81,12 +83,14 @@ rank by risk, time, energy
 
 # --- 1. the example: fixed against adaptive --------------------------------------------------
 
-def run_example(folder: Path, runs: int | str, max_runs: int, workers: int) -> Any:
+def run_example(folder: Path, runs: int | str, max_runs: int, workers: int,
+                dask: bool = False) -> Any:
     campaign = load_campaign(CAMPAIGN).with_overrides(runs=runs, max_runs=max_runs
                                                       if runs == "auto" else None,
                                                       output=folder, workers=workers)
     started = time.perf_counter()
-    result = run_campaign(campaign, SimulationOptions(workers=workers), report=False)
+    result = run_campaign(campaign, SimulationOptions(workers=workers, dask_local=dask),
+                          report=False)
     return result, time.perf_counter() - started
 
 
@@ -260,6 +264,8 @@ def main() -> None:
     parser.add_argument("--scale", type=int, nargs="+", default=[1000, 10_000, 100_000],
                         help="stored runs of the synthetic files (first one: the baseline)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--dask-runs", type=int, default=32,
+                        help="runs per path of the campaign run on a local Dask cluster")
     parser.add_argument("--evaluate", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.evaluate is not None:
@@ -303,6 +309,13 @@ def main() -> None:
                          f"{new_rate:.0f} runs/s written",
                          f"{simulated:.1f} runs/s simulated ({args.workers} workers)",
                          f"{new_rate / simulated:.0f}x headroom"))
+        on_dask, _ = run_example(folder / "dask", args.dask_runs, 0, args.workers, dask=True)
+        busy = on_dask.timings["writing"] / on_dask.timings["preparation_and_simulation"]
+        local_busy = fixed.timings["writing"] / fixed.timings["preparation_and_simulation"]
+        lines.append(row(f"example on Dask ({args.dask_runs}/path): writer busy",
+                         f"{100 * busy:.1f} % of the simulation time",
+                         f"{100 * local_busy:.1f} % (local pool, {args.fixed_runs}/path)",
+                         f"{busy / local_busy:.2f}x" if local_busy else "–"))
         base: dict[str, float] | None = None
         for runs in args.scale:
             path = folder / f"synthetic-{runs}.h5"

@@ -135,6 +135,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                       "report": time.perf_counter() - evaluated,
                       "total": time.perf_counter() - started,
                       "inside_fmu": simulation.fmu_seconds,
+                      "writing": simulation.write_seconds,
                       "simulated_runs": float(simulation.simulated_runs)}
     return result
 

@@ -12,6 +12,7 @@ import hashlib
 import json
 import math
 import tempfile
+import time
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,6 +89,7 @@ class SimulationSummary:
     plans: list[PathPlan] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     fmu_seconds: float = 0.0  # summed time workers spent inside FmuRunner.run
+    write_seconds: float = 0.0  # time the parent spent storing Monte Carlo runs
     simulated_runs: int = 0
 
 
@@ -473,9 +475,11 @@ def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask
         for (name, run), outcome in results:
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
+            started = time.perf_counter()
             if outcome.ok:
                 store.write_run(name, run, outcome.value.stored)
                 summary.fmu_seconds += outcome.value.seconds
             else:
                 store.write_failure(name, run, outcome.reason)
+            summary.write_seconds += time.perf_counter() - started
             progress.run_finished(name, outcome.ok)
