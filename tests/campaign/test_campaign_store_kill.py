@@ -85,8 +85,13 @@ def test_a_writer_killed_at_random_moments_loses_only_runs_in_flight(tmp_path: P
     script = tmp_path / "writer.py"
     script.write_text(WRITER)
     whole = tmp_path / "whole.h5"
-    subprocess.run([sys.executable, str(script), str(whole)], check=True, timeout=300,
-                   stdout=subprocess.DEVNULL)
+    writer = subprocess.Popen([sys.executable, str(script), str(whole)],
+                              stdout=subprocess.PIPE, text=True)
+    assert writer.stdout is not None and writer.stdout.readline().strip() == "ready"
+    started = time.perf_counter()
+    assert writer.wait(timeout=300) == 0
+    writing = time.perf_counter() - started  # how long writing the runs takes here, now
+    writer.stdout.close()
     reference = stored(whole)
     chooser = random.Random(12)
     killed_mid_campaign = 0
@@ -96,7 +101,7 @@ def test_a_writer_killed_at_random_moments_loses_only_runs_in_flight(tmp_path: P
                                    stdout=subprocess.PIPE, text=True)
         assert process.stdout is not None
         assert process.stdout.readline().strip() == "ready"  # the runs are allocated
-        time.sleep(chooser.uniform(0.0, 1.5))  # somewhere in the writing of the runs
+        time.sleep(chooser.uniform(0.0, 0.9 * writing))  # somewhere in the writing of the runs
         process.send_signal(signal.SIGKILL)
         process.wait(timeout=30)
         process.stdout.close()
