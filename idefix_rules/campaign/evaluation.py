@@ -20,7 +20,8 @@ from typing import Any, Protocol
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.signals import AXIS_LABELS
 
@@ -69,6 +70,10 @@ class PathResult:
     passed: bool | None = None
     undecided: bool = False
     verdict_reasons: list[str] = field(default_factory=list)
+    stop_reason: str = ""  # why the Monte Carlo part ended (adaptive or fixed count)
+    # roughly how many runs would decide each verdict rule that is not decided (None: no
+    # estimate, e.g. a compound condition or more than a million runs)
+    runs_needed: dict[str, int | None] = field(default_factory=dict)
 
     @property
     def failed(self) -> int:
@@ -199,15 +204,25 @@ def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
 
 
 def complete_chunks(store: RunReader, name: str, required: set[str] | None,
-                    chunk_runs: int = DEFAULT_CHUNK_RUNS, poses: bool = True
+                    chunk_runs: int = DEFAULT_CHUNK_RUNS, poses: bool = True,
+                    within: slice | None = None
                     ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
-    """``(rows, signals)`` of a path's complete runs, ``chunk_runs`` at a time; each chunk is
-    read once. ``required`` None reads every stored signal; ``poses`` adds the pose signals
-    the obstacle checker reads."""
-    complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
+    """``(rows, signals)`` of a path's complete runs (those among the rows ``within``, when
+    given), ``chunk_runs`` at a time; each chunk is read once. ``required`` None reads every
+    stored signal; ``poses`` adds the pose signals the obstacle checker reads."""
+    complete = complete_rows(store.run_status(name), within)
     for begin in range(0, len(complete), chunk_runs):
         rows = complete[begin:begin + chunk_runs]
         yield rows, _chunk_signals(store, name, rows, required, poses)
+
+
+def complete_rows(status: np.ndarray, within: slice | None = None) -> np.ndarray:
+    """Row numbers of complete runs, in order (only those in ``within`` when given)."""
+    rows = np.flatnonzero(status == STATUS_COMPLETE)
+    if within is None:
+        return rows
+    start, stop, _ = within.indices(status.size)
+    return rows[(rows >= start) & (rows < stop)]
 
 
 # The collision checker of the pool's workers: set before the pool forks, so the workers
@@ -255,23 +270,24 @@ def _with_collisions(chunks: Iterator[tuple[np.ndarray, dict[str, np.ndarray]]],
 
 def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeometry,
                   sigma: float, collisions: CollisionFunction | None,
-                  chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1
-                  ) -> tuple[Any, dict[str, Any]]:
-    """Evaluate the complete runs of a path chunk by chunk; returns (evaluation, stored).
+                  chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
+                  within: slice | None = None) -> tuple[Any, dict[str, Any]]:
+    """Evaluate the complete runs of a path (among the rows ``within``, when given) chunk by
+    chunk; returns (evaluation, stored).
 
     ``workers`` > 1 spreads the collision checks over that many processes."""
     group = store.path_group(name)
     chain = tuple(Command(*row) for row in group["chain"][()])
     reference = store.reference(name)
     context = run_context(chain, rover, sigma, reference)
-    complete = np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
+    complete = complete_rows(store.run_status(name), within)
     required = set(getattr(evaluator, "required_signals", ())) or None
     # Path-level values (reductions over runs) need every run first: a pass reading only
     # what they read, then the chunks are evaluated with them.
     across = _first_pass(store, name, evaluator, context, chunk_runs)
     parts = []
     hits, buffers, details = [], [], []
-    chunks = complete_chunks(store, name, required, chunk_runs)
+    chunks = complete_chunks(store, name, required, chunk_runs, within=within)
     checked = (_with_collisions(chunks, collisions, workers) if collisions is not None
                else ((rows, signals, None) for rows, signals in chunks))
     for _rows, signals, collided in checked:
@@ -315,6 +331,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     each simulated path's evaluation starts (progress)."""
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
+    sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     for name in store.path_names:
         result = stored_path_result(store, name)
         results.append(result)
@@ -330,11 +347,19 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             result.verdict_reasons = ["no complete run to evaluate"]
             continue
         stats = evaluator.path_statistics(evaluation, failed_runs=result.failed + missing)
+        stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
+        if sequential:  # stopped on confidence sequences: report those, not fixed-count CIs
+            stats = sequential_statistics(evaluation, stats, stop_time)
+        elif not result.stop_reason:
+            result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
         verdict = evaluator.verdict(stats)
         statistics[name] = stats
         fill_result(result, evaluation, stats, verdict)
+        fill_runs_needed(result, evaluation, verdict, float(stats.confidence), sequential,
+                         stop_time)
         if write:
-            _write_path_evaluation(store, name, evaluation, extra, stats, verdict, result.runs)
+            _write_path_evaluation(store, name, evaluation, extra, stats, verdict,
+                                   len(store.run_status(name)))
     ranking = list(evaluator.rank(statistics)) if statistics else []
     for position, name in enumerate(ranking, start=1):
         for result in results:
@@ -366,15 +391,36 @@ def _slip_checks(store: ResultStore, evaluator: Any, info: Mapping[str, str]) ->
     return slip_checks(store, float(settings.theoretical_slip), name)
 
 
+def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, confidence: float,
+                     sequential: bool, stop_time: float) -> None:
+    """Roughly how many runs would decide each verdict rule that is not decided."""
+    result.runs_needed = {rule.name: runs_needed(rule, evaluation, confidence, sequential,
+                                                 stop_time)
+                          for rule in verdict.rules if not rule.decided}
+    shown = {_reason_text(rule): rule.name for rule in verdict.rules if not rule.decided}
+    result.verdict_reasons = [
+        f"{text}; {runs_needed_text(result.runs_needed[shown[text]])}" if text in shown else text
+        for text in result.verdict_reasons]
+
+
+def runs_needed_text(runs: int | None) -> str:
+    """``about 480 runs would decide it`` (or why there is no estimate)."""
+    if runs is None:
+        return "no run count up to 1,000,000 is estimated to decide it"
+    return f"about {runs:,} runs would decide it"
+
+
 def stored_path_result(store: ResultStore, name: str) -> PathResult:
     """A path's stored status and run counts (failures included), not yet evaluated."""
     group = store.path_group(name)
     result = PathResult(name=name, index=int(group.attrs["index"]),
                         status=str(group.attrs.get("status", "pending")),
-                        reason=str(group.attrs.get("reason", "")))
+                        reason=str(group.attrs.get("reason", "")),
+                        stop_reason=str(group.attrs.get("stop_reason", "")))
     if result.status == "simulated" and store.has_runs(name):
         status = store.run_status(name)
-        result.runs = len(status)
+        # rows an adaptive campaign never needed are not runs of the path
+        result.runs = int(np.sum(status != STATUS_NOT_NEEDED))
         result.completed = int(np.sum(status == STATUS_COMPLETE))
         result.failures = store.failures(name)
     return result

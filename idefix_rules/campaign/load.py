@@ -16,6 +16,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from idefix_rules.campaign.schema import (
+    AdaptiveRuns,
     CampaignFile,
     CollisionExpectation,
     MeanRiskExpectation,
@@ -58,6 +59,7 @@ class Campaign:
     seed: int
     workers: int | None  # None: all cores
     locations: SourceMap
+    adaptive: AdaptiveRuns | None = None  # `runs: auto`; then ``runs`` is its cap
 
     @property
     def name(self) -> str:
@@ -66,12 +68,25 @@ class Campaign:
     def span(self, loc: Sequence[str | int]) -> Span:
         return self.locations.span(loc)
 
-    def with_overrides(self, runs: int | None = None, seed: int | None = None,
-                       output: Path | None = None, workers: int | None = None) -> Campaign:
-        """The same campaign with command-line overrides applied."""
+    def with_overrides(self, runs: int | str | None = None, seed: int | None = None,
+                       output: Path | None = None, workers: int | None = None,
+                       max_runs: int | None = None, min_runs: int | None = None) -> Campaign:
+        """The same campaign with command-line overrides applied (``runs="auto"``: adaptive;
+        ``max_runs`` / ``min_runs`` apply to an adaptive campaign)."""
+        adaptive = self.adaptive
+        if runs == "auto" and adaptive is None:
+            adaptive = AdaptiveRuns()
+        elif isinstance(runs, int):
+            adaptive = None
+        if adaptive is not None:
+            adaptive = replace(adaptive,
+                               max_runs=adaptive.max_runs if max_runs is None else max_runs,
+                               min_runs=adaptive.min_runs if min_runs is None else min_runs)
+            runs = adaptive.max_runs
         return replace(
             self,
-            runs=self.runs if runs is None else runs,
+            adaptive=adaptive,
+            runs=self.runs if not isinstance(runs, int) else runs,
             seed=self.seed if seed is None else seed,
             output=self.output if output is None else output,
             workers=self.workers if workers is None else workers,
@@ -188,10 +203,11 @@ def load_campaign(path: str | Path) -> Campaign:
         fmu=None if model.fmu.path == BUILTIN_FMU else (base / model.fmu.path).resolve(),
         dem=(base / model.environment.terrain.dem).resolve()
         if model.environment.terrain.dem else None,
-        runs=model.runs,
+        runs=model.run_count,
         seed=model.uncertainty.seed,
         workers=None if model.workers == "auto" else model.workers,
         locations=document.locations,
+        adaptive=model.adaptive,
     )
 
 
@@ -217,6 +233,7 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
     if model.workers != "auto" and model.workers < 1:
         found.append(error("C201", "workers: expected 'auto' or a positive number",
                            locations.span(("workers",))))
+    found.extend(_adaptive_checks(model, locations))
     for index, expectation in enumerate(model.expect):
         if isinstance(expectation, RankFirstExpectation):
             name, key = expectation.rank_first, "rank_first"
@@ -231,6 +248,24 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
                                        f"(paths: {known})",
                                locations.span(("expect", index, key))))
     return found
+
+
+def _adaptive_checks(model: CampaignFile, locations: SourceMap) -> list[Diagnostic]:
+    """``max_runs``, ``min_runs`` and ``batch_runs`` belong to ``runs: auto``, and the minimum
+    cannot exceed the cap."""
+    if model.runs != "auto":
+        return [error("C700", f"{key}: only used with 'runs: auto' (runs is {model.runs})",
+                      locations.span((key,), at_key=True),
+                      hint="write 'runs: auto' for an adaptive campaign, or remove the key")
+                for key in ("max_runs", "min_runs", "batch_runs")
+                if getattr(model, key) is not None]
+    adaptive = model.adaptive
+    assert adaptive is not None
+    if adaptive.min_runs > adaptive.max_runs:
+        key = "min_runs" if model.min_runs is not None else "max_runs"
+        return [error("C701", f"{key}: min_runs {adaptive.min_runs} exceeds max_runs "
+                              f"{adaptive.max_runs}", locations.span((key,)))]
+    return []
 
 
 def _dem_grid_checks(terrain: TerrainSection, locations: SourceMap) -> list[Diagnostic]:

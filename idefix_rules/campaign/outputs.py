@@ -179,6 +179,9 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "undecided": path.undecided,
         "verdict_reasons": path.verdict_reasons,
         "reasons": reasons_of(path),
+        "runs_used": path.runs,
+        "stop_reason": path.stop_reason,
+        "runs_needed": path.runs_needed,
         "rank": path.rank,
         "statistics": significant(as_plain(path.statistics)),
     }

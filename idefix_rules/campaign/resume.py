@@ -46,6 +46,10 @@ def nothing_left(store: Any, names: list[str]) -> bool:
                for name in names)
 
 
-def resume_command(source: Any, output: Any, runs: Any, seed: Any) -> str:
-    """The command that continues this campaign into the same results file."""
-    return f"idefix-verify {source} --resume --out {output} --runs {runs} --seed {seed}"
+def resume_command(source: Any, output: Any, runs: Any, seed: Any,
+                   min_runs: Any = None) -> str:
+    """The command that continues this campaign into the same results file (``min_runs``
+    given: an adaptive campaign, ``runs`` is its cap)."""
+    count = f"--runs {runs}" if min_runs is None else (
+        f"--runs auto --max-runs {runs} --min-runs {min_runs}")
+    return f"idefix-verify {source} --resume --out {output} {count} --seed {seed}"

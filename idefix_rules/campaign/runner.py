@@ -162,7 +162,8 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     if mapping.terrain_input:
         fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
-    again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed)
+    again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
+                           campaign.adaptive.min_runs if campaign.adaptive else None)
     try:
         simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
                                        collisions)
@@ -197,6 +198,7 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                       "report": time.perf_counter() - evaluated,
                       "total": time.perf_counter() - started,
                       "inside_fmu": simulation.fmu_seconds,
+                      "writing": simulation.write_seconds,
                       "simulated_runs": float(simulation.simulated_runs)}
     return result
 
@@ -263,8 +265,10 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
         state = str(store.attrs.get("state", "complete"))
+        adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
         again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
-                               store.attrs.get("seed"))
+                               store.attrs.get("seed"),
+                               store.attrs.get("min_runs") if adaptive else None)
         _warn_lost_runs(result, again)
         if state != "complete":  # its missing runs count as failed: say why
             result.warnings.append(
@@ -331,5 +335,5 @@ def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Cam
     return Campaign(source=Path(path), text=text,
                     sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(), model=model,
                     paths=paths, rulebook=base / model.rulebook, output=base / model.output,
-                    fmu=None, dem=None, runs=model.runs, seed=model.uncertainty.seed,
-                    workers=None, locations=SourceMap(path))
+                    fmu=None, dem=None, runs=model.run_count, seed=model.uncertainty.seed,
+                    workers=None, locations=SourceMap(path), adaptive=model.adaptive)

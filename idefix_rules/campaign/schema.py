@@ -8,6 +8,7 @@ error. The format is documented in ``docs/campaign-format.md``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -370,6 +371,43 @@ PathName = Annotated[str, BeforeValidator(_path_name)]
 # Monte Carlo runs per path: the paper's campaigns use hundreds; a million already means
 # results files of terabytes, so more is refused rather than attempted.
 MAX_RUNS = 1_000_000
+RunCount = Annotated[StrictInt, Field(ge=1, le=MAX_RUNS)]
+
+def _runs(value: Any) -> Any:
+    """A whole run count in range, or ``auto``; one message for either mistake."""
+    if value == "auto" or (isinstance(value, int) and not isinstance(value, bool)
+                           and 1 <= value <= MAX_RUNS):
+        return value
+    got = str(value).lower() if isinstance(value, bool) else _show(value)  # as YAML wrote it
+    raise PydanticCustomError("runs", "expected a whole number of runs from 1 to {limit} or "
+                              "'auto', got {got}", {"limit": MAX_RUNS, "got": got})
+
+
+Runs = Annotated[StrictInt | Literal["auto"], BeforeValidator(_runs)]
+
+# `runs: auto` (docs/campaign-format.md): the cap, the first look and the batch between looks.
+DEFAULT_MAX_RUNS = 1000
+DEFAULT_MIN_RUNS = 32
+DEFAULT_BATCH_RUNS = 32
+
+
+@dataclass(frozen=True)
+class AdaptiveRuns:
+    """``runs: auto``: paths are looked at after ``min_runs`` runs, then every ``batch_runs``,
+    and stop when decided or at ``max_runs``.
+
+    >>> AdaptiveRuns(min_runs=32, max_runs=100, batch_runs=32).looks()
+    [32, 64, 96, 100]
+    """
+
+    min_runs: int = DEFAULT_MIN_RUNS
+    max_runs: int = DEFAULT_MAX_RUNS
+    batch_runs: int = DEFAULT_BATCH_RUNS
+
+    def looks(self) -> list[int]:
+        """The run counts at which a path's statistics are looked at, the cap last."""
+        first = min(self.min_runs, self.max_runs)
+        return [*range(first, self.max_runs, self.batch_runs), self.max_runs]
 
 
 class CampaignFile(Strict):
@@ -381,9 +419,30 @@ class CampaignFile(Strict):
     paths: dict[PathName, Annotated[list[CommandSpec], Field(min_length=1)]] = Field(
         min_length=1)
     # StrictInt: YAML's `true` is not a run count or a seed
-    runs: StrictInt = Field(default=100, ge=1, le=MAX_RUNS)
+    runs: Runs = 100
+    max_runs: RunCount | None = None  # only with `runs: auto`
+    min_runs: RunCount | None = None
+    batch_runs: RunCount | None = None
     rulebook: str
     output: str = "results"
     workers: StrictInt | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[Expectation] = []
+
+    @property
+    def adaptive(self) -> AdaptiveRuns | None:
+        """The adaptive settings with their defaults, or None for a fixed run count."""
+        if self.runs != "auto":
+            return None
+        return AdaptiveRuns(min_runs=self.min_runs or DEFAULT_MIN_RUNS,
+                            max_runs=self.max_runs or DEFAULT_MAX_RUNS,
+                            batch_runs=self.batch_runs or DEFAULT_BATCH_RUNS)
+
+    @property
+    def run_count(self) -> int:
+        """Runs allocated per path: the fixed count, or the cap of ``runs: auto``."""
+        adaptive = self.adaptive
+        if adaptive is not None:
+            return adaptive.max_runs
+        assert self.runs != "auto"
+        return self.runs

@@ -12,6 +12,7 @@ import hashlib
 import json
 import math
 import tempfile
+import time
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,7 +26,7 @@ from idefix_rules.campaign import sampling
 from idefix_rules.campaign import timeouts as run_timeouts
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome, Timeouts
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.store import FORMAT_VERSION, ResultStore
 from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
@@ -91,6 +92,7 @@ class SimulationSummary:
     plans: list[PathPlan] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     fmu_seconds: float = 0.0  # summed time workers spent inside FmuRunner.run
+    write_seconds: float = 0.0  # time the parent spent storing Monte Carlo runs
     simulated_runs: int = 0
     path_seconds: dict[str, float] = field(default_factory=dict)  # the same, per path
 
@@ -173,7 +175,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     results = campaign.output / RESULTS_FILE
     rover = rover_geometry(campaign)
     summary = SimulationSummary(results)
-    warning = sampling.sobol_warning(campaign.model.uncertainty.method, campaign.runs)
+    warning = _sampling_warning(campaign)
     if warning:
         summary.warnings.append(warning)
         progress.message(warning)
@@ -189,7 +191,14 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         _command_rules(campaign, evaluator, rover, plans, store)
         _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
                         options, progress, collisions, summary)
-        _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress, summary)
+        if campaign.adaptive is not None:
+            from idefix_rules.campaign.adaptive import adaptive_monte_carlo
+
+            adaptive_monte_carlo(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
+                                 options, progress, summary, collisions)
+        else:
+            _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress,
+                         summary)
         complete = resuming.nothing_left(store, [p.spec.name for p in plans])
         store.attrs["state"] = "complete" if complete else "interrupted"
         if not (complete and was_complete and summary.simulated_runs == 0):
@@ -203,6 +212,27 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         unpacked.close()  # the pools are closed by now: no worker uses the folder any more
         store.close()
     return summary
+
+
+def _sampling_warning(campaign: Campaign) -> str | None:
+    method = campaign.model.uncertainty.method
+    if campaign.adaptive is not None:
+        from idefix_rules.campaign.adaptive import sampling_note
+
+        return sampling_note(method)
+    return sampling.sobol_warning(method, campaign.runs)
+
+
+def run_settings(campaign: Campaign) -> dict[str, Any]:
+    """The root attributes that say how many runs a campaign asked for (compared on resume)."""
+    adaptive = campaign.adaptive
+    if adaptive is None:
+        return {"runs": campaign.runs, "runs_mode": "fixed",
+                "sampling": campaign.model.uncertainty.method}
+    from idefix_rules.campaign.adaptive import SAMPLING
+
+    return {"runs": adaptive.max_runs, "runs_mode": "auto", "min_runs": adaptive.min_runs,
+            "batch_runs": adaptive.batch_runs, "sampling": SAMPLING}
 
 
 @dataclass(frozen=True)
@@ -234,8 +264,8 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
         store = ResultStore.open(results, writable=True)
-        expected = {"campaign_sha256": campaign.sha256, "runs": campaign.runs,
-                    "seed": campaign.seed, "fmu_sha256": fmu_hash}
+        expected = {"format_version": FORMAT_VERSION, "campaign_sha256": campaign.sha256,
+                    **run_settings(campaign), "seed": campaign.seed, "fmu_sha256": fmu_hash}
         for key, value in expected.items():
             stored = store.attrs.get(key)
             if stored != value:
@@ -244,8 +274,8 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                 raise UserInputError(error(
                     "H010", f"cannot resume {results}: its {key} is {shown!r}, "
                             f"this campaign's is {value!r}", Span(str(results)),
-                    hint="resume with the same campaign file, --runs, --seed and FMU, or "
-                         "choose another --out"))
+                    hint="resume with the same campaign file, --runs, --max-runs, --min-runs, "
+                         "--seed and FMU, or choose another --out"))
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))
         store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
         return store
@@ -258,8 +288,7 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
         "fmu_path": str(fmu_path),
         "fmu_sha256": fmu_hash,
         "seed": campaign.seed,
-        "runs": campaign.runs,
-        "sampling": campaign.model.uncertainty.method,
+        **run_settings(campaign),
         "seed_derivation": SEED_DERIVATION,
         "started": now_iso(),
         "resumed": "[]",
@@ -316,7 +345,7 @@ def _describe(item: Any) -> str:
 
 
 def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
-          parameters: Mapping[str, float | str]) -> RunTask:
+          parameters: Mapping[str, float | str], encode: bool = False) -> RunTask:
     maps = campaign.model.fmu
     return RunTask(
         fmu_path=fmu.path,
@@ -334,6 +363,7 @@ def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
         chain_inputs=tuple(maps.chain.inputs.items()),
         done_at=maps.done_at,
         rover=rover_geometry(campaign) if maps.chain.delivery == "inputs" else None,
+        encode=encode,
     )
 
 
@@ -430,23 +460,34 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         for run in missing:
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled.items()})
-            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters)))
+            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters,
+                                                  encode=True)))
+    run_and_store(campaign, tasks, {plan.spec.name: plan for plan in plans}, store, options,
+                  progress, summary)
+
+
+def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask]],
+                  plans: Mapping[str, PathPlan], store: ResultStore, options: SimulationOptions,
+                  progress: Progress, summary: SimulationSummary) -> None:
+    """Simulate Monte Carlo runs ``((path, run), task)`` and store each as it finishes
+    (``plans`` by name give each run's default timeout)."""
     if not tasks:
         return
     # Interleave paths so every progress bar moves from the start.
     tasks.sort(key=lambda item: (item[0][1], item[0][0]))
-    by_name = {plan.spec.name: plan for plan in plans}
     pool = _pool(simulate, options, campaign,
-                 run_timeouts.monte_carlo_timeouts(by_name, store, options.run_timeout))
+                 run_timeouts.monte_carlo_timeouts(dict(plans), store, options.run_timeout))
     with _map(pool, tasks) as results:
         for (name, run), outcome in results:
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
+            started = time.perf_counter()
             if outcome.ok:
-                store.write_run(name, run, outcome.value.signals)
+                store.write_run(name, run, outcome.value.stored)
                 summary.fmu_seconds += outcome.value.seconds
                 summary.path_seconds[name] = (summary.path_seconds.get(name, 0.0)
                                               + outcome.value.seconds)
             else:
                 store.write_failure(name, run, outcome.reason)
+            summary.write_seconds += time.perf_counter() - started
             progress.run_finished(name, outcome.ok)

@@ -1,16 +1,26 @@
 """The results file (``results.h5``): layout in ``docs/results-format.md``.
 
-Only the parent process writes. A path's datasets are created in full (contiguous, storage
-allocated at creation, filled with NaN) and flushed before its first run is written, so from
-then on writing a run changes raw data only, never the file's structure. Each run is written as
-its data, then its ``status`` entry (1 complete, 2 failed), then a flush: a kill at any moment
-leaves every run either complete-and-valid or not marked complete, which ``--resume`` re-runs.
+Only the parent process writes. A path's datasets are created in full and flushed before its
+first run is written: run signals chunked one run per chunk, shuffled and gzip-compressed (HDF5
+built-in filters), with every chunk allocated at creation; ``status`` and ``failure``
+contiguous. Writing a run replaces its own chunks only: the dataset's chunk index already holds
+an entry for every run, so a write updates entries in place and never adds index nodes or
+objects. Each run is written as its data, then its ``status`` entry (1 complete, 2 failed), then
+a flush: a kill at any moment leaves every run either complete-and-valid or not marked complete,
+which ``--resume`` re-runs (``tests/campaign/test_campaign_store_kill.py`` kills a writer at
+random moments to check it).
+
+Signals are stored with the precision they need (:func:`storage_dtype`): the pose, time and
+energy signals, which the evaluator differentiates, as float64; the per-wheel signals and the
+integer-valued ``command`` / ``stuck`` as float32 (docs/results-format.md gives the error).
 """
 
 from __future__ import annotations
 
 import json
+import zlib
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,11 +32,19 @@ from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
 
 FORMAT = "idefix-results"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 STATUS_MISSING = 0
 STATUS_COMPLETE = 1
 STATUS_FAILED = 2
+STATUS_NOT_NEEDED = 3  # an adaptive campaign stopped its path before this run
+
+# Read only through max / percentile / comparisons, never differentiated: float32 keeps them to
+# 6e-8 of their value, far inside any rulebook tolerance (docs/results-format.md).
+FLOAT32_SIGNALS = frozenset({"wheel.rate", "wheel.slip", "wheel.slip_angle", "wheel.sinkage",
+                             "wheel.current", "command", "stuck"})
+COMPRESSION = "gzip"
+COMPRESSION_LEVEL = 1
 
 REASON_BYTES = 240
 _REASON_DTYPE = f"S{REASON_BYTES}"
@@ -39,6 +57,34 @@ def _early_dcpl() -> h5py.h5p.PropDCID:
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
     dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
     return dcpl
+
+
+def storage_dtype(name: str) -> np.dtype[Any]:
+    """The dtype a run signal is stored with (float32 where that is enough, else float64)."""
+    return np.dtype(np.float32 if name in FLOAT32_SIGNALS else np.float64)
+
+
+@dataclass(frozen=True)
+class EncodedChunk:
+    """One run of one signal as the bytes of its stored chunk (shuffled, deflated): what the
+    HDF5 filters would write, made where the run was simulated so the writer only copies."""
+
+    shape: tuple[int, ...]
+    dtype: str
+    data: bytes
+
+
+def encode_chunk(name: str, values: np.ndarray) -> EncodedChunk:
+    """The chunk of one run of signal ``name`` (HDF5 shuffle, then deflate at
+    :data:`COMPRESSION_LEVEL`), readable by any HDF5 tool like a chunk HDF5 wrote itself."""
+    array = np.ascontiguousarray(values, dtype=storage_dtype(name))
+    shuffled = array.view(np.uint8).reshape(-1, array.itemsize).T.tobytes()
+    return EncodedChunk(array.shape, array.dtype.str, zlib.compress(shuffled, COMPRESSION_LEVEL))
+
+
+def encode_run(signals: Mapping[str, np.ndarray]) -> dict[str, EncodedChunk]:
+    """Every signal of one run encoded as its stored chunk."""
+    return {name: encode_chunk(name, values) for name, values in signals.items()}
 
 
 def encode_reason(reason: str) -> bytes:
@@ -190,7 +236,9 @@ class ResultStore:
         if signals is not None:
             data = group.create_group("signals", track_order=True)
             for key, values in signals.items():
-                dataset = data.create_dataset(key, data=np.asarray(values, dtype=np.float64))
+                dataset = data.create_dataset(key, data=np.asarray(values, dtype=np.float64),
+                                              compression=COMPRESSION, shuffle=True,
+                                              compression_opts=COMPRESSION_LEVEL)
                 for attr, attr_value in signal_attrs(key).items():
                     dataset.attrs[attr] = attr_value
         group.attrs["status"] = STATUS_COMPLETE if signals is not None else STATUS_FAILED
@@ -214,8 +262,13 @@ class ResultStore:
         group.attrs["count"] = runs
         signals = group.create_group("signals", track_order=True)
         for key, shape in shapes.items():
-            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=np.float64,
-                                             fillvalue=np.nan, dcpl=_early_dcpl())
+            # One run per chunk, every chunk allocated now: a run's write touches its own chunk
+            # and index entry only (see the module docstring).
+            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=storage_dtype(key),
+                                             fillvalue=np.nan, chunks=(1, *shape),
+                                             compression=COMPRESSION,
+                                             compression_opts=COMPRESSION_LEVEL, shuffle=True,
+                                             dcpl=_early_dcpl())
             for attr, value in signal_attrs(key).items():
                 dataset.attrs[attr] = value
         params = group.create_group("parameters", track_order=True)
@@ -233,10 +286,21 @@ class ResultStore:
         group = self.path_group(name).get("runs")
         return group is not None and "status" in group
 
-    def write_run(self, name: str, run: int, signals: Mapping[str, np.ndarray]) -> None:
+    def write_run(self, name: str, run: int,
+                  signals: Mapping[str, np.ndarray | EncodedChunk]) -> None:
+        """Store one complete run: its data (arrays, or chunks :func:`encode_run` made), a
+        flush, its status, a flush."""
         datasets, status, _ = self._run_handles(name)
         for key, dataset in datasets.items():
-            dataset[run] = np.asarray(signals[key], dtype=np.float64)
+            value = signals[key]
+            if isinstance(value, EncodedChunk):
+                if value.shape != dataset.shape[1:] or np.dtype(value.dtype) != dataset.dtype:
+                    raise ValueError(f"signal {key!r} of run {run} has shape {value.shape} "
+                                     f"{value.dtype}, the dataset stores {dataset.shape[1:]} "
+                                     f"{dataset.dtype}")
+                dataset.id.write_direct_chunk((run,) + (0,) * len(value.shape), value.data)
+            else:
+                dataset[run] = np.asarray(value, dtype=dataset.dtype)
         self.file.flush()
         status[run] = STATUS_COMPLETE
         self.file.flush()
@@ -259,12 +323,21 @@ class ResultStore:
 
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name."""
+        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name, as float64
+        whatever their stored precision."""
         datasets = self.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
-        if isinstance(selection, np.ndarray):
-            return {key: datasets[key][np.sort(selection)] for key in wanted}
-        return {key: datasets[key][selection] for key in wanted}
+        chosen = np.sort(selection) if isinstance(selection, np.ndarray) else selection
+        return {key: np.asarray(datasets[key][chosen], dtype=np.float64) for key in wanted}
+
+    def mark_not_needed(self, name: str, first: int) -> None:
+        """Rows from ``first`` on that are still missing will never be simulated: an adaptive
+        campaign stopped the path (raw data written in place, like a run's status)."""
+        _, status, _ = self._run_handles(name)
+        current = status[first:]
+        if current.size:
+            status[first:] = np.where(current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
+        self.file.flush()
 
     def signal_names(self, name: str) -> list[str]:
         return list(self.path_group(name)["runs"]["signals"])

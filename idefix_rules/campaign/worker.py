@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.campaign.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
 
@@ -38,6 +39,7 @@ class RunTask:
     chain_inputs: tuple[tuple[str, str], ...] = ()  # FMU input → set-point (delivery inputs)
     done_at: float = 1.0
     rover: RoverGeometry | None = None  # geometry of the set-points (delivery inputs)
+    encode: bool = False  # hand back the stored chunks (compressed here), not the arrays
 
 
 @dataclass(frozen=True)
@@ -76,10 +78,18 @@ def _runner(task: RunTask) -> Any:
 
 @dataclass(frozen=True)
 class RunResult:
-    """A run's signals and the seconds spent inside ``FmuRunner.run`` (for the benchmark)."""
+    """A run's signals — as arrays, or (``RunTask.encode``) as the compressed chunks the results
+    file stores, so compression runs in the workers — and the seconds spent inside
+    ``FmuRunner.run`` (for the benchmark)."""
 
     signals: dict[str, np.ndarray]
     seconds: float
+    encoded: dict[str, EncodedChunk] | None = None
+
+    @property
+    def stored(self) -> Mapping[str, np.ndarray | EncodedChunk]:
+        """What :meth:`ResultStore.write_run` takes."""
+        return self.encoded if self.encoded is not None else self.signals
 
 
 def simulate(task: RunTask) -> RunResult | InputProblem:
@@ -101,7 +111,10 @@ def simulate(task: RunTask) -> RunResult | InputProblem:
             runner.close()
         raise
     seconds = time.perf_counter() - started
-    return RunResult(check_outputs(signals, task.samples), seconds)
+    checked = check_outputs(signals, task.samples)
+    if task.encode:
+        return RunResult({}, seconds, encode_run(checked))
+    return RunResult(checked, seconds)
 
 
 def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:

@@ -146,6 +146,8 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         if path.reason:
             console.print(f"  [yellow]{escape(path.name)}[/yellow] {path.status}: "
                           f"{escape(path.reason)}")
+        if path.stop_reason:
+            console.print(f"  {escape(path.name)}: runs: {escape(path.stop_reason)}")
         for reason in reasons_of(path):
             console.print(f"  {escape(path.name)}: {escape(reason)}" if wide
                           else f"  ✗ {escape(reason)}")

@@ -27,6 +27,7 @@ from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.outcome import index_titles, print_outcome
+from idefix_rules.errors import Span, UserInputError, error
 
 __all__ = ["make_console", "print_outcome", "stored_titles"]
 
@@ -38,8 +39,16 @@ HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo),
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (YAML)")
-    parser.add_argument("--runs", type=_run_count, help="Monte Carlo runs per path "
-                        f"(overrides the campaign's `runs`; at most {MAX_RUNS})")
+    parser.add_argument("--runs", type=_run_count, metavar="N|auto",
+                        help="Monte Carlo runs per path "
+                        f"(overrides the campaign's `runs`; at most {MAX_RUNS}), or `auto`: "
+                        "simulate in batches and stop each path once its verdict is decided "
+                        "and its rank settled")
+    parser.add_argument("--max-runs", type=_run_count_only, metavar="N",
+                        help="with runs auto: the most runs per path (overrides `max_runs`)")
+    parser.add_argument("--min-runs", type=_run_count_only, metavar="N",
+                        help="with runs auto: runs before the first look (overrides "
+                             "`min_runs`)")
     parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
     parser.add_argument("--seed", type=_non_negative_int, help="campaign seed (overrides "
                         "`uncertainty.seed`)")
@@ -71,7 +80,13 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _run_count(text: str) -> int:
+def _run_count(text: str) -> int | str:
+    if text.strip().lower() == "auto":
+        return "auto"
+    return _run_count_only(text)
+
+
+def _run_count_only(text: str) -> int:
     value = _positive_int(text)
     if value > MAX_RUNS:
         raise argparse.ArgumentTypeError(f"at most {MAX_RUNS} runs per path, got {text}")
@@ -203,9 +218,22 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.campaign.runner import run_campaign
 
     console = make_console()
-    campaign = load_campaign(args.campaign).with_overrides(
+    campaign = load_campaign(args.campaign)
+    adaptive = args.runs == "auto" or (args.runs is None and campaign.adaptive is not None)
+    if not adaptive and (args.max_runs is not None or args.min_runs is not None):
+        raise UserInputError(error(
+            "C702", "--max-runs and --min-runs apply to an adaptive campaign only",
+            Span(str(args.campaign)), hint="add --runs auto, or write 'runs: auto' in the "
+                                          "campaign"))
+    campaign = campaign.with_overrides(
         runs=args.runs, seed=args.seed,
-        output=args.out.resolve() if args.out else None, workers=args.workers)
+        output=args.out.resolve() if args.out else None, workers=args.workers,
+        max_runs=args.max_runs, min_runs=args.min_runs)
+    if campaign.adaptive is not None and campaign.adaptive.min_runs > campaign.adaptive.max_runs:
+        raise UserInputError(error(
+            "C701", f"min_runs {campaign.adaptive.min_runs} exceeds max_runs "
+                    f"{campaign.adaptive.max_runs}", Span(str(args.campaign)),
+            hint="give --max-runs at least the minimum (or a smaller --min-runs)"))
     options = SimulationOptions(workers=args.workers, run_timeout=args.run_timeout,
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
@@ -219,7 +247,8 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         progress.stop()
         again = f"idefix-verify {args.campaign} --resume"
-        for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed)):
+        for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
+                            ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
             if value is not None:
                 again += f" {flag} {value}"
         console.print(f"[yellow]interrupted[/yellow]: continue with `{again}`")

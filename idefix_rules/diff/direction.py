@@ -10,11 +10,11 @@ from the rule model, never from data:
    when it does not read ``v``, and unknown otherwise. It is computed node by node:
    ``a + b``, ``min``, ``max``, ``clamp``, ``sqrt`` and every reducer except ``rms`` and
    ``time_above`` (over time, wheels, parts, levels or runs) keep the polarities of their
-   operands; ``abs`` and ``hypot`` keep them for non-negative arguments; ``-`` and ``not`` flip them; ``a * b``
-   and ``a / b`` keep them when the other factor is known to be ≥ 0 (signals such as hits,
-   sinkage or speed, ``abs(…)``, non-negative constants); ``a <= b`` is true more often as
-   ``b`` grows and ``a`` shrinks; ``and``/``or`` combine; ``percentile P`` grows with ``P``,
-   ``time_above T`` shrinks with ``T``. Two opposite polarities make it unknown.
+   operands; ``abs`` and ``hypot`` keep them for non-negative arguments; ``-`` and ``not``
+   flip them; ``a * b`` and ``a / b`` keep them when the other factor is known to be ≥ 0
+   (signals such as hits, sinkage or speed, ``abs(…)``, non-negative constants); ``a <= b`` is
+   true more often as ``b`` grows and ``a`` shrinks; ``and``/``or`` combine; ``percentile P``
+   grows with ``P``, ``time_above T`` shrinks with ``T``. Two opposite polarities make it unknown.
 2. An index ``clamp(value / limit, 0, 1)`` grows with its value and shrinks with its limit;
    the run risk (eq. 1) and the path risk (eq. 2) grow with every index and weight.
 3. A path passes when every command rule, prescreen and verdict holds, so the *pass polarity*

@@ -1,11 +1,12 @@
 """Reading stored runs without copying them: run datasets mapped into memory.
 
-The results file stores every run dataset contiguous, uncompressed and allocated when its path
-starts (``docs/results-format.md``), so its bytes sit at a fixed offset of the file and numpy
-can map them (:class:`numpy.memmap`, copy-on-write: the file is never written). A chunk of runs
-is then a map of its rows; the evaluator touches only the samples it reads, straight from the
-page cache, instead of HDF5 copying every value into a new array first. Datasets that are chunked,
-compressed, not native float64 or in a file driver other than the default fall back to h5py.
+Results files of format 1 store every run dataset contiguous, uncompressed and allocated when
+its path starts, so its bytes sit at a fixed offset of the file and numpy can map them
+(:class:`numpy.memmap`, copy-on-write: the file is never written). A chunk of runs is then a
+map of its rows; the evaluator touches only the samples it reads, straight from the page cache,
+instead of HDF5 copying every value into a new array first. Datasets that are chunked,
+compressed (format 2 and later: ``docs/results-format.md``), not native float64 or in a file
+driver other than the default are read through h5py, a chunk of rows at a time, as float64.
 
 :class:`MappedRuns` stands in for :class:`~idefix_rules.campaign.store.ResultStore` where
 :func:`~idefix_rules.campaign.evaluation.complete_chunks` reads runs.
@@ -55,8 +56,8 @@ class MappedRuns:
         if (name, key) not in self._offsets:
             self._offsets[(name, key)] = mappable(dataset)
         offset = self._offsets[(name, key)]
-        if offset is None:
-            return np.asarray(dataset[start:stop])
+        if offset is None:  # chunked and compressed (format 2): decompressed rows, float64
+            return np.asarray(dataset[start:stop], dtype=np.float64)
         row_bytes = dataset.dtype.itemsize * int(np.prod(dataset.shape[1:], dtype=np.int64))
         return np.memmap(self.filename, dtype=dataset.dtype, mode="c",
                          offset=offset + start * row_bytes,
@@ -77,7 +78,7 @@ class MappedRuns:
             else:
                 chosen = np.sort(selection)
                 if chosen.size == 0:
-                    out[key] = np.asarray(dataset[chosen])
+                    out[key] = np.asarray(dataset[chosen], dtype=np.float64)
                     continue
                 first, last = int(chosen[0]), int(chosen[-1]) + 1
                 out[key] = np.asarray(self._rows(name, key, dataset, first, last)[chosen - first])

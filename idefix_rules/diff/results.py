@@ -36,6 +36,7 @@ from idefix_rules.campaign.evaluation import (
 )
 from idefix_rules.campaign.runner import stored_campaign
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.stopping import sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command
 from idefix_rules.diff.evaluators import (
@@ -457,6 +458,8 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
         if pool is not None:
             pool.shutdown(cancel_futures=True)
         runs.close()
+    adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
+    stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
     for side in active:
         result = side.result
         side.evaluation = concatenate(side.parts)
@@ -464,6 +467,9 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
         missing = result.runs - result.completed - result.failed
         side.statistics = side.evaluator.path_statistics(side.evaluation,
                                                          failed_runs=result.failed + missing)
+        if adaptive:  # the intervals the evaluation of an adaptive campaign reports
+            side.statistics = sequential_statistics(side.evaluation, side.statistics,
+                                                    stop_time)
         fill_result(result, side.evaluation, side.statistics,
                     side.evaluator.verdict(side.statistics))
     if len(active) == 2 and all_rows:

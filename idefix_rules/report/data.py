@@ -69,6 +69,7 @@ class TableRow:
     dominant_index: str | None
     verdict_reasons: tuple[str, ...] = ()
     reason: str = ""
+    stop_reason: str = ""  # how many runs were used and why the Monte Carlo part ended
 
 
 @dataclass(frozen=True)
@@ -312,6 +313,7 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
         dominant_index=entry.get("dominant_index") or None,
         verdict_reasons=tuple(str(r) for r in entry.get("verdict_reasons") or ()),
         reason=str(entry.get("reason", "")),
+        stop_reason=str(entry.get("stop_reason") or ""),
     )
 
 

@@ -201,6 +201,8 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
     for path in data.paths:
         lines = (list((reasons or {}).get(path.name, [])) or list(path.row.verdict_reasons)
                  or ([path.reason] if path.reason else []))
+        if path.row.stop_reason:
+            lines.insert(0, f"Runs: {path.row.stop_reason}")
         if lines:
             items = "".join(f"<li>{escape(line)}</li>" for line in lines)
             explained.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")

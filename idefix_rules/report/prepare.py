@@ -153,7 +153,7 @@ def _campaign_context(store: ResultStore, text: str, setup: Setup, terrain: Any)
         campaign = Campaign(source=Path(campaign_path), text=text,
                             sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(),
                             model=model, paths=paths, rulebook=base / model.rulebook,
-                            output=base / model.output, fmu=None, dem=None, runs=model.runs,
+                            output=base / model.output, fmu=None, dem=None, runs=model.run_count,
                             seed=model.uncertainty.seed, workers=None,
                             locations=SourceMap(campaign_path))
         setup.rover = rover_geometry(campaign)

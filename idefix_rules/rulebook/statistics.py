@@ -337,3 +337,14 @@ def rank(rulebook: Rulebook, constants: Mapping[str, Any],
         return (0 if passed else 1, *values, path)
 
     return sorted(stats_by_path, key=key)
+
+
+def rank_key_intervals(rulebook: Rulebook, constants: Mapping[str, Any],
+                       stats: PathStatistics) -> list[Interval]:
+    """Each rank key's interval on one path's statistics, oriented so that lower ranks first
+    (a ``desc`` key is negated): two paths' order by a key is settled when these are apart."""
+    intervals = []
+    for rank_key in rulebook.ranking.keys:
+        low, high = _evaluate(rank_key.expr, stats, constants, interval=True)
+        intervals.append((-high, -low) if rank_key.descending else (float(low), float(high)))
+    return intervals

@@ -216,11 +216,13 @@ CASES = [
     Case("campaign-nested-too-deeply", campaign(append="x: " + "[" * 5000 + "]" * 5000 + "\n"),
          RUN, 2, ("error[C000]: invalid YAML: nested too deeply",)),
     Case("campaign-runs-zero", campaign(("runs: 6", "runs: 0")), RUN, 2,
-         ("campaign.yaml:6:7: error[C100]: runs: Input should be greater than or equal to 1",)),
+         ("campaign.yaml:6:7: error[C100]: runs: expected a whole number of runs from 1 to "
+          "1000000 or 'auto', got 0",)),
     Case("campaign-runs-negative", campaign(("runs: 6", "runs: -3")), RUN, 2,
          ("campaign.yaml:6:7: error[C100]: runs:",)),
     Case("campaign-runs-true", campaign(("runs: 6", "runs: true")), RUN, 2,
-         ("campaign.yaml:6:7: error[C100]: runs: Input should be a valid integer",)),
+         ("campaign.yaml:6:7: error[C100]: runs: expected a whole number of runs from 1 to "
+          "1000000 or 'auto', got true",)),
     Case("campaign-runs-text", campaign(("runs: 6", "runs: many")), RUN, 2,
          ("campaign.yaml:6:7: error[C100]: runs:",)),
     Case("campaign-workers-zero", campaign(("workers: 1", "workers: 0")), RUN, 2,
@@ -240,7 +242,8 @@ CASES = [
     Case("campaign-empty-path-name", campaign(("  arc:", '  "":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.: path name '' is not usable",)),
     Case("campaign-a-billion-runs", campaign(("runs: 6", "runs: 1000000000")), RUN, 2,
-         ("campaign.yaml:6:7: error[C100]: runs: Input should be less than or equal to 1000000",)),
+         ("campaign.yaml:6:7: error[C100]: runs: expected a whole number of runs from 1 to "
+          "1000000 or 'auto', got 1000000000",)),
     Case("option-a-billion-runs", campaign(), ("campaign.yaml", "--runs", "1000000000"), 2,
          ("argument --runs: at most 1000000 runs per path, got 1000000000",)),
     Case("campaign-wrong-unit", campaign(('"20 deg"', '"20 m"')), RUN, 2,

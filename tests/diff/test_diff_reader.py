@@ -11,18 +11,45 @@ from idefix_rules.commands import Command
 from idefix_rules.diff.reader import MappedRuns, mappable
 
 
-def small_store(path: Path) -> ResultStore:
+def small_store(path: Path, contiguous: bool = False) -> ResultStore:
+    """Five runs of ``x`` and ``wheel.slip``, run 2 never written; ``contiguous`` rewrites the
+    signals the way format 1 stored them (contiguous float64), which is what can be mapped."""
     store = ResultStore.create(path, {"runs": 5}, {"campaign": "name: t\n"})
     store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
     store.allocate_runs("p", 5, {"x": (7,), "wheel.slip": (7, 4)}, {}, {})
     rng = np.random.default_rng(3)
     for run in (0, 1, 3, 4):  # run 2 is never written
         store.write_run("p", run, {"x": rng.normal(size=7), "wheel.slip": rng.normal(size=(7, 4))})
+    if contiguous:
+        signals = store.path_group("p")["runs"]["signals"]
+        for key in ("x", "wheel.slip"):
+            values = np.asarray(signals[key][()], dtype=np.float64)
+            del signals[key]
+            signals.create_dataset(key, data=values)
+        store._handles.clear()
     return store
 
 
-def test_mapped_rows_equal_h5py_rows(tmp_path: Path) -> None:
+def test_format_2_stores_compressed_chunks_read_back_as_float64(tmp_path: Path) -> None:
     store = small_store(tmp_path / "results.h5")
+    try:
+        signals = store.path_group("p")["runs"]["signals"]
+        assert signals["x"].compression == "gzip" and signals["x"].shuffle
+        assert signals["x"].chunks == (1, 7) and signals["x"].dtype == np.float64
+        assert signals["wheel.slip"].dtype == np.float32  # per-wheel signals: float32
+        assert mappable(signals["x"]) is None
+        got = MappedRuns(store).read_runs("p", slice(0, 5), ["x", "wheel.slip"])
+        expected = store.read_runs("p", slice(0, 5), ["x", "wheel.slip"])
+        for key in got:
+            assert got[key].dtype == expected[key].dtype == np.float64
+            np.testing.assert_array_equal(got[key], expected[key])
+        assert np.isnan(got["x"][2]).all()  # never written: the fill value
+    finally:
+        store.close()
+
+
+def test_mapped_rows_equal_h5py_rows(tmp_path: Path) -> None:
+    store = small_store(tmp_path / "results.h5", contiguous=True)
     try:
         mapped = MappedRuns(store)
         for selection in (slice(0, 5), slice(1, 4), slice(3, 5), np.array([4, 0, 3])):
@@ -41,7 +68,7 @@ def test_mapped_rows_equal_h5py_rows(tmp_path: Path) -> None:
 
 
 def test_chunked_datasets_are_read_through_h5py(tmp_path: Path) -> None:
-    store = small_store(tmp_path / "results.h5")
+    store = small_store(tmp_path / "results.h5", contiguous=True)
     try:
         signals = store.path_group("p")["runs"]["signals"]
         signals.create_dataset("y", data=np.arange(35.0).reshape(5, 7), chunks=(1, 7),

@@ -1,0 +1,139 @@
+"""The Monte Carlo stage of an adaptive campaign (``runs: auto``): batches, looks, stops.
+
+Every path still running gets the runs up to the next look (``min_runs``, then every
+``batch_runs``, at most ``max_runs``); once all of them are stored, the new runs are evaluated,
+every ranked path's statistics are put on confidence sequences and
+:func:`~idefix_rules.campaign.stopping.settle` says which paths stop
+(docs/campaign-format.md, "Adaptive campaigns"). A stopped path's remaining rows are marked
+``not needed`` in ``runs/status``.
+
+Determinism: run ``j`` of path ``p`` always draws from ``SeedSequence(seed, spawn_key=(p, j))``
+(independent runs: the confidence sequences need them, so a Latin hypercube or Sobol design of
+the campaign is not used here), and a look reads exactly the runs below its run count in run
+order. The stopping point therefore depends on the seed only, never on the number of workers,
+the backend or the order runs finish in. ``--resume`` replays the looks on the stored runs, which
+gives the same decisions, and simulates only what is missing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign import sampling
+from idefix_rules.campaign.evaluation import concatenate, evaluate_path
+from idefix_rules.campaign.resume import runs_to_simulate
+from idefix_rules.campaign.schema import SamplingMethod
+from idefix_rules.campaign.simulate import (
+    FmuSource,
+    PathPlan,
+    Progress,
+    SimulationOptions,
+    SimulationSummary,
+    _task,
+    initial_position_sigma,
+    nominal_parameters,
+    parameter_info,
+    run_and_store,
+)
+from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
+from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, ResultStore
+from idefix_rules.campaign.worker import RunTask
+from idefix_rules.commands import RoverGeometry
+
+SAMPLING: SamplingMethod = "monte_carlo"
+NO_COMPLETE_RUN = "stopped: no run of the path completed"
+
+
+def sampling_note(method: str) -> str | None:
+    """Said once when the campaign asks for a design an adaptive campaign cannot use."""
+    if method == SAMPLING:
+        return None
+    return (f"runs: auto draws every run independently (monte_carlo); the campaign's {method} "
+            "design is not used, because the confidence sequences that decide when to stop "
+            "need independent runs")
+
+
+def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
+                         fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
+                         store: ResultStore, options: SimulationOptions, progress: Progress,
+                         summary: SimulationSummary, collisions: Any = None) -> None:
+    """Simulate in batches until every path is stopped (decided, or at ``max_runs``)."""
+    settings = campaign.adaptive
+    base = {**fmu_parameters, **nominal_parameters(campaign)}
+    sampled: dict[str, dict[str, np.ndarray]] = {}
+    running: dict[str, PathPlan] = {}
+    for plan in plans:
+        if plan.status != "simulated" or plan.reference is None:
+            continue
+        name = plan.spec.name
+        values = sampling.sample_path(campaign.model.uncertainty.parameters, SAMPLING,
+                                      campaign.seed, plan.spec.index, settings.max_runs)
+        if not store.has_runs(name):
+            shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
+            store.allocate_runs(name, settings.max_runs, shapes, values,
+                                parameter_info(campaign, list(values)))
+        sampled[name] = values
+        running[name] = plan
+        status = store.run_status(name)
+        progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
+    sigma = initial_position_sigma(campaign)
+    parts: dict[str, list[Any]] = {name: [] for name in running}
+    done = dict.fromkeys(running, 0)
+    statistics: dict[str, Any] = {}
+    for look in settings.looks():
+        if not running:
+            break
+        _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
+                       progress, summary)
+        for name, plan in running.items():
+            evaluation, _ = evaluate_path(store, name, evaluator, rover, sigma, collisions,
+                                          within=slice(done[name], look))
+            if evaluation is not None:
+                parts[name].append(evaluation)
+            done[name] = look
+            if parts[name]:
+                whole = concatenate(parts[name])
+                failed = int(np.sum(store.run_status(name)[:look] == STATUS_FAILED))
+                fixed = evaluator.path_statistics(whole, failed_runs=failed)
+                statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
+        settlements = settle(evaluator, statistics)
+        for name in list(running):
+            settlement = settlements.get(name)
+            reason = NO_COMPLETE_RUN if settlement is None else \
+                stop_reason(settlement, look, settings.max_runs)
+            if reason is None:
+                continue
+            _stop(store, name, look, reason)
+            progress.message(f"{name}: {reason}")
+            del running[name]
+
+
+def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str],
+                   running: Mapping[str, PathPlan], sampled: Mapping[str, dict[str, np.ndarray]],
+                   done: Mapping[str, int], look: int, store: ResultStore,
+                   options: SimulationOptions, progress: Progress,
+                   summary: SimulationSummary) -> None:
+    """Simulate and store every missing run below ``look`` of the running paths."""
+    tasks: list[tuple[tuple[str, int], RunTask]] = []
+    for name, plan in running.items():
+        # stored before a --resume: skipped; lost to the infrastructure: simulated again
+        again = set(runs_to_simulate(store, name, reset=True).tolist())
+        for run in range(done[name], look):
+            if run not in again:
+                continue
+            parameters = dict(base)
+            parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
+            tasks.append(((name, run), _task(campaign, fmu, plan, parameters, encode=True)))
+    run_and_store(campaign, tasks, running, store, options, progress, summary)
+
+
+def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:
+    """Record that a path stopped after ``runs`` runs and why; later rows are not needed."""
+    store.mark_not_needed(name, runs)
+    group = store.path_group(name)
+    group.attrs["runs_used"] = runs
+    group.attrs["stop_reason"] = reason
+    store.file.flush()

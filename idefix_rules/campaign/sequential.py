@@ -1,0 +1,150 @@
+"""Anytime-valid confidence sequences: intervals that may be looked at after every batch of runs.
+
+A fixed-count interval (Student-t, Wilson) covers the mean with probability ``confidence`` at
+one number of runs chosen in advance. Checked again after every batch and used to stop, it
+misses far more often (``tests/campaign/test_campaign_sequential.py`` shows it). A *confidence
+sequence* covers the mean at every number of runs at once: P(some look misses) ≤ α.
+
+* Means of values in [0, 1] (run risk, index values, chances, time / stop time): the hedged
+  capital confidence sequence of Waudby-Smith & Ramdas, "Estimating means of bounded random
+  variables by betting" (JRSS B, 2024), with their predictable plug-in bets. For a candidate
+  mean ``m`` two bettors stake on the runs in order, ``K⁺ₜ(m) = ∏(1 + λ⁺ᵢ(m)(xᵢ − m))`` and
+  ``K⁻ₜ(m) = ∏(1 − λ⁻ᵢ(m)(xᵢ − m))``; under mean ``m`` both are non-negative martingales, so by
+  Ville's inequality ``max(½K⁺, ½K⁻)`` ever reaches ``1/α`` with probability ≤ α. The interval
+  after ``n`` runs is every ``m`` not rejected at any ``t ≤ n`` (the running intersection, so
+  intervals only shrink). Bets: ``λₜ = √(2 log(2/α) / (σ̂²ₜ₋₁ · t · log(1 + t)))`` truncated to
+  ``c/m`` and ``c/(1 − m)`` with ``c = 3/4``.
+* Means without bounds (energy): the asymptotic confidence sequence of Waudby-Smith, Arnold,
+  Wu, Howard & Ramdas, "Time-uniform central limit theory and asymptotic confidence sequences"
+  (Ann. Statist., 2024) — valid as the run count grows, documented as asymptotic.
+
+The runs enter in run-index order, so the interval is a function of the stored runs only, never
+of the order in which workers finished them.
+
+>>> import numpy as np
+>>> low, high = betting_interval(np.zeros(400), alpha=0.05)
+>>> low, round(high, 4)
+(0.0, 0.0122)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+BET_TRUNCATION = 0.75  # c: the largest fraction of capital one run may stake
+GRID_POINTS = 129  # coarse candidate means before the bounds are refined by bisection
+BISECTION_STEPS = 30  # bounds to 2⁻³⁰ of a grid cell
+ZOOMS = 4  # finer grids tried when the interval is narrower than a cell
+BLOCK_RUNS = 8192  # runs processed at once (memory stays flat in the run count)
+
+
+def plugin_bets(values: np.ndarray, alpha: float) -> np.ndarray:
+    """Predictable bets λₜ (t = 1 … n): each uses only the runs before it."""
+    n = values.size
+    t = np.arange(1, n + 1, dtype=np.float64)
+    # mean and variance estimates after t runs (t = 0 … n-1 used for run t+1)
+    running_mean = (0.5 + np.cumsum(values)) / (t + 1.0)
+    squares = np.cumsum((values - running_mean) ** 2)
+    variance = (0.25 + squares) / (t + 1.0)
+    previous_variance = np.concatenate(([0.25], variance[:-1]))
+    return np.sqrt(2.0 * math.log(2.0 / alpha) / (previous_variance * t * np.log1p(t)))
+
+
+def rejected(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
+             alpha: float) -> np.ndarray:
+    """Whether each candidate mean is outside the confidence sequence after all ``values``
+    (rejected at some run count ≤ n)."""
+    threshold = math.log(1.0 / alpha)
+    candidates = np.asarray(candidates, dtype=np.float64)
+    with np.errstate(divide="ignore"):
+        up_cap = np.where(candidates > 0, BET_TRUNCATION / candidates, np.inf)
+        down_cap = np.where(candidates < 1, BET_TRUNCATION / (1.0 - candidates), np.inf)
+    log_up = np.zeros(candidates.shape)
+    log_down = np.zeros(candidates.shape)
+    out = np.zeros(candidates.shape, dtype=bool)
+    for start in range(0, values.size, BLOCK_RUNS):
+        x = values[start:start + BLOCK_RUNS, None]
+        bet = bets[start:start + BLOCK_RUNS, None]
+        step_up = np.log1p(np.minimum(bet, up_cap) * (x - candidates))
+        step_down = np.log1p(-np.minimum(bet, down_cap) * (x - candidates))
+        up = log_up + np.cumsum(step_up, axis=0)
+        down = log_down + np.cumsum(step_down, axis=0)
+        hedged = np.maximum(up, down) + math.log(0.5)
+        out |= np.any(hedged >= threshold, axis=0)
+        log_up, log_down = up[-1], down[-1]
+    return out
+
+
+def betting_interval(values: np.ndarray, alpha: float) -> tuple[float, float]:
+    """The confidence sequence's interval for the mean of ``values`` (in [0, 1], run order)
+    after all of them; (0, 1) without values. Bounds are rounded outwards."""
+    x = np.clip(np.asarray(values, dtype=np.float64).ravel(), 0.0, 1.0)
+    if x.size == 0:
+        return 0.0, 1.0
+    bets = plugin_bets(x, alpha)
+    span = (0.0, 1.0)
+    for _ in range(ZOOMS):
+        grid = np.linspace(span[0], span[1], GRID_POINTS)
+        inside = np.flatnonzero(~rejected(x, bets, grid, alpha))
+        if inside.size:
+            break
+        # Narrower than a grid cell (or empty, a miss of probability ≤ α): look again inside
+        # the cell around the mean, which holds every value not rejected.
+        centre = int(np.clip(np.searchsorted(grid, x.mean()), 1, GRID_POINTS - 1))
+        span = (float(grid[centre - 1]), float(grid[centre]))
+    else:
+        return span
+    first, last = int(inside[0]), int(inside[-1])
+    # The set of candidates not rejected is an interval (the hedged capital is quasiconvex in
+    # m): refine each end between a rejected and an accepted grid point.
+    low_out, low_in = (grid[first - 1], grid[first]) if grid[first] > 0 else (None, 0.0)
+    high_in, high_out = (grid[last], grid[last + 1]) if grid[last] < 1 else (1.0, None)
+    for _ in range(BISECTION_STEPS if low_out is not None or high_out is not None else 0):
+        probes = []
+        if low_out is not None:
+            probes.append(0.5 * (low_out + low_in))
+        if high_out is not None:
+            probes.append(0.5 * (high_in + high_out))
+        result = list(rejected(x, bets, np.array(probes), alpha))
+        if low_out is not None:
+            middle, out = probes.pop(0), result.pop(0)
+            low_out, low_in = (middle, low_in) if out else (low_out, middle)
+        if high_out is not None:
+            middle, out = probes.pop(0), result.pop(0)
+            high_in, high_out = (high_in, middle) if out else (middle, high_out)
+    low = 0.0 if low_out is None else float(low_out)
+    high = 1.0 if high_out is None else float(high_out)
+    return low, high
+
+
+def threshold_rejected(values: np.ndarray, threshold: float, alpha: float) -> bool:
+    """Whether ``threshold`` (in [0, 1]) is outside the confidence sequence after ``values``:
+    the sequential test behind "decided"."""
+    x = np.clip(np.asarray(values, dtype=np.float64).ravel(), 0.0, 1.0)
+    if x.size == 0:
+        return False
+    return bool(rejected(x, plugin_bets(x, alpha), np.array([threshold]), alpha)[0])
+
+
+def asymptotic_half_width(n: int, variance: float, alpha: float,
+                          planned_runs: int = 500) -> float:
+    """Half width of the asymptotic confidence sequence after ``n`` runs of this variance
+    (each side at α/2; tightest near ``planned_runs``)."""
+    side = alpha / 2.0
+    rho2 = (-2.0 * math.log(side) + math.log(-2.0 * math.log(side) + 1.0)) / planned_runs
+    spread = n * variance * rho2 + 1.0
+    return math.sqrt(2.0 * spread / (n * n * rho2) * math.log(math.sqrt(spread) / side))
+
+
+def asymptotic_interval(values: np.ndarray, alpha: float,
+                        planned_runs: int = 500) -> tuple[float, float]:
+    """Asymptotic confidence sequence (Gaussian mixture boundary) for an unbounded mean;
+    (-inf, inf) with fewer than two values."""
+    x = np.asarray(values, dtype=np.float64).ravel()
+    if x.size < 2:
+        return -math.inf, math.inf
+    half = asymptotic_half_width(x.size, float(x.var(ddof=1)), alpha, planned_runs)
+    mean = float(x.mean())
+    return mean - half, mean + half

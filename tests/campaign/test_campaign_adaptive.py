@@ -1,0 +1,193 @@
+"""Adaptive campaigns (``runs: auto``) end to end on the toy FMU: where paths stop and why, the
+same stopping point and datasets for any worker count and after a kill + ``--resume``, and the
+user's mistakes (exit 2)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from campaign_texts import CAMPAIGN
+from test_campaign_robustness import KILLER, assert_same_datasets
+
+from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.runner import run_campaign
+from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED
+from idefix_rules.cli import main
+
+pytestmark = pytest.mark.slow
+
+ADAPTIVE = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\nbatch_runs: 16")
+
+
+def write_campaign(folder: Path, source: Path, text: str) -> Path:
+    folder.mkdir(exist_ok=True)
+    for name in ("toy.fmu", "test.rules"):
+        (folder / name).write_bytes((source / name).read_bytes())
+    (folder / "campaign.yaml").write_text(text)
+    return folder / "campaign.yaml"
+
+
+def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    code = main([str(path), "--quiet"])
+    out = capsys.readouterr().out
+    assert code == 1  # straight fails its risk rule
+    report = (campaign_dir / "out" / "report.html").read_text(encoding="utf-8")
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    for name in ("straight", "arc"):
+        record = paths[name]
+        # looks at 10, 26, 42 …: both are decided well before the cap of 200
+        assert record["runs_used"] in (10, 26, 42, 58)
+        assert record["stop_reason"].startswith(f"decided after {record['runs_used']} runs")
+        assert f"{name}: runs: decided after {record['runs_used']} runs" in out
+        assert f"Runs: decided after {record['runs_used']} runs" in report
+        assert not record["undecided"]
+    assert paths["straight"]["verdict"] == "fail" and paths["arc"]["verdict"] == "pass"
+    with h5py.File(campaign_dir / "out" / "results.h5") as results:
+        assert results.attrs["runs_mode"] == "auto" and results.attrs["runs"] == 200
+        status = results["paths/arc/runs/status"][()]
+        used = paths["arc"]["runs_used"]
+        assert np.all(status[:used] == STATUS_COMPLETE)
+        assert np.all(status[used:] == STATUS_NOT_NEEDED)
+        assert results["paths/arc"].attrs["stop_reason"] == paths["arc"]["stop_reason"]
+
+
+def test_a_path_at_the_cap_says_so_and_how_many_runs_would_decide(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # risk <= 36 % sits inside the arc's interval: not decided at the cap
+    text = ADAPTIVE.replace("max_runs: 200", "max_runs: 26")
+    path = write_campaign(campaign_dir, campaign_dir, text)
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace("risk <= 50 %", "risk <= 36 %"))
+    main([str(path), "--quiet", "--no-report"])
+    out = capsys.readouterr().out
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    arc = next(p for p in summary["paths"] if p["name"] == "arc")
+    assert arc["runs_used"] == 26 and arc["undecided"]
+    assert arc["stop_reason"].startswith("cap of 26 runs reached: verdict not decided")
+    needed = arc["runs_needed"]["acceptable_risk"]
+    assert needed is None or needed > 26
+    assert "would decide it" in out or "no run count up to" in out
+
+
+def test_a_fixed_count_says_how_many_runs_would_decide_an_open_verdict(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace("risk <= 50 %", "risk <= 40 %"))
+    main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"])
+    out = capsys.readouterr().out
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    arc = next(p for p in summary["paths"] if p["name"] == "arc")
+    assert arc["stop_reason"] == "fixed run count (6 runs)"
+    assert arc["undecided"] and arc["runs_needed"]["acceptable_risk"] > 6
+    assert f"about {arc['runs_needed']['acceptable_risk']:,} runs would decide it" in out
+
+
+def assert_same_campaign(path: Path, tmp_path: Path, first: SimulationOptions,
+                         second: SimulationOptions) -> None:
+    """The adaptive campaign run with two sets of options stops alike and stores alike."""
+    results = []
+    for label, options in (("first", first), ("second", second)):
+        campaign = load_campaign(path).with_overrides(output=tmp_path / label,
+                                                      workers=options.workers)
+        results.append(run_campaign(campaign, options, report=False))
+    assert [(p["runs_used"], p["stop_reason"]) for p in results[0].summary["paths"]] == \
+        [(p["runs_used"], p["stop_reason"]) for p in results[1].summary["paths"]]
+    assert_same_datasets(tmp_path / "first" / "results.h5", tmp_path / "second" / "results.h5")
+
+
+def test_the_stopping_point_and_datasets_do_not_depend_on_workers(campaign_dir: Path,
+                                                                  tmp_path: Path) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
+                         SimulationOptions(workers=2))
+
+
+def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Path,
+                                                               tmp_path: Path) -> None:
+    killed = write_campaign(tmp_path / "killed", campaign_dir, ADAPTIVE)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    script = tmp_path / "killer.py"
+    script.write_text(KILLER)
+    # killed in the second batch, after the first look
+    process = subprocess.run([sys.executable, str(script), str(killed), "30"],
+                             capture_output=True, text=True, timeout=120)
+    assert process.returncode == -9, process.stderr
+    resumed = run_campaign(load_campaign(killed), SimulationOptions(resume=True), report=False)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    assert resumed.exit_code == uninterrupted.exit_code
+    assert [p["stop_reason"] for p in resumed.summary["paths"]] == \
+        [p["stop_reason"] for p in uninterrupted.summary["paths"]]
+    assert_same_datasets(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
+
+
+def test_resume_refuses_another_cap(campaign_dir: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    main([str(path), "--quiet", "--no-report"])
+    capsys.readouterr()
+    assert main([str(path), "--quiet", "--no-report", "--resume", "--max-runs", "300"]) == 2
+    assert "its runs is 200, this campaign's is 300" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("text", "code", "line", "column"), [
+    (CAMPAIGN + "max_runs: 50\n", "C700", "max_runs: 50", 1),
+    (CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 100\nmin_runs: 500"), "C701",
+     "min_runs: 500", 11),
+])
+def test_mistakes_in_the_runs_keys_name_their_line(campaign_dir: Path, text: str, code: str,
+                                                   line: str, column: int,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    where = f"campaign.yaml:{text.splitlines().index(line) + 1}:{column}:"
+    (campaign_dir / "campaign.yaml").write_text(text)
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) == 2
+    err = capsys.readouterr().err
+    assert f"error[{code}]" in err and where in err
+    assert "Traceback" not in err
+
+
+def test_max_runs_on_the_command_line_needs_runs_auto(campaign_dir: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    path = campaign_dir / "campaign.yaml"
+    assert main([str(path), "--quiet", "--no-report", "--max-runs", "20"]) == 2
+    assert "error[C702]" in capsys.readouterr().err
+    assert main([str(path), "--quiet", "--no-report", "--runs", "auto", "--max-runs", "5",
+                 "--min-runs", "8"]) == 2
+    assert "error[C701]" in capsys.readouterr().err
+    assert main([str(path), "--quiet", "--no-report", "--runs", "sometimes"]) == 2
+
+
+def test_dask_gives_the_same_stopping_point_and_datasets(campaign_dir: Path,
+                                                        tmp_path: Path) -> None:
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=2),
+                         SimulationOptions(workers=2, dask_local=True))
+
+
+def test_the_diff_of_an_adaptive_campaign_uses_its_confidence_sequences(
+        campaign_dir: Path) -> None:
+    from idefix_rules.diff import load_source
+    from idefix_rules.diff.results import diff_results
+
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    main([str(path), "--quiet", "--no-report"])
+    results = campaign_dir / "out" / "results.h5"
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    rules = load_source(str(campaign_dir / "test.rules"))
+    diffed = diff_results([results], rules, rules).files[0]
+    for path_diff in diffed.paths:
+        stored = next(p for p in summary["paths"] if p["name"] == path_diff.name)
+        assert path_diff.new.verdict == stored["verdict"]
+        assert path_diff.new.undecided == stored["undecided"]
+        if stored["risk_ci95"] is not None:  # the confidence sequence, not a Student-t CI
+            assert path_diff.new.risk_ci == pytest.approx(tuple(stored["risk_ci95"]),
+                                                          abs=1e-12)

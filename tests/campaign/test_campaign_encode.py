@@ -1,0 +1,47 @@
+"""Chunks compressed in the workers are exactly what HDF5's own filters store."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from idefix_rules.campaign.store import ResultStore, encode_run
+from idefix_rules.commands import Command
+
+
+def test_encoded_runs_read_back_and_match_hdf5s_own_chunks(tmp_path: Path) -> None:
+    rng = np.random.default_rng(4)
+    run = {"x": np.cumsum(rng.normal(size=50)), "wheel.slip": rng.random((50, 4)),
+           "command": np.repeat([0.0, 1.0], 25)}
+    store = ResultStore.create(tmp_path / "r.h5", {"runs": 2}, {"campaign": "name: e\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        store.allocate_runs("p", 2, {key: value.shape for key, value in run.items()}, {}, {})
+        store.write_run("p", 0, encode_run(run))  # compressed by "the worker"
+        store.write_run("p", 1, run)  # compressed by HDF5
+        signals = store.path_group("p")["runs"]["signals"]
+        for key, values in run.items():
+            dataset = signals[key]
+            zero = (0,) * (dataset.ndim - 1)
+            assert dataset.id.read_direct_chunk((0, *zero))[1] == \
+                dataset.id.read_direct_chunk((1, *zero))[1], key
+            read = store.read_runs("p", slice(0, 2), [key])[key]
+            expected = values.astype(dataset.dtype).astype(np.float64)
+            assert np.array_equal(read[0], expected) and np.array_equal(read[1], expected)
+        np.testing.assert_array_equal(store.run_status("p"), [1, 1])
+    finally:
+        store.close()
+
+
+def test_an_encoded_run_of_the_wrong_shape_is_refused(tmp_path: Path) -> None:
+    store = ResultStore.create(tmp_path / "r.h5", {"runs": 1}, {"campaign": "name: e\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        store.allocate_runs("p", 1, {"x": (50,)}, {}, {})
+        with pytest.raises(ValueError, match="signal 'x' of run 0 has shape"):
+            store.write_run("p", 0, encode_run({"x": np.zeros(49)}))
+        assert store.run_status("p")[0] == 0  # nothing marked complete
+    finally:
+        store.close()
