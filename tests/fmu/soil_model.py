@@ -162,3 +162,44 @@ def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) 
         return pull - along
 
     return float(brentq(excess, 1e-7, 0.9))
+
+
+def _arc_wheel_force(rim: float, px: float, py: float, u: float, omega: float
+                     ) -> tuple[float, float]:
+    """Force on the body of a wheel at (px, py) on flat fresh soil, rim speed `rim`, body
+    moving at u with yaw rate omega: isotropic shear along the sliding direction with the
+    shear displacement L |v_s| / max(|r w|, |v|), compaction against the rolling, bulldozing
+    (at most the load) against the sideways motion; slip sinkage of the driving slip."""
+    vx, vy = u - omega * py, omega * px
+    sx, sy = rim - vx, -vy
+    sliding = math.hypot(sx, sy)
+    slip = 1 - vx / rim if abs(rim) >= abs(vx) else rim / vx - 1
+    z = slip_sinkage(static_sinkage(WHEEL_LOAD), slip)
+    shear = strength(WHEEL_LOAD, z) * janosi(
+        shear_length(z) * sliding / max(abs(rim), math.hypot(vx, vy)))
+    fx = shear * sx / sliding - compaction(z) * math.copysign(1.0, vx)
+    fy = shear * sy / sliding - min(bulldozing(z), WHEEL_LOAD) * math.copysign(1.0, vy)
+    return fx, fy
+
+
+def arc_balance(rate_left: float, rate_right: float) -> tuple[float, float]:
+    """Body speed and yaw rate (u, omega) of the rover on flat fresh soil with its left and
+    right wheels at the given rates (rad/s): the forward force and the yaw moment of the four
+    wheels at (+-a, +-b) balance (the lateral forces cancel by symmetry)."""
+    from scipy.optimize import fsolve
+
+    a, b = HALF_WHEELBASE, HALF_TRACK
+    wheels = ((rate_left, a, b), (rate_right, a, -b), (rate_left, -a, b), (rate_right, -a, -b))
+
+    def residual(q: list[float]) -> list[float]:
+        forward = moment = 0.0
+        for rate, px, py in wheels:
+            fx, fy = _arc_wheel_force(RADIUS * rate, px, py, q[0], q[1])
+            forward += fx
+            moment += px * fy - py * fx
+        return [forward / 0.01, moment / 0.01]
+
+    mean = RADIUS * (rate_left + rate_right) / 2
+    start = [0.9 * mean, 0.5 * RADIUS * (rate_right - rate_left) / (2 * b)]
+    u, omega = fsolve(residual, start, xtol=1e-12)
+    return float(u), float(omega)
