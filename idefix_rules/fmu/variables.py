@@ -101,8 +101,9 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("controller.timeout_factor", "1", 2.0,
        "command timeout as a multiple of its ideal duration"),
     _p("controller.stuck_time", "s", 10.0, "window of the stuck observer"),
-    _p("controller.stuck_progress", "1", 0.1,
-       "stuck when progress over the window is below this fraction of the commanded"),
+    _p("controller.stuck_progress", "1", 0.01,
+       "stuck (cannot progress) when the net progress over the window is below this fraction "
+       "of the commanded: above the creep of the regularised contact laws, below a slow climb"),
     _p("controller.heading_feedback", "1", 1.0,
        "1: heading closed-loop on the gyro yaw measurement; 0: open-loop on wheel odometry"),
     _p("controller.heading_gain", "1/s", 0.5,

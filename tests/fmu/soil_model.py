@@ -96,18 +96,19 @@ def bulldozing(sinkage: float, cohesion: float = COHESION) -> float:
     return patch_length(sinkage) * sinkage * cohesion * k_c
 
 
-def _turning_wheel(eta: float) -> tuple[float, float, float, float]:
+def _turning_wheel(eta: float, cohesion: float = COHESION) -> tuple[float, float, float, float]:
     """Sliding speed per unit commanded yaw rate, rim shear S, bulldozing and compaction of a
     point-turning wheel at efficiency eta; its rim slips by 1 - eta (Lyasko slip sinkage)."""
     a, b = HALF_WHEELBASE, HALF_TRACK
-    z = slip_sinkage(static_sinkage(WHEEL_LOAD), 1 - eta)
+    z = slip_sinkage(static_sinkage(WHEEL_LOAD, cohesion), 1 - eta)
     sliding = math.hypot((1 - eta) * b, eta * a)
     reference = max(b, eta * math.hypot(a, b))
-    shear = strength(WHEEL_LOAD, z) * janosi(shear_length(z) * sliding / reference)
-    return sliding, shear, min(bulldozing(z), WHEEL_LOAD), compaction(z)
+    shear = strength(WHEEL_LOAD, z, cohesion) * janosi(shear_length(z) * sliding / reference)
+    return (sliding, shear, min(bulldozing(z, cohesion), WHEEL_LOAD),
+            compaction(z, cohesion))
 
 
-def point_turn_efficiency() -> float:
+def point_turn_efficiency(cohesion: float = COHESION) -> float:
     """Body yaw rate over commanded yaw rate of a point turn on fresh soil: the yaw moment of
     the four wheels at (+-a, +-b) balances, each with isotropic shear S(j) along its sliding
     direction, the lateral bulldozing B against its sideways motion and the compaction
@@ -118,7 +119,7 @@ def point_turn_efficiency() -> float:
     a, b = HALF_WHEELBASE, HALF_TRACK
 
     def moment(eta: float) -> float:
-        sliding, shear, lateral, rolling = _turning_wheel(eta)
+        sliding, shear, lateral, rolling = _turning_wheel(eta, cohesion)
         return shear * ((1 - eta) * b * b - eta * a * a) / sliding - a * lateral - b * rolling
 
     return float(brentq(moment, 1e-6, b * b / (a * a + b * b)))
@@ -134,11 +135,11 @@ def straight_current() -> float:
     return 4 * (NO_LOAD_CURRENT + RADIUS * compaction(z) / TORQUE_CONSTANT)
 
 
-def point_turn_current() -> float:
+def point_turn_current(cohesion: float = COHESION) -> float:
     """Total motor current of a point turn on fresh soil at the balance of point_turn_efficiency:
     each wheel's shear along its rim, S (1 - eta) b / |s|, through the motor constant."""
-    eta = point_turn_efficiency()
-    sliding, shear, _, _ = _turning_wheel(eta)
+    eta = point_turn_efficiency(cohesion)
+    sliding, shear, _, _ = _turning_wheel(eta, cohesion)
     rim = shear * (1 - eta) * HALF_TRACK / sliding
     return 4 * (NO_LOAD_CURRENT + RADIUS * rim / TORQUE_CONSTANT)
 
@@ -161,3 +162,44 @@ def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) 
         return pull - along
 
     return float(brentq(excess, 1e-7, 0.9))
+
+
+def _arc_wheel_force(rim: float, px: float, py: float, u: float, omega: float
+                     ) -> tuple[float, float]:
+    """Force on the body of a wheel at (px, py) on flat fresh soil, rim speed `rim`, body
+    moving at u with yaw rate omega: isotropic shear along the sliding direction with the
+    shear displacement L |v_s| / max(|r w|, |v|), compaction against the rolling, bulldozing
+    (at most the load) against the sideways motion; slip sinkage of the driving slip."""
+    vx, vy = u - omega * py, omega * px
+    sx, sy = rim - vx, -vy
+    sliding = math.hypot(sx, sy)
+    slip = 1 - vx / rim if abs(rim) >= abs(vx) else rim / vx - 1
+    z = slip_sinkage(static_sinkage(WHEEL_LOAD), slip)
+    shear = strength(WHEEL_LOAD, z) * janosi(
+        shear_length(z) * sliding / max(abs(rim), math.hypot(vx, vy)))
+    fx = shear * sx / sliding - compaction(z) * math.copysign(1.0, vx)
+    fy = shear * sy / sliding - min(bulldozing(z), WHEEL_LOAD) * math.copysign(1.0, vy)
+    return fx, fy
+
+
+def arc_balance(rate_left: float, rate_right: float) -> tuple[float, float]:
+    """Body speed and yaw rate (u, omega) of the rover on flat fresh soil with its left and
+    right wheels at the given rates (rad/s): the forward force and the yaw moment of the four
+    wheels at (+-a, +-b) balance (the lateral forces cancel by symmetry)."""
+    from scipy.optimize import fsolve
+
+    a, b = HALF_WHEELBASE, HALF_TRACK
+    wheels = ((rate_left, a, b), (rate_right, a, -b), (rate_left, -a, b), (rate_right, -a, -b))
+
+    def residual(q: list[float]) -> list[float]:
+        forward = moment = 0.0
+        for rate, px, py in wheels:
+            fx, fy = _arc_wheel_force(RADIUS * rate, px, py, q[0], q[1])
+            forward += fx
+            moment += px * fy - py * fx
+        return [forward / 0.01, moment / 0.01]
+
+    mean = RADIUS * (rate_left + rate_right) / 2
+    start = [0.9 * mean, 0.5 * RADIUS * (rate_right - rate_left) / (2 * b)]
+    u, omega = fsolve(residual, start, xtol=1e-12)
+    return float(u), float(omega)

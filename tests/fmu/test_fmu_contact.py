@@ -59,17 +59,20 @@ def test_a_wheel_against_a_face_above_its_axle_is_a_pivot_and_the_rover_drifts_t
     assert np.all(np.hypot(fr_x - 0.55, fr_y + 0.26) > section + 0.03 - 1e-3)
 
 
-def test_a_wheel_that_cannot_get_past_is_stuck_and_the_chain_goes_on(
+def test_a_rover_that_cannot_get_past_is_stuck_and_the_chain_goes_on(
         rover: FmuRunner, tmp_path: Path) -> None:
-    # With heading control the rover holds its heading against the pivot, so the right wheel
-    # stays at the face: it cannot progress, `stuck` says so, the command ends by its odometry
-    # or timeout and the next command (reverse 0.2 m) backs the rover away.
-    terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
+    # A wall of rocks taller than the axle across the whole way: the front wheels stop at it,
+    # `stuck` says so, the command ends by its timeout and the next command (reverse 0.2 m)
+    # backs the rover away: the run goes on.
+    wall = [Rock(0.45, y, 0.05, 0.08, 0.3, z=0.15) for y in (-0.3, -0.15, 0.0, 0.15, 0.3)]
+    terrain = str(write_terrain(tmp_path / "wall.terrain",
+                                synthetic_terrain(size=4.0, cell=0.02, rocks=wall)))
     chain = [Command(0.05, 1.0, 0.0), Command(0.05, -0.2, 0.0)]
     out = rover.run({"terrain.file": terrain}, chain, 700.0, 0.1)
-    assert out["stuck"].max() == 1.0
+    assert out["stuck"][out["command"] == 0].max() == 1.0
     reversing = out["command"] == 1
     assert reversing.any() and out["command"][-1] == -1
+    assert out["stuck"][reversing][-100:].max() == 0.0  # backing away is progress again
     assert out["x"][reversing][-1] < out["x"][reversing][0] - 0.15
     assert _longest_still_while_driving(out) <= 2
 
@@ -98,3 +101,49 @@ def test_a_wheel_on_a_rock_puts_the_rigid_chassis_on_its_diagonal(
 def test_loads_are_equal_on_flat_ground(rover: FmuRunner) -> None:
     loads = _loads(rover.run({}, STRAIGHT, 50.0, 0.1))
     np.testing.assert_allclose(loads, soil_model.WHEEL_LOAD, rtol=1e-9)
+
+
+def _push_over_load_of_the_diagonal_partner() -> float:
+    """Net push per unit load of the climbing wheel's diagonal partner, the one wheel left
+    pushing when the chassis rests on its diagonal (W/2 each): full-slip shear of fresh soil
+    without slip sinkage (the weakest it gets) minus its compaction resistance."""
+    load = soil_model.MASS * soil_model.GRAVITY / 2
+    sinkage = soil_model.static_sinkage(load)
+    push = soil_model.strength(load, sinkage) * soil_model.janosi(
+        soil_model.shear_length(sinkage) * 0.95) - soil_model.compaction(sinkage)
+    return push / load
+
+
+def test_stuck_means_no_way_on_not_a_slow_climb_or_a_pivot(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # Disc against an edge: a driven wheel whose contact is below its axle (contact angle
+    # alpha < 90°) gets over when the push behind it reaches W tan(alpha - atan(m mu)); with
+    # m mu = 0.95 * 0.6 the worst case alpha -> 90° needs P/W >= 1/(m mu) = 1.75, and the
+    # diagonal partner alone pushes 2.6 W on the default soil. A face above the axle cannot be
+    # climbed at any push, but a single rock leaves the rest of the rover free to pivot past.
+    # `stuck` is "cannot progress": only a face across the whole way raises it. With heading
+    # control (the default) the loop slows the left wheels against the pivot, so the climb and
+    # the pivot are slow (the front right wheel slips at nearly 100 % for tens of seconds):
+    # progress, for the slip rule to judge, not `stuck`.
+    radius = soil_model.RADIUS
+    assert _push_over_load_of_the_diagonal_partner() >= 1 / (0.95 * 0.6)
+    example = {"size": 4.0, "cell": 0.02, "slope": math.radians(2), "roughness": 0.003,
+               "seed": 11}  # campaigns/rock-detour.yaml's terrain and rock
+    low = Rock(0.5, -0.26, 0.04, 0.04, 0.04, embed=0.01)
+    assert 2 * low.c - low.embed < radius  # its top, so every contact, is below the axle
+    tall = Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0)
+    wall = [Rock(0.45, y, 0.05, 0.08, 0.3, z=0.15) for y in (-0.3, -0.15, 0.0, 0.15, 0.3)]
+    for name, rocks, way_on in (("low", [low], True), ("tall", [tall], True),
+                                ("wall", wall, False)):
+        terrain = write_terrain(tmp_path / f"{name}.terrain",
+                                synthetic_terrain(rocks=rocks, **example))
+        out = rover.run({"terrain.file": str(terrain)}, STRAIGHT, 420.0, 0.1)
+        fr_x = out["x"] + 0.20 * np.cos(out["yaw"]) + 0.26 * np.sin(out["yaw"])
+        assert out["wheel.slip"][:, 1].max() > 0.9, name  # the front right wheel is held
+        if way_on:
+            assert out["stuck"].max() == 0.0, name
+            assert fr_x.max() > rocks[0].x + 0.1, name  # ... and then gets past the rock
+        else:
+            assert out["stuck"].max() == 1.0, name
+            assert fr_x.max() < 0.45 - 0.05 - 0.10 + 0.002, name  # its rim at the face
+        assert _longest_still_while_driving(out) <= 2, name  # never frozen

@@ -103,3 +103,24 @@ def test_motor_current_straight_and_turning_follows_the_wheel_forces(rover: FmuR
                      100.0, 0.1)
     assert turn["wheel.current"][400].sum() == pytest.approx(soil_model.point_turn_current(),
                                                              rel=0.02)
+
+
+@pytest.mark.parametrize("cohesion", [50.0, 250.0, 700.0])
+def test_turning_current_is_cohesion_dominated_lateral_shear_of_the_pressed_patch(
+        rover: FmuRunner, cohesion: float) -> None:
+    # In milli-g the cohesive strength of the pressed patch, b sqrt(2 r z) c, is several times
+    # the wheel load (3.3x at 50 Pa, 9.8x at 250 Pa, 19x at 700 Pa), so scrubbing the patch
+    # sideways in a turn costs current that grows with the cohesion (16.5, 24.4, 33.2 mA), not
+    # with the load: Bekker's lateral strength A c + W tan(phi) of a sunken wheel. The
+    # expectation is the yaw-moment balance of tests/fmu/soil_model.py at that cohesion.
+    turn = rover.run({"controller.heading_feedback": 0.0, "soil.cohesion": cohesion},
+                     [Command(0.05, 0.0, math.pi / 2)], 100.0, 0.1)
+    eta = soil_model.point_turn_efficiency(cohesion)
+    sinkage = soil_model.slip_sinkage(
+        soil_model.static_sinkage(soil_model.WHEEL_LOAD, cohesion), 1 - eta)
+    cohesive = soil_model.WIDTH * soil_model.patch_length(sinkage) * cohesion
+    assert cohesive > 3 * soil_model.WHEEL_LOAD  # cohesion, not weight, holds the patch
+    assert turn["wheel.current"][400].sum() == pytest.approx(
+        soil_model.point_turn_current(cohesion), rel=0.03)
+    # the patch is no larger than the one the wheel presses: the FMU's sinkage is the balance's
+    assert turn["wheel.sinkage"][400] == pytest.approx(np.full(4, sinkage), rel=0.03)

@@ -161,10 +161,15 @@ void rover_step(Instance *inst, double dt)
         w->current = (w->rate != 0.0 ? i0 : 0.0) + fabs(w->thrust * radius) / kt;
         inst->energy += w->current * dt;
     }
-    /* net progress along the commanded motion (backward motion counts against it) */
-    progress = (inst->ctrl.commanded_speed >= 0.0 ? inst->u : -inst->u) * dt +
-               (inst->ctrl.commanded_yaw_rate >= 0.0 ? inst->omega : -inst->omega) *
-               inst->r[VR_ROVER_HALF_TRACK] * dt;
+    /* net progress along the commanded motion (backward motion counts against it); each part
+     * counts only if commanded: a straight drive pivoting about a held wheel progresses by its
+     * forward distance, whichever way it yaws */
+    progress = 0.0;
+    if (inst->ctrl.commanded_speed != 0.0)
+        progress += (inst->ctrl.commanded_speed > 0.0 ? inst->u : -inst->u) * dt;
+    if (inst->ctrl.commanded_yaw_rate != 0.0)
+        progress += (inst->ctrl.commanded_yaw_rate > 0.0 ? inst->omega : -inst->omega) *
+                    inst->r[VR_ROVER_HALF_TRACK] * dt;
     controller_after_step(inst, dt, progress, inst->omega);
 
     update_geometry(inst);

@@ -131,7 +131,7 @@
     0.015, /* controller.wheel_acceleration */ \
     2.0, /* controller.timeout_factor */ \
     10.0, /* controller.stuck_time */ \
-    0.1, /* controller.stuck_progress */ \
+    0.01, /* controller.stuck_progress */ \
     1.0, /* controller.heading_feedback */ \
     0.5, /* controller.heading_gain */ \
     0.003490658503988659, /* controller.heading_tolerance */ \
