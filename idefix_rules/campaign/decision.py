@@ -95,7 +95,7 @@ def reasons_of(path: PathResult) -> list[str]:
     reasons (a rejected or excluded path says why in ``path.reason``)."""
     confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
     if path.verdict is not None:
-        shown = verdict_reasons(as_plain(path.verdict), confidence)
+        shown = verdict_reasons(as_plain(path.verdict), confidence, path.runs_needed)
         extra = [r for r in path.verdict_reasons if "run(s) failed or missing" in r]
         return shown + extra
     return list(path.verdict_reasons)

@@ -22,6 +22,7 @@ import numpy as np
 
 from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
+from idefix_rules.campaign.wording import runs_needed_text
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.signals import AXIS_LABELS
 
@@ -403,11 +404,6 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, confiden
         for text in result.verdict_reasons]
 
 
-def runs_needed_text(runs: int | None) -> str:
-    """``about 480 runs would decide it`` (or why there is no estimate)."""
-    if runs is None:
-        return "no run count up to 1,000,000 is estimated to decide it"
-    return f"about {runs:,} runs would decide it"
 
 
 def stored_path_result(store: ResultStore, name: str) -> PathResult:

@@ -235,13 +235,25 @@ def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
     return f"{name}: {stat} {_statistic_value(stat, float(value))}{ci} {verdict}"
 
 
-def verdict_reasons(verdict: Mapping[str, Any] | None, confidence: float = 0.95) -> list[str]:
-    """The rules that explain a verdict: those failing decidedly, else failing or undecided."""
+def runs_needed_text(runs: int | None) -> str:
+    """``about 480 runs would decide it`` (or why there is no estimate)."""
+    if runs is None:
+        return "no run count up to 1,000,000 is estimated to decide it"
+    return f"about {runs:,} runs would decide it"
+
+
+def verdict_reasons(verdict: Mapping[str, Any] | None, confidence: float = 0.95,
+                    runs_needed: Mapping[str, int | None] | None = None) -> list[str]:
+    """The rules that explain a verdict: those failing decidedly, else failing or undecided
+    (an undecided rule with roughly how many runs would decide it, from ``runs_needed``)."""
     rules = [r for r in (verdict or {}).get("rules", []) if isinstance(r, Mapping)]
     failed_for_sure = [r for r in rules if not r.get("passed", True) and r.get("decided", True)]
     shown = failed_for_sure or [r for r in rules
                                 if not r.get("passed", True) or not r.get("decided", True)]
-    return [rule_text(r, confidence) for r in shown]
+    needed = runs_needed or {}
+    return [rule_text(r, confidence) + (f"; {runs_needed_text(needed[str(r.get('name'))])}"
+                                        if str(r.get("name")) in needed else "")
+            for r in shown]
 
 
 def joined(items: Iterable[str]) -> str:

@@ -1,5 +1,9 @@
-"""The built-in rover and the toy FMU simulate exactly the same datasets as before the
-bring-your-own-FMU mapping (digests recorded at commit e741e59 with the same seed)."""
+"""The built-in rover and the toy FMU simulate exactly the same datasets for the same seed, run
+after run of the project: digests first recorded before the bring-your-own-FMU mapping (and
+equal after it), recorded again deliberately when the rover model's physics and the results
+format (per-run compressed chunks, float32 wheel signals) changed. A change to either must
+re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
+them is a regression."""
 
 from __future__ import annotations
 
@@ -13,10 +17,10 @@ from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 
-# Recorded before the mapping checks, chain delivery modes and FMI 3.0 support were added.
-ROVER_SOURCE_HASH = "ffc2f4b714e0e2b7c0f1d72b3db0da0037f52de48d3d7cfc73b1d516a2fcfe41"
-ROVER_DIGEST = "49cbc744a9bc80af4c2c4dcb4496550c848decb91fdac8bb619c8e4d53f322d0"
-TOY_DIGEST = "c6f85bdde89e5b7e060dc912b4d69c848bd15461957ee3afb2712f7316728d7d"
+# Recorded on the closed-loop rover model and results format 2.
+ROVER_SOURCE_HASH = "7d4b7266cf9caa0266bbcba5b1f9ee79e3099c7ee921b206081f90cd23bdc1e9"
+ROVER_DIGEST = "f704b4b35104ac000f31c8b761c11b52377dd31cdc43df7b788f7e3815210dc9"
+TOY_DIGEST = "15b393ac33240d81ff1a8ad7ae2cf8741baf54a8de9b20cc50ad52b3a9c59ad4"
 
 
 def test_toy_fmu_campaign_stores_the_same_datasets(campaign_dir: Path) -> None:
@@ -31,7 +35,7 @@ def test_builtin_rover_campaign_stores_the_same_datasets(tmp_path: Path) -> None
     if source_hash() != ROVER_SOURCE_HASH:
         pytest.skip("the rover model's sources changed since the digest was recorded: the "
                     "datasets legitimately differ; record a new digest with "
-                    "tests/campaign/dataset_digest.py on the base of the model change")
+                    "tests/campaign/dataset_digest.py on purpose")
     (tmp_path / "rover.rules").write_text(ROVER_RULEBOOK)
     (tmp_path / "campaign.yaml").write_text(ROVER_CAMPAIGN)
     result = run_campaign(load_campaign(tmp_path / "campaign.yaml"), report=False)
