@@ -39,10 +39,11 @@ STATUS_COMPLETE = 1
 STATUS_FAILED = 2
 STATUS_NOT_NEEDED = 3  # an adaptive campaign stopped its path before this run
 
-# Read only through max / percentile / comparisons, never differentiated: float32 keeps them to
-# 6e-8 of their value, far inside any rulebook tolerance (docs/results-format.md).
+# Read through max / percentile / comparisons or as small angles, never differentiated as
+# large values: float32 keeps them to 6e-8 of their value (a tilt of 0.1 rad to 6e-9 rad), far
+# inside any rulebook tolerance (docs/results-format.md).
 FLOAT32_SIGNALS = frozenset({"wheel.rate", "wheel.slip", "wheel.slip_angle", "wheel.sinkage",
-                             "wheel.current", "command", "stuck"})
+                             "wheel.current", "command", "stuck", "roll", "pitch"})
 COMPRESSION = "gzip"
 COMPRESSION_LEVEL = 1
 
