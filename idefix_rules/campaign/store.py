@@ -57,6 +57,9 @@ CHAIN_UNITS = ("rad/s", "m", "rad")
 def _early_dcpl() -> h5py.h5p.PropDCID:
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
     dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    # Write the fill value when the space is allocated, also without a user-defined one: space
+    # freed by an allocation cut off by a kill is reused, and must not show its old bytes.
+    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
     return dcpl
 
 
@@ -277,7 +280,8 @@ class ResultStore:
             dataset = params.create_dataset(key, data=np.asarray(values, dtype=np.float64))
             for attr, value in parameter_info.get(key, {}).items():
                 dataset.attrs[attr] = value
-        group.create_dataset("failure", shape=(runs,), dtype=_REASON_DTYPE, dcpl=_early_dcpl())
+        group.create_dataset("failure", shape=(runs,), dtype=_REASON_DTYPE, fillvalue=b"",
+                             dcpl=_early_dcpl())
         # The status is created last: its presence means the run datasets all exist.
         group.create_dataset("status", shape=(runs,), dtype=np.int8, fillvalue=STATUS_MISSING,
                              dcpl=_early_dcpl())
