@@ -8,6 +8,7 @@ installation, not the input, is incomplete).
 from __future__ import annotations
 
 import argparse
+import math
 
 from idefix_rules.errors import InfrastructureError
 
@@ -21,9 +22,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--stdio", action="store_true",
                         help="talk over stdin/stdout (the default and only transport; accepted "
                              "because editors pass it)")
-    parser.add_argument("--debounce", type=float, default=None, metavar="SECONDS",
+    parser.add_argument("--debounce", type=_seconds, default=None, metavar="SECONDS",
                         help="wait this long after the last change before checking a document "
                              "(default 0.3)")
+
+
+def _seconds(text: str) -> float:
+    """A finite, non-negative number of seconds (argparse turns the error into exit 2)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number of seconds >= 0, got {text}")
+    return value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -33,6 +45,6 @@ def run(args: argparse.Namespace) -> int:
         raise InfrastructureError(
             f"the language server needs the optional extra: pip install 'idefix-rules[lsp]' "
             f"({missing})") from None
-    debounce = DEBOUNCE_SECONDS if args.debounce is None else max(0.0, args.debounce)
+    debounce = DEBOUNCE_SECONDS if args.debounce is None else args.debounce
     serve(debounce)
     return 0

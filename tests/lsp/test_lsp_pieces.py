@@ -183,3 +183,9 @@ def test_unit_completions_say_what_each_unit_is_in_si() -> None:
     assert details["km"] == "a length: 1 km = 1000 m"
     assert details["deg"] == "an angle: 1 deg = 0.0174533 rad"
     assert "1" not in details  # a unit a rulebook cannot write
+
+
+@pytest.mark.parametrize("value", ["-1", "nan", "inf", "soon"])
+def test_lsp_debounce_must_be_seconds(value: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["lsp", "--debounce", value]) == 2  # a usage error; the server never starts
+    assert "--debounce" in capsys.readouterr().err
