@@ -22,11 +22,11 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
 from idefix_rules import signals
 from idefix_rules.lsp.positions import LineIndex, Position, Range
-from idefix_rules.rulebook.model import DOMAIN_AXES, PARAMETRIC_REDUCERS
+from idefix_rules.rulebook.model import DOMAIN_AXES, PARAMETRIC_REDUCERS, Reducer
 from idefix_rules.rulebook.syntax_errors import TOP_LEVEL_KEYWORDS
 from idefix_rules.rulebook.types import COMMAND_NAMES, ELEMENTWISE_FUNCTIONS, PATH_NAMES, SETTINGS
 from idefix_rules.units import UNIT_SYMBOLS, describe, parse_unit
@@ -34,8 +34,7 @@ from idefix_rules.units import UNIT_SYMBOLS, describe, parse_unit
 Kind = Literal["constant", "signal", "variable", "reducer", "function", "unit", "keyword",
                "index", "chance", "label", "setting"]
 
-REDUCERS = ("final", "initial", "max", "min", "mean", "rms", "sum", "integral",
-            "percentile", "time_above", "any", "all", "count")
+REDUCERS: tuple[str, ...] = get_args(Reducer)  # the rule model's, so none is missed
 INDEX_ITEMS = ("value", "limit", "weight", "map", "because")
 COMBINE_ITEMS = ("run", "path", "confidence")
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"

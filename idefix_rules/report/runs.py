@@ -35,7 +35,6 @@ POINTS = 120
 MAX_CONTACTS = 1000
 # Runs per path whose track and time series the page holds (the worst first).
 EMBEDDED_RUNS = 24
-WHEELS = ("FL", "FR", "RL", "RR")
 
 
 @dataclass(frozen=True)

@@ -315,6 +315,7 @@ def test_completion_in_context(client: LspClient, default_text: str, tmp_path: P
     signals = complete(client, uri, at(text, "wheel.si", offset=8))
     assert {"wheel.sinkage", "wheel.slip", "ref.roll", "collision.hits"} <= set(signals)
     assert {"max", "percentile", "any"} <= set(signals) and "critical_tilt" in signals
+    assert {"fraction", "time_above", "count"} <= set(signals)  # every reducer of the language
     assert signals["wheel.sinkage"]["textEdit"]["range"] == span_of(text, "wheel.si")
     domains = complete(client, uri, at(text, "max over time (max over wheels (abs(wheel.slip_",
                                        offset=9))
