@@ -18,7 +18,7 @@ import os
 import re
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import pytest
 from textmate_grammar.parsers.base import LanguageParser
@@ -26,6 +26,7 @@ from textmate_grammar.parsers.base import LanguageParser
 from idefix_rules import signals
 from idefix_rules.cli import main
 from idefix_rules.rulebook import parse_text
+from idefix_rules.rulebook.model import PARAMETRIC_REDUCERS, Domain, Reducer
 from idefix_rules.rulebook.types import COMMAND_NAMES, PATH_NAMES
 
 REPOSITORY = Path(__file__).resolve().parents[2]
@@ -125,6 +126,16 @@ def test_built_in_names_are_highlighted(tokenize: Any, name: str) -> None:
     scope = _scope_of(tokenize, f"command c: require {name} > 0\n", name)
     assert scope in ("variable.language.rulebook", "support.variable.signal.derived.rulebook",
                      "support.variable.signal.fmu.rulebook")
+
+
+@pytest.mark.parametrize("reducer", get_args(Reducer))
+@pytest.mark.parametrize("domain", get_args(Domain))
+def test_every_reducer_and_domain_of_the_language_is_highlighted(tokenize: Any, reducer: str,
+                                                                 domain: str) -> None:
+    parameter = "50 " if reducer in PARAMETRIC_REDUCERS else ""
+    text = f"index I {{ value = {reducer} {parameter}over {domain} (x) limit = 1 weight = 1 }}\n"
+    assert _scope_of(tokenize, text, reducer) != "variable.other.rulebook"
+    assert _scope_of(tokenize, text, domain) == "support.type.domain.rulebook"
 
 
 def test_declared_names_and_plain_names_of_the_default_rulebook(tokenize: Any) -> None:
