@@ -111,6 +111,9 @@ _PARAMETERS: tuple[Variable, ...] = (
     _p("controller.heading_tolerance", "rad", math.radians(0.2),
        "closed loop: a command ends when the gyro heading is this close to the commanded one",
        "deg"),
+    _p("controller.rate_floor", "1", 0.5,
+       "closed loop on arcs and straights: the heading correction keeps every wheel between "
+       "this fraction of its feed-forward rate and (2 - it) times that rate (never a standstill)"),
     _p("gyro.bias", "rad/s", 0.0, "gyro yaw-rate bias"),
     _p("gyro.scale_error", "1", 0.0, "gyro scale-factor error (measured = (1 + e) x true + bias)"),
     _p("initial.x", "m", 0.0, "initial body centre x"),

@@ -104,7 +104,9 @@ def _turning_wheel(eta: float, cohesion: float = COHESION) -> tuple[float, float
     sliding = math.hypot((1 - eta) * b, eta * a)
     reference = max(b, eta * math.hypot(a, b))
     shear = strength(WHEEL_LOAD, z, cohesion) * janosi(shear_length(z) * sliding / reference)
-    return (sliding, shear, min(bulldozing(z, cohesion), WHEEL_LOAD),
+    # the passive wedge beside the wheel is mobilised by the patch's sideways displacement
+    sideways = janosi(shear_length(z) * eta * a / reference)
+    return (sliding, shear, min(bulldozing(z, cohesion), WHEEL_LOAD) * sideways,
             compaction(z, cohesion))
 
 
@@ -169,7 +171,8 @@ def _arc_wheel_force(rim: float, px: float, py: float, u: float, omega: float
     """Force on the body of a wheel at (px, py) on flat fresh soil, rim speed `rim`, body
     moving at u with yaw rate omega: isotropic shear along the sliding direction with the
     shear displacement L |v_s| / max(|r w|, |v|), compaction against the rolling, bulldozing
-    (at most the load) against the sideways motion; slip sinkage of the driving slip."""
+    (at most the load) against the sideways motion, mobilised by the sideways displacement
+    L |v_y| / max(|r w|, |v|); slip sinkage of the driving slip."""
     vx, vy = u - omega * py, omega * px
     sx, sy = rim - vx, -vy
     sliding = math.hypot(sx, sy)
@@ -178,7 +181,8 @@ def _arc_wheel_force(rim: float, px: float, py: float, u: float, omega: float
     shear = strength(WHEEL_LOAD, z) * janosi(
         shear_length(z) * sliding / max(abs(rim), math.hypot(vx, vy)))
     fx = shear * sx / sliding - compaction(z) * math.copysign(1.0, vx)
-    fy = shear * sy / sliding - min(bulldozing(z), WHEEL_LOAD) * math.copysign(1.0, vy)
+    sideways = janosi(shear_length(z) * abs(vy) / max(abs(rim), math.hypot(vx, vy)))
+    fy = shear * sy / sliding - min(bulldozing(z), WHEEL_LOAD) * sideways * math.copysign(1.0, vy)
     return fx, fy
 
 
@@ -203,3 +207,26 @@ def arc_balance(rate_left: float, rate_right: float) -> tuple[float, float]:
     start = [0.9 * mean, 0.5 * RADIUS * (rate_right - rate_left) / (2 * b)]
     u, omega = fsolve(residual, start, xtol=1e-12)
     return float(u), float(omega)
+
+
+def side_slope_crab(slope: float) -> float:
+    """Downhill drift per metre (tan of the crab angle) driving straight across a side slope
+    on fresh soil with the heading held: the four wheels' lateral shear and bulldozing, both
+    mobilised by the sideways sliding v_y, carry m g sin(slope) (equal loads W cos(slope)/4,
+    the load transfer to the downhill wheels left out)."""
+    from scipy.optimize import brentq
+
+    load = WHEEL_LOAD * math.cos(slope)
+    rim = RADIUS * 0.05
+    slip = driving_slip(load=load)
+    z = slip_sinkage(static_sinkage(load), slip)
+    u = rim * (1 - slip)
+
+    def excess(v: float) -> float:
+        sliding = math.hypot(rim - u, v)
+        reference = max(rim, math.hypot(u, v))
+        shear = strength(load, z) * janosi(shear_length(z) * sliding / reference) * v / sliding
+        wedge = min(bulldozing(z), load) * janosi(shear_length(z) * v / reference)
+        return 4 * (shear + wedge) - MASS * GRAVITY * math.sin(slope)
+
+    return float(brentq(excess, 1e-12, rim)) / u

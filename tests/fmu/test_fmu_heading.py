@@ -72,24 +72,24 @@ def test_the_straight_drive_holds_its_heading_on_a_side_slope(
     assert abs(held["yaw"][-1]) <= TOLERANCE + 1e-4
 
 
-def test_a_closed_loop_arc_ends_short_by_the_skid_steering_balance_not_by_its_controller(
+def test_a_closed_loop_arc_moves_as_the_skid_steering_balance_of_its_wheel_rates_says(
         rover: FmuRunner) -> None:
-    # The loop holds the arc's heading by slowing the inner wheels almost to a stop; the
-    # inner wheels then skid (their soil sheared over a longer residence, so more mobilised)
-    # and the outer ones slip: the body covers less ground than the mean odometry of the two
-    # sides. The command itself ends right: odometry equals the commanded arc length and the
-    # gyro heading the commanded one. Expected from the forward-force and yaw-moment balance of
-    # the four wheels at the loop's wheel rates (tests/fmu/soil_model.py): the body moves at
-    # 0.853 of the odometry, and the end pose is the commanded arc shortened by that factor.
+    # The loop steers the arc with its kinematic (feed-forward) rates plus a heading correction
+    # that keeps every wheel within [1/2, 3/2] of its feed-forward rate; the body then moves at
+    # the (u, omega) of the forward-force and yaw-moment balance of the four wheels at those
+    # rates (tests/fmu/soil_model.py), short of the mean odometry by the sides' unequal slips.
+    # The command ends right: odometry equals the commanded arc length, the gyro heading the
+    # commanded one, and the end pose is the commanded arc shortened by the balance's factor.
     commanded = math.radians(25.0)
     out = rover.run(GYRO, [Command(0.05, 0.3, commanded)], 200.0, 0.1)
     rates = out["wheel.rate"]
     odometry = float(np.sum(0.5 * 0.1 * (rates[:-1, 0] + rates[:-1, 1])) * 0.1)
-    assert odometry == pytest.approx(0.3, abs=1e-3)
+    assert odometry == pytest.approx(0.3, abs=1e-3)  # a trim turns the sides oppositely
     assert abs(out["yaw"][-1] - commanded) <= TOLERANCE + 1e-4
     steady = 500  # 50 s into the arc, the loop's rates settled
     left, right = float(rates[steady, 0]), float(rates[steady, 1])
-    assert left < 0.3 * right  # the inner wheels nearly stopped
+    kinematic = (0.3 / commanded - 0.26) / (0.3 / commanded + 0.26)
+    assert 0.5 * kinematic * right - 1e-6 <= left < kinematic * right  # slowed, never stopped
     u, omega = soil_model.arc_balance(left, right)
     dx = out["x"][steady + 1] - out["x"][steady - 1]
     dy = out["y"][steady + 1] - out["y"][steady - 1]
@@ -97,25 +97,25 @@ def test_a_closed_loop_arc_ends_short_by_the_skid_steering_balance_not_by_its_co
     assert (out["yaw"][steady + 1] - out["yaw"][steady - 1]) / 0.2 == pytest.approx(omega,
                                                                                    rel=0.02)
     ratio = u / (0.1 * (left + right) / 2)
-    assert ratio < 0.9
+    assert ratio < 0.95
     short = ideal_poses([Command(0.05, 0.3 * ratio, commanded)], RoverGeometry(),
                         np.array([1e9]))[0]
-    assert math.hypot(out["x"][-1] - short[0], out["y"][-1] - short[1]) < 0.005
+    assert math.hypot(out["x"][-1] - short[0], out["y"][-1] - short[1]) < 0.02
     full = ideal_poses([Command(0.05, 0.3, commanded)], RoverGeometry(), np.array([1e9]))[0]
-    assert math.hypot(out["x"][-1] - full[0], out["y"][-1] - full[1]) > 0.03  # short of it
+    assert math.hypot(out["x"][-1] - full[0], out["y"][-1] - full[1]) > 0.02  # short of it
 
 
 def test_the_smooth_detour_on_flat_ground_ends_short_by_its_arcs_balance(
         rover: FmuRunner) -> None:
-    # The example's three arcs (radius 0.5 m): with the inner wheels of each arc held near
-    # zero, the arc balance moves the body at 0.783 of the odometry; chaining the three arcs
-    # shortened by that factor predicts the end within 4 cm (the ramps and heading trims between
-    # arcs and the rear wheels crossing the front wheels' ruts at the S-bend are not in the
-    # steady fresh-soil balance), while the commanded target is 0.25 m further on.
+    # The example's three arcs (radius 0.5 m): the arc balance at the loop's rates moves the
+    # body at a fraction of the odometry; chaining the three arcs shortened by that factor
+    # predicts the end within 4 cm (the ramps and heading trims between arcs and the rear
+    # wheels crossing the front wheels' ruts at the S-bend are not in the steady fresh-soil
+    # balance), while the commanded target is 0.1 m further on.
     d = math.radians
     chain = [Command(0.05, 0.2618, d(30)), Command(0.05, 0.5236, d(-60)),
              Command(0.05, 0.2618, d(30))]
-    out = rover.run(GYRO, chain, 700.0, 0.1)
+    out = rover.run(GYRO, chain, 900.0, 0.1)
     assert out["command"][-1] == -1 and abs(out["yaw"][-1]) <= TOLERANCE + 1e-4
     shortened = []
     for k, command in enumerate(chain):
@@ -126,4 +126,4 @@ def test_the_smooth_detour_on_flat_ground_ends_short_by_its_arcs_balance(
                                  command.delta_heading))
     predicted = ideal_poses(shortened, RoverGeometry(), np.array([1e9]))[0]
     assert math.hypot(out["x"][-1] - predicted[0], out["y"][-1] - predicted[1]) < 0.04
-    assert 1.0 - out["x"][-1] > 0.2
+    assert 1.0 - out["x"][-1] > 0.1

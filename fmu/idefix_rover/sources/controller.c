@@ -122,6 +122,25 @@ static double ramp(const Instance *inst, double fastest_rate, double remaining, 
     return scale;
 }
 
+/* Closed loop: a wheel's corrected rate kept within [floor, 2 - floor] times its feed-forward
+ * rate (same sign) and at most the command's rate. The gyro loop steers the arc it was given;
+ * it never stops an inner wheel (which would pivot the rover about it and skid it) nor reverses
+ * one, and what the band cannot correct during the arc the trim turns on the spot after it. */
+static double corrected_rate(double forward, double wanted, double floor, double max_rate)
+{
+    double low = floor * forward, high = (2.0 - floor) * forward, rate = wanted;
+    if (low > high) {
+        double swap = low;
+        low = high;
+        high = swap;
+    }
+    if (rate < low) rate = low;
+    if (rate > high) rate = high;
+    if (rate > max_rate) rate = max_rate;
+    if (rate < -max_rate) rate = -max_rate;
+    return rate;
+}
+
 /* Sets every wheel's rate for the next step of length dt. Open loop: all rates share one profile
  * factor, so the arc keeps its shape; it ramps up and down at controller.wheel_acceleration (for
  * the fastest wheel) and the last step turns the wheels only as far as the odometry target.
@@ -132,7 +151,7 @@ void controller_step(Instance *inst, double dt)
 {
     Controller *c = &inst->ctrl;
     double radius = inst->r[VR_ROVER_WHEEL_RADIUS], b = inst->r[VR_ROVER_HALF_TRACK];
-    double fastest_rate, remaining, scale, correction = 0.0, rates[N_WHEELS], largest = 0.0;
+    double fastest_rate, remaining, scale, correction = 0.0, rates[N_WHEELS];
     int i;
     if (c->active < 0) {
         for (i = 0; i < N_WHEELS; i++) inst->wheels[i].rate = 0.0;
@@ -159,20 +178,18 @@ void controller_step(Instance *inst, double dt)
         if (speed * scale * dt > remaining) scale = remaining / (speed * dt);
         reference = c->delta_heading * (fraction < 1.0 ? fraction : 1.0);
         correction = inst->r[VR_CONTROLLER_HEADING_GAIN] * (reference - c->heading);
-        /* the loop steers with at most half the command's wheel rate: both sides keep driving */
-        if (fabs(correction) * b / radius > 0.5 * c->max_rate)
-            correction = (correction > 0.0 ? 0.5 : -0.5) * c->max_rate * radius / b;
     }
     c->profile = fabs(scale);
     for (i = 0; i < N_WHEELS; i++) {
-        /* left wheels (FL, RL) slower for a left correction, right wheels faster */
+        /* feed-forward: the command's kinematic rates; the heading correction, a yaw rate,
+         * slows one side and speeds up the other (left wheels FL, RL slower for a left turn) */
         double side = (i == 0 || i == 2) ? -1.0 : 1.0;
-        rates[i] = c->rates[i] * scale + side * correction * b / radius;
-        if (fabs(rates[i]) > largest) largest = fabs(rates[i]);
+        double forward = c->rates[i] * scale;
+        rates[i] = forward + side * correction * b / radius;
+        if (correction != 0.0)
+            rates[i] = corrected_rate(forward, rates[i], inst->r[VR_CONTROLLER_RATE_FLOOR],
+                                      c->max_rate);
     }
-    /* no wheel faster than the command's rate: the correction shares it with the arc */
-    if (closed_loop(inst) && largest > c->max_rate && largest > 0.0)
-        for (i = 0; i < N_WHEELS; i++) rates[i] *= c->max_rate / largest;
     for (i = 0; i < N_WHEELS; i++)
         inst->wheels[i].rate = c->stalled[i] ? 0.0 : rates[i];
 }

@@ -51,6 +51,7 @@ static const Range RANGES[] = {
     {VR_CONTROLLER_HEADING_FEEDBACK, "controller.heading_feedback", 0.0, 1.0, 0, 0},
     {VR_CONTROLLER_HEADING_GAIN, "controller.heading_gain", 0.0, 100.0, 0, 0},
     {VR_CONTROLLER_HEADING_TOLERANCE, "controller.heading_tolerance", 0.0, 1.0, 1, 0},
+    {VR_CONTROLLER_RATE_FLOOR, "controller.rate_floor", 0.0, 1.0, 0, 0},
     {VR_GYRO_BIAS, "gyro.bias", -1.0, 1.0, 0, 0},
     {VR_GYRO_SCALE_ERROR, "gyro.scale_error", -0.5, 0.5, 0, 0},
     {VR_INITIAL_X, "initial.x", -1e6, 1e6, 0, 0},

@@ -3,7 +3,7 @@
 #define IDEFIX_VARIABLES_H
 
 #define MAX_COMMANDS 32
-#define N_REAL 173
+#define N_REAL 174
 #define VR_CHAIN_COUNT 0 /* Integer */
 #define VR_TERRAIN_FILE 0 /* String */
 
@@ -44,58 +44,59 @@
 #define VR_CONTROLLER_HEADING_FEEDBACK 33
 #define VR_CONTROLLER_HEADING_GAIN 34
 #define VR_CONTROLLER_HEADING_TOLERANCE 35
-#define VR_GYRO_BIAS 36
-#define VR_GYRO_SCALE_ERROR 37
-#define VR_INITIAL_X 38
-#define VR_INITIAL_Y 39
-#define VR_INITIAL_YAW 40
-#define VR_SOLVER_STEP 41
-#define VR_SOLVER_VELOCITY_EPSILON 42
-#define VR_CHAIN_MAX_WHEEL_RATE 43
-#define VR_CHAIN_DELTA_POSITION 75
-#define VR_CHAIN_DELTA_HEADING 107
-#define VR_T 139
-#define VR_X 140
-#define VR_Y 141
-#define VR_Z 142
-#define VR_ROLL 143
-#define VR_PITCH 144
-#define VR_YAW 145
-#define VR_WHEEL_FL_RATE 146
-#define VR_WHEEL_FR_RATE 147
-#define VR_WHEEL_RL_RATE 148
-#define VR_WHEEL_RR_RATE 149
-#define VR_WHEEL_FL_SLIP 150
-#define VR_WHEEL_FR_SLIP 151
-#define VR_WHEEL_RL_SLIP 152
-#define VR_WHEEL_RR_SLIP 153
-#define VR_WHEEL_FL_SLIP_ANGLE 154
-#define VR_WHEEL_FR_SLIP_ANGLE 155
-#define VR_WHEEL_RL_SLIP_ANGLE 156
-#define VR_WHEEL_RR_SLIP_ANGLE 157
-#define VR_WHEEL_FL_SINKAGE 158
-#define VR_WHEEL_FR_SINKAGE 159
-#define VR_WHEEL_RL_SINKAGE 160
-#define VR_WHEEL_RR_SINKAGE 161
-#define VR_WHEEL_FL_CURRENT 162
-#define VR_WHEEL_FR_CURRENT 163
-#define VR_WHEEL_RL_CURRENT 164
-#define VR_WHEEL_RR_CURRENT 165
-#define VR_WHEEL_FL_LOAD 166
-#define VR_WHEEL_FR_LOAD 167
-#define VR_WHEEL_RL_LOAD 168
-#define VR_WHEEL_RR_LOAD 169
-#define VR_ENERGY 170
-#define VR_COMMAND 171
-#define VR_STUCK 172
+#define VR_CONTROLLER_RATE_FLOOR 36
+#define VR_GYRO_BIAS 37
+#define VR_GYRO_SCALE_ERROR 38
+#define VR_INITIAL_X 39
+#define VR_INITIAL_Y 40
+#define VR_INITIAL_YAW 41
+#define VR_SOLVER_STEP 42
+#define VR_SOLVER_VELOCITY_EPSILON 43
+#define VR_CHAIN_MAX_WHEEL_RATE 44
+#define VR_CHAIN_DELTA_POSITION 76
+#define VR_CHAIN_DELTA_HEADING 108
+#define VR_T 140
+#define VR_X 141
+#define VR_Y 142
+#define VR_Z 143
+#define VR_ROLL 144
+#define VR_PITCH 145
+#define VR_YAW 146
+#define VR_WHEEL_FL_RATE 147
+#define VR_WHEEL_FR_RATE 148
+#define VR_WHEEL_RL_RATE 149
+#define VR_WHEEL_RR_RATE 150
+#define VR_WHEEL_FL_SLIP 151
+#define VR_WHEEL_FR_SLIP 152
+#define VR_WHEEL_RL_SLIP 153
+#define VR_WHEEL_RR_SLIP 154
+#define VR_WHEEL_FL_SLIP_ANGLE 155
+#define VR_WHEEL_FR_SLIP_ANGLE 156
+#define VR_WHEEL_RL_SLIP_ANGLE 157
+#define VR_WHEEL_RR_SLIP_ANGLE 158
+#define VR_WHEEL_FL_SINKAGE 159
+#define VR_WHEEL_FR_SINKAGE 160
+#define VR_WHEEL_RL_SINKAGE 161
+#define VR_WHEEL_RR_SINKAGE 162
+#define VR_WHEEL_FL_CURRENT 163
+#define VR_WHEEL_FR_CURRENT 164
+#define VR_WHEEL_RL_CURRENT 165
+#define VR_WHEEL_RR_CURRENT 166
+#define VR_WHEEL_FL_LOAD 167
+#define VR_WHEEL_FR_LOAD 168
+#define VR_WHEEL_RL_LOAD 169
+#define VR_WHEEL_RR_LOAD 170
+#define VR_ENERGY 171
+#define VR_COMMAND 172
+#define VR_STUCK 173
 
 /* per-wheel outputs: base + wheel index (FL, FR, RL, RR) */
-#define VR_WHEEL_RATE 146
-#define VR_WHEEL_SLIP 150
-#define VR_WHEEL_SLIP_ANGLE 154
-#define VR_WHEEL_SINKAGE 158
-#define VR_WHEEL_CURRENT 162
-#define VR_WHEEL_LOAD 166
+#define VR_WHEEL_RATE 147
+#define VR_WHEEL_SLIP 151
+#define VR_WHEEL_SLIP_ANGLE 155
+#define VR_WHEEL_SINKAGE 159
+#define VR_WHEEL_CURRENT 163
+#define VR_WHEEL_LOAD 167
 
 /* start values of every Real, indexed by value reference */
 #define REAL_DEFAULTS { \
@@ -135,6 +136,7 @@
     1.0, /* controller.heading_feedback */ \
     0.5, /* controller.heading_gain */ \
     0.003490658503988659, /* controller.heading_tolerance */ \
+    0.5, /* controller.rate_floor */ \
     0.0, /* gyro.bias */ \
     0.0, /* gyro.scale_error */ \
     0.0, /* initial.x */ \
@@ -273,6 +275,6 @@
     0.0, /* command */ \
     0.0, /* stuck */ \
 }
-#define FIRST_OUTPUT_VR 139
+#define FIRST_OUTPUT_VR 140
 
 #endif

@@ -37,7 +37,13 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
-        ty -= w->bulldozing * vy / sqrt(vy * vy + v_eps * v_eps);
+        /* the passive wedge beside the wheel builds up with the soil's lateral displacement
+         * over the patch, as the shear does (Wong & Chiang's lateral shear; Yu et al.'s
+         * displacement-based lateral resistance), not at the first micrometre of sideways
+         * motion: a wide arc barely pushes its ruts' walls */
+        double lateral = w->contact_length * fabs(vy) / reference;
+        ty -= w->bulldozing * janosi_mobilisation(lateral, w->shear_K) *
+              vy / sqrt(vy * vy + v_eps * v_eps);
     }
     if (w->blocked && vx * w->blocked > 0.0) force_x -= WALL_DAMPING * vx;
     *fx = force_x;

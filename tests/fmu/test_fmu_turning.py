@@ -1,0 +1,113 @@
+"""Skid-steer turning from a point turn through arcs to a straight drive (docs/rover-model.md,
+"Skid-steer turning"): the trends of skid-steering theory and experiments, and the magnitudes
+of the soil equations written again in Python (tests/fmu/soil_model.py)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import soil_model
+import turning_sweep
+from turning_sweep import Row
+
+from idefix_rules.fmu import FmuRunner
+
+TOLERANCE = math.radians(0.2)  # controller.heading_tolerance default
+FLOOR = 0.5  # controller.rate_floor default
+ARCS = slice(1, 5)  # rows of the sweep that are arcs (R = 0.3 .. 2.4 m)
+
+
+@pytest.fixture(scope="module")
+def closed_loop(rover_fmu) -> list[Row]:  # type: ignore[no-untyped-def]
+    with FmuRunner(rover_fmu, extra_outputs=turning_sweep.CURRENTS) as runner:
+        return turning_sweep.sweep(runner)
+
+
+@pytest.fixture(scope="module")
+def open_loop(rover_fmu) -> list[Row]:  # type: ignore[no-untyped-def]
+    with FmuRunner(rover_fmu, extra_outputs=turning_sweep.CURRENTS) as runner:
+        return turning_sweep.sweep(runner, {"controller.heading_feedback": 0.0})
+
+
+def _falling(values: list[float]) -> bool:
+    return all(a > b for a, b in zip(values, values[1:], strict=False))
+
+
+def test_every_command_of_the_sweep_ends_at_its_heading(closed_loop: list[Row]) -> None:
+    for row in closed_loop:
+        assert row.finished
+        assert abs(row.heading - turning_sweep.command(row.radius).delta_heading) \
+            <= TOLERANCE + 1e-4
+
+
+def test_outer_wheels_drive_and_inner_wheels_brake_on_every_arc(closed_loop: list[Row]) -> None:
+    for row in closed_loop[ARCS]:
+        assert row.outer_slip > 0.05 > 0 > -0.05 > row.inner_slip
+
+
+def test_the_loop_never_stops_an_inner_wheel(closed_loop: list[Row]) -> None:
+    # feed-forward rates (R - b)/(R + b) of the outer; the loop keeps at least FLOOR of them
+    for row in closed_loop[ARCS]:
+        kinematic = (row.radius - 0.26) / (row.radius + 0.26)
+        assert row.inner_rate >= FLOOR * kinematic - 1e-3
+        assert row.inner_rate > 0
+
+
+def test_slip_slip_angle_and_current_fall_as_the_radius_grows(closed_loop: list[Row]) -> None:
+    # From the tightest arc (R = 0.3 m, just beyond the half track, where the inner wheels'
+    # kinematic rate nearly vanishes) to the straight drive: Wong & Chiang's turning resistance
+    # and Yu et al.'s measured power both fall with the radius.
+    arcs_and_straight = closed_loop[1:]
+    assert _falling([abs(r.inner_slip) for r in arcs_and_straight])
+    assert _falling([r.slip_angle for r in arcs_and_straight])
+    # the turning moment of the rims and the mean current, from the point turn on
+    assert _falling([r.moment for r in closed_loop])
+    assert _falling([r.current for r in closed_loop])
+
+
+def test_the_point_turn_slip_angle_is_the_geometry_of_the_wheel_layout(
+        closed_loop: list[Row]) -> None:
+    # every wheel of a point turn moves perpendicular to its radius: atan(a / b)
+    assert closed_loop[0].slip_angle == pytest.approx(math.atan(0.20 / 0.26), abs=math.radians(1))
+
+
+@pytest.mark.parametrize("position", [2, 3, 4])
+def test_arc_slips_follow_the_four_wheel_force_and_moment_balance(
+        closed_loop: list[Row], position: int) -> None:
+    # at the loop's steady wheel rates, the body's (u, omega) from the balance of the four
+    # wheels on fresh soil gives each side's slip ratio
+    row = closed_loop[position]
+    left, right = row.steady_rates
+    u, omega = soil_model.arc_balance(left, right)
+    ground_left, ground_right = u - omega * 0.26, u + omega * 0.26
+    expected_inner = left * 0.1 / ground_left - 1 if ground_left > left * 0.1 \
+        else 1 - ground_left / (left * 0.1)
+    expected_outer = 1 - ground_right / (right * 0.1)
+    assert row.inner_slip == pytest.approx(expected_inner, abs=0.03)
+    assert row.outer_slip == pytest.approx(expected_outer, abs=0.03)
+
+
+def test_an_arc_ends_near_the_commanded_arc_projected_with_the_measured_slip(
+        closed_loop: list[Row]) -> None:
+    for row in closed_loop[ARCS]:
+        assert row.end_offset < 0.05
+
+
+@pytest.mark.parametrize("position", [0, 1, 2, 3, 4])
+def test_open_loop_the_body_turns_at_the_skid_steering_efficiency_at_every_radius(
+        open_loop: list[Row], position: int) -> None:
+    # Kinematic wheel rates without heading feedback: the body turns at the efficiency of the
+    # four wheels' force and moment balance, about the same at every radius (the instantaneous
+    # centres of rotation of the sides stay outside the wheels, Mandow et al. 2007), below the
+    # isotropic Coulomb bound b²/(a² + b²) = 0.63 of a point turn.
+    row = open_loop[position]
+    efficiency = row.heading / turning_sweep.TURN
+    if row.radius == 0:
+        expected = soil_model.point_turn_efficiency()
+    else:
+        ratio = (row.radius - 0.26) / (row.radius + 0.26)
+        _, omega = soil_model.arc_balance(0.05 * ratio, 0.05)
+        expected = omega / (0.1 * 0.05 * (1 - ratio) / (2 * 0.26))
+    assert efficiency == pytest.approx(expected, rel=0.03)
+    assert 0.5 < efficiency < 0.26 ** 2 / (0.20 ** 2 + 0.26 ** 2)
