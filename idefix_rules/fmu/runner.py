@@ -8,6 +8,13 @@ name. Given a ``.fmu`` the runner extracts it itself (and removes the folder on 
 ``unzipped``, a folder the caller extracted once with :func:`extract_fmu` and owns, many
 runners (one per worker process) share it.
 
+A run ends when its chain is complete: once the ``command`` output reads -1 (or, without
+``command``, a ``done`` output reaches ``done_at``) at sample T, the FMU is stepped once more, to
+sample T + 1, and no further; the remaining samples hold the values of sample T + 1, ``t`` going
+on along its grid (:func:`hold_after_end`), so every run keeps the shape of the caller's grid.
+The one step past the end is the sample in which the rover stands with its motors off: sample T
+still shows the wheel rates, currents and slip of the chain's last step.
+
 >>> from idefix_rules.commands import Command
 >>> runner = FmuRunner(default_fmu_path())                      # doctest: +SKIP
 >>> out = runner.run({"soil.cohesion": "300 Pa"}, [Command(0.05, 0.2, 0.0)], 60.0, 0.1)
@@ -23,7 +30,7 @@ import math
 import re
 import shutil
 import zipfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -110,6 +117,36 @@ def si_scale(variable: FmuVariable, what: str, unit: str, span: Span) -> float:
         raise UserInputError(error(
             "F403", f"'{variable.name}' is in {variable.unit}, but {what} is in {unit}", span))
     return variable.si.scale
+
+
+def end_sample(command: np.ndarray | None, done: np.ndarray | None,
+               done_at: float = 1.0) -> int | None:
+    """The first sample where the chain is complete, or None (not within the run).
+
+    Complete: ``command`` (the raw output, index of the active command) rounds to -1; without
+    ``command``, the raw ``done`` output is at least ``done_at`` (the evaluator reads a run's
+    time the same way, docs/derived-signals.md).
+
+    >>> end_sample(np.array([0.0, 1.0, -1.0, -1.0]), None)
+    2
+    >>> end_sample(None, np.array([0, 1, 2]), done_at=2)
+    2
+    >>> end_sample(np.array([0.0, 0.0]), None) is None
+    True
+    """
+    if command is not None:
+        ended = np.rint(np.asarray(command, dtype=np.float64)) == -1
+    elif done is not None:
+        ended = np.asarray(done, dtype=np.float64) >= done_at
+    else:
+        return None
+    return int(np.argmax(ended)) if ended.any() else None
+
+
+def hold_after_end(columns: Sequence[np.ndarray], held: int) -> None:
+    """Hold every column's value of sample ``held`` in all later samples, in place."""
+    for column in columns:
+        column[held + 1:] = column[held]
 
 
 @dataclass(frozen=True)
@@ -239,6 +276,12 @@ class FmuRunner:
                 raise self._missing(name, "requested")
             outputs.append((variable, _Slot(name, None, 1.0, False)))
         self._outputs = outputs
+        # The output that says the chain is complete: 'command' when mapped, else 'done'
+        # (the evaluator's order), as (slot position, is 'done').
+        ends = [(position, slot.done) for position, (_, slot) in enumerate(outputs)
+                if slot.done or (slot.signal == "command" and slot.index is None)]
+        ends.sort(key=lambda end: end[1])
+        self._end_output: tuple[int, bool] | None = ends[0] if ends else None
 
     def _plan_inputs(self) -> None:
         """The FMU inputs fed with set-points each communication step (delivery ``inputs``)."""
@@ -330,12 +373,17 @@ class FmuRunner:
     # ------------------------------------------------------------------ running
     def run(self, parameters: Mapping[str, float | str], chain: Sequence[Command],
             stop_time: float, output_interval: float,
-            rover: RoverGeometry | None = None) -> dict[str, np.ndarray]:
+            rover: RoverGeometry | None = None,
+            hold_after_chain: bool = True) -> dict[str, np.ndarray]:
         """Simulate one run and return its signals by contract name.
 
         Samples are at ``k * output_interval`` for ``k = 0 .. round(stop_time /
         output_interval)``; time signals have shape (samples,), wheel signals (samples, 4).
         ``rover``: the geometry the ``inputs`` delivery computes set-points with.
+        ``hold_after_chain``: once the chain is complete at sample T (:func:`end_sample`) the
+        FMU is stepped to T + 1 and no further, and later samples hold the values of sample
+        T + 1 (``t`` keeps its grid); a model-exchange FMU is integrated to the stop time and
+        then held the same way. False: every sample is simulated.
         """
         if self._closed:
             raise InfrastructureError("FmuRunner used after close()")
@@ -350,7 +398,13 @@ class FmuRunner:
             columns = simulate_model_exchange(
                 self._unzipdir, self.fmu_path.name, self._start_values(parameters, chain), feed,
                 [variable for variable, _ in self._outputs], steps, output_interval)
-            return self._collect(columns, steps, output_interval)
+            # fmpy's solver runs to the stop time: the same hold afterwards, so the stored
+            # samples mean the same whatever the FMU's interface
+            end = self._end_of(columns) if hold_after_chain else None
+            held = None if end is None else min(end + 1, steps)
+            if held is not None:
+                hold_after_end(columns, held)
+            return self._collect(columns, steps, output_interval, held)
         buffers = [np.empty((steps + 1, group.count), dtype=group.dtype)
                    for group in self._groups]
         self._log.clear()
@@ -373,6 +427,9 @@ class FmuRunner:
             if get(component, refs, count, base, *tail) not in OK_STATUSES:
                 raise self._read_error(0.0)
         do_step = self._do_step
+        watch = self._end_watch(buffers) if hold_after_chain else None
+        ended = watch is not None and watch(0)
+        held = None
         for k in range(steps):
             if feed:
                 instance.set_values([(v, row[k]) for v, row in feed])
@@ -390,11 +447,43 @@ class FmuRunner:
                 if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
                         not in OK_STATUSES:
                     raise self._read_error((k + 1) * output_interval)
+            if ended:  # the step after the chain's end: the motors are off, nothing moves
+                held = k + 1
+                break
+            ended = watch is not None and watch(k + 1)
+        if held is not None:
+            hold_after_end(buffers, held)
         read: list[np.ndarray] = [np.empty(0)] * len(self._outputs)
         for group, buffer in zip(self._groups, buffers, strict=True):
             for offset, position in enumerate(group.positions):
                 read[position] = buffer[:, offset]
-        return self._collect(read, steps, output_interval)
+        return self._collect(read, steps, output_interval, held)
+
+    def _end_watch(self, buffers: list[np.ndarray]) -> Callable[[int], bool] | None:
+        """Whether sample k of a co-simulation run says the chain is complete (None: the FMU
+        maps no output that says so)."""
+        if self._end_output is None:
+            return None
+        position, is_done = self._end_output
+        for group, buffer in zip(self._groups, buffers, strict=True):
+            if position in group.positions:
+                column = buffer[:, group.positions.index(position)]
+                break
+        else:  # pragma: no cover - every output belongs to a group
+            return None
+        item = column.item
+        if is_done:
+            done_at = self.done_at
+            return lambda k: bool(item(k) >= done_at)
+        return lambda k: round(float(item(k))) == -1
+
+    def _end_of(self, columns: list[np.ndarray]) -> int | None:
+        """The first sample of read columns (slot order) where the chain is complete."""
+        if self._end_output is None:
+            return None
+        position, is_done = self._end_output
+        column = columns[position]
+        return end_sample(None, column, self.done_at) if is_done else end_sample(column, None)
 
     def _read_error(self, time: float) -> InfrastructureError:
         return InfrastructureError(f"{self.fmu_path.name}: reading the outputs failed at "
@@ -412,9 +501,10 @@ class FmuRunner:
             rows.append((variable, series))
         return rows
 
-    def _collect(self, columns: list[np.ndarray], steps: int,
-                 interval: float) -> dict[str, np.ndarray]:
-        """Signals by contract name from the outputs' columns (slot order), SI, float64."""
+    def _collect(self, columns: list[np.ndarray], steps: int, interval: float,
+                 held: int | None = None) -> dict[str, np.ndarray]:
+        """Signals by contract name from the outputs' columns (slot order), SI, float64;
+        ``held``: the sample the columns hold after (``t`` then goes on along the grid)."""
         signals: dict[str, np.ndarray] = {}
         wheels: dict[str, np.ndarray] = {}
         for (_, slot), column in zip(self._outputs, columns, strict=True):
@@ -432,6 +522,9 @@ class FmuRunner:
         signals.update(wheels)
         if "t" not in signals:
             signals["t"] = np.arange(steps + 1) * interval
+        elif held is not None:
+            # the time an FMU reports after each further step: communication point + step
+            signals["t"][held + 1:] = np.arange(held, steps) * interval + interval
         return signals
 
     def _remove_unzipdir(self) -> None:

@@ -57,8 +57,14 @@ def test_an_fmi3_fmu_fed_wheel_rates_is_read_in_si_with_its_booleans_and_integer
     assert out["x"][-1] == pytest.approx(x, abs=2e-3)
     assert out["y"][-1] == pytest.approx(y, abs=2e-3)
     assert no_slip["x"][-1] == pytest.approx(_ideal_end(CHAIN)[0], abs=2e-3)
-    np.testing.assert_array_equal(out["stuck"], np.arange(281, dtype=float))  # Int32 steps
     assert out["done"][0] == 0.0 and out["done"][-1] == 1.0  # Boolean 'arrived'
+    # Int32 'steps' counts the FMU's steps: one step past the first 'arrived' sample, then
+    # no fmi3DoStep at all, the counter held to the stop time
+    held = int(np.argmax(out["done"] > 0)) + 1
+    assert 200 < held < 280
+    np.testing.assert_array_equal(out["stuck"][:held + 1], np.arange(held + 1, dtype=float))
+    np.testing.assert_array_equal(out["stuck"][held:], float(held))
+    np.testing.assert_array_equal(out["t"], np.arange(281) * 0.5)
     for name in DIFF_MAP.values():
         np.testing.assert_array_equal(out[name], again[name], err_msg=name)
 
@@ -93,6 +99,23 @@ def test_a_model_exchange_fmu_is_integrated_by_fmpys_solver(planar_me_fmu: Path)
     assert out["y"][-1] == pytest.approx(y, abs=2e-3)
     assert out["yaw"][-1] == pytest.approx(yaw, abs=1e-3)
     np.testing.assert_array_equal(out["x"], again["x"])
+
+
+def test_a_model_exchange_fmu_is_held_after_its_done_output_like_a_co_simulation(
+        planar_me_fmu: Path) -> None:
+    # 'psi' as the done output: 'done' from the sample where the heading reaches 0.45 rad,
+    # inside the point turn of CHAIN
+    options = {"signal_map": {"px": "x", "py": "y", "psi": "done"}, "done_at": 0.45,
+               "chain_delivery": "inputs", "chain_inputs": BODY_INPUTS}
+    (held_run,), _ = run_in_child(planar_me_fmu, options, [({}, CHAIN, 140.0, 0.7)])
+    (full,), _ = run_in_child(planar_me_fmu, options,
+                              [({}, CHAIN, 140.0, 0.7, None, False)])
+    held = int(np.argmax(full["done"] > 0)) + 1
+    assert 0 < held < 200 and full["y"][-1] != full["y"][held]
+    for name in ("x", "y", "done"):
+        np.testing.assert_array_equal(held_run[name][:held + 1], full[name][:held + 1])
+        np.testing.assert_array_equal(held_run[name][held:], full[name][held])
+    np.testing.assert_array_equal(held_run["t"], full["t"])
 
 
 def test_an_unknown_set_point_is_refused_naming_the_known_ones(unicycle_fmu: Path) -> None:

@@ -96,7 +96,8 @@ def test_bad_terrain_file_is_a_user_error_with_its_name(rover: FmuRunner, tmp_pa
 
 
 def test_rover_stands_still_with_motors_off_after_the_chain(rover: FmuRunner) -> None:
-    out = rover.run({}, [Command(0.05, 0.1, 0.0)], 60.0, 0.1)
+    # the model itself after its chain, every sample simulated
+    out = rover.run({}, [Command(0.05, 0.1, 0.0)], 60.0, 0.1, hold_after_chain=False)
     done = out["command"] < 0
     assert done[-1] and not done[0]
     after = np.argmax(done)
@@ -205,3 +206,57 @@ def test_extracting_something_that_is_not_an_fmu_is_a_user_error(tmp_path: Path)
         extract_fmu(tmp_path / "broken.fmu", tmp_path / "out")
     with pytest.raises(UserInputError, match="FMU file is not a file"):
         extract_fmu(tmp_path, tmp_path / "out")
+
+
+class _CountingSteps:
+    """fmi2DoStep of a runner, counted (the runner calls it once per communication step)."""
+
+    def __init__(self, runner: FmuRunner) -> None:
+        self.calls = 0
+        self._step = runner._do_step
+        runner._do_step = self
+
+    def __call__(self, *arguments: object) -> int:
+        self.calls += 1
+        assert self._step is not None
+        return int(self._step(*arguments))
+
+
+@pytest.mark.parametrize("chain", [
+    [Command(0.05, 0.1, 0.0)],  # ends on the straight's ramp down: wheels still turning at T
+    [Command(0.05, 0.1, 0.3), Command(0.05, 0.0, -0.2)],  # an arc, then a point turn
+])
+def test_a_run_ends_one_step_after_its_chain_and_holds_that_sample(
+        rover_fmu: Path, chain: list[Command]) -> None:
+    with FmuRunner(rover_fmu) as runner:
+        steps = _CountingSteps(runner)
+        out = runner.run({}, chain, 200.0, 0.1)
+        stepped = steps.calls
+        full = runner.run({}, chain, 200.0, 0.1, hold_after_chain=False)
+    assert steps.calls - stepped == 2000
+    end = int(np.argmax(out["command"] == -1))  # the chain is complete at sample T = end
+    assert 0 < end < 1000
+    assert stepped == end + 1  # one step past T, none after
+    for name, values in out.items():
+        assert values.shape == full[name].shape, name
+        if name == "t":  # t goes on along the grid as the FMU would report it
+            np.testing.assert_array_equal(values, full["t"])
+            continue
+        np.testing.assert_array_equal(values[:end + 2], full[name][:end + 2], err_msg=name)
+        np.testing.assert_array_equal(values[end + 1:], np.broadcast_to(
+            values[end + 1], values[end + 1:].shape), err_msg=name)
+        # the rover stands still with its motors off: the held samples are what the model
+        # computes there, but for the legs' last settling (roll 2e-11 rad: below the float32
+        # the results file keeps roll in)
+        np.testing.assert_allclose(values, full[name], rtol=0, atol=1e-10, err_msg=name)
+    assert np.all(out["wheel.rate"][end + 1:] == 0.0)
+
+
+def test_a_chain_not_done_at_the_stop_time_is_simulated_to_it(rover_fmu: Path) -> None:
+    with FmuRunner(rover_fmu) as runner:
+        steps = _CountingSteps(runner)
+        out = runner.run({}, [Command(0.05, 0.3, 0.0)], 20.0, 0.1)
+        empty = runner.run({}, [], 20.0, 0.1)
+    assert steps.calls == 200 + 1  # the whole unfinished run, then one step of the empty one
+    assert out["command"][-1] == 0.0 and out["x"][-1] > out["x"][-2]
+    assert np.all(empty["command"] == -1) and np.ptp(empty["x"]) == 0.0
