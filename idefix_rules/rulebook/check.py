@@ -22,6 +22,7 @@ from idefix_rules.rulebook.model import (
     Binary,
     Call,
     Expr,
+    Index,
     Name,
     Reduce,
     Rulebook,
@@ -66,6 +67,7 @@ class CheckedRulebook:
     weights: dict[str, float]
     index_types: dict[str, ExprType]
     confidence: float
+    nominals: dict[str, float] = field(default_factory=dict)  # indices that give a nominal
 
     def scope(self, kind: str) -> Scope:
         """The scope the checker used for one context (``command``, ``run``, …)."""
@@ -105,6 +107,7 @@ class _Env:
     constant_types: dict[str, ExprType] = field(default_factory=dict)
     constants: dict[str, Value] = field(default_factory=dict)
     limits: dict[str, float] = field(default_factory=dict)
+    nominals: dict[str, float] = field(default_factory=dict)
     weights: dict[str, float] = field(default_factory=dict)
     index_types: dict[str, ExprType] = field(default_factory=dict)
     settings: dict[str, float] = field(default_factory=dict)
@@ -436,8 +439,11 @@ def check_indices(env: _Env) -> list[Diagnostic]:
                 if limit <= 0:
                     problems.append(error("E402", f"the limit of {what} must be above zero",
                                           index.limit.span))
+                    limit = None
                 else:
                     env.limits[index.name] = limit
+            if index.nominal is not None:
+                _check_nominal(env, index, found, limit, problems)
         weight = _constant_quantity(env, index.weight, DIMENSIONLESS, f"the weight of {what}",
                                     problems)
         if weight is not None:
@@ -457,6 +463,36 @@ def check_indices(env: _Env) -> list[Diagnostic]:
                                       f"{describe(mapped.dimension)} but its value is "
                                       f"{describe(found.dimension)}", index.map.span))
     return problems
+
+
+def _check_nominal(env: _Env, index: Index, found: ExprType, limit: float | None,
+                   problems: list[Diagnostic]) -> None:
+    """An index's nominal: the value's dimension (as the limit), above zero, below the limit."""
+    assert index.nominal is not None
+    what = f"the nominal of index '{index.name}'"
+    nominal = _constant_quantity(env, index.nominal, found.dimension, what, problems)
+    if nominal is None:
+        return
+    from idefix_rules.rulebook.format import format_expr
+
+    unit = "" if found.dimension.is_dimensionless else f" {found.dimension}"
+
+    def shown(expr: Expr, si: float) -> str:
+        written, in_si = format_expr(expr), f"{si:g}{unit}"
+        return written if written == in_si else f"{written} = {in_si}"
+
+    if nominal <= 0:
+        problems.append(error("E407", f"{what} must be above zero, got "
+                              f"{shown(index.nominal, nominal)}", index.nominal.span,
+                              "the nominal is the value expected in the environment, "
+                              "between 0 and the limit"))
+    elif limit is not None and nominal >= limit:
+        problems.append(error("E408", f"{what} must be below its limit: "
+                              f"{shown(index.nominal, nominal)} is not below "
+                              f"{shown(index.limit, limit)}", index.nominal.span,
+                              "the index is 0.5 at the nominal and 1 at the limit"))
+    else:
+        env.nominals[index.name] = nominal
 
 
 def check_combine(env: _Env) -> list[Diagnostic]:
@@ -524,6 +560,8 @@ def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
         yield r.condition
     for i in rulebook.indices:
         yield from (i.value, i.limit, i.weight)
+        if i.nominal is not None:
+            yield i.nominal
         if i.map is not None:
             yield i.map
     for ch in rulebook.chances:
@@ -579,6 +617,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
             settings=env.settings,
             obstacle_levels=tuple(env.levels),
             limits=env.limits,
+            nominals=env.nominals,
             weights=env.weights,
             index_types=env.index_types,
             confidence=env.confidence,

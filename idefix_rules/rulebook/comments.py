@@ -18,7 +18,7 @@ from idefix_rules.rulebook import model
 
 _FIRST_WORD = re.compile(r"\s*([A-Za-z_]+|\})")
 _BLOCK_ANCHORS = {
-    model.Index: ("index", "value", "limit", "weight", "map", "because", "}"),
+    model.Index: ("index", "value", "nominal", "limit", "weight", "map", "because", "}"),
     model.Combine: ("combine", "run", "path", "confidence", "}"),
     model.Header: ("rulebook", "purpose"),
 }

@@ -7,7 +7,9 @@
 
 ``evaluate`` takes signals keyed by contract name, axis 0 = runs, and a :class:`RunContext`
 (the explicit input derived signals need) and returns a :class:`RunEvaluation`. Index
-semantics: ``clamp(value / limit, 0, 1)``; the per-sample value is the ``map`` when given, else
+semantics: ``clamp(value / limit, 0, 1)``, or piecewise linear through (0, 0), (nominal, 0.5)
+and (limit, 1) when the index gives a nominal (:func:`.semantics.normalised`); the per-sample
+value is the ``map`` when given, else
 the value with every time reduction replaced by its operand (:func:`.semantics.per_sample_form`),
 normalised the same way; I_max = max over indices of weight × value (eq. 1). Non-finite data
 makes an index 1 (see :mod:`.semantics`). Nothing of the rulebook text is executed.
@@ -99,6 +101,7 @@ def layout_constants(constants: Mapping[str, Any]) -> dict[str, Any]:
 class _Index:
     name: str
     limit: float
+    nominal: float | None
     weight: float
     value: Closure
     per_sample: Closure
@@ -138,7 +141,8 @@ class CompiledRulebook:
                  for i in model.indices]
         run.share([e for pair in forms for e in pair] + [c.condition for c in model.chances])
         self._indices = tuple(
-            _Index(i.name, self.checked.limits[i.name], self.checked.weights[i.name],
+            _Index(i.name, self.checked.limits[i.name], self.checked.nominals.get(i.name),
+                   self.checked.weights[i.name],
                    run.compile(value), run.compile(sample),
                    self._signals_read(value, sample))
             for i, (value, sample) in zip(model.indices, forms, strict=True))
@@ -306,10 +310,11 @@ class CompiledRulebook:
                 value = computed(index.name, index.value)
                 bad = bad_runs(index.reads) | np.isnan(value)
                 raw[index.name] = np.where(bad, np.nan, value)
-                values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit))
+                values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit,
+                                                                   index.nominal))
                 if per_sample:
                     sample = per_run_sample(index.per_sample(frame), runs, samples)
-                    sample_values[index.name] = _normalise(sample, index.limit)
+                    sample_values[index.name] = _normalise(sample, index.limit, index.nominal)
                 else:
                     sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
@@ -382,9 +387,16 @@ class CompiledRulebook:
 _FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals
 
 
-def _normalise(value: np.ndarray, limit: float) -> np.ndarray:
-    """``clamp(value / limit, 0, 1)``, NaN → 1 (``fmin`` returns 1 for NaN)."""
-    normalised = np.asarray(np.divide(value, limit))
+def _normalise(value: np.ndarray, limit: float, nominal: float | None) -> np.ndarray:
+    """``clamp(value / limit, 0, 1)``, or through (nominal, 0.5) when there is a nominal, NaN → 1
+    (``fmin`` returns 1 for NaN): :func:`.semantics.normalised`, element-wise, the same
+    operations in the same order."""
+    if nominal is None:
+        normalised = np.asarray(np.divide(value, limit))
+    else:
+        below = 0.5 * value / nominal
+        above = 0.5 + 0.5 * (value - nominal) / (limit - nominal)
+        normalised = np.asarray(np.where(value <= nominal, below, above), dtype=float)
     np.fmin(normalised, 1.0, out=normalised)
     return np.asarray(np.fmax(normalised, 0.0, out=normalised))
 

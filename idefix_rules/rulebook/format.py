@@ -298,8 +298,10 @@ def _item_block(node: object, opening: str, keyword: str,
 
 def _index(index: model.Index) -> list[str]:
     title = f" {format_string(index.title)}" if index.title is not None else ""
-    items = [("value", format_expr(index.value)), ("limit", format_expr(index.limit)),
-             ("weight", format_expr(index.weight))]
+    items = [("value", format_expr(index.value))]
+    if index.nominal is not None:
+        items.append(("nominal", format_expr(index.nominal)))
+    items += [("limit", format_expr(index.limit)), ("weight", format_expr(index.weight))]
     if index.map is not None:
         items.append(("map", format_expr(index.map)))
     if index.rationale is not None:

@@ -40,7 +40,14 @@ from idefix_rules.rulebook.model import (
     Window,
 )
 from idefix_rules.rulebook.results import RunEvaluation
-from idefix_rules.rulebook.semantics import AXES, LABEL_AXIS, Masked, names_in, per_sample_form
+from idefix_rules.rulebook.semantics import (
+    AXES,
+    LABEL_AXIS,
+    Masked,
+    names_in,
+    normalised,
+    per_sample_form,
+)
 from idefix_rules.signals import AXIS_LABELS, lookup
 
 Scalar = Any  # np.float64 or bool
@@ -314,11 +321,6 @@ CALLS: dict[str, Callable[..., Scalar]] = {
 }
 
 
-def _normalise(value: Scalar, limit: float) -> float:
-    normalised = min(max(float(value) / limit, 0.0), 1.0) if not math.isnan(value) else 1.0
-    return 1.0 if math.isnan(normalised) else normalised
-
-
 def _constants(checked: CheckedRulebook) -> dict[str, Value]:
     out = {}
     for name, value in checked.constants.items():
@@ -374,6 +376,7 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
     samples = len(evaluator.t)
     for index in model.indices:
         limit, weight = checked.limits[index.name], checked.weights[index.name]
+        nominal = checked.nominals.get(index.name)
         raw = evaluator.evaluate(index.value).only()
         sample_expr = index.map if index.map is not None else per_sample_form(index.value)
         sample = evaluator.evaluate(sample_expr)
@@ -382,8 +385,8 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
         bad = math.isnan(raw) or _non_finite(evaluator, index.value, constants) \
             or (index.map is not None and _non_finite(evaluator, index.map, constants))
         row["raw"][index.name] = math.nan if bad else float(raw)
-        row["values"][index.name] = 1.0 if bad else _normalise(raw, limit)
-        row["per_sample"][index.name] = [_normalise(float(x), limit) for x in series]
+        row["values"][index.name] = 1.0 if bad else normalised(float(raw), limit, nominal)
+        row["per_sample"][index.name] = [normalised(float(x), limit, nominal) for x in series]
         row["weighted"][index.name] = weight * row["values"][index.name]
     for chance in model.chances:
         holds = bool(evaluator.evaluate(chance.condition).only())

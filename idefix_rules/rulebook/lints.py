@@ -8,6 +8,8 @@
 * **W612** a number in a ``because`` that disagrees with the value it explains:
   ``const critical_slip = 65 % because "Slip above 70 % is critical"``.
 * **W613** a literal that underflows to 0 (or to a denormal) in SI: ``1e-400 %``.
+* **W614** an index's nominal within 10 % of the limit from 0 or from the limit: half of the
+  index's range is crossed in a tenth of the value's, so the index is nearly a step.
 
 Each lint is a pass of the checker (same shape as :data:`~.check.STRICT_CHECKS`).
 """
@@ -144,11 +146,14 @@ def lint_bare_ratios(env: _Env) -> list[Diagnostic]:
                         from idefix_rules.rulebook.format import format_expr
                         report(*bare, f"'{format_expr(ratio)}'", node.span)
     for index in rulebook.indices:
-        bare = _bare_number(index.limit, rulebook)
-        if bare is not None and _is_ratio(index.value, rulebook) and \
-                env.index_types.get(index.name, None) is not None and \
-                env.index_types[index.name].dimension == DIMENSIONLESS:
-            report(*bare, f"the limit of index '{index.name}'", index.limit.span)
+        if not (_is_ratio(index.value, rulebook) and
+                env.index_types.get(index.name, None) is not None and
+                env.index_types[index.name].dimension == DIMENSIONLESS):
+            continue
+        for item, expr in (("limit", index.limit), ("nominal", index.nominal)):
+            bare = _bare_number(expr, rulebook) if expr is not None else None
+            if bare is not None and expr is not None:
+                report(*bare, f"the {item} of index '{index.name}'", expr.span)
     return found
 
 
@@ -264,13 +269,15 @@ def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
     found: list[Diagnostic] = []
 
     def compare(name: str, rationale: str | None, value: Any, dimension: Dimension | None,
-                written: Expr, span: Span) -> None:
+                written: Expr, span: Span, also: float | None = None) -> None:
+        """``also``: a second value the rationale may name instead (an index's nominal)."""
         if rationale is None or value is None or dimension is None or isinstance(value, dict):
             return
         mentioned = [(v, text) for v, found_dimension, text in _quantities(rationale)
                      if found_dimension == dimension]
-        if mentioned and not any(math.isclose(v, float(value), rel_tol=1e-6, abs_tol=1e-15)
-                                 for v, _ in mentioned):
+        explained = [float(value)] + ([also] if also is not None else [])
+        if mentioned and not any(math.isclose(v, e, rel_tol=1e-6, abs_tol=1e-15)
+                                 for v, _ in mentioned for e in explained):
             said = ", ".join(text for _, text in mentioned)
             shown = format_expr(written)
             si = f"{float(value):g}"
@@ -286,7 +293,8 @@ def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
     for index in env.rulebook.indices:
         kind = env.index_types.get(index.name)
         compare(index.name, index.rationale, env.limits.get(index.name),
-                kind.dimension if kind else None, index.limit, index.span)
+                kind.dimension if kind else None, index.limit, index.span,
+                also=env.nominals.get(index.name))
     for rule in (*env.rulebook.command_rules, *env.rulebook.prescreens,
                  *env.rulebook.verdicts):
         condition = rule.condition
@@ -346,5 +354,34 @@ def _every_expression(rulebook: Rulebook) -> Iterator[Expr]:
     yield from _all_expressions(rulebook)
 
 
+# ----------------------------------------------------------------------------- W614
+
+# A nominal closer than this share of the limit to 0 or to the limit makes the index nearly a
+# step: half of its range (0 → 0.5 or 0.5 → 1) is crossed within a tenth of the limit.
+STEP_SHARE = 0.1
+
+
+def lint_step_nominal(env: _Env) -> list[Diagnostic]:
+    found: list[Diagnostic] = []
+    for index in env.rulebook.indices:
+        nominal, limit = env.nominals.get(index.name), env.limits.get(index.name)
+        if index.nominal is None or nominal is None or limit is None:
+            continue
+        share = nominal / limit
+        if STEP_SHARE <= share <= 1.0 - STEP_SHARE:
+            continue
+        low = share < STEP_SHARE
+        width = share if low else 1.0 - share
+        where = "first" if low else "last"
+        found.append(warning(
+            "W614", f"the nominal of index '{index.name}' is {share * 100:.3g} % of its limit: "
+            f"the index climbs from {'0 to 0.5' if low else '0.5 to 1'} over the {where} "
+            f"{width * 100:.3g} % of the limit, nearly a step", index.nominal.span,
+            "put the nominal where the value is expected (0.5 on the index's scale), or leave "
+            "it out for value / limit"))
+    return found
+
+
 LINTS: tuple[Callable[[_Env], list[Diagnostic]], ...] = (
-    lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow)
+    lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow,
+    lint_step_nominal)

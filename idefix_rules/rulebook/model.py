@@ -205,7 +205,9 @@ class CommandRule(ConditionRule):
 
 @dataclass(frozen=True)
 class Index:
-    """A risk index: normalised ``clamp(value / limit, 0, 1)``, weighted in I_max."""
+    """A risk index, weighted in I_max. Normalised ``clamp(value / limit, 0, 1)``; with a
+    ``nominal``, piecewise linear through (0, 0), (nominal, 0.5) and (limit, 1), clamped to
+    [0, 1] (:func:`~idefix_rules.rulebook.semantics.normalised`)."""
 
     name: str
     value: Expr
@@ -214,6 +216,7 @@ class Index:
     title: str | None = None
     map: Expr | None = None  # per-sample value override for the result map
     rationale: str | None = None
+    nominal: Expr | None = None  # the expected value, normalised to 0.5
     span: Span = _span()
     comments: tuple[str, ...] = _comments()
 

@@ -12,9 +12,9 @@ Comments are kept on the declaration they belong to (``comments``; the end of th
 
 * a comment on its own line before a declaration: ``"# text"``;
 * a comment at the end of a line of a declaration: ``"@eol # text"``; inside an ``index`` or
-  ``combine`` block ``"@ITEM # text"`` where ITEM is the line's item (``value``, ``limit``,
-  ``weight``, ``map``, ``because``, ``run``, ``path``, ``confidence``, the block's own keyword
-  for its first line, ``}`` for its last);
+  ``combine`` block ``"@ITEM # text"`` where ITEM is the line's item (``value``, ``nominal``,
+  ``limit``, ``weight``, ``map``, ``because``, ``run``, ``path``, ``confidence``, the block's own
+  keyword for its first line, ``}`` for its last);
 * a comment on its own line inside such a block: ``"@ITEM^ # text"`` (printed above ITEM);
 * a comment before ``settings {`` / ``obstacles {``: ``"@block^ # text"`` on the first entry.
 
@@ -358,6 +358,9 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
     def index_value(self, meta: Any, children: list[Any]) -> _Item:
         return _Item("value", children[0], self._s(meta))
 
+    def index_nominal(self, meta: Any, children: list[Any]) -> _Item:
+        return _Item("nominal", children[0], self._s(meta))
+
     def index_limit(self, meta: Any, children: list[Any]) -> _Item:
         return _Item("limit", children[0], self._s(meta))
 
@@ -395,7 +398,7 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
         return model.Index(
             str(name), get("value") or placeholder, get("limit") or placeholder,
             get("weight") or placeholder, _unquote(title) if title is not None else None,
-            get("map"), get("because"), span=span)
+            get("map"), get("because"), get("nominal"), span=span)
 
     def combine_method(self, meta: Any, children: list[Token]) -> Token:
         return children[0]

@@ -39,6 +39,19 @@ axes, the runs in any order; ``fraction`` is ``count / n``. The value is the sam
 and the per-sample form leaves it whole (:mod:`.across` has the table and the two-pass
 evaluation of chunked runs).
 
+Normalisation of an index's value *v* (run values and per-sample values alike), limit *L*
+(> 0) and optional nominal *n* (0 < n < L), see :func:`normalised`:
+
+=====================  ==============================================================
+without a nominal      ``clamp(v / L, 0, 1)``
+``v <= n``             ``clamp(0.5 · v / n, 0, 1)``
+``v > n``              ``clamp(0.5 + 0.5 · (v - n) / (L - n), 0, 1)``
+=====================  ==============================================================
+
+Piecewise linear through (0, 0), (n, 0.5) and (L, 1): the nominal expectation scores 0.5, the
+critical limit 1. Without a nominal the line through (0, 0) and (L, 1) is the same shape with
+``n = L / 2``. A NaN value is 1.
+
 Non-finite data: an index whose signals hold NaN or ±inf in a run is 1 (critical) for that run,
 and so is an index whose raw value is NaN (e.g. 0/0); a chance whose signals hold non-finite
 values in a run counts as holding. Normalised values and per-sample values are always finite
@@ -47,6 +60,7 @@ in [0, 1].
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, is_dataclass
 
 from idefix_rules.rulebook.model import (
@@ -72,6 +86,24 @@ LABEL_AXIS: dict[str, tuple[str, int]] = {
 TIME_ONLY_REDUCERS = frozenset({"integral", "time_above"})
 BOOLEAN_REDUCERS = frozenset({"any", "all"})
 
+
+
+def normalised(value: float, limit: float, nominal: float | None = None) -> float:
+    """An index's value on its 0..1 scale: 1 at and beyond the limit, 0.5 at the nominal
+    (``value / limit`` without one), NaN → 1. The reference for both evaluators.
+
+    >>> normalised(0.2, 0.7, 0.2), normalised(0.45, 0.7, 0.2), normalised(0.35, 0.7)
+    (0.5, 0.75, 0.5)
+    """
+    if math.isnan(value):
+        return 1.0
+    if nominal is None:
+        ratio = value / limit
+    elif value <= nominal:
+        ratio = 0.5 * value / nominal
+    else:
+        ratio = 0.5 + 0.5 * (value - nominal) / (limit - nominal)
+    return min(max(ratio, 0.0), 1.0)
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,9 @@
 
 * :func:`rulebooks` — *valid* rule models (they pass :func:`~idefix_rules.rulebook.check`), built
   type-correct by construction: every index reduces a per-sample quantity of a known dimension
-  to one value per run, limits have the value's dimension, weights lie in [0, 1]. Numbers are
-  non-negative floats with units as written, so ``parse(format(model)) == model`` holds.
+  to one value per run, limits have the value's dimension, a nominal (when drawn) is the limit
+  times a fraction in [1/8, 7/8], weights lie in [0, 1]. Numbers are non-negative floats with
+  units as written, so ``parse(format(model)) == model`` holds.
 * :func:`chains` — short command chains; :func:`run_batches` — ``(signals, context)`` pairs:
   signals of the contract vectorised over runs on one time grid whose ``command`` signal
   follows the chain, and a :class:`~idefix_rules.rulebook.derived.RunContext` with a reference
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from hypothesis import assume
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -189,7 +191,19 @@ def indices(draw: Any, name: str, with_obstacles: bool = False) -> Index:
         return Index(name, _OBSTACLE_VALUE, Number(1.0), weight, title,
                      _OBSTACLE_MAP if draw(st.booleans()) else None, rationale)
     value, dimension = draw(index_values())
-    return Index(name, value, draw(_limit(dimension)), weight, title, None, rationale)
+    limit = draw(_limit(dimension))
+    return Index(name, value, limit, weight, title, None, rationale, draw(_nominal(limit)))
+
+
+# Nominals as a share of the limit: inside (0, 1), away from the nearly-a-step ends (W614).
+NOMINAL_SHARES = (0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875)
+
+
+def _nominal(limit: Expr) -> st.SearchStrategy[Expr | None]:
+    """None (``value / limit``) or the limit times a share in [1/8, 7/8]."""
+    shares = st.sampled_from(NOMINAL_SHARES).map(lambda share: Binary("*", limit,
+                                                                      Number(share)))
+    return st.none() | shares
 
 
 @st.composite
@@ -235,7 +249,7 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
         first = index_list[0]
         constants.append(Constant("c_limit", first.limit, draw(st.none() | _TEXT)))
         index_list[0] = Index(first.name, first.value, Name("c_limit"), first.weight,
-                              first.title, first.map, first.rationale)
+                              first.title, first.map, first.rationale, first.nominal)
     chance_names = [f"p_{i}{draw(_WORDS)}" for i in range(draw(st.integers(0, 2)))]
     chances = [Chance(n, draw(_chance_condition()), draw(st.none() | _TEXT))
                for n in chance_names]
@@ -516,8 +530,19 @@ def perturbed_runs(draw: Any, signal: str | None = None, ranges: RunRanges | Non
 @st.composite
 def rulebook_variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
     """``(description, rulebook)``: ``rulebook`` with one number changed — a scalar
-    constant, an index limit or weight, or the number a command rule, verdict or prescreen
-    compares with — by a factor drawn in [0.25, 4] (weights are drawn in [0, 1])."""
+    constant, an index limit, nominal or weight, or the number a command rule, verdict or
+    prescreen compares with — by a factor drawn in [0.25, 4] (weights are drawn in [0, 1]).
+    A change that would make the rulebook invalid (a nominal at or above its limit) is not
+    drawn."""
+    from idefix_rules.rulebook.check import check
+
+    description, variant = draw(_variations(rulebook))
+    assume(check(variant).ok)
+    return str(description), variant
+
+
+@st.composite
+def _variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
     from dataclasses import replace as replaced
 
     factor = draw(st.sampled_from([0.25, 0.5, 0.8, 0.9, 1.1, 1.25, 2.0, 4.0]))
@@ -527,8 +552,9 @@ def rulebook_variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
                   if isinstance(rule.condition, Binary) and isinstance(rule.condition.right,
                                                                        Number)
                   and rule.condition.right.value != 0]
+    with_nominal = [i for i in rulebook.indices if i.nominal is not None]
     choices = ["limit", "weight"] + (["constant", "constant"] if scalar else []) + \
-        (["threshold"] if thresholds else [])
+        (["threshold"] if thresholds else []) + (["nominal"] if with_nominal else [])
     choice = draw(st.sampled_from(choices))
     if choice == "constant":
         constant = draw(st.sampled_from(scalar))
@@ -547,8 +573,11 @@ def rulebook_variations(draw: Any, rulebook: Rulebook) -> tuple[str, Rulebook]:
                       for r in getattr(rulebook, attribute))
         fields: dict[str, Any] = {attribute: rules}
         return f"threshold of {rule.name} × {factor:g}", replaced(rulebook, **fields)
-    index = draw(st.sampled_from(rulebook.indices))
-    if choice == "limit":
+    index = draw(st.sampled_from(with_nominal if choice == "nominal" else rulebook.indices))
+    if choice == "nominal":
+        assert index.nominal is not None
+        changed = replaced(index, nominal=Binary("*", index.nominal, Number(factor)))
+    elif choice == "limit":
         changed = replaced(index, limit=Binary("*", index.limit, Number(factor)))
     else:
         weight = Number(draw(st.sampled_from([0.0, 0.25, 0.5, 0.75, 1.0])))

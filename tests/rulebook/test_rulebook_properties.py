@@ -98,7 +98,10 @@ def test_tightening_a_limit_never_turns_a_fail_into_a_pass(model, batch, data):
     position = data.draw(st.integers(0, len(model.indices) - 1))
     factor = data.draw(st.sampled_from([0.125, 0.25, 0.5, 0.75]))
     index = model.indices[position]
-    tighter = _with_index(model, position, limit=Binary("*", index.limit, Number(factor)))
+    # a nominal tightens with its limit, so it stays below it
+    nominal = None if index.nominal is None else Binary("*", index.nominal, Number(factor))
+    tighter = _with_index(model, position, limit=Binary("*", index.limit, Number(factor)),
+                          nominal=nominal)
     before = compile_rulebook(checked(model)).evaluate(*batch)
     after = compile_rulebook(checked(tighter)).evaluate(*batch)
     assert (after.values[index.name] >= before.values[index.name]).all()
