@@ -16,15 +16,19 @@ from the rule model, never from data:
    true more often as ``b`` grows and ``a`` shrinks; ``and``/``or`` combine; ``percentile P``
    grows with ``P``, ``time_above T`` shrinks with ``T``. Two opposite polarities make it unknown.
 2. An index ``clamp(value / limit, 0, 1)`` grows with its value and shrinks with its limit;
-   the run risk (eq. 1) and the path risk (eq. 2) grow with every index and weight.
+   with a nominal (piecewise linear through (nominal, 0.5) and (limit, 1)) it shrinks with the
+   nominal too, at every value below the limit. An index without a nominal is the same shape
+   with the nominal at half its limit, so adding, removing or changing a nominal moves the
+   nominal from (or to) that half. The run risk (eq. 1) and the path risk (eq. 2) grow with
+   every index and weight.
 3. A path passes when every command rule, prescreen and verdict holds, so the *pass polarity*
    with respect to ``v`` combines the polarities of all those conditions, reading ``risk``,
    ``mean(I)``, ``max(I)``, index names and ``chance(X)`` through steps 1 and 2.
 4. A change that moves ``v`` up is **looser** when the pass polarity is ``+1`` (more passes),
    **stricter** when it is ``-1``, **neutral** when it is 0 or ``v`` did not move in SI.
 
-What moves: a constant (each of its uses), an index's limit or weight, a number in a condition
-(the rest of the condition unchanged), a level's buffer (more buffer entries,
+What moves: a constant (each of its uses), an index's limit, nominal or weight, a number in a
+condition (the rest of the condition unchanged), a level's buffer (more buffer entries,
 ``collision.buffer``), ``tolerance_growth`` (a wider ``tolerance_radius``). An added command
 rule, prescreen or verdict is stricter, a removed one looser; an added index raises the risk
 (stricter when verdicts bound the risk from above). Header, ranking, titles, rationales, maps
@@ -99,7 +103,8 @@ class Polarities:
     """Polarity of expressions of one rulebook with respect to one moving quantity ``seed``.
 
     ``seed`` maps atoms to their polarity: ``const:NAME``, ``signal:NAME``, ``limit:INDEX``,
-    ``weight:INDEX``, or ``id:N`` for one particular number node (``id(node)``).
+    ``nominal:INDEX``, ``weight:INDEX``, or ``id:N`` for one particular number node
+    (``id(node)``).
     """
 
     def __init__(self, model: Rulebook, constants: Mapping[str, Any],
@@ -248,13 +253,16 @@ class Polarities:
 
     # ------------------------------------------------------------------ run and path level
     def index(self, name: str) -> Polarity:
-        """Normalised index ``clamp(value / limit, 0, 1)``."""
+        """Normalised index ``clamp(value / limit, 0, 1)`` (through (nominal, 0.5) with a
+        nominal): grows with the value, shrinks with the limit and with the nominal."""
         if name not in self._index_cache:
             self._index_cache[name] = 0  # guards recursion through prescreens
             index = next(i for i in self.model.indices if i.name == name)
+            nominal = self.of(index.nominal) if index.nominal is not None else 0
             self._index_cache[name] = combine(
-                self.of(index.value), negate(self.of(index.limit)),
-                negate(self.seed.get(f"limit:{name}", 0)), self.seed.get(f"index:{name}", 0))
+                self.of(index.value), negate(self.of(index.limit)), negate(nominal),
+                negate(self.seed.get(f"limit:{name}", 0)),
+                negate(self.seed.get(f"nominal:{name}", 0)), self.seed.get(f"index:{name}", 0))
         return self._index_cache[name]
 
     def risk(self) -> Polarity:
@@ -335,7 +343,9 @@ def constant_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) ->
 
 def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
                     fields: Iterable[str]) -> Direction:
-    """A changed index: its limit and weight (in SI) may move; a new value shape is unknown."""
+    """A changed index: its limit, nominal and weight (in SI) may move; a new value shape is
+    unknown. A nominal added or removed moves from or to half the limit (the shape of an index
+    without one)."""
     fields = set(fields) - {"title", "map"}
     if "value" in fields:
         value_change = _number_change(_index(old, name).value, _index(new, name).value)
@@ -347,6 +357,10 @@ def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
     if "limit" in fields or old.limits.get(name) != new.limits.get(name):
         labels.append(_label(new, {f"limit:{name}": 1},
                              _sign(old.limits[name], new.limits[name])))
+    if (name in old.nominals or name in new.nominals) and \
+            effective_nominal(old, name) != effective_nominal(new, name):
+        labels.append(_label(new, {f"nominal:{name}": 1},
+                             _sign(effective_nominal(old, name), effective_nominal(new, name))))
     if "weight" in fields or old.weights.get(name) != new.weights.get(name):
         labels.append(_label(new, {f"weight:{name}": 1},
                              _sign(old.weights[name], new.weights[name])))
@@ -360,6 +374,12 @@ def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
                 labels.append("unknown" if moved is None or own is None
                               else direction_of(through, moved * own) if own else "neutral")
     return merge(labels)
+
+
+def effective_nominal(checked: CheckedRulebook, name: str) -> float:
+    """The index's nominal in SI; half its limit when it gives none (``value / limit`` is 0.5
+    there)."""
+    return checked.nominals.get(name, 0.5 * checked.limits[name])
 
 
 def _index(checked: CheckedRulebook, name: str) -> Index:

@@ -215,13 +215,16 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
             items: Fields = {
                 "title": (format_string(index.title) if index.title is not None else "", None),
                 "value": _item(index.value),
+                "nominal": _item(index.nominal, si_text(checked.nominals[index.name],
+                                                        index_dimension)
+                                 if index.name in checked.nominals else None),
                 "limit": _item(index.limit, si_text(checked.limits[index.name], index_dimension)),
                 "weight": _item(index.weight, si_text(checked.weights[index.name])),
                 "map": _item(index.map)}
             found[index.name] = _Declaration(
                 index.name, items, index.rationale,
-                tuple(e for e in (index.value, index.limit, index.weight, index.map)
-                      if e is not None))
+                tuple(e for e in (index.value, index.nominal, index.limit, index.weight,
+                                  index.map) if e is not None))
     elif section == "combine":
         combine: Combine = model.combine
         found["combine"] = _Declaration("combine", {
