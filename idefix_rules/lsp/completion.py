@@ -35,7 +35,7 @@ Kind = Literal["constant", "signal", "variable", "reducer", "function", "unit", 
                "index", "chance", "label", "setting"]
 
 REDUCERS: tuple[str, ...] = get_args(Reducer)  # the rule model's, so none is missed
-INDEX_ITEMS = ("value", "limit", "weight", "map", "because")
+INDEX_ITEMS = ("value", "nominal", "limit", "weight", "map", "because")
 COMBINE_ITEMS = ("run", "path", "confidence")
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WORD = re.compile(r"[A-Za-z_][\w.]*$")
@@ -165,7 +165,7 @@ def completions(text: str, position: Position) -> list[Completion]:
         return [Completion(keyword, "keyword", "declaration", word_range)
                 for keyword in sorted(TOP_LEVEL_KEYWORDS)]
     if kind == "index":
-        item = re.match(r"\s*(?:index\b.*\{)?\s*(value|limit|weight|map)\s*=", before)
+        item = re.match(r"\s*(?:index\b.*\{)?\s*(value|nominal|limit|weight|map)\s*=", before)
         kind = {"value": "index", "map": "map"}.get(item.group(1), "const") if item else "index"
     elif kind == "obstacles":
         return [*(Completion(word, "keyword", "keyword", word_range) for word in

@@ -1,7 +1,8 @@
 """What the editor shows when the pointer rests on a name or on a problem (Markdown).
 
 * a constant: its value as written, its SI value with unit, its rationale;
-* an index: its formula, limit (with SI value), weight, result-map formula and rationale;
+* an index: its formula, nominal and limit (with SI values), weight, result-map formula and
+  rationale, and how it is normalised;
 * a chance, an obstacle level: the declaration and its rationale or SI sizes;
 * a signal: its entry in the signal contract (unit, axes, who provides it);
 * a command quantity or path statistic: what it is and its unit;
@@ -114,6 +115,11 @@ def _index(analysis: Analysis, index: Index) -> list[str]:
     lines = [f"**index {index.name}**{title}",
              f"- formula: {_code(format_expr(index.value))}"
              + (f" — {_dimension_text(value_type.dimension)}" if value_type else "")]
+    if index.nominal is not None:
+        nominal = f"- nominal: {_code(format_expr(index.nominal))}"
+        if checked is not None and index.name in checked.nominals and value_type is not None:
+            nominal += f" = {_code(si_text(checked.nominals[index.name], value_type.dimension))}"
+        lines.append(nominal)
     limit = f"- limit: {_code(format_expr(index.limit))}"
     if checked is not None and index.name in checked.limits and value_type is not None:
         limit += f" = {_code(si_text(checked.limits[index.name], value_type.dimension))}"
@@ -127,8 +133,10 @@ def _index(analysis: Analysis, index: Index) -> list[str]:
     if index.map is not None:
         lines.append(f"- result map: {_code(format_expr(index.map))}")
     lines.append("")
-    lines.append(f"I = clamp(value / limit, 0, 1); weighted by {format_expr(index.weight)} "
-                 "in the run risk I_max (eq. 1)")
+    shape = ("piecewise linear through (0, 0), (nominal, 0.5) and (limit, 1), clamped to "
+             "[0, 1]" if index.nominal is not None else "clamp(value / limit, 0, 1)")
+    lines.append(f"I = {shape}; weighted by {format_expr(index.weight)} in the run risk I_max "
+                 "(eq. 1)")
     return lines
 
 

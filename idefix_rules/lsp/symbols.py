@@ -97,6 +97,8 @@ def expressions(rulebook: Rulebook) -> Iterator[tuple[Expr, ScopeKind]]:
         yield rule.condition, "command"
     for index in rulebook.indices:
         yield index.value, "run"
+        if index.nominal is not None:
+            yield index.nominal, "constant"
         yield index.limit, "constant"
         yield index.weight, "constant"
         if index.map is not None:

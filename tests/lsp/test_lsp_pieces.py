@@ -96,7 +96,8 @@ def test_hover_of_path_statistics_and_levels() -> None:
 def test_completion_offers_what_fits_the_context() -> None:
     text = DEFAULT_TEXT
     assert "theoretical_slip" in labels(text, "  theoretical_slip", 2)
-    assert {"value", "limit", "weight", "map", "because"} == labels(text, "  limit  = 1", 2)
+    assert {"value", "nominal", "limit", "weight", "map", "because"} == labels(text,
+                                                                               "  limit  = 1", 2)
     prescreen = labels(text, "require I_obs", 8)
     assert {"I_obs", "I_pos", "got_stuck", "risk", "critical_tilt"} <= prescreen
     assert "wheel.slip" not in prescreen and "delta_heading" not in prescreen
