@@ -1,7 +1,8 @@
 """``idefix-verify explain RULEBOOK``: a table of the checked rules.
 
 One row per rule: kind, name, formula (printed by the formatter), unit of the value (SI),
-threshold (the limit, with its SI value), weight and rationale. Command rules, indices,
+threshold (the limit, with its SI value, and an index's nominal, where it is 0.5), weight and
+rationale. Command rules, indices,
 chances, prescreens and verdicts are all listed; settings, obstacle levels, the combination
 and the ranking follow below the table.
 """
@@ -79,8 +80,11 @@ def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
         if runs_reductions([index.value]):
             formula += "\npath-level: reduces over the runs of the path (the same in each run)"
         title = f"{index.name}\n{index.title}" if index.title else index.name
+        threshold = _threshold(checked, index.limit, dimension)
+        if index.nominal is not None:
+            threshold += f"\nnominal (0.5): {_threshold(checked, index.nominal, dimension)}"
         yield ("index", title, formula, str(dimension) if dimension is not None else "",
-               _threshold(checked, index.limit, dimension),
+               threshold,
                format_number(checked.weights.get(index.name, float("nan"))),
                index.rationale or "")
     for chance in rulebook.chances:

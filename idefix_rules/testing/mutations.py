@@ -8,7 +8,8 @@ A good set of cases fails for every mutant. The mutations of one rule:
 * ``and`` ↔ ``or``; a ``not`` removed;
 * a reducer swapped: ``max`` ↔ ``min``, ``final`` ↔ ``initial``, ``any`` ↔ ``all``, ``sum``,
   ``mean``, ``rms`` and ``percentile`` → ``max``, ``count`` → ``any``-like ``max``;
-* for an index also its limit doubled and halved, and its weight halved (when not 0).
+* for an index also its limit doubled and halved (a nominal halved with it, so it stays below
+  the limit), its nominal halved, and its weight halved (when not 0).
 
 Maps (the per-sample form of an index, only drawn in the result map) are not mutated.
 
@@ -136,8 +137,13 @@ def _rule_mutations(rule: Index | ConditionRule, constants: set[str]
     if isinstance(rule, Index):
         for change, value in expression_mutations(rule.value, constants):
             yield change, replace(rule, value=value)
-        for factor in (2.0, 0.5):
-            yield f"limit × {factor:g}", replace(rule, limit=_scaled(rule.limit, factor))
+        yield "limit × 2", replace(rule, limit=_scaled(rule.limit, 2.0))
+        if rule.nominal is None:
+            yield "limit × 0.5", replace(rule, limit=_scaled(rule.limit, 0.5))
+        else:
+            yield "limit and nominal × 0.5", replace(rule, limit=_scaled(rule.limit, 0.5),
+                                                     nominal=_scaled(rule.nominal, 0.5))
+            yield "nominal × 0.5", replace(rule, nominal=_scaled(rule.nominal, 0.5))
         if not _is_zero(rule.weight):
             yield "weight × 0.5", replace(rule, weight=_scaled(rule.weight, 0.5))
         return

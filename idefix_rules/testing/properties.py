@@ -22,7 +22,7 @@ import numpy as np
 from idefix_rules.rulebook.check import CheckedRulebook, check
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
 from idefix_rules.rulebook.derived import RunContext
-from idefix_rules.rulebook.model import Binary, Index, Number, Rulebook
+from idefix_rules.rulebook.model import Binary, Expr, Index, Number, Rulebook
 from idefix_rules.rulebook.results import RunEvaluation
 from idefix_rules.testing.runner import first_run
 
@@ -69,9 +69,13 @@ def _index(rulebook: Rulebook, name: str) -> Index:
 def check_monotone_in_limit(rulebook: Rulebook, index: str, factor: float,
                             signals: Signals, context: RunContext) -> None:
     """Scaling ``index``'s limit by ``factor`` ≥ 1 never raises that index or I_max of any run
-    (and ``factor`` ≤ 1 never lowers them)."""
-    limit = _index(rulebook, index).limit
-    changed = _with_index(rulebook, index, limit=Binary("*", limit, Number(factor)))
+    (and ``factor`` ≤ 1 never lowers them). A nominal shrinks with a limit scaled below 1, so
+    it stays below the limit (the index only grows with that too)."""
+    declared = _index(rulebook, index)
+    changes: dict[str, Expr] = {"limit": Binary("*", declared.limit, Number(factor))}
+    if declared.nominal is not None and factor < 1:
+        changes["nominal"] = Binary("*", declared.nominal, Number(factor))
+    changed = _with_index(rulebook, index, **changes)
     before = compile_rulebook(rulebook).evaluate(signals, context)
     after = compile_rulebook(changed).evaluate(signals, context)
     sign = 1 if factor >= 1 else -1

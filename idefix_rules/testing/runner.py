@@ -143,7 +143,10 @@ def index_text(compiled: CompiledRulebook, name: str) -> str:
     """``I_s = percentile 95 over time (…) / critical_slip (0.7)``, with its place."""
     index = next(i for i in compiled.rulebook.indices if i.name == name)
     limit = compiled.checked.limits[name]
-    return (f"index {name}: value = {format_expr(index.value)}; limit = "
+    nominal = compiled.checked.nominals.get(name)
+    nominal_text = "" if index.nominal is None or nominal is None else \
+        f"nominal = {format_expr(index.nominal)} (= {nominal:.6g} SI); "
+    return (f"index {name}: value = {format_expr(index.value)}; {nominal_text}limit = "
             f"{format_expr(index.limit)} (= {limit:.6g} SI); weight = "
             f"{compiled.checked.weights[name]:g}{_located(compiled, index.span)}")
 
@@ -168,14 +171,18 @@ def _index_where(compiled: CompiledRulebook, outcome: CaseOutcome, name: str) ->
     found = compiled.checked.index_types.get(name)
     unit = "" if found is None or found.dimension.is_dimensionless else f" {found.dimension}"
     limit = compiled.checked.limits[name]
-    text = f"run 1: raw value {raw:.6g}{unit} against the limit {limit:.6g}{unit}" \
+    nominal = compiled.checked.nominals.get(name)
+    against = f"the limit {limit:.6g}{unit}" if nominal is None else \
+        f"the nominal {nominal:.6g}{unit} (0.5) and the limit {limit:.6g}{unit} (1)"
+    text = f"run 1: raw value {raw:.6g}{unit} against {against}" \
         if np.isfinite(raw) else \
         "run 1: its signals hold NaN or inf (the index counts as 1)"
     per_sample = first.per_sample[name]
     if per_sample.shape[1]:
         sample = int(np.argmax(per_sample[0]))
+        scale = "of the limit" if nominal is None else "on the index's 0..1 scale"
         text += f"; per-sample value peaks at {_time(outcome, sample)}: " \
-                f"{float(per_sample[0, sample]):.4g} of the limit"
+                f"{float(per_sample[0, sample]):.4g} {scale}"
     return text
 
 
