@@ -7,9 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
+FIXTURES = ROOT / "tests" / "fixtures" / "rulebooks"
+FROZEN = FIXTURES / "idefix-ops-1.1.0.rules"
 
 
 @pytest.fixture(scope="session")
@@ -22,5 +25,21 @@ def stored_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def campaign_rulebook(stored_results: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The rulebook the stored campaign was evaluated with (its campaign file names the live
+    operations rulebook), as the results file keeps it: re-scored under it, nothing changes."""
+    store = ResultStore.open(stored_results)
+    try:
+        text = store.text("rulebook")
+    finally:
+        store.close()
+    path = tmp_path_factory.mktemp("campaign-rulebook") / "campaign.rules"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="session")
 def ops_text() -> str:
-    return (ROOT / "rulebooks" / "idefix-ops.rules").read_text(encoding="utf-8")
+    """The frozen operations rulebook 1.1.0 (tests/fixtures/rulebooks), whose exact text the
+    variants of the results diff edit."""
+    return FROZEN.read_text(encoding="utf-8")

@@ -22,9 +22,11 @@ from idefix_rules.rulebook.strategies import (
 )
 from idefix_rules.testing.properties import check_direction
 
-ROOT = Path(__file__).parents[2]
-DEFAULT = (ROOT / "rulebooks" / "idefix-ops.rules").read_text(encoding="utf-8")
-HISTORY = ROOT / "rulebooks" / "history" / "idefix-ops-0.9.0.rules"
+# Frozen copies (tests/fixtures/rulebooks): the edits below name their exact text.
+FIXTURES = Path(__file__).parents[1] / "fixtures" / "rulebooks"
+FROZEN = FIXTURES / "idefix-ops-1.1.0.rules"
+DEFAULT = FROZEN.read_text(encoding="utf-8")
+HISTORY = FIXTURES / "idefix-ops-0.9.0.rules"
 
 
 SLIP = "const critical_slip            = "
@@ -106,8 +108,7 @@ def test_version_warnings():
 
 
 def test_cli_table_json_and_markdown_carry_the_labels(capsys):
-    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules"),
-                 "--format", "json"]) == 0
+    assert main(["diff", str(HISTORY), str(FROZEN), "--format", "json"]) == 0
     rules = json.loads(capsys.readouterr().out)["rules"]
     by_name = {(c["section"], c["name"]): c["direction"] for c in rules["changes"]}
     assert by_name[("constant", "critical_tilt")] == "stricter"     # 20 deg → 15 deg
@@ -116,11 +117,10 @@ def test_cli_table_json_and_markdown_carry_the_labels(capsys):
     assert by_name[("prescreen", "reference_not_critical")] == "looser"  # removed
     assert by_name[("index", "I_s")] == "unknown"                   # max → percentile 95
     assert rules["directions"]["stricter"] >= 5
-    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules")]) == 0
+    assert main(["diff", str(HISTORY), str(FROZEN)]) == 0
     table = capsys.readouterr().out
     assert "direction" in table and "stricter" in table and "looser" in table
-    assert main(["diff", str(HISTORY), str(ROOT / "rulebooks" / "idefix-ops.rules"),
-                 "--format", "md"]) == 0
+    assert main(["diff", str(HISTORY), str(FROZEN), "--format", "md"]) == 0
     md = capsys.readouterr().out
     assert md.startswith("## idefix-ops 1.1.0 (from idefix-ops 0.9.0)")
     assert "### Stricter" in md and "### Looser" in md
@@ -130,12 +130,12 @@ def test_cli_table_json_and_markdown_carry_the_labels(capsys):
 def test_cli_warns_when_the_version_did_not_move(tmp_path, capsys):
     new = tmp_path / "new.rules"
     new.write_text(edited("require risk <= 70 %", "require risk <= 60 %"), encoding="utf-8")
-    assert main(["diff", str(ROOT / "rulebooks" / "idefix-ops.rules"), str(new)]) == 0
+    assert main(["diff", str(FROZEN), str(new)]) == 0
     assert "warning: the rules changed but the version did not" in capsys.readouterr().out
 
 
 MODEL = check_text(DEFAULT, "idefix-ops.rules").checked
-# Runs that sit around the default rulebook's limits, so paths both pass and fail.
+# Runs that sit around the frozen rulebook's limits, so paths both pass and fail.
 NARROW = RunRanges(slip=(0.0, 0.5), slip_angle=0.8, sinkage=0.035, tilt=0.16, drift=0.008,
                    heading_drift=0.16, hits=0, stuck=False, max_wheel_rate=0.05, runs=(2, 6),
                    samples=(12, 30), step=(2.0, 4.0))

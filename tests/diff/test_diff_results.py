@@ -22,12 +22,13 @@ from idefix_rules.rulebook import compile_rulebook
 
 pytestmark = pytest.mark.slow
 
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "rulebooks"
 VERDICTS = re.compile(r"^verdict .*?(?=^rank by)", re.MULTILINE | re.DOTALL)
 
 
 def variant(ops_text: str, folder: Path, name: str, verdicts: str | None = None,
             extra: str = "", replace: tuple[tuple[str, str], ...] = ()) -> Path:
-    """The operations rulebook with its verdicts replaced and/or text edits, as a file."""
+    """The frozen operations rulebook with its verdicts replaced and/or text edits, as a file."""
     text = ops_text
     if verdicts is not None:
         text = VERDICTS.sub(verdicts + "\n\n", text)
@@ -53,8 +54,8 @@ def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict]
 
 
 def test_the_same_rulebook_changes_nothing_and_matches_the_stored_evaluation(
-        stored_results: Path) -> None:
-    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+        stored_results: Path, campaign_rulebook: Path) -> None:
+    ops = load_source(str(campaign_rulebook))
     diff = diff_results([stored_results], ops, ops)
     file = diff.files[0]
     # The campaign was evaluated with this very rulebook: its collisions are reused.
@@ -130,10 +131,10 @@ def test_no_verdict_change_exits_0_even_when_runs_move(
 
 
 def test_other_obstacle_buffers_recompute_collisions_like_the_evaluation_stage(
-        stored_results: Path, ops_text: str, tmp_path: Path) -> None:
+        stored_results: Path, campaign_rulebook: Path, ops_text: str, tmp_path: Path) -> None:
     wider = variant(ops_text, tmp_path, "wider", replace=(
         ("level L2 below 10 cm buffer 5 cm", "level L2 below 10 cm buffer 7 cm"),))
-    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    ops = load_source(str(campaign_rulebook))
     new = load_source(str(wider))
     diff = diff_results([stored_results], ops, new, chunk_runs=3)
     file = diff.files[0]
@@ -158,8 +159,8 @@ def test_other_obstacle_buffers_recompute_collisions_like_the_evaluation_stage(
 
 
 def test_command_rules_and_prescreens_of_each_side_gate_the_paths(
-        stored_results: Path, ops_text: str, tmp_path: Path) -> None:
-    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+        stored_results: Path, campaign_rulebook: Path, ops_text: str, tmp_path: Path) -> None:
+    ops = load_source(str(campaign_rulebook))
     short = load_source(str(variant(
         ops_text, tmp_path, "short",
         extra='command short_moves: require abs(delta_position) <= 90 cm\n'
@@ -177,8 +178,7 @@ def test_command_rules_and_prescreens_of_each_side_gate_the_paths(
 
 def test_chunk_size_and_threads_do_not_change_the_result(stored_results: Path, ops_text: str,
                                                tmp_path: Path) -> None:
-    old = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "history"
-                          / "idefix-ops-0.9.0.rules"))
+    old = load_source(str(FIXTURES / "idefix-ops-0.9.0.rules"))
     new = load_source(str(variant(ops_text, tmp_path, "same")))
     whole = diff_results([stored_results], old, new, chunk_runs=100, threads=1).to_dict()
     single = diff_results([stored_results], old, new, chunk_runs=1, threads=1).to_dict()
@@ -206,7 +206,7 @@ def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
 
 
 def test_a_path_without_stored_collisions_has_them_recomputed(
-        stored_results: Path, tmp_path: Path) -> None:
+        stored_results: Path, campaign_rulebook: Path, tmp_path: Path) -> None:
     import shutil
 
     import h5py
@@ -218,7 +218,7 @@ def test_a_path_without_stored_collisions_has_them_recomputed(
     name = evaluated(stored_results)[0]
     with h5py.File(copy, "r+") as file:
         del file[f"paths/{name}/evaluation/collisions"]
-    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    ops = load_source(str(campaign_rulebook))
     original = diff_results([stored_results], ops, ops).files[0]
     patched = diff_results([copy], ops, ops).files[0]
     assert patched.collisions == f"stored (recomputed for: {name})"
@@ -226,7 +226,7 @@ def test_a_path_without_stored_collisions_has_them_recomputed(
 
 
 def test_a_path_the_campaign_did_not_simulate_but_a_rulebook_accepts_is_not_simulated(
-        stored_results: Path, tmp_path: Path, ops_text: str) -> None:
+        stored_results: Path, campaign_rulebook: Path, tmp_path: Path, ops_text: str) -> None:
     import shutil
 
     import h5py
@@ -240,7 +240,7 @@ def test_a_path_the_campaign_did_not_simulate_but_a_rulebook_accepts_is_not_simu
         for group in ("runs", "evaluation"):  # absent already if the campaign excluded it
             if group in straight:
                 del straight[group]
-    ops = load_source(str(Path(__file__).resolve().parents[2] / "rulebooks" / "idefix-ops.rules"))
+    ops = load_source(str(campaign_rulebook))
     short = load_source(str(variant(
         ops_text, tmp_path, "short",
         extra="command short_moves: require abs(delta_position) <= 90 cm\n")))
@@ -262,9 +262,8 @@ def test_shared_evaluation_equals_two_separate_evaluations(stored_results: Path)
     from idefix_rules.commands import Command
     from idefix_rules.diff.evaluators import values_only
 
-    root = Path(__file__).resolve().parents[2] / "rulebooks"
-    old = values_only(load_source(str(root / "history" / "idefix-ops-0.9.0.rules")).checked)
-    new = values_only(load_source(str(root / "idefix-ops.rules")).checked)
+    old = values_only(load_source(str(FIXTURES / "idefix-ops-0.9.0.rules")).checked)
+    new = values_only(load_source(str(FIXTURES / "idefix-ops-1.1.0.rules")).checked)
     store = ResultStore.open(stored_results)
     try:
         campaign = stored_campaign(store)
