@@ -13,8 +13,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from lsp_client import LspClient
 
-REPOSITORY = Path(__file__).resolve().parents[2]
-DEFAULT_RULEBOOK = REPOSITORY / "rulebooks" / "idefix-ops.rules"
+# The frozen operations rulebook 1.1.0: the tests find positions, names and hover texts in it
+FROZEN_RULEBOOK = Path(__file__).resolve().parents[1] / "fixtures" / "rulebooks" / \
+    "idefix-ops-1.1.0.rules"
 
 
 @pytest.fixture(scope="module")
@@ -27,4 +28,4 @@ def client() -> Iterator[LspClient]:
 
 @pytest.fixture
 def default_text() -> str:
-    return DEFAULT_RULEBOOK.read_text(encoding="utf-8")
+    return FROZEN_RULEBOOK.read_text(encoding="utf-8")

@@ -1,5 +1,5 @@
 """The TextMate grammar (``editors/rulebook.tmLanguage.json``): a golden tokenization of the
-default rulebook, and properties the golden file alone would not keep true.
+frozen operations rulebook 1.1.0, and properties the golden file alone would not keep true.
 
 The tokenizer is ``textmate-grammar-python``, a port of the engine VS Code uses (vscode-textmate)
 on the Oniguruma regex library, so the test sees what an editor sees. Every pattern of the
@@ -31,8 +31,9 @@ from idefix_rules.rulebook.types import COMMAND_NAMES, PATH_NAMES
 
 REPOSITORY = Path(__file__).resolve().parents[2]
 GRAMMAR = REPOSITORY / "editors" / "rulebook.tmLanguage.json"
-DEFAULT_RULEBOOK = REPOSITORY / "rulebooks" / "idefix-ops.rules"
-GOLDEN = Path(__file__).parent / "golden" / "idefix-ops.tokens"
+# the frozen operations rulebook 1.1.0, not the live one the rule engineers edit
+FROZEN_RULEBOOK = REPOSITORY / "tests" / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+GOLDEN = Path(__file__).parent / "golden" / "idefix-ops-1.1.0.tokens"
 UPDATE = os.environ.get("IDEFIX_UPDATE_GOLDEN") == "1"
 
 Token = tuple[int, int, str, str]  # line, column, text, innermost scope
@@ -85,8 +86,8 @@ def golden_text(tokens: list[Token], text: str) -> str:
     return "\n".join(out) + "\n"
 
 
-def test_the_default_rulebook_tokenizes_as_the_golden_file(tokenize: Any) -> None:
-    text = DEFAULT_RULEBOOK.read_text(encoding="utf-8")
+def test_the_frozen_rulebook_tokenizes_as_the_golden_file(tokenize: Any) -> None:
+    text = FROZEN_RULEBOOK.read_text(encoding="utf-8")
     produced = golden_text(tokenize(text), text)
     if UPDATE:
         GOLDEN.write_text(produced, encoding="utf-8")
@@ -138,9 +139,9 @@ def test_every_reducer_and_domain_of_the_language_is_highlighted(tokenize: Any, 
     assert _scope_of(tokenize, text, domain) == "support.type.domain.rulebook"
 
 
-def test_declared_names_and_plain_names_of_the_default_rulebook(tokenize: Any) -> None:
-    text = DEFAULT_RULEBOOK.read_text(encoding="utf-8")
-    rulebook = parse_text(text, str(DEFAULT_RULEBOOK))
+def test_declared_names_and_plain_names_of_the_frozen_rulebook(tokenize: Any) -> None:
+    text = FROZEN_RULEBOOK.read_text(encoding="utf-8")
+    rulebook = parse_text(text, str(FROZEN_RULEBOOK))
     tokens = tokenize(text)
     entities = {piece for _, _, piece, scope in tokens if scope.startswith("entity.name.")}
     declared = {c.name for c in rulebook.constants} | {i.name for i in rulebook.indices} | {

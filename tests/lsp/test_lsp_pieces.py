@@ -19,7 +19,9 @@ from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
 
 REPOSITORY = Path(__file__).resolve().parents[2]
-DEFAULT_TEXT = (REPOSITORY / "rulebooks" / "idefix-ops.rules").read_text(encoding="utf-8")
+# the frozen operations rulebook 1.1.0: the tests name its declarations and texts
+DEFAULT_TEXT = (REPOSITORY / "tests" / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+                ).read_text(encoding="utf-8")
 
 HEADER = 'rulebook "r" version "1.0.0" purpose "p"\n'
 INDEX = ("index I_s { value = max over time (max over wheels (abs(wheel.slip))) limit = 1 "
