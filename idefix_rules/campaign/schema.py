@@ -352,9 +352,16 @@ Expectation = Annotated[
 
 # --- simulation and the whole file -----------------------------------------------------------
 
+# The stop limit's default margin over the chain's ideal duration: the built-in rover's
+# controller ends a command at the latest after 2 × (ideal duration + ramp time) and may add a
+# timed trim after an arc, so a run still driving at 3 × ideal + 5 s has had commands time out
+# (docs/campaign-format.md, "simulation"). Runs end with their chain: a generous limit is cheap.
+DEFAULT_DURATION_MARGIN = 3.0
+
+
 class SimulationSection(Strict):
     output_interval: Duration = Field(default=0.1, gt=0)
-    duration_margin: Ratio = Field(default=1.3, ge=1.0)
+    duration_margin: Ratio = Field(default=DEFAULT_DURATION_MARGIN, ge=1.0)
     extra_time: Duration = Field(default=5.0, ge=0)
 
 

@@ -1,9 +1,12 @@
 """The built-in rover and the toy FMU simulate exactly the same datasets for the same seed, run
 after run of the project: digests first recorded before the bring-your-own-FMU mapping (and
 equal after it), recorded again deliberately when the rover model's physics and the results
-format (per-run compressed chunks, float32 wheel and tilt signals) changed, and the toy's when
+format (per-run compressed chunks, float32 wheel and tilt signals) changed, the toy's when
 runs began to end one step after their chain (the held samples' ``t`` follows the grid, not the
-toy's summed internal steps: 8e-13 s apart; every other dataset equal). A change to either must
+toy's summed internal steps: 8e-13 s apart; every other dataset equal), and both when the default
+stop limit became 3 × the ideal duration + 5 s (longer runs: the earlier samples equal, the
+added ones held; the rover's on its recorded sources, where its turn chain now finishes in every
+run). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -19,10 +22,10 @@ from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 
-# Recorded on the closed-loop rover model and results format 2.
+# Recorded on the closed-loop rover model and results format 2, default stop limit 3 × ideal.
 ROVER_SOURCE_HASH = "7d4b7266cf9caa0266bbcba5b1f9ee79e3099c7ee921b206081f90cd23bdc1e9"
-ROVER_DIGEST = "aec62cf701975a95b67308f82ca7aedaf26697538460fca15d8e4d117cbcfba8"
-TOY_DIGEST = "edb3760aa3a09082a67577049f09e94538c76d16d89f750f1abc7ae078679ef5"
+ROVER_DIGEST = "4bff0cb2ff2c9932a4092de8539233e668b571598aacec85977c8c5df8a38c12"
+TOY_DIGEST = "446f680b2765ba3754c63f234206fa2eda1658d5aac8676ffaec4caa0ebd45c4"
 
 
 def test_toy_fmu_campaign_stores_the_same_datasets(campaign_dir: Path) -> None:
