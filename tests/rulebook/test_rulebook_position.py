@@ -1,7 +1,7 @@
-"""The default rulebook's position index reads the runs' average position (paper, eq. 3 and
-"exceeding when the average rover position is outside the tolerance"): the spread of the runs
-around the reference run does not raise it, a common shift of their mean does, and it is
-critical exactly when the mean position leaves the tolerance radius."""
+"""The operations rulebook's position index (its frozen 1.1.0) reads the runs' average position
+(paper, eq. 3 and "exceeding when the average rover position is outside the tolerance"): the
+spread of the runs around the reference run does not raise it, a common shift of their mean
+does, and it is critical exactly when the mean position leaves the tolerance radius."""
 
 from __future__ import annotations
 
@@ -16,8 +16,9 @@ from idefix_rules.commands import Command
 from idefix_rules.rulebook import compile_rulebook, load_checked
 from idefix_rules.rulebook.strategies import run_batches
 
-ROOT = Path(__file__).resolve().parents[2]
-EVALUATOR = compile_rulebook(load_checked(ROOT / "rulebooks" / "idefix-ops.rules"))
+# the frozen copy (tests/fixtures/rulebooks), not the live one the rule engineers edit
+FROZEN = Path(__file__).resolve().parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+EVALUATOR = compile_rulebook(load_checked(FROZEN))
 STRAIGHT = (Command(0.05, 0.5, 0.0),)  # no turn: the tolerance radius stays at sigma
 
 

@@ -1,6 +1,7 @@
-"""Properties of the default rulebook on physically shaped runs (``realistic_runs``), with the
-ready-made helpers of ``idefix_rules.testing.properties``. Inputs are drawn relative to the
-limits under test, and ``event()`` records how often the limits were reached."""
+"""Properties of the operations rulebook (its frozen 1.1.0) on physically shaped runs
+(``realistic_runs``), with the ready-made helpers of ``idefix_rules.testing.properties``. Inputs
+are drawn relative to the limits under test, and ``event()`` records how often the limits were
+reached."""
 
 from __future__ import annotations
 
@@ -25,8 +26,9 @@ from idefix_rules.testing.properties import (
     check_rigid_transform_invariance,
 )
 
-ROOT = Path(__file__).parents[2]
-CHECKED = load_checked(ROOT / "rulebooks" / "idefix-ops.rules")
+# the frozen operations rulebook 1.1.0 (tests/fixtures/rulebooks), not the live one
+FROZEN = Path(__file__).parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+CHECKED = load_checked(FROZEN)
 COMPILED = compile_rulebook(CHECKED)
 MODEL = CHECKED.rulebook
 SLIP_LIMIT = CHECKED.limits["I_s"]
