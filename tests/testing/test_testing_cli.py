@@ -9,7 +9,8 @@ import pytest
 
 from idefix_rules.cli import main
 
-RULEBOOK = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
+# the frozen operations rulebook 1.1.0 (tests/fixtures/rulebooks), not the live one
+RULEBOOK = Path(__file__).parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
 
 HEAD = f"""rulebook: {RULEBOOK}
 defaults:

@@ -1,4 +1,9 @@
-"""The default rulebook's own cases: they pass, cover every rule, and catch every mutant."""
+"""The default rulebook's own cases: they pass, cover every rule, and catch every mutant.
+
+These are the rule engineers' checks of the files they edit (``rulebooks/idefix-ops.rules`` and
+``rulebooks/tests/idefix-ops.yaml``): a rule change that their cases no longer describe fails
+here, and only here. What the runner and the mutator do is tested on frozen copies in
+``test_testing_frozen_cases.py``."""
 
 from __future__ import annotations
 
@@ -27,7 +32,7 @@ def test_every_default_case_passes(case_file):
     failed = {o.case.name: [m.render() for m in o.mismatches]
               for o in outcome.outcomes if not o.passed}
     assert failed == {}
-    assert len(outcome.outcomes) >= 27
+    assert len(outcome.outcomes) == len(case_file.cases)
 
 
 def test_every_rule_is_brought_across_its_limit_by_some_case(case_file):
@@ -64,26 +69,8 @@ def test_every_single_rule_mutant_makes_a_case_fail(case_file):
         assert result.checked is not None, f"{mutant} is not a valid rulebook"
         if _first_failure(compile_rulebook(result.checked), case_file.cases) is None:
             survivors.append(str(mutant))
-    assert count >= 80  # every rule of the default rulebook yields mutants
-    assert survivors == []
-
-
-def test_a_mutant_fails_with_expected_actual_and_the_rule_text(case_file):
-    mutant = next(m for m in mutants(case_file.checked.rulebook)
-                  if m.rule == "I_s" and m.change == "max over wheels → min over wheels")
-    compiled = compile_rulebook(check(mutant.rulebook).checked)
-    failed = _first_failure(compiled, case_file.cases)
-    assert failed is not None
-    text = failed.mismatches[0].render()
-    assert "index I_s: expected 0.5 ± 0.005, got 0" in text
-    assert "rule: index I_s: value = percentile 95 over time (min over wheels" in text
-    assert "from: run 1: raw value 0" in text
-    assert f"{CASES.relative_to(ROOT)}" in text or str(CASES) in text
-
-
-def test_every_rule_of_the_default_rulebook_is_mutated(case_file):
-    mutated = {m.rule for m in mutants(case_file.checked.rulebook)}
     model = case_file.checked.rulebook
-    declared = {r.name for group in (model.command_rules, model.indices, model.chances,
-                                     model.prescreens, model.verdicts) for r in group}
-    assert mutated == declared
+    rules = sum(len(group) for group in (model.command_rules, model.indices, model.chances,
+                                         model.prescreens, model.verdicts))
+    assert count >= rules  # every rule of the default rulebook yields mutants
+    assert survivors == []

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-RULEBOOK = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
+# the frozen operations rulebook 1.1.0 (tests/fixtures/rulebooks), not the live one
+RULEBOOK = Path(__file__).parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
 
 CASES = f"""rulebook: {RULEBOOK}
 defaults:

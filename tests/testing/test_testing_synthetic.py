@@ -10,7 +10,8 @@ import pytest
 from idefix_rules.testing.casefile import parse_case_file
 from idefix_rules.testing.synthetic import build_runs
 
-RULEBOOK = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
+# the frozen operations rulebook 1.1.0 (tests/fixtures/rulebooks), not the live one
+RULEBOOK = Path(__file__).parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
 
 
 def case(body: str):
