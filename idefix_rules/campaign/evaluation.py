@@ -72,6 +72,10 @@ class PathResult:
     undecided: bool = False
     verdict_reasons: list[str] = field(default_factory=list)
     stop_reason: str = ""  # why the Monte Carlo part ended (adaptive or fixed count)
+    # complete runs still driving at the stop limit (their time is the limit); None: the runs
+    # have neither 'command' nor 'done', so whether a chain finished is not known
+    unfinished: int | None = None
+    stop_time: float | None = None  # s, the path's stop limit
     # roughly how many runs would decide each verdict rule that is not decided (None: no
     # estimate, e.g. a compound condition or more than a million runs)
     runs_needed: dict[str, int | None] = field(default_factory=dict)
@@ -188,6 +192,21 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
     return type(evaluations[0]).concat(list(evaluations))
 
 
+def chain_finished(signals: Mapping[str, np.ndarray]) -> np.ndarray | None:
+    """Per run (axis 0) whether its chain was complete within the stop time: some sample with
+    ``command`` -1, else with ``done`` set (as the evaluator reads a run's time); None when the
+    runs have neither signal.
+
+    >>> chain_finished({"command": np.array([[0.0, -1.0, -1.0], [0.0, 1.0, 1.0]])})
+    array([ True, False])
+    """
+    if "command" in signals:
+        return np.asarray((np.rint(signals["command"]) == -1).any(axis=1))
+    if "done" in signals:
+        return np.asarray((np.asarray(signals["done"]) >= 0.5).any(axis=1))
+    return None
+
+
 def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
                    required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
     extra = set(POSE_SIGNALS) if poses else set()
@@ -288,10 +307,12 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
     across = _first_pass(store, name, evaluator, context, chunk_runs)
     parts = []
     hits, buffers, details = [], [], []
+    finished: list[np.ndarray | None] = []
     chunks = complete_chunks(store, name, required, chunk_runs, within=within)
     checked = (_with_collisions(chunks, collisions, workers) if collisions is not None
                else ((rows, signals, None) for rows, signals in chunks))
     for _rows, signals, collided in checked:
+        finished.append(chain_finished(signals))
         if collided is not None:
             extra, chunk_details = collided
             signals.update(extra)
@@ -300,7 +321,9 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
             details.extend(chunk_details)
         parts.append(without_samples(evaluator.evaluate(signals, context, across=across)))
     evaluation = concatenate(parts) if parts else None
-    extra_store: dict[str, Any] = {"rows": complete}
+    extra_store: dict[str, Any] = {"rows": complete, "finished": None}
+    if finished and all(part is not None for part in finished):
+        extra_store["finished"] = np.concatenate([p for p in finished if p is not None])
     if collisions is not None and parts:
         extra_store["hits"] = np.concatenate([h for h in hits if h is not None]) \
             if any(h is not None for h in hits) else None
@@ -356,6 +379,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         verdict = evaluator.verdict(stats)
         statistics[name] = stats
         fill_result(result, evaluation, stats, verdict)
+        result.stop_time = stop_time
+        if extra["finished"] is not None:
+            result.unfinished = int(np.sum(~extra["finished"]))
         fill_runs_needed(result, evaluation, verdict, float(stats.confidence), sequential,
                          stop_time)
         if write:
@@ -515,6 +541,10 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
     target.create_dataset("i_max", data=full(evaluation.i_max))
     target.create_dataset("dominant", data=full(evaluation.dominant, -1, np.int16))
     target.create_dataset("time", data=full(evaluation.time))
+    # 1: the chain was complete within the stop time, 0: still driving at it, -1: not known
+    finished = extra.get("finished")
+    target.create_dataset("finished", data=full(finished, -1, np.int8) if finished is not None
+                          else np.full(runs, -1, dtype=np.int8))
     target.create_dataset("energy", data=full(evaluation.energy))
     chances = target.create_group("chances")
     for key, values in (getattr(evaluation, "chances", {}) or {}).items():

@@ -30,6 +30,7 @@ from idefix_rules.campaign.schema import (
     PathVerdictExpectation,
     RankFirstExpectation,
 )
+from idefix_rules.campaign.wording import unfinished_text
 from idefix_rules.files import write_atomic
 
 EXIT_OK = 0
@@ -133,6 +134,7 @@ SUMMARY_UNITS = {
     "collision_chance": "1 (share of runs per obstacle level; 4 decimals)",
     "energy_mAs": "mAs (0.1 mAs)",
     "time_s": "s (0.01 s)",
+    "stop_time_s": "s (0.01 s)",
     "statistics": "SI, 4 significant digits (risk and chances 1, time s, energy A·s)",
     "sensitivity": "rank correlations, -1 … 1 (3 decimals)",
 }
@@ -174,6 +176,8 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "collision_chance": {k: round(v, 4) for k, v in path.collision_chance.items()},
         "energy_mAs": None if path.energy is None else round(path.energy * 1000.0, 1),
         "time_s": _round(path.time, 2),
+        "stop_time_s": _round(path.stop_time, 2),
+        "unfinished_runs": path.unfinished,
         "dominant_index": path.dominant_index,
         "verdict": path.verdict_text,
         "undecided": path.undecided,
@@ -323,6 +327,9 @@ def _path_detail(path: PathResult) -> str:
     # An undecided verdict is said by the reasons (each undecided rule's message says it).
     for reason in reasons_of(path):
         lines.append(f"verdict: {reason}")
+    if path.unfinished and path.stop_time is not None:
+        lines.append(unfinished_text(path.name, path.unfinished, path.completed,
+                                     path.stop_time))
     for run, reason in sorted(path.failures.items()):
         lines.append(f"run {run} failed: {reason}")
     return "\n".join(lines)

@@ -242,6 +242,19 @@ def runs_needed_text(runs: int | None) -> str:
     return f"about {runs:,} runs would decide it"
 
 
+def unfinished_text(path: str, unfinished: int, runs: int, stop_time: float) -> str:
+    """The line saying how many runs of a path were stopped before their chain was done.
+
+    >>> unfinished_text("smooth-detour", 12, 128, 1024.6)
+    "smooth-detour: 12 of 128 runs were still driving at the stop limit (1025 s): their time is \
+the limit, not the chain's duration"
+    """
+    counted = f"{unfinished} of {runs} {'run' if runs == 1 else 'runs'}"
+    were, their = ("was", "its") if unfinished == 1 else ("were", "their")
+    return (f"{path}: {counted} {were} still driving at the stop limit "
+            f"({number(stop_time, 4)} s): {their} time is the limit, not the chain's duration")
+
+
 def verdict_reasons(verdict: Mapping[str, Any] | None, confidence: float = 0.95,
                     runs_needed: Mapping[str, int | None] | None = None) -> list[str]:
     """The rules that explain a verdict: those failing decidedly, else failing or undecided

@@ -20,7 +20,7 @@ from rich.table import Table
 from idefix_rules.campaign.decision import Decision, campaign_decision, reasons_of
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
-from idefix_rules.campaign.wording import percent
+from idefix_rules.campaign.wording import percent, unfinished_text
 
 LEVELS = ("L1", "L2", "L3")
 STYLES = {"pass": "green", "fail": "red"}
@@ -148,6 +148,9 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                           f"{escape(path.reason)}")
         if path.stop_reason:
             console.print(f"  {escape(path.name)}: runs: {escape(path.stop_reason)}")
+        if path.unfinished and path.stop_time is not None:
+            text = unfinished_text(path.name, path.unfinished, path.completed, path.stop_time)
+            console.print(f"  [yellow]{escape(text)}[/yellow]")
         for reason in reasons_of(path):
             console.print(f"  {escape(path.name)}: {escape(reason)}" if wide
                           else f"  ✗ {escape(reason)}")

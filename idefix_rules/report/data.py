@@ -70,6 +70,9 @@ class TableRow:
     verdict_reasons: tuple[str, ...] = ()
     reason: str = ""
     stop_reason: str = ""  # how many runs were used and why the Monte Carlo part ended
+    # complete runs still driving at the stop limit (None: not known), and that limit in s
+    unfinished_runs: int | None = None
+    stop_time_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -259,6 +262,10 @@ def _float_or_none(value: Any) -> float | None:
     return number if np.isfinite(number) else None
 
 
+def _int_or_none(value: Any) -> int | None:
+    return int(value) if isinstance(value, int | float) and np.isfinite(value) else None
+
+
 def read_header(file: h5py.File) -> Header:
     attrs = file.attrs
     evaluation = file.get("evaluation")
@@ -314,6 +321,8 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
         verdict_reasons=tuple(str(r) for r in entry.get("verdict_reasons") or ()),
         reason=str(entry.get("reason", "")),
         stop_reason=str(entry.get("stop_reason") or ""),
+        unfinished_runs=_int_or_none(entry.get("unfinished_runs")),
+        stop_time_s=_float_or_none(entry.get("stop_time_s")),
     )
 
 
@@ -373,7 +382,18 @@ def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
         undecided=_undecided(verdict), rank=None,
         dominant_index=(path.dominance()[0][0] if complete.any() else None),
         verdict_reasons=reasons, reason=_text(group.attrs.get("reason", "")),
+        unfinished_runs=_unfinished(evaluation, complete),
+        stop_time_s=_float_or_none(group.attrs.get("stop_time")),
     )
+
+
+def _unfinished(evaluation: h5py.Group | None, complete: np.ndarray) -> int | None:
+    """Complete runs the stored evaluation marks as still driving at the stop limit (None:
+    not stored, or not known for these runs)."""
+    if evaluation is None or "finished" not in evaluation or not complete.any():
+        return None
+    finished = np.asarray(evaluation["finished"][()])[complete]
+    return None if np.any(finished < 0) else int(np.sum(finished == 0))
 
 
 def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]) -> PathReport:

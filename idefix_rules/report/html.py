@@ -13,7 +13,7 @@ from html import escape
 
 import numpy as np
 
-from idefix_rules.campaign.wording import DisplayUnits, parameter_text
+from idefix_rules.campaign.wording import DisplayUnits, parameter_text, unfinished_text
 from idefix_rules.report.data import (
     LEVELS,
     NEAR_LIMIT,
@@ -201,8 +201,12 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
     for path in data.paths:
         lines = (list((reasons or {}).get(path.name, [])) or list(path.row.verdict_reasons)
                  or ([path.reason] if path.reason else []))
-        if path.row.stop_reason:
-            lines.insert(0, f"Runs: {path.row.stop_reason}")
+        row = path.row
+        if row.unfinished_runs and row.stop_time_s is not None:
+            lines.insert(0, unfinished_text(path.name, row.unfinished_runs,
+                                            row.completed_runs, row.stop_time_s))
+        if row.stop_reason:
+            lines.insert(0, f"Runs: {row.stop_reason}")
         if lines:
             items = "".join(f"<li>{escape(line)}</li>" for line in lines)
             explained.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")
