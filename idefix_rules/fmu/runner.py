@@ -10,8 +10,10 @@ runners (one per worker process) share it.
 
 A run ends when its chain is complete: once the ``command`` output reads -1 (or, without
 ``command``, a ``done`` output reaches ``done_at``) at sample T, the FMU is stepped once more, to
-sample T + 1, and no further; the remaining samples hold the values of sample T + 1, ``t`` going
-on along its grid (:func:`hold_after_end`), so every run keeps the shape of the caller's grid.
+sample T + 1, and no further while the rover is at rest (its pose unchanged over that sample; a
+rover still sliding is simulated on until it stops or the stop time); the remaining samples hold
+the values of that sample, ``t`` going on along its grid (:func:`hold_after_end`), so every run
+keeps the shape of the caller's grid.
 The one step past the end is the sample in which the rover stands with its motors off: sample T
 still shows the wheel rates, currents and slip of the chain's last step.
 
@@ -117,6 +119,12 @@ def si_scale(variable: FmuVariable, what: str, unit: str, span: Span) -> float:
         raise UserInputError(error(
             "F403", f"'{variable.name}' is in {variable.unit}, but {what} is in {unit}", span))
     return variable.si.scale
+
+
+# A rover is at rest when its pose moved by at most this (m, rad) over a sample: far below
+# the creep the contact laws' regularisation allows (10 µm/s, 1 µm per 0.1 s sample).
+REST_SIGNALS = ("x", "y", "yaw")
+REST_MOTION = 1e-9
 
 
 def end_sample(command: np.ndarray | None, done: np.ndarray | None,
@@ -428,6 +436,7 @@ class FmuRunner:
                 raise self._read_error(0.0)
         do_step = self._do_step
         watch = self._end_watch(buffers) if hold_after_chain else None
+        rest = self._rest_watch(buffers) if watch is not None else None
         ended = watch is not None and watch(0)
         held = None
         for k in range(steps):
@@ -447,10 +456,11 @@ class FmuRunner:
                 if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
                         not in OK_STATUSES:
                     raise self._read_error((k + 1) * output_interval)
-            if ended:  # the step after the chain's end: the motors are off, nothing moves
+            if ended and (rest is None or rest(k + 1)):
+                # past the chain's end with the rover at rest: the motors hold, nothing moves
                 held = k + 1
                 break
-            ended = watch is not None and watch(k + 1)
+            ended = ended or (watch is not None and watch(k + 1))
         if held is not None:
             hold_after_end(buffers, held)
         read: list[np.ndarray] = [np.empty(0)] * len(self._outputs)
@@ -477,13 +487,38 @@ class FmuRunner:
             return lambda k: bool(item(k) >= done_at)
         return lambda k: round(float(item(k))) == -1
 
+    def _pose_columns(self) -> list[int]:
+        """Slot positions of the pose outputs (x, y, yaw) this runner reads."""
+        return [position for position, (_, slot) in enumerate(self._outputs)
+                if slot.signal in REST_SIGNALS and slot.index is None]
+
+    def _rest_watch(self, buffers: list[np.ndarray]) -> Callable[[int], bool] | None:
+        """Whether the rover is at rest at sample k: its pose (x, y, yaw) moved by at most
+        REST_MOTION since sample k - 1 (None: the FMU maps no pose output). After its chain a
+        rover may still slide (no balance on a slope its wheels cannot hold): the run goes on
+        until it is at rest, so a hold never freezes a moving rover."""
+        columns = []
+        for position in self._pose_columns():
+            for group, buffer in zip(self._groups, buffers, strict=True):
+                if position in group.positions:
+                    columns.append(buffer[:, group.positions.index(position)])
+        if not columns:
+            return None
+        return lambda k: k > 0 and all(abs(float(column.item(k)) - float(column.item(k - 1)))
+                                       <= REST_MOTION for column in columns)
+
     def _end_of(self, columns: list[np.ndarray]) -> int | None:
         """The first sample of read columns (slot order) where the chain is complete."""
         if self._end_output is None:
             return None
         position, is_done = self._end_output
         column = columns[position]
-        return end_sample(None, column, self.done_at) if is_done else end_sample(column, None)
+        end = end_sample(None, column, self.done_at) if is_done else end_sample(column, None)
+        poses = [columns[position] for position in self._pose_columns()]
+        while end is not None and poses and end + 1 < len(column) and any(
+                abs(float(pose[end + 1]) - float(pose[end])) > REST_MOTION for pose in poses):
+            end += 1  # still moving after the chain: hold only once at rest
+        return end
 
     def _read_error(self, time: float) -> InfrastructureError:
         return InfrastructureError(f"{self.fmu_path.name}: reading the outputs failed at "
