@@ -4,6 +4,7 @@ of the soil equations written again in Python (tests/fmu/soil_model.py)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -31,7 +32,7 @@ def open_loop(rover_fmu) -> list[Row]:  # type: ignore[no-untyped-def]
 
 
 def _falling(values: list[float]) -> bool:
-    return all(a > b for a, b in zip(values, values[1:], strict=False))
+    return all(a > b for a, b in itertools.pairwise(values))
 
 
 def test_every_command_of_the_sweep_ends_at_its_heading(closed_loop: list[Row]) -> None:
