@@ -113,7 +113,7 @@ E630|poses lack a coordinate|Collision checks need the pose signals x, y, z, rol
 E631|poses badly shaped|Pose arrays must all be shaped (runs, samples).|x of shape (100,), y of shape (1, 100)|Give every pose as (runs, samples).
 E632|pose not finite|A pose holds NaN or infinite values; the simulator probably failed for that run.|x = [0.1, nan, …]|Check the FMU's run (it should be marked failed), or drop the run.
 E701|run signals lack t|Evaluating runs needs the time signal `t`.|evaluate({'x': …}, context)|Include `t` (shape (runs, samples)).
-E702|reference signal missing|A rule reads `ref.*`, `global_error` or `heading_error`, which need the reference run's signals.|RunContext(chain) without reference|`RunContext(chain, reference={'x': …, 'y': …, 'z': …, 'yaw': …})`.
+E702|reference signal missing|A rule reads `ref.*`, `global_error`, `drift` or `heading_error`, which need the reference run's signals.|RunContext(chain) without reference|`RunContext(chain, reference={'x': …, 'y': …, 'z': …, 'yaw': …})`.
 E703|reference run on another time grid|The reference run's signals must have as many samples as the runs.|reference x of 80 samples, runs of 100|Resample the reference run to the runs' grid.
 E704|unknown signal|An evaluation was asked for a signal outside the contract.|source.get('wheel.slipp')|Use a contract name (docs/rulebook-language.md, signals).
 E705|signal badly shaped|A signal's array does not have the contract's shape (runs, then its axes).|wheel.slip of shape (runs, samples)|(runs, samples, 4): one column per wheel FL FR RL RR.

@@ -8,7 +8,7 @@ Three kinds of signal:
 
 * ``fmu``: produced by the rover FMU (mapped from its variable names by the campaign);
 * ``derived``: computed by the evaluator from fmu signals and the run context
-  (``ref.*``, theoretical path, errors, tolerance radius, speed, acceleration);
+  (``ref.*``, theoretical path, errors, drift, tolerance radius, speed, acceleration);
 * ``collision``: provided by the obstacle checker (:mod:`idefix_rules.obstacles`).
 
 >>> SIGNALS["wheel.slip"].axes
@@ -82,6 +82,9 @@ DERIVED_SIGNALS = _specs(
                "distance actual vs theoretical path (accuracy)"),
     SignalSpec("global_error", "m", ("time",), "derived",
                "distance actual vs reference run (spread)"),
+    SignalSpec("drift", "m", ("time",), "derived",
+               "what the drive adds to the start offset: displacement from its own start, in "
+               "its start frame, vs the reference run's"),
     SignalSpec("tolerance_radius", "m", ("time",), "derived",
                "tolerance around the reference path, grows while turning"),
     SignalSpec("heading_error", "rad", ("time",), "derived", "yaw minus reference-run yaw"),

@@ -341,7 +341,7 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         evaluators = [values_only(old.checked), values_only(new.checked)]
         collisions = _Collisions(store, path.parent, evaluators, (old, new),
                                  campaign.model.environment)
-        required = set().union(*(e.required_signals for e in evaluators))
+        required = set().union(*(e.required_signals | e.optional_signals for e in evaluators))
         prepared = time.perf_counter()
         timings["prepare"] = prepared - started
         path_sides: list[tuple[str, list[_Side], tuple[int, int, tuple[RunMove, ...]]]] = []

@@ -34,6 +34,7 @@ from idefix_rules.rulebook.derived import (
     DerivedSignals,
     RunContext,
     inputs_of,
+    optional_inputs_of,
 )
 from idefix_rules.rulebook.expressions import (
     Closure,
@@ -176,12 +177,17 @@ class CompiledRulebook:
         # 'command' (run time) and 'energy' are used when present, not required (a foreign
         # FMU may lack them): see DerivedSignals.provides.
         self.required_signals: frozenset[str] = frozenset(provided | {"t"})
+        # Read when the runs hold them, done without otherwise (the start yaw of 'drift'):
+        # whoever reads stored runs for this evaluator reads these too.
+        self.optional_signals: frozenset[str] = frozenset(
+            set().union(*(optional_inputs_of(name) for name in read)) - self.required_signals
+            if read else ())
         self.needs_collisions = any(name.startswith("collision.") for name in provided)
         across_read = set(self._signals_read(*(n.operand for n in self.runs_reductions)))
         # What the first pass over a path's runs reads (never collision signals: E802).
         self.across_signals: frozenset[str] = frozenset(
-            set().union(*(inputs_of(name) for name in across_read)) | {"t", "command"}
-            if self.runs_reductions else ())
+            set().union(*(inputs_of(name) | optional_inputs_of(name) for name in across_read))
+            | {"t", "command"} if self.runs_reductions else ())
 
     def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
         """Pickle as the checked model and compile again on loading (closures do not pickle),

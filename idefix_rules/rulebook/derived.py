@@ -24,6 +24,12 @@ Formulas (``docs/derived-signals.md`` has the same list with figures of speech):
   (``Σ |delta_heading_k| · (1 - theoretical_slip) · progress_k``): constant while the path goes
   straight, growing while it turns (paper, Fig. 4).
 * ``heading_error`` = ``yaw - ref.yaw`` wrapped to [-π, π).
+* ``drift`` = ``|d_run - d_ref|`` (planar), where ``d = Rot(-yaw[0]) · (p - p[0])`` is a run's
+  displacement from its own start, in its own start frame, and ``d_ref`` the reference run's in
+  the reference's start frame: what the drive itself adds, whatever pose the run started from
+  (0 at the first sample, 0 for a run that is the reference run moved rigidly). Without ``yaw``
+  the start yaw is taken as 0; without a reference run it is an error, as for
+  ``global_error``.
 * ``speed`` = ``hypot(dx/dt, dy/dt)`` with ``numpy.gradient`` along ``t`` (central differences
   inside, one-sided at the ends); 0 when a run has a single sample.
 * ``acceleration`` = ``d speed / dt``, the same way.
@@ -59,7 +65,8 @@ class RunContext:
     ``rover``: geometry for the kinematics; ``initial_position_sigma``: σ of the initial position
     uncertainty in m (the starting tolerance radius); ``reference``: the reference run's fmu
     signals by contract name, *without* the run axis, on the runs' time grid (needed by
-    ``ref.*``, ``global_error``, ``heading_error`` and the theoretical path's start pose).
+    ``ref.*``, ``global_error``, ``drift``, ``heading_error`` and the theoretical path's start
+    pose).
     """
 
     chain: tuple[Command, ...] = ()
@@ -86,10 +93,19 @@ DERIVED_INPUTS: dict[str, frozenset[str]] = {
     "theory.yaw": frozenset({"t"}),
     "local_error": frozenset({"t", "x", "y"}),
     "global_error": frozenset({"x", "y"}),
+    "drift": frozenset({"x", "y"}),
     "tolerance_radius": frozenset({"t"}),
     "heading_error": frozenset({"yaw"}),
     "speed": frozenset({"t", "x", "y"}),
     "acceleration": frozenset({"t", "x", "y"}),
+}
+
+
+# Contract names a derived signal reads when the runs hold them, and does without otherwise
+# (a foreign FMU may lack them): readers of stored runs fetch these too, so that a run is
+# scored the same however its signals were read.
+OPTIONAL_INPUTS: dict[str, frozenset[str]] = {
+    "drift": frozenset({"yaw"}),  # the start frame's yaw; 0 without it
 }
 
 
@@ -100,10 +116,26 @@ def inputs_of(name: str) -> frozenset[str]:
     return DERIVED_INPUTS.get(name, frozenset({name}))
 
 
+def optional_inputs_of(name: str) -> frozenset[str]:
+    """Contract names ``name`` reads when the runs hold them (:data:`OPTIONAL_INPUTS`)."""
+    return OPTIONAL_INPUTS.get(name, frozenset())
+
+
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap to [-π, π)."""
     turns = np.floor((angle + math.pi) * (1.0 / (2.0 * math.pi)))
     return angle - (2.0 * math.pi) * turns
+
+
+def _from_start(x: np.ndarray, y: np.ndarray, yaw: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Displacement from the first sample, in the frame of the first pose:
+    ``Rot(-yaw[0]) · (p - p[0])`` per run (``yaw`` None: the start yaw is 0)."""
+    dx, dy = x - x[:, :1], y - y[:, :1]
+    if yaw is None:
+        return dx, dy
+    cos, sin = np.cos(yaw[:, :1]), np.sin(yaw[:, :1])
+    return cos * dx + sin * dy, cos * dy - sin * dx
 
 
 class DerivedSignals:
@@ -192,6 +224,14 @@ class DerivedSignals:
             return self.context.initial_position_sigma + self.settings.tolerance_growth * turned
         if name == "heading_error":
             return wrap_angle(self.get("yaw") - self.get("ref.yaw"))
+        if name == "drift":
+            run_x, run_y = _from_start(self.get("x"), self.get("y"),
+                                       self.get("yaw") if self.provides("yaw") else None)
+            reference = self.context.reference
+            ref_yaw = self.get("ref.yaw") if reference is not None and "yaw" in reference \
+                else None
+            ref_x, ref_y = _from_start(self.get("ref.x"), self.get("ref.y"), ref_yaw)
+            return np.asarray(np.hypot(run_x - ref_x, run_y - ref_y))
         if name == "speed":
             return np.asarray(np.hypot(self._rate(self.get("x")), self._rate(self.get("y"))))
         if name == "acceleration":

@@ -60,8 +60,8 @@ _SIGNALS: dict[str, list[tuple[str, bool]]] = {
     "ratio": [("wheel.slip", True)],
     "angle": [("pitch", False), ("roll", False), ("heading_error", False),
               ("wheel.slip_angle", True)],
-    "length": [("global_error", False), ("local_error", False), ("tolerance_radius", False),
-               ("wheel.sinkage", True), ("z", False)],
+    "length": [("global_error", False), ("local_error", False), ("drift", False),
+               ("tolerance_radius", False), ("wheel.sinkage", True), ("z", False)],
     "speed": [("speed", False)],
 }
 _REFERENCED = {"pitch": "ref.pitch", "roll": "ref.roll", "z": "ref.z"}

@@ -126,6 +126,7 @@ def test_tightening_a_verdict_threshold_never_turns_a_fail_into_a_pass(model, ba
 _POSITION_OPERANDS = (
     Name("global_error"),
     Name("local_error"),
+    Name("drift"),
     Binary("/", Name("global_error"), Name("tolerance_radius")),
     Call("abs", (Name("heading_error"),)),
     Name("speed"),
@@ -139,7 +140,7 @@ def position_rulebooks(draw):
         operand = draw(st.sampled_from(_POSITION_OPERANDS))
         reducer = draw(st.sampled_from(["final", "max", "mean", "rms", "percentile"]))
         parameter = Number(float(draw(st.integers(0, 100)))) if reducer == "percentile" else None
-        unit = {"global_error": "cm", "local_error": "cm", "speed": "cm/s"}.get(
+        unit = {"global_error": "cm", "local_error": "cm", "drift": "cm", "speed": "cm/s"}.get(
             getattr(operand, "name", ""), "deg" if isinstance(operand, Call) else None)
         indices.append(Index(f"I_{number}", Reduce(reducer, "time", operand, parameter),
                              Number(float(draw(st.integers(1, 50))), unit), Number(1.0)))
