@@ -88,6 +88,9 @@ DERIVED_SIGNALS = _specs(
     SignalSpec("tolerance_radius", "m", ("time",), "derived",
                "tolerance around the reference path, grows while turning"),
     SignalSpec("heading_error", "rad", ("time",), "derived", "yaw minus reference-run yaw"),
+    SignalSpec("chain_done", "1", ("time",), "derived",
+               "1 from the sample the chain is complete ('command' -1 after its start, else a "
+               "mapped 'done', else the ideal schedule), 0 before"),
     SignalSpec("speed", "m/s", ("time",), "derived", "planar speed of the body centre"),
     SignalSpec("acceleration", "m/s^2", ("time",), "derived", "rate of change of speed"),
 )

@@ -96,6 +96,7 @@ DERIVED_INPUTS: dict[str, frozenset[str]] = {
     "drift": frozenset({"x", "y"}),
     "tolerance_radius": frozenset({"t"}),
     "heading_error": frozenset({"yaw"}),
+    "chain_done": frozenset({"t"}),
     "speed": frozenset({"t", "x", "y"}),
     "acceleration": frozenset({"t", "x", "y"}),
 }
@@ -106,6 +107,7 @@ DERIVED_INPUTS: dict[str, frozenset[str]] = {
 # scored the same however its signals were read.
 OPTIONAL_INPUTS: dict[str, frozenset[str]] = {
     "drift": frozenset({"yaw"}),  # the start frame's yaw; 0 without it
+    "chain_done": frozenset({"command", "done"}),  # else the ideal schedule
 }
 
 
@@ -232,11 +234,26 @@ class DerivedSignals:
                 else None
             ref_x, ref_y = _from_start(self.get("ref.x"), self.get("ref.y"), ref_yaw)
             return np.asarray(np.hypot(run_x - ref_x, run_y - ref_y))
+        if name == "chain_done":
+            return self._chain_done()
         if name == "speed":
             return np.asarray(np.hypot(self._rate(self.get("x")), self._rate(self.get("y"))))
         if name == "acceleration":
             return self._rate(self.get("speed"))
         raise AssertionError(f"derived signal {name!r} has no formula")  # pragma: no cover
+
+    def _chain_done(self) -> np.ndarray:
+        """1.0 from the first sample where the chain is complete, as a run's time reads it:
+        'command' back at -1 after the chain started, else a mapped 'done' >= 0.5, else the
+        ideal schedule (the commands at their ideal durations from t = 0)."""
+        if not self.provides("command") and self.provides("done"):
+            done = np.broadcast_to(self._given("done"), (self.runs, self.samples)) >= 0.5
+        elif not self.context.chain:  # nothing to execute: complete from the start
+            done = np.ones((self.runs, self.samples), dtype=bool)
+        else:
+            active, _ = self._command_progress()
+            done = active == len(self.context.chain)
+        return np.maximum.accumulate(done, axis=1).astype(np.float64)
 
     def _rate(self, values: np.ndarray) -> np.ndarray:
         if self.samples < 2:
