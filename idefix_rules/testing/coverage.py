@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.rulebook.across import finished
 from idefix_rules.rulebook.compile import (
     _scope_closure,  # the compiler's own reader of named values
     command_quantities,
@@ -147,7 +148,12 @@ def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
             items[("index", index.name)].note(name, (ratio >= 1).tolist(),
                                               [float(r) for r in ratio])
         batch, context = build_runs(case_outcome.case)
-        frame = Frame(source=compiled.derived_signals(batch, context))
+        source = compiled.derived_signals(batch, context)
+        # a chance may read path-level values (reductions over runs): computed first, over the
+        # case's runs, as the evaluation does
+        across = compiled.across_runs(batch, context, source=source) \
+            if compiled.runs_reductions else None
+        frame = Frame(source=source, across=finished(across) if across is not None else {})
         for chance in model.chances:
             items[("chance", chance.name)].note(
                 name, case_outcome.evaluation.chances[chance.name].tolist(),

@@ -221,3 +221,45 @@ def test_a_chance_failure_says_where_its_time_reduction_found_the_value(tmp_path
     assert "chance too_fast: expected does not hold, got holds" in out
     assert "from: run 1: speed is highest at t = 11 s (sample 11): 0.014 (SI)" in out
     assert "from: run 1: stuck > 0 first holds at t = 30 s (sample 30)" in out
+
+
+PATH_LEVEL = '''rulebook "avg" version "1.0.0"
+purpose "a path-level chance"
+index I_x "x" {
+  value  = final over time (x)
+  limit  = 1 m
+  weight = 1
+  because "x"
+}
+chance off_course = final over time (abs(mean over runs (y - ref.y))) > 1 cm
+  because "the average position of the runs"
+verdict kept: require chance(off_course) < 50 %
+  because "kept"
+'''
+
+
+def test_coverage_of_a_chance_over_the_runs_of_a_path_is_computed(tmp_path, capsys):
+    # a chance reading a reduction over runs needs its path-level value before its leaves can
+    # be compared: coverage computes it over the case's runs, as the evaluation does
+    rules = tmp_path / "avg.rules"
+    rules.write_text(PATH_LEVEL, encoding="utf-8")
+    cases = tmp_path / "avg.yaml"
+    cases.write_text(f"""rulebook: {rules}
+defaults:
+  chain:
+    - {{max_wheel_rate: 0.04 rad/s, delta_position: 20 cm, delta_heading: 0 deg}}
+cases:
+  inside:
+    runs: 2
+    offsets: {{y: {{0 s: 0 mm, 50 s: 6 mm}}}}
+    expect: {{chances: {{off_course: false}}}}
+  outside:
+    runs: 2
+    offsets: {{y: {{0 s: 0 mm, 50 s: 14 mm}}}}
+    expect: {{chances: {{off_course: true}}}}
+""", encoding="utf-8")
+    assert main(["test", "--coverage", "--format", "json", str(cases)]) == 0
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    states = {item["name"]: item["state"] for item in json.loads(captured.out)["coverage"]}
+    assert states["off_course"] == "across"  # 6 and 14 mm: both sides of 1 cm
