@@ -40,11 +40,13 @@ def _longest_still_while_driving(out: dict[str, np.ndarray]) -> int:
 
 def test_a_wheel_against_a_face_above_its_axle_is_a_pivot_and_the_rover_drifts_to_its_side(
         rover: FmuRunner, tmp_path: Path) -> None:
-    # A 15 cm rock (taller than the 10 cm axle) in the right wheels' track only. The front right
-    # wheel stops at the face; only its motion into the face is removed, so the left wheels
-    # drive on and the rover yaws and drifts towards the blocked (right) side, past the rock:
-    # "the entire wheel hits the rock, causing the wheel to get stuck and the rover to drift to
-    # the right" (the paper). Open loop, as a rover without heading control.
+    # A 15 cm rock (taller than the 10 cm axle) in the right wheels' track only, half buried: a
+    # dome the front right wheel first touches at 77°, 7.6 cm high, below its axle. Alone on its
+    # corner it is pushed by its diagonal partner only, whose push turns the chassis about it,
+    # so the wheel is held, the left wheels drive on and the rover yaws and drifts towards the
+    # held (right) side, past the rock: "the entire wheel hits the rock, causing the wheel to
+    # get stuck and the rover to drift to the right" (the paper). Open loop, as a rover without
+    # heading control.
     terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
     out = rover.run({**ODOMETRY, "terrain.file": terrain}, STRAIGHT, 250.0, 0.1)
     assert out["yaw"].min() < math.radians(-5)  # towards the blocked side, clearly

@@ -7,20 +7,90 @@
 
 #define GRADE_PROBE 0.005      /* m, half distance of the grade finite difference */
 #define BLOCK_PROBE 0.002      /* m, look-ahead for a rock face above the axle */
+#define FACE_TOLERANCE 1e-6    /* m, a rock point this far above the axle is a face */
+#define PATH_TOLERANCE 1e-7    /* m, where along a move the wheel first touches a rock */
 #define NO_ROCK_LIMIT (-1e299)
 
-/* Wheel-centre height at (x, y) with heading (hx, hy): soil surface minus sinkage, or the
- * rock envelope where that is higher. */
-static double centre_height(const Instance *inst, const Wheel *w, double x, double y, double hx,
-                            double hy, int *on_rock, double *contact_d, double *contact_z)
+/* Is rock k a face the wheel runs into, rather than a support it rolls onto, as the wheel moves
+ * from (x0, y0) to (x1, y1) (heading (hx, hy)) with its axle at height `axle`? A wheel rolling
+ * onto a rock meets it with the contact below its axle, and the contact then moves up the rock
+ * as the envelope lifts the wheel: continuously, so at the end of a step it may be above where
+ * the axle was, never above where the axle is. A face taller than the axle instead enters the
+ * footprint at the rim (or its side) with its top above the axle: the envelope jumps. So the
+ * move is followed to its first touch of the rock (the envelope reaching the axle, by bisection
+ * along the move) and the rock is a face if the contact there is above the axle. A wheel that
+ * does not move (from = to) is judged at its place: a face if the contact is above its axle.
+ * (d, z): the contact at (x1, y1), as rock_wheel_centre gives it; on return *d is the
+ * contact's distance ahead of the axle at the first touch. */
+static int rock_is_face(const Instance *inst, int k, double x0, double y0, double x1, double y1,
+                        double hx, double hy, double axle, double *d, double z)
+{
+    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
+    const Terrain *t = &inst->terrain;
+    double lo = 0.0, hi = 1.0, length = hypot(x1 - x0, y1 - y0), d_hi = *d, z_hi = z, dk, zk;
+    if (z <= axle + FACE_TOLERANCE) return 0;
+    if (rock_wheel_centre(t, k, x0, y0, hx, hy, radius, width, &dk, &zk) >=
+        axle - FACE_TOLERANCE) {
+        *d = dk;  /* touching where it started */
+        return zk > axle + FACE_TOLERANCE;
+    }
+    while ((hi - lo) * length > PATH_TOLERANCE) {
+        double mid = 0.5 * (lo + hi);
+        if (rock_wheel_centre(t, k, x0 + mid * (x1 - x0), y0 + mid * (y1 - y0), hx, hy, radius,
+                              width, &dk, &zk) >= axle - FACE_TOLERANCE) {
+            hi = mid;
+            d_hi = dk;
+            z_hi = zk;
+        } else {
+            lo = mid;
+        }
+    }
+    *d = d_hi;
+    return z_hi > axle + FACE_TOLERANCE;
+}
+
+/* Wheel-centre height at (x, y) with heading (hx, hy), reached from (x0, y0) with the axle at
+ * `axle`: the soil surface minus sinkage, or the envelope of the rocks the wheel rolls onto
+ * where that is higher (a rock met above the axle is a face, no support). */
+static double centre_height(const Instance *inst, const Wheel *w, double x0, double y0,
+                            double axle, double x, double y, double hx, double hy, int *on_rock,
+                            double *contact_d)
 {
     double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
     double soil = terrain_height(&inst->terrain, x, y) - w->sinkage + radius;
-    double rock = rock_wheel_centre(&inst->terrain, x, y, hx, hy, radius, width, contact_d,
-                                    contact_z);
-    /* a rock point above the axle is a face the wheel runs into, not a support */
-    *on_rock = rock > soil && *contact_z <= soil;
+    double rock = NO_ROCK_LIMIT;
+    int k;
+    *contact_d = 0.0;
+    for (k = 0; k < inst->terrain.n_rocks; k++) {
+        double d, z, face_d;
+        double env = rock_wheel_centre(&inst->terrain, k, x, y, hx, hy, radius, width, &d, &z);
+        if (env <= rock || env <= soil) continue;
+        face_d = d;
+        if (rock_is_face(inst, k, x0, y0, x, y, hx, hy, axle, &face_d, z)) continue;
+        rock = env;
+        *contact_d = d;
+    }
+    *on_rock = rock > soil;
     return *on_rock ? rock : soil;
+}
+
+/* Would the wheel, moving from (x0, y0) to (x1, y1) with its axle at `axle`, run into a rock
+ * face (in the direction `dir` along the heading only, when dir is not 0)? */
+static int meets_face(const Instance *inst, double x0, double y0, double x1, double y1, double hx,
+                      double hy, double axle, double dir)
+{
+    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
+    int k;
+    for (k = 0; k < inst->terrain.n_rocks; k++) {
+        double d, z;
+        if (rock_wheel_centre(&inst->terrain, k, x1, y1, hx, hy, radius, width, &d, &z) <=
+            NO_ROCK_LIMIT)
+            continue;
+        if (rock_is_face(inst, k, x0, y0, x1, y1, hx, hy, axle, &d, z) &&
+            (dir == 0.0 || d * dir > 0.0))
+            return 1;
+    }
+    return 0;
 }
 
 void contact_wheel_position(const Instance *inst, double x, double y, double yaw, const Wheel *w,
@@ -61,10 +131,17 @@ void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_
     int i;
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
-        double d, cz, ahead, behind;
+        /* where the wheel was and its axle then (at the start: here, its axle on the soil) */
+        int started = w->travel_started;
+        double x0 = w->wx, y0 = w->wy, axle = w->centre_z, d, ahead, behind;
         contact_wheel_position(inst, inst->x, inst->y, inst->yaw, w, &w->wx, &w->wy);
         update_travel(w, hx, hy, width, inst->grid.cell);
-        w->centre_z = centre_height(inst, w, w->wx, w->wy, hx, hy, &w->on_rock, &d, &cz);
+        if (!started) {
+            x0 = w->wx;
+            y0 = w->wy;
+            axle = terrain_height(&inst->terrain, w->wx, w->wy) - w->sinkage + radius;
+        }
+        w->centre_z = centre_height(inst, w, x0, y0, axle, w->wx, w->wy, hx, hy, &w->on_rock, &d);
         /* on a rock: the contact normal's angle from the vertical in the wheel plane, exact
          * from the contact position (d ahead of the axle: climbing forward) */
         contact_angle[i] = asin(d / radius > 1.0 ? 1.0 : (d / radius < -1.0 ? -1.0 : d / radius));
@@ -79,30 +156,26 @@ void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_
 /* A rock face above the axle just ahead in the driving direction blocks the wheel. */
 void contact_update_blocking(Instance *inst)
 {
-    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
     double hx = cos(inst->yaw), hy = sin(inst->yaw);
     int i;
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
-        double d, cz;
         double probe_x = w->wx + dir * BLOCK_PROBE * hx, probe_y = w->wy + dir * BLOCK_PROBE * hy;
-        double env = rock_wheel_centre(&inst->terrain, probe_x, probe_y, hx, hy, radius, width,
-                                       &d, &cz);
-        w->blocked = (env > NO_ROCK_LIMIT && cz > w->centre_z + 1e-6 && d * dir > 0.0) ?
+        w->blocked = meets_face(inst, w->wx, w->wy, probe_x, probe_y, hx, hy, w->centre_z, dir) ?
                      (int)dir : 0;
     }
 }
 
-/* Would wheel i, at the body pose (x, y, yaw), have to touch a rock above where its axle was? */
+/* Would wheel i, moved from where it was at the start of the step to its place at the body
+ * pose (x, y, yaw), have run into a rock face above where its axle was? */
 static int wheel_penetrates(const Instance *inst, int i, double x, double y, double yaw,
                             const double prev_centre[N_WHEELS])
 {
-    const double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
-    double wx, wy, d, cz, env;
-    contact_wheel_position(inst, x, y, yaw, &inst->wheels[i], &wx, &wy);
-    env = rock_wheel_centre(&inst->terrain, wx, wy, cos(yaw), sin(yaw), radius, width, &d, &cz);
-    return env > NO_ROCK_LIMIT && cz > prev_centre[i] + 1e-6;
+    const Wheel *w = &inst->wheels[i];
+    double wx, wy;
+    contact_wheel_position(inst, x, y, yaw, w, &wx, &wy);
+    return meets_face(inst, w->wx, w->wy, wx, wy, cos(yaw), sin(yaw), prev_centre[i], 0.0);
 }
 
 /* After a move, the first wheel that would have to touch a rock above where its axle was, or -1. */

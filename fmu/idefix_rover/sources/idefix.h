@@ -31,11 +31,11 @@ void terrain_free(Terrain *t);
 double terrain_height(const Terrain *t, double x, double y);
 /* Height of the highest rock surface at (x, y), or -1e300 if no rock is there. */
 double rock_top(const Terrain *t, double x, double y);
-/* Wheel-centre height needed to clear the rocks (disc of radius r, width w, heading (hx, hy)).
- * Returns -1e300 when no rock is near. *contact_d: signed distance of the contact ahead of the
- * axle, *contact_z: height of the contact point. */
-double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
-                         double w, double *contact_d, double *contact_z);
+/* Wheel-centre height needed to clear rock k (disc of radius r, width w, heading (hx, hy)).
+ * Returns -1e300 when the rock is out of the wheel's reach. *contact_d: signed distance of the
+ * contact ahead of the axle, *contact_z: height of the contact point. */
+double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx, double hy,
+                         double r, double w, double *contact_d, double *contact_z);
 
 /* ---------------------------------------------------------------- soil.c */
 typedef struct {

@@ -299,23 +299,15 @@ static double rock_envelope(const Rock *rk, double x, double y, double hx, doubl
     return best;
 }
 
-double rock_wheel_centre(const Terrain *t, double x, double y, double hx, double hy, double r,
-                         double w, double *contact_d, double *contact_z)
+double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx, double hy,
+                         double r, double w, double *contact_d, double *contact_z)
 {
-    double best = NO_ROCK, reach = sqrt(r * r + 0.25 * w * w);
-    int k;
+    const Rock *rk = &t->rocks[k];
+    double reach = sqrt(r * r + 0.25 * w * w), dx = x - rk->x, dy = y - rk->y;
+    double big = rk->a > rk->b ? rk->a : rk->b;
     *contact_d = 0.0;
     *contact_z = NO_ROCK;
-    for (k = 0; k < t->n_rocks; k++) {
-        const Rock *rk = &t->rocks[k];
-        double dx = x - rk->x, dy = y - rk->y, big = rk->a > rk->b ? rk->a : rk->b, d, z, h;
-        if (dx * dx + dy * dy >= (big + reach) * (big + reach)) continue;
-        h = rock_envelope(rk, x, y, hx, hy, r, w, &d, &z);
-        if (h > best) {
-            best = h;
-            *contact_d = d;
-            *contact_z = z;
-        }
-    }
-    return best;
+    /* rocks are found by a bounding-circle test: every rock within reach counts */
+    if (dx * dx + dy * dy >= (big + reach) * (big + reach)) return NO_ROCK;
+    return rock_envelope(rk, x, y, hx, hy, r, w, contact_d, contact_z);
 }

@@ -1,0 +1,152 @@
+"""Rocks whose face is below the axle (docs/rover-model.md, "Rocks: climbing, pivoting and
+stalling"): the wheel meets them with its contact below its axle and climbs them when the push
+of the other wheels suffices, P >= W tan(alpha - atan(m mu)); it is never set back while its
+motor drives forwards, and where the push does not suffice the rover is `stuck`."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soil_model
+
+from idefix_rules.commands import Command
+from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
+
+STRAIGHT = [Command(0.05, 1.0, 0.0)]
+RADIUS, WIDTH = soil_model.RADIUS, soil_model.WIDTH
+WEAK = 5.0  # Pa, soil.cohesion of the weak regolith
+
+
+def _mobilised_rock_friction() -> float:
+    """m mu at full slip: rock.friction_coefficient 0.6 mobilised by Janosi-Hanamoto over
+    the rock.contact_length of 2 cm sheared at slip 1 with rock.shear_K = 1 mm: m = 0.95."""
+    return 0.6 * soil_model.janosi(0.02 * 1.0, 0.001)
+
+
+def _push_over_load(cohesion: float, dug_in: bool = True) -> float:
+    """Largest net push (thrust minus compaction) of a driven soil wheel over its load, over all
+    slips; `dug_in`: with the steady slip sinkage, otherwise at the static sinkage."""
+    load = soil_model.WHEEL_LOAD
+    z0 = soil_model.static_sinkage(load, cohesion)
+    best = 0.0
+    for s in np.linspace(0.01, 1.0, 100):
+        z = soil_model.slip_sinkage(z0, s) if dug_in else z0
+        push = (soil_model.strength(load, z, cohesion)
+                * soil_model.janosi(soil_model.shear_length(z) * s)
+                - soil_model.compaction(z, cohesion))
+        best = max(best, push / load)
+    return best
+
+
+def _envelope(rock: Rock, wheel_y: float, x: float) -> tuple[float, float, float]:
+    """Wheel-centre height over `rock` (solid under its top surface, as the wheel envelope of the
+    docs) for a wheel at (x, wheel_y) heading along +x, its contact height and contact angle
+    from the vertical: brute force over the footprint, the rim sampled every 0.02° so that a
+    contact near the axle is resolved."""
+    assert rock.z is not None
+    theta = np.radians(np.linspace(-90.0, 90.0, 9001))[:, None]
+    d, lift = RADIUS * np.sin(theta), RADIUS * np.cos(theta)
+    e = np.linspace(-WIDTH / 2, WIDTH / 2, 61)[None, :]
+    q = ((x + d - rock.x) / rock.a) ** 2 + ((wheel_y + e - rock.y) / rock.b) ** 2
+    top = np.where(q < 1, rock.z + rock.c * np.sqrt(np.clip(1 - q, 0, None)), -np.inf)
+    height = top + lift
+    i, j = np.unravel_index(int(np.argmax(height)), height.shape)
+    return float(height[i, j]), float(top[i, j]), float(theta[i, 0])
+
+
+def _first_touch(rock: Rock, wheel_y: float, axle: float) -> tuple[float, float, float]:
+    """Contact angle, contact height and wheel-centre x where a wheel rolling along +x at
+    y = wheel_y, its axle at `axle` above the flat ground, first touches `rock`."""
+    lo, hi = rock.x - rock.a - RADIUS - 0.01, rock.x  # wheel centre: short of the rock, over it
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if _envelope(rock, wheel_y, mid)[0] >= axle else (mid, hi)
+    _, top, angle = _envelope(rock, wheel_y, hi)
+    return angle, top, hi
+
+
+def _placed(rock: Rock) -> Rock:
+    """The rock with its height resolved on flat ground (z = c: its face is c tall)."""
+    return synthetic_terrain(size=1.0, cell=0.1, rocks=[rock]).rocks[0]
+
+
+def _run(rover: FmuRunner, tmp_path: Path, rock: Rock, **parameters: float
+         ) -> dict[str, np.ndarray]:
+    terrain = write_terrain(tmp_path / "rock.terrain",
+                            synthetic_terrain(size=4.0, cell=0.02, rocks=[rock]))
+    return rover.run({"terrain.file": str(terrain), **parameters}, STRAIGHT, 400.0, 0.1,
+                     hold_after_chain=False)
+
+
+def _set_back_while_driving_forwards(out: dict[str, np.ndarray]) -> float:
+    """Largest fall of x behind its running maximum while the command runs with every motor
+    driving forwards (a trim turn on the spot after the command's odometry is not)."""
+    forwards = (out["wheel.rate"] > 0).all(axis=1) & (out["command"] >= 0)
+    fall = np.maximum.accumulate(out["x"]) - out["x"]
+    return float(fall[forwards].max())
+
+
+@pytest.mark.parametrize("face", [0.06, 0.09])
+def test_a_rock_with_its_face_below_the_axle_across_both_front_wheels_is_climbed(
+        rover: FmuRunner, tmp_path: Path, face: float) -> None:
+    # An ellipsoid 12 cm long and 1 m wide across both front wheels, resting on the ground: its
+    # widest section (the face a wheel meets) is `face` high, below the 10 cm axle, and its top
+    # twice that. The wheel meets it with the contact below its axle even dug in to its
+    # full-slip sinkage, and the rear wheels' push on the default soil (P/W = 8.5) exceeds
+    # W tan(alpha - atan(m mu)) at that contact: the rover climbs over it. (Before, a front
+    # wheel whose contact had moved up the rock past the height of an axle on the soil lost the
+    # rock and dropped into it: the rover stopped, all wheels at full slip, `stuck`.)
+    rock = _placed(Rock(0.45, 0.0, 0.06, 0.5, face))
+    z0 = soil_model.static_sinkage(soil_model.WHEEL_LOAD)
+    alpha, contact, _ = _first_touch(rock, 0.26, RADIUS - soil_model.slip_sinkage(z0, 1.0))
+    assert contact < RADIUS - soil_model.slip_sinkage(z0, 1.0) < rock.top
+    need = math.tan(alpha - math.atan(_mobilised_rock_friction()))
+    assert _push_over_load(soil_model.COHESION) > need
+
+    out = _run(rover, tmp_path, rock)
+    assert out["x"][-1] > rock.x + 0.2
+    assert out["z"].max() > 0.3 + 0.5 * face  # over the rock, not through it
+    assert out["stuck"].max() == 0.0
+    assert _set_back_while_driving_forwards(out) <= 1e-3
+
+
+@pytest.mark.parametrize(("name", "rock", "cohesion"), [
+    ("wide 6 cm", Rock(0.45, 0.0, 0.06, 0.5, 0.06), soil_model.COHESION),
+    ("wide 8 cm", Rock(0.45, 0.0, 0.06, 0.5, 0.08), soil_model.COHESION),
+    ("wide 9.5 cm", Rock(0.45, 0.0, 0.06, 0.5, 0.095), soil_model.COHESION),
+    ("right 6 cm", Rock(0.45, -0.26, 0.06, 0.06, 0.06), soil_model.COHESION),
+    ("right 9.5 cm", Rock(0.45, -0.26, 0.06, 0.06, 0.095), soil_model.COHESION),
+    ("wide 6 cm, weak soil", Rock(0.45, 0.0, 0.06, 0.5, 0.06), WEAK),
+])
+def test_a_wheel_driving_forwards_is_never_set_back_by_a_rock_below_its_axle(
+        rover: FmuRunner, tmp_path: Path, name: str, rock: Rock, cohesion: float) -> None:
+    # A wheel whose motor drives forwards climbs, is held, or slides along the rock: the
+    # rover never moves backwards (before: 5 mm back at the 8 cm rock). A single rock under the
+    # right wheels only is climbed or pivoted past (its face is below the axle): not `stuck`.
+    out = _run(rover, tmp_path, rock, **{"soil.cohesion": cohesion})
+    assert _set_back_while_driving_forwards(out) <= 1e-3, name
+    if rock.y != 0.0:
+        assert out["stuck"].max() == 0.0, name
+
+
+def test_a_rock_the_push_cannot_lift_the_wheels_over_is_stuck(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # The 6 cm rock across both front wheels on weak regolith (5 Pa): the wheels meet it at a
+    # contact angle 10° beyond what even fresh soil's push lifts them over,
+    # a* = atan(m mu) + atan(P/W), so the rover stops on the rock's face, before the contact
+    # angle has fallen to a* (the wheel rising on the rock), and is `stuck`.
+    rock = _placed(Rock(0.45, 0.0, 0.06, 0.5, 0.06))
+    axle = RADIUS - soil_model.static_sinkage(soil_model.WHEEL_LOAD, WEAK)
+    alpha, _, touch = _first_touch(rock, 0.26, axle)
+    highest = math.atan(_mobilised_rock_friction()) + math.atan(_push_over_load(WEAK, False))
+    assert alpha > highest + math.radians(10)
+    climbable = touch
+    while _envelope(rock, 0.26, climbable)[2] > highest:
+        climbable += 0.0005
+
+    out = _run(rover, tmp_path, rock, **{"soil.cohesion": WEAK})
+    assert touch - 0.002 < out["x"].max() + 0.2 < climbable  # the front wheels on the face
+    assert out["stuck"].max() == 1.0
