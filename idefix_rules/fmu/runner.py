@@ -127,6 +127,12 @@ REST_SIGNALS = ("x", "y", "yaw")
 REST_MOTION = 1e-9
 
 
+def _moved(before: float, after: float) -> bool:
+    """Whether a pose coordinate moved over a sample. A non-finite one did not: the run is
+    failed by its non-finite output (campaign.worker), simulating on would show nothing more."""
+    return math.isfinite(before) and math.isfinite(after) and abs(after - before) > REST_MOTION
+
+
 def end_sample(command: np.ndarray | None, done: np.ndarray | None,
                done_at: float = 1.0) -> int | None:
     """The first sample where the chain is complete, or None (not within the run).
@@ -504,8 +510,8 @@ class FmuRunner:
                     columns.append(buffer[:, group.positions.index(position)])
         if not columns:
             return None
-        return lambda k: k > 0 and all(abs(float(column.item(k)) - float(column.item(k - 1)))
-                                       <= REST_MOTION for column in columns)
+        return lambda k: k > 0 and not any(_moved(float(column.item(k - 1)),
+                                                  float(column.item(k))) for column in columns)
 
     def _end_of(self, columns: list[np.ndarray]) -> int | None:
         """The first sample of read columns (slot order) where the chain is complete."""
@@ -516,7 +522,7 @@ class FmuRunner:
         end = end_sample(None, column, self.done_at) if is_done else end_sample(column, None)
         poses = [columns[position] for position in self._pose_columns()]
         while end is not None and poses and end + 1 < len(column) and any(
-                abs(float(pose[end + 1]) - float(pose[end])) > REST_MOTION for pose in poses):
+                _moved(float(pose[end]), float(pose[end + 1])) for pose in poses):
             end += 1  # still moving after the chain: hold only once at rest
         return end
 
