@@ -56,7 +56,7 @@ MAX_RUNS = 10_000  # per case
 
 _TOP_KEYS = ("rulebook", "defaults", "cases", "tolerance")
 _SETUP_KEYS = ("chain", "step", "duration", "initial_position_sigma")
-_RUN_KEYS = ("signals", "offsets", "collisions")
+_RUN_KEYS = ("signals", "offsets", "collisions", "unfinished")
 _CASE_KEYS = ("description", *_SETUP_KEYS, *_RUN_KEYS, "reference", "runs", "variants",
               "failed_runs", "expect")
 _EXPECT_KEYS = ("indices", "risk", "dominant", "chances", "prescreens", "rejected", "verdict",
@@ -100,6 +100,7 @@ class RunGroup:
     count: int
     keyframes: tuple[Keyframes, ...]
     collisions: tuple[Collision, ...]
+    unfinished: bool = False  # the runs never complete their chain (cut off at the stop limit)
 
 
 ExpectKind = Literal["index", "risk", "dominant", "chance", "prescreen", "rejected", "verdict",
@@ -346,13 +347,14 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
                 count = reader.count(variant.get("count"), (*vloc, "count"), 1) or 1
                 group = _run_group(reader, variant, vloc, count)
                 groups.append(RunGroup(count, base.keyframes + group.keyframes,
-                                       base.collisions + group.collisions))
+                                       base.collisions + group.collisions,
+                                       base.unfinished or group.unfinished))
         if "runs" in data:
             reader.fail("T012", "give either 'runs' or 'variants' (their counts add up to the "
                         "runs)", (*loc, "runs"), at_key=True)
     else:
         runs = reader.count(data["runs"], (*loc, "runs"), 1) if "runs" in data else 1
-        groups.append(RunGroup(runs or 1, base.keyframes, base.collisions))
+        groups.append(RunGroup(runs or 1, base.keyframes, base.collisions, base.unfinished))
     reference: tuple[Keyframes, ...] = ()
     if "reference" in data:
         reference = _keyframe_block(reader, data["reference"], (*loc, "reference"), False)
@@ -422,7 +424,13 @@ def _run_group(reader: _Reader, data: Mapping[str, Any], loc: Loc, count: int) -
             found = _collision(reader, item, (*loc, "collisions", number))
             if found is not None:
                 collisions.append(found)
-    return RunGroup(count, keyframes, tuple(collisions))
+    unfinished = False
+    if "unfinished" in data:
+        if isinstance(data["unfinished"], bool):
+            unfinished = data["unfinished"]
+        else:
+            reader.fail("T012", "'unfinished' is true or false", (*loc, "unfinished"))
+    return RunGroup(count, keyframes, tuple(collisions), unfinished)
 
 
 def _signal_key(reader: _Reader, key: str, loc: Loc) -> tuple[str, str | None] | None:

@@ -155,6 +155,11 @@ def build_runs(case: Case, rover: RoverGeometry | None = None
 def _group(case: Case, group: RunGroup, t: np.ndarray, command: np.ndarray,
            rover: RoverGeometry) -> dict[str, np.ndarray]:
     run = _nominal(case, t, command, rover)
+    if group.unfinished:
+        # still executing its last command at the end of the grid: 'command' never reads -1
+        started = np.maximum.accumulate(command >= 0)
+        run["command"] = np.where(started & (command < 0), float(len(case.chain) - 1),
+                                  run["command"])
     _shape(run, group.keyframes, t)
     _collide(run, group.collisions, t)
     run["energy"] = np.maximum.accumulate(run["energy"])  # cumulative charge never falls

@@ -1,6 +1,8 @@
 """The no-obstacle control campaign on the built-in rover FMU: on flat ground, nominal soil and
-only the initial position uncertain, no chain is critical on position (the default rulebook's
-I_pos reads the runs' average position); read per run (rulebook 1.0.0) the same runs saturate."""
+only the initial position uncertain, no chain is critical on position: the default rulebook's
+I_pos reads the drift each run's drive adds to its start offset, and its path-level statement the
+runs' average position; read per run against the reference (rulebook 1.0.0) the same runs
+saturate from the initial spread alone."""
 
 from __future__ import annotations
 
@@ -83,10 +85,11 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
         store.close()
     assert whole.raw["I_pos"].shape == (24,) and np.ptp(whole.raw["I_pos"]) == 0.0
     np.testing.assert_allclose(chunked.raw["I_pos"], whole.raw["I_pos"], rtol=1e-12)
-    # summary.json keeps 4 significant digits
-    np.testing.assert_allclose(whole.values["I_pos"],
-                               paths["straight"]["statistics"]["index_mean"]["I_pos"]["value"],
-                               rtol=1e-3)
+    # the runs' average position sits far inside the tolerance: the default rulebook's
+    # path-level chance that reads it holds in no run
+    assert whole.raw["I_pos"][0] < 0.1
+    for record in paths.values():
+        assert record["statistics"]["chances"]["average_off_course"]["value"] == 0.0
 
     # The same runs scored by the per-run position rule of rulebook 1.0.0: on the straight chain
     # (its tolerance stays at 1 sigma) the initial spread alone, about 1.25 sigma per run, makes

@@ -190,6 +190,7 @@ def test_coverage_states_across_near_and_untouched(tmp_path, capsys):
     "  c:\n    runs: 2\n    variants: [{count: 1}]\n    expect: {verdict: pass}\n",
     "  c: 5\n",
     "  c:\n    expect: {rejected: {min_motion: [0]}}\n",
+    "  c:\n    unfinished: 5\n    expect: {verdict: pass}\n",
 ])
 def test_odd_case_files_are_user_errors_never_tracebacks(tmp_path, capsys, body):
     path = write(tmp_path, body)

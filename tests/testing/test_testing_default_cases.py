@@ -60,6 +60,15 @@ def _first_failure(compiled, cases):
     return None
 
 
+# Mutants that cannot change any outcome, with the reason. The average-position chance holds in
+# every run of a path or in none (it reads the runs' average position: one value per path), so
+# its verdict's threshold says the same anywhere strictly between 0 % and 100 %.
+EQUIVALENT = {
+    "verdict average_position_kept: threshold 50 % × 2",
+    "verdict average_position_kept: threshold 50 % × 0.5",
+}
+
+
 def test_every_single_rule_mutant_makes_a_case_fail(case_file):
     survivors = []
     count = 0
@@ -73,4 +82,4 @@ def test_every_single_rule_mutant_makes_a_case_fail(case_file):
     rules = sum(len(group) for group in (model.command_rules, model.indices, model.chances,
                                          model.prescreens, model.verdicts))
     assert count >= rules  # every rule of the default rulebook yields mutants
-    assert survivors == []
+    assert set(survivors) <= EQUIVALENT, sorted(set(survivors) - EQUIVALENT)
