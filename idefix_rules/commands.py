@@ -71,6 +71,8 @@ def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinemat
     left_path = dp - b * dh
     right_path = dp + b * dh
     fastest = max(abs(left_path), abs(right_path))
+    if fastest == 0.0:  # a motion too small to represent (b·Δψ underflows): no command at all
+        return CommandKinematics(math.inf, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
     duration = fastest / (rate * r)
     left_rate = left_path / duration / r
     right_rate = right_path / duration / r

@@ -127,3 +127,11 @@ def test_the_smooth_detour_on_flat_ground_ends_short_by_its_arcs_balance(
     predicted = ideal_poses(shortened, RoverGeometry(), np.array([1e9]))[0]
     assert math.hypot(out["x"][-1] - predicted[0], out["y"][-1] - predicted[1]) < 0.04
     assert 1.0 - out["x"][-1] > 0.1
+
+
+def test_a_command_too_small_to_represent_is_skipped_by_the_fmu(rover: FmuRunner) -> None:
+    # b · Δψ underflows: the controller skips it as an empty command (no NaN wheel rates) and
+    # executes the next one
+    out = rover.run(GYRO, [Command(0.05, 0.0, 5e-324), Command(0.05, 0.1, 0.0)], 60.0, 0.1)
+    assert np.all(np.isfinite(out["wheel.rate"])) and np.all(np.isfinite(out["x"]))
+    assert out["command"][0] == 1 and out["x"][-1] > 0.09

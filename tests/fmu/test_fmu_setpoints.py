@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
@@ -59,3 +60,11 @@ def test_the_active_command_follows_the_ideal_timing() -> None:
     active = values["command"][starts >= first]
     assert set(active[active >= 0]) == {2.0}  # the command without motion is skipped
     assert active[0] == 2.0 and active[-1] == -1.0
+
+
+@pytest.mark.parametrize("heading", [5e-324, -5e-324])
+def test_a_turn_too_small_to_represent_is_no_command(heading: float) -> None:
+    # b · Δψ underflows to 0: no wheel would move, so the command takes no time (a random
+    # hypothesis seed found the division by zero this used to be)
+    kinematics = command_kinematics(Command(0.0625, 0.0, heading), RoverGeometry())
+    assert kinematics.duration == 0.0 and kinematics.wheel_rates == (0.0, 0.0, 0.0, 0.0)

@@ -12,7 +12,9 @@ static int command_is_empty(const Instance *inst, int k)
 {
     double rate = inst->r[VR_CHAIN_MAX_WHEEL_RATE + k];
     double dp = inst->r[VR_CHAIN_DELTA_POSITION + k], dh = inst->r[VR_CHAIN_DELTA_HEADING + k];
-    return rate == 0.0 || (dp == 0.0 && dh == 0.0);
+    double b = inst->r[VR_ROVER_HALF_TRACK];
+    /* a motion too small to represent (b * dh underflows) moves no wheel: empty too */
+    return rate == 0.0 || (dp - b * dh == 0.0 && dp + b * dh == 0.0);
 }
 
 static int closed_loop(const Instance *inst)
