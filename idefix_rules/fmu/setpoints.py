@@ -50,7 +50,9 @@ def chain_setpoints(chain: Sequence[Command], rover: RoverGeometry, interval: fl
               for i, wheel in enumerate(WHEELS)}
     values["body.speed"] = mean_over_steps([k.speed for k in kinematics])
     values["body.yaw_rate"] = mean_over_steps([k.yaw_rate for k in kinematics])
-    active = np.searchsorted(starts, edges[:-1], side="right") - 1
+    # a step starting within rounding of a command's end (the durations are sums of floats)
+    # starts after it
+    active = np.searchsorted(starts, edges[:-1] + 1e-9 * interval, side="right") - 1
     running = (active < len(chain)) & (durations[np.minimum(active, len(chain) - 1)] > 0) \
         if len(chain) else np.zeros(steps, dtype=bool)
     values["command"] = np.where(running, active, -1).astype(float)
