@@ -22,9 +22,10 @@ from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 
-# Recorded on the closed-loop rover model and results format 2, default stop limit 3 × ideal.
-ROVER_SOURCE_HASH = "7d4b7266cf9caa0266bbcba5b1f9ee79e3099c7ee921b206081f90cd23bdc1e9"
-ROVER_DIGEST = "4bff0cb2ff2c9932a4092de8539233e668b571598aacec85977c8c5df8a38c12"
+# Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing and the
+# first-touch rock contact; results format 2, default stop limit 3 × ideal, held after the chain.
+ROVER_SOURCE_HASH = "699cc862f80ae2488b7c678d1abf5770ffd76adaa4169a564f8a036396983893"
+ROVER_DIGEST = "7a329f4b3d7f6d63ffa353b18c9ceb90c17e5111f5dab41b076b18be15c42123"
 TOY_DIGEST = "446f680b2765ba3754c63f234206fa2eda1658d5aac8676ffaec4caa0ebd45c4"
 
 
