@@ -2,13 +2,18 @@
 
 Each task runs in a child process of its Dask worker (:func:`~idefix_rules.campaign.processes.
 run_isolated`): a run that crashes, hangs past its timeout or raises fails with the same reason
-as on the local pool, and the Dask worker lives on. What remains is the cluster's own trouble:
+as on the local pool, and the Dask worker lives on. What remains is the infrastructure's own
+trouble:
 
+* a run whose child process was killed from outside (SIGKILL, SIGTERM: the out-of-memory killer,
+  an operator; :func:`~idefix_rules.campaign.processes.death_outcome`) is submitted again, as on
+  the local pool;
 * a run whose Dask worker died under it (killed from outside, out of memory, machine lost) is
   run again: Dask reschedules it itself, and when Dask gives up (``KilledWorker``) or a result is
-  lost, it is submitted again, until its workers died :data:`MAX_WORKER_DEATHS` times (or its
-  result was lost :data:`MAX_LOST_RESULTS` times); then it is recorded as failed with a reason
-  starting with :data:`INFRASTRUCTURE` ("infrastructure: worker died 4 times …"), which
+  lost, it is submitted again, until its processes died :data:`MAX_WORKER_DEATHS` times, the
+  two kinds of death counted together (or its result was lost :data:`MAX_LOST_RESULTS` times);
+  then it is recorded as failed with a reason starting with :data:`INFRASTRUCTURE`
+  ("infrastructure: killed by SIGKILL 3 times", "infrastructure: worker died 4 times …"), which
   ``--resume`` runs again;
 * a cluster without workers for :data:`NO_WORKER_GRACE` seconds, a lost scheduler, or no run
   finishing for longer than the largest run timeout plus :data:`STALL_MARGIN` stops the campaign
@@ -25,33 +30,32 @@ from collections.abc import Hashable, Iterable, Iterator
 from typing import Any
 
 from idefix_rules.campaign.processes import (
+    INFRASTRUCTURE,
+    MAX_KILLS,
     Outcome,
     TaskFunction,
     Timeouts,
+    is_infrastructure,
+    killed_reason,
     run_isolated,
     timeout_of,
 )
 from idefix_rules.errors import InfrastructureError, UserInputError
 
-MAX_WORKER_DEATHS = 3
+__all__ = ["INFRASTRUCTURE", "ClusterError", "DaskPool", "is_infrastructure"]
+
+MAX_WORKER_DEATHS = MAX_KILLS  # the local pool's bound on a run killed from outside
 MAX_LOST_RESULTS = 3
 NO_WORKER_GRACE = 60.0  # s
 STALL_MARGIN = 120.0  # s
 POLL = 0.05  # s between looks at the cluster while no run finishes
 HEALTH_CHECK = 5.0  # s between asking the scheduler about its workers
 RESULT_WAIT = 60.0  # s to fetch a finished run's result before it counts as lost
-INFRASTRUCTURE = "infrastructure: "
 
 
 class ClusterError(InfrastructureError):
     """The Dask cluster cannot go on (no workers, scheduler lost, no progress): exit 3; the
     runs stored so far stay and ``--resume`` continues."""
-
-
-def is_infrastructure(reason: str) -> bool:
-    """Whether a failure reason blames the cluster rather than the run (``--resume`` redoes
-    such runs)."""
-    return reason.startswith(INFRASTRUCTURE)
 
 
 class DaskPool:
@@ -104,7 +108,7 @@ class DaskPool:
         limits = [timeout_of(self.run_timeout, key) for key in payloads]
         stall = None if not limits or None in limits \
             else max(x for x in limits if x is not None) + STALL_MARGIN
-        deaths: Counter[Hashable] = Counter()
+        deaths = _Deaths()
         losses: Counter[Hashable] = Counter()
         watch = _Watch(self._client, stall)
         try:
@@ -128,7 +132,7 @@ class DaskPool:
         finally:
             self.close()
 
-    def _outcome(self, future: Any, key: Hashable, deaths: Counter[Hashable],
+    def _outcome(self, future: Any, key: Hashable, deaths: _Deaths,
                  losses: Counter[Hashable]) -> Outcome | None:
         """The run's outcome, or None when the cluster lost it and it is to run again."""
         from dask.distributed import KilledWorker
@@ -142,17 +146,15 @@ class DaskPool:
             except Exception as error:  # the result vanished with its worker
                 failure = error
             else:
+                if isinstance(value, Outcome) and value.killed_by:
+                    return deaths.killed(key, value.killed_by)
                 if isinstance(value, Outcome):
                     return value
                 failure = TypeError(f"unexpected result {type(value).__name__}")
         elif status == "error":
             failure = future.exception()
             if isinstance(failure, KilledWorker):
-                deaths[key] += failure.allowed_failures + 1
-                if deaths[key] >= MAX_WORKER_DEATHS:
-                    return Outcome(False, None, f"{INFRASTRUCTURE}worker died {deaths[key]} "
-                                                "times while running it")
-                return None
+                return deaths.worker_died(key, failure.allowed_failures + 1)
         if self._client.status not in ("running", "connecting"):
             raise ClusterError("lost the connection to the Dask scheduler")
         losses[key] += 1
@@ -166,6 +168,34 @@ class DaskPool:
         self._client.close()  # type: ignore[no-untyped-call]
         if self._cluster is not None:
             self._cluster.close()
+
+
+class _Deaths:
+    """The deaths of each run's processes: its child killed from outside, its Dask worker lost.
+    A run is submitted again until they reach :data:`MAX_WORKER_DEATHS`."""
+
+    def __init__(self) -> None:
+        self.count: Counter[Hashable] = Counter()
+        self.signals: dict[Hashable, list[str]] = {}
+
+    def killed(self, key: Hashable, signal_name: str) -> Outcome | None:
+        """Its child was killed by ``signal_name``: None (run it again) or its lost outcome."""
+        self.signals.setdefault(key, []).append(signal_name)
+        return self._after(key, 1)
+
+    def worker_died(self, key: Hashable, times: int) -> Outcome | None:
+        """Its Dask worker died ``times`` times (``KilledWorker``)."""
+        return self._after(key, times)
+
+    def _after(self, key: Hashable, times: int) -> Outcome | None:
+        self.count[key] += times
+        if self.count[key] < MAX_WORKER_DEATHS:
+            return None
+        signals = self.signals.get(key, [])
+        if len(signals) == self.count[key]:  # only ever its child, killed from outside
+            return Outcome(False, None, killed_reason(signals))
+        return Outcome(False, None, f"{INFRASTRUCTURE}worker died {self.count[key]} times "
+                                    "while running it")
 
 
 class _Watch:

@@ -112,9 +112,9 @@ def check_expectations(expectations: list[Any],
 
 
 def infrastructure_failures(evaluation: CampaignEvaluation) -> int:
-    """Runs that failed because of the cluster, not for their own reason."""
+    """Runs (a reference run too) lost to the infrastructure, not failed for their own reason."""
     return sum(is_infrastructure(reason) for path in evaluation.paths
-               for reason in path.failures.values())
+               for reason in (path.reason, *path.failures.values()))
 
 
 def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],

@@ -9,8 +9,11 @@ process running it (``the simulation process crashed (SIGSEGV)``), or its timeou
 The local pool gives each worker process one task at a time over a pipe. That is what makes a
 crash attributable: when a worker dies (even by a segfault inside the FMU) the parent knows the
 one run it was executing, records it as failed with the signal, and starts a fresh worker. A run
-that exceeds the timeout is ended by killing its worker. Workers keep their FMU instance between
-runs.
+that exceeds the timeout is ended by killing its worker. A worker killed from outside while it
+runs a run (SIGKILL or SIGTERM the pool did not send: the out-of-memory killer, an operator)
+says nothing about the run: the run is given to a fresh worker again, up to
+:data:`~idefix_rules.campaign.processes.MAX_KILLS` attempts, and then yields
+``infrastructure: killed by SIGKILL 3 times``. Workers keep their FMU instance between runs.
 
 On Linux workers are forked: cheap to start again after a crash, and they never re-run the
 caller's ``__main__`` (forkserver and spawn do, which breaks scripts without a main guard). The
@@ -29,6 +32,7 @@ import multiprocessing
 import os
 import sys
 import time
+from collections import deque
 from collections.abc import Hashable, Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -36,10 +40,12 @@ from typing import Any
 
 from idefix_rules.campaign.dask_pool import DaskPool
 from idefix_rules.campaign.processes import (
+    MAX_KILLS,
     Outcome,
     TaskFunction,
     Timeouts,
-    describe_death,
+    death_outcome,
+    killed_reason,
     receive,
     timeout_of,
     timeout_reason,
@@ -92,30 +98,56 @@ class LocalPool:
         """Run every task; yields ``(key, Outcome)`` as each finishes."""
         pending = iter(tasks)
         exhausted = False
+        again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside
+        payloads: dict[Hashable, Any] = {}  # of the runs being executed
+        kills: dict[Hashable, list[str]] = {}
         try:
             while True:
-                while not exhausted and len(self._workers) < self.size:
+                while (again or not exhausted) and len(self._workers) < self.size:
                     self._workers.append(self._spawn())
                 idle = [w for w in self._workers if w.key is None]
                 for worker in idle:
-                    try:
-                        key, payload = next(pending)
-                    except StopIteration:
-                        exhausted = True
-                        break
-                    worker.connection.send((key, payload))
-                    worker.key = key
-                    worker.timeout = timeout_of(self.run_timeout, key)
-                    worker.deadline = None if worker.timeout is None \
-                        else time.monotonic() + worker.timeout
+                    if again:
+                        key, payload = again.popleft()
+                    else:
+                        try:
+                            key, payload = next(pending)
+                        except StopIteration:
+                            exhausted = True
+                            break
+                    if not self._hand(worker, key, payload):
+                        again.appendleft((key, payload))  # the worker died idle: not the run's
+                        continue
+                    payloads[key] = payload
                 busy = [w for w in self._workers if w.key is not None]
                 if not busy:
-                    if exhausted:
+                    if exhausted and not again:
                         return
                     continue
-                yield from self._collect(busy)
+                for key, outcome in self._collect(busy):
+                    payload = payloads.pop(key)
+                    if outcome.killed_by:
+                        signals = kills.setdefault(key, [])
+                        signals.append(outcome.killed_by)
+                        if len(signals) < MAX_KILLS:
+                            again.append((key, payload))
+                            continue
+                        outcome = Outcome(False, None, killed_reason(signals))
+                    yield key, outcome
         finally:
             self.close()
+
+    def _hand(self, worker: _Worker, key: Hashable, payload: Any) -> bool:
+        """Give a worker its task (False: the worker is gone, and retired)."""
+        try:
+            worker.connection.send((key, payload))
+        except (OSError, ValueError):
+            self._retire(worker, kill=True)
+            return False
+        worker.key = key
+        worker.timeout = timeout_of(self.run_timeout, key)
+        worker.deadline = None if worker.timeout is None else time.monotonic() + worker.timeout
+        return True
 
     def _collect(self, busy: list[_Worker]) -> Iterator[tuple[Hashable, Outcome]]:
         deadlines = [w.deadline for w in busy if w.deadline is not None]
@@ -139,9 +171,9 @@ class LocalPool:
                 yield key, Outcome(ok, value, reason)
             else:
                 worker.process.join(timeout=5)
-                reason = describe_death(worker.process.exitcode)
+                outcome = death_outcome(worker.process.exitcode)
                 self._retire(worker, kill=True)
-                yield key, Outcome(False, None, reason)
+                yield key, outcome
         now = time.monotonic()
         for worker in list(busy):
             if id(worker) in done or worker.key is None or worker.deadline is None:

@@ -5,6 +5,15 @@ few such children, and every Dask task runs in one (:func:`run_isolated`), so a 
 the FMU or a run past its timeout is told apart from the loss of a Dask worker, and is recorded
 with the same reason whatever executes the campaign.
 
+A run's process that dies tells by its signal whose fault it was. The faults a program raises
+on itself (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT … and an ``exit()``) are the run's own: the
+run fails with them. SIGKILL and SIGTERM are sent by another process (an operator, the kernel's
+out-of-memory killer, a batch system); the executors end a run past its timeout themselves and
+record that as the timeout, so a run killed by either signal otherwise was killed from outside.
+Such a run is marked :attr:`Outcome.killed_by`, and the executors run it again, up to
+:data:`MAX_KILLS` attempts, before recording it as lost (``infrastructure: killed by SIGKILL 3
+times``), which ``--resume`` runs again.
+
 A child serves one task at a time over a pipe and keeps its state (the FMU instance) between
 tasks. Children die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and an
 idle child also watches its parent), so a killed campaign or Dask worker leaves no hanging FMU
@@ -33,6 +42,12 @@ TaskFunction = Callable[[Any], Any]
 Timeouts = float | Callable[[Hashable], float | None] | None
 _PR_SET_PDEATHSIG = 1
 
+INFRASTRUCTURE = "infrastructure: "
+# Attempts of a run killed from outside before it is recorded as lost to the infrastructure.
+MAX_KILLS = 3
+# Signals only another process sends: no FMU code raises them on its own process by a fault.
+OUTSIDE_SIGNALS = frozenset({signal.SIGKILL, signal.SIGTERM})
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -41,6 +56,19 @@ class Outcome:
     ok: bool
     value: Any = None
     reason: str = ""
+    # the signal that ended the run's process from outside ("SIGKILL"): the run is no failure
+    # of its own and is to run again; empty otherwise
+    killed_by: str = ""
+
+
+def is_infrastructure(reason: str) -> bool:
+    """Whether a failure reason blames the infrastructure rather than the run (``--resume``
+    runs such runs again).
+
+    >>> is_infrastructure("infrastructure: killed by SIGKILL 3 times")
+    True
+    """
+    return reason.startswith(INFRASTRUCTURE)
 
 
 def timeout_of(timeouts: Timeouts, key: Hashable) -> float | None:
@@ -54,15 +82,40 @@ def timeout_reason(seconds: float) -> str:
     return f"exceeded the run timeout of {seconds:g} s"
 
 
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
 def describe_death(exitcode: int | None) -> str:
     """The failure reason of a run whose process died while running it."""
     if exitcode is not None and exitcode < 0:
-        try:
-            name = signal.Signals(-exitcode).name
-        except ValueError:
-            name = f"signal {-exitcode}"
-        return f"the simulation process crashed ({name})"
+        return f"the simulation process crashed ({_signal_name(-exitcode)})"
     return f"the simulation process exited unexpectedly (exit code {exitcode})"
+
+
+def killed_reason(signals: list[str]) -> str:
+    """The reason of a run whose process was killed from outside at every attempt.
+
+    >>> killed_reason(["SIGKILL", "SIGKILL", "SIGKILL"])
+    'infrastructure: killed by SIGKILL 3 times'
+    >>> killed_reason(["SIGTERM", "SIGKILL"])
+    'infrastructure: killed by SIGTERM, SIGKILL 2 times'
+    """
+    names = ", ".join(dict.fromkeys(signals))
+    times = "once" if len(signals) == 1 else f"{len(signals)} times"
+    return f"{INFRASTRUCTURE}killed by {names} {times}"
+
+
+def death_outcome(exitcode: int | None) -> Outcome:
+    """What became of a run whose process died while running it, the executor not having
+    killed it: its own failure (a fault, an exit), or killed from outside (run it again)."""
+    if exitcode is not None and exitcode < 0 and -exitcode in OUTSIDE_SIGNALS:
+        name = _signal_name(-exitcode)
+        return Outcome(False, None, killed_reason([name]), killed_by=name)
+    return Outcome(False, None, describe_death(exitcode))
 
 
 def _die_with_parent() -> None:
@@ -215,7 +268,8 @@ class IsolatedRunner:
             child.close()
 
     def run(self, key: Hashable, payload: Any, timeout: float | None) -> Outcome:
-        """Run one task; a crash or a timeout of the task is its failed :class:`Outcome`."""
+        """Run one task; a crash or a timeout of the task is its failed :class:`Outcome`, a
+        child killed from outside one with ``killed_by`` (the caller runs it again)."""
         child, connection = self._child, self._connection
         if child is None or connection is None or not child.is_alive():
             # A child that died while idle (its thread's end, a stray signal) is no run's fault.
@@ -235,9 +289,9 @@ class IsolatedRunner:
         message = receive(connection)
         if message is None:
             child.join(timeout=5)
-            reason = describe_death(child.exitcode)
+            outcome = death_outcome(child.exitcode)
             self._end(kill=True)
-            return Outcome(False, None, reason)
+            return outcome
         _, ok, value, reason = message
         return Outcome(ok, value, reason)
 

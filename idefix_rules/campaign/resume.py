@@ -1,9 +1,11 @@
 """What ``--resume`` simulates again, and the command that continues a campaign.
 
 A run is simulated (again) when it has no stored outcome (killed before it was written), or
-when it failed because of the infrastructure rather than for its own reason (its Dask workers
-died under it, its result was lost: reasons starting with ``infrastructure:``). A campaign is
-complete when no run of a simulated path is left to simulate.
+when it failed because of the infrastructure rather than for its own reason (its process was
+killed from outside again and again, its Dask workers died under it, its result was lost:
+reasons starting with ``infrastructure:``); a path whose reference run was lost so starts
+again. A campaign is complete when no reference run and no run of a simulated path is left to
+simulate.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.dask_pool import INFRASTRUCTURE, is_infrastructure
+from idefix_rules.campaign.processes import INFRASTRUCTURE, is_infrastructure
 from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, decode_reason
 
 __all__ = ["INFRASTRUCTURE", "is_infrastructure", "resume_command", "runs_to_simulate"]
@@ -40,9 +42,18 @@ def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
                       np.asarray(again, dtype=np.int64)).astype(np.int64)
 
 
+def reference_lost(store: Any, name: str) -> bool:
+    """Whether path ``name``'s reference run was lost to the infrastructure (``--resume``
+    starts the path again)."""
+    group = store.path_group(name)
+    return str(group.attrs.get("status", "")) == "reference_failed" \
+        and is_infrastructure(str(group.attrs.get("reason", "")))
+
+
 def nothing_left(store: Any, names: list[str]) -> bool:
-    """Whether every simulated path of ``names`` has all its runs done for good."""
-    return all(not store.has_runs(name) or runs_to_simulate(store, name).size == 0
+    """Whether every path of ``names`` has its reference run and all its runs done for good."""
+    return all(not (store.has_path(name) and reference_lost(store, name))
+               and (not store.has_runs(name) or runs_to_simulate(store, name).size == 0)
                for name in names)
 
 

@@ -206,8 +206,9 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
 def _warn_lost_runs(result: CampaignResult, again: str) -> None:
     lost = outputs.infrastructure_failures(result.evaluation)
     if lost:
-        result.warnings.append(f"{lost} run(s) failed because of the cluster, not for a reason "
-                               f"of their own (exit code 3); run them again with `{again}`")
+        result.warnings.append(f"{lost} run(s) were lost to the infrastructure (killed from "
+                               "outside, or lost by the cluster), not failed for a reason of "
+                               f"their own (exit code 3); run them again with `{again}`")
 
 
 def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,

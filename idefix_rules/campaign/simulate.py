@@ -311,8 +311,11 @@ def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
         name = plan.spec.name
         if store.has_path(name):
             group = store.path_group(name)
-            if group.attrs.get("status", "pending") == "pending":
-                del store.file["paths"][name]  # killed before its reference run was stored
+            if group.attrs.get("status", "pending") == "pending" \
+                    or resuming.reference_lost(store, name):
+                # killed before its reference run was stored, or that run was lost to the
+                # infrastructure: the path starts again
+                del store.file["paths"][name]
             else:
                 plan.status = str(group.attrs.get("status", "pending"))
                 plan.reason = str(group.attrs.get("reason", ""))

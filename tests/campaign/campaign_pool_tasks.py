@@ -30,3 +30,41 @@ def kill_worker(payload):
         os.kill(os.getppid(), signal.SIGKILL)
         time.sleep(600)
     return misbehave(payload)
+
+
+# A marked task's process writes its pid into the folder MARK names, then waits DELAY seconds
+# before the task proper: a test (tests/campaign/test_campaign_killed_workers.py) then kills it
+# from outside while it runs that task, as the kernel's out-of-memory killer would.
+MARK = "IDEFIX_TEST_MARK"
+MARKED = "IDEFIX_TEST_MARKED"  # the marked run of a campaign: "<commands>:<initial.x!r>"
+DELAY = 3.0
+
+
+def _announce():
+    folder = os.environ.get(MARK)
+    if not folder:
+        return
+    pid = os.getpid()
+    temporary = os.path.join(folder, f".{pid}.tmp")
+    with open(temporary, "w") as handle:
+        handle.write(str(pid))
+    os.rename(temporary, os.path.join(folder, str(pid)))
+    time.sleep(DELAY)
+
+
+def marked(payload):
+    """Like misbehave; "marked" and "marked-segfault" announce their process first."""
+    if payload.startswith("marked"):
+        _announce()
+        payload = payload.removeprefix("marked").removeprefix("-") or "marked"
+    return misbehave(payload)
+
+
+def marked_simulate(task):
+    """The campaign's task function; the marked run (its chain's length and its initial.x)
+    announces itself."""
+    from idefix_rules.campaign.worker import simulate
+
+    if f"{len(task.chain)}:{dict(task.parameters).get('initial.x')!r}" == os.environ.get(MARKED):
+        _announce()
+    return simulate(task)

@@ -100,7 +100,7 @@ def test_runs_lost_to_the_cluster_exit_3_and_resume_runs_them_again(
             runs["status"][run] = STATUS_FAILED
     assert main(["evaluate", str(results)]) == 3
     out = capsys.readouterr().out
-    assert "2 run(s) failed because of the cluster" in out and "--resume" in out
+    assert "2 run(s) were lost to the infrastructure" in out and "--resume" in out
     summary = json.loads((campaign.output / "summary.json").read_text())
     assert summary["exit_code"] == 3
 
