@@ -24,7 +24,7 @@ import numpy as np
 
 from idefix_rules.campaign import sampling
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
-from idefix_rules.campaign.resume import runs_to_simulate
+from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
 from idefix_rules.campaign.simulate import (
     FmuSource,
@@ -39,7 +39,7 @@ from idefix_rules.campaign.simulate import (
     run_and_store,
 )
 from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
-from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, ResultStore
+from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
 
@@ -96,7 +96,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             done[name] = look
             if parts[name]:
                 whole = concatenate(parts[name])
-                failed = int(np.sum(store.run_status(name)[:look] == STATUS_FAILED))
+                # runs lost to the infrastructure are no failure of the path's
+                failed = sum(run < look and not is_infrastructure(reason)
+                             for run, reason in store.failures(name).items())
                 fixed = evaluator.path_statistics(whole, failed_runs=failed)
                 statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
         settlements = settle(evaluator, statistics)

@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import h5py
 import numpy as np
 
+from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.campaign.wording import runs_needed_text
@@ -82,7 +83,14 @@ class PathResult:
 
     @property
     def failed(self) -> int:
-        return len(self.failures)
+        """Runs failed for a reason of their own (what counts against the path)."""
+        return len(self.failures) - self.lost
+
+    @property
+    def lost(self) -> int:
+        """Runs lost to the infrastructure (``infrastructure: …``): no verdict on the path,
+        ``--resume`` runs them again."""
+        return sum(is_infrastructure(reason) for reason in self.failures.values())
 
     @property
     def verdict_text(self) -> str:
@@ -361,7 +369,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue
-        missing = result.runs - result.completed - result.failed
+        missing = result.runs - result.completed - len(result.failures)
         if on_path is not None:
             on_path(name, result.completed)
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
@@ -471,7 +479,7 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     shown = failed_for_sure or [rule for rule in verdict.rules
                                 if not rule.passed or not rule.decided]
     result.verdict_reasons = [_reason_text(rule) for rule in shown]
-    if (result.failed or result.completed < result.runs) and result.passed:
+    if (result.failed or result.completed + result.lost < result.runs) and result.passed:
         # The rulebook already counts failed runs; this is the last guard.
         result.passed = False
         result.verdict_reasons.append(

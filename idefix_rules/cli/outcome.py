@@ -20,6 +20,7 @@ from rich.table import Table
 from idefix_rules.campaign.decision import Decision, campaign_decision, reasons_of
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
+from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.wording import percent, unfinished_text
 
 LEVELS = ("L1", "L2", "L3")
@@ -155,9 +156,15 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
             console.print(f"  {escape(path.name)}: {escape(reason)}" if wide
                           else f"  ✗ {escape(reason)}")
         for run, reason in sorted(path.failures.items())[:10]:
-            console.print(f"  [red]{escape(path.name)} run {run} failed[/red]: {escape(reason)}")
-        if path.failed > 10:
-            console.print(f"  [red]… and {path.failed - 10} more failed runs[/red]")
+            if is_infrastructure(reason):  # no failure of the path's: --resume runs it again
+                console.print(f"  [yellow]{escape(path.name)} run {run} lost[/yellow]: "
+                              f"{escape(reason)}")
+            else:
+                console.print(f"  [red]{escape(path.name)} run {run} failed[/red]: "
+                              f"{escape(reason)}")
+        if len(path.failures) > 10:
+            console.print(f"  [red]… and {len(path.failures) - 10} more failed or lost "
+                          "runs[/red]")
     if evaluation.ranking:
         console.print("ranking: " + " > ".join(escape(n) for n in evaluation.ranking))
     measured = [c for c in evaluation.slip if c.measured is not None]

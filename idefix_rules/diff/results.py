@@ -464,7 +464,7 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
         result = side.result
         side.evaluation = concatenate(side.parts)
         side.parts = []
-        missing = result.runs - result.completed - result.failed
+        missing = result.runs - result.completed - len(result.failures)
         side.statistics = side.evaluator.path_statistics(side.evaluation,
                                                          failed_runs=result.failed + missing)
         if adaptive:  # the intervals the evaluation of an adaptive campaign reports
