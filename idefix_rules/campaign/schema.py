@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -28,6 +29,21 @@ from idefix_rules import units
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
 LEVELS = ("L1", "L2", "L3")
+
+# Seeds are stored as 64-bit unsigned integers (results.h5, docs/results-format.md).
+MAX_SEED = 2**64 - 1
+
+
+def _seed_range(value: int) -> int:
+    if not 0 <= value <= MAX_SEED:
+        raise PydanticCustomError("seed", "a seed is a whole number from 0 to 2^64 - 1 "
+                                  "({maximum}), got {got}",
+                                  {"maximum": str(MAX_SEED), "got": str(value)})
+    return value
+
+
+# StrictInt: YAML's `true` is not a seed
+Seed = Annotated[StrictInt, AfterValidator(_seed_range)]
 
 
 def _quantity(dimension: Dimension | None) -> BeforeValidator:
@@ -125,7 +141,7 @@ class SyntheticTerrain(Strict):
     slope: Angle = 0.0
     slope_direction: Angle = 0.0
     roughness: Length = 0.0
-    seed: StrictInt = Field(default=0, ge=0)
+    seed: Seed = 0
 
     @model_validator(mode="after")
     def _grid_size(self) -> SyntheticTerrain:
@@ -285,7 +301,7 @@ SamplingMethod = Literal["monte_carlo", "latin_hypercube", "sobol"]
 
 class UncertaintySection(Strict):
     method: SamplingMethod = "monte_carlo"
-    seed: StrictInt = Field(default=0, ge=0)
+    seed: Seed = 0
     parameters: dict[str, Distribution] = {}
 
 

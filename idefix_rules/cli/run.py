@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ from rich.progress import (
 from rich.table import Column
 
 from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.schema import MAX_RUNS
+from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.outcome import index_titles, print_outcome
@@ -50,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with runs auto: runs before the first look (overrides "
                              "`min_runs`)")
     parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
-    parser.add_argument("--seed", type=_non_negative_int, help="campaign seed (overrides "
+    parser.add_argument("--seed", type=_seed, help="campaign seed, 0 … 2^64 - 1 (overrides "
                         "`uncertainty.seed`)")
     parser.add_argument("--workers", type=_positive_int,
                         help="worker processes (default: the campaign's, else all cores)")
@@ -93,22 +94,26 @@ def _run_count_only(text: str) -> int:
     return value
 
 
-def _non_negative_int(text: str) -> int:
+def _seed(text: str) -> int:
     value = _integer(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text}")
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number from 0 to 2^64 - 1 "
+                                         f"({MAX_SEED}), got {text}")
     return value
 
 
 def _integer(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    # int() would also take '７', '1_000' and a thousand digits; a count or seed is [0-9]+
+    if not re.fullmatch(r"[ \t]*[-+]?[0-9]{1,40}[ \t]*", text):
+        digits = " written with the digits 0-9" if not text.isascii() else ""
+        raise argparse.ArgumentTypeError(f"expected a whole number{digits}, got {text!r}")
+    return int(text)
 
 
 def _timeout(text: str) -> float:
     try:
+        if not text.isascii():  # float() would take '５'
+            raise ValueError(text)
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None

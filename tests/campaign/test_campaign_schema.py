@@ -176,3 +176,23 @@ def test_the_cli_renders_the_message_with_the_source_line_and_exit_code_2(
 def test_a_missing_campaign_file_is_a_user_error(tmp_path: Path) -> None:
     with pytest.raises(UserInputError, match="not found"):
         load_campaign(tmp_path / "absent.yaml")
+
+
+@pytest.mark.parametrize(("old", "new", "expected"), [
+    ("seed: 3", f"seed: {2**64}", f"13:9: uncertainty.seed: a seed is a whole number from 0 to "
+                                  f"2^64 - 1 ({2**64 - 1}), got {2**64}"),
+    ("seed: 3", "seed: -1", "13:9: uncertainty.seed: a seed is a whole number from 0 to 2^64 - 1 "
+                            f"({2**64 - 1}), got -1"),
+    ("seed: 4}", f"seed: {10**30}}}", "19:58: environment.terrain.synthetic.seed: a seed is a "
+                                      f"whole number from 0 to 2^64 - 1 ({2**64 - 1}), got "
+                                      f"{10**30}"),
+])
+def test_a_seed_outside_0_to_2_64_minus_1_is_refused_at_its_place(
+        tmp_path: Path, old: str, new: str, expected: str) -> None:
+    assert messages(write(tmp_path, GOOD.replace(old, new))) == [expected]
+
+
+def test_the_largest_seed_is_accepted(tmp_path: Path) -> None:
+    text = GOOD.replace("seed: 3", f"seed: {2**64 - 1}").replace("seed: 4}", f"seed: {2**64 - 1}}}")
+    campaign = load_campaign(write(tmp_path, text))
+    assert campaign.seed == 2**64 - 1

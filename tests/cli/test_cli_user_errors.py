@@ -231,6 +231,14 @@ CASES = [
          ("campaign.yaml:10:9: error[C100]: uncertainty.seed",)),
     Case("campaign-seed-negative", campaign(("seed: 5", "seed: -5")), RUN, 2,
          ("campaign.yaml:10:9: error[C100]: uncertainty.seed",)),
+    Case("campaign-seed-above-2-64", campaign(("seed: 5", f"seed: {2**64}")), RUN, 2,
+         ("campaign.yaml:10:9: error[C100]: uncertainty.seed: a seed is a whole number from 0 "
+          f"to 2^64 - 1 ({2**64 - 1}), got {2**64}",)),
+    Case("option-seed-above-2-64", campaign(), (*RUN, "--seed", str(2**64)), 2,
+         (f"argument --seed: a seed is a whole number from 0 to 2^64 - 1 ({2**64 - 1}), got "
+          f"{2**64}",)),
+    Case("option-seed-full-width", campaign(), (*RUN, "--seed", "\uff17"), 2,
+         ("argument --seed: expected a whole number written with the digits 0-9, got '\uff17'",)),
     Case("campaign-zero-commands", campaign((f"  straight:\n{STRAIGHT}", "  straight: []\n")),
          RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: List should have at least",)),
     Case("campaign-100-commands", campaign((f"  straight:\n{STRAIGHT}",
@@ -462,6 +470,26 @@ def test_every_command_has_a_working_help(module_name: str,
     assert main([module.NAME, "--help"]) == 0
     out = capsys.readouterr().out
     assert f"usage: idefix-verify {module.NAME}" in out
+
+
+@pytest.mark.parametrize("where", ["campaign", "option"])
+def test_a_seed_above_2_64_changes_nothing_in_the_output_folder(
+        where: str, tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) in (0, 1)
+    before = {p.name: p.read_bytes() for p in (tmp_path / "out").iterdir()}
+    if where == "campaign":
+        text = (tmp_path / "campaign.yaml").read_text().replace("seed: 5", f"seed: {2**64}")
+        (tmp_path / "campaign.yaml").write_text(text)
+    argv = [*RUN, "--seed", str(2**64)] if where == "option" else list(RUN)
+    capsys.readouterr()
+    assert main(argv) == 2
+    output = "".join(capsys.readouterr())
+    assert "Traceback" not in output and "2^64 - 1" in output
+    # no stub results file, nothing set aside
+    assert {p.name: p.read_bytes() for p in (tmp_path / "out").iterdir()} == before
 
 
 def test_ctrl_c_exits_130_without_a_traceback(monkeypatch: pytest.MonkeyPatch,
