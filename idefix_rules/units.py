@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import re
+import unicodedata
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -161,11 +162,55 @@ _ATOMS: dict[str, tuple[Fraction, Dimension]] = {
 # Every unit atom the language knows (editor completion lists them).
 UNIT_SYMBOLS: tuple[str, ...] = tuple(_ATOMS)
 
-_TOKEN = re.compile(r"\s*([A-Za-z%°]+|1)(?:\^?(-?\d+))?\s*")
+_TOKEN = re.compile(r"\s*([A-Za-z%°]+|1)(?:\^?(-?[0-9]+))?\s*")
 
 
 class UnitError(ValueError):
-    """A unit or quantity could not be understood."""
+    """A unit or quantity could not be understood; ``position`` is the index of the offending
+    character in the text, where one is to blame."""
+
+    def __init__(self, message: str, position: int | None = None) -> None:
+        super().__init__(message)
+        self.position = position
+
+
+def foreign_digit(text: str) -> int | None:
+    """Index of the first digit of ``text`` that is not one of 0-9 (``７``, ``٣`` …), if any.
+
+    Python's ``float`` and ``\\d`` read every script's digits; numbers here are ASCII only, so
+    that what is shown is what is read.
+
+    >>> foreign_digit("７0 %")
+    0
+    """
+    for index, char in enumerate(text):
+        if not char.isascii() and unicodedata.decimal(char, None) is not None:
+            return index
+    return None
+
+
+def foreign_digit_message(text: str, index: int) -> str:
+    """``'７' (FULLWIDTH DIGIT SEVEN) is not one of the ASCII digits 0-9``."""
+    char = text[index]
+    return (f"'{char}' ({unicodedata.name(char, f'U+{ord(char):04X}')}) is not one of the "
+            "ASCII digits 0-9")
+
+
+def ascii_digits(text: str) -> str:
+    """``text`` with every script's digits written 0-9 (for hints)."""
+    return "".join(str(unicodedata.decimal(c)) if not c.isascii()
+                   and unicodedata.decimal(c, None) is not None else c for c in text)
+
+
+def underflows(number_text: str, value: float) -> bool:
+    """Whether the literal ``number_text`` names a nonzero number that ``value`` (its double)
+    holds as 0: ``1e-400``.
+
+    >>> underflows("1e-400", float("1e-400")), underflows("0.0e-400", 0.0)
+    (True, False)
+    """
+    mantissa = re.split("[eE]", number_text, maxsplit=1)[0]
+    return value == 0 and any(char in "123456789" for char in mantissa)
 
 
 def parse_unit(text: str) -> Unit:
@@ -179,6 +224,9 @@ def parse_unit(text: str) -> Unit:
     source = text.strip()
     if not source:
         raise UnitError("empty unit")
+    foreign = foreign_digit(text)
+    if foreign is not None:
+        raise UnitError(f"{foreign_digit_message(text, foreign)} in unit {text!r}", foreign)
     scale = Fraction(1)
     dimension = DIMENSIONLESS
     sign = 1
@@ -223,7 +271,7 @@ class Quantity:
     dimension: Dimension
 
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+_QUANTITY = re.compile(r"^\s*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?)\s*(.*?)\s*$")
 
 
 def parse_quantity(text: str | float | int, default_unit: str | None = None) -> Quantity:
@@ -237,16 +285,27 @@ def parse_quantity(text: str | float | int, default_unit: str | None = None) -> 
     if isinstance(text, int | float):
         number, unit_text = float(text), ""
     else:
+        foreign = foreign_digit(text)
+        if foreign is not None:
+            raise UnitError(f"{foreign_digit_message(text, foreign)}: write "
+                            f"{ascii_digits(text).strip()!r}", foreign)
         match = _QUANTITY.match(text)
         if match is None:
             raise UnitError(f"expected a number with a unit, got {text!r}")
         number, unit_text = float(match.group(1)), match.group(2)
+        if underflows(match.group(1), number):
+            raise UnitError(f"{match.group(1).lstrip('+')} is too small for a double: it would "
+                            "be read as 0 (write 0 if zero is meant)", match.start(1))
     if not unit_text:
         if default_unit is None:
             return Quantity(number, DIMENSIONLESS)
         unit_text = default_unit
     unit = parse_unit(unit_text)
-    return Quantity(unit.to_si(number), unit.dimension)
+    value = unit.to_si(number)
+    if value == 0 and number != 0:
+        raise UnitError(f"{text!r} is too small for a double in SI: it would be read as 0 "
+                        "(write 0 if zero is meant)", 0)
+    return Quantity(value, unit.dimension)
 
 
 def convert(value: float, from_unit: str, to_unit: str) -> float:

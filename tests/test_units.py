@@ -49,3 +49,29 @@ def test_incompatible_conversion_names_both_dimensions():
     with pytest.raises(UnitError, match=r"a length.*an angle"):
         convert(1.0, "cm", "deg")
     assert describe(ANGLE) == "an angle"
+
+
+@pytest.mark.parametrize(("text", "position", "named"), [
+    ("\uff170 %", 0, "FULLWIDTH DIGIT SEVEN"), ("7\uff10 %", 1, "FULLWIDTH DIGIT ZERO"),
+    ("\u0663 m", 0, "ARABIC-INDIC DIGIT THREE"), ("1 m^\uff12", 4, "FULLWIDTH DIGIT TWO")])
+def test_digits_of_another_script_are_refused_where_they_stand(text, position, named):
+    with pytest.raises(UnitError, match=named) as failure:
+        parse_quantity(text)
+    assert failure.value.position == position
+    assert "0-9" in str(failure.value)
+
+
+def test_a_unit_power_in_another_script_is_refused():
+    with pytest.raises(UnitError, match="FULLWIDTH DIGIT TWO"):
+        parse_unit("m^\uff12")
+
+
+@pytest.mark.parametrize("text", ["1e-400", "1e-400 %", "-2.5e-999 m", "5e-324 mm"])
+def test_a_nonzero_number_that_would_be_read_as_0_is_refused(text):
+    with pytest.raises(UnitError, match="too small for a double"):
+        parse_quantity(text)
+
+
+@pytest.mark.parametrize("text", ["0e-400", "0.0e-999 m", "1e-300 %", "4.9e-324"])
+def test_zero_and_numbers_a_double_holds_are_read(text):
+    assert (parse_quantity(text).value == 0) == (float(text.split()[0]) == 0)

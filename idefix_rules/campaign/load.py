@@ -135,8 +135,21 @@ _UNION_TAGS = frozenset({"fixed", "normal", "truncated_normal", "uniform", "log_
                          "verdict", "rank_first", "max_mean_risk", "max_collision_chance"})
 
 
+def _inside_value(span: Span, value: str, position: int, text: str) -> Span:
+    """The span of character ``position`` of the string ``value`` written at ``span`` (the
+    value's own span when it is not written there as such, e.g. with escapes)."""
+    lines = text.splitlines()
+    if not 0 < span.line <= len(lines):
+        return span
+    found = lines[span.line - 1].find(value, max(span.column - 1, 0))
+    if found < 0 or found > span.column + 1:  # the value, after at most a quote
+        return span
+    column = found + position + 1
+    return Span(span.path, span.line, column, span.line, column + 1)
+
+
 def _diagnostics_from_validation(failure: ValidationError, data: Any,
-                                 locations: SourceMap) -> list[Diagnostic]:
+                                 locations: SourceMap, text: str) -> list[Diagnostic]:
     diagnostics = []
     seen = set()
     for item in failure.errors(include_url=False):
@@ -158,6 +171,9 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
             message = item["msg"]
             # "[key]": pydantic's marker for a mistake in a mapping key, not its value
             span = locations.span(loc, at_key=item["loc"][-1:] == ("[key]",))
+            position = item.get("ctx", {}).get("position")
+            if isinstance(position, int) and isinstance(item.get("input"), str):
+                span = _inside_value(span, item["input"], position, text)
         where = format_loc(loc)
         text = f"{where}: {message}" if where else message
         if (text, str(span)) in seen:
@@ -182,7 +198,7 @@ def load_campaign(path: str | Path) -> Campaign:
         model = CampaignFile.model_validate(document.data)
     except ValidationError as failure:
         raise UserInputError(_diagnostics_from_validation(failure, document.data,
-                                                          document.locations),
+                                                          document.locations, text),
                              sources={shown: text}) from None
     base = source.resolve().parent
     diagnostics = _cross_checks(model, document.locations, base)

@@ -54,15 +54,18 @@ def _quantity(dimension: Dimension | None) -> BeforeValidator:
         if isinstance(value, bool) or not isinstance(value, str | int | float):
             raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
                                       {"wanted": wanted, "got": _show(value)})
-        if isinstance(value, int | float) or not _has_unit(value):
-            if dimension is None or dimension.is_dimensionless:
-                return float(parse_quantity(value).value)
-            raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
-                                      {"wanted": wanted, "got": _show(value)})
         try:
+            if isinstance(value, int | float) or not _has_unit(value):
+                if dimension is None or dimension.is_dimensionless:
+                    return float(parse_quantity(value).value)
+                raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
+                                          {"wanted": wanted, "got": _show(value)})
             quantity = parse_quantity(value)
         except UnitError as failure:
-            raise PydanticCustomError("quantity", "{reason}", {"reason": str(failure)}) from None
+            # position: the character to blame, for the diagnostic's column
+            raise PydanticCustomError("quantity", "{reason}",
+                                      {"reason": str(failure),
+                                       "position": failure.position}) from None
         if dimension is not None and quantity.dimension != dimension:
             raise PydanticCustomError(
                 "quantity", "expected {wanted}, got {got} ({got_kind})",

@@ -19,6 +19,7 @@ from typing import Any
 import yaml
 
 from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.units import underflows
 
 Loc = tuple[str | int, ...]
 
@@ -103,7 +104,18 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
         if isinstance(node, yaml.SequenceNode):
             return [self.construct_with_locations(item, source_map, (*loc, index))
                     for index, item in enumerate(node.value)]
-        return self.construct_object(node, deep=True)
+        value = self.construct_object(node, deep=True)
+        if isinstance(value, float) and underflows(str(node.value).replace("_", ""), value):
+            # YAML reads `1.0e-400` as 0.0: refused here, where what was written is known
+            where = "".join(f"[{part}]" if isinstance(part, int) else f".{part}"
+                            for part in loc).lstrip(".")
+            raise UserInputError(error(
+                "C100", f"{where + ': ' if where else ''}{node.value} is too small for a "
+                        "double: it would be read as 0",
+                Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1,
+                     node.end_mark.line + 1, node.end_mark.column + 1),
+                hint="write 0 if zero is meant"))
+        return value
 
 
 def load_yaml(text: str, path: str) -> YamlDocument:

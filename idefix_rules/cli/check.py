@@ -33,8 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also warn about unused constants, indices with zero weight, "
                              "ratios written as bare numbers above 1, comparisons that are "
                              "always true or false, rationales that disagree with their value "
-                             "and numbers that underflow to 0 (W601-W613); warnings then fail "
-                             "the check (exit 2)")
+                             "and numbers too small for a double's precision (W601-W613); "
+                             "warnings then fail the check (exit 2)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "
                              "message, path, line, column, end_line, end_column, hint)")

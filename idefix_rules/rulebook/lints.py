@@ -7,7 +7,8 @@
   ``I_obs <= 1`` in a prescreen.
 * **W612** a number in a ``because`` that disagrees with the value it explains:
   ``const critical_slip = 65 % because "Slip above 70 % is critical"``.
-* **W613** a literal that underflows to 0 (or to a denormal) in SI: ``1e-400 %``.
+* **W613** a literal that is a denormal or 0 in SI once its unit's scale is applied: ``1e-320``,
+  ``5e-324 mm`` (one a double cannot hold at all, ``1e-400 %``, is refused by the parser: E003).
 * **W614** an index's nominal within 10 % of the limit from 0 or from the limit: half of the
   index's range is crossed in a tenth of the value's, so the index is nearly a step.
 
@@ -333,8 +334,9 @@ def lint_underflow(env: _Env) -> list[Diagnostic]:
             nonzero = any(ch in "123456789" for ch in written.split("e")[0].split("E")[0])
             if (si == 0 and nonzero) or (si != 0 and abs(si) < 2.2250738585072014e-308):
                 found.append(warning(
-                    "W613", f"'{written or node.value}' is {'0' if si == 0 else 'a denormal'} "
-                    "in SI: the number is too small for a double", node.span,
+                    "W613", f"'{written or node.value}' is "
+                    + ("0 in SI: the number is too small for a double" if si == 0 else
+                       "a denormal in SI: too small for a double's full precision"), node.span,
                     "write 0 if zero is meant, or a larger unit"))
     return found
 

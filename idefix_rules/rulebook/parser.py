@@ -53,6 +53,7 @@ from idefix_rules.rulebook.syntax_errors import (
     error_line,
     syntax_diagnostic,
 )
+from idefix_rules.units import underflows
 
 NUMBER_OUT_OF_RANGE = "E003"
 REPEATED_SECTION = "E004"
@@ -66,7 +67,8 @@ MAX_SYNTAX_ERRORS = 10
 RUN_COMBINATIONS = ("max_weighted",)
 PATH_COMBINATIONS = ("mean",)
 
-_QUANTITY = re.compile(r"((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)[ \t]*(.*)", re.DOTALL)
+_QUANTITY = re.compile(r"((?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?)[ \t]*(.*)",
+                       re.DOTALL)
 
 
 def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
@@ -237,6 +239,11 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
             self.diagnostics.append(error(NUMBER_OUT_OF_RANGE, f"number {number_text} is too "
                                           "large", span))
             value = 0.0
+        elif underflows(number_text, value):
+            self.diagnostics.append(error(
+                NUMBER_OUT_OF_RANGE, f"number {str(token).strip()} is too small for a double: "
+                                     "it would be read as 0", span,
+                hint="write 0 if zero is meant, or a realistic value"))
         return model.Number(value, unit or None, span=span)
 
     def name(self, meta: Any, children: list[Token]) -> model.Name:

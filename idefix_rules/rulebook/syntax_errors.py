@@ -15,8 +15,10 @@ import lark
 from idefix_rules.errors import Diagnostic, Span, error
 from idefix_rules.rulebook.grammar import terminal_words
 from idefix_rules.rulebook.infer import did_you_mean
+from idefix_rules.units import ascii_digits, foreign_digit, foreign_digit_message
 
 SYNTAX_ERROR = "E001"  # an unexpected token or character
+FOREIGN_DIGIT = "E011"  # a digit of another script than 0-9 (`７0 %`)
 
 # Words that start a top-level declaration; a line starting with one starts a new chunk.
 TOP_LEVEL_KEYWORDS = frozenset({
@@ -84,6 +86,8 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         position = failure.pos_in_stream or 0
         char = text[position] if position < len(text) else ""
         span = Span(path, failure.line, failure.column, failure.line, failure.column + 1)
+        if foreign_digit(char) is not None:
+            return _foreign_digit(text, position, span)
         hint = None
         if char == '"':
             hint = 'a string ends with " on the same line it starts'
@@ -109,6 +113,21 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         return error(SYNTAX_ERROR, message, span, _hint(token, expected))
     line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
+
+
+def _foreign_digit(text: str, position: int, span: Span) -> Diagnostic:
+    """``７0 %``: the word around ``position``, written with 0-9, is the hint."""
+    start, end = position, position + 1
+    while start > 0 and not _word_end(text[start - 1]):
+        start -= 1
+    while end < len(text) and not _word_end(text[end]):
+        end += 1
+    return error(FOREIGN_DIGIT, foreign_digit_message(text, position), span,
+                 hint=f"write {ascii_digits(text[start:end])}")
+
+
+def _word_end(char: str) -> bool:
+    return char.isspace() or char in "(){}[],=<>!+*/#\""
 
 
 def acceptable(state: object, candidates: set[str]) -> set[str]:

@@ -239,6 +239,18 @@ CASES = [
           f"{2**64}",)),
     Case("option-seed-full-width", campaign(), (*RUN, "--seed", "\uff17"), 2,
          ("argument --seed: expected a whole number written with the digits 0-9, got '\uff17'",)),
+    Case("campaign-full-width-digit", campaign(('std: "1 cm"', 'std: "\uff11 cm"')), RUN, 2,
+         ("campaign.yaml:12:58: error[C100]: uncertainty.parameters.initial.x.std: '\uff11' "
+          "(FULLWIDTH DIGIT ONE) is not one of the ASCII digits 0-9: write '1 cm'",)),
+    Case("campaign-arabic-indic-digit", campaign(("low: 0.05", 'low: "0.\u0660\u0665"')), RUN, 2,
+         ("campaign.yaml:13:47: error[C100]: uncertainty.parameters.toy.slip.low: '\u0660' "
+          "(ARABIC-INDIC DIGIT ZERO) is not one of the ASCII digits 0-9: write '0.05'",)),
+    Case("campaign-number-underflows", campaign(('std: "1 cm"', 'std: "1e-400 cm"')), RUN, 2,
+         ("campaign.yaml:12:58: error[C100]: uncertainty.parameters.initial.x.std: 1e-400 is "
+          "too small for a double: it would be read as 0",)),
+    Case("campaign-yaml-float-underflows", campaign(("low: 0.05", "low: 1.0e-400")), RUN, 2,
+         ("campaign.yaml:13:44: error[C100]: uncertainty.parameters.toy.slip.low: 1.0e-400 is "
+          "too small for a double: it would be read as 0",)),
     Case("campaign-zero-commands", campaign((f"  straight:\n{STRAIGHT}", "  straight: []\n")),
          RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: List should have at least",)),
     Case("campaign-100-commands", campaign((f"  straight:\n{STRAIGHT}",

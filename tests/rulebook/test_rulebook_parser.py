@@ -253,6 +253,33 @@ def test_structural_mistakes(body, code, words):
     assert any(d.code == code and words in d.message for d in found), found
 
 
+@pytest.mark.parametrize(("literal", "column"), [
+    ("1e-400", 11), ("1e-400 %", 11), ("0.5e-330 cm", 11), ("-1e-999", 12)])
+def test_a_nonzero_number_a_double_reads_as_0_is_refused_at_its_column(literal, column):
+    [diagnostic] = errors(HEADER + f"const a = {literal}\n")
+    assert (diagnostic.code, diagnostic.span.line, diagnostic.span.column) == ("E003", 3, column)
+    assert "too small for a double: it would be read as 0" in diagnostic.message
+
+
+@pytest.mark.parametrize("literal", ["0e-400", "0.000e-999 %", "1e-300 %", "4.9e-324"])
+def test_zero_and_small_numbers_a_double_holds_are_fine(literal):
+    parse(f"const a = {literal}\n")
+
+
+@pytest.mark.parametrize(("line", "column", "named", "hint"), [
+    ("const a = \uff170 %", 11, "FULLWIDTH DIGIT SEVEN", "write 70"),
+    ("const a = 7\uff10 %", 12, "FULLWIDTH DIGIT ZERO", "write 70"),
+    ("const a = \u0663.5 m", 11, "ARABIC-INDIC DIGIT THREE", "write 3.5"),
+    ("const a = 1 m^\uff12", 15, "FULLWIDTH DIGIT TWO", "write m^2"),
+    ("verdict v: require risk <= 5\u0966 %", 29, "DEVANAGARI DIGIT ZERO", "write 50"),
+])
+def test_a_digit_of_another_script_is_refused_at_its_column(line, column, named, hint):
+    [diagnostic] = errors(HEADER + line + "\n")
+    assert (diagnostic.code, diagnostic.span.line, diagnostic.span.column) == ("E011", 3, column)
+    assert named in diagnostic.message and "0-9" in diagnostic.message
+    assert diagnostic.hint == hint
+
+
 def test_unknown_domain_suggests_the_closest():
     [diagnostic] = errors(HEADER + "const a = max over wheel (x)\n")
     assert diagnostic.hint == "did you mean 'wheels'?"
