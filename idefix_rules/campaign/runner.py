@@ -8,10 +8,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,10 +28,12 @@ from idefix_rules.campaign.evaluation import (
 )
 from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.ownership import FolderLock, own_folder
 from idefix_rules.campaign.resume import resume_command
 from idefix_rules.campaign.schema import CampaignFile
 from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
+    RESULTS_FILE,
     TERRAIN_PARAMETER,
     Progress,
     SimulationOptions,
@@ -134,11 +138,37 @@ def _local_workers(options: SimulationOptions, campaign: Campaign) -> int:
     return max(1, options.workers or campaign.workers or os.cpu_count() or 1)
 
 
+@contextlib.contextmanager
+def claimed_output(campaign: Campaign, junit: Path | None = None,
+                   resume: bool = False) -> Iterator[FolderLock]:
+    """The campaign's output folder, created and owned by this process for the ``with`` block
+    (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
+    ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
+    become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
+    prepare_output(campaign)
+    sources = {str(campaign.source): campaign.text}
+    with own_folder(campaign.output, span=Span(str(campaign.output)), sources=sources) as lock:
+        set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit,
+                  None if resume else campaign.output / RESULTS_FILE)
+        yield lock
+
+
 def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
                  progress: Progress | None = None, junit: Path | None = None,
                  report: bool = True) -> CampaignResult:
-    """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked)."""
+    """Simulate, evaluate and write ``results.h5``, ``summary.json`` (and JUnit when asked).
+
+    The output folder is owned by this campaign while it runs (:func:`claimed_output`)."""
     options = options or SimulationOptions()
+    with claimed_output(campaign, junit, options.resume) as lock:
+        result = _run_owned(campaign, options, progress, junit, report)
+        if lock.note is not None:
+            result.warnings.insert(0, lock.note)
+        return result
+
+
+def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progress | None,
+               junit: Path | None, report: bool) -> CampaignResult:
     started = time.perf_counter()
     say = progress.message if progress is not None else (lambda text: None)
     say(f"compiling the rulebook {campaign.rulebook.name}")
@@ -152,9 +182,6 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         if progress is not None:
             progress.message(f"warning: {text}")
     check_simulation_size(campaign)
-    prepare_output(campaign)
-    # From here on the folder is this run's: the last run's outputs must not speak for it.
-    set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit)
     fixed: dict[str, float | str] = {}
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
@@ -242,42 +269,57 @@ def write_report(results: Path, output: Path) -> Path:
 
 def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,
             out: Path | None = None) -> CampaignResult:
-    """Evaluate stored results again, with their own or another rulebook; no simulation."""
-    store = ResultStore.open(results, writable=True)
-    try:
-        stub = stored_campaign(store)
-        model = stub.model
-        if rulebook is None:
-            # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
-            rulebook_path = Path(f"{results}:{STORED_RULEBOOK}")
-            evaluator = _compile_text(store.text("rulebook"), str(rulebook_path))
-        else:
-            rulebook_path = rulebook
-            evaluator = compile_rulebook_file(rulebook)
-        _check_stored_signals(store, evaluator, results)
-        output = out or results.parent
+    """Evaluate stored results again, with their own or another rulebook; no simulation.
+
+    The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
+    writes there); the ``summary.json`` and JUnit file this rewrites are set aside first."""
+    output = out or results.parent
+    with contextlib.ExitStack() as owned:
+        notes = []
+        if results.parent.is_dir() and os.access(results.parent, os.W_OK):
+            notes.append(owned.enter_context(own_folder(results.parent, elsewhere=None)).note)
+        store = ResultStore.open(results, writable=True)
+        owned.callback(store.close)
+        if output.resolve() != results.parent.resolve():
+            output.mkdir(parents=True, exist_ok=True)
+            notes.append(owned.enter_context(own_folder(output)).note)
         set_aside(output / SUMMARY_FILE, junit)
-        collisions = collision_function(model.environment, evaluator,
-                                        read_terrain(results.parent))
-        clock = PathClock()
-        evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
-                                    initial_position_sigma(stub), collisions,
-                                    rulebook_info(evaluator, rulebook_path), on_path=clock.start)
-        name = str(store.attrs.get("campaign_name", "campaign"))
-        result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
-        state = str(store.attrs.get("state", "complete"))
-        adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
-        again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
-                               store.attrs.get("seed"),
-                               store.attrs.get("min_runs") if adaptive else None)
-        _warn_lost_runs(result, again)
-        if state != "complete":  # its missing runs count as failed: say why
-            result.warnings.append(
-                f"{results} holds a campaign that is {state}: runs never simulated count as "
-                f"failed; continue it with `{again}`")
+        result = _rescore_owned(store, results, rulebook, junit, output)
+        result.warnings[:0] = [note for note in notes if note is not None]
         return result
-    finally:
-        store.close()
+
+
+def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
+                   junit: Path | None, output: Path) -> CampaignResult:
+    stub = stored_campaign(store)
+    model = stub.model
+    if rulebook is None:
+        # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
+        rulebook_path = Path(f"{results}:{STORED_RULEBOOK}")
+        evaluator = _compile_text(store.text("rulebook"), str(rulebook_path))
+    else:
+        rulebook_path = rulebook
+        evaluator = compile_rulebook_file(rulebook)
+    _check_stored_signals(store, evaluator, results)
+    collisions = collision_function(model.environment, evaluator,
+                                    read_terrain(results.parent))
+    clock = PathClock()
+    evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
+                                initial_position_sigma(stub), collisions,
+                                rulebook_info(evaluator, rulebook_path), on_path=clock.start)
+    name = str(store.attrs.get("campaign_name", "campaign"))
+    result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
+    state = str(store.attrs.get("state", "complete"))
+    adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
+    again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
+                           store.attrs.get("seed"),
+                           store.attrs.get("min_runs") if adaptive else None)
+    _warn_lost_runs(result, again)
+    if state != "complete":  # its missing runs count as failed: say why
+        result.warnings.append(
+            f"{results} holds a campaign that is {state}: runs never simulated count as "
+            f"failed; continue it with `{again}`")
+    return result
 
 
 def _check_stored_signals(store: ResultStore, evaluator: Any, results: Path) -> None:

@@ -23,7 +23,7 @@ from rich.progress import (
 )
 from rich.table import Column
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.load import Campaign, load_campaign
 from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
@@ -220,7 +220,7 @@ def stored_titles(results: Path) -> dict[str, str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.campaign.runner import claimed_output
 
     console = make_console()
     campaign = load_campaign(args.campaign)
@@ -243,9 +243,20 @@ def run(args: argparse.Namespace) -> int:
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
     progress = RichProgress(console, args.quiet)
-    if args.resume and not (campaign.output / RESULTS_FILE).exists():
-        console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
-                      "simulating every run")
+    # Owned, and the last run's outputs set aside, before anything slow happens.
+    with claimed_output(campaign, args.junit, args.resume) as lock:
+        if lock.note is not None:
+            console.print(f"[yellow]note:[/yellow] {escape(lock.note)}")
+        if args.resume and not (campaign.output / RESULTS_FILE).exists():
+            console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
+                          "simulating every run")
+        return _run_owned(args, campaign, options, progress, console)
+
+
+def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
+               progress: RichProgress, console: Console) -> int:
+    from idefix_rules.campaign.runner import run_campaign
+
     try:
         result = run_campaign(campaign, options, progress, junit=args.junit,
                               report=not args.no_report)
