@@ -77,6 +77,49 @@ def rejected(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
     return out
 
 
+def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
+                    alpha: float) -> np.ndarray:
+    """The number of runs after which each candidate mean is first rejected (``values.size``
+    + 1 when never): the running intersection after ``t`` runs holds the candidates with a
+    first rejection above ``t``."""
+    threshold = math.log(1.0 / alpha)
+    candidates = np.asarray(candidates, dtype=np.float64)
+    with np.errstate(divide="ignore"):
+        up_cap = np.where(candidates > 0, BET_TRUNCATION / candidates, np.inf)
+        down_cap = np.where(candidates < 1, BET_TRUNCATION / (1.0 - candidates), np.inf)
+    log_up = np.zeros(candidates.shape)
+    log_down = np.zeros(candidates.shape)
+    first = np.full(candidates.shape, values.size + 1, dtype=np.int64)
+    for start in range(0, values.size, BLOCK_RUNS):
+        x = values[start:start + BLOCK_RUNS, None]
+        bet = bets[start:start + BLOCK_RUNS, None]
+        up = log_up + np.cumsum(np.log1p(np.minimum(bet, up_cap) * (x - candidates)), axis=0)
+        down = log_down + np.cumsum(np.log1p(-np.minimum(bet, down_cap) * (x - candidates)),
+                                    axis=0)
+        hit = np.maximum(up, down) + math.log(0.5) >= threshold
+        found = hit.any(axis=0) & (first > values.size)
+        first[found] = start + 1 + np.argmax(hit[:, found], axis=0)
+        log_up, log_down = up[-1], down[-1]
+    return first
+
+
+def _last_survivors(x: np.ndarray, bets: np.ndarray, alpha: float) -> tuple[float, float]:
+    """Where the running intersection was when it became empty (a miss, probability ≤ α):
+    the candidates rejected last, found on ever finer grids around them. Returned for every
+    later run count, so the intervals stay nested even after a miss."""
+    span = (0.0, 1.0)
+    last = np.array([0.0])
+    for _ in range(ZOOMS + 1):
+        grid = np.linspace(span[0], span[1], GRID_POINTS)
+        first = first_rejection(x, bets, grid, alpha)
+        chosen = np.flatnonzero(first == first.max())
+        last = grid[chosen]
+        low = grid[max(int(chosen[0]) - 1, 0)]
+        high = grid[min(int(chosen[-1]) + 1, GRID_POINTS - 1)]
+        span = (float(low), float(high))
+    return float(last[0]), float(last[-1])
+
+
 def betting_interval(values: np.ndarray, alpha: float) -> tuple[float, float]:
     """The confidence sequence's interval for the mean of ``values`` (in [0, 1], run order)
     after all of them; (0, 1) without values. Bounds are rounded outwards."""
@@ -95,7 +138,10 @@ def betting_interval(values: np.ndarray, alpha: float) -> tuple[float, float]:
         centre = int(np.clip(np.searchsorted(grid, x.mean()), 1, GRID_POINTS - 1))
         span = (float(grid[centre - 1]), float(grid[centre]))
     else:
-        return span
+        # Nothing accepted even on the finest grid: the running intersection is empty (the
+        # sequence missed the mean) unless it is narrower still; either way the interval is
+        # where it was last, which keeps the intervals nested.
+        return _last_survivors(x, bets, alpha)
     first, last = int(inside[0]), int(inside[-1])
     # The set of candidates not rejected is an interval (the hedged capital is quasiconvex in
     # m): refine each end between a rejected and an accepted grid point.

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import event, given, settings
+from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
 from idefix_rules.campaign.sequential import (
@@ -87,6 +87,10 @@ def test_zero_events_decide_a_one_percent_rule_only_after_enough_runs() -> None:
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(2, 300), st.floats(0.0, 1.0), st.integers(0, 2**31))
+# a random seed found it: the sequence misses the mean early (0.24-0.28 after 60 runs of a
+# 0.13 stream), its running intersection is empty after 100, and the interval must stay where
+# it last was instead of jumping to the mean
+@example(n=60, p=0.1328125, seed=136)
 def test_intervals_only_shrink_as_runs_are_added(n: int, p: float, seed: int) -> None:
     draw = (np.random.default_rng(seed).random(n + 40) < p).astype(float)
     before = betting_interval(draw[:n], ALPHA)
