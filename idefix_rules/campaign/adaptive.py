@@ -71,10 +71,10 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         name = plan.spec.name
         values = sampling.sample_path(campaign.model.uncertainty.parameters, SAMPLING,
                                       campaign.seed, plan.spec.index, settings.max_runs)
-        if not store.has_runs(name):
-            shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
-            store.allocate_runs(name, settings.max_runs, shapes, values,
-                                parameter_info(campaign, list(values)))
+        # created, or (resumed) taken up for the blocks of rows still to allocate
+        shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
+        store.allocate_runs(name, settings.max_runs, shapes, values,
+                            parameter_info(campaign, list(values)))
         sampled[name] = values
         running[name] = plan
         status = store.run_status(name)

@@ -13,6 +13,7 @@ import json
 import math
 import tempfile
 import time
+from collections import Counter
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,12 +22,17 @@ from typing import Any, Protocol
 import numpy as np
 
 from idefix_rules import __version__
+from idefix_rules.campaign import diskspace, sampling
 from idefix_rules.campaign import resume as resuming
-from idefix_rules.campaign import sampling
 from idefix_rules.campaign import timeouts as run_timeouts
 from idefix_rules.campaign.load import Campaign, PathSpec
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome, Timeouts
-from idefix_rules.campaign.store import FORMAT_VERSION, ResultStore
+from idefix_rules.campaign.store import (
+    FORMAT_VERSION,
+    RESUMABLE_FORMAT_VERSIONS,
+    ResultStore,
+    run_bytes,
+)
 from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
@@ -200,13 +206,17 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
             _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress,
                          summary)
         complete = resuming.nothing_left(store, [p.spec.name for p in plans])
+        diskspace.require(store.folder, 0, "record the end of the simulation")
         store.attrs["state"] = "complete" if complete else "interrupted"
         if not (complete and was_complete and summary.simulated_runs == 0):
             # resuming a complete campaign simulates nothing: it keeps its finishing time
             store.attrs["finished"] = now_iso() if complete else ""
     except BaseException:
-        if store.file.id.valid:
-            store.attrs["state"] = "interrupted"
+        if store.file.id.valid and diskspace.free_bytes(store.folder) >= diskspace.MARGIN:
+            with contextlib.suppress(Exception):  # a disk filling up may refuse even this
+                store.attrs["state"] = "interrupted"
+        with contextlib.suppress(Exception):  # the error on its way says what went wrong
+            store.close()
         raise
     finally:
         unpacked.close()  # the pools are closed by now: no worker uses the folder any more
@@ -263,11 +273,14 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                 resume: bool) -> ResultStore:
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
+        diskspace.require(results.parent, 0, f"continue {results.name}")
         store = ResultStore.open(results, writable=True)
         expected = {"format_version": FORMAT_VERSION, "campaign_sha256": campaign.sha256,
                     **run_settings(campaign), "seed": campaign.seed, "fmu_sha256": fmu_hash}
         for key, value in expected.items():
             stored = store.attrs.get(key)
+            if key == "format_version" and stored in RESUMABLE_FORMAT_VERSIONS:
+                continue  # its full-size run datasets are a block allocation of every row
             if stored != value:
                 store.close()
                 shown = stored.item() if isinstance(stored, np.generic) else stored
@@ -278,6 +291,7 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                          "--seed and FMU, or choose another --out"))
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))
         store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
+        store.attrs["format_version"] = FORMAT_VERSION  # paths allocated now grow by blocks
         return store
     rulebook_text = campaign.rulebook.read_text(encoding="utf-8")
     store = ResultStore.create(results, {
@@ -454,10 +468,10 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         sampled = sampling.sample_path(campaign.model.uncertainty.parameters,
                                        campaign.model.uncertainty.method, campaign.seed,
                                        plan.spec.index, campaign.runs)
-        if not store.has_runs(name):
-            shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
-            store.allocate_runs(name, campaign.runs, shapes, sampled,
-                                parameter_info(campaign, list(sampled)))
+        # created, or (resumed) taken up for the blocks of rows still to allocate
+        shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
+        store.allocate_runs(name, campaign.runs, shapes, sampled,
+                            parameter_info(campaign, list(sampled)))
         missing = resuming.runs_to_simulate(store, name, reset=True)
         progress.start_path(name, campaign.runs, campaign.runs - len(missing))
         for run in missing:
@@ -478,9 +492,21 @@ def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask
         return
     # Interleave paths so every progress bar moves from the start.
     tasks.sort(key=lambda item: (item[0][1], item[0][0]))
+    # Room for every run before the first is simulated: each about as large as its path's
+    # reference run once stored (docs/operations.md, "Full disk").
+    sizes = {name: run_bytes(plan.reference or {}) for name, plan in plans.items()}
+    remaining = Counter(name for (name, _), _ in tasks)
+
+    def needed() -> int:
+        return sum(sizes[name] * count for name, count in remaining.items())
+
+    def doing() -> str:
+        return f"store the {remaining.total()} runs still to simulate"
+
+    diskspace.require(store.folder, needed(), doing())
     pool = _pool(simulate, options, campaign,
                  run_timeouts.monte_carlo_timeouts(dict(plans), store, options.run_timeout))
-    with _map(pool, tasks) as results:
+    with diskspace.guard(store.folder, doing, needed=needed), _map(pool, tasks) as results:
         for (name, run), outcome in results:
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
@@ -492,5 +518,6 @@ def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask
                                               + outcome.value.seconds)
             else:
                 store.write_failure(name, run, outcome.reason)
+            remaining[name] -= 1
             summary.write_seconds += time.perf_counter() - started
             progress.run_finished(name, outcome.ok)

@@ -1,14 +1,19 @@
 """The results file (``results.h5``): layout in ``docs/results-format.md``.
 
-Only the parent process writes. A path's datasets are created in full and flushed before its
-first run is written: run signals chunked one run per chunk, shuffled and gzip-compressed (HDF5
-built-in filters), with every chunk allocated at creation; ``status`` and ``failure``
-contiguous. Writing a run replaces its own chunks only: the dataset's chunk index already holds
-an entry for every run, so a write updates entries in place and never adds index nodes or
-objects. Each run is written as its data, then its ``status`` entry (1 complete, 2 failed), then
-a flush: a kill at any moment leaves every run either complete-and-valid or not marked complete,
-which ``--resume`` re-runs (``tests/campaign/test_campaign_store_kill.py`` kills a writer at
-random moments to check it).
+Only the parent process writes. A path's run datasets are allocated a block of rows at a time
+(:func:`allocated_rows`: 64, then doubling up to 4,096 more at a time), so planning a million
+runs costs almost no disk before the first one is stored: run signals chunked one run per
+chunk, shuffled and gzip-compressed (HDF5 built-in filters), grown along the run axis with every
+chunk of a block allocated (filled with NaN) when the block is; ``status``, ``failure`` and
+``parameters`` have a row for every planned run and a chunk per 64 rows, uncompressed, written
+(with their fill values, or the sampled values) when the block holding those rows is allocated.
+Writing a run replaces its own chunks only: the chunk indexes already hold an entry for every
+allocated run, so a write updates entries in place and never adds index nodes or objects; only
+a block allocation changes the file's structure, after a flush and after checking the free
+space (:mod:`idefix_rules.campaign.diskspace`). Each run is written as its data, then its
+``status`` entry (1 complete, 2 failed), then a flush: a kill at any moment leaves every run
+either complete-and-valid or not marked complete, which ``--resume`` re-runs
+(``tests/campaign/test_campaign_store_kill.py`` kills a writer at random moments to check it).
 
 Signals are stored with the precision they need (:func:`storage_dtype`): the pose, time and
 energy signals, which the evaluator differentiates, as float64; the per-wheel signals and the
@@ -27,12 +32,16 @@ from typing import Any
 import h5py
 import numpy as np
 
+from idefix_rules.campaign import diskspace
 from idefix_rules.commands import Command
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
 
 FORMAT = "idefix-results"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
+# Files a --resume continues: format 2 allocated every run at the start, which format 3 reads
+# as one block holding every row.
+RESUMABLE_FORMAT_VERSIONS = (2, 3)
 
 STATUS_MISSING = 0
 STATUS_COMPLETE = 1
@@ -53,6 +62,33 @@ _REASON_DTYPE = f"S{REASON_BYTES}"
 CHAIN_COLUMNS = ("max_wheel_rate", "delta_position", "delta_heading")
 CHAIN_UNITS = ("rad/s", "m", "rad")
 
+# Rows of a path's runs allocated at first, and the largest step a block allocation adds. Every
+# block boundary is a multiple of ROW_CHUNK, the chunk of the per-row datasets (status, failure,
+# parameters), so each of their chunks is written whole, once, when its block is allocated.
+FIRST_ROWS = 64
+MAX_STEP_ROWS = 4096
+ROW_CHUNK = 64
+# Chunk index entry and node share per stored chunk (v1 B-tree: key, address, node slack).
+INDEX_BYTES_PER_CHUNK = 96
+# Object header, attributes and chunk index root node of a group or dataset.
+HEADER_BYTES = 8 * 1024
+
+
+def allocated_rows(needed: int, runs: int) -> int:
+    """How many rows of a path's runs are allocated once row ``needed - 1`` is: 64, then
+    doubling, then 4,096 more at a time, never more than the ``runs`` planned. The sequence
+    does not depend on the order rows are written, so a resumed campaign allocates the same.
+
+    >>> [allocated_rows(n, 1_000_000) for n in (1, 64, 65, 5_000, 9_000)]
+    [64, 64, 128, 8192, 12288]
+    >>> allocated_rows(1, 6)
+    6
+    """
+    rows = FIRST_ROWS
+    while rows < needed:
+        rows += min(rows, MAX_STEP_ROWS)
+    return min(rows, runs)
+
 
 def _early_dcpl() -> h5py.h5p.PropDCID:
     dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
@@ -61,6 +97,32 @@ def _early_dcpl() -> h5py.h5p.PropDCID:
     # freed by an allocation cut off by a kill is reused, and must not show its old bytes.
     dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
     return dcpl
+
+
+def _row_dataset(group: h5py.Group, name: str, runs: int, dtype: Any,
+                 fillvalue: Any) -> h5py.Dataset:
+    """A per-row dataset (``status``, ``failure``, a parameter): a row for every planned run,
+    chunks of :data:`ROW_CHUNK` rows allocated when first written (a block allocation writes
+    them whole); rows never allocated read as the fill value."""
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_INCR)
+    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
+    return group.create_dataset(name, shape=(runs,), dtype=dtype, fillvalue=fillvalue,
+                                chunks=(max(1, min(runs, ROW_CHUNK)),), dcpl=dcpl)
+
+
+def fill_chunk_bytes(name: str, shape: tuple[int, ...]) -> int:
+    """Bytes one allocated but unwritten run of signal ``name`` takes (its compressed NaN
+    chunk and its chunk index entry)."""
+    fill = np.full(shape, np.nan, dtype=storage_dtype(name))
+    return len(encode_chunk(name, fill).data) + INDEX_BYTES_PER_CHUNK
+
+
+def run_bytes(signals: Mapping[str, np.ndarray]) -> int:
+    """Bytes a run like ``signals`` takes once stored (compressed chunks, index entries, its
+    status, failure and parameter rows): the estimate free-space checks use per run."""
+    return sum(len(encode_chunk(name, values).data) + INDEX_BYTES_PER_CHUNK
+               for name, values in signals.items()) + REASON_BYTES + 64
 
 
 def storage_dtype(name: str) -> np.dtype[Any]:
@@ -115,10 +177,23 @@ def previous_results_path(path: Path) -> Path:
 class ResultStore:
     """Writer and reader of one ``results.h5``."""
 
-    def __init__(self, file: h5py.File) -> None:
+    def __init__(self, file: h5py.File, path: Path | None = None) -> None:
         self.file = file
+        self.path = Path(path if path is not None else file.filename)
         # Open dataset handles per path: looking them up by name costs more than the write.
         self._handles: dict[str, tuple[dict[str, h5py.Dataset], h5py.Dataset, h5py.Dataset]] = {}
+        # The sampled parameters of each path's planned runs, written a block at a time, and
+        # the rows allocated so far.
+        self._plans: dict[str, dict[str, np.ndarray]] = {}
+        self._allocated: dict[str, int] = {}
+
+    @property
+    def folder(self) -> Path:
+        """The folder of the results file (whose free space the writes need)."""
+        return self.path.parent
+
+    def _require(self, needed: int, doing: str) -> None:
+        diskspace.require(self.folder, needed, doing)
 
     def _run_handles(self, name: str) -> tuple[dict[str, h5py.Dataset], h5py.Dataset,
                                                h5py.Dataset]:
@@ -140,6 +215,8 @@ class ResultStore:
         path.parent.mkdir(parents=True, exist_ok=True)
         if path.is_file():
             path.replace(previous_results_path(path))
+        text_bytes = sum(len(text.encode("utf-8")) for text in texts.values())
+        diskspace.require(path.parent, 8 * HEADER_BYTES + text_bytes, f"create {path.name}")
         file = h5py.File(path, "w", track_order=True)
         file.attrs["format"] = FORMAT
         file.attrs["format_version"] = FORMAT_VERSION
@@ -150,7 +227,7 @@ class ResultStore:
             provenance.create_dataset(key, data=text, dtype=h5py.string_dtype("utf-8"))
         file.create_group("paths", track_order=True)
         file.flush()
-        return cls(file)
+        return cls(file, path)
 
     @classmethod
     def open(cls, path: Path, writable: bool = False) -> ResultStore:
@@ -182,12 +259,17 @@ class ResultStore:
             raise UserInputError(error("H003", f"{path} is an incomplete idefix results file "
                                                f"(no {' or '.join(missing)} group)",
                                        Span(str(path)), hint="run the campaign again"))
-        return cls(file)
+        return cls(file, path)
 
     def close(self) -> None:
+        """Flush and close (closed also when the flush fails, e.g. on a full disk)."""
         self._handles.clear()
-        if self.file.id.valid:
+        self._allocated.clear()
+        if not self.file.id.valid:
+            return
+        try:
             self.file.flush()
+        finally:
             self.file.close()
 
     @property
@@ -213,6 +295,7 @@ class ResultStore:
 
     def create_path(self, name: str, index: int, chain: Sequence[Command],
                     attrs: Mapping[str, Any]) -> h5py.Group:
+        self._require(2 * HEADER_BYTES, f"store path {name!r}")
         group = self.file["paths"].create_group(name)
         group.attrs["index"] = index
         for key, value in attrs.items():
@@ -226,6 +309,7 @@ class ResultStore:
         return group
 
     def set_path_status(self, name: str, status: str, reason: str = "") -> None:
+        self._require(len(reason.encode("utf-8")), f"store the status of path {name!r}")
         group = self.path_group(name)
         group.attrs["status"] = status
         group.attrs["reason"] = reason
@@ -233,6 +317,9 @@ class ResultStore:
 
     def write_reference(self, name: str, signals: Mapping[str, np.ndarray] | None,
                         parameters: Mapping[str, float], reason: str = "") -> None:
+        size = sum(np.asarray(values).size * 8 for values in (signals or {}).values())
+        self._require(HEADER_BYTES * (3 + len(signals or {})) + size,
+                      f"store the reference run of path {name!r}")
         group = self.path_group(name).create_group("reference")
         params = group.create_group("parameters")
         for key, value in parameters.items():
@@ -258,17 +345,31 @@ class ResultStore:
     def allocate_runs(self, name: str, runs: int, shapes: Mapping[str, tuple[int, ...]],
                       parameters: Mapping[str, np.ndarray],
                       parameter_info: Mapping[str, Mapping[str, Any]]) -> None:
-        """Create every dataset of a path's runs at full size, then flush."""
+        """Create a path's run datasets for ``runs`` planned runs with the first block of rows
+        allocated (:func:`allocated_rows`), then flush; later blocks are allocated as runs
+        need them. ``parameters`` are the sampled values of every planned run; each block
+        stores its rows' values. When an earlier process (``--resume``) created them already,
+        only ``parameters`` are taken up for the blocks still to come."""
+        if self.has_runs(name):
+            self._plans[name] = {key: np.asarray(values) for key, values in parameters.items()}
+            return
         path_group = self.path_group(name)
+        self._handles.pop(name, None)
+        self._allocated.pop(name, None)
         if "runs" in path_group:  # allocation cut off by a kill: no run was written yet
             del path_group["runs"]
+        rows = allocated_rows(1, runs)
+        self._require(HEADER_BYTES * (5 + len(shapes) + len(parameters))
+                      + rows * self._row_bytes(shapes, len(parameters)),
+                      f"allocate the runs of path {name!r}")
         group = path_group.create_group("runs")
         group.attrs["count"] = runs
         signals = group.create_group("signals", track_order=True)
         for key, shape in shapes.items():
-            # One run per chunk, every chunk allocated now: a run's write touches its own chunk
-            # and index entry only (see the module docstring).
-            dataset = signals.create_dataset(key, shape=(runs, *shape), dtype=storage_dtype(key),
+            # One run per chunk, every chunk of a block allocated with it: a run's write
+            # touches its own chunk and index entry only (see the module docstring).
+            dataset = signals.create_dataset(key, shape=(rows, *shape),
+                                             maxshape=(runs, *shape), dtype=storage_dtype(key),
                                              fillvalue=np.nan, chunks=(1, *shape),
                                              compression=COMPRESSION,
                                              compression_opts=COMPRESSION_LEVEL, shuffle=True,
@@ -276,16 +377,67 @@ class ResultStore:
             for attr, value in signal_attrs(key).items():
                 dataset.attrs[attr] = value
         params = group.create_group("parameters", track_order=True)
-        for key, values in parameters.items():
-            dataset = params.create_dataset(key, data=np.asarray(values, dtype=np.float64))
+        self._plans[name] = {key: np.asarray(values) for key, values in parameters.items()}
+        for key in parameters:
+            dataset = _row_dataset(params, key, runs, np.float64, np.nan)
+            dataset[:rows] = np.asarray(self._plans[name][key][:rows], dtype=np.float64)
             for attr, value in parameter_info.get(key, {}).items():
                 dataset.attrs[attr] = value
-        group.create_dataset("failure", shape=(runs,), dtype=_REASON_DTYPE, fillvalue=b"",
-                             dcpl=_early_dcpl())
-        # The status is created last: its presence means the run datasets all exist.
-        group.create_dataset("status", shape=(runs,), dtype=np.int8, fillvalue=STATUS_MISSING,
-                             dcpl=_early_dcpl())
+        _row_dataset(group, "failure", runs, _REASON_DTYPE, b"")
+        # The status is created last: its presence means the run datasets all exist (and the
+        # first block's parameters are stored).
+        _row_dataset(group, "status", runs, np.int8, STATUS_MISSING)
+        self._write_rows(group, 0, rows, self._plans[name])
         self.file.flush()
+
+    @staticmethod
+    def _row_bytes(shapes: Mapping[str, tuple[int, ...]], parameters: int) -> int:
+        """Bytes one allocated row takes before its run is stored."""
+        return (sum(fill_chunk_bytes(key, shape) for key, shape in shapes.items())
+                + REASON_BYTES + 1 + 8 * parameters + INDEX_BYTES_PER_CHUNK)
+
+    @staticmethod
+    def _write_rows(group: h5py.Group, start: int, stop: int,
+                    parameters: Mapping[str, np.ndarray]) -> None:
+        """Write rows ``start:stop`` of the per-row datasets (status and failure as they read,
+        fill values where never written; the sampled parameters), which allocates their
+        chunks whole."""
+        if stop <= start:
+            return
+        for key in ("status", "failure"):
+            group[key][start:stop] = group[key][start:stop]
+        for key, dataset in group["parameters"].items():
+            values = parameters.get(key)
+            if values is None:
+                raise ValueError(f"the sampled values of parameter {key!r} are needed to "
+                                 f"allocate more runs: give them to allocate_runs first")
+            dataset[start:stop] = np.asarray(values[start:stop], dtype=np.float64)
+
+    def _ensure_rows(self, name: str, needed: int) -> None:
+        """Allocate the blocks of rows up to row ``needed - 1`` of a path's runs: the
+        per-row datasets' rows first (so a block cut off by a kill is written again), then
+        the signals grow; a flush before and after."""
+        if needed <= self._allocated.get(name, 0):
+            return
+        datasets, _, _ = self._run_handles(name)
+        group = self.path_group(name)["runs"]
+        allocated = next(iter(datasets.values())).shape[0] if datasets \
+            else int(group["status"].shape[0])
+        self._allocated[name] = allocated
+        if needed <= allocated:
+            return
+        runs = int(group.attrs.get("count", group["status"].shape[0]))
+        rows = allocated_rows(needed, runs)
+        shapes = {key: tuple(dataset.shape[1:]) for key, dataset in datasets.items()}
+        self._require((rows - allocated) * self._row_bytes(shapes, len(group["parameters"])),
+                      f"allocate runs {allocated + 1}-{rows} of path {name!r}")
+        self.file.flush()  # the runs so far are on disk before the structure changes
+        self._write_rows(group, allocated, rows, self._plans.get(name, {}))
+        self.file.flush()
+        for dataset in datasets.values():
+            dataset.resize(rows, axis=0)
+        self.file.flush()
+        self._allocated[name] = rows
 
     def has_runs(self, name: str) -> bool:
         group = self.path_group(name).get("runs")
@@ -295,6 +447,7 @@ class ResultStore:
                   signals: Mapping[str, np.ndarray | EncodedChunk]) -> None:
         """Store one complete run: its data (arrays, or chunks :func:`encode_run` made), a
         flush, its status, a flush."""
+        self._ensure_rows(name, run + 1)
         datasets, status, _ = self._run_handles(name)
         for key, dataset in datasets.items():
             value = signals[key]
@@ -311,6 +464,7 @@ class ResultStore:
         self.file.flush()
 
     def write_failure(self, name: str, run: int, reason: str) -> None:
+        self._ensure_rows(name, run + 1)
         _, status, failure = self._run_handles(name)
         failure[run] = encode_reason(reason)
         self.file.flush()
@@ -340,6 +494,9 @@ class ResultStore:
         campaign stopped the path (raw data written in place, like a run's status)."""
         _, status, _ = self._run_handles(name)
         current = status[first:]
+        # rows never allocated get their chunks now: one byte and an index share each
+        self._require(current.size * (1 + INDEX_BYTES_PER_CHUNK // ROW_CHUNK + 1),
+                      f"mark the rows of path {name!r} an adaptive campaign did not need")
         if current.size:
             status[first:] = np.where(current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
         self.file.flush()
