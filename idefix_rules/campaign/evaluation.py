@@ -29,6 +29,8 @@ from idefix_rules.signals import AXIS_LABELS
 
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 DEFAULT_CHUNK_RUNS = 64
+# From this many rows on the evaluation's per-run arrays are stored compressed (shuffle+gzip).
+COMPRESSED_ROWS = 1024
 
 
 class CollisionFunction(Protocol):
@@ -357,10 +359,14 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
                    collisions: CollisionFunction | None, rulebook_info: dict[str, str],
                    write: bool = True,
                    chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
-                   on_path: Callable[[str, int], None] | None = None) -> CampaignEvaluation:
-    """Score every path of a results file; writes the evaluation groups when ``write``.
-    ``workers`` processes share the collision checks; ``on_path(name, runs)`` is called as
-    each simulated path's evaluation starts (progress)."""
+                   on_path: Callable[[str, int], None] | None = None,
+                   into: ResultStore | None = None) -> CampaignEvaluation:
+    """Score every path of a results file; writes the evaluation groups when ``write``, into
+    ``into`` when given (a :class:`~idefix_rules.campaign.revision.Revision`'s store, so the
+    file read is never written), else into ``store``. ``workers`` processes share the
+    collision checks; ``on_path(name, runs)`` is called as each simulated path's evaluation
+    starts (progress)."""
+    target = into if into is not None else store
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
@@ -393,7 +399,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         fill_runs_needed(result, evaluation, verdict, float(stats.confidence), sequential,
                          stop_time)
         if write:
-            _write_path_evaluation(store, name, evaluation, extra, stats, verdict,
+            _write_path_evaluation(target, name, evaluation, extra, stats, verdict,
                                    len(store.run_status(name)))
     ranking = list(evaluator.rank(statistics)) if statistics else []
     for position, name in enumerate(ranking, start=1):
@@ -404,14 +410,14 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance,
                                        _slip_checks(store, evaluator, rulebook_info))
     if write:
-        root = store.file.require_group("evaluation")
+        root = target.file.require_group("evaluation")
         for key, value in rulebook_info.items():
             root.attrs[f"rulebook_{key}"] = value
         root.attrs["ranking"] = json.dumps(ranking)
         from idefix_rules.campaign.simulate import now_iso
 
         root.attrs["evaluated"] = now_iso()
-        store.file.flush()
+        target.file.flush()
     return campaign_eval
 
 
@@ -539,29 +545,37 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         out[rows] = values
         return out
 
+    def array(group: h5py.Group, key: str, data: np.ndarray) -> None:
+        if runs < COMPRESSED_ROWS:  # small: contiguous costs less than a chunk index
+            group.create_dataset(key, data=data)
+            return
+        # rows of runs not (yet) complete are NaN / 0 and compress to almost nothing
+        group.create_dataset(key, data=data, compression="gzip", compression_opts=1,
+                             shuffle=True)
+
     index_names = list(getattr(evaluation, "index_names", ()))
     target.attrs["index_names"] = json.dumps(index_names)
     for section in ("values", "raw"):
         data = getattr(evaluation, section, {}) or {}
         sub = target.create_group("indices" if section == "values" else "raw")
         for key, values in data.items():
-            sub.create_dataset(key, data=full(values))
-    target.create_dataset("i_max", data=full(evaluation.i_max))
-    target.create_dataset("dominant", data=full(evaluation.dominant, -1, np.int16))
-    target.create_dataset("time", data=full(evaluation.time))
+            array(sub, key, full(values))
+    array(target, "i_max", full(evaluation.i_max))
+    array(target, "dominant", full(evaluation.dominant, -1, np.int16))
+    array(target, "time", full(evaluation.time))
     # 1: the chain was complete within the stop time, 0: still driving at it, -1: not known
     finished = extra.get("finished")
-    target.create_dataset("finished", data=full(finished, -1, np.int8) if finished is not None
-                          else np.full(runs, -1, dtype=np.int8))
-    target.create_dataset("energy", data=full(evaluation.energy))
+    array(target, "finished", full(finished, -1, np.int8) if finished is not None
+          else np.full(runs, -1, dtype=np.int8))
+    array(target, "energy", full(evaluation.energy))
     chances = target.create_group("chances")
     for key, values in (getattr(evaluation, "chances", {}) or {}).items():
-        chances.create_dataset(key, data=full(values, 0, np.int8))
+        array(chances, key, full(values, 0, np.int8))
     if extra.get("hits") is not None:
         collisions = target.create_group("collisions")
-        collisions.create_dataset("hits", data=full(extra["hits"]))
+        array(collisions, "hits", full(extra["hits"]))
         if extra.get("buffer") is not None:
-            collisions.create_dataset("buffer", data=full(extra["buffer"]))
+            array(collisions, "buffer", full(extra["buffer"]))
         texts = [""] * runs
         for row, record in zip(rows, extra.get("details", []), strict=False):
             texts[int(row)] = json.dumps(record)

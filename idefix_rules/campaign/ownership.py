@@ -36,6 +36,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from idefix_rules.campaign import diskspace
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 
 LOCK_FILE = ".idefix.lock"
@@ -213,6 +214,10 @@ def acquire(folder: Path, command: str | None = None, span: Span | None = None,
         except FileExistsError:
             pass
         except OSError as failure:
+            if diskspace.is_disk_full(failure):  # exit 3 as every full disk (operations.md)
+                raise diskspace.DiskFull(folder, diskspace.free_bytes(folder), len(data),
+                                         f"create {path.name}", "free space, then run again"
+                                         ) from None
             raise UserInputError(error(
                 FOLDER_UNUSABLE, f"output folder {folder} cannot be used: cannot create "
                                  f"{path.name}: {failure.strerror or failure}",

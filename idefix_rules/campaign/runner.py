@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign import outputs
+import numpy as np
+
+from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
@@ -30,6 +32,7 @@ from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.ownership import FolderLock, own_folder
 from idefix_rules.campaign.resume import resume_command
+from idefix_rules.campaign.revision import Revision
 from idefix_rules.campaign.schema import CampaignFile
 from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
@@ -41,7 +44,7 @@ from idefix_rules.campaign.simulate import (
     rover_geometry,
     simulate_campaign,
 )
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.campaign.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
@@ -52,6 +55,9 @@ from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 
 SUMMARY_FILE = "summary.json"
+# What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
+# energy, chances, collision counts and details), for the free-space check before it starts.
+EVALUATION_BYTES_PER_RUN = 2048
 STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
 REPORT_FILE = "report.html"
 
@@ -186,32 +192,40 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
-    if mapping.terrain_input:
-        fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
-    collisions = collision_function(campaign.model.environment, evaluator, terrain)
     again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
                            campaign.adaptive.min_runs if campaign.adaptive else None)
+    if mapping.terrain_input:
+        doing, then = "write the terrain file", f"free space, then run `{again}`"
+        diskspace.require(campaign.output, terrain.heights.size * 8, doing, then)
+        with diskspace.guard(campaign.output, doing, then):
+            fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
+    collisions = collision_function(campaign.model.environment, evaluator, terrain)
     try:
-        simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options, progress,
-                                       collisions)
-    except OSError as failure:  # the results file could not be written (disk full, locked …)
+        with diskspace.guard(campaign.output, "simulate the campaign",
+                             f"free space, then continue with `{again}`"):
+            simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options,
+                                           progress, collisions)
+    except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
     except ClusterError as failure:  # the cluster broke: the runs stored so far stay
         raise InfrastructureError(f"{failure}; every run finished so far is stored, continue "
                                   f"with `{again}`") from failure
     simulated = time.perf_counter()
-    store = ResultStore.open(simulation.results, writable=True)
+    store = ResultStore.open(simulation.results)  # read only: the evaluation writes a new version
     checks = " (collision checks and rulebook)" if collisions is not None else ""
     clock = PathClock(lambda name, runs: say(f"evaluating {name}: {runs} runs{checks}"))
+    then = (f"the simulated runs are stored; free space, then evaluate them with `{again}` "
+            f"(or `idefix-verify evaluate {simulation.results}`)")
     try:
-        evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
-                                    initial_position_sigma(campaign), collisions,
-                                    rulebook_info(evaluator, campaign.rulebook),
-                                    workers=_local_workers(options, campaign),
-                                    on_path=clock.start)
-        result = _finish(store, evaluation, campaign.model, campaign.output, junit, campaign.name,
-                         clock.seconds(simulation.path_seconds))
+        with evaluation_revision(store, then) as revision:
+            evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
+                                        initial_position_sigma(campaign), collisions,
+                                        rulebook_info(evaluator, campaign.rulebook),
+                                        workers=_local_workers(options, campaign),
+                                        on_path=clock.start, into=revision.store)
+            result = _finish(revision, evaluation, campaign.model, campaign.output, junit,
+                             campaign.name, clock.seconds(simulation.path_seconds), then)
     finally:
         store.close()
     evaluated = time.perf_counter()
@@ -219,7 +233,9 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     _warn_lost_runs(result, again)
     if report:
         say("writing the report (per-sample risk maps, figures)")
-        result.report = write_report(result.results, campaign.output)
+        result.report = write_report(result.results, campaign.output,
+                                     "the results and summary.json are written; free space, "
+                                     f"then `idefix-verify report {result.results}`")
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,
                       "report": time.perf_counter() - evaluated,
@@ -238,33 +254,91 @@ def _warn_lost_runs(result: CampaignResult, again: str) -> None:
                                f"their own (exit code 3); run them again with `{again}`")
 
 
-def _finish(store: ResultStore, evaluation: CampaignEvaluation, model: CampaignFile,
+def evaluation_revision(store: ResultStore, then: str) -> Revision:
+    """The new version of ``store``'s results file the evaluation writes into
+    (:mod:`idefix_rules.campaign.revision`), once the disk has room for it and for the
+    evaluation (``DiskFull`` otherwise, ``then`` saying what to do next)."""
+    try:
+        revision = Revision(store.path)
+    except PermissionError as failure:
+        raise UserInputError(error(
+            "H002", f"cannot write the evaluation of {store.path}: "
+                    f"{failure.strerror or failure}", Span(str(store.path)),
+            hint="the evaluation writes a new version of the results file beside it: its "
+                 "folder must be writable (copy the results elsewhere to evaluate them)")
+        ) from None
+    try:
+        diskspace.require(store.folder, revision.needed(evaluation_bytes(store)),
+                          f"write the evaluation into {store.path.name}", then)
+    except BaseException:
+        revision.discard()
+        raise
+    return revision
+
+
+def _finish(revision: Revision, evaluation: CampaignEvaluation, model: CampaignFile,
             output: Path, junit: Path | None, name: str,
-            seconds: dict[str, float] | None = None) -> CampaignResult:
+            seconds: dict[str, float] | None = None, then: str = "") -> CampaignResult:
+    """Store the summary with the evaluation, put the new results file in place, then write
+    ``summary.json`` (and JUnit)."""
     checks = outputs.check_expectations(model.expect, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(model.expect))
-    results = str(Path(store.file.filename).resolve())
-    data = outputs.summary(evaluation, checks, code, store_sensitivity(store.file), results)
-    store.file.require_group("evaluation").attrs["summary"] = json.dumps(data, default=str)
-    store.file.flush()
-    outputs.write_summary(output / SUMMARY_FILE, data)
+    results = str(revision.path.resolve())
+    data = outputs.summary(evaluation, checks, code, store_sensitivity(revision.store.file),
+                           results)
+    revision.store.file.require_group("evaluation").attrs["summary"] = \
+        json.dumps(data, default=str)
+    revision.commit(f"write the evaluation into {revision.path.name}", then)
+    written = f"the evaluation is stored in {results}; free space, then write the outputs " \
+              f"again with `idefix-verify evaluate {results}`"
+    with diskspace.guard(output, f"write {SUMMARY_FILE}", written):
+        outputs.write_summary(output / SUMMARY_FILE, data)
     if junit is not None:
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
-            write_atomic(junit, outputs.junit_xml(evaluation, checks, name, seconds, results))
+            with diskspace.guard(junit.parent, f"write {junit.name}", written):
+                write_atomic(junit, outputs.junit_xml(evaluation, checks, name, seconds,
+                                                      results))
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
-                Span(str(junit)), hint=f"the results are in {store.file.filename}")) from None
+                Span(str(junit)), hint=f"the results are in {revision.path}")) from None
     warnings = [check.warning for check in evaluation.slip if check.warning]
-    return CampaignResult(Path(store.file.filename), evaluation, checks, data, code, warnings)
+    return CampaignResult(revision.path, evaluation, checks, data, code, warnings)
 
 
-def write_report(results: Path, output: Path) -> Path:
-    """The HTML report (``report.html`` and figures) next to the results."""
+def evaluation_bytes(store: ResultStore) -> int:
+    """About what writing the evaluation of ``store`` takes (before compression): per
+    complete run its indices, I_max, time, energy, chances and collision results."""
+    total = 0
+    for name in store.path_names:
+        if not store.has_runs(name):
+            continue
+        status = store.run_status(name)
+        total += int(np.sum(status == STATUS_COMPLETE)) * EVALUATION_BYTES_PER_RUN \
+            + status.size * 2
+    return total
+
+
+REPORT_BYTES = 2 * 1024 * 1024
+REPORT_BYTES_PER_PATH = 1024 * 1024
+
+
+def write_report(results: Path, output: Path, then: str = "") -> Path:
+    """The HTML report (``report.html`` and figures) next to the results (``DiskFull``
+    before anything is written when the disk has not room for it)."""
     from idefix_rules.report import write_report as write_html_report
 
-    return Path(write_html_report(results, output))
+    store = ResultStore.open(results)  # UserInputError for a missing or foreign file
+    try:
+        paths = len(store.file["paths"])
+    finally:
+        store.close()
+    doing = f"write {REPORT_FILE} and its figures"
+    output.mkdir(parents=True, exist_ok=True)
+    diskspace.require(output, REPORT_BYTES + REPORT_BYTES_PER_PATH * paths, doing, then)
+    with diskspace.guard(output, doing, then):
+        return Path(write_html_report(results, output))
 
 
 def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,
@@ -278,7 +352,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         notes = []
         if results.parent.is_dir() and os.access(results.parent, os.W_OK):
             notes.append(owned.enter_context(own_folder(results.parent, elsewhere=None)).note)
-        store = ResultStore.open(results, writable=True)
+        store = ResultStore.open(results)  # read only: the evaluation writes a new version
         owned.callback(store.close)
         if output.resolve() != results.parent.resolve():
             output.mkdir(parents=True, exist_ok=True)
@@ -304,11 +378,15 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     collisions = collision_function(model.environment, evaluator,
                                     read_terrain(results.parent))
     clock = PathClock()
-    evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
-                                initial_position_sigma(stub), collisions,
-                                rulebook_info(evaluator, rulebook_path), on_path=clock.start)
-    name = str(store.attrs.get("campaign_name", "campaign"))
-    result = _finish(store, evaluation, model, output, junit, name, clock.seconds())
+    then = f"{results} is unchanged; free space, then evaluate again"
+    with evaluation_revision(store, then) as revision:
+        evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
+                                    initial_position_sigma(stub), collisions,
+                                    rulebook_info(evaluator, rulebook_path),
+                                    on_path=clock.start, into=revision.store)
+        name = str(store.attrs.get("campaign_name", "campaign"))
+        result = _finish(revision, evaluation, model, output, junit, name, clock.seconds(),
+                         then)
     state = str(store.attrs.get("state", "complete"))
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     again = resume_command(stub.source, results.parent, store.attrs.get("runs"),

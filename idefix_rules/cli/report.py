@@ -13,7 +13,6 @@ from pathlib import Path
 from rich.console import Console
 
 from idefix_rules.cli.destinations import output_folder
-from idefix_rules.report import write_report
 
 NAME = "report"
 HELP = ("Write the HTML report of a results file: the decision, Table 1, an interactive "
@@ -30,9 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.campaign.runner import write_report
+
     out = args.out if args.out is not None else args.results.resolve().parent
     console = Console(stderr=True)
     with console.status("writing the report"):
-        page = write_report(args.results, out)
+        page = write_report(args.results, out, "free space, then run this command again")
     Console().print(f"report written: [bold]{page}[/bold]")
     return 0

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.files import write_atomic
 from idefix_rules.limits import (
     MAX_CSV_DEM_BYTES,
     MAX_NPY_DEM_BYTES,
@@ -159,9 +160,7 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
     lines.append("heights")
     data = ("\n".join(lines) + "\n").encode("ascii")
     data += terrain.heights.astype("<f8").tobytes(order="C")
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(data)
-    tmp.replace(path)
+    write_atomic(path, data)  # a full disk leaves no part of it behind
     return path
 
 
