@@ -151,12 +151,19 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
     ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
     become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
+    existed = campaign.output.exists()
     prepare_output(campaign)
     sources = {str(campaign.source): campaign.text}
-    with own_folder(campaign.output, span=Span(str(campaign.output)), sources=sources) as lock:
-        set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit,
-                  None if resume else campaign.output / RESULTS_FILE)
-        yield lock
+    try:
+        with own_folder(campaign.output, span=Span(str(campaign.output)),
+                        sources=sources) as lock:
+            set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit,
+                      None if resume else campaign.output / RESULTS_FILE)
+            yield lock
+    finally:
+        if not existed:  # a campaign refused before writing anything leaves no folder behind
+            with contextlib.suppress(OSError):
+                campaign.output.rmdir()  # only when empty
 
 
 def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
