@@ -29,6 +29,7 @@ from idefix_rules.campaign.evaluation import (
     evaluate_store,
 )
 from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
+from idefix_rules.campaign.journal import roll_back
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.ownership import FolderLock, own_folder
 from idefix_rules.campaign.resume import resume_command
@@ -359,6 +360,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         notes = []
         if results.parent.is_dir() and os.access(results.parent, os.W_OK):
             notes.append(owned.enter_context(own_folder(results.parent, elsewhere=None)).note)
+            roll_back(results)  # a change of its structure a kill cut off (journal.py)
         store = ResultStore.open(results)  # read only: the evaluation writes a new version
         owned.callback(store.close)
         if output.resolve() != results.parent.resolve():

@@ -22,9 +22,10 @@ integer-valued ``command`` / ``stuck`` as float32 (docs/results-format.md gives 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign import diskspace
+from idefix_rules.campaign.journal import JournaledFile, roll_back, undo_path
 from idefix_rules.commands import Command
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
@@ -71,7 +73,10 @@ ROW_CHUNK = 64
 # Chunk index entry and node share per stored chunk (v1 B-tree: key, address, node slack).
 INDEX_BYTES_PER_CHUNK = 96
 # Object header, attributes and chunk index root node of a group or dataset.
-HEADER_BYTES = 8 * 1024
+HEADER_BYTES = 4 * 1024
+# The undo journal of a structural change: the old pages it overwrites (the chunk index nodes
+# and header a block allocation rewrites in place, per dataset).
+JOURNAL_BYTES_PER_DATASET = 32 * 1024
 
 
 def allocated_rows(needed: int, runs: int) -> int:
@@ -195,6 +200,44 @@ class ResultStore:
     def _require(self, needed: int, doing: str) -> None:
         diskspace.require(self.folder, needed, doing)
 
+    @contextlib.contextmanager
+    def _structural(self, needed: int, doing: str, datasets: int) -> Iterator[None]:
+        """A change of the file's structure (``needed`` bytes), all or nothing: checked
+        against the free space, made after a flush of what is stored so far with the file
+        reopened through an undo journal (:mod:`idefix_rules.campaign.journal`), flushed and
+        closed before the journal is dropped. Cut off by an error it is rolled back at once
+        (and the store closed); cut off by a kill, the next writer rolls it back. ``datasets``
+        is the number of datasets it changes (the journal's size)."""
+        needed += JOURNAL_BYTES_PER_DATASET * (datasets + 1)
+        self._require(needed, doing)
+        self._handles.clear()
+        self.file.close()
+        journal = JournaledFile(self.path)
+        try:
+            self.file = h5py.File(journal, "r+")
+            journal.begin()
+            yield
+            self.file.close()
+        except BaseException:
+            journal.discard()
+            with contextlib.suppress(Exception):
+                self.file.close()
+            journal.close()
+            roll_back(self.path)
+            raise
+        failure = journal.failure
+        journal.close()
+        if failure is not None:
+            roll_back(self.path)
+            if diskspace.is_disk_full(failure):
+                raise diskspace.DiskFull(self.folder, diskspace.free_bytes(self.folder),
+                                         needed + diskspace.MARGIN, doing) from None
+            raise failure
+        undo_path(self.path).unlink(missing_ok=True)  # the change is complete on disk
+        # No HDF5 file lock: worker processes forked while the file was open share the one
+        # taken then (the output folder's lock keeps other campaigns out).
+        self.file = h5py.File(self.path, "r+", locking=False)
+
     def _run_handles(self, name: str) -> tuple[dict[str, h5py.Dataset], h5py.Dataset,
                                                h5py.Dataset]:
         handles = self._handles.get(name)
@@ -213,8 +256,11 @@ class ResultStore:
         """A new results file. An existing one is kept as ``<stem>.previous.h5`` (replacing an
         older copy), so a re-run that fails early never loses the last campaign's results."""
         path.parent.mkdir(parents=True, exist_ok=True)
+        previous = previous_results_path(path)
+        # a change cut off by a kill is undone in the file it was made in, wherever it now is
+        roll_back(path if path.is_file() else previous, undo_path(path))
         if path.is_file():
-            path.replace(previous_results_path(path))
+            path.replace(previous)
         text_bytes = sum(len(text.encode("utf-8")) for text in texts.values())
         diskspace.require(path.parent, 8 * HEADER_BYTES + text_bytes, f"create {path.name}")
         file = h5py.File(path, "w", track_order=True)
@@ -231,8 +277,12 @@ class ResultStore:
 
     @classmethod
     def open(cls, path: Path, writable: bool = False) -> ResultStore:
-        """Open an existing results file; :class:`UserInputError` if it is not one."""
+        """Open an existing results file; :class:`UserInputError` if it is not one. Opened to
+        write, a structural change a kill cut off is rolled back first
+        (:func:`~idefix_rules.campaign.journal.roll_back`)."""
         try:
+            if writable:
+                roll_back(path)
             file = h5py.File(path, "r+" if writable else "r")
         except FileNotFoundError:
             raise UserInputError(error("H001", f"results file {path} not found",
@@ -249,28 +299,28 @@ class ResultStore:
                 "H002", f"cannot open results file {path}: {failure}", Span(str(path)),
                 hint="a file damaged while its structure was being written cannot be resumed: "
                      "run the campaign again without --resume" if writable else None)) from None
+        store = cls(file, path)
         if file.attrs.get("format") != FORMAT:
-            file.close()
+            store.close()
             raise UserInputError(error("H003", f"{path} is not an idefix results file",
                                        Span(str(path))))
         missing = [name for name in ("provenance", "paths") if name not in file]
         if missing:
-            file.close()
+            store.close()
             raise UserInputError(error("H003", f"{path} is an incomplete idefix results file "
                                                f"(no {' or '.join(missing)} group)",
                                        Span(str(path)), hint="run the campaign again"))
-        return cls(file, path)
+        return store
 
     def close(self) -> None:
         """Flush and close (closed also when the flush fails, e.g. on a full disk)."""
         self._handles.clear()
         self._allocated.clear()
-        if not self.file.id.valid:
-            return
-        try:
-            self.file.flush()
-        finally:
-            self.file.close()
+        if self.file.id.valid:
+            try:
+                self.file.flush()
+            finally:
+                self.file.close()
 
     @property
     def attrs(self) -> h5py.AttributeManager:
@@ -353,15 +403,21 @@ class ResultStore:
         if self.has_runs(name):
             self._plans[name] = {key: np.asarray(values) for key, values in parameters.items()}
             return
-        path_group = self.path_group(name)
         self._handles.pop(name, None)
         self._allocated.pop(name, None)
+        rows = allocated_rows(1, runs)
+        with self._structural(HEADER_BYTES * (5 + len(shapes) + len(parameters))
+                              + rows * self._row_bytes(shapes, len(parameters)),
+                              f"allocate the runs of path {name!r}", 0):
+            self._create_runs(name, runs, rows, shapes, parameters, parameter_info)
+
+    def _create_runs(self, name: str, runs: int, rows: int,
+                     shapes: Mapping[str, tuple[int, ...]],
+                     parameters: Mapping[str, np.ndarray],
+                     parameter_info: Mapping[str, Mapping[str, Any]]) -> None:
+        path_group = self.path_group(name)
         if "runs" in path_group:  # allocation cut off by a kill: no run was written yet
             del path_group["runs"]
-        rows = allocated_rows(1, runs)
-        self._require(HEADER_BYTES * (5 + len(shapes) + len(parameters))
-                      + rows * self._row_bytes(shapes, len(parameters)),
-                      f"allocate the runs of path {name!r}")
         group = path_group.create_group("runs")
         group.attrs["count"] = runs
         signals = group.create_group("signals", track_order=True)
@@ -388,7 +444,6 @@ class ResultStore:
         # first block's parameters are stored).
         _row_dataset(group, "status", runs, np.int8, STATUS_MISSING)
         self._write_rows(group, 0, rows, self._plans[name])
-        self.file.flush()
 
     @staticmethod
     def _row_bytes(shapes: Mapping[str, tuple[int, ...]], parameters: int) -> int:
@@ -429,14 +484,14 @@ class ResultStore:
         runs = int(group.attrs.get("count", group["status"].shape[0]))
         rows = allocated_rows(needed, runs)
         shapes = {key: tuple(dataset.shape[1:]) for key, dataset in datasets.items()}
-        self._require((rows - allocated) * self._row_bytes(shapes, len(group["parameters"])),
-                      f"allocate runs {allocated + 1}-{rows} of path {name!r}")
-        self.file.flush()  # the runs so far are on disk before the structure changes
-        self._write_rows(group, allocated, rows, self._plans.get(name, {}))
-        self.file.flush()
-        for dataset in datasets.values():
-            dataset.resize(rows, axis=0)
-        self.file.flush()
+        with self._structural((rows - allocated)
+                              * self._row_bytes(shapes, len(group["parameters"])),
+                              f"allocate runs {allocated + 1}-{rows} of path {name!r}",
+                              len(shapes) + len(group["parameters"]) + 2):
+            group = self.path_group(name)["runs"]  # (the file was opened anew)
+            self._write_rows(group, allocated, rows, self._plans.get(name, {}))
+            for dataset in group["signals"].values():
+                dataset.resize(rows, axis=0)
         self._allocated[name] = rows
 
     def has_runs(self, name: str) -> bool:
@@ -494,12 +549,14 @@ class ResultStore:
         campaign stopped the path (raw data written in place, like a run's status)."""
         _, status, _ = self._run_handles(name)
         current = status[first:]
+        if not current.size:
+            return
         # rows never allocated get their chunks now: one byte and an index share each
-        self._require(current.size * (1 + INDEX_BYTES_PER_CHUNK // ROW_CHUNK + 1),
-                      f"mark the rows of path {name!r} an adaptive campaign did not need")
-        if current.size:
-            status[first:] = np.where(current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
-        self.file.flush()
+        with self._structural(current.size * (1 + INDEX_BYTES_PER_CHUNK // ROW_CHUNK + 1),
+                              f"mark the rows of path {name!r} an adaptive campaign did not "
+                              "need", 1):
+            self.path_group(name)["runs"]["status"][first:] = np.where(
+                current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
 
     def signal_names(self, name: str) -> list[str]:
         return list(self.path_group(name)["runs"]["signals"])

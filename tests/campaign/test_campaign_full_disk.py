@@ -224,7 +224,7 @@ def test_a_disk_full_before_the_monte_carlo_runs_are_simulated(
     terrain, results = undisturbed.terrain, undisturbed.results
     folder = small_disk / "campaign"
     place_campaign(folder, toy_fmu)
-    filler = fill(small_disk, terrain + MARGIN + results // 2)  # half the runs fit
+    filler = fill(small_disk, terrain + MARGIN + results * 2 // 3)  # the runs do not fit
     outcome = cli("campaign.yaml", "--quiet", cwd=folder)
     line = assert_one_clear_line(outcome, folder / "out")
     assert f"needed to store the {2 * RUNS} runs still to simulate" in line
@@ -308,7 +308,7 @@ def test_a_disk_full_when_the_evaluation_starts(small_disk: Path, toy_fmu: Path,
     terrain, results = undisturbed.terrain, undisturbed.results
     folder = small_disk / "campaign"
     place_campaign(folder, toy_fmu)
-    filler = fill(small_disk, terrain + MARGIN + results + 300_000)  # simulated, no copy
+    filler = fill(small_disk, terrain + MARGIN + results + 1_000_000)  # simulated, no copy
     outcome = cli("campaign.yaml", "--quiet", cwd=folder)
     line = assert_one_clear_line(outcome, folder / "out")
     assert "to write the evaluation into results.h5" in line
@@ -338,7 +338,7 @@ def test_a_disk_filling_up_while_the_evaluation_is_written(
     terrain, results = undisturbed.terrain, undisturbed.results
     folder = small_disk / "campaign"
     place_campaign(folder, toy_fmu)
-    filler = fill(small_disk, terrain + MARGIN + results + 300_000)
+    filler = fill(small_disk, terrain + MARGIN + results + 1_000_000)
     outcome = cli("campaign.yaml", "--quiet", cwd=folder, patch=NO_COPY_ESTIMATE)
     assert_one_clear_line(outcome, folder / "out")
     results_file = folder / "out" / "results.h5"
