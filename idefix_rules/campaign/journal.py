@@ -16,7 +16,9 @@ cleanly after it): the writes go on in memory, the change is rolled back and
 :attr:`JournaledFile.failure` says why.
 
 Outside a journaled change the file is read and written as is: writing a run replaces its own
-chunks and index entries in place (``store.py``), which a kill cannot leave half done.
+chunks and index entries in place (``store.py``); a kill in the middle leaves at most that
+run's entries pointing past the end the superblock records, which :func:`repair_end` fixes
+before the file is written again (the run itself is not marked complete and is run again).
 """
 
 from __future__ import annotations
@@ -233,6 +235,43 @@ def roll_back(path: Path, journal: Path | None = None) -> bool:
     # a journal without its header was cut off before the change wrote anything
     with contextlib.suppress(FileNotFoundError):
         undo.unlink()
+    return True
+
+
+# HDF5 superblocks version 0 and 1 (what h5py writes by default) with 8-byte addresses: the
+# offset of their end-of-allocation address (no checksum to update).
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_END_OF_ALLOCATION = {0: 40, 1: 44}
+
+
+def stale_end(header: bytes, size: int) -> int | None:
+    """Where the end-of-allocation address of a file beginning with ``header`` (its first 64
+    bytes) is stored, when it lies below the file's ``size``; else None.
+
+    HDF5 writes a file's index nodes before its superblock: a writer killed in between leaves
+    nodes pointing at space (the run it was writing) beyond the end the superblock records,
+    and HDF5 would allocate that space again. Raising the end to the file's size makes it
+    count as used (what ``h5clear --increment`` does)."""
+    if not header.startswith(_SIGNATURE) or len(header) < 52 or header[13] != 8:
+        return None
+    offset = _END_OF_ALLOCATION.get(header[8])
+    if offset is None:
+        return None
+    (end,) = struct.unpack_from("<Q", header, offset)
+    return offset if end < size else None
+
+
+def repair_end(path: Path) -> bool:
+    """Raise the end of allocation recorded in ``path`` to its size (:func:`stale_end`).
+    True when it was below."""
+    with open(path, "r+b") as handle:
+        offset = stale_end(handle.read(64), os.fstat(handle.fileno()).st_size)
+        if offset is None:
+            return False
+        handle.seek(offset)
+        handle.write(struct.pack("<Q", os.fstat(handle.fileno()).st_size))
+        handle.flush()
+        os.fsync(handle.fileno())
     return True
 
 

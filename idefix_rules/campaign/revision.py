@@ -26,6 +26,7 @@ import contextlib
 import errno
 import io
 import os
+import struct
 import tempfile
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
@@ -33,6 +34,7 @@ from typing import IO, TYPE_CHECKING
 import h5py
 
 from idefix_rules.campaign import diskspace
+from idefix_rules.campaign.journal import stale_end
 from idefix_rules.campaign.store import ResultStore
 
 if TYPE_CHECKING:
@@ -149,6 +151,10 @@ class Revision:
         remove_stale_temporaries(self.path)
         self._base: IO[bytes] | None = open(self.path, "rb")  # noqa: SIM115 (closed by discard)
         self._overlay = _Overlay(self._base, os.fstat(self._base.fileno()).st_size)
+        end = stale_end(self._base.read(64), self._overlay.size)
+        if end is not None:  # a writer was killed mid-flush: the new version counts its bytes
+            self._overlay.seek(end)
+            self._overlay.write(struct.pack("<Q", self._overlay.size))
         self._temporary: Path | None = None
         self.cloned = False
         try:

@@ -34,7 +34,7 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign import diskspace
-from idefix_rules.campaign.journal import JournaledFile, roll_back, undo_path
+from idefix_rules.campaign.journal import JournaledFile, repair_end, roll_back, undo_path
 from idefix_rules.commands import Command
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
@@ -214,8 +214,8 @@ class ResultStore:
         self.file.close()
         journal = JournaledFile(self.path)
         try:
-            self.file = h5py.File(journal, "r+")
             journal.begin()
+            self.file = h5py.File(journal, "r+")
             yield
             self.file.close()
         except BaseException:
@@ -283,6 +283,7 @@ class ResultStore:
         try:
             if writable:
                 roll_back(path)
+                repair_end(path)
             file = h5py.File(path, "r+" if writable else "r")
         except FileNotFoundError:
             raise UserInputError(error("H001", f"results file {path} not found",

@@ -1,6 +1,8 @@
-"""A block allocation of the results file cut off at any of its writes — by a kill, or by a
-full disk — is rolled back: every run stored before it reads back, and writing on gives the
-same datasets as a writer that was never stopped (``idefix_rules/campaign/journal.py``)."""
+"""A writer of the results file cut off where HDF5 leaves it inconsistent recovers: a block
+allocation stopped at any of its writes — by a kill, or by a full disk — is rolled back, and a
+run's index entries flushed without the superblock are accounted for. Every run stored before
+reads back, and writing on gives the same datasets as a writer that was never stopped
+(``idefix_rules/campaign/journal.py``)."""
 
 from __future__ import annotations
 
@@ -10,12 +12,15 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
 from idefix_rules.campaign import journal
 from idefix_rules.campaign.diskspace import DiskFull
-from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.journal import stale_end
+from idefix_rules.campaign.revision import Revision
+from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore, encode_chunk
 from idefix_rules.commands import Command
 
 RUNS = 200
@@ -177,3 +182,38 @@ def test_a_full_disk_inside_a_block_allocation_is_rolled_back(
         monkeypatch.undo()
         assert not journal.undo_path(target).exists()  # rolled back at once
         assert_rolled_back_and_continued(target, base_runs, expected)
+
+
+def test_a_writer_killed_between_a_runs_index_entries_and_the_superblock(
+        stored: tuple[Path, dict[str, np.ndarray]], tmp_path: Path) -> None:
+    """HDF5 writes index nodes before the superblock: killed in between, the run being
+    written points past the end the superblock records. The run is not complete (its status
+    comes later); an evaluation and ``--resume`` go on as if the kill had come before it."""
+    _, expected = stored
+    target = tmp_path / "stale.h5"
+    write(target, range(STORED - 1))
+    with target.open("rb") as handle:
+        header = handle.read(64)
+    end = stale_end(header, 1 << 62)
+    assert end is not None
+    recorded = header[end:end + 8]
+    store = ResultStore.open(target, writable=True)  # the last run's data, flushed, no status
+    signals = store.path_group("p")["runs/signals"]
+    for key, values in run(STORED - 1).items():
+        chunk = encode_chunk(key, values).data
+        signals[key].id.write_direct_chunk((STORED - 1,) + (0,) * (values.ndim), chunk)
+    store.file.flush()
+    store.close()
+    with target.open("r+b") as handle:  # ... and the superblock as it was before
+        handle.seek(end)
+        handle.write(recorded)
+    assert stale_end(target.read_bytes()[:64], target.stat().st_size) == end
+    # an evaluation writes its new version; the stale end is raised in it, not in the original
+    with Revision(target) as revision:
+        revision.store.file.create_group("evaluation").create_dataset(
+            "probe", data=np.arange(10_000.0))
+        revision.commit("write the evaluation")
+    write(target, range(STORED - 1, RUNS))
+    assert_same(contents(target), expected)
+    with h5py.File(target, "r") as file:
+        assert np.array_equal(file["evaluation/probe"][()], np.arange(10_000.0))
