@@ -56,25 +56,7 @@ def rejected(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
              alpha: float) -> np.ndarray:
     """Whether each candidate mean is outside the confidence sequence after all ``values``
     (rejected at some run count ≤ n)."""
-    threshold = math.log(1.0 / alpha)
-    candidates = np.asarray(candidates, dtype=np.float64)
-    with np.errstate(divide="ignore"):
-        up_cap = np.where(candidates > 0, BET_TRUNCATION / candidates, np.inf)
-        down_cap = np.where(candidates < 1, BET_TRUNCATION / (1.0 - candidates), np.inf)
-    log_up = np.zeros(candidates.shape)
-    log_down = np.zeros(candidates.shape)
-    out = np.zeros(candidates.shape, dtype=bool)
-    for start in range(0, values.size, BLOCK_RUNS):
-        x = values[start:start + BLOCK_RUNS, None]
-        bet = bets[start:start + BLOCK_RUNS, None]
-        step_up = np.log1p(np.minimum(bet, up_cap) * (x - candidates))
-        step_down = np.log1p(-np.minimum(bet, down_cap) * (x - candidates))
-        up = log_up + np.cumsum(step_up, axis=0)
-        down = log_down + np.cumsum(step_down, axis=0)
-        hedged = np.maximum(up, down) + math.log(0.5)
-        out |= np.any(hedged >= threshold, axis=0)
-        log_up, log_down = up[-1], down[-1]
-    return out
+    return first_rejection(values, bets, candidates, alpha) <= values.size
 
 
 def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
