@@ -47,6 +47,9 @@ class RoverGeometry:
     wheel_radius: float = 0.10
     half_track: float = 0.26
     half_wheelbase: float = 0.20
+    # rad/s^2: the controller ramps the fastest wheel's rate up and down at this rate
+    # (FMU parameter controller.wheel_acceleration; 0 means rate steps)
+    wheel_acceleration: float = 0.015
 
 
 @dataclass(frozen=True)
@@ -84,6 +87,24 @@ def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinemat
         yaw_rate=dh / duration,
         wheel_rates=(left_rate, right_rate, left_rate, right_rate),
     )
+
+
+def forward_acceleration(command: Command, rover: RoverGeometry) -> float:
+    """Commanded forward acceleration of the body centre (m/s², ≥ 0) while the wheel rates
+    ramp: every wheel's rate scales with the fastest one's, which ramps at
+    ``rover.wheel_acceleration``, so the centre speeds up at ``|speed| / |max_wheel_rate| ·
+    wheel_acceleration``. Rate steps (``wheel_acceleration == 0``) ask for an unbounded
+    acceleration (``inf``); a command that does not move (or only turns) asks for none.
+
+    >>> round(forward_acceleration(Command(0.05, 1.0, 0.0), RoverGeometry()), 6)
+    0.0015
+    """
+    k = command_kinematics(command, rover)
+    if k.speed == 0.0:
+        return 0.0
+    if rover.wheel_acceleration <= 0.0:
+        return math.inf
+    return abs(k.speed) / abs(command.max_wheel_rate) * rover.wheel_acceleration
 
 
 def chain_duration(chain: list[Command] | tuple[Command, ...], rover: RoverGeometry) -> float:

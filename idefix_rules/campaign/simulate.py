@@ -46,7 +46,8 @@ SEED_DERIVATION = ("monte_carlo: run j of path p uses SeedSequence(seed, spawn_k
 # Campaign regolith keys are the FMU's soil parameters without their prefix.
 REGOLITH_PREFIX = "soil."
 GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track": "half_track",
-                       "rover.half_wheelbase": "half_wheelbase"}
+                       "rover.half_wheelbase": "half_wheelbase",
+                       "controller.wheel_acceleration": "wheel_acceleration"}
 INITIAL_POSITION = ("initial.x", "initial.y")
 TERRAIN_PARAMETER = "terrain.file"
 

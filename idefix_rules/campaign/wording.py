@@ -38,6 +38,7 @@ DEFAULT_UNITS: dict[str, str] = {
     "yaw_rate": "deg/s",
     "wheel_speed": "mm/s",
     "lateral_acceleration": "mm/s^2",
+    "forward_acceleration": "mm/s^2",
     "command_number": "1",
     "initial.x": "cm",
     "initial.y": "cm",
@@ -48,7 +49,8 @@ DEFAULT_UNITS: dict[str, str] = {
 SI_UNITS: dict[str, str] = {
     "max_wheel_rate": "rad/s", "delta_position": "m", "delta_heading": "rad",
     "turn_radius": "m", "duration": "s", "speed": "m/s", "yaw_rate": "rad/s",
-    "wheel_speed": "m/s", "lateral_acceleration": "m/s^2", "command_number": "1",
+    "wheel_speed": "m/s", "lateral_acceleration": "m/s^2", "forward_acceleration": "m/s^2",
+    "command_number": "1",
     "initial.x": "m", "initial.y": "m", "initial.z": "m", "initial.yaw": "rad",
 }
 _WRITTEN = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\s*(\S.*?)\s*$")

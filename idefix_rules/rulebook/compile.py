@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.commands import Command, RoverGeometry, command_kinematics
+from idefix_rules.commands import Command, RoverGeometry, command_kinematics, forward_acceleration
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
 from idefix_rules.rulebook.across import AcrossRuns, finished, runs_reductions
@@ -81,6 +81,7 @@ def command_quantities(command: Command, number: int, rover: RoverGeometry) -> d
         "yaw_rate": k.yaw_rate,
         "wheel_speed": max(abs(rate) for rate in k.wheel_rates) * rover.wheel_radius,
         "lateral_acceleration": abs(k.speed * k.yaw_rate),
+        "forward_acceleration": forward_acceleration(command, rover),
         "command_number": float(number),
     }
 

@@ -47,7 +47,8 @@ RATIO_PATH_NAMES = frozenset({"risk", "failed"})
 NON_NEGATIVE = frozenset({
     "collision.hits", "collision.buffer", "collision.contact", "collision.clearance",
     "wheel.sinkage", "global_error", "local_error", "drift", "tolerance_radius", "energy",
-    "stuck", "t", "duration", "wheel_speed", "lateral_acceleration", "command_number",
+    "stuck", "t", "duration", "wheel_speed", "lateral_acceleration", "forward_acceleration",
+    "command_number",
     "time", "runs", "failed", "risk"})
 # Non-negative in runs only: the planar speed of a run (a command's speed is signed).
 RUN_NON_NEGATIVE = frozenset({"speed"})

@@ -76,6 +76,8 @@ COMMAND_NAMES: dict[str, ExprType] = {
     "wheel_speed": ExprType(VELOCITY),
     # centripetal acceleration of the body centre on the arc, |speed · yaw_rate|
     "lateral_acceleration": ExprType(VELOCITY / TIME),
+    # body-centre acceleration while the wheel rates ramp (commands.forward_acceleration)
+    "forward_acceleration": ExprType(VELOCITY / TIME),
     "command_number": ExprType(DIMENSIONLESS),
 }
 

@@ -372,3 +372,42 @@ def test_a_non_finite_value_across_runs_makes_a_path_level_index_critical_in_eve
     evaluation = evaluate(checked, *batch(3, x=x))
     assert evaluation.values["I_m"][1] == 1.0
     np.testing.assert_allclose(evaluation.values["I_m"][[0, 2]], 0.25 / 3)
+
+
+def test_forward_acceleration_is_the_ramp_of_the_body_centre():
+    """The fastest wheel ramps at wheel_acceleration; the centre follows in proportion:
+    a straight drive at 0.05 rad/s on 10 cm wheels speeds up at 0.1 m/rad · 0.015 rad/s²."""
+    from idefix_rules.commands import RoverGeometry, forward_acceleration
+    rover = RoverGeometry()
+    assert forward_acceleration(Command(0.05, 1.0, 0.0), rover) == pytest.approx(1.5e-3)
+    # an arc's centre is slower than its outer wheel: R / (R + b) of the straight ramp
+    arc = forward_acceleration(Command(0.05, 0.6, 1.0), rover)
+    assert arc == pytest.approx(1.5e-3 * 0.6 / (0.6 + 0.26))
+    assert forward_acceleration(Command(0.05, 0.0, 1.0), rover) == 0.0  # point turn
+    assert forward_acceleration(Command(0.05, -1.0, 0.0), rover) == pytest.approx(1.5e-3)
+    steps = RoverGeometry(wheel_acceleration=0.0)
+    assert forward_acceleration(Command(0.05, 1.0, 0.0), steps) == math.inf
+
+
+def test_forward_acceleration_rule_just_inside_and_outside():
+    checked = rulebook("""
+command gentle_start: require forward_acceleration <= 1.5 mm/s^2
+index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }
+""")
+    compiled = compile_rulebook(checked)
+    # 0.05 rad/s straight: 1.49 mm/s^2 with a ramp of 0.0149 rad/s^2 (held), 1.51 mm/s^2
+    # with 0.0151 rad/s^2 (broken)
+    from idefix_rules.commands import RoverGeometry
+    slower = RoverGeometry(wheel_acceleration=0.0149)
+    assert compiled.check_chain([Command(0.05, 1.0, 0.0)], slower) == []
+    faster = RoverGeometry(wheel_acceleration=0.0151)
+    violations = compiled.check_chain([Command(0.05, 1.0, 0.0)], faster)
+    assert [v.rule for v in violations] == ["gentle_start"]
+    assert violations[0].values["forward_acceleration"] == pytest.approx(1.51e-3)
+
+
+def test_rover_geometry_ramp_matches_the_fmu_parameter_default():
+    from idefix_rules.commands import RoverGeometry
+    from idefix_rules.fmu.variables import VARIABLES_BY_NAME
+    assert RoverGeometry().wheel_acceleration == \
+        VARIABLES_BY_NAME["controller.wheel_acceleration"].start
