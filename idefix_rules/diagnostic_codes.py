@@ -88,6 +88,7 @@ E304|a quantity is needed|A condition stands where a number is needed (index val
 E305|window on a reduction not over time|`during`, `after`, `before` select samples; they only apply to reductions over time.|max over wheels after 10 s (wheel.slip)|`max over time after 10 s (max over wheels (wheel.slip))`.
 E306|malformed table|A table names every label of one axis exactly once, with plain quantities of one dimension.|const f_obs = {L1: 0.2, L2: 0.6}|`const f_obs = {L1: 0.2, L2: 0.6, L3: 1}`.
 E307|malformed map|An index's `map` is one quantity per sample (a time series) with the dimension of its value.|map = max over time (speed)|`map = speed` (keep the time axis).
+E309|rate of change with a window or not over time|`rate over time (x)` is x's rate of change at every sample: it keeps the time axis, so it runs over time only and takes no window; reduce it with the window you need.|max over time (rate over time after 10 s (wheel.sinkage))|`max over time after 10 s (rate over time (wheel.sinkage))`.
 E308|percentile outside 0–100|`percentile P` takes P from 0 (the smallest sample) to 100 (the largest).|percentile 150 over time (speed)|`percentile 95 over time (speed)`.
 E401|weight outside [0, 1]|Weights scale normalised indices in eq. 1 and lie in [0, 1].|weight = 2|`weight = 1`.
 E402|value out of range|A negative buffer or setting, a limit not above zero, a theoretical slip of 100 % or more, or a constant that is not finite (a division by zero).|limit = 0 cm|A positive limit: `limit = 5 cm`.

@@ -138,6 +138,8 @@ class Polarities:
         if isinstance(expr, Reduce):
             if expr.reducer in ("count", "fraction", "time_above", "any", "all"):
                 return True
+            if expr.reducer == "rate":  # a non-negative quantity still falls
+                return False
             return self.non_negative(expr.operand)
         if isinstance(expr, Binary) and expr.op in ("+", "*", "/"):
             return self.non_negative(expr.left) and self.non_negative(expr.right)

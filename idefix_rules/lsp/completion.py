@@ -116,6 +116,8 @@ def _expression_items(kind: str, text: str, word_range: Range) -> list[Completio
                   for name in sorted(ELEMENTWISE_FUNCTIONS)]
     if kind in ("index", "chance", "map"):
         items += [Completion(name, "reducer",
+                             "rate over time (…): rate of change per second, keeps the time axis"
+                             if name == "rate" else
                              f"{name} {'PARAMETER ' if name in PARAMETRIC_REDUCERS else ''}"
                              "over DOMAIN (…)", word_range) for name in REDUCERS]
     return items

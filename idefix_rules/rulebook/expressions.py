@@ -286,6 +286,15 @@ class ExpressionCompiler:
         window = self._window(expr.window)
         parameter = (None if expr.parameter is None else self.constant(expr.parameter))
         reducer = expr.reducer
+        if reducer == "rate":
+            def rate(frame: Frame) -> Any:
+                value = np.asarray(operand(frame))
+                if value.ndim == 0:
+                    value = value.reshape((1,) * _NDIM)
+                assert frame.source is not None
+                return reducers.rate(_float(value), frame.source.t)
+
+            return rate
 
         def run(frame: Frame) -> Any:
             value = np.asarray(operand(frame))

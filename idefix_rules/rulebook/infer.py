@@ -316,7 +316,35 @@ def _runs_allowed(expr: Reduce, scope: Scope, problems: Problems) -> bool:
     return True
 
 
+def _rate(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
+    """``rate over time (x)``: x's rate of change, still a time series, x's unit per second."""
+    if expr.domain != "time" or expr.window is not None or expr.parameter is not None:
+        where = (expr.window.span if expr.window is not None else
+                 expr.parameter.span if expr.parameter is not None else expr.span)
+        what = (f"runs over time only, not over {expr.domain}" if expr.domain != "time" else
+                "takes no window" if expr.window is not None else "takes no parameter")
+        problems.append(error("E309", f"'rate' {what}: it keeps the time axis", where,
+                              "reduce the rate with the window you need, e.g. "
+                              "'max over time after 10 s (rate over time (x))'"))
+        return None
+    operand = infer_type(expr.operand, scope, problems)
+    if operand is None:
+        return None
+    if operand.boolean:
+        problems.append(error("E304", "'rate' needs a quantity, not a condition",
+                              expr.operand.span))
+        return None
+    if "time" not in operand.axes:
+        shape = ", ".join(operand.axes) if operand.axes else "a single value per run"
+        problems.append(error("E301", f"'rate over time' needs a quantity with a time axis; "
+                              f"this one has {shape}", expr.span))
+        return None
+    return ExprType(operand.dimension / TIME, operand.axes)
+
+
 def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
+    if expr.reducer == "rate":
+        return _rate(expr, scope, problems)
     if expr.domain == "runs" and not _runs_allowed(expr, scope, problems):
         return None
     operand = infer_type(expr.operand, scope, problems)

@@ -220,6 +220,8 @@ class _Run:
     def reduce(self, expr: Reduce) -> Value:
         if expr.domain == "runs":
             return self.reduce_runs(expr)
+        if expr.reducer == "rate":
+            return self.rate(self.evaluate(expr.operand))
         operand = self.evaluate(expr.operand)
         axis = DOMAIN_AXES[expr.domain]
         size = self.size(axis)
@@ -237,6 +239,27 @@ class _Run:
         return Value(rest, {key: reduce_series(expr.reducer, xs, inside, times, parameter)
                             for key, xs in groups.items()})
 
+
+    def rate(self, operand: Value) -> Value:
+        """Rate of change sample by sample (see :mod:`.semantics`), each series of the
+        operand's other labels on its own."""
+        if "time" not in operand.axes:  # constant in time
+            operand = elementwise(lambda x, _: x, [operand, _ones("time", len(self.t))],
+                                  self.size)
+        position = operand.axes.index("time")
+        data: dict[tuple[int, ...], Scalar] = {}
+        for key, _x in operand.data.items():
+            i = key[position]
+            if len(self.t) < 2:
+                data[key] = np.float64(0.0)
+                continue
+            j, k = (i - 1, i) if i > 0 else (0, 1)
+            earlier = operand.data[(*key[:position], j, *key[position + 1:])]
+            later = operand.data[(*key[:position], k, *key[position + 1:])]
+            dt = self.t[k] - self.t[j]
+            data[key] = (np.float64(later) - np.float64(earlier)) / dt if dt > 0 else \
+                np.float64(0.0)
+        return Value(operand.axes, data)
 
     def reduce_runs(self, expr: Reduce) -> Value:
         """The operand in every run of the batch, reduced label by label across the runs."""

@@ -103,7 +103,7 @@ def _is_ratio(expr: Expr, rulebook: Rulebook) -> bool:
     if isinstance(expr, Select):
         return _is_ratio(expr.operand, rulebook)
     if isinstance(expr, Reduce) and expr.reducer not in ("count", "integral", "time_above",
-                                                         "sum"):
+                                                         "sum", "rate"):
         return _is_ratio(expr.operand, rulebook)
     return False
 
@@ -184,6 +184,8 @@ def _range(expr: Expr, rulebook: Rulebook, run: bool = True) -> Range | None:
                                    or (run and expr.name in RUN_NON_NEGATIVE)):
         return (0.0, 1.0) if expr.name in RATIO_PATH_NAMES else (0.0, math.inf)
     if isinstance(expr, Reduce):
+        if expr.reducer == "rate":  # a non-negative quantity still falls
+            return None
         if expr.reducer in ("count", "time_above"):
             return (0.0, math.inf)
         inner = _range(expr.operand, rulebook, run)

@@ -111,7 +111,7 @@ class Window:
 
 Reducer = Literal[
     "final", "initial", "max", "min", "mean", "rms", "sum", "integral",
-    "percentile", "time_above", "any", "all", "count", "fraction",
+    "percentile", "time_above", "any", "all", "count", "fraction", "rate",
 ]
 Domain = Literal["time", "wheels", "parts", "levels", "runs"]
 

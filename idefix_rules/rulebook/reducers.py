@@ -89,6 +89,25 @@ def reduce(reducer: str, x: np.ndarray, axis: int, size: int, mask: np.ndarray |
     return np.where(empty, 0.0, value)
 
 
+def rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Rate of change along the time axis (axis 1), keeping it: backward differences, the
+    forward one at sample 0, 0 where no time passes (semantics in :mod:`.semantics`).
+
+    >>> rate(np.array([[0.0, 1.0, 3.0]]), np.array([0.0, 0.5, 1.5])).tolist()
+    [[2.0, 2.0, 2.0]]
+    """
+    size = len(t)
+    x = _full(np.asarray(x, dtype=float), 1, size)
+    if size < 2:
+        return np.zeros_like(x)
+    dt = np.diff(np.asarray(t, dtype=float))
+    dx = np.diff(x, axis=1)
+    step = dt.reshape((1, -1) + (1,) * (x.ndim - 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.where(step > 0, dx / np.where(step > 0, step, 1.0), 0.0)
+    return np.concatenate([slope[:, :1], slope], axis=1)
+
+
 # Reducing a short inner axis (4 wheels, 3 parts, 3 levels) with ``ufunc.reduce`` is slow in
 # numpy (one tiny reduction per element of the other axes); combining the slices element-wise
 # is several times faster and gives the same result.

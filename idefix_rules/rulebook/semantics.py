@@ -28,6 +28,13 @@ reducer               value                                                     
                        ``s[⌊r⌋] + (s[⌈r⌉]-s[⌊r⌋])·(r-⌊r⌋)`` (numpy's ``linear``)
 ====================  =========================================================  ============
 
+``rate over time (x)`` is no reduction: it keeps the time axis, its value at sample i the rate
+of change of ``x`` up to that sample, ``(xᵢ - xᵢ₋₁) / (tᵢ - tᵢ₋₁)`` (backward difference, what
+an on-board monitor sampling at the output interval would compute), at sample 0 the forward
+difference ``(x₁ - x₀) / (t₁ - t₀)``; 0 where no time passes between two samples and for a
+single sample. Its unit is x's per second. It takes no window (put the window on the reduction
+around it) and only runs over time.
+
 Over ``wheels``/``parts``/``levels`` the same reducers apply to the axis's labels in contract
 order (``final`` = the last label). An operand without the reduced axis counts as constant along
 it (``sum over wheels (1)`` is 4). Windows: ``during command K`` ⇔ ``command == K - 1``;
@@ -83,7 +90,9 @@ LABEL_AXIS: dict[str, tuple[str, int]] = {
     for axis, labels in AXIS_LABELS.items()
     for position, label in enumerate(labels)
 }
-TIME_ONLY_REDUCERS = frozenset({"integral", "time_above"})
+TIME_ONLY_REDUCERS = frozenset({"integral", "time_above", "rate"})
+# Operators written like reductions that keep their axis (semantics in the module docstring).
+AXIS_KEEPING_REDUCERS = frozenset({"rate"})
 BOOLEAN_REDUCERS = frozenset({"any", "all"})
 
 
@@ -125,6 +134,8 @@ def per_sample_form(expr: Expr) -> Expr:
     """
     if isinstance(expr, Reduce):
         if expr.domain == "runs":  # a path-level value: the same at every sample of every run
+            return expr
+        if expr.reducer in AXIS_KEEPING_REDUCERS:  # a rate is a quantity per sample already
             return expr
         if expr.domain == "time":
             operand = expr.operand
