@@ -107,6 +107,12 @@ COLLISION_SIGNALS = _specs(
 )
 
 REF_PREFIX = "ref."
+# Signals of the rulebook's named areas (``area NAME …`` in its obstacles block), computed with
+# the collision signals from the run's pose: ``area.NAME.inside`` is 1 while a wheel's ground
+# contact point lies in the area, ``area.NAME.buffer`` 1 while one lies within the area's buffer
+# of it (inside included). Only declared areas exist: the checker types them.
+AREA_PREFIX = "area."
+AREA_SIGNAL_PARTS: tuple[str, ...] = ("inside", "buffer")
 
 SIGNALS: dict[str, SignalSpec] = {**FMU_SIGNALS, **DERIVED_SIGNALS, **COLLISION_SIGNALS}
 
@@ -119,4 +125,19 @@ def lookup(name: str) -> SignalSpec | None:
             return None
         return SignalSpec(name, base.unit, base.axes, "derived",
                           f"reference run: {base.description}")
+    area = area_signal(name)
+    if area is not None:
+        what = ("a wheel's contact point is in the area" if area[1] == "inside" else
+                "a wheel's contact point is within the area's buffer")
+        return SignalSpec(name, "1", ("time",), "collision", f"1 while {what} '{area[0]}'")
     return SIGNALS.get(name)
+
+
+def area_signal(name: str) -> tuple[str, str] | None:
+    """``("crater", "inside")`` for ``area.crater.inside``; None for other names."""
+    if not name.startswith(AREA_PREFIX):
+        return None
+    area, _, part = name[len(AREA_PREFIX):].rpartition(".")
+    if not area or part not in AREA_SIGNAL_PARTS or not area.isidentifier():
+        return None
+    return area, part

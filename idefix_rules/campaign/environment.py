@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from idefix_rules.campaign.schema import EnvironmentSection, SyntheticTerrain
 
 TERRAIN_FILE = "terrain.dem"
@@ -68,9 +70,39 @@ def buffer_margins(evaluator: Any) -> dict[str, float]:
     return {spec.level: float(spec.buffer) for spec in getattr(evaluator, "obstacle_levels", ())}
 
 
+def declared_areas(evaluator: Any) -> tuple[Any, ...]:
+    """The rulebook's named areas (:class:`~idefix_rules.rulebook.check.AreaSpec`)."""
+    checked = getattr(evaluator, "checked", evaluator)
+    return tuple(getattr(checked, "areas", ()))
+
+
+def named_areas(environment: EnvironmentSection, evaluator: Any, terrain: Any
+                ) -> dict[str, Any]:
+    """Every area the rulebook declares with the geometry the campaign gives it (keep-out and
+    unknown: its polygons, none when it gives none; steep: the terrain above the inclination)."""
+    from idefix_rules.obstacles.named import AreaGeometry, steep_area
+
+    found: dict[str, Any] = {}
+    for spec in declared_areas(evaluator):
+        if spec.kind == "steep":
+            if terrain is None:  # flat datum: nothing is steep
+                found[spec.name] = AreaGeometry(spec.name, spec.level, spec.buffer, kind="steep")
+            else:
+                found[spec.name] = steep_area(spec.name, spec.level, spec.buffer, spec.above,
+                                              terrain.heights, terrain.origin, terrain.cell)
+            continue
+        given = environment.areas.get(spec.name)
+        polygons = tuple(np.asarray(polygon, dtype=float) for polygon in
+                         (given.polygons if given is not None else []))
+        found[spec.name] = AreaGeometry(spec.name, spec.level, spec.buffer, polygons,
+                                        kind=spec.kind)
+    return found
+
+
 def obstacle_set(environment: EnvironmentSection, evaluator: Any, terrain: Any) -> Any:
-    """The :class:`~idefix_rules.obstacles.ObstacleSet` of the terrain's rocks and keep-out
-    areas (``terrain`` None: the campaign's rocks resting on the datum)."""
+    """The :class:`~idefix_rules.obstacles.ObstacleSet` of the terrain's rocks, keep-out areas
+    and the rulebook's named areas (``terrain`` None: the campaign's rocks resting on the
+    datum)."""
     from idefix_rules.obstacles.areas import polygon_area
     from idefix_rules.obstacles.obstacles import ObstacleSet
 
@@ -85,4 +117,7 @@ def obstacle_set(environment: EnvironmentSection, evaluator: Any, terrain: Any) 
                                        buffer_margins(evaluator), ground)
     areas = [polygon_area([tuple(p) for p in area.polygon], area.level, area.name)
              for area in environment.keep_out]
+    heights = terrain.heights if terrain is not None else None
+    for area in named_areas(environment, evaluator, terrain).values():
+        areas += area.obstacles(heights)
     return obstacles.extended(areas) if areas else obstacles

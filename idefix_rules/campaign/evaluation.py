@@ -145,15 +145,19 @@ def as_plain(obj: Any) -> Any:
 
 # --- collisions -------------------------------------------------------------------------------
 
-def collision_function(environment: Any, evaluator: Any,
-                       terrain: Any = None) -> CollisionFunction | None:
-    """The obstacle checker for a campaign environment, or None if the rulebook needs none."""
+def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
+                       rover: RoverGeometry | None = None) -> CollisionFunction | None:
+    """The obstacle checker for a campaign environment, or None if the rulebook needs none;
+    it gives the collision signals and the signals of the rulebook's named areas."""
     if not getattr(evaluator, "needs_collisions", False):
         return None
-    from idefix_rules.campaign.environment import obstacle_set
+    from idefix_rules.campaign.environment import named_areas, obstacle_set
     from idefix_rules.obstacles import collision_signals
+    from idefix_rules.obstacles.named import all_area_signals
 
     obstacles = obstacle_set(environment, evaluator, terrain)
+    areas = named_areas(environment, evaluator, terrain)
+    geometry = rover or RoverGeometry()
 
     def check(poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
               ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
@@ -164,7 +168,10 @@ def collision_function(environment: Any, evaluator: Any,
             # not contiguous when runs failed, so each row takes its own run number.
             for record in details:
                 record["run"] = int(runs[record["run"]])
-        return dict(result.signals), details
+        signals = dict(result.signals)
+        if areas:
+            signals.update(all_area_signals(areas, poses, geometry))
+        return signals, details
 
     return check
 

@@ -63,6 +63,7 @@ class FmuCheck:
 
 def check_fmu(campaign: Campaign, fmu_path: Path, evaluator: Any) -> FmuCheck:
     """Run every check; raise one :class:`UserInputError` holding every error (warnings too)."""
+    from idefix_rules.campaign.areas import area_problems
     from idefix_rules.campaign.validate import parameter_problems
 
     description = fmu_interface(campaign, fmu_path)
@@ -72,6 +73,7 @@ def check_fmu(campaign: Campaign, fmu_path: Path, evaluator: Any) -> FmuCheck:
     check = FmuCheck(description, signal_map, _terrain_variable(campaign, description) is not None)
     problems += need_problems(campaign, evaluator, check)
     problems += chain_problems(campaign, description)
+    problems += area_problems(campaign, evaluator)
     problems += terrain_warnings(campaign, check) + run_warnings(campaign, evaluator, check)
     check.warnings = [p for p in problems if p.severity is Severity.WARNING]
     errors = [p for p in problems if p.severity is Severity.ERROR]

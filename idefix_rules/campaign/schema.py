@@ -209,11 +209,18 @@ class KeepOutArea(Strict):
     level: Literal["L1", "L2", "L3"] = "L3"
 
 
+class NamedAreaGeometry(Strict):
+    """Where a keep-out or unknown-surface area the rulebook declares lies: polygons (x, y)."""
+
+    polygons: list[list[tuple[Length, Length]]] = []
+
+
 class EnvironmentSection(Strict):
     terrain: TerrainSection = TerrainSection()
     rocks: list[RockSpec] = []
     rock_levels: RockLevels | None = None
     keep_out: list[KeepOutArea] = []
+    areas: dict[str, NamedAreaGeometry] = {}
     regolith: dict[str, AnyQuantity] = {}
 
 

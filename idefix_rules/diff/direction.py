@@ -538,7 +538,25 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
         return setting_direction(old, new, name)
     if section == "obstacle level":
         return level_direction(old, new, name)
+    if section == "area":
+        return area_direction(old, new, name)
     return "neutral"  # header, combine (confidence), ranking
+
+
+def area_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Direction:
+    """A wider buffer flags more samples in ``area.NAME.buffer``; a lower steep threshold
+    makes the area larger (both signals); another kind or level: unknown."""
+    before = {s.name: s for s in old.areas}.get(name)
+    after = {s.name: s for s in new.areas}.get(name)
+    if before is None or after is None or before.kind != after.kind or \
+            before.level != after.level:
+        return "unknown"
+    inside, near = f"signal:area.{name}.inside", f"signal:area.{name}.buffer"
+    labels = [_label(new, {near: 1}, _sign(before.buffer, after.buffer))]
+    if before.above is not None and after.above is not None:
+        grows = _sign(after.above, before.above)  # lower threshold: more steep ground
+        labels.append(_label(new, {inside: 1, near: 1}, grows))
+    return merge(labels)
 
 
 def _affected_condition(old: CheckedRulebook, new: CheckedRulebook, section: str,

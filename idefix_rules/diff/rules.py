@@ -34,13 +34,13 @@ from idefix_rules.rulebook.model import (
 )
 from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.rulebook.types import SETTINGS
-from idefix_rules.units import DIMENSIONLESS, LENGTH, Dimension
+from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, Dimension
 
 ChangeKind = Literal["added", "removed", "changed", "affected"]
 
 # Section names in the formatter's canonical order (combine comes before prescreens there).
-SECTIONS = ("header", "constant", "setting", "obstacle level", "command", "index", "chance",
-            "combine", "prescreen", "verdict", "ranking")
+SECTIONS = ("header", "constant", "setting", "obstacle level", "area", "command", "index",
+            "chance", "combine", "prescreen", "verdict", "ranking")
 
 # One field of a declaration: (text as written, SI text or None).
 Fields = dict[str, tuple[str, str | None]]
@@ -201,6 +201,19 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
             found[level.level] = _Declaration(level.level, {
                 "below": _item(level.below, below_si), "buffer": _item(level.buffer, buffer_si)},
                 None, tuple(e for e in (level.below, level.buffer) if e is not None))
+    elif section == "area":
+        area_specs = {spec.name: spec for spec in checked.areas}
+        for area in model.areas:
+            area_spec = area_specs.get(area.name)
+            found[area.name] = _Declaration(area.name, {
+                "kind": (area.kind, None),
+                "above": _item(area.above, si_text(area_spec.above, ANGLE)
+                               if area_spec and area_spec.above is not None else None),
+                "level": (area.level, None),
+                "buffer": _item(area.buffer, si_text(area_spec.buffer, LENGTH)
+                                if area_spec else None)},
+                area.rationale,
+                tuple(e for e in (area.above, area.buffer) if e is not None))
     elif section in ("command", "chance", "prescreen", "verdict"):
         sections: dict[str, Sequence[CommandRule | Chance | Prescreen | VerdictRule]] = {
             "command": model.command_rules, "chance": model.chances,

@@ -97,6 +97,12 @@ def _expression_items(kind: str, text: str, word_range: Range) -> list[Completio
              for name in _declared(text, "const")]
     if kind in ("index", "chance", "map"):
         items += _signal_items(word_range)
+        for area in _declared(text, "area"):
+            for part in signals.AREA_SIGNAL_PARTS:
+                spec = signals.lookup(f"{signals.AREA_PREFIX}{area}.{part}")
+                assert spec is not None
+                items.append(Completion(spec.name, "signal", f"1 [time] — {spec.description}",
+                                        word_range))
     elif kind == "command":
         items += [Completion(name, "variable", f"command quantity, {describe(t.dimension)}",
                              word_range) for name, t in COMMAND_NAMES.items()]

@@ -31,6 +31,7 @@ from idefix_rules.rulebook.model import (
     Unary,
 )
 from idefix_rules.rulebook.types import (
+    AREA_SIGNAL_TYPE,
     COMMAND_NAMES,
     PATH_NAMES,
     RATIO,
@@ -38,7 +39,7 @@ from idefix_rules.rulebook.types import (
     ExprType,
     Scope,
 )
-from idefix_rules.units import DIMENSIONLESS, LENGTH, describe
+from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, describe
 
 _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
                      r"(?:\+[0-9A-Za-z.-]+)?$")
@@ -55,6 +56,22 @@ class ObstacleLevelSpec:
 
 
 @dataclass(frozen=True)
+class AreaSpec:
+    """A named area: its kind, obstacle level, buffer (m) and, when steep, the inclination
+    (rad) it starts at. Runs read ``area.NAME.inside`` and ``area.NAME.buffer``."""
+
+    name: str
+    kind: str
+    level: str
+    buffer: float
+    above: float | None = None
+
+    def signal_names(self) -> tuple[str, str]:
+        return (f"{signals.AREA_PREFIX}{self.name}.inside",
+                f"{signals.AREA_PREFIX}{self.name}.buffer")
+
+
+@dataclass(frozen=True)
 class CheckedRulebook:
     """A rulebook that passed the checks, with every constant resolved to SI."""
 
@@ -68,6 +85,7 @@ class CheckedRulebook:
     index_types: dict[str, ExprType]
     confidence: float
     nominals: dict[str, float] = field(default_factory=dict)  # indices that give a nominal
+    areas: tuple[AreaSpec, ...] = ()
 
     def scope(self, kind: str) -> Scope:
         """The scope the checker used for one context (``command``, ``run``, …)."""
@@ -112,6 +130,7 @@ class _Env:
     index_types: dict[str, ExprType] = field(default_factory=dict)
     settings: dict[str, float] = field(default_factory=dict)
     levels: list[ObstacleLevelSpec] = field(default_factory=list)
+    areas: list[AreaSpec] = field(default_factory=list)
     confidence: float = 0.95
 
     def scope(self, kind: str) -> Scope:
@@ -133,6 +152,9 @@ def _scope(kind: str, rulebook: Rulebook, constant_types: dict[str, ExprType]) -
         extra["risk"] = RATIO
     elif kind == "path":
         extra = dict(PATH_NAMES)
+    elif kind == "run":
+        extra = {f"{signals.AREA_PREFIX}{area.name}.{part}": AREA_SIGNAL_TYPE
+                 for area in rulebook.areas for part in signals.AREA_SIGNAL_PARTS}
     return Scope(kind, dict(constant_types), extra, chances, indices)  # type: ignore[arg-type]
 
 
@@ -317,6 +339,37 @@ def _constant_quantity(env: _Env, expr: Expr, wanted: object, what: str,
                                       "division by zero?)", expr.span))
         return None
     return float(value)
+
+
+def check_areas(env: _Env) -> list[Diagnostic]:
+    """Named areas: declared once, a known level, a buffer, a steep area's inclination."""
+    problems: list[Diagnostic] = []
+    seen: set[str] = set()
+    for area in env.rulebook.areas:
+        if area.name in seen:
+            problems.append(error("E409", f"area '{area.name}' is declared twice", area.span))
+            continue
+        seen.add(area.name)
+        if area.level not in LEVELS:
+            problems.append(error("E409", f"area '{area.name}': unknown obstacle level "
+                                  f"'{area.level}'", area.span, f"levels are {', '.join(LEVELS)}"))
+            continue
+        buffer = _constant_quantity(env, area.buffer, LENGTH, f"the buffer of area '{area.name}'",
+                                    problems)
+        if buffer is not None and buffer < 0:
+            problems.append(error("E409", "a buffer zone cannot be negative", area.buffer.span))
+            continue
+        above = None
+        if area.above is not None:
+            above = _constant_quantity(env, area.above, ANGLE,
+                                       f"the inclination of area '{area.name}'", problems)
+            if above is not None and not 0.0 < above < math.pi / 2:
+                problems.append(error("E409", f"area '{area.name}': a steep area starts above "
+                                      "0 deg and below 90 deg", area.above.span))
+                continue
+        if buffer is not None:
+            env.areas.append(AreaSpec(area.name, area.kind, area.level, buffer, above))
+    return problems
 
 
 def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
@@ -556,6 +609,10 @@ def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
         if level.below is not None:
             yield level.below
         yield level.buffer
+    for area in rulebook.areas:
+        yield area.buffer
+        if area.above is not None:
+            yield area.above
     for r in rulebook.command_rules:
         yield r.condition
     for i in rulebook.indices:
@@ -581,6 +638,7 @@ CHECKS: tuple[Check, ...] = (
     check_names,
     check_settings,
     check_obstacle_levels,
+    check_areas,
     check_command_rules,
     check_indices,
     check_chances,
@@ -616,6 +674,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
             constant_types=env.constant_types,
             settings=env.settings,
             obstacle_levels=tuple(env.levels),
+            areas=tuple(env.areas),
             limits=env.limits,
             nominals=env.nominals,
             weights=env.weights,

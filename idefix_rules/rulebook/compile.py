@@ -55,7 +55,7 @@ from idefix_rules.rulebook.results import (
     Verdict,
 )
 from idefix_rules.rulebook.semantics import names_in, per_sample_form
-from idefix_rules.signals import AXIS_LABELS, lookup
+from idefix_rules.signals import AREA_PREFIX, AXIS_LABELS, lookup
 
 
 def checked_model(rulebook: Rulebook | CheckedRulebook) -> CheckedRulebook:
@@ -183,7 +183,11 @@ class CompiledRulebook:
         self.optional_signals: frozenset[str] = frozenset(
             set().union(*(optional_inputs_of(name) for name in read)) - self.required_signals
             if read else ())
-        self.needs_collisions = any(name.startswith("collision.") for name in provided)
+        # the signals of the rulebook's named areas (given with the collision signals)
+        self.area_signals: tuple[str, ...] = tuple(
+            name for area in self.checked.areas for name in area.signal_names())
+        self.needs_collisions = any(name.startswith(("collision.", AREA_PREFIX))
+                                    for name in provided)
         across_read = set(self._signals_read(*(n.operand for n in self.runs_reductions)))
         # What the first pass over a path's runs reads (never collision signals: E802).
         self.across_signals: frozenset[str] = frozenset(

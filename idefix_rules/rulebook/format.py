@@ -252,15 +252,25 @@ def _settings(settings: Sequence[model.Setting]) -> list[str]:
                   [f"{s.name.ljust(width)} = {format_expr(s.value)}" for s in settings])
 
 
-def _obstacles(levels: Sequence[model.ObstacleLevel]) -> list[str]:
-    width = max(len(level.level) for level in levels)
-    belows = [f"below {format_expr(level.below)} " if level.below is not None else ""
-              for level in levels]
-    below_width = max(len(below) for below in belows)
-    texts = [f"level {level.level.ljust(width)} {below.ljust(below_width)}"
-             f"buffer {format_expr(level.buffer)}" for level, below in zip(levels, belows,
-                                                                         strict=True)]
-    return _block("obstacles", levels, texts)
+def _obstacles(levels: Sequence[model.ObstacleLevel],
+               areas: Sequence[model.Area] = ()) -> list[str]:
+    texts = []
+    if levels:
+        width = max(len(level.level) for level in levels)
+        belows = [f"below {format_expr(level.below)} " if level.below is not None else ""
+                  for level in levels]
+        below_width = max(len(below) for below in belows)
+        texts = [f"level {level.level.ljust(width)} {below.ljust(below_width)}"
+                 f"buffer {format_expr(level.buffer)}" for level, below in zip(levels, belows,
+                                                                             strict=True)]
+    for area in areas:
+        kind = (f"steep above {format_expr(area.above)}"
+                if area.kind == "steep" and area.above is not None else area.kind)
+        text = f"area {area.name} {kind} level {area.level} buffer {format_expr(area.buffer)}"
+        if area.rationale is not None:
+            text += f" because {format_string(area.rationale)}"
+        texts.append(text)
+    return _block("obstacles", [*levels, *areas], texts)
 
 
 def _rules(keyword: str, rules: Sequence[model.CommandRule | model.Prescreen
@@ -334,8 +344,8 @@ def format_rulebook(rulebook: model.Rulebook) -> str:
         sections.append(_constants(rulebook.constants))
     if rulebook.settings:
         sections.append(_settings(rulebook.settings))
-    if rulebook.obstacle_levels:
-        sections.append(_obstacles(rulebook.obstacle_levels))
+    if rulebook.obstacle_levels or rulebook.areas:
+        sections.append(_obstacles(rulebook.obstacle_levels, rulebook.areas))
     if rulebook.command_rules:
         sections.append(_rules("command", rulebook.command_rules))
     sections += [_index(index) for index in rulebook.indices]

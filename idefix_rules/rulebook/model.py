@@ -186,6 +186,26 @@ class ObstacleLevel:
     comments: tuple[str, ...] = _comments()
 
 
+AreaKind = Literal["keep_out", "unknown", "steep"]
+AREA_KINDS: tuple[str, ...] = ("keep_out", "unknown", "steep")
+
+
+@dataclass(frozen=True)
+class Area:
+    """``area crater_rim keep_out level L3 buffer 10 cm``, ``area scarp steep above 20 deg
+    level L3 buffer 5 cm``: a named area to avoid, an obstacle of its level; the campaign gives
+    its geometry. Runs read ``area.NAME.inside`` and ``area.NAME.buffer``."""
+
+    name: str
+    kind: AreaKind
+    level: str
+    buffer: Expr
+    above: Expr | None = None  # the inclination a steep area starts at
+    rationale: str | None = None
+    span: Span = _span()
+    comments: tuple[str, ...] = _comments()
+
+
 @dataclass(frozen=True)
 class ConditionRule:
     """A named condition with its rationale; the kinds below differ in where it is checked
@@ -278,6 +298,7 @@ class Rulebook:
     constants: tuple[Constant, ...] = ()
     settings: tuple[Setting, ...] = ()
     obstacle_levels: tuple[ObstacleLevel, ...] = ()
+    areas: tuple[Area, ...] = ()
     command_rules: tuple[CommandRule, ...] = ()
     indices: tuple[Index, ...] = ()
     chances: tuple[Chance, ...] = ()

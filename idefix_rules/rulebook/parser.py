@@ -341,6 +341,20 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
         name, below, buffer = children
         return model.ObstacleLevel(str(name), below, buffer, span=self._s(meta))
 
+    def keep_out(self, meta: Any, children: list[Any]) -> tuple[str, None]:
+        return ("keep_out", None)
+
+    def unknown_surface(self, meta: Any, children: list[Any]) -> tuple[str, None]:
+        return ("unknown", None)
+
+    def steep(self, meta: Any, children: list[Any]) -> tuple[str, Any]:
+        return ("steep", children[0])
+
+    def area(self, meta: Any, children: list[Any]) -> model.Area:
+        name, (kind, above), level, buffer, because = children
+        return model.Area(str(name), kind, str(level), buffer, above, self._because(because),
+                          span=self._s(meta))
+
     def obstacles(self, meta: Any, children: list[Any]) -> _Section:
         return _Section("obstacles", children, self._s(meta))
 
@@ -463,7 +477,7 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
         model.Constant, model.CommandRule, model.Index, model.Chance, model.Prescreen,
         model.VerdictRule)}
     settings: list[model.Setting] = []
-    levels: list[model.ObstacleLevel] = []
+    levels: list[model.ObstacleLevel | model.Area] = []
     blocks: list[_Section] = []
     for declaration in declarations:
         key: Any = declaration.kind if isinstance(declaration, _Section) else type(declaration)
@@ -488,7 +502,9 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
             'start the file with: rulebook "NAME" version "1.0.0" purpose "…"'))
         header = model.Header("", "", "")
     attached = attach_comments(
-        [header, *lists[model.Constant], *settings, *levels, *lists[model.CommandRule],
+        [header, *lists[model.Constant], *settings,
+         *(n for n in levels if isinstance(n, model.ObstacleLevel)),
+         *(n for n in levels if isinstance(n, model.Area)), *lists[model.CommandRule],
          *lists[model.Index], *lists[model.Chance], singles.get(model.Combine),
          *lists[model.Prescreen], *lists[model.VerdictRule], singles.get(model.Ranking)],
         [(block.entries[0], block.span) for block in blocks if block.entries], comments, text)
@@ -496,7 +512,10 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
         header=attached.get(id(header), header),
         constants=tuple(attached.get(id(node), node) for node in lists[model.Constant]),
         settings=tuple(attached.get(id(node), node) for node in settings),
-        obstacle_levels=tuple(attached.get(id(node), node) for node in levels),
+        obstacle_levels=tuple(attached.get(id(node), node) for node in levels
+                              if isinstance(node, model.ObstacleLevel)),
+        areas=tuple(attached.get(id(node), node) for node in levels
+                    if isinstance(node, model.Area)),
         command_rules=tuple(attached.get(id(node), node) for node in lists[model.CommandRule]),
         indices=tuple(attached.get(id(node), node) for node in lists[model.Index]),
         chances=tuple(attached.get(id(node), node) for node in lists[model.Chance]),

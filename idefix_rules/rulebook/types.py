@@ -103,10 +103,15 @@ SETTINGS: dict[str, tuple[Dimension, float]] = {
 }
 
 
+# ``area.NAME.inside`` / ``area.NAME.buffer`` of a declared area: 0/1 per sample.
+AREA_SIGNAL_TYPE = ExprType(DIMENSIONLESS, ("time",))
+
+
 def signal_type(name: str) -> ExprType | None:
-    """Type of a contract signal (``ref.*`` included), or ``None`` when unknown."""
+    """Type of a contract signal (``ref.*`` included), or ``None`` when unknown (an area's
+    signals are typed by the rulebook that declares the area, see ``check._scope``)."""
     spec = signals.lookup(name)
-    if spec is None:
+    if spec is None or signals.area_signal(name) is not None:
         return None
     return ExprType(spec.dimension, spec.axes)
 

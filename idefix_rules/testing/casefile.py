@@ -440,7 +440,7 @@ def _signal_key(reader: _Reader, key: str, loc: Loc) -> tuple[str, str | None] |
         label = rest[:-1].strip()
         name = name.strip()
     spec = signals.lookup(name)
-    if spec is None or name not in SHAPEABLE:
+    if spec is None or (name not in SHAPEABLE and signals.area_signal(name) is None):
         why = ("is computed from the others" if spec is not None and spec.kind == "derived"
                else "follows the chain" if name == "command"
                else "is given by 'collisions'" if name.startswith("collision.")

@@ -147,7 +147,7 @@ def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
             ratio = np.where(np.isnan(raw), np.inf, raw / limit)
             items[("index", index.name)].note(name, (ratio >= 1).tolist(),
                                               [float(r) for r in ratio])
-        batch, context = build_runs(case_outcome.case)
+        batch, context = build_runs(case_outcome.case, areas=compiled.area_signals)
         source = compiled.derived_signals(batch, context)
         # a chance may read path-level values (reductions over runs): computed first, over the
         # case's runs, as the evaluation does

@@ -107,7 +107,7 @@ def first_run(evaluation: RunEvaluation) -> RunEvaluation:
 
 def run_case(compiled: CompiledRulebook, case: Case) -> CaseOutcome:
     """Evaluate one case and compare every expectation."""
-    batch, context = build_runs(case)
+    batch, context = build_runs(case, areas=compiled.area_signals)
     evaluation = compiled.evaluate(batch, context)
     first = first_run(evaluation)
     violations = tuple(compiled.check_chain(case.chain, context.rover))
@@ -264,7 +264,7 @@ def _chance_where(compiled: CompiledRulebook, outcome: CaseOutcome, name: str) -
     reduction = _time_reduction(chance.condition)
     if reduction is None:
         return "run 1"
-    batch, context = build_runs(outcome.case)
+    batch, context = build_runs(outcome.case, areas=compiled.area_signals)
     frame = Frame(source=compiled.derived_signals(batch, context))
     compiler = ExpressionCompiler(compiled.constants, signal_closure)
     try:

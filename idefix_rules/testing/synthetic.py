@@ -17,6 +17,7 @@ run is the nominal run with the case's ``reference`` keyframes.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def _nominal(case: Case, t: np.ndarray, command: np.ndarray, rover: RoverGeometr
 
 def _curve(frames: Keyframes, t: np.ndarray) -> np.ndarray:
     times, values = np.array(frames.times), np.array(frames.values)
-    if frames.signal in STEP_SIGNALS:
+    if frames.signal in STEP_SIGNALS or signals.area_signal(frames.signal) is not None:
         position = np.searchsorted(times, t, side="right") - 1
         return np.asarray(values[np.maximum(position, 0)], dtype=float)
     return np.asarray(np.interp(t, times, values), dtype=float)
@@ -134,13 +135,17 @@ def _last_keyframe(case: Case) -> float:
     return max(times, default=0.0)
 
 
-def build_runs(case: Case, rover: RoverGeometry | None = None
+def build_runs(case: Case, rover: RoverGeometry | None = None, areas: Iterable[str] = ()
                ) -> tuple[dict[str, np.ndarray], RunContext]:
     """Every run of ``case`` (groups in order, each repeated ``count`` times) vectorised over
-    runs, and the run context with the reference run."""
+    runs, and the run context with the reference run. ``areas``: the signals of the rulebook's
+    named areas, 0 (no wheel near the area) wherever the case does not shape them."""
     rover = rover or RoverGeometry()
     t, command = timeline(case.chain, case.step, case.duration, rover, _last_keyframe(case))
-    per_group = [_group(case, group, t, command, rover) for group in case.groups]
+    shaped = {f.signal for g in case.groups for f in g.keyframes
+              if signals.area_signal(f.signal) is not None}
+    zero = sorted(shaped | set(areas))
+    per_group = [_group(case, group, t, command, rover, zero) for group in case.groups]
     names = per_group[0].keys()
     batch = {name: np.concatenate([np.repeat(run[name][np.newaxis], group.count, axis=0)
                                    for run, group in zip(per_group, case.groups, strict=True)])
@@ -153,8 +158,10 @@ def build_runs(case: Case, rover: RoverGeometry | None = None
 
 
 def _group(case: Case, group: RunGroup, t: np.ndarray, command: np.ndarray,
-           rover: RoverGeometry) -> dict[str, np.ndarray]:
+           rover: RoverGeometry, zero: Sequence[str] = ()) -> dict[str, np.ndarray]:
     run = _nominal(case, t, command, rover)
+    for name in zero:
+        run[name] = np.zeros(len(t))
     if group.unfinished:
         # still executing its last command at the end of the grid: 'command' never reads -1
         started = np.maximum.accumulate(command >= 0)

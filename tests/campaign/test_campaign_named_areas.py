@@ -1,0 +1,149 @@
+"""Named areas end to end: the rulebook declares them, the campaign gives their polygons (or the
+terrain its steep parts), every run's wheels are checked against them (built-in rover)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from idefix_rules.cli import main
+
+pytestmark = pytest.mark.slow
+
+# A 30 cm straight drive from x = 0: the front wheels (20 cm ahead of the centre) reach
+# x = 0.50 m. The keep-out square starts at x = 0.45 m (inside: entered) and the unknown
+# surface at x = 0.55 m (5 cm beyond the wheels: in its 8 cm buffer, never inside).
+CAMPAIGN = """\
+name: areas
+rulebook: areas.rules
+output: out
+runs: 3
+workers: 1
+environment:
+  terrain:
+    synthetic: {size: "3 m", cell: "2 cm", slope: "0 deg", roughness: "0 mm", seed: 1}
+  areas:
+    crater:
+      polygons: [[["0.45 m", "-0.6 m"], ["1 m", "-0.6 m"], ["1 m", "0.6 m"], ["0.45 m", "0.6 m"]]]
+    dark:
+      polygons: [[["0.55 m", "0.5 m"], ["1 m", "0.5 m"], ["1 m", "1 m"]]]
+uncertainty:
+  method: monte_carlo
+  seed: 3
+  parameters:
+    initial.y: {distribution: normal, mean: "0 m", std: "2 mm"}
+paths:
+  straight:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0.3 m", delta_heading: "0 deg"}
+simulation:
+  output_interval: "0.5 s"
+  duration_margin: 1.5
+  extra_time: "5 s"
+"""
+
+RULEBOOK = """\
+rulebook "areas" version "1.0.0"
+purpose "Named areas"
+
+obstacles {
+  level L1 below 3 cm  buffer 1 cm
+  level L2 below 10 cm buffer 2 cm
+  level L3             buffer 3 cm
+  area crater keep_out level L3 buffer 10 cm because "Crater rim"
+  area dark unknown level L2 buffer 30 cm because "Not seen by the navigation cameras"
+  area scarp steep above 20 deg level L3 buffer 5 cm because "Too steep to climb"
+}
+
+index I_area "time in the crater" {
+  value  = integral over time (area.crater.inside)
+  limit  = 1000 s
+  weight = 1
+}
+
+chance entered_crater = any over time (area.crater.inside > 0)
+chance near_dark = any over time (area.dark.buffer > 0)
+chance entered_dark = any over time (area.dark.inside > 0)
+chance on_scarp = any over time (area.scarp.buffer > 0)
+chance hit_L3 = any over parts (collision.hits[L3] > 0)
+
+verdict crater_kept: require chance(entered_crater) <= 0 %
+"""
+
+
+@pytest.fixture
+def areas_dir(tmp_path: Path) -> Path:
+    (tmp_path / "campaign.yaml").write_text(CAMPAIGN)
+    (tmp_path / "areas.rules").write_text(RULEBOOK)
+    return tmp_path
+
+
+def run(folder: Path, monkeypatch: pytest.MonkeyPatch, *options: str) -> int:
+    monkeypatch.setenv("COLUMNS", "200")
+    return main([str(folder / "campaign.yaml"), "--out", str(folder / "out"), "--quiet",
+                 "--no-report", *options])
+
+
+def test_areas_are_entered_approached_and_counted(areas_dir: Path, capsys,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    assert run(areas_dir, monkeypatch) == 1  # crater_kept fails
+    out = capsys.readouterr().out
+    assert "crater_kept" in out
+    with h5py.File(areas_dir / "out" / "results.h5", "r") as results:
+        chances = results["paths/straight/evaluation/chances"]
+        assert np.all(chances["entered_crater"][()] == 1)
+        assert np.all(chances["near_dark"][()] == 1)
+        assert np.all(chances["entered_dark"][()] == 0)
+        assert np.all(chances["on_scarp"][()] == 0)  # flat terrain: nothing steep
+        assert np.all(chances["hit_L3"][()] == 1)  # the crater is an L3 obstacle
+        raw = results["paths/straight/evaluation/raw/I_area"][()]
+        # time in the crater: from the first sample with the front wheels (20 cm ahead of the
+        # centre, yaw ~0) past x = 0.45 m to the last sample, within one output interval
+        signals = results["paths/straight/runs/signals"]
+        for number, value in enumerate(raw):
+            t, x = signals["t"][number], signals["x"][number]
+            kept = np.isfinite(x)
+            t, x = t[kept], x[kept]
+            entry = t[np.argmax(x + 0.2 * np.cos(signals["yaw"][number][kept]) > 0.45)]
+            assert value == pytest.approx(t[-1] - entry, abs=0.5)
+    summary = json.loads((areas_dir / "out" / "summary.json").read_text())
+    paths = {record["name"]: record for record in summary["paths"]}
+    assert paths["straight"]["verdict"] == "fail"
+
+
+def test_an_area_the_rulebook_does_not_declare_is_an_error_at_its_line(
+        areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    text = CAMPAIGN.replace("    crater:\n", "    craters:\n")
+    (areas_dir / "campaign.yaml").write_text(text)
+    assert run(areas_dir, monkeypatch) == 2
+    err = capsys.readouterr().err
+    line = text.splitlines().index("    craters:") + 1
+    assert f"campaign.yaml:{line}:5: error[C209]" in err
+    assert "did you mean 'crater'?" in err
+    assert "Traceback" not in err
+    assert not (areas_dir / "out" / "results.h5").exists()
+
+
+def test_polygons_for_a_steep_area_are_refused(areas_dir: Path, capsys,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    text = CAMPAIGN.replace("    dark:\n", "    scarp:\n      polygons: [[[\"0 m\", \"0 m\"], "
+                            "[\"1 m\", \"0 m\"], [\"1 m\", \"1 m\"]]]\n    dark:\n")
+    (areas_dir / "campaign.yaml").write_text(text)
+    assert run(areas_dir, monkeypatch) == 2
+    err = capsys.readouterr().err
+    assert "error[C209]" in err and "steep area" in err
+
+
+def test_a_declared_area_without_polygons_is_a_warning(areas_dir: Path, capsys,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    text = CAMPAIGN.replace(
+        '    dark:\n      polygons: [[["0.55 m", "0.5 m"], ["1 m", "0.5 m"], ["1 m", "1 m"]]]\n',
+        "")
+    (areas_dir / "campaign.yaml").write_text(text)
+    assert run(areas_dir, monkeypatch) == 1
+    captured = capsys.readouterr()
+    assert "C210" in captured.out + captured.err
+    assert "'dark'" in captured.out + captured.err
