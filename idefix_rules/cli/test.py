@@ -1,9 +1,11 @@
 """``idefix-verify test [PATH…]``: run the example cases of rulebooks (case files).
 
 Each case file names its rulebook; every case is evaluated with the compiled rulebook on its
-synthetic runs (no simulation) and its expectations compared. Exit 0 when every case passes,
-1 when a case fails (or rule coverage is below ``--min-coverage``), 2 when a case file or its
-rulebook is broken (each mistake located), as ``docs/testing-rulebooks.md`` describes.
+synthetic runs (no simulation) and its expectations compared. Coverage and mutation testing
+count the cases of all the case files of a rulebook together. Exit 0 when every case passes,
+1 when a case fails (or rule coverage is below ``--min-coverage``, or a mutant survives
+``--mutate`` below ``--min-mutation-score``), 2 when a case file or its rulebook is broken or an
+option is out of range (each mistake located), as ``docs/testing-rulebooks.md`` describes.
 """
 
 from __future__ import annotations
@@ -18,11 +20,14 @@ from rich.console import Console
 from rich.table import Table
 
 from idefix_rules.errors import UserInputError, render_diagnostics
+from idefix_rules.testing.mutations import NUDGE
 
 NAME = "test"
 HELP = ("Run the example cases of rulebooks (case files, default rulebooks/tests/): "
-        "'N passed, N failed'; exit 0 when all pass, 1 when one fails or rule coverage is "
-        "below --min-coverage, 2 for a broken case file.")
+        "'N passed, N failed'; --coverage and --mutate count all case files of a rulebook "
+        "together; exit 0 when all pass, 1 when one fails, rule coverage is below "
+        "--min-coverage or a mutant survives (below --min-mutation-score), 2 for a broken "
+        "case file or an option out of range.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,6 +42,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--min-coverage", type=float, metavar="PERCENT", default=None,
                         help="exit 1 when fewer than PERCENT %% of the rules were brought "
                              "across their limit by the cases (implies --coverage)")
+    parser.add_argument("--mutate", action="store_true",
+                        help="run every mutant of each rulebook (reducer swaps, thresholds, "
+                             "limits and factors nudged both ways, weights, dropped terms, "
+                             "flipped operators) against all its cases; print the mutation "
+                             "score and the surviving mutants with their line:col")
+    parser.add_argument("--min-mutation-score", type=float, metavar="PERCENT", default=None,
+                        help="with --mutate: exit 0 when at least PERCENT %% of the mutants "
+                             "are killed, even if some survive (default: any survivor "
+                             "exits 1; implies --mutate)")
+    parser.add_argument("--nudge", type=float, metavar="PERCENT", default=NUDGE * 100,
+                        help="how far a mutant moves a threshold, limit, nominal or factor, "
+                             "both ways (default %(default)g %%)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or the outcomes as JSON")
 
@@ -44,11 +61,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.errors import error
     from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
-    from idefix_rules.testing.coverage import coverage_of, coverage_percent
+    from idefix_rules.testing.coverage import by_rulebook, coverage_of_files, coverage_percent
+    from idefix_rules.testing.mutation_score import MutationReport, score_mutants
     from idefix_rules.testing.runner import FileOutcome
 
     if args.min_coverage is not None and not 0 <= args.min_coverage <= 100:
         raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
+    if args.min_mutation_score is not None and not 0 <= args.min_mutation_score <= 100:
+        raise UserInputError(error("T015", "--min-mutation-score is a percentage from 0 to "
+                                           "100"))
+    if not 0 < args.nudge < 100:
+        raise UserInputError(error("T015", "--nudge is a percentage above 0 and below 100"))
     started = time.perf_counter()
     files = discover_case_files(args.paths)
     console = Console(highlight=False, soft_wrap=True)
@@ -61,15 +84,22 @@ def run(args: argparse.Namespace) -> int:
             broken.append(failure)
             continue
         outcomes.append(run_case_file(case_file))
-    elapsed = time.perf_counter() - started
     passed = sum(o.passed for f in outcomes for o in f.outcomes)
     failed = sum(not o.passed for f in outcomes for o in f.outcomes)
+    groups = by_rulebook(outcomes)
     want_coverage = args.coverage or args.min_coverage is not None
-    coverages = [coverage_of(f) for f in outcomes] if want_coverage else []
+    coverages = [coverage_of_files(g) for g in groups] if want_coverage else []
     percent = coverage_percent([item for c in coverages for item in c]) if coverages else None
     low_coverage = (args.min_coverage is not None and percent is not None
                     and percent < args.min_coverage)
-    code = 2 if broken else 1 if failed or low_coverage else 0
+    want_mutation = args.mutate or args.min_mutation_score is not None
+    # mutants are scored only against passing cases: a failing case kills every mutant
+    reports: list[MutationReport] = [
+        score_mutants([f.case_file for f in g], args.nudge / 100) for g in groups
+    ] if want_mutation and not failed and not broken else []
+    low_score = any(_low_score(r, args.min_mutation_score) for r in reports)
+    code = 2 if broken else 1 if failed or low_coverage or low_score else 0
+    elapsed = time.perf_counter() - started
     if args.format == "json":
         data: dict[str, Any] = {
             "files": [{"path": f.case_file.path, "rulebook": f.case_file.rulebook_path,
@@ -77,8 +107,15 @@ def run(args: argparse.Namespace) -> int:
             "broken": [d.to_dict() for b in broken for d in b.diagnostics],
             "passed": passed, "failed": failed, "exit_code": code}
         if want_coverage:
-            data["coverage"] = [item.to_dict() for c in coverages for item in c]
+            data["coverage"] = [{**item.to_dict(), "rulebook": g[0].case_file.rulebook_path}
+                                for g, c in zip(groups, coverages, strict=True) for item in c]
             data["coverage_percent"] = percent
+            data["coverage_rulebooks"] = [
+                {"rulebook": g[0].case_file.rulebook_path,
+                 "files": [f.case_file.path for f in g], "percent": coverage_percent(c)}
+                for g, c in zip(groups, coverages, strict=True)]
+        if want_mutation:
+            data["mutation"] = [r.to_dict() for r in reports]
         print(json.dumps(data, indent=2, ensure_ascii=False))
         return code
     for problem in broken:
@@ -96,13 +133,19 @@ def run(args: argparse.Namespace) -> int:
             for mismatch in outcome.mismatches:
                 console.print("  " + mismatch.render().replace("\n", "\n  "), markup=False)
     if want_coverage:
-        for file, items in zip(outcomes, coverages, strict=True):
-            _print_coverage(console, file, items)
+        for group, items in zip(groups, coverages, strict=True):
+            _print_coverage(console, group, items)
         if percent is not None:
             console.print(f"rule coverage: {percent:.0f} % of rules brought across their limit"
                           + (f" (minimum {args.min_coverage:g} %)"
                              if args.min_coverage is not None else ""),
                           style="red" if low_coverage else None, markup=False)
+    if want_mutation:
+        if failed or broken:
+            console.print("mutation testing skipped: the cases must pass first", style="red",
+                          markup=False)
+        for report in reports:
+            _print_mutation(console, report, args.min_mutation_score)
     summary = [f"{failed} failed"] if failed else []
     summary.append(f"{passed} passed")
     if broken:
@@ -127,9 +170,11 @@ def _print_file(console: Console, file: Any, verbose: bool) -> None:
 _STATE_STYLE = {"across": "green", "near": "yellow", "untouched": "red"}
 
 
-def _print_coverage(console: Console, file: Any, items: list[Any]) -> None:
-    table = Table(title=f"rule coverage: {file.case_file.rulebook_path} "
-                        f"({len(file.outcomes)} cases)", title_justify="left")
+def _print_coverage(console: Console, group: list[Any], items: list[Any]) -> None:
+    cases = sum(len(f.outcomes) for f in group)
+    files = ", ".join(f"{f.case_file.path} ({len(f.outcomes)})" for f in group)
+    table = Table(title=f"rule coverage: {group[0].case_file.rulebook_path} "
+                        f"({cases} cases from {files})", title_justify="left")
     for column in ("kind", "rule", "coverage", "closest", "cases"):
         table.add_column(column, overflow="fold")
     for item in items:
@@ -137,3 +182,25 @@ def _print_coverage(console: Console, file: Any, items: list[Any]) -> None:
         table.add_row(item.kind, item.name, f"[{style}]{item.label}[/{style}]", item.detail,
                       ", ".join(item.cases[:3]) + (" …" if len(item.cases) > 3 else ""))
     console.print(table)
+
+
+def _low_score(report: Any, minimum: float | None) -> bool:
+    if minimum is None:
+        return bool(report.survivors)
+    return bool(report.score < minimum)
+
+
+def _print_mutation(console: Console, report: Any, minimum: float | None) -> None:
+    """The score line and one line per survivor: ``FILE:LINE:COL kind rule: change``."""
+    low = _low_score(report, minimum)
+    console.print(f"\nmutation testing: {report.rulebook} against "
+                  f"{', '.join(report.files)}", markup=False)
+    for result in report.survivors:
+        mutant = result.mutant
+        console.print(f"  SURVIVED {mutant.span} [{mutant.category}] {mutant}", markup=False)
+    skipped = len(report.results) - len(report.scored)
+    console.print(f"mutation score: {report.score:.1f} % ({report.killed} of "
+                  f"{len(report.scored)} mutants killed, {len(report.survivors)} survived"
+                  + (f", {skipped} skipped as invalid" if skipped else "") + ")"
+                  + (f" (minimum {minimum:g} %)" if minimum is not None else ""),
+                  style="red" if low else "green", markup=False)

@@ -79,6 +79,12 @@ def load_source(spec: str) -> RulebookSource:
     path = Path(path_text)
     if revision is None:
         return RulebookSource(str(path), path, None, load_checked(path))
+    return load_revision(path, revision)
+
+
+def load_revision(path: Path, revision: str) -> RulebookSource:
+    """Read and check the text ``path`` had at git ``revision`` (a :class:`UserInputError`
+    names what went wrong: the revision, git, or the rulebook's own errors)."""
     label = f"{path}@{revision}"
     text = git_text(path, revision)
     result = check_text(text, label)

@@ -14,12 +14,18 @@ For every command rule, index, chance, prescreen and verdict of the rulebook:
 Indices count the raw value against the limit in every run of every case; command rules every
 command of every chain; chances every run; prescreens each case's first run (as the reference
 run); verdicts each case's path statistics.
+
+Coverage belongs to a rulebook, not to a case file: :func:`coverage_of_files` sums the cases of
+every case file that names the same rulebook (one file may hold the calm cases, another the
+edge cases), and :func:`by_rulebook` groups case files that way.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+import os
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -115,10 +121,29 @@ def _ratios(left: Any, right: Any) -> list[float]:
     return [float(r) for r in ratio[keep].ravel()]
 
 
+def by_rulebook(outcomes: Iterable[FileOutcome]) -> list[list[FileOutcome]]:
+    """Case file outcomes grouped by the rulebook they name (the same file reached by two
+    relative paths is one rulebook), in the order the rulebooks first appear."""
+    groups: dict[str, list[FileOutcome]] = {}
+    for outcome in outcomes:
+        key = os.path.realpath(outcome.case_file.rulebook_path)
+        groups.setdefault(key, []).append(outcome)
+    return list(groups.values())
+
+
 def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
-    """Coverage of every rule of a case file's rulebook by its cases."""
-    case_file = outcome.case_file
-    compiled = compile_rulebook(case_file.checked)
+    """Coverage of every rule of a case file's rulebook by its cases alone."""
+    return coverage_of_files([outcome])
+
+
+def coverage_of_files(outcomes: Sequence[FileOutcome]) -> list[RuleCoverage]:
+    """Coverage of every rule of one rulebook by the cases of all ``outcomes`` (case files that
+    name that rulebook): a rule one file brings below its limit and another beyond it is
+    **across**. With several files a case is named ``FILE:CASE`` (the file's name)."""
+    if not outcomes:
+        raise ValueError("coverage needs at least one case file")
+    several = len(outcomes) > 1
+    compiled = compile_rulebook(outcomes[0].case_file.checked)
     model = compiled.rulebook
     constants = compiled.constants
     scoped = ExpressionCompiler(constants, _scope_closure)
@@ -138,9 +163,10 @@ def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
                               compiler.compile(leaf.right)(frame))
         return ratios
 
-    for case_outcome in outcome.outcomes:
-        name = case_outcome.case.name
-        _cover_commands(items, case_outcome, compiled, scoped, leaf_ratios)
+    cases = [(f"{Path(o.case_file.path).name}:{c.case.name}" if several else c.case.name, c)
+             for o in outcomes for c in o.outcomes]
+    for name, case_outcome in cases:
+        _cover_commands(items, name, case_outcome, compiled, scoped, leaf_ratios)
         for index in model.indices:
             raw = case_outcome.evaluation.raw[index.name]
             limit = compiled.checked.limits[index.name]
@@ -177,13 +203,14 @@ def coverage_of(outcome: FileOutcome) -> list[RuleCoverage]:
     return list(items.values())
 
 
-def _cover_commands(items: Mapping[tuple[str, str], RuleCoverage], case_outcome: CaseOutcome,
-                    compiled: Any, scoped: ExpressionCompiler, leaf_ratios: Any) -> None:
+def _cover_commands(items: Mapping[tuple[str, str], RuleCoverage], name: str,
+                    case_outcome: CaseOutcome, compiled: Any, scoped: ExpressionCompiler,
+                    leaf_ratios: Any) -> None:
     broken = {(v.rule, v.command_number) for v in case_outcome.violations}
     rover = build_runs(case_outcome.case)[1].rover
     for number, command in enumerate(case_outcome.case.chain, start=1):
         frame = Frame(scope=command_quantities(command, number, rover))
         for rule in compiled.rulebook.command_rules:
             items[("command", rule.name)].note(
-                case_outcome.case.name, [(rule.name, number) not in broken],
+                name, [(rule.name, number) not in broken],
                 leaf_ratios(rule.condition, scoped, frame))

@@ -13,6 +13,10 @@ Fixtures for Python tests of a rulebook (the default rulebook is the ini option
 
     def test_other(load_rulebook):                          # factory: path → CheckedRulebook
         checked = load_rulebook("rulebooks/history/idefix-ops-0.9.0.rules")
+        before = load_rulebook("rulebooks/idefix-ops.rules@HEAD~1")  # at a git revision
+
+``PATH@REV`` reads the file as it was at a git revision, exactly as ``idefix-verify diff`` does
+(:mod:`idefix_rules.diff.source`); the ini option takes that form too.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from typing import Any
 
 import pytest
 
+from idefix_rules.diff.source import load_revision, split_spec
 from idefix_rules.errors import UserInputError, render_diagnostics
 from idefix_rules.rulebook import load_checked
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -119,16 +124,18 @@ class CaseItem(pytest.Item):
 
 @pytest.fixture(scope="session")
 def load_rulebook(pytestconfig: pytest.Config) -> Callable[[str | Path], CheckedRulebook]:
-    """Factory: read, parse and check a rulebook (relative paths from the rootdir); a broken
-    rulebook fails the test with its diagnostics."""
+    """Factory: read, parse and check a rulebook (relative paths from the rootdir), or the
+    text a rulebook had at a git revision (``PATH@REV``, as in ``idefix-verify diff``); a
+    broken rulebook or an unknown revision fails the test with its diagnostics."""
     root = Path(str(pytestconfig.rootpath))
 
     def load(path: str | Path) -> CheckedRulebook:
-        path = Path(path)
-        if not path.is_absolute():
-            path = root / path
+        name, revision = split_spec(str(path))
+        located = Path(name) if Path(name).is_absolute() else root / name
         try:
-            return load_checked(path)
+            if revision is not None:
+                return load_revision(located, revision).checked
+            return load_checked(located)
         except UserInputError as failure:
             pytest.fail(render_diagnostics(failure.diagnostics, failure.sources),
                         pytrace=False)

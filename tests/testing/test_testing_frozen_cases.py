@@ -46,7 +46,13 @@ def test_a_mutant_fails_with_expected_actual_and_the_rule_text(case_file):
 
 
 def test_every_rule_of_the_frozen_rulebook_is_mutated(case_file):
-    mutated = {m.rule for m in mutants(case_file.checked.rulebook)}
+    found = list(mutants(case_file.checked.rulebook))
+    mutated = {m.rule for m in found if m.kind != "constant"}
+    # of the constants only the table of obstacle factors is mutated (entries nudged both ways)
+    assert sorted(m.change for m in found if m.kind == "constant") == [
+        "factor f_obs[L1] 0.2 → 0.18", "factor f_obs[L1] 0.2 → 0.22",
+        "factor f_obs[L2] 0.6 → 0.54", "factor f_obs[L2] 0.6 → 0.66",
+        "factor f_obs[L3] 1 → 0.9", "factor f_obs[L3] 1 → 1.1"]
     model = case_file.checked.rulebook
     declared = {r.name for group in (model.command_rules, model.indices, model.chances,
                                      model.prescreens, model.verdicts) for r in group}

@@ -60,10 +60,13 @@ def test_every_mutant_of_a_graded_index_is_a_valid_rulebook():
     model = check_text(RULEBOOK, "graded.rules").checked
     assert model is not None
     found = {m.change: check(m.rulebook) for m in mutants(model.rulebook) if m.rule == "I_s"}
-    assert {"limit × 2", "limit and nominal × 0.5", "nominal × 0.5"} <= set(found)
-    assert "limit × 0.5" not in found  # a limit halved alone could fall below its nominal
+    assert {"limit 70 % → 77 %", "limit 70 % → 63 %", "limit and nominal × 0.9",
+            "nominal 20 % → 22 %", "nominal 20 % → 18 %", "weight 1 → 0.5",
+            "max over wheels → sum over wheels",
+            "percentile 95 over time → percentile 90 over time"} <= set(found)
+    assert "max over wheels → final over wheels" not in found  # final only over time
     assert all(result.ok for result in found.values()), [
         change for change, result in found.items() if not result.ok]
-    halved = found["limit and nominal × 0.5"].checked
-    assert halved is not None
-    assert (halved.limits["I_s"], halved.nominals["I_s"]) == (0.35, 0.1)
+    lowered = found["limit and nominal × 0.9"].checked
+    assert lowered is not None
+    assert (lowered.limits["I_s"], lowered.nominals["I_s"]) == (0.63, 0.18)

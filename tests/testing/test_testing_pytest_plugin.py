@@ -60,3 +60,40 @@ def test_rulebook_fixtures(pytester):
     result = pytester.runpytest("-p", "no:cacheprovider")
     result.assert_outcomes(passed=1, failed=1)
     result.stdout.fnmatch_lines(["*bad.rules:*error[E*"])
+
+
+def _git(folder: Path, *args: str) -> None:
+    import subprocess
+
+    subprocess.run(["git", "-C", str(folder), "-c", "user.name=t", "-c", "user.email=t@t",
+                    *args], check=True, capture_output=True)
+
+
+def test_the_fixture_loads_a_rulebook_at_a_git_revision(pytester):
+    text = RULEBOOK.read_text(encoding="utf-8")
+    rules = pytester.path / "rulebooks" / "ops.rules"
+    rules.parent.mkdir()
+    rules.write_text(text, encoding="utf-8")
+    _git(pytester.path, "init", "-q")
+    _git(pytester.path, "add", "rulebooks/ops.rules")
+    _git(pytester.path, "commit", "-qm", "first")
+    rules.write_text(text.replace("const critical_slip            = 70 %",
+                                  "const critical_slip            = 60 %"), encoding="utf-8")
+    pytester.makepyfile(test_revisions="""
+        def test_head_and_working_tree(load_rulebook):
+            assert load_rulebook("rulebooks/ops.rules@HEAD").limits["I_s"] == 0.7
+            assert load_rulebook("rulebooks/ops.rules").limits["I_s"] == 0.6
+
+        def test_an_unknown_revision_fails_with_its_reason(load_rulebook):
+            load_rulebook("rulebooks/ops.rules@nosuchrev")
+    """)
+    pytester.makeini("[pytest]\nidefix_rulebook = rulebooks/ops.rules@HEAD\n")
+    pytester.makepyfile(test_ini="""
+        def test_the_ini_rulebook_at_head(rulebook):
+            assert rulebook.limits["I_s"] == 0.7
+    """)
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(passed=2, failed=1)
+    result.stdout.fnmatch_lines(["*D004*ops.rules@nosuchrev: cannot read the file at "
+                                 "revision 'nosuchrev'*"])
+    assert "Traceback" not in result.stdout.str()
