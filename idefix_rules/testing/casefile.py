@@ -55,7 +55,7 @@ MAX_SAMPLES = 100_000  # per run: a case is a short example, not a mission
 MAX_RUNS = 10_000  # per case
 
 _TOP_KEYS = ("rulebook", "defaults", "cases", "tolerance")
-_SETUP_KEYS = ("chain", "step", "duration", "initial_position_sigma")
+_SETUP_KEYS = ("chain", "step", "duration", "initial_position_sigma", "wheel_ramp")
 _RUN_KEYS = ("signals", "offsets", "collisions", "unfinished")
 _CASE_KEYS = ("description", *_SETUP_KEYS, *_RUN_KEYS, "reference", "runs", "variants",
               "failed_runs", "expect")
@@ -133,6 +133,14 @@ class Case:
     failed_runs: int
     expectations: tuple[Expectation, ...]
     span: Span
+    # the rover's wheel-rate ramp (rad/s², controller.wheel_acceleration): what a command's
+    # forward_acceleration follows
+    wheel_ramp: float = RoverGeometry().wheel_acceleration
+
+    @property
+    def rover(self) -> RoverGeometry:
+        """The kinematics of the case's runs and command rules."""
+        return RoverGeometry(wheel_acceleration=self.wheel_ramp)
 
     @property
     def runs(self) -> int:
@@ -331,6 +339,15 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
                         "tolerance radius)", where("initial_position_sigma"))
         elif found is not None:
             sigma = found
+    ramp = RoverGeometry().wheel_acceleration
+    if "wheel_ramp" in setup:
+        found = reader.quantity(setup["wheel_ramp"], where("wheel_ramp"), ANGLE / TIME / TIME,
+                                "wheel_ramp")
+        if found is not None and found < 0:
+            reader.fail("T005", "wheel_ramp cannot be negative (0: rate steps)",
+                        where("wheel_ramp"))
+        elif found is not None:
+            ramp = found
     base = _run_group(reader, data, loc, 1)
     groups: list[RunGroup] = []
     if "variants" in data:
@@ -379,7 +396,7 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
     description = data.get("description")
     return Case(name, str(description) if description is not None else None, chain, step,
                 duration, sigma, tuple(groups), reference, failed, expectations,
-                reader.span(loc, at_key=True))
+                reader.span(loc, at_key=True), ramp)
 
 
 def _chain(reader: _Reader, data: Any, loc: Loc) -> tuple[Command, ...]:

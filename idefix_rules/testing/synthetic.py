@@ -140,7 +140,7 @@ def build_runs(case: Case, rover: RoverGeometry | None = None, areas: Iterable[s
     """Every run of ``case`` (groups in order, each repeated ``count`` times) vectorised over
     runs, and the run context with the reference run. ``areas``: the signals of the rulebook's
     named areas, 0 (no wheel near the area) wherever the case does not shape them."""
-    rover = rover or RoverGeometry()
+    rover = rover or case.rover
     t, command = timeline(case.chain, case.step, case.duration, rover, _last_keyframe(case))
     shaped = {f.signal for g in case.groups for f in g.keyframes
               if signals.area_signal(f.signal) is not None}
