@@ -17,6 +17,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import UserInputError, render_diagnostics
 
 NAME = "test"
@@ -51,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
     started = time.perf_counter()
     files = discover_case_files(args.paths)
-    console = Console(highlight=False, soft_wrap=True)
+    console = StdoutConsole(highlight=False, soft_wrap=True)
     broken: list[UserInputError] = []
     outcomes: list[FileOutcome] = []
     for path in files:
