@@ -74,7 +74,8 @@ def _looks_like_campaign(argument: str) -> bool:
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         code = _main(argv)
-        sys.stdout.flush()  # a pipe closed early shows here, not at the interpreter's exit
+        if not sys.stdout.closed:  # the language server closes it on exit
+            sys.stdout.flush()  # a pipe closed early shows here, not at the interpreter's exit
     except BrokenPipeError:
         return quiet_broken_pipe()
     return code
