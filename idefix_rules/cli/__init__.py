@@ -4,7 +4,9 @@ Each subcommand lives in its own module of this package with ``NAME``, ``HELP``,
 ``add_arguments(parser)`` and ``run(args) -> int``. The dispatcher catches only
 :class:`~idefix_rules.errors.IdefixError` (rendered, exit code from the error); anything else is
 an internal error (exit 3). ``idefix-verify campaign.yaml`` is short for
-``idefix-verify run campaign.yaml``.
+``idefix-verify run campaign.yaml``. A reader that closes standard output early
+(``idefix-verify explain … | head -1``) ends the command quietly with exit 141, the code a shell
+reports for a process ended by SIGPIPE.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 from types import ModuleType
 
 from idefix_rules import __version__
+from idefix_rules.cli.pipes import quiet_broken_pipe
 from idefix_rules.errors import IdefixError
 
 # Module names under idefix_rules.cli, in the order --help lists them.
@@ -69,6 +72,16 @@ def _looks_like_campaign(argument: str) -> bool:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        code = _main(argv)
+        if not sys.stdout.closed:  # the language server closes it on exit
+            sys.stdout.flush()  # a pipe closed early shows here, not at the interpreter's exit
+    except BrokenPipeError:
+        return quiet_broken_pipe()
+    return code
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     commands = _load_commands()
     parser = build_parser(commands)
@@ -101,6 +114,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        raise  # main() ends quietly
     except Exception:  # last line of defence: report, exit 3
         traceback.print_exc()
         print("idefix-verify: internal error (exit 3); please report the traceback above",

@@ -15,8 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from rich.console import Console
-
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import Diagnostic, Severity, UserInputError, render_diagnostics
 from idefix_rules.rulebook import check_text, read_source
 
@@ -99,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         records = [d.to_dict() for report in reports for d in report.diagnostics]
         print(json.dumps(records, indent=2, ensure_ascii=False))
         return 2 if failed else 0
-    console = Console(highlight=False, soft_wrap=True)
+    console = StdoutConsole(highlight=False, soft_wrap=True)
     for report in reports:
         style = "red" if report.errors else "yellow" if report.warnings else "green"
         text = render_report(report)

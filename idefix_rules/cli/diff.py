@@ -104,7 +104,10 @@ def _field_text(change: RuleChange) -> str:
             text += f"  [= {si_new or si_old}]"
         lines.append(text)
     if change.reads_changed:
-        lines.append("reads changed: " + ", ".join(change.reads_changed))
+        through = ""
+        if change.upstream and set(change.upstream) != set(change.reads_changed):
+            through = " (through " + ", ".join(change.upstream) + ")"
+        lines.append("reads changed: " + ", ".join(change.reads_changed) + through)
     return "\n".join(lines)
 
 

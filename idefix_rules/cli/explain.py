@@ -3,19 +3,22 @@
 One row per rule: kind, name, formula (printed by the formatter), unit of the value (SI),
 threshold (the limit, with its SI value, and an index's nominal, where it is 0.5), weight and
 rationale. Command rules, indices,
-chances, prescreens and verdicts are all listed; settings, obstacle levels, the combination
-and the ranking follow below the table.
+chances, prescreens and verdicts are all listed; a table of the constants (as written, in SI,
+rationale), the settings, the obstacle levels (size limit, buffer, factors per level), the
+combination and the ranking follow. ``--format json`` gives the same as data.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
-from rich.console import Console
 from rich.table import Table
 
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.rulebook import load_checked
 from idefix_rules.rulebook.across import runs_reductions
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -23,18 +26,21 @@ from idefix_rules.rulebook.fold import NotConstant
 from idefix_rules.rulebook.format import format_expr, format_number
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.model import Binary, Expr, Number
-from idefix_rules.rulebook.types import SETTINGS
-from idefix_rules.units import Dimension
+from idefix_rules.rulebook.summary import constants, obstacle_levels, settings
+from idefix_rules.units import LENGTH, Dimension
 
 NAME = "explain"
 HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, threshold, "
-        "weight, rationale). Exit 2 when the rulebook is invalid.")
+        "weight, rationale), its constants, settings and obstacle levels. "
+        "Exit 2 when the rulebook is invalid.")
 
 _COMPARISONS = {"<", "<=", ">", ">=", "==", "!="}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("rulebook", type=Path, metavar="RULEBOOK", help="rulebook file (.rules)")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="tables (default) or the same as JSON")
 
 
 def _si(value: float, dimension: Dimension | None) -> str:
@@ -103,11 +109,41 @@ def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
                verdict.rationale or "")
 
 
-def run(args: argparse.Namespace) -> int:
-    checked = load_checked(args.rulebook)
+_ROW_KEYS = ("kind", "name", "formula", "unit", "threshold", "weight", "rationale")
+
+
+def as_data(checked: CheckedRulebook) -> dict[str, Any]:
+    """The JSON form: header, rules (the table's rows), constants, settings, obstacle levels,
+    combination and ranking."""
     rulebook = checked.rulebook
     header = rulebook.header
-    console = Console(highlight=False)
+    rules = []
+    for row in rows(checked):
+        rule = dict(zip(_ROW_KEYS, row, strict=True))
+        name, _, title = rule["name"].partition("\n")
+        rules.append({**rule, "name": name, "title": title or None})
+    combine = rulebook.combine
+    return {
+        "name": header.name, "version": header.version, "purpose": header.purpose,
+        "rules": rules,
+        "constants": [constant.to_dict() for constant in constants(checked)],
+        "settings": [setting.to_dict() for setting in settings(checked)],
+        "obstacle_levels": [level.to_dict() for level in obstacle_levels(checked)],
+        "combine": {"run": combine.run, "path": combine.path,
+                    "confidence": checked.confidence},
+        "ranking": [format_expr(key.expr) + (" desc" if key.descending else "")
+                    for key in rulebook.ranking.keys],
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    checked = load_checked(args.rulebook)
+    if args.format == "json":
+        print(json.dumps(as_data(checked), indent=2, ensure_ascii=False))
+        return 0
+    rulebook = checked.rulebook
+    header = rulebook.header
+    console = StdoutConsole(highlight=False)
     table = Table(title=f"{header.name} {header.version} — {header.purpose}",
                   show_lines=True, expand=False)
     for column, style in (("kind", "cyan"), ("name", "bold")):
@@ -119,20 +155,37 @@ def run(args: argparse.Namespace) -> int:
     for row in rows(checked):
         table.add_row(*row)
     console.print(table)
+    console.print(_constants_table(checked))
     for line in _footer(checked):
         console.print(line, markup=False)
     return 0
 
 
+def _constants_table(checked: CheckedRulebook) -> Table:
+    table = Table(title="constants", show_lines=False, expand=False)
+    table.add_column("name", style="bold", no_wrap=True)
+    table.add_column("value", ratio=1, overflow="fold")
+    table.add_column("SI", ratio=1, overflow="fold")
+    table.add_column("rationale", ratio=3, overflow="fold", style="dim")
+    for constant in constants(checked):
+        si = "" if constant.si == constant.written else constant.si
+        table.add_row(constant.name, constant.written, si, constant.rationale or "")
+    return table
+
+
 def _footer(checked: CheckedRulebook) -> Iterator[str]:
     rulebook = checked.rulebook
-    settings = ", ".join(f"{name} = {_si(value, SETTINGS[name][0] if name in SETTINGS else None)}"
-                         for name, value in sorted(checked.settings.items()))
-    if settings:
-        yield f"settings: {settings}"
-    for level in checked.obstacle_levels:
-        below = f"below {format_number(level.below)} m, " if level.below is not None else ""
-        yield f"obstacle level {level.level}: {below}buffer {format_number(level.buffer)} m"
+    for setting in settings(checked):
+        written = setting.written if setting.written is not None else "(default)"
+        si = "" if setting.si == written else f" (= {setting.si})"
+        yield f"setting {setting.name} = {written}{si}"
+    for level in obstacle_levels(checked):
+        below = f"below {level.below} ({_si(level.below_m, LENGTH)})" \
+            if level.below is not None and level.below_m is not None else "no size limit"
+        factors = "".join(f", {name} {format_number(value)}"
+                          for name, value in level.factors.items())
+        yield (f"obstacle level {level.level}: {below}, buffer {level.buffer} "
+               f"({_si(level.buffer_m, LENGTH)}){factors}")
     combine = rulebook.combine
     yield (f"run risk: {combine.run} (eq. 1); path risk: {combine.path} of runs (eq. 2); "
            f"confidence {format_number(checked.confidence * 100)} %")

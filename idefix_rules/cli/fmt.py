@@ -14,8 +14,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from rich.console import Console
-
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.rulebook import read_source
 from idefix_rules.rulebook.format import format_rulebook
@@ -66,7 +65,7 @@ def replace_text(path: Path, text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    console = Console(highlight=False, soft_wrap=True)
+    console = StdoutConsole(highlight=False, soft_wrap=True)
     invalid: list[UserInputError] = []
     changed = []
     for path in args.rulebooks:

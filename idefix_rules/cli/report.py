@@ -13,6 +13,7 @@ from pathlib import Path
 from rich.console import Console
 
 from idefix_rules.cli.destinations import output_folder
+from idefix_rules.cli.pipes import StdoutConsole
 
 NAME = "report"
 HELP = ("Write the HTML report of a results file: the decision, Table 1, an interactive "
@@ -35,5 +36,5 @@ def run(args: argparse.Namespace) -> int:
     console = Console(stderr=True)
     with console.status("writing the report"):
         page = write_report(args.results, out, "free space, then run this command again")
-    Console().print(f"report written: [bold]{page}[/bold]")
+    StdoutConsole().print(f"report written: [bold]{page}[/bold]")
     return 0

@@ -28,6 +28,7 @@ from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.outcome import index_titles, print_outcome
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import Span, UserInputError, error
 
 __all__ = ["make_console", "print_outcome", "stored_titles"]
@@ -196,9 +197,9 @@ class RichProgress:
 def make_console() -> Console:
     """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
     columns wide (CI logs), a terminal as wide as it is."""
-    console = Console(highlight=False)
+    console = StdoutConsole(highlight=False)
     if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
-        console = Console(highlight=False, width=150)
+        console = StdoutConsole(highlight=False, width=150)
     return console
 
 

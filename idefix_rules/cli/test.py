@@ -19,6 +19,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import UserInputError, render_diagnostics
 from idefix_rules.testing.mutations import NUDGE
 
@@ -74,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserInputError(error("T015", "--nudge is a percentage above 0 and below 100"))
     started = time.perf_counter()
     files = discover_case_files(args.paths)
-    console = Console(highlight=False, soft_wrap=True)
+    console = StdoutConsole(highlight=False, soft_wrap=True)
     broken: list[UserInputError] = []
     outcomes: list[FileOutcome] = []
     for path in files:

@@ -42,6 +42,8 @@ def _line(change: RuleChange) -> str:
     what = "; ".join(_item(f, change.kind) for f in change.fields)
     if change.kind == "affected":
         what = "reads " + ", ".join(f"`{n}`" for n in change.reads_changed) + ", which changed"
+        if set(change.upstream) != set(change.reads_changed):
+            what += " (through " + ", ".join(f"`{n}`" for n in change.upstream) + ")"
     line = f"- {change.kind} {change.section} **{change.name}**"
     if what:
         line += f": {what}"

@@ -520,9 +520,11 @@ def _expressions(model: Rulebook) -> Iterator[Expr]:
 
 
 def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, name: str,
-                     kind: str, fields: Iterable[str]) -> Direction:
+                     kind: str, fields: Iterable[str], upstream: Iterable[str] = ()
+                     ) -> Direction:
     """Direction of one change of the rule diff (``kind``: added, removed, changed,
-    affected; ``fields``: the items that differ)."""
+    affected; ``fields``: the items that differ; ``upstream``: for an affected declaration,
+    the changed constants, indices and chances it depends on)."""
     if kind in ("added", "removed"):
         return added_direction(new if kind == "added" else old, section, name,
                                kind == "added")
@@ -532,7 +534,7 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
         return index_direction(old, new, name, fields)
     if section in ("command", "chance", "prescreen", "verdict"):
         if kind == "affected":
-            return _affected_condition(old, new, section, name)
+            return _affected_condition(old, new, section, name, upstream)
         return condition_direction(old, new, section, name)
     if section == "setting":
         return setting_direction(old, new, name)
@@ -559,24 +561,69 @@ def area_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Dir
     return merge(labels)
 
 
+Move = tuple[CheckedRulebook, dict[str, int], int | None]
+
+
+def _moves(old: CheckedRulebook, new: CheckedRulebook, name: str) -> list[Move]:
+    """What one changed constant, index or chance moves: (the side whose model reads it, the
+    quantity as a seed of :class:`Polarities`, the sign of its move; None = unknown)."""
+    if name in old.constants and name in new.constants:
+        return [(new, {f"const:{name}": 1}, _sign(old.constants[name], new.constants[name]))]
+    indices = {i.name for i in new.rulebook.indices}, {i.name for i in old.rulebook.indices}
+    if name in indices[0] and name not in indices[1]:  # added: its weight up from 0
+        return [(new, {f"weight:{name}": 1}, 1)]
+    if name in indices[1] and name not in indices[0]:
+        return [(old, {f"weight:{name}": 1}, -1)]
+    if name in indices[0]:
+        before, after = _index(old, name), _index(new, name)
+        moves: list[Move] = [
+            (new, {f"limit:{name}": 1}, _sign(old.limits[name], new.limits[name])),
+            (new, {f"nominal:{name}": 1},
+             _sign(effective_nominal(old, name), effective_nominal(new, name))),
+            (new, {f"weight:{name}": 1}, _sign(old.weights[name], new.weights[name]))]
+        return moves + _number_moves(new, before.value, after.value)
+    chances = ({c.name: c for c in old.rulebook.chances}, {c.name: c for c in new.rulebook.chances})
+    if name in chances[0] and name in chances[1]:
+        return _number_moves(new, chances[0][name].condition, chances[1][name].condition)
+    return [(new, {}, None)]
+
+
+def _number_moves(new: CheckedRulebook, before: Expr, after: Expr) -> list[Move]:
+    """Each number that moved in an expression whose shape stayed (a new shape: unknown)."""
+    pairs = _number_change(before, after)
+    if pairs is None:
+        return [(new, {}, None)]
+    moves: list[Move] = []
+    for old_number, new_number in pairs:
+        try:
+            moved = _sign(number_si(old_number), number_si(new_number))
+        except (ValueError, KeyError):
+            moved = None
+        moves.append((new, {f"id:{id(new_number)}": 1}, moved))
+    return moves
+
+
 def _affected_condition(old: CheckedRulebook, new: CheckedRulebook, section: str,
-                        name: str) -> Direction:
-    """Same text, but constants it reads moved: the rule's own polarity to each of them."""
+                        name: str, upstream: Iterable[str]) -> Direction:
+    """Same text, but constants, indices or chances it reads (however indirectly) moved: the
+    rule's own polarity to each quantity that moved, on the side that has it."""
     attribute = {"command": "command_rules", "chance": "chances", "prescreen": "prescreens",
                  "verdict": "verdicts"}[section]
-    rule = next(r for r in getattr(new.rulebook, attribute) if r.name == name)
     labels: list[Direction] = []
-    for constant in sorted(names_in(rule.condition)):
-        if constant in old.constants and constant in new.constants:
-            moved = _sign(old.constants[constant], new.constants[constant])
+    for changed in sorted(upstream):
+        for checked, seed, moved in _moves(old, new, changed):
             if moved is None:
                 labels.append("unknown")
                 continue
-            polarities = Polarities(new.rulebook, new.constants, {f"const:{constant}": 1})
+            if moved == 0:
+                continue
+            model = checked.rulebook
+            rule = next(r for r in getattr(model, attribute) if r.name == name)
+            polarities = Polarities(model, checked.constants, seed)
             own = polarities.of(rule.condition)
             if section == "chance":  # a chance acts through the rules that read it
                 own = combine(*(polarities.of(r.condition)
-                                for r in (*new.rulebook.prescreens, *new.rulebook.verdicts)
+                                for r in (*model.prescreens, *model.verdicts)
                                 if name in names_in(r.condition)))
             labels.append(direction_of(own, moved))
     return merge(labels)

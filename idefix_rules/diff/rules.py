@@ -5,7 +5,10 @@ rules, indices, chances, combine, prescreens, verdicts, ranking) is compared by 
 lists the fields that differ, each as written (printed by the formatter) and, where a value has
 one, in SI: so ``limit = critical_tilt`` shows ``0.3491 rad → 0.2618 rad`` when only the
 constant it reads changed. A declaration whose text is the same but that reads a changed
-constant is listed as ``affected``. Spans and comments never count (the model's equality).
+constant, index or chance (directly or through others: a prescreen reading ``I_obs`` when
+``f_obs`` changed; a verdict reading ``risk`` when any index changed) is listed as ``affected``,
+with the changed names it reads and the changes it comes from (``upstream``). Spans and
+comments never count (the model's equality).
 
 >>> from idefix_rules.rulebook import check_text
 >>> old = check_text(TEXT_A).checked  # doctest: +SKIP
@@ -78,6 +81,8 @@ class RuleChange:
     reads_changed: tuple[str, ...] = ()
     # stricter / looser / neutral / unknown (idefix_rules.diff.direction)
     direction: str = "neutral"
+    # an affected declaration: the changed declarations it depends on, however indirectly
+    upstream: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"section": self.section, "name": self.name, "kind": self.kind,
@@ -85,7 +90,7 @@ class RuleChange:
                 "fields": [f.to_dict() for f in self.fields], "rationale": self.rationale,
                 "old_rationale": self.old_rationale,
                 "rationale_changed": self.rationale_changed,
-                "reads_changed": list(self.reads_changed)}
+                "reads_changed": list(self.reads_changed), "upstream": list(self.upstream)}
 
 
 @dataclass(frozen=True)
@@ -277,8 +282,51 @@ def _reads(declaration: _Declaration) -> set[str]:
     return names
 
 
+_RULE_SECTIONS = frozenset({"command", "index", "chance", "prescreen", "verdict"})
+
+# Items whose change moves what a declaration evaluates to (a weight moves the risk only; a
+# title, a risk map or a rationale move nothing).
+_OUTCOME_FIELDS = frozenset({"value", "limit", "nominal", "condition"})
+
+
+def _upstream(old: CheckedRulebook, new: CheckedRulebook, changed_constants: set[str]
+              ) -> dict[str, set[str]]:
+    """Every name whose value moved, with the changed declarations it comes from: the changed
+    constants, then, to a fixed point, every index or chance that changed or reads one of
+    them, and ``risk`` when an index moved, was added or removed, or its weight changed."""
+    upstream = {name: {name} for name in changed_constants}
+    while True:
+        grown = False
+        for section in ("index", "chance"):
+            for change in _section_changes(section, old, new, upstream):
+                fields = {f.field for f in change.fields}
+                own = change.kind in ("added", "removed") or bool(fields & _OUTCOME_FIELDS)
+                roots = set().union(*(upstream[read] for read in change.reads_changed))
+                if own:
+                    roots.add(change.name)
+                if roots:
+                    grown |= _extend(upstream, change.name, roots)
+                if section == "index":
+                    if own or "weight" in fields:
+                        roots.add(change.name)
+                    if roots:
+                        grown |= _extend(upstream, "risk", roots)
+        if not grown:
+            return upstream
+
+
+def _extend(upstream: dict[str, set[str]], name: str, roots: set[str]) -> bool:
+    before = upstream.get(name, set())
+    if roots <= before:
+        return False
+    upstream[name] = before | roots
+    return True
+
+
 def _section_changes(section: str, old: CheckedRulebook, new: CheckedRulebook,
-                     changed_constants: set[str]) -> list[RuleChange]:
+                     upstream: Mapping[str, set[str]]) -> list[RuleChange]:
+    """The changes of one section; ``upstream`` maps the names whose value moved to the
+    changes they come from (a declaration with the same text that reads one is affected)."""
     before, after = _declarations(old, section), _declarations(new, section)
     changes: list[RuleChange] = []
     for name in dict.fromkeys([*before, *after]):
@@ -296,16 +344,18 @@ def _section_changes(section: str, old: CheckedRulebook, new: CheckedRulebook,
         assert was is not None and now is not None
         fields = _compare(was, now)
         rationale_changed = was.rationale != now.rationale
-        reads = tuple(sorted((_reads(was) | _reads(now)) & changed_constants - {name}))
+        reads = tuple(sorted((_reads(was) | _reads(now)) & set(upstream) - {name}))
         if fields or rationale_changed:
             kind: ChangeKind = "changed"
         elif reads:
             kind = "affected"
         else:
             continue
+        roots = set().union(*(upstream[read] for read in reads)) - {name}
         changes.append(RuleChange(section, name, kind, fields, now.rationale,
                                   was.rationale if rationale_changed else None,
-                                  rationale_changed, reads))
+                                  rationale_changed, reads,
+                                  upstream=tuple(sorted(roots)) if kind == "affected" else ()))
     return changes
 
 
@@ -316,19 +366,24 @@ def _with_direction(change: RuleChange, old: CheckedRulebook, new: CheckedRulebo
     from idefix_rules.diff.direction import change_direction
 
     direction = change_direction(old, new, change.section, change.name, change.kind,
-                                 [f.field for f in change.fields])
+                                 [f.field for f in change.fields], change.upstream)
     return replace(change, direction=direction)
 
 
 def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old",
                new_label: str = "new") -> RuleDiff:
     """Compare two checked rulebooks; see the module docstring."""
-    constants = _section_changes("constant", old, new, set())
+    constants = _section_changes("constant", old, new, {})
     changed_constants = {c.name for c in constants if c.kind != "changed" or c.fields}
+    upstream = _upstream(old, new, changed_constants)
     changes: list[RuleChange] = []
+    only_constants = {name: upstream[name] for name in changed_constants}
     for section in SECTIONS:
+        # settings, levels and the ranking are affected by constants only (``rank by risk``
+        # orders the paths, it decides no pass or fail)
+        reads = upstream if section in _RULE_SECTIONS else only_constants
         changes += constants if section == "constant" else \
-            _section_changes(section, old, new, changed_constants)
+            _section_changes(section, old, new, reads)
     from idefix_rules.diff.versions import version_warnings
 
     changes = [_with_direction(change, old, new) for change in changes]

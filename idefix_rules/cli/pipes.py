@@ -1,0 +1,33 @@
+"""Standard output whose reader went away: every command ends the same quiet way.
+
+Rich handles a broken pipe on its own (``SystemExit(1)``); :class:`StdoutConsole` hands it back
+as :class:`BrokenPipeError` instead, so ``idefix_rules.cli.main`` ends plain ``print`` output and
+rich output alike with exit 141 and no traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from rich.console import Console
+
+# 128 + SIGPIPE: what a shell reports for the writer of `yes | head -1`.
+BROKEN_PIPE_EXIT = 141
+
+
+class StdoutConsole(Console):
+    """A rich console on standard output that lets a broken pipe propagate."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True
+        raise BrokenPipeError
+
+
+def quiet_broken_pipe() -> int:
+    """Standard output's reader is gone: point stdout at devnull so the interpreter's final
+    flush cannot fail again, and return the shell's code for SIGPIPE."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+    return BROKEN_PIPE_EXIT
