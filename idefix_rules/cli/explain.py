@@ -26,8 +26,8 @@ from idefix_rules.rulebook.fold import NotConstant
 from idefix_rules.rulebook.format import format_expr, format_number
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.model import Binary, Expr, Number
-from idefix_rules.rulebook.summary import constants, obstacle_levels, settings
-from idefix_rules.units import LENGTH, Dimension
+from idefix_rules.rulebook.summary import areas, constants, obstacle_levels, settings
+from idefix_rules.units import ANGLE, LENGTH, Dimension
 
 NAME = "explain"
 HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, threshold, "
@@ -129,6 +129,7 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
         "constants": [constant.to_dict() for constant in constants(checked)],
         "settings": [setting.to_dict() for setting in settings(checked)],
         "obstacle_levels": [level.to_dict() for level in obstacle_levels(checked)],
+        "areas": [area.to_dict() for area in areas(checked)],
         "combine": {"run": combine.run, "path": combine.path,
                     "confidence": checked.confidence},
         "ranking": [format_expr(key.expr) + (" desc" if key.descending else "")
@@ -186,6 +187,12 @@ def _footer(checked: CheckedRulebook) -> Iterator[str]:
                           for name, value in level.factors.items())
         yield (f"obstacle level {level.level}: {below}, buffer {level.buffer} "
                f"({_si(level.buffer_m, LENGTH)}){factors}")
+    for area in areas(checked):
+        kind = area.kind.replace("_", "-")
+        if area.above is not None and area.above_rad is not None:
+            kind += f" above {area.above} ({_si(area.above_rad, ANGLE)})"
+        yield (f"area {area.name}: {kind}, level {area.level}, buffer {area.buffer} "
+               f"({_si(area.buffer_m, LENGTH)}); runs read {', '.join(area.signals)}")
     combine = rulebook.combine
     yield (f"run risk: {combine.run} (eq. 1); path risk: {combine.path} of runs (eq. 2); "
            f"confidence {format_number(checked.confidence * 100)} %")

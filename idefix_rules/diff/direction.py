@@ -582,6 +582,18 @@ def _moves(old: CheckedRulebook, new: CheckedRulebook, name: str) -> list[Move]:
              _sign(effective_nominal(old, name), effective_nominal(new, name))),
             (new, {f"weight:{name}": 1}, _sign(old.weights[name], new.weights[name]))]
         return moves + _number_moves(new, before.value, after.value)
+    areas = {a.name: a for a in old.areas}, {a.name: a for a in new.areas}
+    if name in areas[0] and name in areas[1]:
+        before_area, after_area = areas[0][name], areas[1][name]
+        if before_area.kind != after_area.kind or before_area.level != after_area.level:
+            return [(new, {}, None)]
+        area_moves: list[Move] = [(new, {f"signal:area.{name}.buffer": 1},
+                                   _sign(before_area.buffer, after_area.buffer))]
+        if before_area.above is not None and after_area.above is not None:
+            area_moves.append((new, {f"signal:area.{name}.inside": 1,
+                                     f"signal:area.{name}.buffer": 1},
+                               _sign(after_area.above, before_area.above)))
+        return area_moves
     chances = ({c.name: c for c in old.rulebook.chances}, {c.name: c for c in new.rulebook.chances})
     if name in chances[0] and name in chances[1]:
         return _number_moves(new, chances[0][name].condition, chances[1][name].condition)

@@ -37,6 +37,7 @@ from idefix_rules.rulebook.model import (
 )
 from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.rulebook.types import SETTINGS
+from idefix_rules.signals import AREA_PREFIX, AREA_SIGNAL_PARTS
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, Dimension
 
 ChangeKind = Literal["added", "removed", "changed", "affected"]
@@ -289,12 +290,15 @@ _RULE_SECTIONS = frozenset({"command", "index", "chance", "prescreen", "verdict"
 _OUTCOME_FIELDS = frozenset({"value", "limit", "nominal", "condition"})
 
 
-def _upstream(old: CheckedRulebook, new: CheckedRulebook, changed_constants: set[str]
-              ) -> dict[str, set[str]]:
+def _upstream(old: CheckedRulebook, new: CheckedRulebook, changed_constants: set[str],
+              seeds: Mapping[str, set[str]] | None = None) -> dict[str, set[str]]:
     """Every name whose value moved, with the changed declarations it comes from: the changed
-    constants, then, to a fixed point, every index or chance that changed or reads one of
-    them, and ``risk`` when an index moved, was added or removed, or its weight changed."""
+    constants (and ``seeds``: the signals of changed areas), then, to a fixed point, every
+    index or chance that changed or reads one of them, and ``risk`` when an index moved, was
+    added or removed, or its weight changed."""
     upstream = {name: {name} for name in changed_constants}
+    for name, roots in (seeds or {}).items():
+        upstream[name] = set(roots)
     while True:
         grown = False
         for section in ("index", "chance"):
@@ -375,9 +379,19 @@ def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old
     """Compare two checked rulebooks; see the module docstring."""
     constants = _section_changes("constant", old, new, {})
     changed_constants = {c.name for c in constants if c.kind != "changed" or c.fields}
-    upstream = _upstream(old, new, changed_constants)
+    only_constants = {name: {name} for name in changed_constants}
+    # a changed area (or one whose constants moved) moves the signals rules read of it
+    seeds: dict[str, set[str]] = {}
+    for change in _section_changes("area", old, new, only_constants):
+        if change.kind == "changed" and not change.fields:
+            continue  # its rationale alone
+        fields = {f.field for f in change.fields}
+        roots = {change.name} if change.kind != "affected" else set(change.upstream)
+        parts = ("buffer",) if fields == {"buffer"} else AREA_SIGNAL_PARTS
+        for part in parts:
+            seeds[f"{AREA_PREFIX}{change.name}.{part}"] = roots
+    upstream = _upstream(old, new, changed_constants, seeds)
     changes: list[RuleChange] = []
-    only_constants = {name: upstream[name] for name in changed_constants}
     for section in SECTIONS:
         # settings, levels and the ranking are affected by constants only (``rank by risk``
         # orders the paths, it decides no pass or fail)

@@ -90,6 +90,38 @@ class LevelSummary:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class AreaSummary:
+    """A named area: kind, the inclination a steep one starts at (as written and in rad),
+    obstacle level, buffer (as written and in m), the signals runs read, the rationale."""
+
+    name: str
+    kind: str
+    above: str | None
+    above_rad: float | None
+    level: str
+    buffer: str
+    buffer_m: float
+    signals: tuple[str, ...]
+    rationale: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def areas(checked: CheckedRulebook) -> list[AreaSummary]:
+    """Every named area, in the rulebook's order."""
+    specs = {spec.name: spec for spec in checked.areas}
+    found = []
+    for area in checked.rulebook.areas:
+        spec = specs[area.name]
+        found.append(AreaSummary(
+            area.name, area.kind, format_expr(area.above) if area.above is not None else None,
+            spec.above, area.level, format_expr(area.buffer), spec.buffer, spec.signal_names(),
+            area.rationale))
+    return found
+
+
 def constants(checked: CheckedRulebook) -> list[ConstantSummary]:
     """Every constant, in the rulebook's order."""
     found = []

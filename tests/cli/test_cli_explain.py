@@ -126,3 +126,24 @@ def test_an_invalid_rulebook_exits_2_with_its_place_in_both_formats(
         assert captured.out == ""
         assert f"{rulebook}:6:" in captured.err
         assert "Traceback" not in captured.err
+
+
+def test_named_areas_are_listed_with_their_signals(tmp_path: Path, capsys,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "250")
+    path = tmp_path / "areas.rules"
+    path.write_text(RULEBOOK.replace("  level L3             buffer 10 cm\n",
+                                     "  level L3             buffer 10 cm\n"
+                                     "  area rim keep_out level L3 buffer 10 cm\n"
+                                     "  area scarp steep above 20 deg level L2 buffer 5 cm\n"),
+                    encoding="utf-8")
+    assert main(["explain", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert ("area rim: keep-out, level L3, buffer 10 cm (0.1 m); runs read area.rim.inside, "
+            "area.rim.buffer") in lines
+    assert any(line.startswith("area scarp: steep above 20 deg (0.349066 rad), level L2")
+               for line in lines)
+    assert main(["explain", "--format", "json", str(path)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert [(a["name"], a["kind"], a["buffer_m"]) for a in data["areas"]] == [
+        ("rim", "keep_out", 0.1), ("scarp", "steep", 0.05)]

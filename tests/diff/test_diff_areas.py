@@ -54,3 +54,16 @@ def test_another_level_or_an_added_area_is_listed():
     added = diff(BASE.replace("  area scarp", "  area dark unknown level L2 buffer 5 cm\n"
                               "  area scarp"))
     assert added[("area", "dark")].kind == "added"
+
+
+def test_rules_reading_a_changed_area_are_listed_as_affected():
+    found = diff(BASE.replace("keep_out level L3 buffer 10 cm", "keep_out level L3 buffer 12 cm"))
+    chance, verdict = found[("chance", "near_crater")], found[("verdict", "crater_kept")]
+    assert (chance.kind, chance.direction, chance.upstream) == ("affected", "stricter",
+                                                                ("crater",))
+    assert (verdict.kind, verdict.direction) == ("affected", "stricter")
+    # only the buffer moved: a rule reading the inside of the area is not affected
+    assert ("chance", "on_scarp") not in found
+    steeper = diff(BASE.replace("above 20 deg", "above 22 deg"))
+    assert steeper[("chance", "on_scarp")].direction == "looser"
+    assert steeper[("verdict", "scarp_kept")].kind == "affected"
