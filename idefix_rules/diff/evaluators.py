@@ -17,7 +17,7 @@ from typing import Any
 
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.rulebook import check_text, compile_rulebook
-from idefix_rules.rulebook.check import CheckedRulebook, ObstacleLevelSpec
+from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.compile import CompiledRulebook
 from idefix_rules.rulebook.model import Number
 
@@ -41,17 +41,29 @@ def collision_reads(evaluator: CompiledRulebook) -> frozenset[str]:
     return frozenset(n for n in evaluator.required_signals if n.startswith("collision."))
 
 
+def collision_setup(checked: CheckedRulebook) -> tuple[Any, ...]:
+    """What a rulebook's collisions are computed with: its obstacle levels (thresholds and
+    buffers) and its named areas (obstacles of their levels)."""
+    return (*checked.obstacle_levels, *checked.areas)
+
+
+def area_reads(evaluator: CompiledRulebook) -> frozenset[str]:
+    """The signals of named areas the rulebook reads (computed from the poses, never stored)."""
+    return frozenset(evaluator.area_signals_read)
+
+
 def stored_levels(store: ResultStore, candidates: Sequence[CheckedRulebook]
-                  ) -> tuple[ObstacleLevelSpec, ...] | None:
-    """Obstacle levels of the rulebook whose evaluation is stored in ``store`` (its collisions
-    were computed with them), or None when that rulebook is not known."""
+                  ) -> tuple[Any, ...] | None:
+    """The collision set-up (:func:`collision_setup`) of the rulebook whose evaluation is
+    stored in ``store`` (its collisions were computed with it), or None when that rulebook is
+    not known."""
     group = store.file.get("evaluation")
     if group is None:
         return None
     digest = str(group.attrs.get("rulebook_sha256", ""))
     for checked in candidates:
         if source_sha256(checked) == digest:
-            return checked.obstacle_levels
+            return collision_setup(checked)
     try:
         text = store.text("rulebook")
     except KeyError:
@@ -59,18 +71,18 @@ def stored_levels(store: ResultStore, candidates: Sequence[CheckedRulebook]
     if hashlib.sha256(text.encode("utf-8")).hexdigest() != digest:
         return None
     result = check_text(text, "<stored rulebook>")
-    return result.checked.obstacle_levels if result.checked is not None else None
+    return collision_setup(result.checked) if result.checked is not None else None
 
 
-def can_use_stored(evaluators: Sequence[Any], levels: tuple[ObstacleLevelSpec, ...] | None
-                   ) -> bool:
+def can_use_stored(evaluators: Sequence[Any], levels: tuple[Any, ...] | None) -> bool:
     """True when every evaluator that reads collisions reads only stored ones and has the
-    obstacle levels (thresholds and buffers) the stored collisions were computed with."""
+    collision set-up (obstacle levels, named areas) the stored collisions were computed
+    with. The signals of named areas come from the poses either way."""
     if levels is None:
         return False
     for evaluator in evaluators:
         reads = collision_reads(evaluator)
         if reads and (not reads <= set(STORED_COLLISIONS)
-                      or tuple(evaluator.obstacle_levels) != tuple(levels)):
+                      or collision_setup(evaluator.checked) != tuple(levels)):
             return False
     return True

@@ -23,7 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from idefix_rules.campaign.environment import read_terrain
+from idefix_rules.campaign.environment import named_areas, read_terrain
 from idefix_rules.campaign.evaluation import (
     PathResult,
     collision_function,
@@ -38,17 +38,20 @@ from idefix_rules.campaign.runner import stored_campaign
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.stopping import sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.commands import Command
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.diff.evaluators import (
     STORED_COLLISIONS,
+    area_reads,
     can_use_stored,
     collision_reads,
+    collision_setup,
     stored_levels,
     values_only,
 )
 from idefix_rules.diff.reader import MappedRuns
 from idefix_rules.diff.source import RulebookSource
 from idefix_rules.errors import UserInputError, error
+from idefix_rules.obstacles.named import all_area_signals
 from idefix_rules.rulebook.across import first_pass
 
 DEFAULT_CHUNK_RUNS = 128
@@ -229,7 +232,8 @@ class _Collisions:
     def __init__(self, store: ResultStore, folder: Path, evaluators: Sequence[Any],
                  sources: Sequence[RulebookSource], environment: Any) -> None:
         self.evaluators = list(evaluators)
-        self.needed = [bool(collision_reads(e)) for e in evaluators]
+        self.needed = [bool(collision_reads(e) or area_reads(e)) for e in evaluators]
+        self._areas: dict[tuple[Any, ...], dict[str, Any]] = {}
         self.folder, self.environment = folder, environment
         self._functions: dict[tuple[Any, ...], Any] = {}
         self._terrain: Any = None
@@ -252,13 +256,27 @@ class _Collisions:
         if not self.needed[position]:
             return None
         evaluator = self.evaluators[position]
-        key = tuple(evaluator.obstacle_levels)
+        key = collision_setup(evaluator.checked)
         if key not in self._functions:
             if self._terrain is None:
                 self._terrain = read_terrain(self.folder) or False
             self._functions[key] = collision_function(self.environment, evaluator,
                                                       self._terrain or None)
         return self._functions[key]
+
+    def _area_signals(self, position: int, signals: dict[str, np.ndarray]
+                      ) -> dict[str, np.ndarray]:
+        """The named areas' signals of side ``position`` from the chunk's poses (never stored:
+        they are cheap to compute and follow the side's own area declarations)."""
+        evaluator = self.evaluators[position]
+        if not area_reads(evaluator):
+            return {}
+        key = collision_setup(evaluator.checked)
+        if key not in self._areas:
+            if self._terrain is None:
+                self._terrain = read_terrain(self.folder) or False
+            self._areas[key] = named_areas(self.environment, evaluator, self._terrain or None)
+        return all_area_signals(self._areas[key], signals, RoverGeometry())
 
     def stored_for(self, store: ResultStore, name: str) -> dict[str, np.ndarray] | None:
         """The stored collision arrays of a path, or None when they are missing or partial."""
@@ -287,7 +305,8 @@ class _Collisions:
         """The collision signals of each side for one chunk (empty dict: none needed)."""
         if stored is not None:
             picked = {key: values[rows] for key, values in stored.items()}
-            return [picked if needed else {} for needed in self.needed]
+            return [{**picked, **self._area_signals(position, signals)} if needed else {}
+                    for position, needed in enumerate(self.needed)]
         computed: dict[int, dict[str, np.ndarray]] = {}
         out: list[dict[str, np.ndarray]] = []
         for position in range(len(self.needed)):

@@ -186,8 +186,11 @@ class CompiledRulebook:
         # the signals of the rulebook's named areas (given with the collision signals)
         self.area_signals: tuple[str, ...] = tuple(
             name for area in self.checked.areas for name in area.signal_names())
-        self.needs_collisions = any(name.startswith(("collision.", AREA_PREFIX))
-                                    for name in provided)
+        # the named areas' signals the indices and chances read (from the poses)
+        self.area_signals_read: frozenset[str] = frozenset(
+            name for name in read if name.startswith(AREA_PREFIX))
+        self.needs_collisions = any(name.startswith("collision.") for name in provided) or \
+            bool(self.area_signals_read)
         across_read = set(self._signals_read(*(n.operand for n in self.runs_reductions)))
         # What the first pass over a path's runs reads (never collision signals: E802).
         self.across_signals: frozenset[str] = frozenset(

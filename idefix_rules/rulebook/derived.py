@@ -54,7 +54,7 @@ import numpy as np
 
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 from idefix_rules.errors import UserInputError, error
-from idefix_rules.signals import AXIS_LABELS, DERIVED_SIGNALS, REF_PREFIX, lookup
+from idefix_rules.signals import AXIS_LABELS, DERIVED_SIGNALS, REF_PREFIX, area_signal, lookup
 
 
 @dataclass(frozen=True)
@@ -112,9 +112,12 @@ OPTIONAL_INPUTS: dict[str, frozenset[str]] = {
 
 
 def inputs_of(name: str) -> frozenset[str]:
-    """Contract names of provided signals (fmu, collision) that reading ``name`` needs."""
+    """Contract names of provided signals (fmu, collision) that reading ``name`` needs (a
+    named area's signals: the pose they are computed from)."""
     if name.startswith(REF_PREFIX):
         return frozenset({name[len(REF_PREFIX):]})
+    if area_signal(name) is not None:
+        return frozenset({"x", "y", "yaw"})
     return DERIVED_INPUTS.get(name, frozenset({name}))
 
 
