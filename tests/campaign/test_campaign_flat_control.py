@@ -62,6 +62,7 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
     # one warning for every path that disagrees (the assumption is the rulebook's), said once
     words = " ".join(console.split())
     assert words.count("warning:") == 1
+    assert f"warning: {' '.join(slip['warning'].split())}" in words  # its JSON form
     assert "warning: the reference runs slipped straight" in words
     assert "set `theoretical_slip =" in words
     assert f"straight {100 * straight['measured']:.1f} %" in words
