@@ -12,12 +12,14 @@ from rich.console import Console
 from rich.markup import escape
 
 from idefix_rules.campaign.load import Campaign, load_campaign
+from idefix_rules.campaign.resume import interrupted_runs
 from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.outcome import index_titles, print_outcome
 from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress
 from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.files import previous_path
 
 __all__ = ["PlainProgress", "RichProgress", "make_console", "print_outcome", "stored_titles"]
 
@@ -164,14 +166,34 @@ def run(args: argparse.Namespace) -> int:
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
     progress = make_progress(console, args.quiet)
+    results = campaign.output / RESULTS_FILE
+    interrupted = None if args.resume else interrupted_runs(results)
     # Owned, and the last run's outputs set aside, before anything slow happens.
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
             console.print(f"[yellow]note:[/yellow] {escape(lock.note)}")
+        if interrupted is not None:
+            stored, planned = interrupted
+            console.print(
+                f"[yellow]note:[/yellow] {escape(str(results))} held an interrupted campaign "
+                f"({stored} of {planned} Monte Carlo runs stored): it is set aside as "
+                f"{escape(previous_path(results).name)} and this run starts from zero; to "
+                f"continue it instead, stop now (Ctrl-C) and run "
+                f"`{escape(_again(args))}`")
         if args.resume and not (campaign.output / RESULTS_FILE).exists():
             console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
                           "simulating every run")
         return _run_owned(args, campaign, options, progress, console)
+
+
+def _again(args: argparse.Namespace) -> str:
+    """This command with ``--resume``: what continues the campaign."""
+    again = f"idefix-verify {args.campaign} --resume"
+    for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
+                        ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
+        if value is not None:
+            again += f" {flag} {value}"
+    return again
 
 
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
@@ -183,12 +205,7 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
                               report=not args.no_report)
     except KeyboardInterrupt:
         progress.stop()
-        again = f"idefix-verify {args.campaign} --resume"
-        for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
-                            ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
-            if value is not None:
-                again += f" {flag} {value}"
-        console.print(f"[yellow]interrupted[/yellow]: continue with `{again}`")
+        console.print(f"[yellow]interrupted[/yellow]: continue with `{escape(_again(args))}`")
         return 130  # as the dispatcher would, without saying "interrupted" twice
     finally:
         progress.stop()
