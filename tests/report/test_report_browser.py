@@ -180,7 +180,7 @@ def test_the_detector_flags_a_blocked_request(tmp_path: Path, synthetic_results:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("width", [800, 1400])
+@pytest.mark.parametrize("width", [800, 1280])
 def test_report_renders_without_console_errors(synthetic_results: Path, tmp_path: Path,
                                                width: int) -> None:
     page = write_report(synthetic_results, tmp_path / "out")
