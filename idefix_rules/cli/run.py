@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
             console.print(f"[yellow]note:[/yellow] {escape(lock.note)}")
-        if interrupted is not None:
+        if interrupted is not None and interrupted[0] > 0:  # runs worth resuming
             stored, planned = interrupted
             console.print(
                 f"[yellow]note:[/yellow] {escape(str(results))} held an interrupted campaign "
