@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
-from idefix_rules.campaign.wording import verdict_reasons
+from idefix_rules.campaign.wording import verdict_reason_items
 
 DecisionKind = Literal["send", "none", "unsettled"]
 
@@ -93,12 +93,18 @@ class PathFacts:
 def reasons_of(path: PathResult) -> list[str]:
     """A path's failing (or undecided) verdict rules in words and percent, else its stored
     reasons (a rejected or excluded path says why in ``path.reason``)."""
+    return [text for _, text in reason_items(path)]
+
+
+def reason_items(path: PathResult) -> list[tuple[bool, str]]:
+    """:func:`reasons_of` with whether each is decided (``False``: a rule not decided yet at
+    this number of runs, which is not a failure)."""
     confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
     if path.verdict is not None:
-        shown = verdict_reasons(as_plain(path.verdict), confidence, path.runs_needed)
-        extra = [r for r in path.verdict_reasons if "run(s) failed or missing" in r]
+        shown = verdict_reason_items(as_plain(path.verdict), confidence, path.runs_needed)
+        extra = [(True, r) for r in path.verdict_reasons if "run(s) failed or missing" in r]
         return shown + extra
-    return list(path.verdict_reasons)
+    return [(True, r) for r in path.verdict_reasons]
 
 
 def campaign_decision(evaluation: CampaignEvaluation) -> Decision:

@@ -128,10 +128,14 @@ def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
 
 # Units of the numbers in a summary's path records (also in docs/results-format.md).
 SUMMARY_UNITS = {
-    "mean_risk": "1 (run risk I_max, 0 safe … 1 critical; 4 decimals)",
-    "risk_ci95": "1 (4 decimals)",
-    "chances": "1 (share of runs; 4 decimals)",
-    "collision_chance": "1 (share of runs per obstacle level; 4 decimals)",
+    # Fractions here; the console, `diff` and the report show them in percent (× 100).
+    "mean_risk": "fraction 0 … 1, shown in % (run risk I_max, 0 safe … 1 critical; "
+                 "4 decimals)",
+    "risk_ci95": "fraction 0 … 1, shown in % (4 decimals)",
+    "chances": "fraction 0 … 1 of the runs, shown in % (4 decimals)",
+    "collision_chance": "fraction 0 … 1 of the runs per obstacle level, shown in % "
+                        "(4 decimals)",
+    "slip": "fraction 0 … 1 (assumed, measured, wheel_slip, margin), shown in %",
     "energy_mAs": "mAs (0.1 mAs)",
     "time_s": "s (0.01 s)",
     "stop_time_s": "s (0.01 s)",
@@ -223,9 +227,9 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
 
 def slip_record(evaluation: CampaignEvaluation) -> dict[str, Any]:
     """Assumed vs simulated slip (idefix_rules.campaign.slip), with the margin it warns at."""
-    from idefix_rules.campaign.slip import SETTING, SLIP_MARGIN
+    from idefix_rules.campaign.slip import SETTING, SLIP_MARGIN, slip_warning
 
-    return {"setting": SETTING, "margin": SLIP_MARGIN,
+    return {"setting": SETTING, "margin": SLIP_MARGIN, "warning": slip_warning(evaluation.slip),
             "paths": [check.to_dict() for check in evaluation.slip]}
 
 

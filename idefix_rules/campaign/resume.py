@@ -10,14 +10,21 @@ simulate.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from idefix_rules.campaign.processes import INFRASTRUCTURE, is_infrastructure
-from idefix_rules.campaign.store import STATUS_FAILED, STATUS_MISSING, decode_reason
+from idefix_rules.campaign.store import (
+    STATUS_COMPLETE,
+    STATUS_FAILED,
+    STATUS_MISSING,
+    decode_reason,
+)
 
-__all__ = ["INFRASTRUCTURE", "is_infrastructure", "resume_command", "runs_to_simulate"]
+__all__ = ["INFRASTRUCTURE", "interrupted_runs", "is_infrastructure", "resume_command",
+           "runs_to_simulate"]
 
 
 def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
@@ -40,6 +47,35 @@ def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
         store.file.flush()
     return np.union1d(np.flatnonzero(status == STATUS_MISSING),
                       np.asarray(again, dtype=np.int64)).astype(np.int64)
+
+
+def interrupted_runs(results: Path) -> tuple[int, int] | None:
+    """``(runs stored, runs planned)`` of a results file whose campaign was interrupted (its
+    state ``running`` or ``interrupted``: killed, stopped, or lost to the infrastructure);
+    None when there is no such file, its campaign completed, or it cannot be read. A run
+    without ``--resume`` sets such a file aside, and says so first."""
+    from idefix_rules.campaign.store import ResultStore
+
+    if not Path(results).is_file():
+        return None
+    try:
+        store = ResultStore.open(Path(results))
+    except Exception:  # unreadable: nothing to resume from either
+        return None
+    try:
+        if str(store.attrs.get("state", "complete")) not in ("running", "interrupted"):
+            return None
+        stored = planned = 0
+        for name in store.path_names:
+            if store.has_runs(name):
+                status = np.asarray(store.path_group(name)["runs"]["status"][()])
+                stored += int(np.sum(status == STATUS_COMPLETE))
+                planned += int(status.size)
+        return stored, planned
+    except Exception:
+        return None
+    finally:
+        store.close()
 
 
 def reference_lost(store: Any, name: str) -> bool:

@@ -13,7 +13,7 @@ import hashlib
 import json
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,6 +45,7 @@ from idefix_rules.campaign.simulate import (
     rover_geometry,
     simulate_campaign,
 )
+from idefix_rules.campaign.slip import slip_warning
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.campaign.validate import (
     check_rocks_on_terrain,
@@ -185,16 +186,16 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                junit: Path | None, report: bool) -> CampaignResult:
     started = time.perf_counter()
     say = progress.message if progress is not None else (lambda text: None)
+    # How far a phase is, where the progress shows it (an ETA); optional in the protocol.
+    advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
     if campaign.fmu is None and not _fmu_cached():
         say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
     mapping = check_fmu(campaign, fmu_path, evaluator)
+    # said once, with the outcome
     warnings = describe_warnings(mapping.warnings, {str(campaign.source): campaign.text})
-    for text in warnings:
-        if progress is not None:
-            progress.message(f"warning: {text}")
     check_simulation_size(campaign)
     fixed: dict[str, float | str] = {}
     say("preparing the terrain")
@@ -222,7 +223,17 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     simulated = time.perf_counter()
     store = ResultStore.open(simulation.results)  # read only: the evaluation writes a new version
     checks = " (collision checks and rulebook)" if collisions is not None else ""
-    clock = PathClock(lambda name, runs: say(f"evaluating {name}: {runs} runs{checks}"))
+    complete = {name: int(np.sum(store.run_status(name) == STATUS_COMPLETE))
+                for name in store.path_names if store.has_runs(name)}
+    total = sum(complete.values())
+    say(f"evaluating {total} runs of {len(complete)} path(s){checks}")
+    began: list[int] = []
+
+    def evaluating(name: str, runs: int) -> None:
+        advance(sum(began) / total if total else 0.0, name)
+        began.append(complete.get(name, runs))
+
+    clock = PathClock(evaluating)
     then = (f"the simulated runs are stored; free space, then evaluate them with `{again}` "
             f"(or `idefix-verify evaluate {simulation.results}`)")
     try:
@@ -243,7 +254,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
         say("writing the report (per-sample risk maps, figures)")
         result.report = write_report(result.results, campaign.output,
                                      "the results and summary.json are written; free space, "
-                                     f"then `idefix-verify report {result.results}`")
+                                     f"then `idefix-verify report {result.results}`",
+                                     advance)
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,
                       "report": time.perf_counter() - evaluated,
@@ -311,7 +323,8 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, model: CampaignF
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
                 Span(str(junit)), hint=f"the results are in {revision.path}")) from None
-    warnings = [check.warning for check in evaluation.slip if check.warning]
+    slipped = slip_warning(evaluation.slip)
+    warnings = [slipped] if slipped else []
     return CampaignResult(revision.path, evaluation, checks, data, code, warnings)
 
 
@@ -332,9 +345,11 @@ REPORT_BYTES = 2 * 1024 * 1024
 REPORT_BYTES_PER_PATH = 1024 * 1024
 
 
-def write_report(results: Path, output: Path, then: str = "") -> Path:
+def write_report(results: Path, output: Path, then: str = "",
+                 advance: Callable[[float, str], None] | None = None) -> Path:
     """The HTML report (``report.html`` and figures) next to the results (``DiskFull``
-    before anything is written when the disk has not room for it)."""
+    before anything is written when the disk has not room for it); ``advance(fraction,
+    stage)`` hears how far it is."""
     from idefix_rules.report import write_report as write_html_report
 
     store = ResultStore.open(results)  # UserInputError for a missing or foreign file
@@ -346,7 +361,7 @@ def write_report(results: Path, output: Path, then: str = "") -> Path:
     output.mkdir(parents=True, exist_ok=True)
     diskspace.require(output, REPORT_BYTES + REPORT_BYTES_PER_PATH * paths, doing, then)
     with diskspace.guard(output, doing, then):
-        return Path(write_html_report(results, output))
+        return Path(write_html_report(results, output, advance))
 
 
 def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,

@@ -95,6 +95,27 @@ def correlations(parameters: dict[str, np.ndarray], target: np.ndarray) -> list[
     return sorted(found, key=lambda c: (-abs(c.rho), c.parameter))
 
 
+def why_none(parameters: dict[str, np.ndarray], target: np.ndarray, what: str) -> str | None:
+    """Why :func:`correlations` finds nothing for ``target`` (None when it finds something or
+    there is no simple reason), in words for the report.
+
+    >>> why_none({"a": np.arange(10.0)}, np.full(10, 0.25), "run risk I_max")
+    'every run has the same run risk I_max (0.25): a rank correlation needs a spread'
+    """
+    target = np.asarray(target, dtype=float)
+    finite = target[np.isfinite(target)]
+    if finite.size < MIN_RUNS:
+        return (f"{finite.size} complete run(s): a rank correlation needs at least "
+                f"{MIN_RUNS}")
+    if np.ptp(finite) == 0:
+        return (f"every run has the same {what} ({float(finite[0]):.4g}): a rank "
+                "correlation needs a spread")
+    if not any(np.ptp(np.asarray(v, dtype=float)[np.isfinite(v)]) > 0
+               for v in parameters.values() if np.isfinite(v).any()):
+        return "no sampled parameter varies between the runs"
+    return None
+
+
 def _text(value: Any) -> str:
     return value.decode("utf-8") if isinstance(value, bytes) else str(value)
 
@@ -121,7 +142,10 @@ def path_sensitivity(group: Any) -> dict[str, Any] | None:
         "risk": [c.to_dict() for c in correlations(parameters, i_max[complete])],
         "dominant_index": dominant,
         "dominant": [],
+        "note": None,  # why no correlation could be computed, when none could
     }
+    if not record["risk"]:
+        record["note"] = why_none(parameters, i_max[complete], "run risk I_max")
     if dominant is not None:
         source = evaluation.get("raw") if "raw" in evaluation else evaluation.get("indices")
         if source is not None and dominant in source:

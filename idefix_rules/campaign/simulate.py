@@ -184,8 +184,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     summary = SimulationSummary(results)
     warning = _sampling_warning(campaign)
     if warning:
-        summary.warnings.append(warning)
-        progress.message(warning)
+        summary.warnings.append(warning)  # said once, with the outcome
     store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
     was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()

@@ -59,9 +59,10 @@ class SlipCheck:
     def warning(self) -> str | None:
         if not self.disagrees or self.measured is None:
             return None
-        return (f"{self.path}: the reference run slipped {self.measured:.1%} (effective, along "
-                f"the path) but {self.rulebook} assumes {SETTING} = {self.assumed:.1%} for the "
-                f"theoretical path: they differ by more than {self.margin:.0%}, so local errors "
+        return (f"{self.path}: the reference run slipped {100 * self.measured:.1f} % "
+                f"(effective, along the path) but {self.rulebook} assumes {SETTING} = "
+                f"{100 * self.assumed:.1f} % for the theoretical path: they differ by more "
+                f"than {100 * self.margin:.0f} %, so local errors "
                 f"measure the assumption; set `{SETTING} = {100 * max(self.measured, 0.0):.0f} %` "
                 f"in the "
                 f"rulebook's settings if this reference run is representative")
@@ -70,6 +71,36 @@ class SlipCheck:
         return {"path": self.path, "assumed": self.assumed, "measured": _finite(self.measured),
                 "wheel_slip": _finite(self.wheel_slip), "margin": self.margin,
                 "setting": SETTING, "disagrees": self.disagrees, "warning": self.warning}
+
+
+def slip_warning(checks: Sequence[SlipCheck]) -> str | None:
+    """One warning for every path whose reference run disagrees with the assumed slip (the
+    assumption is the rulebook's, so it is said once, not once per path); None when all agree.
+
+    >>> checks = [SlipCheck("a", 0.2, 0.111, None, rulebook="rulebook r 1.0.0"),
+    ...           SlipCheck("b", 0.2, 0.19, None), SlipCheck("c", 0.2, 0.01, None)]
+    >>> print(slip_warning(checks))  # doctest: +NORMALIZE_WHITESPACE
+    the reference runs slipped a 11.1 %, c 1.0 % (effective, along the path) but rulebook r
+    1.0.0 assumes theoretical_slip = 20.0 % for the theoretical path: they differ by more than
+    5 %, so local errors measure the assumption; set `theoretical_slip = 11 %` (a) or `1 %` (c)
+    in the rulebook's settings if that reference run is representative
+    """
+    off = [c for c in checks if c.disagrees and c.measured is not None]
+    if not off:
+        return None
+    if len(off) == 1:
+        return off[0].warning
+    first = off[0]
+    slipped = ", ".join(f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in off)
+    settings = [f"{100 * max(c.measured or 0.0, 0.0):.0f} %" for c in off]
+    choices = [f"`{SETTING} = {settings[0]}` ({off[0].path})"]
+    choices += [f"`{value}` ({c.path})" for value, c in zip(settings[1:], off[1:], strict=True)]
+    said = ", ".join(choices[:-1]) + f" or {choices[-1]}"
+    return (f"the reference runs slipped {slipped} (effective, along the path) but "
+            f"{first.rulebook} assumes {SETTING} = {100 * first.assumed:.1f} % for the "
+            f"theoretical path: they differ by more than {100 * first.margin:.0f} %, so local "
+            f"errors measure the assumption; set {said} in the rulebook's settings if that "
+            "reference run is representative")
 
 
 def _finite(value: float | None) -> float | None:

@@ -261,13 +261,22 @@ def verdict_reasons(verdict: Mapping[str, Any] | None, confidence: float = 0.95,
                     runs_needed: Mapping[str, int | None] | None = None) -> list[str]:
     """The rules that explain a verdict: those failing decidedly, else failing or undecided
     (an undecided rule with roughly how many runs would decide it, from ``runs_needed``)."""
+    return [text for _, text in verdict_reason_items(verdict, confidence, runs_needed)]
+
+
+def verdict_reason_items(verdict: Mapping[str, Any] | None, confidence: float = 0.95,
+                         runs_needed: Mapping[str, int | None] | None = None
+                         ) -> list[tuple[bool, str]]:
+    """:func:`verdict_reasons` with each rule's ``decided`` flag: ``(False, text)`` for a rule
+    whose limit lies inside its interval (neither failed nor passed yet)."""
     rules = [r for r in (verdict or {}).get("rules", []) if isinstance(r, Mapping)]
     failed_for_sure = [r for r in rules if not r.get("passed", True) and r.get("decided", True)]
     shown = failed_for_sure or [r for r in rules
                                 if not r.get("passed", True) or not r.get("decided", True)]
     needed = runs_needed or {}
-    return [rule_text(r, confidence) + (f"; {runs_needed_text(needed[str(r.get('name'))])}"
-                                        if str(r.get("name")) in needed else "")
+    return [(bool(r.get("decided", True)),
+             rule_text(r, confidence) + (f"; {runs_needed_text(needed[str(r.get('name'))])}"
+                                         if str(r.get("name")) in needed else ""))
             for r in shown]
 
 

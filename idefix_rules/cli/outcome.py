@@ -1,7 +1,9 @@
 """The console's account of a campaign: decision, Table 1, why, CI's outcome.
 
-Order: the ``Decision:`` line (what to send), the path table, each path's failing verdicts in
-the rulebook's terms (percent, not bare ratios), the ranking, the expectations and the line
+Order: the details first (the path table, each path's failing verdicts in the rulebook's terms,
+in percent, ✗ for a rule failed and ? for one not decided yet, the expectations, each warning
+once, the files written), then the answer last, where the screen ends: the ``Decision:`` line
+(what to send), the ranking, each path's verdict in one line and the line
 ``CI expectations: N of M held (exit K)``. The table is the paper's Table 1 when it fits the
 console; when it does not (80 columns), every path becomes a short block of lines instead, so
 no name is ever cut.
@@ -17,10 +19,11 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
-from idefix_rules.campaign.decision import Decision, campaign_decision, reasons_of
+from idefix_rules.campaign.decision import Decision, campaign_decision, reason_items
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
 from idefix_rules.campaign.processes import is_infrastructure
+from idefix_rules.campaign.stopping import STOP_FIXED
 from idefix_rules.campaign.wording import percent, unfinished_text
 
 LEVELS = ("L1", "L2", "L3")
@@ -127,19 +130,64 @@ def ci_line(expectations: Sequence[ExpectationResult], code: int,
             f"{len(evaluation.paths)} passed (exit {code})")
 
 
+FAILED_MARK = "✗"
+UNDECIDED_MARK = "?"
+LEGEND = (f"{FAILED_MARK} rule failed · {UNDECIDED_MARK} rule not decided yet (its limit is "
+          "inside the CI: run more)")
+
+
+def _rule_name(text: str) -> str:
+    return text.split(":", 1)[0] if ":" in text else text
+
+
+def verdict_line(path: PathResult) -> str:
+    """A path's verdict in one line: rank, name, verdict, risk, the rules it fails and those
+    not decided yet (by name; the details are printed above the answer)."""
+    rank = f"#{path.rank}" if path.rank is not None else "–"
+    parts = [f"{rank} [bold]{escape(path.name)}[/bold]: {_verdict(path)}"]
+    if path.mean_risk is not None:
+        parts.append(f"risk {percent(path.mean_risk)}")
+    items = reason_items(path)
+    failed = [_rule_name(text) for decided, text in items if decided]
+    open_ = [_rule_name(text) for decided, text in items if not decided]
+    if failed and path.verdict_text != "pass" and path.verdict is not None:
+        parts.append("fails " + ", ".join(escape(n) for n in failed))
+    if open_:
+        parts.append("not decided: " + ", ".join(escape(n) for n in open_))
+    return "  " + " · ".join(parts)
+
+
+def print_answer(console: Console, evaluation: CampaignEvaluation,
+                 expectations: Sequence[ExpectationResult], code: int) -> Decision:
+    """The answer, printed last so it is what the screen ends on: the decision, the ranking,
+    each path's verdict in one line, then CI's outcome."""
+    decision = campaign_decision(evaluation)
+    console.rule(style="dim")
+    print_decision(console, decision)
+    if evaluation.ranking:
+        console.print("[bold]Ranking:[/bold] "
+                      + " > ".join(escape(n) for n in evaluation.ranking))
+    for path in _ordered(evaluation):
+        console.print(verdict_line(path))
+    style = "green" if code == 0 else "red"
+    console.print(f"[{style}]{ci_line(expectations, code, evaluation)}[/{style}]")
+    return decision
+
+
 def print_outcome(console: Console, evaluation: CampaignEvaluation,
                   expectations: list[ExpectationResult], code: int, warnings: list[str],
-                  titles: Mapping[str, str] | None = None) -> Decision:
-    """Decision, table (or per-path blocks), reasons, ranking, expectations, CI's outcome."""
+                  titles: Mapping[str, str] | None = None,
+                  files: Sequence[tuple[str, object]] = ()) -> Decision:
+    """The details (table or per-path blocks, reasons, slip, expectations, warnings, the files
+    written), then the answer (:func:`print_answer`) last."""
     titles = titles or {}
-    decision = campaign_decision(evaluation)
-    print_decision(console, decision)
     table = results_table(evaluation, titles)
     wide = fits(console, table)
     if wide:
         console.print(table)
     else:
         console.print("[bold]Path evaluation[/bold] (best first)")
+    marks = False
     for path in _ordered(evaluation) if not wide else evaluation.paths:
         if not wide:
             for line in path_lines(path, titles):
@@ -147,14 +195,17 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         if path.reason:
             console.print(f"  [yellow]{escape(path.name)}[/yellow] {path.status}: "
                           f"{escape(path.reason)}")
-        if path.stop_reason:
+        if path.stop_reason and not path.stop_reason.startswith(STOP_FIXED):
             console.print(f"  {escape(path.name)}: runs: {escape(path.stop_reason)}")
         if path.unfinished and path.stop_time is not None:
             text = unfinished_text(path.name, path.unfinished, path.completed, path.stop_time)
             console.print(f"  [yellow]{escape(text)}[/yellow]")
-        for reason in reasons_of(path):
-            console.print(f"  {escape(path.name)}: {escape(reason)}" if wide
-                          else f"  ✗ {escape(reason)}")
+        for decided, reason in reason_items(path):
+            marks = True
+            mark = (f"[red]{FAILED_MARK}[/red]" if decided
+                    else f"[yellow]{UNDECIDED_MARK}[/yellow]")
+            console.print(f"  {mark} {escape(path.name)}: {escape(reason)}" if wide
+                          else f"  {mark} {escape(reason)}")
         for run, reason in sorted(path.failures.items())[:10]:
             if is_infrastructure(reason):  # no failure of the path's: --resume runs it again
                 console.print(f"  [yellow]{escape(path.name)} run {run} lost[/yellow]: "
@@ -165,22 +216,24 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         if len(path.failures) > 10:
             console.print(f"  [red]… and {len(path.failures) - 10} more failed or lost "
                           "runs[/red]")
-    if evaluation.ranking:
-        console.print("ranking: " + " > ".join(escape(n) for n in evaluation.ranking))
+    if marks:
+        console.print(f"[dim]{escape(LEGEND)}[/dim]")
     measured = [c for c in evaluation.slip if c.measured is not None]
-    if measured:  # assumed vs simulated slip (campaign/slip.py); disagreements warn below
-        console.print(f"slip: rulebook assumes theoretical_slip = {measured[0].assumed:.1%}; "
-                      "reference runs measured " + ", ".join(
-                          f"{c.path} {c.measured:.1%}" for c in measured), markup=False)
+    if measured and not any(c.disagrees for c in measured):
+        # assumed vs simulated slip (campaign/slip.py); a disagreement is a warning instead
+        console.print(f"slip: rulebook assumes theoretical_slip = {100 * measured[0].assumed:.1f}"
+                      " %; reference runs measured " + ", ".join(
+                          f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in measured),
+                      markup=False)
     for expectation in expectations:
         mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
         console.print(f"{mark} expect {escape(expectation.description)}: "
                       f"{escape(expectation.message)}")
-    for text in warnings:
+    for text in dict.fromkeys(warnings):  # each said once
         console.print(f"[yellow]warning:[/yellow] {escape(text)}")
-    style = "green" if code == 0 else "red"
-    console.print(f"[{style}]{ci_line(expectations, code, evaluation)}[/{style}]")
-    return decision
+    for label, value in files:
+        console.print(f"{label}: {escape(str(value))}")
+    return print_answer(console, evaluation, expectations, code)
 
 
 def index_titles(rulebook: Any) -> dict[str, str]:

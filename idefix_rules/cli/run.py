@@ -6,32 +6,23 @@ import argparse
 import math
 import os
 import re
-import time
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    SpinnerColumn,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
-from rich.table import Column
 
 from idefix_rules.campaign.load import Campaign, load_campaign
+from idefix_rules.campaign.resume import interrupted_runs
 from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.outcome import index_titles, print_outcome
 from idefix_rules.cli.pipes import StdoutConsole
+from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress
 from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.files import previous_path
 
-__all__ = ["make_console", "print_outcome", "stored_titles"]
+__all__ = ["PlainProgress", "RichProgress", "make_console", "print_outcome", "stored_titles"]
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -66,7 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write JUnit XML: a case per path and per expectation; its "
                         "failures are exactly what sets the exit code (docs/ci.md)")
     parser.add_argument("--quiet", action="store_true",
-                        help="no progress bars (CI logs); the result table is still printed")
+                        help="no progress at all; the results are still printed (without it, "
+                             "progress is bars on a terminal and plain lines in a log: a line "
+                             "per phase with its duration and per 10 %% of each path's runs)")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
     cluster = parser.add_mutually_exclusive_group()
     cluster.add_argument("--scheduler", metavar="ADDRESS",
@@ -124,76 +117,6 @@ def _timeout(text: str) -> float:
     return value
 
 
-class RichProgress:
-    """Progress on the console (the simulation's :class:`Progress` protocol): a spinner with
-    the elapsed time for each step (compile, FMU build, terrain, evaluation per path, report),
-    then a line saying how long it took; bars with ETA for each path's runs."""
-
-    def __init__(self, console: Console, quiet: bool) -> None:
-        self.console = console
-        self.quiet = quiet
-        self.bars: Progress | None = None
-        self.tasks: dict[str, Any] = {}
-        self.failed: dict[str, int] = {}
-        self.step: tuple[str, float] | None = None
-        self.spinner: Progress | None = None
-
-    def message(self, text: str) -> None:
-        if self.quiet:
-            return
-        self.stop()
-        self.step = (text, time.perf_counter())
-        self.spinner = Progress(SpinnerColumn(),
-                                TextColumn("{task.description}",
-                                           table_column=Column(overflow="fold")),
-                                TimeElapsedColumn(), console=self.console, transient=True)
-        self.spinner.add_task(text, total=None)
-        self.spinner.start()
-
-    def _end_step(self) -> None:
-        if self.spinner is not None:
-            self.spinner.stop()
-            self.spinner = None
-        if self.step is not None:
-            text, began = self.step
-            self.step = None
-            self.console.print(f"[dim]{escape(text)} ({time.perf_counter() - began:.1f} s)"
-                               "[/dim]")
-
-    def start_path(self, name: str, total: int, done: int) -> None:
-        if self.quiet:
-            return
-        self._end_step()
-        if self.bars is None:
-            # A narrow console keeps the bar short so whole path names fit; a name longer
-            # than the line folds onto the next one, never cut.
-            bar = 10 if self.console.width < 100 else 30
-            self.bars = Progress(TextColumn("{task.description}",
-                                            table_column=Column(overflow="fold")),
-                                 BarColumn(bar_width=bar),
-                                 MofNCompleteColumn(), TextColumn("{task.fields[failed]}"),
-                                 TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                                 console=self.console, transient=False)
-            self.bars.start()
-        self.tasks[name] = self.bars.add_task(escape(name), total=total, completed=done,
-                                              failed="")
-        self.failed[name] = 0
-
-    def run_finished(self, name: str, ok: bool) -> None:
-        if self.bars is None or name not in self.tasks:
-            return
-        if not ok:
-            self.failed[name] += 1
-        label = f"[red]{self.failed[name]} failed[/red]" if self.failed[name] else ""
-        self.bars.update(self.tasks[name], advance=1, failed=label)
-
-    def stop(self) -> None:
-        self._end_step()
-        if self.bars is not None:
-            self.bars.stop()
-            self.bars = None
-
-
 def make_console() -> Console:
     """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
     columns wide (CI logs), a terminal as wide as it is."""
@@ -243,19 +166,39 @@ def run(args: argparse.Namespace) -> int:
     options = SimulationOptions(workers=args.workers, run_timeout=args.run_timeout,
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
-    progress = RichProgress(console, args.quiet)
+    progress = make_progress(console, args.quiet)
+    results = campaign.output / RESULTS_FILE
+    interrupted = None if args.resume else interrupted_runs(results)
     # Owned, and the last run's outputs set aside, before anything slow happens.
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
             console.print(f"[yellow]note:[/yellow] {escape(lock.note)}")
+        if interrupted is not None and interrupted[0] > 0:  # runs worth resuming
+            stored, planned = interrupted
+            console.print(
+                f"[yellow]note:[/yellow] {escape(str(results))} held an interrupted campaign "
+                f"({stored} of {planned} Monte Carlo runs stored): it is set aside as "
+                f"{escape(previous_path(results).name)} and this run starts from zero; to "
+                f"continue it instead, stop now (Ctrl-C) and run "
+                f"`{escape(_again(args))}`")
         if args.resume and not (campaign.output / RESULTS_FILE).exists():
             console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
                           "simulating every run")
         return _run_owned(args, campaign, options, progress, console)
 
 
+def _again(args: argparse.Namespace) -> str:
+    """This command with ``--resume``: what continues the campaign."""
+    again = f"idefix-verify {args.campaign} --resume"
+    for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
+                        ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
+        if value is not None:
+            again += f" {flag} {value}"
+    return again
+
+
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
-               progress: RichProgress, console: Console) -> int:
+               progress: RichProgress | PlainProgress, console: Console) -> int:
     from idefix_rules.campaign.runner import run_campaign
 
     try:
@@ -263,18 +206,13 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
                               report=not args.no_report)
     except KeyboardInterrupt:
         progress.stop()
-        again = f"idefix-verify {args.campaign} --resume"
-        for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
-                            ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
-            if value is not None:
-                again += f" {flag} {value}"
-        console.print(f"[yellow]interrupted[/yellow]: continue with `{again}`")
+        console.print(f"[yellow]interrupted[/yellow]: continue with `{escape(_again(args))}`")
         return 130  # as the dispatcher would, without saying "interrupted" twice
     finally:
         progress.stop()
-    print_outcome(console, result.evaluation, result.expectations, result.exit_code,
-                  result.warnings, stored_titles(result.results))
-    console.print(f"results: {result.results}")
+    files: list[tuple[str, object]] = [("results", result.results)]
     if result.report is not None:
-        console.print(f"report: {result.report}")
+        files.append(("report", result.report))
+    print_outcome(console, result.evaluation, result.expectations, result.exit_code,
+                  result.warnings, stored_titles(result.results), files)
     return result.exit_code

@@ -23,6 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from idefix_rules.campaign.decision import reasons_of
 from idefix_rules.campaign.environment import named_areas, read_terrain
 from idefix_rules.campaign.evaluation import (
     PathResult,
@@ -216,7 +217,8 @@ def _gate(side: _Side, chain: tuple[Command, ...], context: dict[str, Any],
 def _side_result(side: _Side) -> SideResult:
     result = side.result
     verdict = NOT_SIMULATED if result.status == NOT_SIMULATED else result.verdict_text
-    reasons = tuple(result.verdict_reasons) or ((result.reason,) if result.reason else ())
+    # in the rulebook's words and percent, as `run` says them
+    reasons = tuple(reasons_of(result)) or ((result.reason,) if result.reason else ())
     counts = dict(getattr(side.statistics, "dominant_counts", {}) or {})
     return SideResult(verdict, bool(result.undecided), reasons, result.mean_risk,
                       result.risk_ci, result.rank, dict(result.chances), counts,

@@ -12,6 +12,7 @@ Stages: read the data (:mod:`.data`), evaluate per-sample risk and bin it (:mod:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from html import escape
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,8 @@ def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
-def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> list[html.Image]:
+def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path,
+                done: Callable[[float], None] = lambda share: None) -> list[html.Image]:
     order = [path.name for path in data.paths]
     images = []
     what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
@@ -45,7 +47,8 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path) -> 
     images.append(html.Image("risk_map_all.png",
                              figures.save_png(combined, out_dir / "risk_map_all.png"),
                              f"Result map, all paths together ({maps.combined.runs} runs)."))
-    for name, accumulator in maps.per_path.items():
+    for position, (name, accumulator) in enumerate(maps.per_path.items(), start=1):
+        done(position / (len(maps.per_path) + 1))
         file = f"risk_map_{_safe(name)}.png"
         figure = figures.risk_map_figure(accumulator.values(), maps.grid, setup.environment,
                                          overlay, order, f"{name}: {what}",
@@ -78,13 +81,26 @@ def _box_images(data: ReportData, out_dir: Path) -> list[html.Image]:
     return images
 
 
-def prepare_report(results_h5: Path) -> tuple[ReportData, Setup, MapSet]:
+Advance = Callable[[float, str], None]
+# Shares of the report's time (measured on the example): the per-sample pass over the runs, then
+# the printable maps, then the rest (box plots, sensitivity, the page).
+PREPARE_SHARE, MAPS_SHARE = 0.25, 0.65
+
+
+def _quiet(fraction: float, stage: str) -> None:
+    pass
+
+
+def prepare_report(results_h5: Path, advance: Advance = _quiet
+                   ) -> tuple[ReportData, Setup, MapSet]:
     """Everything the report shows, as data: read, evaluate per sample, bin (no drawing)."""
     store = ResultStore.open(results_h5)
     try:
         data = read_report_data(store)
         setup = setup_from_store(store)
-        return data, setup, prepare(store, data, setup)
+        return data, setup, prepare(store, data, setup,
+                                    lambda share, name: advance(PREPARE_SHARE * share,
+                                                                f"per-sample risk of {name}"))
     finally:
         store.close()
 
@@ -116,16 +132,22 @@ def _sensitivity(results_h5: Path) -> dict[str, Any]:
         store.close()
 
 
-def write_report(results_h5: Path, out_dir: Path) -> Path:
+def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None) -> Path:
     """Write ``report.html`` and the figures as PNG into ``out_dir``; returns the HTML path.
+    ``advance(fraction, stage)`` hears how far it is (for an ETA).
 
     A missing or foreign results file raises :class:`~idefix_rules.errors.UserInputError`.
     """
-    data, setup, maps = prepare_report(Path(results_h5))
+    advance = advance or _quiet
+    data, setup, maps = prepare_report(Path(results_h5), advance)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [path.name for path in data.paths]
-    map_images = _map_images(data, maps, setup, out_dir)
+    advance(PREPARE_SHARE, "result maps")
+    map_images = _map_images(data, maps, setup, out_dir,
+                             lambda share: advance(PREPARE_SHARE + MAPS_SHARE * share,
+                                                   "result maps"))
+    advance(PREPARE_SHARE + MAPS_SHARE, "box plots, sensitivity, the page")
     box_images = _box_images(data, out_dir)
     dominance = None
     counts = {path.name: path.dominance() for path in data.evaluated_paths}

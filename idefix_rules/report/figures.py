@@ -112,11 +112,12 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
         strong = highlight is None or name == highlight
         colour = path_colour(position)
         alpha = 1.0 if strong else 0.35
-        if strong:
+        if name == highlight:
             for band in (overlay.bands.get(name) or {}).values():
                 axes.add_patch(Polygon(band, closed=True, facecolor=colour, alpha=0.18,
                                        edgecolor="none", zorder=4))
-        for wheel in (overlay.wheels.get(name) or {}).values():
+        # footprints of the highlighted path only: every path's at once hide the map
+        for wheel in (overlay.wheels.get(name) or {}).values() if name == highlight else ():
             axes.plot(wheel[0], wheel[1], color=colour, linewidth=0.8, alpha=0.6 * alpha,
                       zorder=5)
         ideal = overlay.ideal.get(name)
@@ -137,9 +138,11 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     axes.plot([], [], color=grey, linewidth=2.2, label="reference run (body centre)")
     axes.plot([], [], color=grey, linestyle=(0, (5, 3)), linewidth=1.5,
               label="ideal (commanded) path")
-    axes.plot([], [], color=grey, linewidth=0.8, label="wheel tracks (reference run)")
+    if highlight is not None and overlay.wheels.get(highlight):
+        axes.plot([], [], color=grey, linewidth=0.8, label="wheel tracks (reference run)")
     axes.add_patch(Polygon(np.zeros((3, 2)), facecolor=grey, alpha=0.25, edgecolor="none",
-                           label="wheel footprints (6 cm wide)" if overlay.bands else None))
+                           label="wheel footprints (6 cm wide)"
+                           if highlight is not None and overlay.bands.get(highlight) else None))
     if contacts_drawn:
         axes.scatter([], [], marker="x", color="black", label="first contact (at the wheel)")
     left, right, bottom, top = grid.extent
@@ -203,15 +206,14 @@ def box_plot_figure(series: Mapping[str, np.ndarray], path_order: Sequence[str],
     names = [name for name in path_order if name in series and np.isfinite(series[name]).any()]
     data = [np.asarray(series[name])[np.isfinite(series[name])] * scale for name in names]
     if data:
-        boxes = axes.boxplot(data, tick_labels=names, patch_artist=True, showmeans=True,
+        # the run count under each name, not inside the plot where outliers lie
+        labels = [f"{name}\nn={values.size}" for name, values in zip(names, data, strict=True)]
+        boxes = axes.boxplot(data, tick_labels=labels, patch_artist=True, showmeans=True,
                              meanprops={"marker": "^", "markerfacecolor": "white",
                                         "markeredgecolor": "black", "markersize": 5})
         for position, patch in enumerate(boxes["boxes"]):
             patch.set_facecolor(path_colour(path_order.index(names[position])))
             patch.set_alpha(0.55)
-        for position, values in enumerate(data, start=1):
-            axes.annotate(f"n={values.size}", (position, 0), xycoords=("data", "axes fraction"),
-                          xytext=(0, 3), textcoords="offset points", ha="center", fontsize=7)
     else:
         axes.text(0.5, 0.5, "no complete runs", ha="center", va="center",
                   transform=axes.transAxes)

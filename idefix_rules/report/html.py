@@ -59,6 +59,20 @@ dl.indices dt { font-weight: 600; margin-top: 6px; } dl.indices dd { margin: 0 0
 @media (max-width: 1100px) { .grid figure { max-width: 100%; } }
 @media (max-width: 900px) { main { padding: 6px 10px 30px 10px; }
   section { padding: 10px 10px; } header { padding: 14px 12px; } }
+table.table-one th { white-space: normal; }
+/* Narrow windows: each row of the path table becomes a card of label: value lines, every
+   column kept */
+@media (max-width: 1000px) {
+  table.stack, table.stack tbody, table.stack tr, table.stack td { display: block;
+    width: auto; }
+  table.stack thead { display: none; }
+  table.stack tr { border: 1px solid #d5dbe2; border-radius: 4px; margin: 0 0 10px 0;
+    padding: 4px 0; }
+  table.stack td { border: none; padding: 2px 10px; display: grid;
+    grid-template-columns: minmax(9em, 40%) 1fr; gap: 8px; text-align: left;
+    white-space: normal; }
+  table.stack td::before { content: attr(data-label); font-weight: 600; color: #4a545e; }
+}
 """
 
 
@@ -104,11 +118,17 @@ def _verdict_class(verdict: str) -> str:
     return {"pass": "pass", "fail": "fail"}.get(verdict, "other")
 
 
+def ranked(paths: Sequence[PathReport]) -> list[PathReport]:
+    """Paths in rank order (best first), the unranked after them in campaign order."""
+    return sorted(paths, key=lambda p: (p.row.rank is None, p.row.rank or 0))
+
+
 def _table(head: Sequence[str], rows: Iterable[Sequence[str]], numeric: set[int] | None = None,
-           raw: bool = False) -> str:
-    """A table; cells are escaped unless ``raw`` (then the caller escaped them)."""
+           raw: bool = False, css: str = "", labels: bool = False) -> str:
+    """A table; cells are escaped unless ``raw`` (then the caller escaped them). ``labels``
+    gives each cell its column's name (``data-label``), for the stacked narrow layout."""
     numeric = numeric or set()
-    parts = ["<table>"]
+    parts = [f'<table class="{css}">' if css else "<table>"]
     if any(head):
         parts += ["<thead><tr>", *(f"<th>{escape(h)}</th>" for h in head), "</tr></thead>"]
     parts.append("<tbody>")
@@ -116,8 +136,10 @@ def _table(head: Sequence[str], rows: Iterable[Sequence[str]], numeric: set[int]
         parts.append("<tr>")
         for position, cell in enumerate(row):
             text = cell if raw else escape(cell)
-            css = ' class="num"' if position in numeric else ""
-            parts.append(f"<td{css}>{text}</td>")
+            kind = ' class="num"' if position in numeric else ""
+            label = (f' data-label="{escape(head[position])}"'
+                     if labels and position < len(head) else "")
+            parts.append(f"<td{kind}{label}>{text}</td>")
         parts.append("</tr>")
     parts.append("</tbody></table>")
     return "".join(parts)
@@ -174,11 +196,11 @@ def _titled(name: str | None, titles: Mapping[str, str]) -> str:
 def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
                    reasons: Mapping[str, list[str]] | None = None) -> str:
     titles = titles or {}
-    head = ("Path", "Risk [%]", "95 % CI [%]", "L1 hit [%]", "L2 hit [%]",
+    head = ("Rank", "Path", "Risk [%]", "95 % CI [%]", "L1 hit [%]", "L2 hit [%]",
             "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
-            "Energy [mAs]", "Time [s]", "Verdict", "Rank", "Runs (failed)", "Dominant index")
+            "Energy [mAs]", "Time [s]", "Verdict", "Runs (failed)", "Dominant index")
     rows = []
-    for path in data.paths:
+    for path in ranked(data.paths):
         row = path.row
         ci = (f"{_number(row.risk_ci95[0], 1, 100)} – {_number(row.risk_ci95[1], 1, 100)}"
               if row.risk_ci95 else "–")
@@ -186,17 +208,18 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
         if row.undecided:
             verdict += " <span class=\"muted\">(not decided at this number of runs)</span>"
         rows.append((
-            escape(path.name), _number(row.mean_risk, 1, 100), ci,
+            str(row.rank) if row.rank is not None else "–",
+            f"<b>{escape(path.name)}</b>", _number(row.mean_risk, 1, 100), ci,
             *(_number(level_chance(row, level), 1, 100) for level in LEVELS),
             _mean(path.final_local_error, 3), _mean(path.final_heading_error, 2,
                                                      180.0 / math.pi),
             _number(row.energy_mAs, 1), _number(row.time_s, 1),
             f"<span class=\"{_verdict_class(row.verdict)}\">{verdict}</span>",
-            str(row.rank) if row.rank is not None else "–",
             f"{row.completed_runs} ({row.failed_runs})",
             escape(_titled(row.dominant_index, titles)),
         ))
-    table = _table(head, rows, numeric={1, 2, 3, 4, 5, 6, 7, 8, 9, 11}, raw=True)
+    table = _table(head, rows, numeric={0, 2, 3, 4, 5, 6, 7, 8, 9, 10}, raw=True,
+                   css="stack table-one", labels=True)
     explained = []
     for path in data.paths:
         lines = (list((reasons or {}).get(path.name, [])) or list(path.row.verdict_reasons)
@@ -211,11 +234,11 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
             items = "".join(f"<li>{escape(line)}</li>" for line in lines)
             explained.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")
     ranking = " → ".join(escape(name) for name in data.ranking) or "–"
-    return (f"<section><h2>Table 1: path evaluation</h2><div class=\"scroll\">{table}</div>"
-            f"<p>Ranking, best first: {ranking}. Risk is the mean run risk I_max (eq. 2) "
-            f"with its 95 % confidence interval; hit chances are the share of runs that hit an "
-            f"obstacle of that level; final errors are means of the absolute values at the end "
-            f"of the runs (distributions in the box plots below).</p>"
+    return (f"<section><h2>Table 1: path evaluation</h2>{table}"
+            f"<p>Rows in rank order, best first: {ranking}. Risk is the mean run risk I_max "
+            f"(eq. 2) with its 95 % confidence interval; hit chances are the share of runs "
+            f"that hit an obstacle of that level; final errors are means of the absolute "
+            f"values at the end of the runs (distributions in the box plots below).</p>"
             f"{''.join(explained)}</section>")
 
 

@@ -15,7 +15,7 @@ each run's stored I_max along its whole track and the report says so.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -320,9 +320,11 @@ def _details(store: ResultStore, name: str) -> Any:
     return collisions["details"][()] if "details" in collisions else None
 
 
-def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
+def prepare(store: ResultStore, data: ReportData, setup: Setup,
+            advance: Callable[[float, str], None] | None = None) -> MapSet:
     """Fill the risk maps, each path's final errors and the interactive page's per-run data
-    (cells, thinned runs, contacts) in one chunked pass over the runs."""
+    (cells, thinned runs, contacts) in one chunked pass over the runs; ``advance(share,
+    path)`` hears as each path starts (share: of the runs done before it)."""
     setup.notes += missing_signal_notes(store, data)
     grid, reason = choose_grid(store, data, setup)
     per_path: dict[str, RiskAccumulator] = {}
@@ -334,7 +336,10 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup) -> MapSet:
                       | {"wheel.slip", "wheel.slip_angle", "wheel.sinkage"})
     limits = dict(getattr(setup.checked, "limits", {}) or {})
     weights = dict(getattr(setup.checked, "weights", {}) or {})
-    for path in data.paths:
+    runs = [int(path.complete.sum()) if path.evaluated else 0 for path in data.paths]
+    for position, path in enumerate(data.paths):
+        if advance is not None:
+            advance(sum(runs[:position]) / max(sum(runs), 1), path.name)
         reference = store.reference(path.name)
         if store.has_path(path.name) and "chain" in store.path_group(path.name):
             maps.ideal_tracks[path.name] = _ideal_track(store, path.name, setup)

@@ -7,7 +7,10 @@ the JSON of :mod:`.interactive` from ``<script id="report-data" type="applicatio
 - Map: cells coloured by risk (mean of run maxima over the paths switched on, the paper's
   Fig. 8 rule), obstacles with level and buffer, each path's ideal (commanded) path dashed, its
   reference run solid with the four wheel tracks, first contacts as crosses.
-- Hover a cell: its risk, and per path the runs that crossed it and their dominant index.
+- Hover a cell: its risk (in %), and per path the runs that crossed it and their dominant
+  index. Axes in metres along the left and bottom edges, and a scale bar.
+- Wheel footprints only for one path at a time (the open run's, or the only path switched on):
+  every path's at once hide the map.
 - Checkboxes switch paths on and off. A click on a cell, or on a row of a worst-runs table,
   opens that run: its track and wheel footprints on the map, its time series against the
   rulebook's limits.
@@ -69,15 +72,70 @@ SCRIPT = r"""
     });
     return cells;
   }
+  var AXIS_LEFT = 46, AXIS_BOTTOM = 34, AXIS_PAD = 8;  // px kept for the axes in metres
+  var axes = {x: [], y: [], scale: ""};
   function setup() {
     var width = root.clientWidth, ratio = window.devicePixelRatio || 1;
     var worldW = g.nx * g.cell, worldH = g.ny * g.cell;
-    var height = Math.max(160, Math.min(width * worldH / worldW, 900));
-    var scale = Math.min(width / worldW, height / worldH);
+    var plotW = Math.max(40, width - AXIS_LEFT - AXIS_PAD);
+    var height = Math.max(160, Math.min(plotW * worldH / worldW + AXIS_BOTTOM + AXIS_PAD, 900));
+    var scale = Math.min(plotW / worldW, (height - AXIS_BOTTOM - AXIS_PAD) / worldH);
     canvas.style.height = height + "px";
     canvas.width = Math.round(width * ratio); canvas.height = Math.round(height * ratio);
-    view = {scale: scale, ratio: ratio, ox: (width - worldW * scale) / 2,
-            oy: (height - worldH * scale) / 2, height: height};
+    view = {scale: scale, ratio: ratio, ox: AXIS_LEFT + (plotW - worldW * scale) / 2,
+            oy: AXIS_BOTTOM + (height - AXIS_BOTTOM - AXIS_PAD - worldH * scale) / 2,
+            height: height, width: width};
+  }
+  function niceStep(span, count) {  // 1, 2 or 5 × 10^k, about `count` steps over `span`
+    var raw = span / Math.max(count, 1), power = Math.pow(10, Math.floor(Math.log10(raw)));
+    var steps = [1, 2, 5, 10];
+    for (var i = 0; i < steps.length; i++) {
+      if (steps[i] * power >= raw) { return steps[i] * power; }
+    }
+    return 10 * power;
+  }
+  function label(value, step) {
+    return value.toFixed(Math.max(0, -Math.floor(Math.log10(step) + 1e-9)));
+  }
+  function drawAxes(ctx) {  // ticks in metres on the left and bottom, and a scale bar
+    var x0 = g.x0, x1 = g.x0 + g.nx * g.cell, y0 = g.y0, y1 = g.y0 + g.ny * g.cell;
+    var left = sx(x0), right = sx(x1), bottom = sy(y0), top = sy(y1);
+    ctx.strokeStyle = "#66707a"; ctx.fillStyle = "#3b444d"; ctx.lineWidth = 1;
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.strokeRect(left, top, right - left, bottom - top);
+    axes = {x: [], y: [], scale: ""};
+    var step = niceStep(x1 - x0, Math.max(2, (right - left) / 90));
+    ctx.textAlign = "center"; ctx.textBaseline = "top";
+    for (var x = Math.ceil(x0 / step) * step; x <= x1 + 1e-9; x += step) {
+      ctx.beginPath(); ctx.moveTo(sx(x), bottom); ctx.lineTo(sx(x), bottom + 4); ctx.stroke();
+      ctx.fillText(label(x, step), sx(x), bottom + 5); axes.x.push(label(x, step));
+    }
+    ctx.fillText("x [m]", (left + right) / 2, bottom + 19);
+    step = niceStep(y1 - y0, Math.max(2, (bottom - top) / 60));
+    ctx.textAlign = "right"; ctx.textBaseline = "middle";
+    for (var y = Math.ceil(y0 / step) * step; y <= y1 + 1e-9; y += step) {
+      ctx.beginPath(); ctx.moveTo(left, sy(y)); ctx.lineTo(left - 4, sy(y)); ctx.stroke();
+      ctx.fillText(label(y, step), left - 6, sy(y)); axes.y.push(label(y, step));
+    }
+    ctx.save(); ctx.translate(11, (top + bottom) / 2); ctx.rotate(-Math.PI / 2);
+    ctx.textAlign = "center"; ctx.fillText("y [m]", 0, 0); ctx.restore();
+    // scale bar: a round length near a fifth of the plot's width, in its top right corner
+    var length = niceStep((x1 - x0) / 5, 1), bar = length * view.scale;
+    var bx = right - 10 - bar, by = top + 14;
+    ctx.fillStyle = "rgba(255,255,255,.8)"; ctx.fillRect(bx - 6, by - 12, bar + 12, 22);
+    ctx.strokeStyle = "#1d232a"; ctx.lineWidth = 2; ctx.beginPath();
+    ctx.moveTo(bx, by - 4); ctx.lineTo(bx, by + 4); ctx.moveTo(bx, by); ctx.lineTo(bx + bar, by);
+    ctx.moveTo(bx + bar, by - 4); ctx.lineTo(bx + bar, by + 4); ctx.stroke();
+    axes.scale = (length >= 1 ? label(length, length) + " m"
+                  : Math.round(length * 100) + " cm");
+    ctx.fillStyle = "#1d232a"; ctx.textAlign = "center"; ctx.textBaseline = "bottom";
+    ctx.fillText(axes.scale, bx + bar / 2, by - 3); ctx.textBaseline = "alphabetic";
+  }
+  function percent(risk) { return (100 * risk).toFixed(1) + " %"; }
+  function focus() {  // the path whose wheel footprints are drawn: the open run's, else the
+    if (selected) { return selected.path; }  // one path switched on, else none (clutter)
+    var shown = data.paths.filter(function (p) { return on[p.name]; });
+    return shown.length === 1 ? shown[0].name : null;
   }
   function sx(x) { return view.ox + (x - g.x0) * view.scale; }
   function sy(y) { return view.height - view.oy - (y - g.y0) * view.scale; }
@@ -144,9 +202,10 @@ SCRIPT = r"""
       ctx.fillText(r.name + " " + r.level + (r.buffer > 0 ? " · buffer " +
         Math.round(r.buffer * 100) + " cm" : ""), sx(r.x), sy(r.y + r.b + r.buffer) - 5);
     });
+    var focused = focus();
     data.paths.forEach(function (p) {
       if (!on[p.name]) { return; }
-      if (p.wheels) {
+      if (p.wheels && p.name === focused) {
         Object.keys(p.wheels).forEach(function (w) {  // footprint band, then its centre
           line(ctx, p.wheels[w][0], p.wheels[w][1], p.colour + "30",
                Math.max(1, data.rover.wheel_width * view.scale));
@@ -173,6 +232,7 @@ SCRIPT = r"""
       }
       line(ctx, selected.run.x, selected.run.y, "#000", 3);
     }
+    drawAxes(ctx);
   }
   function cellAt(event) {
     var box = canvas.getBoundingClientRect();
@@ -188,10 +248,10 @@ SCRIPT = r"""
   canvas.addEventListener("mousemove", function (event) {
     var at = cellAt(event), cells = cellTable(), e = at && cells[at.key];
     if (!e) { tip.style.display = "none"; return; }
-    var html = "<b>risk " + (e.total / e.runs).toFixed(2) + "</b> · " + e.runs +
+    var html = "<b>risk " + percent(e.total / e.runs) + "</b> · " + e.runs +
       " run(s) · x " + at.x.toFixed(2) + " m, y " + at.y.toFixed(2) + " m";
     e.per.forEach(function (p) {
-      html += "<br>" + text(p.path) + ": " + p.runs + " run(s), risk " + p.mean.toFixed(2) +
+      html += "<br>" + text(p.path) + ": " + p.runs + " run(s), risk " + percent(p.mean) +
         (p.dominant ? ", dominant " + text(title(p.dominant)) + " in " + p.count : "");
     });
     tip.innerHTML = html + "<br><i>click: open the worst run here</i>";
@@ -255,19 +315,20 @@ SCRIPT = r"""
     selected = {path: pathName, number: runNumber, run: run};
     panel.style.display = "block";
     panel.querySelector("h3").textContent = pathName + " · run " + runNumber + " · I_max " +
-      run.i_max.toFixed(3) + (run.dominant ? " · dominant " + title(run.dominant) : "");
+      percent(run.i_max) + (run.dominant ? " · dominant " + title(run.dominant) : "");
     panel.querySelector(".params").textContent = run.parameters.map(function (p) {
       return p[0] + " = " + p[1]; }).join(" · ");
     var charts = panel.querySelector(".charts");
     charts.innerHTML = "";
-    var items = [{key: "risk", title: "per-sample risk", unit: "0…1"}].concat(data.series);
+    var items = [{key: "risk", title: "per-sample risk", unit: "%"}].concat(data.series);
     items.forEach(function (s) {
-      var values = s.key === "risk" ? run.risk : run.series[s.key];
+      var values = s.key === "risk" ? (run.risk || null) && run.risk.map(function (v) {
+        return v === null ? null : 100 * v; }) : run.series[s.key];
       if (!values) { return; }
       var el = document.createElement("canvas");
       el.setAttribute("data-series", s.key);
       charts.appendChild(el);
-      var limit = s.key === "risk" ? 1 : data.limits[s.key];
+      var limit = s.key === "risk" ? 100 : data.limits[s.key];
       chart(el, run.t, values, limit === undefined ? null : limit, s.unit, s.title);
     });
     draw();
@@ -288,7 +349,8 @@ SCRIPT = r"""
     return {x: box.left + sx(g.x0 + (col + 0.5) * g.cell),
             y: box.top + sy(g.y0 + (row + 0.5) * g.cell)};
   }
-  window.idefixReport = {openRun: openRun, cells: cellTable, draw: draw, at: at};
+  window.idefixReport = {openRun: openRun, cells: cellTable, draw: draw, at: at,
+                         axes: function () { return axes; }, focus: focus};
   draw();
 })();
 """

@@ -107,6 +107,11 @@ def sensitivity_html(sensitivity: Mapping[str, Any], images: Sequence[Image],
         title = f" ({titles[dominant]})" if dominant and titles.get(dominant) else ""
         parts.append(f"<h3>{escape(name)}</h3><p>{record.get('runs', 0)} runs; dominant index "
                      f"{escape(str(dominant or '–'))}{escape(title)}.</p>")
+        if not rows:  # say why, rather than show a bare header
+            note = record.get("note") or ("no parameter's correlation with I_max could be "
+                                          "computed")
+            parts.append(f'<p class="note">No sensitivity for this path: {escape(note)}.</p>')
+            continue
         parts.append('<div class="scroll"><table><thead><tr>'
                      + "".join(f"<th>{escape(h)}</th>" for h in head)
                      + "</tr></thead><tbody>" + "".join(rows) + "</tbody></table></div>")

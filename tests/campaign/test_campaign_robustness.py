@@ -249,6 +249,39 @@ def test_an_interrupted_campaign_is_marked_and_resumes_to_the_same_result(
     assert_same_datasets(results, whole.parent / "out" / "results.h5")
 
 
+def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.campaign.resume import interrupted_runs
+    from idefix_rules.cli import main
+
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(5), report=False)
+    results = campaign.output / "results.h5"
+    stored, planned = interrupted_runs(results) or (-1, -1)
+    assert 0 < stored < planned
+    capsys.readouterr()
+    code = main([str(campaign_dir / "campaign.yaml"), "--no-report"])
+    out = capsys.readouterr().out
+    assert code in (0, 1)
+    words = " ".join(out.split())
+    note = (f"note: {results} held an interrupted campaign ({stored} of {planned} Monte Carlo "
+            "runs stored): it is set aside as results.previous.h5 and this run starts from "
+            "zero; to continue it instead, stop now (Ctrl-C) and run `idefix-verify "
+            f"{campaign_dir / 'campaign.yaml'} --resume`")
+    assert note in words
+    assert words.index(note) < words.index("compiling the rulebook")  # before it starts
+    assert (campaign.output / "results.previous.h5").is_file()
+    assert interrupted_runs(results) is None  # complete now: a rerun says nothing
+    code = main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet"])
+    assert "interrupted campaign" not in capsys.readouterr().out
+    # with --resume nothing is set aside, so nothing is said
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(5), report=False)
+    main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet", "--resume"])
+    assert "interrupted campaign" not in capsys.readouterr().out
+
+
 def test_a_path_cut_off_before_its_runs_were_allocated_is_started_again(
         campaign_dir: Path) -> None:
     campaign = load_campaign(campaign_dir / "campaign.yaml")

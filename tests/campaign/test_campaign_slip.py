@@ -83,5 +83,5 @@ def test_the_report_shows_assumed_and_measured_slip_and_the_warnings(tmp_path):
     page = slip_html(records)
     assert "Assumed vs simulated slip" in page and "theoretical_slip" in page
     assert page.count("class=\"note\"") == 1  # only path a disagrees
-    assert "a: the reference run slipped 1.0%" in page
+    assert "a: the reference run slipped 1.0 %" in page
     assert ">19.0<" in page and ">18.0<" in page and ">20.0<" in page

@@ -54,12 +54,26 @@ def test_80_columns_keep_names_and_say_the_decision(
     assert LONG in out and "point-turn-120" in out
     decision = next(i for i, line in enumerate(lines) if line.startswith("Decision: "))
     table = next(i for i, line in enumerate(lines) if line.startswith("Path evaluation"))
-    assert decision < table
+    # The details first, the answer last: decision, ranking, a verdict per path, CI's line.
+    assert table < decision
+    assert lines[-1] == "CI expectations: 1 of 1 held (exit 0)"
+    answer = lines[decision:]
+    assert any(line.startswith("Ranking: ") for line in answer)
+    # At this number of runs the detour's risk limit lies inside its interval: not decided,
+    # which is no failure: its own mark, explained once, and said so in its verdict line.
+    joined = " ".join(" ".join(answer).split())
+    assert f"#1 {LONG}: pass (not decided) · risk" in joined
+    assert "not decided: acceptable_risk" in joined
+    assert "  ? acceptable_risk: risk" in out and "✗ acceptable_risk" not in out
+    assert sum("· ? rule not decided yet" in line
+               for line in lines) == 1
+    # the rejected chain has no rank
+    assert "  – point-turn-120: rejected" in answer
+    assert "fixed run count" not in out  # a fixed count is no news
     # The 120° point turn is explained in degrees, as the campaign wrote it.
     words = " ".join(out.split())
     assert "command 1 breaks rule 'max_turn_angle' (delta_heading = 120 deg)" in words
     assert "2.0944" not in out
-    assert "CI expectations: 1 of 1 held (exit 0)" in lines
     # Index symbols come with their titles.
     assert re.search(r"I_(pos|s) \((position drift|wheel slip ratio)\)", out)
 
@@ -89,7 +103,7 @@ def test_progress_keeps_whole_names_at_80_columns() -> None:
 
     from rich.console import Console
 
-    from idefix_rules.cli.run import RichProgress
+    from idefix_rules.cli.progress import RichProgress
 
     out = io.StringIO()
     console = Console(file=out, width=80, force_terminal=True, color_system=None)
@@ -109,3 +123,42 @@ def test_progress_keeps_whole_names_at_80_columns() -> None:
     # The step lines say how long each step took; a folded name is still whole.
     assert re.search(r"compiling the rulebook idefix-ops.rules \(\d+\.\d s\)", text)
     assert name in "".join(line.strip() for line in lines)
+
+
+def test_the_last_screen_of_the_example_at_80_by_40_shows_the_decision_and_ranking(
+        tmp_path: Path) -> None:
+    """The example campaign as README runs it, in an 80 × 40 window: what stays on the screen
+    is the answer. Its output is not a terminal here, so the progress is plain lines."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "COLUMNS": "80", "LINES": "40"}
+    done = subprocess.run(
+        [sys.executable, "-m", "idefix_rules", str(root / "campaigns" / "rock-detour.yaml"),
+         "--runs", "4", "--workers", "2", "--no-report", "--out", str(tmp_path / "out")],
+        cwd=root, env=env, capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr
+    lines = (done.stdout + done.stderr).splitlines()
+    screen = lines[-40:]
+    assert max(len(line) for line in screen) <= 80
+    assert any(line.startswith("Decision: ") for line in screen)
+    ranking = next(line for line in screen if line.startswith("Ranking: "))
+    assert set(ranking.removeprefix("Ranking: ").split(" > ")) == \
+        {"straight", "wide-detour", "smooth-detour"}
+    assert screen[-1] == "CI expectations: 2 of 2 held (exit 0)"
+    text = " ".join(done.stdout.split())
+    # The slip assumption is the rulebook's: one warning for the three paths, said once.
+    assert text.count("assumes theoretical_slip") == 1
+    assert done.stdout.count("warning:") == 1
+    assert "fixed run count" not in text
+    # A log gets plain progress: a line per phase with its duration, per 10 % of runs.
+    assert re.search(r"^compiling the rulebook idefix-ops\.rules \(\d+\.\d s\)$",
+                     done.stdout, re.M)
+    assert re.search(r"^Monte Carlo runs of 3 path\(s\): 12 runs \(\d+\.\d s\)$",
+                     done.stdout, re.M)
+    assert re.search(r"^straight: 4/4 runs \(100 %\), \d+:\d\d$", done.stdout, re.M)
+    assert re.search(r"^evaluating 12 runs of 3 path\(s\) .*\(\d+\.\d s\)$", done.stdout, re.M)
+    assert "\r" not in done.stdout and "\x1b[" not in done.stdout

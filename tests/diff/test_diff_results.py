@@ -288,3 +288,21 @@ def test_shared_evaluation_equals_two_separate_evaluations(stored_results: Path)
             np.testing.assert_array_equal(joint.chances[name], alone.chances[name])
         np.testing.assert_array_equal(joint.i_max, alone.i_max)
         np.testing.assert_array_equal(joint.dominant, alone.dominant)
+
+
+def test_at_80_columns_path_names_are_whole_and_risk_is_in_percent(
+        stored_results: Path, ops_text: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
+    strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %")
+    monkeypatch.setenv("COLUMNS", "80")
+    capsys.readouterr()
+    code = main(["diff", str(lenient), str(strict), "--results", str(stored_results)])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert max(len(line) for line in out.splitlines()) <= 80
+    for name in ("straight", "wide-detour", "smooth-detour"):  # whole, a block each
+        assert re.search(rf"^{re.escape(name)}: pass → fail · rank \d", out, re.M), name
+    # risk as `run` shows it: percent with its interval, never a bare 0–1 fraction
+    assert re.search(r"^  risk \d+\.\d % \(\d+\.\d–\d+\.\d\) → \d+\.\d %", out, re.M)
+    assert not re.search(r"(?<![\d.])0\.\d{3}(?!\d)", out)

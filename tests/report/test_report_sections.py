@@ -61,3 +61,43 @@ def test_indices_with_title_limit_and_rationale() -> None:
                         {"I_s": "critical_slip = 70 %"})
     assert "I_s — wheel slip ratio" in text and "critical_slip = 70 %" in text
     assert "Slip &lt;70 %" in text
+
+
+def test_table_one_lists_the_paths_in_rank_order_and_labels_every_cell(
+        data: ReportData) -> None:
+    import dataclasses
+    import re
+
+    from idefix_rules.report.html import table_one_html
+
+    # campaign order straight, detour; make detour the better one
+    swapped = [dataclasses.replace(path, row=dataclasses.replace(
+        path.row, rank=len(data.paths) - position if path.row.rank is not None else None))
+        for position, path in enumerate(data.paths)]
+    ranked = [p.name for p in sorted((p for p in swapped if p.row.rank is not None),
+                                     key=lambda p: p.row.rank or 0)]
+    assert ranked != [p.name for p in data.paths if p.row.rank is not None]
+    text = table_one_html(dataclasses.replace(data, paths=swapped))
+    shown = re.findall(r'<td data-label="Path"><b>([^<]+)</b>', text)
+    assert shown[:len(ranked)] == ranked
+    # the unranked (rejected, excluded) come after the ranked
+    assert set(shown[len(ranked):]) == {p.name for p in data.paths if p.row.rank is None}
+    # every cell says its column, for the stacked layout of a narrow window
+    assert text.count("<td") == text.count("data-label=")
+
+
+def test_a_path_whose_runs_all_score_the_same_says_why_it_has_no_sensitivity() -> None:
+    import numpy as np
+
+    from idefix_rules.campaign.sensitivity import why_none
+
+    record = {"p": {"runs": 16, "dominant_index": "I_s", "risk": [], "dominant": [],
+                    "note": why_none({"a": np.arange(16.0)}, np.full(16, 1.0),
+                                     "run risk I_max")}}
+    text = sensitivity_html(record, [], {})
+    assert "No sensitivity for this path: every run has the same run risk I_max (1)" in text
+    assert "<table" not in text  # no bare header
+    assert "needs at least 8" in str(why_none({"a": np.arange(3.0)}, np.arange(3.0), "x"))
+    assert why_none({"a": np.zeros(9)}, np.arange(9.0), "x") == \
+        "no sampled parameter varies between the runs"
+    assert why_none({"a": np.arange(9.0)}, np.arange(9.0), "x") is None
