@@ -197,7 +197,7 @@ def test_the_example_campaign_runs_on_the_built_in_fmu_with_collisions(
     assert code == 0  # the straight chain fails, the wide detour keeps clear of the rock
     summary = json.loads((out / "summary.json").read_text())
     paths = {p["name"]: p for p in summary["paths"]}
-    assert set(paths) == {"straight", "wide-detour", "smooth-detour"}
+    assert set(paths) == {"straight", "wide-detour", "smooth-detour", "approach"}
     assert (out / "terrain.dem").is_file()
     # The wheel held at the rock creeps and climbs: slow progress, not stuck, so the
     # prescreen lets the chain reach its Monte Carlo runs.

@@ -83,7 +83,7 @@ def test_a_verdict_change_exits_1_and_is_reported_per_path(
     code, data = run_json(capsys, str(lenient), str(strict), "--results", str(stored_results))
     assert code == 1 and data["exit_code"] == 1
     paths = data["results"]["files"][0]["paths"]
-    assert {p["name"] for p in paths} == {"straight", "wide-detour", "smooth-detour"}
+    assert {p["name"] for p in paths} == {"straight", "wide-detour", "smooth-detour", "approach"}
     simulated = evaluated(stored_results)
     assert simulated
     for path in (p for p in paths if p["name"] in simulated):
