@@ -7,8 +7,10 @@ every ranked path's statistics are put on confidence sequences and
 (docs/campaign-format.md, "Adaptive campaigns"). A stopped path's remaining rows are marked
 ``not needed`` in ``runs/status``.
 
-Determinism: run ``j`` of path ``p`` always draws from ``SeedSequence(seed, spawn_key=(p, j))``
-(independent runs: the confidence sequences need them, so a Latin hypercube or Sobol design of
+Determinism: run ``j`` of a path always draws from ``SeedSequence(seed, spawn_key=(*s, j))``
+with the path's stream ``s`` (``()`` for every path of a paired campaign: run ``j`` is the same
+world for every path; :mod:`idefix_rules.campaign.sampling`). Runs are independent of each
+other (the confidence sequences need them, so a Latin hypercube or Sobol design of
 the campaign is not used here), and a look reads exactly the runs below its run count in run
 order. The stopping point therefore depends on the seed only, never on the number of workers,
 the backend or the order runs finish in. ``--resume`` replays the looks on the stored runs, which
@@ -36,6 +38,7 @@ from idefix_rules.campaign.simulate import (
     initial_position_sigma,
     nominal_parameters,
     parameter_info,
+    path_stream,
     run_and_store,
 )
 from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
@@ -70,7 +73,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             continue
         name = plan.spec.name
         values = sampling.sample_path(campaign.model.uncertainty.parameters, SAMPLING,
-                                      campaign.seed, plan.spec.index, settings.max_runs)
+                                      campaign.seed, path_stream(campaign, name),
+                                      settings.max_runs)
         # created, or (resumed) taken up for the blocks of rows still to allocate
         shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
         store.allocate_runs(name, settings.max_runs, shapes, values,
