@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign import sampling
+from idefix_rules.campaign import pairwise, sampling
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
@@ -85,6 +85,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
     sigma = initial_position_sigma(campaign)
     parts: dict[str, list[Any]] = {name: [] for name in running}
+    rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
+    paired = bool(campaign.model.uncertainty.paired) and pairwise.uses_paired_risk(
+        evaluator.rulebook)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     for look in settings.looks():
@@ -93,10 +96,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                        progress, summary)
         for name, plan in running.items():
-            evaluation, _ = evaluate_path(store, name, evaluator, rover, sigma, collisions,
-                                          within=slice(done[name], look))
+            evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
+                                              within=slice(done[name], look))
             if evaluation is not None:
                 parts[name].append(evaluation)
+                rows[name].append(np.asarray(extra["rows"]))
             done[name] = look
             if parts[name]:
                 whole = concatenate(parts[name])
@@ -105,7 +109,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                              for run, reason in store.failures(name).items())
                 fixed = evaluator.path_statistics(whole, failed_runs=failed)
                 statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
-        settlements = settle(evaluator, statistics)
+        pairs = pairwise.compare_pairs(
+            {name: (np.concatenate(rows[name]), np.asarray(concatenate(parts[name]).i_max))
+             for name in statistics}, list(statistics), evaluator.checked.confidence,
+            evaluator.checked.indifference) if paired else []
+        settlements = settle(evaluator, statistics, pairs)
         for name in list(running):
             settlement = settlements.get(name)
             reason = NO_COMPLETE_RUN if settlement is None else \

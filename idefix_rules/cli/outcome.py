@@ -167,6 +167,7 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                           "runs[/red]")
     if evaluation.ranking:
         console.print("ranking: " + " > ".join(escape(n) for n in evaluation.ranking))
+        _print_ties(console, evaluation)
     measured = [c for c in evaluation.slip if c.measured is not None]
     if measured:  # assumed vs simulated slip (campaign/slip.py); disagreements warn below
         console.print(f"slip: rulebook assumes theoretical_slip = {measured[0].assumed:.1%}; "
@@ -187,3 +188,11 @@ def index_titles(rulebook: Any) -> dict[str, str]:
     """``{index name: title}`` of a rule model (``Rulebook``)."""
     return {index.name: index.title for index in getattr(rulebook, "indices", ())
             if getattr(index, "title", None)}
+
+
+def _print_ties(console: Console, evaluation: CampaignEvaluation) -> None:
+    """One line per tie of the ranking: ``tie: A = B (risk difference within ±2 %)``."""
+    margin = f"{evaluation.indifference * 100:.3g} %"
+    for first, second in evaluation.ties:
+        console.print(f"tie: {first} = {second} (risk difference within ±{margin})",
+                      markup=False)

@@ -100,3 +100,54 @@ def test_resume_refuses_results_drawn_the_other_way(campaign_dir: Path, tmp_path
     path = tmp_path / "first" / "campaign.yaml"
     assert main([str(path), "--quiet", "--no-report", "--resume"]) == 2
     assert "its paired is False, this campaign's is True" in capsys.readouterr().err
+
+
+TWINS = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\nbatch_runs: 16") \
+    .replace("paths:\n", 'paths:\n  twin:\n    - {max_wheel_rate: "0.1 rad/s", '
+             'delta_position: "0.1 m", delta_heading: "0 deg"}\n')
+MARGIN_RULEBOOK = "\ncombine {\n  indifference = 5 %\n}\n"
+
+
+def run_twins(folder: Path, source: Path, text: str, margin: bool,
+              capsys: pytest.CaptureFixture[str]) -> tuple[dict, str]:
+    import json
+
+    path = copy_campaign(source, folder, text)
+    if margin:
+        rules = folder / "test.rules"
+        rules.write_text(rules.read_text() + MARGIN_RULEBOOK)
+    capsys.readouterr()
+    main([str(path), "--no-report"])
+    return json.loads((folder / "out" / "summary.json").read_text()), capsys.readouterr().out
+
+
+def test_an_adaptive_campaign_stops_on_a_tie_and_reports_it(
+        campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # twin and straight drive the same chain: in the same worlds their run risks are equal
+    summary, out = run_twins(tmp_path / "tie", campaign_dir, TWINS, True, capsys)
+    paths = {p["name"]: p for p in summary["paths"]}
+    used = paths["twin"]["runs_used"]
+    assert used < 200 and paths["straight"]["runs_used"] == used
+    assert paths["twin"]["stop_reason"].startswith(f"decided after {used} runs")
+    assert paths["twin"]["rank"] == paths["straight"]["rank"]
+    assert summary["paired"] is True and summary["indifference"] == pytest.approx(0.05)
+    assert summary["ties"] == [["straight", "twin"]]  # equal risks: in name order
+    [pair] = [p for p in summary["pairs"] if set(p["paths"]) == {"twin", "straight"}]
+    assert pair["outcome"] == "tied" and pair["equal"] == pair["shared_runs"] == used
+    assert pair["first_safer"] == pair["second_safer"] == 0
+    assert -0.05 < pair["ci"][0] <= 0.0 <= pair["ci"][1] < 0.05
+    assert "ranking: arc > straight > twin\ntie: straight = twin (risk difference within ±5 %)" \
+        in out
+
+
+@pytest.mark.parametrize(("text", "margin"), [
+    (TWINS, False),
+    (TWINS.replace("  method: monte_carlo\n", "  method: monte_carlo\n  paired: false\n"), True)],
+    ids=["no margin", "unpaired"])
+def test_without_a_margin_or_without_pairing_equal_paths_never_tie(
+        campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str,
+        margin: bool) -> None:
+    summary, out = run_twins(tmp_path / "open", campaign_dir, text, margin, capsys)
+    assert summary["ties"] == [] and "tie:" not in out
+    paths = {p["name"]: p for p in summary["paths"]}
+    assert paths["twin"]["rank"] != paths["straight"]["rank"]
