@@ -3,8 +3,15 @@ green run is reproducible; locally it explores new examples every run (and keeps
 its example database)."""
 
 import os
+from pathlib import Path
 
 from hypothesis import settings
+
+# Python subprocesses the tests start (a campaign killed mid-run, a CLI) import the checkout
+# under test, not whichever copy of the package happens to be installed.
+_CHECKOUT = str(Path(__file__).resolve().parents[1])
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    [_CHECKOUT, *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))])
 
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):

@@ -7,8 +7,10 @@ every ranked path's statistics are put on confidence sequences and
 (docs/campaign-format.md, "Adaptive campaigns"). A stopped path's remaining rows are marked
 ``not needed`` in ``runs/status``.
 
-Determinism: run ``j`` of path ``p`` always draws from ``SeedSequence(seed, spawn_key=(p, j))``
-(independent runs: the confidence sequences need them, so a Latin hypercube or Sobol design of
+Determinism: run ``j`` of a path always draws from ``SeedSequence(seed, spawn_key=(*s, j))``
+with the path's stream ``s`` (``()`` for every path of a paired campaign: run ``j`` is the same
+world for every path; :mod:`idefix_rules.campaign.sampling`). Runs are independent of each
+other (the confidence sequences need them, so a Latin hypercube or Sobol design of
 the campaign is not used here), and a look reads exactly the runs below its run count in run
 order. The stopping point therefore depends on the seed only, never on the number of workers,
 the backend or the order runs finish in. ``--resume`` replays the looks on the stored runs, which
@@ -22,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign import sampling
+from idefix_rules.campaign import pairwise, sampling
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
@@ -36,6 +38,7 @@ from idefix_rules.campaign.simulate import (
     initial_position_sigma,
     nominal_parameters,
     parameter_info,
+    path_stream,
     run_and_store,
 )
 from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
@@ -70,7 +73,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             continue
         name = plan.spec.name
         values = sampling.sample_path(campaign.model.uncertainty.parameters, SAMPLING,
-                                      campaign.seed, plan.spec.index, settings.max_runs)
+                                      campaign.seed, path_stream(campaign, name),
+                                      settings.max_runs)
         # created, or (resumed) taken up for the blocks of rows still to allocate
         shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
         store.allocate_runs(name, settings.max_runs, shapes, values,
@@ -81,6 +85,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
     sigma = initial_position_sigma(campaign)
     parts: dict[str, list[Any]] = {name: [] for name in running}
+    rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
+    paired = bool(campaign.model.uncertainty.paired) and pairwise.uses_paired_risk(
+        evaluator.rulebook)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     for look in settings.looks():
@@ -89,10 +96,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                        progress, summary)
         for name, plan in running.items():
-            evaluation, _ = evaluate_path(store, name, evaluator, rover, sigma, collisions,
-                                          within=slice(done[name], look))
+            evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
+                                              within=slice(done[name], look))
             if evaluation is not None:
                 parts[name].append(evaluation)
+                rows[name].append(np.asarray(extra["rows"]))
             done[name] = look
             if parts[name]:
                 whole = concatenate(parts[name])
@@ -101,7 +109,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                              for run, reason in store.failures(name).items())
                 fixed = evaluator.path_statistics(whole, failed_runs=failed)
                 statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
-        settlements = settle(evaluator, statistics)
+        pairs = pairwise.compare_pairs(
+            {name: (np.concatenate(rows[name]), np.asarray(concatenate(parts[name]).i_max))
+             for name in statistics}, list(statistics), evaluator.checked.confidence,
+            evaluator.checked.indifference) if paired else []
+        settlements = settle(evaluator, statistics, pairs)
         for name in list(running):
             settlement = settlements.get(name)
             reason = NO_COMPLETE_RUN if settlement is None else \

@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import h5py
 import numpy as np
 
+from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
@@ -113,6 +114,12 @@ class CampaignEvaluation:
     provenance: dict[str, Any]
     # Assumed vs simulated slip per path (idefix_rules.campaign.slip.SlipCheck).
     slip: list[Any] = field(default_factory=list)
+    # Paired campaigns: every pair of ranked paths in the same worlds
+    # (idefix_rules.campaign.pairwise.PairComparison), and the tied neighbours of the ranking.
+    paired: bool = False
+    indifference: float = 0.0
+    pairs: list[Any] = field(default_factory=list)
+    ties: list[tuple[str, str]] = field(default_factory=list)
 
     def path(self, name: str) -> PathResult:
         for result in self.paths:
@@ -376,6 +383,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     target = into if into is not None else store
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
+    run_risks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     for name in store.path_names:
         result = stored_path_result(store, name)
@@ -399,6 +407,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
         verdict = evaluator.verdict(stats)
         statistics[name] = stats
+        run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))
         fill_result(result, evaluation, stats, verdict)
         result.stop_time = stop_time
         if extra["finished"] is not None:
@@ -409,18 +418,26 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             _write_path_evaluation(target, name, evaluation, extra, stats, verdict,
                                    len(store.run_status(name)))
     ranking = list(evaluator.rank(statistics)) if statistics else []
-    for position, name in enumerate(ranking, start=1):
-        for result in results:
-            if result.name == name:
-                result.rank = position
+    paired = bool(store.attrs.get("paired", False))
+    margin = float(getattr(evaluator.checked, "indifference", 0.0))
+    pairs = pairwise.compare_pairs(run_risks, ranking, float(evaluator.checked.confidence),
+                                   margin) \
+        if paired and pairwise.uses_paired_risk(evaluator.rulebook) else []
+    passed = {result.name: bool(result.passed) for result in results}
+    ranks, ties = pairwise.shared_ranks(ranking, passed, pairs)
+    for result in results:
+        if result.name in ranks:
+            result.rank = ranks[result.name]
     provenance = {key: as_plain(value) for key, value in store.attrs.items()}
     campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance,
-                                       _slip_checks(store, evaluator, rulebook_info))
+                                       _slip_checks(store, evaluator, rulebook_info),
+                                       paired, margin, pairs, ties)
     if write:
         root = target.file.require_group("evaluation")
         for key, value in rulebook_info.items():
             root.attrs[f"rulebook_{key}"] = value
         root.attrs["ranking"] = json.dumps(ranking)
+        root.attrs["ties"] = json.dumps(ties)
         from idefix_rules.campaign.simulate import now_iso
 
         root.attrs["evaluated"] = now_iso()

@@ -217,6 +217,10 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "units": SUMMARY_UNITS,
         "paths": [path_record(p) for p in evaluation.paths],
         "ranking": evaluation.ranking,
+        "paired": evaluation.paired,
+        "indifference": evaluation.indifference,
+        "ties": [list(tie) for tie in evaluation.ties],
+        "pairs": [significant(pair.to_dict()) for pair in evaluation.pairs],
         "sensitivity": sensitivity or {},
         "expectations": [{"description": e.description, "held": e.held, "message": e.message}
                          for e in expectations],

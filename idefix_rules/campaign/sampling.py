@@ -1,19 +1,25 @@
 """Sampling uncertain parameters: distributions, designs and deterministic seeds.
 
-Run ``j`` of path ``p`` draws from ``SeedSequence(seed, spawn_key=(p, j))`` (plain Monte Carlo),
-or takes row ``j`` of a design generated for the whole path from
-``SeedSequence(seed, spawn_key=(p,))`` (Latin hypercube, Sobol). Nothing depends on the worker
-that simulates the run, so results are identical for any worker count and order.
+A path draws from a *stream*, a spawn-key prefix: run ``j`` draws from
+``SeedSequence(seed, spawn_key=(*stream, j))`` (plain Monte Carlo), or takes row ``j`` of a design
+generated from ``SeedSequence(seed, spawn_key=stream)`` (Latin hypercube, Sobol). A paired
+campaign (the default) gives every path the empty stream ``()``: run ``j`` of every path is the
+same simulated world (common random numbers), so differences between paths are measured in the
+same worlds. An unpaired campaign gives each path its own stream, a number made from the path's
+name (:func:`path_stream`), so adding or removing a path never changes another path's draws.
+Nothing depends on the worker that simulates the run, so results are identical for any worker
+count and order.
 
 >>> from idefix_rules.campaign.schema import Normal
 >>> values = sample_path({"x0": Normal(distribution="normal", mean=0.0, std=0.01)},
-...                      "monte_carlo", seed=1, path_index=0, runs=3)
+...                      "monte_carlo", seed=1, stream=(), runs=3)
 >>> values["x0"].shape
 (3,)
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Mapping
 
@@ -80,17 +86,43 @@ def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
     return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
 
 
-def run_seed(seed: int, path_index: int, run_index: int) -> np.random.SeedSequence:
-    """The seed of run ``run_index`` of path ``path_index``."""
-    return np.random.SeedSequence(seed, spawn_key=(path_index, run_index))
+Stream = tuple[int, ...]
+PAIRED_STREAM: Stream = ()
 
 
-def path_seed(seed: int, path_index: int) -> np.random.SeedSequence:
+def path_stream(name: str, paired: bool) -> Stream:
+    """The spawn-key prefix a path draws from: ``()`` when paired (every path draws the same
+    worlds), else the first 32 bits of the sha256 of the path's name.
+
+    >>> path_stream("straight", paired=True)
+    ()
+    >>> path_stream("straight", paired=False) == path_stream("straight", paired=False)
+    True
+    """
+    if paired:
+        return PAIRED_STREAM
+    return (int.from_bytes(hashlib.sha256(name.encode("utf-8")).digest()[:4], "big"),)
+
+
+def seed_derivation(paired: bool) -> str:
+    """How run seeds are derived, in words (stored in results.h5)."""
+    stream = "()" if paired else "(h,) with h the first 32 bits of sha256(path name)"
+    return (f"stream s = {stream}; monte_carlo: run j uses SeedSequence(seed, "
+            "spawn_key=(*s, j)); latin_hypercube/sobol: the design uses SeedSequence(seed, "
+            "spawn_key=s) and run j takes row j")
+
+
+def run_seed(seed: int, stream: Stream, run_index: int) -> np.random.SeedSequence:
+    """The seed of run ``run_index`` of a path drawing from ``stream``."""
+    return np.random.SeedSequence(seed, spawn_key=(*stream, run_index))
+
+
+def path_seed(seed: int, stream: Stream) -> np.random.SeedSequence:
     """The seed of a path's whole design (Latin hypercube, Sobol)."""
-    return np.random.SeedSequence(seed, spawn_key=(path_index,))
+    return np.random.SeedSequence(seed, spawn_key=stream)
 
 
-def unit_design(method: SamplingMethod, dimensions: int, seed: int, path_index: int,
+def unit_design(method: SamplingMethod, dimensions: int, seed: int, stream: Stream,
                 runs: int) -> np.ndarray:
     """Uniform design of shape (runs, dimensions) in (0, 1).
 
@@ -103,10 +135,10 @@ def unit_design(method: SamplingMethod, dimensions: int, seed: int, path_index: 
     if method == "monte_carlo":
         design = np.empty((runs, dimensions))
         for run_index in range(runs):
-            rng = np.random.default_rng(run_seed(seed, path_index, run_index))
+            rng = np.random.default_rng(run_seed(seed, stream, run_index))
             design[run_index] = rng.random(dimensions)
         return design
-    rng = np.random.default_rng(path_seed(seed, path_index))
+    rng = np.random.default_rng(path_seed(seed, stream))
     if method == "latin_hypercube":
         return np.asarray(qmc.LatinHypercube(d=dimensions, rng=rng).random(runs))
     exponent = max(0, math.ceil(math.log2(runs)))
@@ -123,10 +155,10 @@ def sobol_warning(method: SamplingMethod, runs: int) -> str | None:
 
 
 def sample_path(parameters: Mapping[str, AnyDistribution], method: SamplingMethod, seed: int,
-                path_index: int, runs: int) -> dict[str, np.ndarray]:
-    """Sampled values (runs,) per parameter, in SI, for one path."""
+                stream: Stream, runs: int) -> dict[str, np.ndarray]:
+    """Sampled values (runs,) per parameter, in SI, for one path drawing from ``stream``."""
     uncertain = [name for name, spec in parameters.items() if not isinstance(spec, Fixed)]
-    design = unit_design(method, len(uncertain), seed, path_index, runs)
+    design = unit_design(method, len(uncertain), seed, stream, runs)
     values = {}
     for name, spec in parameters.items():
         if isinstance(spec, Fixed):

@@ -19,6 +19,7 @@ from pydantic import (
     Discriminator,
     Field,
     PrivateAttr,
+    StrictBool,
     StrictInt,
     Tag,
     model_validator,
@@ -312,6 +313,9 @@ SamplingMethod = Literal["monte_carlo", "latin_hypercube", "sobol"]
 class UncertaintySection(Strict):
     method: SamplingMethod = "monte_carlo"
     seed: Seed = 0
+    # Run j of every path draws the same values (common random numbers); false: each path
+    # draws its own.
+    paired: StrictBool = True
     parameters: dict[str, Distribution] = {}
 
 

@@ -39,9 +39,6 @@ from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 
 RESULTS_FILE = "results.h5"
-SEED_DERIVATION = ("monte_carlo: run j of path p uses SeedSequence(seed, spawn_key=(p, j)); "
-                   "latin_hypercube/sobol: the path design uses SeedSequence(seed, "
-                   "spawn_key=(p,)) and run j takes row j")
 
 # Campaign regolith keys are the FMU's soil parameters without their prefix.
 REGOLITH_PREFIX = "soil."
@@ -236,13 +233,14 @@ def _sampling_warning(campaign: Campaign) -> str | None:
 def run_settings(campaign: Campaign) -> dict[str, Any]:
     """The root attributes that say how many runs a campaign asked for (compared on resume)."""
     adaptive = campaign.adaptive
+    paired = campaign.model.uncertainty.paired
     if adaptive is None:
         return {"runs": campaign.runs, "runs_mode": "fixed",
-                "sampling": campaign.model.uncertainty.method}
+                "sampling": campaign.model.uncertainty.method, "paired": paired}
     from idefix_rules.campaign.adaptive import SAMPLING
 
     return {"runs": adaptive.max_runs, "runs_mode": "auto", "min_runs": adaptive.min_runs,
-            "batch_runs": adaptive.batch_runs, "sampling": SAMPLING}
+            "batch_runs": adaptive.batch_runs, "sampling": SAMPLING, "paired": paired}
 
 
 @dataclass(frozen=True)
@@ -279,6 +277,8 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                     **run_settings(campaign), "seed": campaign.seed, "fmu_sha256": fmu_hash}
         for key, value in expected.items():
             stored = store.attrs.get(key)
+            if key == "paired" and stored is None:
+                stored = False  # written before campaigns were paired: every path drew its own
             if key == "format_version" and stored in RESUMABLE_FORMAT_VERSIONS:
                 continue  # its full-size run datasets are a block allocation of every row
             if stored != value:
@@ -303,7 +303,7 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
         "fmu_sha256": fmu_hash,
         "seed": campaign.seed,
         **run_settings(campaign),
-        "seed_derivation": SEED_DERIVATION,
+        "seed_derivation": sampling.seed_derivation(campaign.model.uncertainty.paired),
         "started": now_iso(),
         "resumed": "[]",
         "finished": "",
@@ -456,6 +456,11 @@ def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, 
     return info
 
 
+def path_stream(campaign: Campaign, name: str) -> sampling.Stream:
+    """The spawn-key prefix path ``name`` draws from (shared by every path when paired)."""
+    return sampling.path_stream(name, campaign.model.uncertainty.paired)
+
+
 def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
                  progress: Progress, summary: SimulationSummary) -> None:
@@ -467,7 +472,7 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         name = plan.spec.name
         sampled = sampling.sample_path(campaign.model.uncertainty.parameters,
                                        campaign.model.uncertainty.method, campaign.seed,
-                                       plan.spec.index, campaign.runs)
+                                       path_stream(campaign, name), campaign.runs)
         # created, or (resumed) taken up for the blocks of rows still to allocate
         shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
         store.allocate_runs(name, campaign.runs, shapes, sampled,

@@ -9,7 +9,10 @@ verdict logic runs on them. A path stops when
    of runs can make the path pass), and
 2. its place relative to every other ranked path is settled: for every pass/fail outcome the
    two verdicts can still take, the order is the same — passing paths rank first, and within a
-   group the first rank key's intervals do not overlap,
+   group the first rank key's intervals do not overlap; in a paired campaign ranking first by
+   risk, the confidence sequence of the two paths' per-world risk differences decides instead
+   (:mod:`idefix_rules.campaign.pairwise`): one is safer, or they are tied within the
+   rulebook's indifference margin (a tie is a decision too),
 
 or when it reaches ``max_runs``. Because the intervals hold at every run count at once, looking
 after every batch and stopping on what they say keeps the confidence of each statistic; a
@@ -20,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -94,16 +97,23 @@ def sequential_statistics(evaluation: Any, stats: Any, stop_time: float) -> Any:
 
 # --- the look ----------------------------------------------------------------------------------
 
+_UNPAIRED = 2  # no paired comparison: the two intervals decide
+
+
 def _order(first: tuple[set[bool], tuple[float, float]],
-           second: tuple[set[bool], tuple[float, float]]) -> int | None:
+           second: tuple[set[bool], tuple[float, float]],
+           paired: int | None = _UNPAIRED) -> int | None:
     """-1 when the first path ranks above the second whatever the open verdicts turn out to
-    be, 1 when below, None when it is not settled."""
+    be, 1 when below, 0 when tied, None when it is not settled. ``paired`` is the paired
+    comparison's order (-1, 1, 0 tied, None open) when there is one."""
     outcomes: set[int | None] = set()
     (groups_a, (a_low, a_high)), (groups_b, (b_low, b_high)) = first, second
     for passes_a in groups_a:
         for passes_b in groups_b:
             if passes_a != passes_b:
                 outcomes.add(-1 if passes_a else 1)
+            elif paired != _UNPAIRED:
+                outcomes.add(paired)
             elif a_high < b_low:
                 outcomes.add(-1)
             elif b_high < a_low:
@@ -113,9 +123,20 @@ def _order(first: tuple[set[bool], tuple[float, float]],
     return outcomes.pop() if len(outcomes) == 1 else None
 
 
-def settle(evaluator: Any, stats_by_path: Mapping[str, Any]) -> dict[str, Settlement]:
-    """Each ranked path's settlement from its statistics on confidence sequences."""
+def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
+           pairs: Sequence[Any] = ()) -> dict[str, Settlement]:
+    """Each ranked path's settlement from its statistics on confidence sequences and, in a
+    paired campaign, the paired comparisons (:class:`~idefix_rules.campaign.pairwise.
+    PairComparison`) that decide the first rank key."""
+    from idefix_rules.campaign.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
+
+    def paired_order(name: str, other: str) -> int | None:
+        pair = find(pairs, name, other)
+        if pair is None:
+            return _UNPAIRED
+        order = pair.order()
+        return order if order is None or pair.first == name else -order
 
     facts = {}
     for name, stats in stats_by_path.items():
@@ -128,7 +149,8 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any]) -> dict[str, Settle
     for name, (decided, passed, groups, key) in facts.items():
         open_against = tuple(
             other for other, (_, _, other_groups, other_key) in facts.items()
-            if other != name and _order((groups, key), (other_groups, other_key)) is None)
+            if other != name and _order((groups, key), (other_groups, other_key),
+                                        paired_order(name, other)) is None)
         settlements[name] = Settlement(decided, passed, open_against)
     return settlements
 

@@ -167,6 +167,7 @@ def print_answer(console: Console, evaluation: CampaignEvaluation,
     if evaluation.ranking:
         console.print("[bold]Ranking:[/bold] "
                       + " > ".join(escape(n) for n in evaluation.ranking))
+        _print_ties(console, evaluation)
     for path in _ordered(evaluation):
         console.print(verdict_line(path))
     style = "green" if code == 0 else "red"
@@ -240,3 +241,11 @@ def index_titles(rulebook: Any) -> dict[str, str]:
     """``{index name: title}`` of a rule model (``Rulebook``)."""
     return {index.name: index.title for index in getattr(rulebook, "indices", ())
             if getattr(index, "title", None)}
+
+
+def _print_ties(console: Console, evaluation: CampaignEvaluation) -> None:
+    """One line per tie of the ranking: ``tie: A = B (risk difference within ±2 %)``."""
+    margin = f"{evaluation.indifference * 100:.3g} %"
+    for first, second in evaluation.ties:
+        console.print(f"tie: {first} = {second} (risk difference within ±{margin})",
+                      markup=False)

@@ -32,7 +32,8 @@ condition (the rest of the condition unchanged), a level's buffer (more buffer e
 ``collision.buffer``), ``tolerance_growth`` (a wider ``tolerance_radius``). An added command
 rule, prescreen or verdict is stricter, a removed one looser; an added index raises the risk
 (stricter when verdicts bound the risk from above). Header, ranking, titles, rationales, maps
-and ``confidence`` (which only decides whether a verdict is *decided*) are neutral; a changed
+``confidence`` (which only decides whether a verdict is *decided*) and ``indifference`` (which
+only decides whether two paths' ranks are tied) are neutral; a changed
 expression shape, a level size threshold read by the rules, or ``theoretical_slip`` are
 unknown.
 """
@@ -542,7 +543,7 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
         return level_direction(old, new, name)
     if section == "area":
         return area_direction(old, new, name)
-    return "neutral"  # header, combine (confidence), ranking
+    return "neutral"  # header, combine (confidence, indifference), ranking
 
 
 def area_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Direction:

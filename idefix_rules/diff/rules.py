@@ -249,8 +249,11 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
         found["combine"] = _Declaration("combine", {
             "run": (str(combine.run), None), "path": (str(combine.path), None),
             "confidence": (format_expr(combine.confidence) if combine.confidence is not None
-                           else "", si_text(checked.confidence))}, None,
-            (combine.confidence,) if combine.confidence is not None else ())
+                           else "", si_text(checked.confidence)),
+            "indifference": (format_expr(combine.indifference)
+                             if combine.indifference is not None else "",
+                             si_text(checked.indifference))}, None,
+            tuple(e for e in (combine.confidence, combine.indifference) if e is not None))
     elif section == "ranking":
         ranking: Ranking = model.ranking
         keys = ", ".join(format_expr(key.expr) + (" desc" if key.descending else "")

@@ -36,7 +36,7 @@ Kind = Literal["constant", "signal", "variable", "reducer", "function", "unit", 
 
 REDUCERS: tuple[str, ...] = get_args(Reducer)  # the rule model's, so none is missed
 INDEX_ITEMS = ("value", "nominal", "limit", "weight", "map", "because")
-COMBINE_ITEMS = ("run", "path", "confidence")
+COMBINE_ITEMS = ("run", "path", "confidence", "indifference")
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WORD = re.compile(r"[A-Za-z_][\w.]*$")
 _UNIT_TAIL = re.compile(rf"{_NUMBER}[ \t]*([A-Za-z%°][A-Za-z%°·*/^\d-]*)?$")

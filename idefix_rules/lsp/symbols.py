@@ -107,6 +107,8 @@ def expressions(rulebook: Rulebook) -> Iterator[tuple[Expr, ScopeKind]]:
         yield chance.condition, "run"
     if rulebook.combine.confidence is not None:
         yield rulebook.combine.confidence, "constant"
+    if rulebook.combine.indifference is not None:
+        yield rulebook.combine.indifference, "constant"
     for prescreen in rulebook.prescreens:
         yield prescreen.condition, "prescreen"
     for verdict in rulebook.verdicts:

@@ -84,6 +84,7 @@ class CheckedRulebook:
     weights: dict[str, float]
     index_types: dict[str, ExprType]
     confidence: float
+    indifference: float = 0.0  # run-risk difference within which two paths tie (0: never)
     nominals: dict[str, float] = field(default_factory=dict)  # indices that give a nominal
     areas: tuple[AreaSpec, ...] = ()
 
@@ -132,6 +133,7 @@ class _Env:
     levels: list[ObstacleLevelSpec] = field(default_factory=list)
     areas: list[AreaSpec] = field(default_factory=list)
     confidence: float = 0.95
+    indifference: float = 0.0
 
     def scope(self, kind: str) -> Scope:
         return _scope(kind, self.rulebook, self.constant_types)
@@ -560,6 +562,17 @@ def check_combine(env: _Env) -> list[Diagnostic]:
                                       combine.confidence.span))
             else:
                 env.confidence = value
+    if combine.indifference is not None:
+        value = _constant_quantity(env, combine.indifference, DIMENSIONLESS, "indifference",
+                                   problems)
+        if value is not None:
+            if not 0.0 <= value < 0.5:
+                problems.append(error("E410", "indifference must lie in [0 %, 50 %)",
+                                      combine.indifference.span,
+                                      "a margin on the difference of two paths' mean risks, "
+                                      "e.g. indifference = 2 %"))
+            else:
+                env.indifference = value
     return problems
 
 
@@ -625,6 +638,8 @@ def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
         yield ch.condition
     if rulebook.combine.confidence is not None:
         yield rulebook.combine.confidence
+    if rulebook.combine.indifference is not None:
+        yield rulebook.combine.indifference
     for p in rulebook.prescreens:
         yield p.condition
     for v in rulebook.verdicts:
@@ -680,6 +695,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
             weights=env.weights,
             index_types=env.index_types,
             confidence=env.confidence,
+            indifference=env.indifference,
         )
     return CheckResult(diagnostics, checked)
 

@@ -323,6 +323,8 @@ def _combine(combine: model.Combine) -> list[str]:
     items = [("run", str(combine.run)), ("path", str(combine.path))]
     if combine.confidence is not None:
         items.append(("confidence", format_expr(combine.confidence)))
+    if combine.indifference is not None:
+        items.append(("indifference", format_expr(combine.indifference)))
     return _item_block(combine, "combine {", "combine", items)
 
 

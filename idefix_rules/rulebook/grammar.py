@@ -1,8 +1,9 @@
 """Loading the rulebook grammar (``grammar/rulebook.lark``) once per process.
 
 The grammar ships as package data of ``idefix_rules.grammar`` (pyproject maps that package to
-the repository's top-level ``grammar/`` directory), so an installed wheel finds it; a source
-checkout that is not installed falls back to ``<repo>/grammar/rulebook.lark``.
+the repository's top-level ``grammar/`` directory), so an installed wheel finds it. A source
+checkout reads its own ``<repo>/grammar/rulebook.lark`` first: the package imported from a
+checkout is that checkout's code, even when another checkout is the one installed.
 
 >>> parser = rulebook_parser()
 >>> parser is rulebook_parser()
@@ -25,14 +26,17 @@ _SOURCE_TREE_GRAMMAR = Path(__file__).resolve().parents[2] / "grammar" / GRAMMAR
 
 
 def grammar_text() -> str:
-    """The text of ``rulebook.lark``: from the installed package, else from the source tree."""
+    """The text of ``rulebook.lark``: from the source tree this package sits in, else from
+    the installed package."""
+    if _SOURCE_TREE_GRAMMAR.is_file():
+        return _SOURCE_TREE_GRAMMAR.read_text(encoding="utf-8")
     try:
         resource = importlib.resources.files("idefix_rules.grammar").joinpath(GRAMMAR_FILE)
         if resource.is_file():
             return resource.read_text(encoding="utf-8")
     except ModuleNotFoundError:
         pass
-    return _SOURCE_TREE_GRAMMAR.read_text(encoding="utf-8")
+    raise FileNotFoundError(f"no {GRAMMAR_FILE} in the package nor at {_SOURCE_TREE_GRAMMAR}")
 
 
 # Comments are ignored by the grammar; the lexer hands each one to the list of the parse

@@ -258,6 +258,7 @@ class Combine:
     run: RunCombination = "max_weighted"
     path: PathCombination = "mean"
     confidence: Expr | None = None  # e.g. 95 %; None = 95 %
+    indifference: Expr | None = None  # risk difference two paths tie within; None = 0 (no ties)
     span: Span = _span()
     comments: tuple[str, ...] = _comments()
 

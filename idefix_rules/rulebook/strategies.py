@@ -286,6 +286,8 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
     ranking = Ranking(tuple(RankKey(Name(k), draw(st.booleans())) for k in keys))
     confidence = draw(st.sampled_from([None, Number(90.0, "%"), Number(95.0, "%"),
                                        Number(99.0, "%")]))
+    indifference = draw(st.sampled_from([None, Number(0.0, "%"), Number(2.0, "%"),
+                                         Number(0.05)]))
     return Rulebook(
         header=Header(draw(_WORDS), f"{draw(st.integers(0, 3))}.{draw(st.integers(0, 9))}.0",
                       draw(_TEXT)),
@@ -295,7 +297,7 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
         command_rules=tuple(command_rules),
         indices=tuple(index_list),
         chances=tuple(chances),
-        combine=Combine(confidence=confidence),
+        combine=Combine(confidence=confidence, indifference=indifference),
         prescreens=tuple(prescreens),
         verdicts=tuple(verdicts),
         ranking=ranking,

@@ -154,7 +154,9 @@ def simulated_until(group: h5py.Group) -> float:
     return float(group["reference/signals/t"][int(np.argmax(command == -1)) + 1])
 
 
-FAULTS = CAMPAIGN.replace("runs: 6", "runs: 16").replace("seed: 5", "seed: 1") \
+# Seed 5 (the campaign's own): runs among the 16 crash, hang and fail before their chain ends
+# (with paired draws both paths share them; seed 1 had all three only across unpaired paths).
+FAULTS = CAMPAIGN.replace("runs: 6", "runs: 16") \
     .replace("  too-fast:\n    - {max_wheel_rate: \"0.5 rad/s\", delta_position: \"0.1 m\", "
              "delta_heading: \"0 deg\"}\n", "") \
     .replace("    toy.slip:", """\

@@ -6,7 +6,9 @@ runs began to end one step after their chain (the held samples' ``t`` follows th
 toy's summed internal steps: 8e-13 s apart; every other dataset equal), and both when the default
 stop limit became 3 × the ideal duration + 5 s (longer runs: the earlier samples equal, the
 added ones held; the rover's on its recorded sources, where its turn chain now finishes in every
-run). A change to either must
+run), and both when campaigns became paired (run ``j`` of every path draws from the stream
+``()``: with the earlier derivation, ``spawn_key=(path index, j)``, both old digests were
+reproduced exactly before they were replaced). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -25,8 +27,8 @@ from idefix_rules.fmu.build import source_hash
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing and the
 # first-touch rock contact; results format 2, default stop limit 3 × ideal, held after the chain.
 ROVER_SOURCE_HASH = "699cc862f80ae2488b7c678d1abf5770ffd76adaa4169a564f8a036396983893"
-ROVER_DIGEST = "7a329f4b3d7f6d63ffa353b18c9ceb90c17e5111f5dab41b076b18be15c42123"
-TOY_DIGEST = "446f680b2765ba3754c63f234206fa2eda1658d5aac8676ffaec4caa0ebd45c4"
+ROVER_DIGEST = "bc67a3521a228b41ba6bcbd45bef9429d36ae8bb9c67626ab504c97a05428fcd"
+TOY_DIGEST = "d957ee916d07921e27ee17e134c5ee39afa04beeb8b66222642cf7db4039b765"
 
 
 def test_toy_fmu_campaign_stores_the_same_datasets(campaign_dir: Path) -> None:

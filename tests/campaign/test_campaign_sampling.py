@@ -24,10 +24,12 @@ PARAMETERS = {
 
 @pytest.mark.parametrize("method", ["monte_carlo", "latin_hypercube", "sobol"])
 def test_the_same_seed_gives_the_same_values_and_another_seed_others(method: str) -> None:
-    first = sampling.sample_path(PARAMETERS, method, seed=7, path_index=1, runs=64)
-    again = sampling.sample_path(PARAMETERS, method, seed=7, path_index=1, runs=64)
-    other = sampling.sample_path(PARAMETERS, method, seed=8, path_index=1, runs=64)
-    other_path = sampling.sample_path(PARAMETERS, method, seed=7, path_index=2, runs=64)
+    stream = sampling.path_stream("a", paired=False)
+    first = sampling.sample_path(PARAMETERS, method, seed=7, stream=stream, runs=64)
+    again = sampling.sample_path(PARAMETERS, method, seed=7, stream=stream, runs=64)
+    other = sampling.sample_path(PARAMETERS, method, seed=8, stream=stream, runs=64)
+    other_path = sampling.sample_path(PARAMETERS, method, seed=7,
+                                      stream=sampling.path_stream("b", paired=False), runs=64)
     for name in PARAMETERS:
         assert np.array_equal(first[name], again[name])
     assert not np.array_equal(first["initial.x"], other["initial.x"])
@@ -35,20 +37,41 @@ def test_the_same_seed_gives_the_same_values_and_another_seed_others(method: str
 
 
 def test_monte_carlo_run_values_do_not_depend_on_the_number_of_runs() -> None:
-    few = sampling.sample_path(PARAMETERS, "monte_carlo", seed=1, path_index=0, runs=5)
-    many = sampling.sample_path(PARAMETERS, "monte_carlo", seed=1, path_index=0, runs=50)
+    few = sampling.sample_path(PARAMETERS, "monte_carlo", seed=1, stream=(), runs=5)
+    many = sampling.sample_path(PARAMETERS, "monte_carlo", seed=1, stream=(), runs=50)
     for name in PARAMETERS:
         assert np.array_equal(few[name], many[name][:5])
 
 
-def test_run_seed_is_the_seed_sequence_keyed_by_path_and_run() -> None:
-    seq = sampling.run_seed(5, 2, 9)
+def test_run_seed_is_the_seed_sequence_keyed_by_stream_and_run() -> None:
+    seq = sampling.run_seed(5, (2,), 9)
     assert seq.entropy == 5 and seq.spawn_key == (2, 9)
+    assert sampling.run_seed(5, (), 9).spawn_key == (9,)
+
+
+@pytest.mark.parametrize("method", ["monte_carlo", "latin_hypercube", "sobol"])
+def test_paired_paths_draw_the_same_values_and_unpaired_paths_their_own(method: str) -> None:
+    paired = [sampling.sample_path(PARAMETERS, method, seed=7,
+                                   stream=sampling.path_stream(name, paired=True), runs=16)
+              for name in ("straight", "detour")]
+    unpaired = [sampling.sample_path(PARAMETERS, method, seed=7,
+                                     stream=sampling.path_stream(name, paired=False), runs=16)
+                for name in ("straight", "detour")]
+    for name in PARAMETERS:
+        assert np.array_equal(paired[0][name], paired[1][name])
+    for name in ("initial.x", "initial.yaw", "soil.cohesion", "soil.friction_angle"):
+        assert not np.any(unpaired[0][name] == unpaired[1][name])
+
+
+def test_an_unpaired_path_stream_is_made_from_its_name_alone() -> None:
+    # 32 bits of sha256("straight"): no other path's name or position enters it
+    assert sampling.path_stream("straight", paired=False) == (0x2A424875,)
+    assert sampling.path_stream("straight", paired=True) == ()
 
 
 @pytest.mark.parametrize("method", ["monte_carlo", "latin_hypercube", "sobol"])
 def test_sampled_distributions_have_their_moments_and_bounds(method: str) -> None:
-    values = sampling.sample_path(PARAMETERS, method, seed=3, path_index=0, runs=4096)
+    values = sampling.sample_path(PARAMETERS, method, seed=3, stream=(), runs=4096)
     assert abs(np.mean(values["initial.x"])) < 0.001
     assert math.isclose(np.std(values["initial.x"]), 0.01, rel_tol=0.05)
     yaw = values["initial.yaw"]
@@ -60,7 +83,7 @@ def test_sampled_distributions_have_their_moments_and_bounds(method: str) -> Non
 
 
 def test_latin_hypercube_puts_one_sample_in_each_stratum() -> None:
-    design = sampling.unit_design("latin_hypercube", 3, seed=0, path_index=0, runs=20)
+    design = sampling.unit_design("latin_hypercube", 3, seed=0, stream=(), runs=20)
     for column in design.T:
         assert sorted(np.floor(column * 20).astype(int)) == list(range(20))
 
@@ -69,8 +92,8 @@ def test_sobol_with_a_power_of_two_is_silent_and_otherwise_warns() -> None:
     assert sampling.sobol_warning("sobol", 64) is None
     assert "not a power of two" in (sampling.sobol_warning("sobol", 100) or "")
     assert sampling.sobol_warning("monte_carlo", 100) is None
-    prefix = sampling.unit_design("sobol", 2, seed=0, path_index=0, runs=100)
-    full = sampling.unit_design("sobol", 2, seed=0, path_index=0, runs=128)
+    prefix = sampling.unit_design("sobol", 2, seed=0, stream=(), runs=100)
+    full = sampling.unit_design("sobol", 2, seed=0, stream=(), runs=128)
     assert np.array_equal(prefix, full[:100])
 
 

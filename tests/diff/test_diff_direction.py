@@ -77,6 +77,8 @@ def edited(old: str, new: str, count: int = 1) -> str:
     ("level L3             buffer 10 cm", "level L3             buffer 20 cm",
      ("obstacle level", "L3"), "neutral"),
     ("confidence = 95 %", "confidence = 99 %", ("combine", "combine"), "neutral"),
+    ("confidence = 95 %", "confidence = 95 %\n  indifference = 2 %", ("combine", "combine"),
+     "neutral"),
     ("rank by risk, time, energy", "rank by risk, energy, time", ("ranking", "ranking"),
      "neutral"),
 ])

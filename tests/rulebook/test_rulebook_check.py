@@ -10,6 +10,7 @@ from idefix_rules.rulebook.model import (
     Binary,
     Call,
     Chance,
+    Combine,
     CommandRule,
     Constant,
     Header,
@@ -231,3 +232,17 @@ def test_a_bare_zero_compares_with_any_dimension():
 def test_without_an_obstacles_section_there_are_no_size_thresholds():
     checked = check(rulebook()).checked
     assert checked.obstacle_levels == ()
+
+
+@pytest.mark.parametrize(("margin", "expected"), [
+    (None, 0.0), (Number(0, "%"), 0.0), (Number(2, "%"), 0.02), (Number(49.9, "%"), 0.499)])
+def test_the_indifference_margin_is_a_ratio_below_half(margin, expected):
+    result = check(rulebook(combine=Combine(indifference=margin)))
+    assert result.ok, result.diagnostics
+    assert math.isclose(result.checked.indifference, expected)
+
+
+@pytest.mark.parametrize(("margin", "code"), [
+    (Number(50, "%"), "E410"), (Number(-1, "%"), "E410"), (Number(2, "cm"), "E204")])
+def test_an_indifference_margin_outside_its_range_or_not_a_ratio_is_an_error(margin, code):
+    assert codes(rulebook(combine=Combine(indifference=margin))) == [code]

@@ -73,7 +73,7 @@ index I_phi "pitch deviation" {
   because "Pitch"
 }
 chance hit_L2 = any over parts (collision.hits[L2] > 0)
-combine { run = max_weighted path = mean confidence = 90 % }
+combine { run = max_weighted path = mean confidence = 90 % indifference = 2 % }
 prescreen no_hit: require I_phi < 1
 verdict rare: require chance(hit_L2) <= 5 % because "rarely"
 rank by risk, time desc, energy
@@ -97,6 +97,7 @@ rank by risk, time desc, energy
     assert book.chances[0].condition == Reduce("any", "parts", Binary(
         ">", Select(Name("collision.hits"), ("L2",)), Number(0.0)))
     assert book.combine.confidence == Number(90.0, "%")
+    assert book.combine.indifference == Number(2.0, "%")
     assert book.prescreens[0].name == "no_hit"
     assert book.verdicts[0].condition.left == Call("chance", (Name("hit_L2"),))
     assert book.ranking == Ranking((RankKey(Name("risk")), RankKey(Name("time"), True),

@@ -1,0 +1,158 @@
+"""Paths compared in the same simulated worlds: the per-world differences of their run risks.
+
+In a paired campaign run ``j`` of every path is the same drawn world
+(:mod:`idefix_rules.campaign.sampling`), so ``dⱼ = I_max(A, j) − I_max(B, j)`` measures what the
+choice of chain changes in that world. The ``dⱼ`` of the worlds both paths completed are
+independent, lie in [−1, 1], and their mean is the difference of the paths' risks; the hedged
+capital confidence sequence (:mod:`idefix_rules.campaign.sequential`) of ``(dⱼ + 1) / 2`` gives an
+anytime-valid interval for it. The spread of the worlds drops out of the difference, so the
+interval is far narrower than the two paths' own intervals side by side.
+
+A pair is decided when its interval says so:
+
+* ``tied`` — the interval lies inside ``(−margin, +margin)`` (the rulebook's
+  ``combine { indifference = … }``): the risks differ by less than the margin, whichever is lower;
+* ``first`` / ``second`` safer — otherwise, the interval lies below / above 0;
+* ``open`` — neither yet.
+
+α is split evenly over the pairs (Bonferroni): with ``m`` pairs each interval is a confidence
+sequence at ``α / m``, so the chance that *any* pair is ever wrongly ordered or wrongly tied, at
+any look, is at most α (``docs/campaign-format.md``, "Ranks on paired differences").
+
+>>> import numpy as np
+>>> rows = np.arange(200)
+>>> [pair] = compare_pairs({"a": (rows, np.full(200, 0.5)), "b": (rows, np.full(200, 0.5))},
+...                        ["a", "b"], confidence=0.95, margin=0.05)
+>>> pair.outcome, pair.shared, pair.equal
+('tied', 200, 200)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from itertools import combinations
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.sequential import betting_interval
+
+TIED = "tied"
+FIRST_SAFER = "first safer"
+SECOND_SAFER = "second safer"
+OPEN = "open"
+
+RunRisks = tuple[np.ndarray, np.ndarray]  # (run rows, I_max of those runs)
+
+
+@dataclass(frozen=True)
+class PairComparison:
+    """Two paths compared in the worlds both completed."""
+
+    first: str
+    second: str
+    shared: int  # worlds (run numbers) both paths completed
+    first_safer: int  # of those, worlds where the first path's I_max is lower
+    second_safer: int
+    equal: int
+    difference: float  # mean of I_max(first) − I_max(second) over the shared worlds
+    low: float  # the confidence sequence's interval of that difference
+    high: float
+    confidence: float  # of this pair's interval (the campaign's α split over the pairs)
+    margin: float  # the indifference margin
+    outcome: str  # tied | first safer | second safer | open
+
+    @property
+    def settled(self) -> bool:
+        return self.outcome != OPEN
+
+    def order(self) -> int | None:
+        """-1 when the first ranks above the second, 1 below, 0 tied, None open."""
+        return {FIRST_SAFER: -1, SECOND_SAFER: 1, TIED: 0}.get(self.outcome)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"paths": [self.first, self.second], "shared_runs": self.shared,
+                "first_safer": self.first_safer, "second_safer": self.second_safer,
+                "equal": self.equal, "risk_difference": self.difference,
+                "ci": [self.low, self.high], "confidence": self.confidence,
+                "indifference": self.margin, "outcome": self.outcome}
+
+
+def difference_interval(differences: np.ndarray, alpha: float) -> tuple[float, float]:
+    """Anytime-valid interval for the mean of ``differences`` (values in [−1, 1], run order)."""
+    low, high = betting_interval((np.asarray(differences, dtype=np.float64) + 1.0) / 2.0, alpha)
+    return 2.0 * low - 1.0, 2.0 * high - 1.0
+
+
+def outcome(low: float, high: float, margin: float) -> str:
+    """What an interval of the risk difference decides (a tie first: the interval says the
+    difference is smaller than anything that matters, even when it also excludes 0)."""
+    if margin > 0 and -margin < low and high < margin:
+        return TIED
+    if high < 0:
+        return FIRST_SAFER
+    if low > 0:
+        return SECOND_SAFER
+    return OPEN
+
+
+def compare(first: str, second: str, first_risks: RunRisks, second_risks: RunRisks,
+            alpha: float, margin: float) -> PairComparison:
+    """One pair on the worlds both completed, in run order."""
+    rows, first_at, second_at = np.intersect1d(first_risks[0], second_risks[0],
+                                               assume_unique=True, return_indices=True)
+    differences = (np.asarray(first_risks[1], dtype=np.float64)[first_at]
+                   - np.asarray(second_risks[1], dtype=np.float64)[second_at])
+    if rows.size:
+        low, high = difference_interval(differences, alpha)
+        mean = float(differences.mean())
+    else:
+        low, high, mean = -1.0, 1.0, float("nan")
+    return PairComparison(first, second, int(rows.size), int(np.sum(differences < 0)),
+                          int(np.sum(differences > 0)), int(np.sum(differences == 0)), mean,
+                          low, high, 1.0 - alpha, margin, outcome(low, high, margin))
+
+
+def compare_pairs(risks: Mapping[str, RunRisks], order: Sequence[str], confidence: float,
+                  margin: float) -> list[PairComparison]:
+    """Every pair of the paths in ``order`` (first before second as listed), each on a
+    confidence sequence at ``(1 − confidence) / pairs``."""
+    names = [name for name in order if name in risks]
+    pairs = list(combinations(names, 2))
+    if not pairs:
+        return []
+    alpha = (1.0 - confidence) / len(pairs)
+    return [compare(a, b, risks[a], risks[b], alpha, margin) for a, b in pairs]
+
+
+def find(pairs: Sequence[PairComparison], first: str, second: str) -> PairComparison | None:
+    for pair in pairs:
+        if (pair.first, pair.second) in ((first, second), (second, first)):
+            return pair
+    return None
+
+
+def shared_ranks(ranking: Sequence[str], passed: Mapping[str, bool],
+                 pairs: Sequence[PairComparison]) -> tuple[dict[str, int], list[tuple[str, str]]]:
+    """Ranks (1 = best) for ``ranking`` (best first) where a path tied with the one before it
+    (both passing or both not) shares its rank; and those ties, in ranking order."""
+    ranks: dict[str, int] = {}
+    ties: list[tuple[str, str]] = []
+    for position, name in enumerate(ranking, start=1):
+        ranks[name] = position
+        if position == 1:
+            continue
+        before = ranking[position - 2]
+        pair = find(pairs, before, name)
+        if pair is not None and pair.outcome == TIED and passed.get(before) == passed.get(name):
+            ranks[name] = ranks[before]
+            ties.append((before, name))
+    return ranks, ties
+
+
+def uses_paired_risk(rulebook: Any) -> bool:
+    """Whether the rulebook ranks first by ``risk`` (ascending), the key paired differences
+    decide."""
+    keys = rulebook.ranking.keys
+    return bool(keys) and not keys[0].descending and getattr(keys[0].expr, "name", None) == "risk"
