@@ -150,15 +150,15 @@ def test_the_last_screen_of_the_example_at_80_by_40_shows_the_decision_and_ranki
         {"straight", "wide-detour", "smooth-detour", "approach"}
     assert screen[-1] == "CI expectations: 2 of 2 held (exit 0)"
     text = " ".join(done.stdout.split())
-    # The slip assumption is the rulebook's: one warning for the three paths, said once.
+    # The slip assumption is the rulebook's: one warning for the four paths, said once.
     assert text.count("assumes theoretical_slip") == 1
     assert done.stdout.count("warning:") == 1
     assert "fixed run count" not in text
     # A log gets plain progress: a line per phase with its duration, per 10 % of runs.
     assert re.search(r"^compiling the rulebook idefix-ops\.rules \(\d+\.\d s\)$",
                      done.stdout, re.M)
-    assert re.search(r"^Monte Carlo runs of 3 path\(s\): 12 runs \(\d+\.\d s\)$",
+    assert re.search(r"^Monte Carlo runs of 4 path\(s\): 16 runs \(\d+\.\d s\)$",
                      done.stdout, re.M)
     assert re.search(r"^straight: 4/4 runs \(100 %\), \d+:\d\d$", done.stdout, re.M)
-    assert re.search(r"^evaluating 12 runs of 3 path\(s\) .*\(\d+\.\d s\)$", done.stdout, re.M)
+    assert re.search(r"^evaluating 16 runs of 4 path\(s\) .*\(\d+\.\d s\)$", done.stdout, re.M)
     assert "\r" not in done.stdout and "\x1b[" not in done.stdout
