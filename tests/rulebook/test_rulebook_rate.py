@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
+from test_rulebook_compile import FOOTER, HEADER, batch, evaluate, rulebook
 
 from idefix_rules.rulebook.check import check
 from idefix_rules.rulebook.parser import parse_rulebook
-from tests.rulebook.test_rulebook_compile import FOOTER, HEADER, batch, evaluate, rulebook
 
 # pitch over t = 0..5 s: backward differences 0.1, -0.4, 0.5, -0.2, 0.05 rad/s; sample 0 takes
 # the forward one (0.1)
