@@ -41,9 +41,10 @@ CHAIN = (Command(0.05, 0.7, 0.0), Command(0.05, 0.3, math.radians(30)),
 
 
 def without_obstacles(model: Rulebook) -> Rulebook:
-    """The rulebook minus everything that reads ``collision.*`` (directly or via a chance)."""
+    """The rulebook minus everything that reads ``collision.*`` or ``area.*`` (the obstacle
+    checker's signals), directly or via a chance."""
     def collides(expr: object) -> bool:
-        return any(name.startswith("collision.") for name in names_in(expr))
+        return any(name.startswith(("collision.", "area.")) for name in names_in(expr))
 
     indices = tuple(i for i in model.indices if not collides((i.value, i.map)))
     chances = tuple(c for c in model.chances if not collides(c.condition))
