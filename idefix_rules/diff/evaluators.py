@@ -15,6 +15,8 @@ import hashlib
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.rulebook import check_text, compile_rulebook
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -47,23 +49,41 @@ def collision_setup(checked: CheckedRulebook) -> tuple[Any, ...]:
     return (*checked.obstacle_levels, *checked.areas)
 
 
+def ground_key(checked: CheckedRulebook, areas: Any) -> tuple[Any, ...]:
+    """What a rulebook puts on the ground for the collision check: its obstacle levels and,
+    of its named areas (``areas``: their geometry in a campaign, by name), those that cover
+    some ground, with their level and shape. Two rulebooks with the same key give the same
+    collision signals (an area's own buffer only shapes its ``area.NAME.buffer`` signal)."""
+    covered = []
+    for name in sorted(areas):
+        area = areas[name]
+        if area.empty:
+            continue
+        shape = hashlib.sha256()
+        for polygon in area.polygons:
+            shape.update(np.ascontiguousarray(polygon, dtype=float).tobytes())
+        if area.mask is not None:
+            shape.update(np.ascontiguousarray(area.mask).tobytes())
+        covered.append((name, area.level, shape.hexdigest()))
+    return (*checked.obstacle_levels, *covered)
+
+
 def area_reads(evaluator: CompiledRulebook) -> frozenset[str]:
     """The signals of named areas the rulebook reads (computed from the poses, never stored)."""
     return frozenset(evaluator.area_signals_read)
 
 
-def stored_levels(store: ResultStore, candidates: Sequence[CheckedRulebook]
-                  ) -> tuple[Any, ...] | None:
-    """The collision set-up (:func:`collision_setup`) of the rulebook whose evaluation is
-    stored in ``store`` (its collisions were computed with it), or None when that rulebook is
-    not known."""
+def stored_rulebook(store: ResultStore, candidates: Sequence[CheckedRulebook]
+                    ) -> CheckedRulebook | None:
+    """The rulebook whose evaluation is stored in ``store`` (its collisions were computed with
+    it), or None when that rulebook is not known."""
     group = store.file.get("evaluation")
     if group is None:
         return None
     digest = str(group.attrs.get("rulebook_sha256", ""))
     for checked in candidates:
         if source_sha256(checked) == digest:
-            return collision_setup(checked)
+            return checked
     try:
         text = store.text("rulebook")
     except KeyError:
@@ -71,18 +91,18 @@ def stored_levels(store: ResultStore, candidates: Sequence[CheckedRulebook]
     if hashlib.sha256(text.encode("utf-8")).hexdigest() != digest:
         return None
     result = check_text(text, "<stored rulebook>")
-    return collision_setup(result.checked) if result.checked is not None else None
+    return result.checked
 
 
-def can_use_stored(evaluators: Sequence[Any], levels: tuple[Any, ...] | None) -> bool:
-    """True when every evaluator that reads collisions reads only stored ones and has the
-    collision set-up (obstacle levels, named areas) the stored collisions were computed
-    with. The signals of named areas come from the poses either way."""
-    if levels is None:
+def can_use_stored(evaluators: Sequence[Any], stored: tuple[Any, ...] | None,
+                   keys: Sequence[tuple[Any, ...]]) -> bool:
+    """True when every evaluator that reads collisions reads only stored ones and puts on the
+    ground (``keys``, :func:`ground_key` per evaluator) what the stored collisions were
+    computed with (``stored``). The signals of named areas come from the poses either way."""
+    if stored is None:
         return False
-    for evaluator in evaluators:
+    for evaluator, key in zip(evaluators, keys, strict=True):
         reads = collision_reads(evaluator)
-        if reads and (not reads <= set(STORED_COLLISIONS)
-                      or collision_setup(evaluator.checked) != tuple(levels)):
+        if reads and (not reads <= set(STORED_COLLISIONS) or key != stored):
             return False
     return True

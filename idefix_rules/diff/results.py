@@ -46,7 +46,8 @@ from idefix_rules.diff.evaluators import (
     can_use_stored,
     collision_reads,
     collision_setup,
-    stored_levels,
+    ground_key,
+    stored_rulebook,
     values_only,
 )
 from idefix_rules.diff.reader import MappedRuns
@@ -243,8 +244,11 @@ class _Collisions:
         self.mode = "none"
         if not any(self.needed):
             return
-        levels = stored_levels(store, [s.checked for s in sources])
-        self.mode = "stored" if can_use_stored(evaluators, levels) else "recomputed"
+        stored = stored_rulebook(store, [s.checked for s in sources])
+        keys = [ground_key(e.checked, self._named_areas(e)) for e in self.evaluators]
+        stored_key = ground_key(stored, self._named_areas(stored)) if stored is not None \
+            else None
+        self.mode = "stored" if can_use_stored(evaluators, stored_key, keys) else "recomputed"
 
     def describe(self) -> str:
         """``none``, ``stored``, ``recomputed``, or ``stored (recomputed for: a, b)``."""
@@ -273,12 +277,21 @@ class _Collisions:
         evaluator = self.evaluators[position]
         if not area_reads(evaluator):
             return {}
-        key = collision_setup(evaluator.checked)
+        return all_area_signals(self._named_areas(evaluator), signals, RoverGeometry())
+
+    def _named_areas(self, evaluator: Any) -> dict[str, Any]:
+        """The named areas of a rulebook (compiled or checked) on this campaign's ground."""
+        checked = getattr(evaluator, "checked", evaluator)
+        key = collision_setup(checked)
         if key not in self._areas:
-            if self._terrain is None:
-                self._terrain = read_terrain(self.folder) or False
-            self._areas[key] = named_areas(self.environment, evaluator, self._terrain or None)
-        return all_area_signals(self._areas[key], signals, RoverGeometry())
+            if not checked.areas:
+                self._areas[key] = {}
+            else:
+                if self._terrain is None:
+                    self._terrain = read_terrain(self.folder) or False
+                self._areas[key] = named_areas(self.environment, checked,
+                                               self._terrain or None)
+        return self._areas[key]
 
     def stored_for(self, store: ResultStore, name: str) -> dict[str, np.ndarray] | None:
         """The stored collision arrays of a path, or None when they are missing or partial."""

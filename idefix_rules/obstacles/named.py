@@ -95,6 +95,9 @@ def contact_points(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, rover: RoverGe
 def area_signals(area: AreaGeometry, x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
                  rover: RoverGeometry) -> tuple[np.ndarray, np.ndarray]:
     """``area.NAME.inside`` and ``area.NAME.buffer`` (0/1 floats, the shape of ``x``)."""
+    if area.empty:  # nothing on the ground (a site without steep terrain): 0, or NaN
+        nothing = np.where(np.isfinite(np.asarray(x, float)), 0.0, np.nan)
+        return nothing, nothing.copy()
     px, py = contact_points(np.asarray(x, float), np.asarray(y, float),
                             np.asarray(yaw, float), rover)
     inside = np.zeros(px.shape, bool)

@@ -87,3 +87,13 @@ def test_poses_after_a_run_ended_stay_missing():
     inside, near = area_signals(area, np.array([[0.9, np.nan]]), np.zeros((1, 2)),
                                 np.zeros((1, 2)), ROVER)
     assert inside[0, 0] == 1.0 and math.isnan(inside[0, 1]) and math.isnan(near[0, 1])
+
+
+def test_an_area_with_no_ground_reads_0_and_keeps_missing_samples():
+    flat = AreaGeometry("scarp", "L3", 0.05, mask=np.zeros((5, 5), bool), origin=(0.0, 0.0),
+                        cell=0.1, kind="steep")
+    assert flat.empty and flat.obstacles() == []
+    inside, near = area_signals(flat, np.array([[0.2, np.nan]]), np.zeros((1, 2)),
+                                np.zeros((1, 2)), ROVER)
+    assert inside[0, 0] == 0.0 and near[0, 0] == 0.0
+    assert math.isnan(inside[0, 1]) and math.isnan(near[0, 1])
