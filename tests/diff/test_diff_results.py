@@ -306,3 +306,26 @@ def test_at_80_columns_path_names_are_whole_and_risk_is_in_percent(
     # risk as `run` shows it: percent with its interval, never a bare 0–1 fraction
     assert re.search(r"^  risk \d+\.\d % \(\d+\.\d–\d+\.\d\) → \d+\.\d %", out, re.M)
     assert not re.search(r"(?<![\d.])0\.\d{3}(?!\d)", out)
+
+
+def test_an_area_covering_no_ground_keeps_the_stored_collisions(
+        stored_results: Path, campaign_rulebook: Path, tmp_path: Path) -> None:
+    # The rulebook the campaign was evaluated with declares a 20 deg steep area; the example's
+    # terrain is nowhere near that steep, so the area puts no obstacle on the ground and a
+    # rulebook without it keeps the stored collisions. An area starting at 0.5 deg (below the
+    # terrain's 2 deg slope) covers the ground with an L3 obstacle: recomputed.
+    text = campaign_rulebook.read_text(encoding="utf-8")
+    area = "  area highly_inclined steep above critical_inclination level L3 buffer 5 cm"
+    assert area in text
+    without = tmp_path / "without.rules"
+    without.write_text(text.replace(area + " ", "  # ").replace(
+        "chance on_steep = any over time (area.highly_inclined.inside > 0)",
+        "chance on_steep = any over time (stuck > 2)"), encoding="utf-8")
+    ops = load_source(str(campaign_rulebook))
+    assert diff_results([stored_results], ops, load_source(str(without))).files[0].collisions \
+        == "stored"
+    gentle = tmp_path / "gentle.rules"
+    gentle.write_text(text.replace("const critical_inclination     = 20 deg",
+                                   "const critical_inclination     = 0.5 deg"), encoding="utf-8")
+    assert diff_results([stored_results], ops, load_source(str(gentle)),
+                        chunk_runs=3).files[0].collisions == "recomputed"
