@@ -138,3 +138,13 @@ def test_a_chain_whose_only_failures_are_waived_may_be_sent_and_the_decision_say
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     assert summary["decision"]["text"] == text
     assert summary["decision"]["reasons"] == ["waived acceptable_risk"]
+
+
+def test_the_report_shows_the_waived_verdict_and_the_waiver(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"))
+    assert main([str(path), "--quiet"]) == 1  # too-fast is still rejected
+    html = (campaign_dir / "out" / "report.html").read_text()
+    assert '<span class="other">waived</span>' in html
+    assert ("Waived verdict rule acceptable_risk: survey shows the slope is benign (approved "
+            "by J. Doe until 2026-12-01)") in html
