@@ -4,7 +4,8 @@ The verdicts say pass/fail per chain and the ranking orders them; operators want
 The decision is separate from CI's outcome (the exit code follows the campaign's ``expect:``
 entries, which may well assert that a chain fails):
 
-- **send**: the best-ranked chain whose verdict passes and is decided.
+- **send**: the best-ranked chain whose verdict passes (or is waived: its only failures are
+  waived by the campaign, and the decision says so) and is decided.
 - **unsettled**: no chain passes decidedly, and some chain's verdict is not decided at this
   number of runs (a threshold lies inside a confidence interval): more runs are needed.
 - **none**: no chain is acceptable; the best-ranked simulated chain is named as the least bad,

@@ -148,3 +148,14 @@ def test_the_report_shows_the_waived_verdict_and_the_waiver(
     assert '<span class="other">waived</span>' in html
     assert ("Waived verdict rule acceptable_risk: survey shows the slope is benign (approved "
             "by J. Doe until 2026-12-01)") in html
+
+
+def test_a_prescreen_waiver_is_known_and_matches_nothing_when_the_prescreen_holds(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = with_waivers(campaign_dir, waiver("reference_not_critical", path="arc"))
+    assert problems(path, date(2026, 1, 1)) == []
+    assert main([str(path), "--quiet", "--no-report"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    line = CAMPAIGN.count("\n") + 2
+    assert f"campaign.yaml:{line}:5: error[C215]" in err
+    assert "rule 'reference_not_critical' did not fail on path 'arc'" in err
