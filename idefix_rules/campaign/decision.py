@@ -4,7 +4,8 @@ The verdicts say pass/fail per chain and the ranking orders them; operators want
 The decision is separate from CI's outcome (the exit code follows the campaign's ``expect:``
 entries, which may well assert that a chain fails):
 
-- **send**: the best-ranked chain whose verdict passes and is decided.
+- **send**: the best-ranked chain whose verdict passes (or is waived: its only failures are
+  waived by the campaign, and the decision says so) and is decided.
 - **unsettled**: no chain passes decidedly, and some chain's verdict is not decided at this
   number of runs (a threshold lies inside a confidence interval): more runs are needed.
 - **none**: no chain is acceptable; the best-ranked simulated chain is named as the least bad,
@@ -49,18 +50,24 @@ def _rank(path: Any) -> tuple[bool, int]:
 
 
 def decide(paths: Sequence[Any]) -> Decision:
-    """The decision from per-path ``name``, ``verdict`` (pass, fail, rejected, excluded,
-    error), ``undecided``, ``rank`` (None when not ranked) and ``reasons`` (failing verdicts)."""
+    """The decision from per-path ``name``, ``verdict`` (pass, waived, fail, rejected,
+    excluded, error), ``undecided``, ``rank`` (None when not ranked), ``reasons`` (failing
+    verdicts) and optionally ``waived`` (the rules waived on it: a waived chain may be sent,
+    and the decision says it is waived)."""
     ranked = [p for p in paths if getattr(p, "rank", None) is not None]
     total = len(ranked)
-    passing = sorted((p for p in paths if p.verdict == "pass" and not p.undecided), key=_rank)
+    passing = sorted((p for p in paths if p.verdict in ("pass", "waived") and not p.undecided),
+                     key=_rank)
     if passing:
         best = passing[0]
         where = f"rank {best.rank} of {total}" if best.rank is not None else "not ranked"
         others = [p.name for p in paths if p.undecided and _rank(p) < _rank(best)]
         note = (f"; {', '.join(others)} ranks better but is not decided yet" if others else "")
-        return Decision("send", best.name,
-                        f"send {best.name} (passes every verdict, {where}){note}")
+        waived = tuple(getattr(best, "waived", ()))
+        held = (f"waived: breaks {', '.join(waived)} under a waiver, passes every other "
+                "verdict" if best.verdict == "waived" else "passes every verdict")
+        return Decision("send", best.name, f"send {best.name} ({held}, {where}){note}",
+                        tuple(f"waived {rule}" for rule in waived))
     undecided = sorted((p for p in paths if p.undecided), key=_rank)
     if undecided:
         names = ", ".join(p.name for p in undecided)
@@ -88,6 +95,7 @@ class PathFacts:
     undecided: bool
     rank: int | None
     reasons: list[str]
+    waived: tuple[str, ...] = ()  # rules waived on the path (its verdict is then "waived")
 
 
 def reasons_of(path: PathResult) -> list[str]:
@@ -109,5 +117,5 @@ def reason_items(path: PathResult) -> list[tuple[bool, str]]:
 
 def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
     """The decision of an evaluated campaign."""
-    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p))
-                   for p in evaluation.paths])
+    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p),
+                             tuple(w.rule for w in p.waivers)) for p in evaluation.paths])

@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import h5py
 import numpy as np
@@ -24,9 +24,14 @@ from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
+from idefix_rules.campaign.waivers import STORED_ATTRIBUTE, WaivedRule, waive_verdict
+from idefix_rules.campaign.waivers import stored as stored_waivers
 from idefix_rules.campaign.wording import runs_needed_text
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.signals import AXIS_LABELS
+
+if TYPE_CHECKING:
+    from idefix_rules.campaign.schema import Waiver
 
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 DEFAULT_CHUNK_RUNS = 64
@@ -83,6 +88,8 @@ class PathResult:
     # roughly how many runs would decide each verdict rule that is not decided (None: no
     # estimate, e.g. a compound condition or more than a million runs)
     runs_needed: dict[str, int | None] = field(default_factory=dict)
+    # rule failures the campaign's waivers cover on this path (campaign/waivers.py)
+    waivers: list[WaivedRule] = field(default_factory=list)
 
     @property
     def failed(self) -> int:
@@ -103,7 +110,9 @@ class PathResult:
             return "excluded"
         if self.status not in ("simulated",) or self.passed is None:
             return "error"
-        return "pass" if self.passed else "fail"
+        if not self.passed:
+            return "fail"
+        return "waived" if self.waivers else "pass"
 
 
 @dataclass
@@ -374,12 +383,13 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
                    write: bool = True,
                    chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
                    on_path: Callable[[str, int], None] | None = None,
-                   into: ResultStore | None = None) -> CampaignEvaluation:
+                   into: ResultStore | None = None,
+                   waivers: Sequence[Waiver] = ()) -> CampaignEvaluation:
     """Score every path of a results file; writes the evaluation groups when ``write``, into
     ``into`` when given (a :class:`~idefix_rules.campaign.revision.Revision`'s store, so the
     file read is never written), else into ``store``. ``workers`` processes share the
     collision checks; ``on_path(name, runs)`` is called as each simulated path's evaluation
-    starts (progress)."""
+    starts (progress). ``waivers``: the campaign's; a waived verdict rule counts as held."""
     target = into if into is not None else store
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
@@ -405,7 +415,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             stats = sequential_statistics(evaluation, stats, stop_time)
         elif not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
-        verdict = evaluator.verdict(stats)
+        verdict, waived = waive_verdict(evaluator.verdict(stats), waivers, name)
+        result.waivers.extend(waived)
         statistics[name] = stats
         run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))
         fill_result(result, evaluation, stats, verdict)
@@ -476,7 +487,8 @@ def stored_path_result(store: ResultStore, name: str) -> PathResult:
     result = PathResult(name=name, index=int(group.attrs["index"]),
                         status=str(group.attrs.get("status", "pending")),
                         reason=str(group.attrs.get("reason", "")),
-                        stop_reason=str(group.attrs.get("stop_reason", "")))
+                        stop_reason=str(group.attrs.get("stop_reason", "")),
+                        waivers=stored_waivers(str(group.attrs.get(STORED_ATTRIBUTE, ""))))
     if result.status == "simulated" and store.has_runs(name):
         status = store.run_status(name)
         # rows an adaptive campaign never needed are not runs of the path

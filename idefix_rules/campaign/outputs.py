@@ -35,6 +35,7 @@ from idefix_rules.files import write_atomic
 
 EXIT_OK = 0
 EXIT_FAILED = 1
+EXIT_INPUT = 2  # a mistake of the campaign (a waiver matching nothing shows after evaluation)
 EXIT_INFRASTRUCTURE = 3
 
 
@@ -61,7 +62,8 @@ def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> Expec
     if isinstance(expectation, PathVerdictExpectation):
         wanted = expectation.verdict
         got = path.verdict_text
-        held = got == wanted or (wanted == "fail" and got in ("rejected", "excluded"))
+        held = got == wanted or (wanted == "fail" and got in ("rejected", "excluded")) \
+            or (wanted == "pass" and got == "waived")  # a waived failure counts as held
         message = f"verdict {got}"
         if path.undecided:
             message += " (not decided at this number of runs)"
@@ -123,7 +125,8 @@ def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
         return EXIT_INFRASTRUCTURE  # not a verdict on the chains: run them again
     if has_expectations:
         return EXIT_OK if all(e.held for e in expectations) else EXIT_FAILED
-    return EXIT_OK if all(p.verdict_text == "pass" for p in evaluation.paths) else EXIT_FAILED
+    held = ("pass", "waived")  # a waived failure counts as held
+    return EXIT_OK if all(p.verdict_text in held for p in evaluation.paths) else EXIT_FAILED
 
 
 # Units of the numbers in a summary's path records (also in docs/results-format.md).
@@ -186,6 +189,7 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "verdict": path.verdict_text,
         "undecided": path.undecided,
         "verdict_reasons": path.verdict_reasons,
+        "waivers": [waived.to_dict() for waived in path.waivers],
         "reasons": reasons_of(path),
         "runs_used": path.runs,
         "stop_reason": path.stop_reason,
@@ -271,7 +275,7 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
     root = ET.Element("testsuites", name=suite_name)
     paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
     _run_properties(paths, evaluation, results)
-    failures = errors = 0
+    failures = errors = skipped = 0
     for path in evaluation.paths:
         case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
                              time=f"{seconds.get(path.name, 0.0):.3f}")
@@ -286,13 +290,17 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
             errors += 1
             ET.SubElement(case, "error", message=f"path {path.name}: {path.reason or 'error'}",
                           type="error").text = detail
+        elif path.verdict_text == "waived":  # neither a pass nor a failure: said as skipped
+            skipped += 1
+            ET.SubElement(case, "skipped", message="; ".join(
+                f"{waived.text()} [{waived.rule}]" for waived in path.waivers))
         elif asserted_paths and path.verdict_text != "pass":
             failures += 1
             ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
                           type=path.verdict_text).text = detail
         ET.SubElement(case, "system-out").text = detail
     _suite_counts(paths, len(evaluation.paths), failures, errors,
-                  sum(seconds.get(p.name, 0.0) for p in evaluation.paths))
+                  sum(seconds.get(p.name, 0.0) for p in evaluation.paths), skipped)
     if expectations:
         suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
         _run_properties(suite, evaluation, results)
@@ -310,17 +318,17 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
                       sum(e.seconds for e in expectations))
         failures += failed
     _suite_counts(root, len(evaluation.paths) + len(expectations), failures, errors,
-                  sum(float(s.get("time", "0")) for s in root.iter("testsuite")))
+                  sum(float(s.get("time", "0")) for s in root.iter("testsuite")), skipped)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
 
 
 def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
-                  seconds: float) -> None:
+                  seconds: float, skipped: int = 0) -> None:
     element.set("tests", str(tests))
     element.set("failures", str(failures))
     element.set("errors", str(errors))
-    element.set("skipped", "0")
+    element.set("skipped", str(skipped))
     element.set("time", f"{seconds:.3f}")
 
 
@@ -335,6 +343,8 @@ def _path_detail(path: PathResult) -> str:
     # An undecided verdict is said by the reasons (each undecided rule's message says it).
     for reason in reasons_of(path):
         lines.append(f"verdict: {reason}")
+    for waived in path.waivers:
+        lines.append(f"{waived.kind} {waived.rule}: {waived.text()}")
     if path.unfinished and path.stop_time is not None:
         lines.append(unfinished_text(path.name, path.unfinished, path.completed,
                                      path.stop_time))

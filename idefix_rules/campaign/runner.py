@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign import diskspace, outputs
+from idefix_rules.campaign import diskspace, outputs, waivers
 from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
@@ -52,8 +52,8 @@ from idefix_rules.campaign.validate import (
     check_simulation_size,
     prepare_output,
 )
-from idefix_rules.campaign.yamlsource import load_yaml
-from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
+from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 
 SUMMARY_FILE = "summary.json"
@@ -77,6 +77,8 @@ class CampaignResult:
     report: Path | None = None
     # Wall-clock seconds per stage, and seconds workers spent inside FmuRunner.run.
     timings: dict[str, float] = field(default_factory=dict)
+    # Mistakes of the campaign only the evaluation shows (a waiver matching nothing): exit 2.
+    problems: list[Diagnostic] = field(default_factory=list)
 
 
 def compile_rulebook_file(path: Path) -> Any:
@@ -190,6 +192,9 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
+    mistakes = waivers.waiver_problems(campaign, evaluator.rulebook)
+    if mistakes:
+        raise UserInputError(mistakes, sources={str(campaign.source): campaign.text})
     if campaign.fmu is None and not _fmu_cached():
         say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
@@ -242,8 +247,9 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                         initial_position_sigma(campaign), collisions,
                                         rulebook_info(evaluator, campaign.rulebook),
                                         workers=_local_workers(options, campaign),
-                                        on_path=clock.start, into=revision.store)
-            result = _finish(revision, evaluation, campaign.model, campaign.output, junit,
+                                        on_path=clock.start, into=revision.store,
+                                        waivers=campaign.model.waivers)
+            result = _finish(revision, evaluation, campaign, campaign.output, junit,
                              campaign.name, clock.seconds(simulation.path_seconds), then)
     finally:
         store.close()
@@ -296,13 +302,17 @@ def evaluation_revision(store: ResultStore, then: str) -> Revision:
     return revision
 
 
-def _finish(revision: Revision, evaluation: CampaignEvaluation, model: CampaignFile,
+def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campaign,
             output: Path, junit: Path | None, name: str,
             seconds: dict[str, float] | None = None, then: str = "") -> CampaignResult:
     """Store the summary with the evaluation, put the new results file in place, then write
-    ``summary.json`` (and JUnit)."""
+    ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2."""
+    model = campaign.model
     checks = outputs.check_expectations(model.expect, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(model.expect))
+    problems = waivers.unused(model.waivers, evaluation, campaign.span)
+    if problems and code != outputs.EXIT_INFRASTRUCTURE:
+        code = outputs.EXIT_INPUT
     results = str(revision.path.resolve())
     data = outputs.summary(evaluation, checks, code, store_sensitivity(revision.store.file),
                            results)
@@ -325,7 +335,8 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, model: CampaignF
                 Span(str(junit)), hint=f"the results are in {revision.path}")) from None
     slipped = slip_warning(evaluation.slip)
     warnings = [slipped] if slipped else []
-    return CampaignResult(revision.path, evaluation, checks, data, code, warnings)
+    return CampaignResult(revision.path, evaluation, checks, data, code, warnings,
+                          problems=problems)
 
 
 def evaluation_bytes(store: ResultStore) -> int:
@@ -407,9 +418,10 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
                                     initial_position_sigma(stub), collisions,
                                     rulebook_info(evaluator, rulebook_path),
-                                    on_path=clock.start, into=revision.store)
+                                    on_path=clock.start, into=revision.store,
+                                    waivers=model.waivers)
         name = str(store.attrs.get("campaign_name", "campaign"))
-        result = _finish(revision, evaluation, model, output, junit, name, clock.seconds(),
+        result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then)
     state = str(store.attrs.get("state", "complete"))
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
@@ -465,13 +477,14 @@ def stored_campaign(store: ResultStore) -> Campaign:
     campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
     document = load_yaml(campaign_text, campaign_path)
     model = CampaignFile.model_validate(document.data)
-    return _campaign_stub(model, Path(campaign_path).parent, campaign_text, campaign_path)
+    return _campaign_stub(model, Path(campaign_path).parent, campaign_text, campaign_path,
+                          document.locations)
 
 
-def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Campaign:
+def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str,
+                   locations: SourceMap | None = None) -> Campaign:
     """A :class:`Campaign` rebuilt from stored text (for geometry and uncertainty only)."""
     from idefix_rules.campaign.load import PathSpec
-    from idefix_rules.campaign.yamlsource import SourceMap
     from idefix_rules.commands import Command
 
     paths = tuple(PathSpec(name, index, tuple(Command(c.max_wheel_rate, c.delta_position,
@@ -481,4 +494,4 @@ def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str) -> Cam
                     sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(), model=model,
                     paths=paths, rulebook=base / model.rulebook, output=base / model.output,
                     fmu=None, dem=None, runs=model.run_count, seed=model.uncertainty.seed,
-                    workers=None, locations=SourceMap(path), adaptive=model.adaptive)
+                    workers=None, locations=locations or SourceMap(path), adaptive=model.adaptive)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from datetime import date
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -380,6 +381,33 @@ Expectation = Annotated[
 ]
 
 
+# --- waivers --------------------------------------------------------------------------------
+
+def _plain_text(value: Any) -> Any:
+    if isinstance(value, str) and not value.strip():
+        raise PydanticCustomError("text", "expected a non-empty text")
+    return value
+
+
+Text = Annotated[str, BeforeValidator(_plain_text)]
+
+
+class Waiver(Strict):
+    """A known, accepted failure of one rule on one path (or ``all``) of this plan, signed and
+    dated (docs/campaign-format.md, "waivers"). ``command_rules: true`` lets it waive a
+    command rule, which it never does otherwise."""
+
+    rule: str
+    path: str = "all"
+    reason: Text
+    approved_by: Text
+    until: date
+    command_rules: StrictBool = False
+
+    def covers(self, path: str) -> bool:
+        return self.path in ("all", path)
+
+
 # --- simulation and the whole file -----------------------------------------------------------
 
 # The stop limit's default margin over the chain's ideal duration: the built-in rover's
@@ -465,6 +493,7 @@ class CampaignFile(Strict):
     workers: StrictInt | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[Expectation] = []
+    waivers: list[Waiver] = []
 
     @property
     def adaptive(self) -> AdaptiveRuns | None:

@@ -22,7 +22,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from idefix_rules import __version__
-from idefix_rules.campaign import diskspace, sampling
+from idefix_rules.campaign import diskspace, sampling, waivers
 from idefix_rules.campaign import resume as resuming
 from idefix_rules.campaign import timeouts as run_timeouts
 from idefix_rules.campaign.load import Campaign, PathSpec
@@ -335,15 +335,26 @@ def _command_rules(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
                 plan.reason = str(group.attrs.get("reason", ""))
                 plan.reference = store.reference(name)
                 continue
-        violations = evaluator.check_chain(plan.spec.chain, rover)
+        violations, waived = waivers.split(campaign.model.waivers, name, "command",
+                                           evaluator.check_chain(plan.spec.chain, rover),
+                                           lambda violation: str(violation.rule))
         store.create_path(name, plan.spec.index, plan.spec.chain, {
             "status": "pending", "reason": "", "stop_time": plan.stop_time,
             "samples": plan.samples, "ideal_duration": plan.ideal_duration})
+        _record_waived(store, name, waived)
         if violations:
             plan.status = "rejected"
             units = DisplayUnits.from_campaign_text(campaign.text)
             plan.reason = "; ".join(violation_text(v, units) for v in violations)
             store.set_path_status(name, plan.status, plan.reason)
+
+
+def _record_waived(store: ResultStore, name: str, waived: list[waivers.WaivedRule]) -> None:
+    """Keep a path's waived command and prescreen rules with it (the evaluation reads them)."""
+    if waived:
+        attrs = store.path_group(name).attrs
+        attrs[waivers.STORED_ATTRIBUTE] = waivers.to_store(
+            str(attrs.get(waivers.STORED_ATTRIBUTE, "")), waived)
 
 
 def _describe(item: Any) -> str:
@@ -427,8 +438,12 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
     summary.path_seconds[name] = summary.path_seconds.get(name, 0.0) + outcome.value.seconds
     store.write_reference(name, plan.reference, numeric)
     store.path_group(name).attrs[run_timeouts.COST_ATTRIBUTE] = outcome.value.seconds
-    findings = prescreen_reference(evaluator, plan.spec.chain, rover,
-                                   initial_position_sigma(campaign), plan.reference, collisions)
+    findings, waived = waivers.split(
+        campaign.model.waivers, name, "prescreen",
+        prescreen_reference(evaluator, plan.spec.chain, rover, initial_position_sigma(campaign),
+                            plan.reference, collisions),
+        lambda finding: str(getattr(finding, "rule", "")))
+    _record_waived(store, name, waived)
     if findings:
         plan.status = "excluded"
         plan.reason = "; ".join(_describe(f) for f in findings)

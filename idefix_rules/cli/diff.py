@@ -35,6 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("new", metavar="NEW", help="later rulebook: a file or PATH@REV")
     parser.add_argument("--results", type=Path, nargs="+", metavar="RESULTS_H5",
                         help="stored campaign(s) to re-score under both rulebooks")
+    parser.add_argument("--waivers", type=Path, metavar="CAMPAIGN_YAML",
+                        help="list the campaign's waivers whose rule changed, was removed or "
+                             "is affected between OLD and NEW")
     parser.add_argument("--fail-on", choices=("verdict", "rank", "never"), default="verdict",
                         help="with --results: exit 1 when a path's verdict or the first-ranked "
                              "path changes (verdict, the default), also when any rank "
@@ -60,6 +63,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserInputError(error("D020", "--top must be ≥ 0, --chunk-runs and --threads ≥ 1"))
     old, new = load_source(args.old), load_source(args.new)
     rules = diff_rules(old.checked, new.checked, old.label, new.label)
+    touched = None
+    if args.waivers is not None:
+        from idefix_rules.campaign.load import load_campaign
+        from idefix_rules.diff.waivers import touched_waivers
+
+        touched = touched_waivers(rules.changes, load_campaign(args.waivers).model.waivers)
     results = None
     if args.results:
         results = diff_results(args.results, old, new, args.top, args.chunk_runs, args.threads)
@@ -68,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
         data: dict[str, Any] = {"rules": rules.to_dict(),
                                 "results": results.to_dict() if results is not None else None,
                                 "fail_on": args.fail_on, "exit_code": code}
+        if touched is not None:
+            data["waivers"] = [waiver.to_dict() for waiver in touched]
         print(json.dumps(as_plain(data), indent=2, default=str, allow_nan=False))
         return code
     if args.format == "md":
@@ -77,6 +88,11 @@ def run(args: argparse.Namespace) -> int:
         return code
     console = make_console()
     print_rules(console, rules)
+    if touched is not None:
+        console.print(f"[bold]waivers[/bold] of {args.waivers} whose rule changed: "
+                      f"{len(touched) or 'none'}", markup=True)
+        for waiver in touched:
+            console.print(f"  {waiver.text()}", markup=False)
     if results is not None:
         for file in results.files:
             print_results(console, file)

@@ -34,4 +34,8 @@ def run(args: argparse.Namespace) -> int:
         result = rescore(args.results, args.rulebook, args.junit, args.out)
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
                   result.warnings, stored_titles(result.results))
+    if result.problems:  # a waiver matching nothing: said at its line, exit 2
+        from idefix_rules.errors import UserInputError
+
+        raise UserInputError(result.problems)
     return result.exit_code

@@ -27,7 +27,7 @@ from idefix_rules.campaign.stopping import STOP_FIXED
 from idefix_rules.campaign.wording import percent, unfinished_text
 
 LEVELS = ("L1", "L2", "L3")
-STYLES = {"pass": "green", "fail": "red"}
+STYLES = {"pass": "green", "fail": "red", "waived": "magenta"}
 
 
 def _ordered(evaluation: CampaignEvaluation) -> list[PathResult]:
@@ -126,8 +126,10 @@ def ci_line(expectations: Sequence[ExpectationResult], code: int,
         held = sum(1 for e in expectations if e.held)
         return f"CI expectations: {held} of {len(expectations)} held (exit {code})"
     passed = sum(1 for p in evaluation.paths if p.verdict_text == "pass")
+    waived = sum(1 for p in evaluation.paths if p.verdict_text == "waived")
+    also = f", {waived} waived" if waived else ""
     return (f"CI verdicts (no expectations: every path must pass): {passed} of "
-            f"{len(evaluation.paths)} passed (exit {code})")
+            f"{len(evaluation.paths)} passed{also} (exit {code})")
 
 
 FAILED_MARK = "✗"
@@ -154,6 +156,7 @@ def verdict_line(path: PathResult) -> str:
         parts.append("fails " + ", ".join(escape(n) for n in failed))
     if open_:
         parts.append("not decided: " + ", ".join(escape(n) for n in open_))
+    parts.extend(f"{escape(w.rule)} {escape(w.text())}" for w in path.waivers)
     return "  " + " · ".join(parts)
 
 
@@ -207,6 +210,9 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                     else f"[yellow]{UNDECIDED_MARK}[/yellow]")
             console.print(f"  {mark} {escape(path.name)}: {escape(reason)}" if wide
                           else f"  {mark} {escape(reason)}")
+        for waived in path.waivers:
+            console.print(f"  [magenta]waived[/magenta] {escape(path.name)}: {waived.kind} "
+                          f"{escape(waived.rule)}: {escape(waived.text())}")
         for run, reason in sorted(path.failures.items())[:10]:
             if is_infrastructure(reason):  # no failure of the path's: --resume runs it again
                 console.print(f"  [yellow]{escape(path.name)} run {run} lost[/yellow]: "

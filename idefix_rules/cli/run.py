@@ -215,4 +215,6 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
         files.append(("report", result.report))
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
                   result.warnings, stored_titles(result.results), files)
+    if result.problems:  # a waiver matching nothing: said at its line, exit 2
+        raise UserInputError(result.problems, sources={str(campaign.source): campaign.text})
     return result.exit_code

@@ -73,6 +73,9 @@ class TableRow:
     # complete runs still driving at the stop limit (None: not known), and that limit in s
     unfinished_runs: int | None = None
     stop_time_s: float | None = None
+    # the campaign's waivers that covered a failure of the path (rule, kind, reason,
+    # approved_by, until), as summary.json lists them
+    waivers: tuple[dict[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -323,6 +326,8 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
         stop_reason=str(entry.get("stop_reason") or ""),
         unfinished_runs=_int_or_none(entry.get("unfinished_runs")),
         stop_time_s=_float_or_none(entry.get("stop_time_s")),
+        waivers=tuple({str(k): str(v) for k, v in item.items()}
+                      for item in entry.get("waivers") or () if isinstance(item, Mapping)),
     )
 
 

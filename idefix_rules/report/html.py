@@ -225,6 +225,9 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
         lines = (list((reasons or {}).get(path.name, [])) or list(path.row.verdict_reasons)
                  or ([path.reason] if path.reason else []))
         row = path.row
+        lines += [f"Waived {item.get('kind', 'rule')} rule {item.get('rule', '')}: "
+                  f"{item.get('reason', '')} (approved by {item.get('approved_by', '')} until "
+                  f"{item.get('until', '')})" for item in row.waivers]
         if row.unfinished_runs and row.stop_time_s is not None:
             lines.insert(0, unfinished_text(path.name, row.unfinished_runs,
                                             row.completed_runs, row.stop_time_s))

@@ -129,3 +129,29 @@ def test_a_bad_git_revision_exits_2_naming_it(tmp_path: Path,
     code, _, err = run(capsys, f"{tmp_path / 'ops.rules'}@v9.9.9", str(tmp_path / "ops.rules"))
     assert code == 2
     assert "ops.rules@v9.9.9: cannot read the file at revision 'v9.9.9'" in err
+
+
+def test_waivers_whose_rule_changed_are_listed(rules: tuple[Path, Path],
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    old, new = rules
+    campaign = old.parent / "campaign.yaml"
+    campaign.write_text(
+        "rulebook: old.rules\n"
+        "paths:\n"
+        "  straight:\n"
+        "    - {max_wheel_rate: \"0.1 rad/s\", delta_position: \"1 m\", delta_heading: \"0 deg\"}\n"
+        "waivers:\n"
+        "  - {rule: acceptable_risk, path: straight, reason: benign slope,"
+        " approved_by: J. Doe, until: 2026-12-01}\n")
+    assert main(["diff", str(old), str(new), "--waivers", str(campaign)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert ("waivers[0] (acceptable_risk on straight, approved by J. Doe until 2026-12-01): "
+            "the rule is changed") in out
+    assert main(["diff", str(old), str(new), "--waivers", str(campaign),
+                 "--format", "json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["waivers"] == [{"number": 0, "rule": "acceptable_risk", "path": "straight",
+                                "approved_by": "J. Doe", "until": "2026-12-01",
+                                "change": "changed"}]
+    assert main(["diff", str(old), str(old), "--waivers", str(campaign)]) == 0
+    assert "whose rule changed: none" in capsys.readouterr().out
