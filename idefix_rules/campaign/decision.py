@@ -5,7 +5,10 @@ The decision is separate from CI's outcome (the exit code follows the campaign's
 entries, which may well assert that a chain fails):
 
 - **send**: the best-ranked chain whose verdict passes (or is waived: its only failures are
-  waived by the campaign, and the decision says so) and is decided.
+  waived by the campaign, and the decision says so) and is decided. When a paired campaign
+  cannot tell it apart from another passing chain (their per-world risk difference is open, or
+  tied within the rulebook's indifference margin), the decision names all of them: any of
+  those chains may be the best, and the ranking between them is not a decision.
 - **unsettled**: no chain passes decidedly, and some chain's verdict is not decided at this
   number of runs (a threshold lies inside a confidence interval): more runs are needed.
 - **none**: no chain is acceptable; the best-ranked simulated chain is named as the least bad,
@@ -38,10 +41,13 @@ class Decision:
     path: str | None  # the chain to send, or the least bad one; None when nothing ran
     text: str
     reasons: tuple[str, ...] = field(default=())
+    # with ``send``: every chain that could be the best (``path`` first); one unless paired
+    # comparisons leave the lead open or tied
+    candidates: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "path": self.path, "text": self.text,
-                "reasons": list(self.reasons)}
+                "reasons": list(self.reasons), "candidates": list(self.candidates)}
 
 
 def _rank(path: Any) -> tuple[bool, int]:
@@ -49,11 +55,32 @@ def _rank(path: Any) -> tuple[bool, int]:
     return (rank is None, rank or 0)
 
 
-def decide(paths: Sequence[Any]) -> Decision:
+def _unsettled_with(best: str, others: Sequence[Any], pairs: Sequence[Any]
+                    ) -> list[tuple[str, str]]:
+    """The passing chains whose paired comparison with ``best`` is open or tied, each with
+    that outcome."""
+    found = []
+    for other in others:
+        pair = next((p for p in pairs if {p.first, p.second} == {best, other.name}), None)
+        if pair is not None and pair.outcome in ("open", "tied"):
+            found.append((other.name, pair.outcome))
+    return found
+
+
+def decide(paths: Sequence[Any], pairs: Sequence[Any] = ()) -> Decision:
     """The decision from per-path ``name``, ``verdict`` (pass, waived, fail, rejected,
     excluded, error), ``undecided``, ``rank`` (None when not ranked), ``reasons`` (failing
     verdicts) and optionally ``waived`` (the rules waived on it: a waived chain may be sent,
-    and the decision says it is waived)."""
+    and the decision says it is waived); ``pairs`` the paired comparisons
+    (:class:`~idefix_rules.campaign.pairwise.PairComparison`) of a paired campaign.
+
+    >>> from types import SimpleNamespace as P
+    >>> a = P(name="a", verdict="pass", undecided=False, rank=1, reasons=[])
+    >>> b = P(name="b", verdict="pass", undecided=False, rank=2, reasons=[])
+    >>> decide([a, b], [P(first="a", second="b", outcome="open", margin=0.0)]).text
+    'send a or b (each passes every verdict; a ranks first, but in the same drawn worlds \
+their risks are not told apart at this number of runs: run more to tell which is safer)'
+    """
     ranked = [p for p in paths if getattr(p, "rank", None) is not None]
     total = len(ranked)
     passing = sorted((p for p in paths if p.verdict in ("pass", "waived") and not p.undecided),
@@ -66,8 +93,28 @@ def decide(paths: Sequence[Any]) -> Decision:
         waived = tuple(getattr(best, "waived", ()))
         held = (f"waived: breaks {', '.join(waived)} under a waiver, passes every other "
                 "verdict" if best.verdict == "waived" else "passes every verdict")
+        rivals = _unsettled_with(best.name, passing[1:], pairs)
+        if rivals:
+            names = [best.name, *(name for name, _ in rivals)]
+            margin = next((p.margin for p in pairs if p.outcome == "tied"), 0.0)
+            why = []
+            if any(kind == "open" for _, kind in rivals):
+                why.append(f"{best.name} ranks first, but in the same drawn worlds their risks "
+                           "are not told apart at this number of runs: run more to tell which "
+                           "is safer")
+            if any(kind == "tied" for _, kind in rivals):
+                why.append(f"their risks are tied within ±{100 * margin:.3g} %, the "
+                           "rulebook's indifference margin")
+            under = [p for p in passing if p.name in names and p.verdict == "waived"]
+            each = ("each passes every verdict" if not under else
+                    "each passes every verdict not waived") + "".join(
+                f"; {p.name} breaks {', '.join(getattr(p, 'waived', ()))} under a waiver"
+                for p in under)
+            return Decision("send", best.name,
+                            f"send {' or '.join(names)} ({each}; {'; '.join(why)}){note}",
+                            tuple(f"waived {rule}" for rule in waived), tuple(names))
         return Decision("send", best.name, f"send {best.name} ({held}, {where}){note}",
-                        tuple(f"waived {rule}" for rule in waived))
+                        tuple(f"waived {rule}" for rule in waived), (best.name,))
     undecided = sorted((p for p in paths if p.undecided), key=_rank)
     if undecided:
         names = ", ".join(p.name for p in undecided)
@@ -118,4 +165,5 @@ def reason_items(path: PathResult) -> list[tuple[bool, str]]:
 def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
     """The decision of an evaluated campaign."""
     return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p),
-                             tuple(w.rule for w in p.waivers)) for p in evaluation.paths])
+                             tuple(w.rule for w in p.waivers)) for p in evaluation.paths],
+                  evaluation.pairs)

@@ -111,7 +111,13 @@ def test_waived_failures_are_reported_waived_and_count_as_held(
         {"rule": "wheel_rate_limit", "kind": "command", **signed},
         {"rule": "acceptable_risk", "kind": "verdict", **signed}]
     assert paths["arc"]["waivers"] == []
-    assert summary["decision"]["text"] == "send arc (passes every verdict, rank 1 of 3)"
+    # three runs cannot tell the chains apart in the same drawn worlds: each could be best
+    decision = summary["decision"]
+    assert decision["path"] == "arc"
+    assert set(decision["candidates"]) == {"arc", "too-fast", "straight"}
+    assert decision["text"].startswith("send arc or ")
+    assert "too-fast breaks wheel_rate_limit, acceptable_risk under a waiver" in decision["text"]
+    assert "not told apart" in decision["text"]
     said = "waived: survey shows the slope is benign (approved by J. Doe until 2026-12-01)"
     assert f"straight: waived · risk 86.0 % · acceptable_risk {said}" in out
     assert "passed, 2 waived (exit 0)" in out
