@@ -95,24 +95,24 @@ their risks are not told apart at this number of runs: run more to tell which is
                 "verdict" if best.verdict == "waived" else "passes every verdict")
         rivals = _unsettled_with(best.name, passing[1:], pairs)
         if rivals:
-            names = [best.name, *(name for name, _ in rivals)]
+            candidates = [best.name, *(name for name, _ in rivals)]
             margin = next((p.margin for p in pairs if p.outcome == "tied"), 0.0)
-            why = []
+            because: list[str] = []
             if any(kind == "open" for _, kind in rivals):
-                why.append(f"{best.name} ranks first, but in the same drawn worlds their risks "
+                because.append(f"{best.name} ranks first, but in the same drawn worlds their risks "
                            "are not told apart at this number of runs: run more to tell which "
                            "is safer")
             if any(kind == "tied" for _, kind in rivals):
-                why.append(f"their risks are tied within ±{100 * margin:.3g} %, the "
+                because.append(f"their risks are tied within ±{100 * margin:.3g} %, the "
                            "rulebook's indifference margin")
-            under = [p for p in passing if p.name in names and p.verdict == "waived"]
+            under = [p for p in passing if p.name in candidates and p.verdict == "waived"]
             each = ("each passes every verdict" if not under else
                     "each passes every verdict not waived") + "".join(
                 f"; {p.name} breaks {', '.join(getattr(p, 'waived', ()))} under a waiver"
                 for p in under)
             return Decision("send", best.name,
-                            f"send {' or '.join(names)} ({each}; {'; '.join(why)}){note}",
-                            tuple(f"waived {rule}" for rule in waived), tuple(names))
+                            f"send {' or '.join(candidates)} ({each}; {'; '.join(because)}){note}",
+                            tuple(f"waived {rule}" for rule in waived), tuple(candidates))
         return Decision("send", best.name, f"send {best.name} ({held}, {where}){note}",
                         tuple(f"waived {rule}" for rule in waived), (best.name,))
     undecided = sorted((p for p in paths if p.undecided), key=_rank)
