@@ -40,14 +40,22 @@ def steep_terrain(heights: np.ndarray, origin: Sequence[float], cell: float, max
     [('steep1', 'L3')]
     """
     heights = _grid(heights, cell, "DEM heights", float)
+    return _mask_areas(steep_mask(heights, cell, max_slope), heights, origin, cell, level, name,
+                       "steep", parts)
+
+
+def steep_mask(heights: np.ndarray, cell: float, max_slope: float) -> np.ndarray:
+    """Grid nodes where the DEM's slope (rad, from central differences) exceeds
+    ``max_slope``."""
+    heights = _grid(heights, cell, "DEM heights", float)
     if not (math.isfinite(max_slope) and 0.0 < max_slope < math.pi / 2):
         raise UserInputError(error("E621", f"slope threshold must be in (0, 90) deg, "
                                            f"got {math.degrees(max_slope):.3g} deg"))
     if min(heights.shape) < 2:
         raise UserInputError(error("E620", "a DEM needs at least 2 × 2 heights for a slope"))
     dz_dy, dz_dx = np.gradient(heights, cell)
-    slope = np.arctan(np.hypot(dz_dx, dz_dy))
-    return _mask_areas(slope > max_slope, heights, origin, cell, level, name, "steep", parts)
+    mask: np.ndarray = np.arctan(np.hypot(dz_dx, dz_dy)) > max_slope
+    return mask
 
 
 def unknown_terrain(mask: np.ndarray, origin: Sequence[float], cell: float, level: object,

@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from idefix_rules.commands import RoverGeometry
-from idefix_rules.obstacles.areas import polygon_area, unknown_terrain
+from idefix_rules.obstacles.areas import polygon_area, steep_mask, unknown_terrain
 from idefix_rules.obstacles.obstacles import Obstacle
 
 
@@ -52,6 +52,12 @@ class AreaGeometry:
     origin: tuple[float, float] = (0.0, 0.0)
     cell: float = 0.0
     kind: str = "keep_out"
+    # the mask grown by the buffer, computed once (every chunk of runs reads it)
+    near_mask: np.ndarray | None = field(init=False, default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.mask is not None and self.mask.any():
+            object.__setattr__(self, "near_mask", _dilated(self.mask, self.buffer, self.cell))
 
     @property
     def empty(self) -> bool:
@@ -72,8 +78,7 @@ class AreaGeometry:
 def steep_area(name: str, level: str, buffer: float, above: float, heights: np.ndarray,
                origin: Sequence[float], cell: float) -> AreaGeometry:
     """The terrain where its inclination exceeds ``above`` (rad), as a mask area."""
-    dz_dy, dz_dx = np.gradient(np.asarray(heights, dtype=float), cell)
-    mask = np.arctan(np.hypot(dz_dx, dz_dy)) > above
+    mask = steep_mask(heights, cell, above)
     return AreaGeometry(name, level, buffer, mask=mask, origin=(float(origin[0]),
                                                                 float(origin[1])),
                         cell=float(cell), kind="steep")
@@ -106,10 +111,9 @@ def area_signals(area: AreaGeometry, x: np.ndarray, y: np.ndarray, yaw: np.ndarr
         polygon_inside = _in_polygon(px, py, polygon)
         inside |= polygon_inside
         near |= polygon_inside | (_edge_distance(px, py, polygon) <= area.buffer)
-    if area.mask is not None and area.mask.any():
+    if area.mask is not None and area.near_mask is not None:
         inside |= _on_mask(px, py, area.mask, area.origin, area.cell)
-        near |= _on_mask(px, py, _dilated(area.mask, area.buffer, area.cell), area.origin,
-                         area.cell)
+        near |= _on_mask(px, py, area.near_mask, area.origin, area.cell)
     # NaN poses (samples after a run ended) stay NaN, as every other signal
     missing = ~np.isfinite(np.asarray(x, float))
     inside_any = np.where(missing, np.nan, inside.any(axis=-1).astype(float))
