@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.pairwise import OPEN, TIED, find
 from idefix_rules.campaign.wording import verdict_reason_items
 
 DecisionKind = Literal["send", "none", "unsettled"]
@@ -61,8 +62,8 @@ def _unsettled_with(best: str, others: Sequence[Any], pairs: Sequence[Any]
     that outcome."""
     found = []
     for other in others:
-        pair = next((p for p in pairs if {p.first, p.second} == {best, other.name}), None)
-        if pair is not None and pair.outcome in ("open", "tied"):
+        pair = find(pairs, best, other.name)
+        if pair is not None and pair.outcome in (OPEN, TIED):
             found.append((other.name, pair.outcome))
     return found
 
@@ -96,13 +97,13 @@ their risks are not told apart at this number of runs: run more to tell which is
         rivals = _unsettled_with(best.name, passing[1:], pairs)
         if rivals:
             candidates = [best.name, *(name for name, _ in rivals)]
-            margin = next((p.margin for p in pairs if p.outcome == "tied"), 0.0)
+            margin = next((p.margin for p in pairs if p.outcome == TIED), 0.0)
             because: list[str] = []
-            if any(kind == "open" for _, kind in rivals):
+            if any(kind == OPEN for _, kind in rivals):
                 because.append(f"{best.name} ranks first, but in the same drawn worlds their risks "
                            "are not told apart at this number of runs: run more to tell which "
                            "is safer")
-            if any(kind == "tied" for _, kind in rivals):
+            if any(kind == TIED for _, kind in rivals):
                 because.append(f"their risks are tied within ±{100 * margin:.3g} %, the "
                            "rulebook's indifference margin")
             under = [p for p in passing if p.name in candidates and p.verdict == "waived"]
