@@ -6,18 +6,24 @@ from __future__ import annotations
 
 import json
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from datetime import date
 from pathlib import Path
 
 import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
+from idefix_rules.campaign import waivers
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.waivers import waiver_problems
 from idefix_rules.cli import main
 from idefix_rules.rulebook import check_text
 
 pytestmark = pytest.mark.slow
+
+# The day the campaigns below are run on: their waivers hold until 2026-12-01, so the tests
+# do not start failing when the calendar passes that date.
+TODAY = date(2026, 6, 1)
 
 WAIVER = """\
   - rule: {rule}
@@ -26,6 +32,20 @@ WAIVER = """\
     approved_by: "J. Doe"
     until: {until}
 """
+
+
+@pytest.fixture(autouse=True)
+def set_today(monkeypatch: pytest.MonkeyPatch) -> Callable[[date], None]:
+    """The expiry check's today is :data:`TODAY`; the fixture's value sets another day."""
+    days = [TODAY]
+
+    class Calendar(date):
+        @classmethod
+        def today(cls) -> Calendar:
+            return cls.fromordinal(days[-1].toordinal())
+
+    monkeypatch.setattr(waivers, "date", Calendar)
+    return days.append
 
 
 def with_waivers(folder: Path, *entries: str, campaign: str = CAMPAIGN) -> Path:
