@@ -409,6 +409,11 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     else:
         rulebook_path = rulebook
         evaluator = compile_rulebook_file(rulebook)
+    # The stored campaign's waivers against this rulebook and today's date, as a run checks
+    # them: a waiver that expired since the campaign ran no longer covers its failure.
+    mistakes = waivers.waiver_problems(stub, evaluator.rulebook, stored=True)
+    if mistakes:
+        raise UserInputError(mistakes, sources={str(stub.source): stub.text})
     _check_stored_signals(store, evaluator, results)
     collisions = collision_function(model.environment, evaluator,
                                     read_terrain(results.parent))

@@ -5,9 +5,10 @@ rule of the rulebook (a command rule only with ``command_rules: true``), a path 
 reason, who approved it and until when. A waived failure counts as held for the exit code and
 the decision, and is reported as ``waived``, never as ``pass``.
 
-Checked before anything is simulated (:func:`waiver_problems`: unknown rule or path, expired,
-a command rule without ``command_rules: true``), and after the evaluation (:func:`unused`: a
-waiver whose rule held on every path it names is an error at its line, exit 2).
+Checked before anything is simulated, and again before ``evaluate`` scores a stored campaign
+(:func:`waiver_problems`: unknown rule or path, expired, a command rule without
+``command_rules: true``), and after the evaluation (:func:`unused`: a waiver whose rule held on
+every path it names is an error at its line, exit 2).
 
 >>> from datetime import date
 >>> WaivedRule("acceptable_risk", "verdict", "site survey", "J. Doe", "2026-12-01").text()
@@ -67,12 +68,16 @@ def rule_kinds(rulebook: Any) -> dict[str, RuleKind]:
     return kinds
 
 
-def waiver_problems(campaign: Campaign, rulebook: Any, today: date | None = None
-                    ) -> list[Diagnostic]:
-    """Mistakes of ``waivers:`` found before simulating: an unknown rule (C211), an unknown
-    path (C212), a waiver past its ``until`` (C213; the day itself is still valid) and a
-    command rule waived without ``command_rules: true`` (C214)."""
+def waiver_problems(campaign: Campaign, rulebook: Any, today: date | None = None,
+                    stored: bool = False) -> list[Diagnostic]:
+    """Mistakes of ``waivers:`` found before simulating (or, ``stored``, before evaluating a
+    stored campaign again): an unknown rule (C211), an unknown path (C212), a waiver past its
+    ``until`` (C213; the day itself is still valid) and a command rule waived without
+    ``command_rules: true`` (C214)."""
     today = today or date.today()
+    renew = ("the waiver is the one stored with the results: renew it in the campaign file "
+             "(a new date, approved again) and run the campaign again" if stored
+             else "renew it (a new date, approved again) or remove it")
     kinds = rule_kinds(rulebook)
     problems = []
     for number, waiver in enumerate(campaign.model.waivers):
@@ -102,7 +107,7 @@ def waiver_problems(campaign: Campaign, rulebook: Any, today: date | None = None
                 "C213", f"{where}.until: the waiver expired on {waiver.until.isoformat()} "
                         f"(today is {today.isoformat()})",
                 campaign.span(("waivers", number, "until")),
-                hint="renew it (a new date, approved again) or remove it"))
+                hint=renew))
     return problems
 
 

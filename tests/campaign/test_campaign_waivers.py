@@ -96,6 +96,53 @@ def test_a_bad_waiver_stops_the_campaign_before_simulating(
     assert not (campaign_dir / "out" / "results.h5").exists()
 
 
+def held_by_waivers(folder: Path, until: str) -> Path:
+    """The test campaign with both of its failures waived until ``until`` (exit 0)."""
+    return with_waivers(folder, waiver("acceptable_risk", until=until),
+                        waiver("wheel_rate_limit", path="too-fast", until=until,
+                               extra="    command_rules: true\n"))
+
+
+def test_a_campaign_runs_on_its_waivers_last_day_and_is_refused_the_day_after(
+        campaign_dir: Path, set_today: Callable[[date], None],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path = held_by_waivers(campaign_dir, "2026-12-01")
+    set_today(date(2026, 12, 1))
+    assert main([str(path), "--quiet", "--no-report"]) == 0
+    capsys.readouterr()
+    set_today(date(2026, 12, 2))
+    assert main([str(path), "--quiet", "--no-report"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    line = CAMPAIGN.count("\n") + 1 + 5  # waivers:, then the first entry's fifth line
+    assert f"campaign.yaml:{line}:12: error[C213]" in err
+    assert f"campaign.yaml:{line + 5}:12: error[C213]" in err
+    assert "expired on 2026-12-01 (today is 2026-12-02)" in err
+    assert not (campaign_dir / "out" / "results.h5").exists()  # refused before simulating
+
+
+def test_evaluate_checks_the_waivers_expiry_against_today(
+        campaign_dir: Path, set_today: Callable[[date], None],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path = held_by_waivers(campaign_dir, "2026-12-01")
+    results = campaign_dir / "out" / "results.h5"
+    assert main([str(path), "--quiet", "--no-report"]) == 0
+    set_today(date(2026, 12, 1))  # the last day: the stored campaign's waivers still hold
+    assert main(["evaluate", str(results)]) == 0
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    assert [p["verdict"] for p in summary["paths"]] == ["waived", "pass", "waived"]
+    capsys.readouterr()
+    set_today(date(2026, 12, 2))  # the day after: expired, as a run would find it
+    assert main(["evaluate", str(results)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    line = CAMPAIGN.count("\n") + 1 + 5
+    assert f"campaign.yaml:{line}:12: error[C213]" in err
+    assert f"campaign.yaml:{line + 5}:12: error[C213]" in err
+    assert "expired on 2026-12-01 (today is 2026-12-02)" in err
+    assert "renew it in the campaign file (a new date, approved again) and run the campaign " \
+        "again" in err
+    assert not (campaign_dir / "out" / "summary.json").exists()  # no summary says waived
+
+
 def test_a_waiver_of_a_rule_that_holds_matches_nothing_exit_2(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = with_waivers(campaign_dir, waiver("runs_complete", path="straight"))
