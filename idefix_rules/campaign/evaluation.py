@@ -24,7 +24,7 @@ from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
-from idefix_rules.campaign.waivers import STORED_ATTRIBUTE, WaivedRule, waive_verdict
+from idefix_rules.campaign.waivers import STORED_ATTRIBUTE, WaivedRule, to_store, waive_verdict
 from idefix_rules.campaign.waivers import stored as stored_waivers
 from idefix_rules.campaign.wording import runs_needed_text
 from idefix_rules.commands import Command, RoverGeometry
@@ -427,7 +427,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
                          stop_time)
         if write:
             _write_path_evaluation(target, name, evaluation, extra, stats, verdict,
-                                   len(store.run_status(name)))
+                                   len(store.run_status(name)), waived)
     ranking = list(evaluator.rank(statistics)) if statistics else []
     paired = bool(store.attrs.get("paired", False))
     margin = float(getattr(evaluator.checked, "indifference", 0.0))
@@ -568,7 +568,8 @@ def dominant_index(evaluation: Any) -> str | None:
 
 
 def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
-                           extra: dict[str, Any], stats: Any, verdict: Any, runs: int) -> None:
+                           extra: dict[str, Any], stats: Any, verdict: Any, runs: int,
+                           waived: Sequence[WaivedRule] = ()) -> None:
     group = store.path_group(name)
     if "evaluation" in group:
         del group["evaluation"]
@@ -618,4 +619,7 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         collisions.create_dataset("details", data=texts, dtype=h5py.string_dtype("utf-8"))
     target.attrs["statistics"] = json.dumps(as_plain(stats))
     target.attrs["verdict"] = json.dumps(as_plain(verdict))
+    # the verdict rules waived on the path, which ``verdict`` leaves out: a reader without the
+    # summary (report) still tells a waived path from a passing one
+    target.attrs[STORED_ATTRIBUTE] = to_store("", waived)
     store.file.flush()

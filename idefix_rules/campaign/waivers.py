@@ -33,7 +33,8 @@ if TYPE_CHECKING:
     from idefix_rules.campaign.schema import Waiver
 
 RuleKind = Literal["verdict", "prescreen", "command"]
-STORED_ATTRIBUTE = "waived"  # a path's prescreen and command waivers in results.h5 (JSON)
+# results.h5 (JSON): a path group's prescreen and command waivers, its evaluation's verdict ones
+STORED_ATTRIBUTE = "waived"
 
 Finding = TypeVar("Finding")
 
@@ -161,6 +162,16 @@ def waive_verdict(verdict: Any, waivers: Sequence[Waiver], path: str
 def stored(text: str) -> list[WaivedRule]:
     """Waived rules as stored in a path's attribute (JSON)."""
     return [WaivedRule(**item) for item in json.loads(text or "[]")]
+
+
+def recorded(group: Any) -> list[WaivedRule]:
+    """Every waived rule a results file holds for a path (its ``h5py`` group): the prescreen
+    and command waivers of its simulation, then the verdict waivers of its evaluation."""
+    rules = stored(str(group.attrs.get(STORED_ATTRIBUTE, "")))
+    evaluation = group.get("evaluation")
+    if evaluation is not None:
+        rules += stored(str(evaluation.attrs.get(STORED_ATTRIBUTE, "")))
+    return rules
 
 
 def to_store(existing: str, added: Sequence[WaivedRule]) -> str:

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
+from idefix_rules.campaign.waivers import recorded
 
 LEVELS = ("L1", "L2", "L3")
 # An index "came near its limit" in a campaign when some run reached this share of it.
@@ -352,8 +353,9 @@ def _undecided(verdict: Mapping[str, Any]) -> bool:
 
 
 def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
-    """Table 1 row when ``summary.json`` is not stored: the path's stored statistics and
-    verdict, else means over the complete runs."""
+    """Table 1 row when ``summary.json`` is not stored: the path's stored statistics,
+    verdict and waivers (a path that passes only under waivers is ``waived``, never
+    ``pass``), else means over the complete runs."""
     evaluation = group.get("evaluation")
     complete = path.complete if path.evaluated else np.zeros(0, dtype=bool)
     stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
@@ -374,6 +376,8 @@ def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
         chances = {key: float(np.mean(values[complete] > 0))
                    for key, values in path.chances.items()}
     passed = verdict.get("passed")
+    waived = recorded(group)
+    said = "fail" if not passed else "waived" if waived else "pass"
     status = _text(group.attrs.get("status", ""))
     reasons = tuple(str(rule.get("message", "")) for rule in verdict.get("rules", [])
                     if isinstance(rule, Mapping) and not rule.get("passed", True))
@@ -383,12 +387,13 @@ def row_from_arrays(name: str, group: h5py.Group, path: PathReport) -> TableRow:
         failed_runs=int(np.sum(path.status_codes == STATUS_FAILED)),
         mean_risk=mean_risk, risk_ci95=interval, chances=chances,
         energy_mAs=energy * 1000.0 if energy is not None else None, time_s=time,
-        verdict={True: "pass", False: "fail"}[bool(passed)] if passed is not None else status,
+        verdict=said if passed is not None else status,
         undecided=_undecided(verdict), rank=None,
         dominant_index=(path.dominance()[0][0] if complete.any() else None),
         verdict_reasons=reasons, reason=_text(group.attrs.get("reason", "")),
         unfinished_runs=_unfinished(evaluation, complete),
         stop_time_s=_float_or_none(group.attrs.get("stop_time")),
+        waivers=tuple(rule.to_dict() for rule in waived),
     )
 
 

@@ -29,7 +29,9 @@ def report_decision(data: ReportData) -> Decision:
                         tuple(str(r) for r in stored.get("reasons", ())))
     reasons = path_reasons(data)
     return decide([PathFacts(p.name, p.row.verdict or p.status, p.row.undecided, p.row.rank,
-                             reasons.get(p.name, [])) for p in data.paths])
+                             reasons.get(p.name, []),
+                             tuple(item.get("rule", "") for item in p.row.waivers))
+                   for p in data.paths])
 
 
 def decision_html(data: ReportData) -> str:

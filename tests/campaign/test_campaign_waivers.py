@@ -5,11 +5,13 @@ by the exit code; a waiver matching nothing is exit 2."""
 from __future__ import annotations
 
 import json
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from datetime import date
 from pathlib import Path
 
+import h5py
 import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
@@ -221,6 +223,27 @@ def test_the_report_shows_the_waived_verdict_and_the_waiver(
     assert '<span class="other">waived</span>' in html
     assert ("Waived verdict rule acceptable_risk: survey shows the slope is benign (approved "
             "by J. Doe until 2026-12-01)") in html
+
+
+def test_a_report_from_results_without_their_summary_still_says_waived(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Files written before the summary was stored with the evaluation: Table 1 and the
+    # decision come from each path's stored verdict and waivers.
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"))
+    assert main([str(path), "--quiet", "--no-report"]) == 1  # too-fast is still rejected
+    results = campaign_dir / "out" / "results.h5"
+    with h5py.File(results, "r+") as file:
+        del file["evaluation"].attrs["summary"]
+    assert main(["report", str(results), "-o", str(campaign_dir / "again")]) == 0
+    html = (campaign_dir / "again" / "report.html").read_text()
+    rows = dict(re.findall(r'<td data-label="Path"><b>([^<]+)</b></td>.*?'
+                           r'<td data-label="Verdict"><span class="\w+">(\w+)', html))
+    assert rows == {"straight": "waived", "arc": "pass", "too-fast": "rejected"}
+    assert ("Waived verdict rule acceptable_risk: survey shows the slope is benign (approved "
+            "by J. Doe until 2026-12-01)") in html
+    banner = re.search(r'id="decision"><b>Decision:</b> ([^<]+)', html)
+    assert banner is not None
+    assert "send straight (waived: breaks acceptable_risk under a waiver" in banner[1]
 
 
 def test_a_prescreen_waiver_is_known_and_matches_nothing_when_the_prescreen_holds(
