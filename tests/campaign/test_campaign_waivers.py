@@ -246,6 +246,44 @@ def test_a_report_from_results_without_their_summary_still_says_waived(
     assert "send straight (waived: breaks acceptable_risk under a waiver" in banner[1]
 
 
+def test_a_prescreen_waiver_lets_an_excluded_chain_go_on_to_monte_carlo(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # A strict pre-screen: both chains' reference runs (risk 0.214) are critical for it.
+    (campaign_dir / "test.rules").write_text(
+        RULEBOOK.replace("require risk < 1", "require risk < 5 %"))
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) == 1
+    capsys.readouterr()
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    excluded = {p["name"]: (p["status"], p["verdict"], p["completed_runs"])
+                for p in summary["paths"]}
+    assert excluded == {"straight": ("excluded", "excluded", 0),
+                        "arc": ("excluded", "excluded", 0),
+                        "too-fast": ("rejected", "rejected", 0)}
+    junit = campaign_dir / "junit.xml"
+    path = with_waivers(campaign_dir, waiver("reference_not_critical", path="arc"))
+    assert main([str(path), "--quiet", "--no-report", "--junit", str(junit)]) == 1
+    out = " ".join(capsys.readouterr().out.split())
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    assert (paths["arc"]["status"], paths["arc"]["verdict"]) == ("simulated", "waived")
+    assert paths["arc"]["completed_runs"] == 6  # simulated in Monte Carlo
+    assert paths["arc"]["waivers"] == [
+        {"rule": "reference_not_critical", "kind": "prescreen",
+         "reason": "survey shows the slope is benign", "approved_by": "J. Doe",
+         "until": "2026-12-01"}]
+    assert (paths["straight"]["status"], paths["straight"]["waivers"]) == ("excluded", [])
+    assert "fails prescreen 'reference_not_critical'" in paths["straight"]["reason"]
+    said = "waived: survey shows the slope is benign (approved by J. Doe until 2026-12-01)"
+    assert f"arc: waived · risk 32.3 % · reference_not_critical {said}" in out
+    with h5py.File(campaign_dir / "out" / "results.h5") as file:
+        assert file["paths/arc/runs/status"].shape == (6,)
+        assert "runs" not in file["paths/straight"]
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite is not None and (suite.get("skipped"), suite.get("failures")) == ("1", "2")
+    skipped = next(c for c in suite.iter("testcase") if c.get("name") == "arc").find("skipped")
+    assert skipped is not None and skipped.get("message") == f"{said} [reference_not_critical]"
+
+
 def test_a_prescreen_waiver_is_known_and_matches_nothing_when_the_prescreen_holds(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = with_waivers(campaign_dir, waiver("reference_not_critical", path="arc"))
