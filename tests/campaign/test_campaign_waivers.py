@@ -1,6 +1,7 @@
-"""Waivers (docs/campaign-format.md, "waivers"): checked at their line before simulating, a
-waived failure reported as waived (console, Decision, summary.json, JUnit) and counted as held
-by the exit code; a waiver matching nothing is exit 2."""
+"""Waivers (docs/campaign-format.md, "waivers"): checked at their line before simulating and
+before a stored campaign is evaluated again (exit 2), a waived failure reported as waived
+(console, Decision, summary.json, JUnit, the report) and counted as held by the exit code and
+the expectations; a waiver matching nothing is exit 2."""
 
 from __future__ import annotations
 
@@ -90,11 +91,19 @@ def test_a_command_rule_needs_command_rules_true(campaign_dir: Path) -> None:
     assert problems(path, date(2026, 1, 1)) == []
 
 
+@pytest.mark.parametrize(("entry", "code", "line", "column"), [
+    (waiver("acceptable_rsk"), "C211", 1, 11),  # unknown rule: at its `rule`
+    (waiver("acceptable_risk", path="stright"), "C212", 2, 11),  # unknown path
+    (waiver("acceptable_risk", until="2000-01-01"), "C213", 5, 12),  # expired
+    (waiver("wheel_rate_limit", path="too-fast"), "C214", 1, 11),  # no command_rules: true
+])
 def test_a_bad_waiver_stops_the_campaign_before_simulating(
-        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    path = with_waivers(campaign_dir, waiver("acceptable_risk", until="2000-01-01"))
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str], entry: str, code: str,
+        line: int, column: int) -> None:
+    path = with_waivers(campaign_dir, entry)
     assert main([str(path), "--quiet", "--no-report"]) == 2
-    assert "C213" in capsys.readouterr().err
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"campaign.yaml:{CAMPAIGN.count(chr(10)) + 1 + line}:{column}: error[{code}]" in err
     assert not (campaign_dir / "out" / "results.h5").exists()
 
 
@@ -153,6 +162,55 @@ def test_a_waiver_of_a_rule_that_holds_matches_nothing_exit_2(
     assert "C215" in captured.err and "matches nothing" in captured.err
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     assert summary["exit_code"] == 2
+
+
+def test_a_waiver_of_a_rule_the_named_path_passes_matches_nothing_and_waives_nothing(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # acceptable_risk fails on straight, passes on arc: a waiver naming arc covers nothing.
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="arc"))
+    assert main([str(path), "--quiet", "--no-report"]) == 2  # not 1: the waiver is a mistake
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"campaign.yaml:{CAMPAIGN.count(chr(10)) + 2}:5: error[C215]" in err
+    assert "rule 'acceptable_risk' did not fail on path 'arc'" in err
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    assert summary["exit_code"] == 2
+    assert {p["name"]: (p["verdict"], p["waivers"]) for p in summary["paths"]} == {
+        "straight": ("fail", []), "arc": ("pass", []), "too-fast": ("rejected", [])}
+
+
+def test_evaluate_with_a_rulebook_the_path_passes_finds_the_waiver_matches_nothing(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"))
+    assert main([str(path), "--quiet", "--no-report"]) == 1  # too-fast is still rejected
+    lenient = campaign_dir / "lenient.rules"
+    lenient.write_text(RULEBOOK.replace("require risk <= 50 %", "require risk <= 100 %"))
+    capsys.readouterr()
+    results = campaign_dir / "out" / "results.h5"
+    assert main(["evaluate", str(results), "--rulebook", str(lenient)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "error[C215]" in err and "did not fail on path 'straight'" in err
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    assert summary["exit_code"] == 2
+    assert [p["verdict"] for p in summary["paths"]] == ["pass", "pass", "rejected"]
+
+
+@pytest.mark.parametrize(("expected", "code", "held"), [("pass", 0, True), ("fail", 1, False)])
+def test_with_expectations_a_waived_path_counts_as_passing(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str], expected: str, code: int,
+        held: bool) -> None:
+    expecting = CAMPAIGN + f"expect:\n  - {{path: straight, verdict: {expected}}}\n"
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"),
+                        campaign=expecting)
+    junit = campaign_dir / "junit.xml"
+    assert main([str(path), "--quiet", "--no-report", "--junit", str(junit)]) == code
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    assert summary["exit_code"] == code
+    assert [(e["held"], e["message"]) for e in summary["expectations"]] == [
+        (held, "verdict waived")]
+    suites = {s.get("name"): s for s in ET.parse(junit).getroot().iter("testsuite")}
+    paths, expectations = suites["toy.paths"], suites["toy.expectations"]
+    assert (paths.get("skipped"), paths.get("failures")) == ("1", "0")  # the path: reported
+    assert expectations.get("failures") == ("0" if code == 0 else "1")
 
 
 def test_waived_failures_are_reported_waived_and_count_as_held(
