@@ -143,10 +143,12 @@ window.addEventListener("load", function () {
 </script>"""
 
 
-def check_page(page: Path, width: int, tmp: Path) -> dict[str, object]:
-    """Load a copy of ``page`` with :data:`CHECKER` appended; what the checker found."""
+def check_page(page: Path, width: int, tmp: Path, checker: str = CHECKER
+               ) -> dict[str, object]:
+    """Load a copy of ``page`` with ``checker`` (a script that writes its findings as JSON
+    into ``<pre id="check-result">``, :data:`CHECKER` by default) appended; what it found."""
     copy = tmp / f"checked-{width}.html"
-    copy.write_text(page.read_text(encoding="utf-8").replace("</body>", CHECKER + "</body>"),
+    copy.write_text(page.read_text(encoding="utf-8").replace("</body>", checker + "</body>"),
                     encoding="utf-8")
     completed = _run_chromium(copy, "--dump-dom", "--virtual-time-budget=5000", width=width,
                               height=1000)
