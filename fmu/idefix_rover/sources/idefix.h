@@ -82,6 +82,8 @@ typedef struct {
     double wx, wy;           /* contact position in the world, m */
     double centre_z;         /* wheel-centre height, m */
     double grade;            /* local grade of the wheel path relative to the body plane, rad */
+    double path_angle;       /* the same path's angle to the horizontal (world), rad */
+    double pitch;            /* the body's pitch when the grade was taken, rad */
     int on_rock;
     int dropping;            /* on a rock face too steep to rest on: carries no load */
     int blocked;             /* a rock face above the axle in the driving direction */
@@ -109,6 +111,7 @@ typedef struct {
     int travel_started;
 } Wheel;
 
+double wheel_path_speed(const Wheel *w, double vx);
 void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, double omega,
                   double v_eps, double *fx, double *fy, double *thrust);
 

@@ -40,6 +40,8 @@ static void update_geometry(Instance *inst)
         double path = w->on_rock ? contact_angle[i] :
                       fmax(-MAX_SOIL_GRADE, fmin(MAX_SOIL_GRADE, atan(slope[i])));
         w->grade = path - atan(plane_x);
+        w->path_angle = path;
+        w->pitch = inst->pitch;
         wheel_ground_state(inst, i);
     }
 }
@@ -149,7 +151,8 @@ void rover_step(Instance *inst, double dt)
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
         double vx = inst->u - inst->omega * w->py, vy = inst->v + inst->omega * w->px;
-        w->slip = wheel_slip(radius * w->rate, vx, eps);
+        double along = wheel_path_speed(w, vx);
+        w->slip = wheel_slip(radius * w->rate, along, eps);
         w->step_travel = fmax(fabs(radius * w->rate), sqrt(vx * vx + vy * vy)) * dt;
         /* a wheel turning against a face above its axle without getting on (under 5 % of its
          * rim speed) for controller.stuck_time truly cannot progress: `stuck`, the run goes on */
@@ -157,7 +160,7 @@ void rover_step(Instance *inst, double dt)
             w->blocked_time += dt;
         else
             w->blocked_time = 0.0;
-        w->slip_angle = sqrt(vx * vx + vy * vy) > eps ? atan2(vy, fabs(vx)) : 0.0;
+        w->slip_angle = sqrt(along * along + vy * vy) > eps ? atan2(vy, fabs(along)) : 0.0;
         w->current = (w->rate != 0.0 ? i0 : 0.0) + fabs(w->thrust * radius) / kt;
         inst->energy += w->current * dt;
     }

@@ -5,17 +5,35 @@
 #include "idefix.h"
 
 #define WALL_DAMPING 1e6   /* N/(m/s): a rock face above the axle stops the wheel */
+#define PATH_COS_FLOOR 1e-3 /* numerical guard of v_x / cos(alpha) for a contact at the axle */
+
+/* Speed of the wheel centre along its path from its body-plane speed v_x. On a rock the hub
+ * turns about the contact (rolling or sliding on it, it stays a radius from it), so it moves
+ * along the contact's tangent, at the contact angle alpha to the horizontal: its horizontal
+ * speed v_x cos(pitch) is that speed times cos(alpha) (the wheel-centre velocity of rough-
+ * terrain wheel kinematics is parallel to the terrain tangent at the contact: Iagnemma &
+ * Dubowsky 2000, Lamon & Siegwart 2005). Slip and the rock's friction are measured along that
+ * path. On soil the DEM's grade at the wheel centre is no contact angle (docs/rover-model.md,
+ * "Wheel-ground contact"): v_x itself. */
+double wheel_path_speed(const Wheel *w, double vx)
+{
+    double c;
+    if (!w->on_rock) return vx;
+    c = cos(w->path_angle);
+    return vx * cos(w->pitch) / (c > PATH_COS_FLOOR ? c : PATH_COS_FLOOR);
+}
 
 void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, double omega,
                   double v_eps, double *fx, double *fy, double *thrust)
 {
-    /* contact-point velocity over ground, body frame */
+    /* contact-point velocity over ground, body frame; along: the hub's speed along its path */
     double vx = u - omega * w->py, vy = v + omega * w->px;
+    double along = wheel_path_speed(w, vx);
     double rim = radius * w->rate;
     /* sliding velocity of the rim relative to the ground (positive x: wheel spins ahead) */
-    double sx = rim - vx, sy = -vy;
+    double sx = rim - along, sy = -vy;
     double sliding = sqrt(sx * sx + sy * sy);
-    double ground = sqrt(vx * vx + vy * vy);
+    double ground = sqrt(along * along + vy * vy);
     double reference = (fabs(rim) > ground ? fabs(rim) : ground) + v_eps;
     /* shear displacement at the rear of the patch: patch length times the slip */
     double j = w->contact_length * sliding / reference;
