@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules import __version__
+from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.dask_pool import is_infrastructure
 from idefix_rules.campaign.decision import campaign_decision, reasons_of
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
@@ -298,7 +299,14 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
             failures += 1
             ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
                           type=path.verdict_text).text = detail
-        ET.SubElement(case, "system-out").text = detail
+        compared = [pairwise.describe(pair, path.name) for pair in evaluation.pairs
+                    if path.name in (pair.first, pair.second)]
+        ET.SubElement(case, "system-out").text = "\n".join(
+            [detail, *(f"pair: {line}" for line in compared)])
+    neighbours = pairwise.adjacent(evaluation.ranking, evaluation.pairs)
+    if neighbours:  # the ranking's neighbours compared in the same worlds, best first
+        ET.SubElement(paths, "system-out").text = "\n".join(
+            f"pair: {pairwise.describe(pair, above)}" for above, pair in neighbours)
     _suite_counts(paths, len(evaluation.paths), failures, errors,
                   sum(seconds.get(p.name, 0.0) for p in evaluation.paths), skipped)
     if expectations:

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from itertools import combinations
+from itertools import combinations, pairwise
 from typing import Any
 
 import numpy as np
@@ -77,6 +77,68 @@ class PairComparison:
                 "equal": self.equal, "risk_difference": self.difference,
                 "ci": [self.low, self.high], "confidence": self.confidence,
                 "indifference": self.margin, "outcome": self.outcome}
+
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> PairComparison:
+        """The comparison back from :meth:`to_dict` (``summary.json``'s ``pairs``)."""
+        first, second = (str(name) for name in data["paths"])
+        low, high = (float(value) for value in data["ci"])
+        return cls(first, second, int(data["shared_runs"]), int(data["first_safer"]),
+                   int(data["second_safer"]), int(data["equal"]),
+                   float(data["risk_difference"]), low, high, float(data["confidence"]),
+                   float(data["indifference"]), str(data["outcome"]))
+
+
+def _points(value: float) -> str:
+    """A risk difference in percentage points, signed: ``-13.0 %``, ``+2.4 %``."""
+    return f"{100.0 * value:+.1f} %"
+
+
+def describe(pair: PairComparison, subject: str) -> str:
+    """The comparison in words with ``subject`` (one of the pair) first: in how many of the
+    shared worlds it was the safer, its risk minus the other's and that difference's interval,
+    and what the interval decides.
+
+    >>> pair = PairComparison("arc", "straight", 200, 174, 20, 6, -0.13, -0.16, -0.10, 0.95,
+    ...                       0.02, FIRST_SAFER)
+    >>> describe(pair, "arc")  # doctest: +NORMALIZE_WHITESPACE
+    'arc is safer than straight in 87 % of the same worlds (174 of 200):
+     risk -13.0 % (95 % CI -16.0 % … -10.0 %)'
+    >>> describe(pair, "straight")  # doctest: +NORMALIZE_WHITESPACE
+    'straight is riskier than arc: safer in 10 % of the same worlds (20 of 200):
+     risk +13.0 % (95 % CI +10.0 % … +16.0 %)'
+    """
+    if subject == pair.first:
+        other, safer = pair.second, pair.first_safer
+        difference, low, high = pair.difference, pair.low, pair.high
+    else:
+        other, safer = pair.first, pair.second_safer
+        difference, low, high = -pair.difference, -pair.high, -pair.low
+    share = (f"{100.0 * safer / pair.shared:.0f} % of the same worlds ({safer} of {pair.shared})"
+             if pair.shared else "none of the same worlds (no world both completed)")
+    numbers = (f"risk {_points(difference)} ({100.0 * pair.confidence:.3g} % CI "
+               f"{_points(low)} … {_points(high)})")
+    if pair.outcome == TIED:
+        return (f"{subject} and {other} are tied (risk difference within "
+                f"±{100.0 * pair.margin:.3g} %): {subject} safer in {share}: {numbers}")
+    if pair.outcome == OPEN:
+        return f"{subject} vs {other} not settled: {subject} safer in {share}: {numbers}"
+    if high < 0:
+        return f"{subject} is safer than {other} in {share}: {numbers}"
+    return f"{subject} is riskier than {other}: safer in {share}: {numbers}"
+
+
+def adjacent(ranking: Sequence[str], pairs: Sequence[PairComparison]
+             ) -> list[tuple[str, PairComparison]]:
+    """``(higher-ranked path, its comparison with the next)`` for each neighbour pair of the
+    ranking that was compared."""
+    found = []
+    for above, below in pairwise(ranking):
+        pair = find(pairs, above, below)
+        if pair is not None:
+            found.append((above, pair))
+    return found
 
 
 def difference_interval(differences: np.ndarray, alpha: float) -> tuple[float, float]:

@@ -19,6 +19,7 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
+from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.decision import Decision, campaign_decision, reason_items
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
@@ -171,6 +172,8 @@ def print_answer(console: Console, evaluation: CampaignEvaluation,
         console.print("[bold]Ranking:[/bold] "
                       + " > ".join(escape(n) for n in evaluation.ranking))
         _print_ties(console, evaluation)
+        for above, pair in pairwise.adjacent(evaluation.ranking, evaluation.pairs):
+            console.print("  " + pairwise.describe(pair, above), markup=False)
     for path in _ordered(evaluation):
         console.print(verdict_line(path))
     style = "green" if code == 0 else "red"

@@ -17,6 +17,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from idefix_rules.campaign.pairwise import PairComparison
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
 from idefix_rules.campaign.waivers import recorded
 
@@ -205,6 +206,7 @@ class ReportData:
     expectations: list[dict[str, Any]]
     decision: dict[str, Any] | None = None  # summary.json's decision (None: older files)
     exit_code: int | None = None
+    pairs: list[PairComparison] = field(default_factory=list)  # summary.json's, paired runs
 
     @property
     def evaluated_paths(self) -> list[PathReport]:
@@ -457,4 +459,6 @@ def read_report_data(store: ResultStore) -> ReportData:
     return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
                       expectations=list(summary.get("expectations", [])),
                       decision=summary.get("decision"),
-                      exit_code=int(code) if isinstance(code, int) else None)
+                      exit_code=int(code) if isinstance(code, int) else None,
+                      pairs=[PairComparison.from_dict(pair) for pair in summary.get("pairs", [])
+                             if isinstance(pair, Mapping)])

@@ -13,6 +13,7 @@ from html import escape
 
 import numpy as np
 
+from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.wording import DisplayUnits, parameter_text, unfinished_text
 from idefix_rules.report.data import (
     LEVELS,
@@ -242,7 +243,38 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
             f"(eq. 2) with its 95 % confidence interval; hit chances are the share of runs "
             f"that hit an obstacle of that level; final errors are means of the absolute "
             f"values at the end of the runs (distributions in the box plots below).</p>"
-            f"{''.join(explained)}</section>")
+            f"{pairs_html(data)}{''.join(explained)}</section>")
+
+
+def pairs_html(data: ReportData) -> str:
+    """The ranking's neighbours compared in the same drawn worlds (a paired campaign): who
+    was safer in how many worlds, the risk difference and its interval, and what it decides."""
+    neighbours = pairwise.adjacent(data.ranking, data.pairs)
+    if not neighbours:
+        return ""
+    head = ("Pair (higher rank first)", "Safer in the same worlds", "Risk difference [%]",
+            "Interval [%]", "Outcome")
+    rows = []
+    for above, pair in neighbours:
+        below = pair.second if above == pair.first else pair.first
+        flip = 1.0 if above == pair.first else -1.0
+        low, high = sorted((flip * pair.low, flip * pair.high))
+        safer = pair.first_safer if above == pair.first else pair.second_safer
+        outcome = {pairwise.TIED: f"tied (within ±{100 * pair.margin:.3g} %)",
+                   pairwise.OPEN: "not settled"}.get(
+            pair.outcome, "safer" if high < 0 else "riskier")
+        rows.append((f"{above} vs {below}", f"{safer} of {pair.shared}",
+                     f"{100 * flip * pair.difference:+.1f}",
+                     f"{100 * low:+.1f} … {100 * high:+.1f} ({100 * pair.confidence:.3g} %)",
+                     outcome))
+    sentences = "".join(f"<li>{escape(pairwise.describe(pair, above))}</li>"
+                        for above, pair in neighbours)
+    return (f'<h3 id="pairs">Paired comparisons</h3>'
+            f"{_table(head, rows, numeric={2}, css='stack', labels=True)}"
+            f"<p>Run j of every path was simulated in the same drawn world (initial pose, "
+            f"soil): each row compares two neighbours of the ranking world by world. The "
+            f"interval is an anytime-valid confidence sequence of the mean risk difference, "
+            f"at the confidence the campaign's α leaves each comparison.</p><ul>{sentences}</ul>")
 
 
 def figures_html(title: str, images: Sequence[Image], text: str = "", wide: bool = False) -> str:

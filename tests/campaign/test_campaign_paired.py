@@ -151,3 +151,54 @@ def test_without_a_margin_or_without_pairing_equal_paths_never_tie(
     assert summary["ties"] == [] and "tie:" not in out
     paths = {p["name"]: p for p in summary["paths"]}
     assert paths["twin"]["rank"] != paths["straight"]["rank"]
+
+
+def test_the_ranking_s_neighbours_are_compared_in_words_in_the_console_junit_and_report(
+        campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # One line per neighbour pair of the ranking: in how many of the same worlds the higher-
+    # ranked path was the safer, the risk difference and its interval, what that decides.
+    import json
+    import re
+    import xml.etree.ElementTree as ET
+
+    folder = tmp_path / "words"
+    path = copy_campaign(campaign_dir, folder, TWINS)
+    rules = folder / "test.rules"
+    rules.write_text(rules.read_text() + MARGIN_RULEBOOK)
+    capsys.readouterr()
+    main([str(path), "--junit", str(folder / "junit.xml")])
+    out = capsys.readouterr().out
+    summary = json.loads((folder / "out" / "summary.json").read_text())
+    arc = next(p for p in summary["pairs"] if p["paths"] == ["arc", "straight"])
+    shared, safer = arc["shared_runs"], arc["first_safer"]
+    assert arc["outcome"] == "first safer" and 0 < safer <= shared
+    share = f"{100 * safer / shared:.0f} % of the same worlds ({safer} of {shared})"
+    first = f"arc is safer than straight in {share}: risk "
+    twins = next(p for p in summary["pairs"] if set(p["paths"]) == {"straight", "twin"})
+    second = (f"straight and twin are tied (risk difference within ±5 %): straight safer in "
+              f"0 % of the same worlds (0 of {twins['shared_runs']}): risk +0.0 %")
+    flat = " ".join(out.split())  # the console wraps long lines
+    found = re.search(r"Ranking: arc > straight > twin tie: straight = twin \(risk difference "
+                      rf"within ±5 %\) {re.escape(first)}(\S+) % \(([\d.]+) % CI (\S+) % … "
+                      rf"(\S+) %\) {re.escape(second)}", flat)
+    assert found, flat
+    # summary.json keeps 4 significant digits: the printed numbers agree to its last digit
+    printed = [float(found.group(k)) / 100 for k in (1, 2, 3, 4)]
+    stored = [arc["risk_difference"], arc["confidence"], *arc["ci"]]
+    assert printed == pytest.approx(stored, abs=0.0011)
+    assert "arc vs twin" not in flat and "arc is safer than twin" not in flat  # neighbours only
+    first += found.group(1)
+
+    suite = ET.parse(folder / "junit.xml").getroot().find("testsuite")
+    assert suite is not None
+    assert suite.findtext("system-out", "").splitlines()[0].startswith(f"pair: {first} %")
+    cases = {case.get("name"): case.findtext("system-out", "") for case in suite.iter("testcase")}
+    assert f"pair: {first}" in cases["arc"]
+    assert "pair: arc is safer than twin" in cases["arc"]  # a path's case: all its pairs
+    assert "pair: straight is riskier than arc" in cases["straight"]
+    assert "pair:" not in cases["too-fast"]  # rejected: never simulated, never compared
+
+    report = (folder / "out" / "report.html").read_text()
+    assert '<h3 id="pairs">Paired comparisons</h3>' in report
+    assert first in report
+    assert "<td data-label=\"Outcome\">tied (within ±5 %)</td>" in report
