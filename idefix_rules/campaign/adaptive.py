@@ -36,6 +36,7 @@ from idefix_rules.campaign.simulate import (
     SimulationSummary,
     _task,
     initial_position_sigma,
+    monte_carlo_pool,
     nominal_parameters,
     parameter_info,
     path_stream,
@@ -83,18 +84,38 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         running[name] = plan
         status = store.run_status(name)
         progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
-    sigma = initial_position_sigma(campaign)
     parts: dict[str, list[Any]] = {name: [] for name in running}
     rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
     paired = bool(campaign.model.uncertainty.paired) and pairwise.uses_paired_risk(
         evaluator.rulebook)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
+    # one pool for every look: its workers keep their loaded FMU from batch to batch
+    pool = monte_carlo_pool(campaign, running, store, options) if running else None
+    try:
+        _looks(campaign, evaluator, rover, fmu, base, running, sampled, done, store, options,
+               progress, summary, collisions, pool, parts, rows, statistics, paired)
+    finally:
+        if pool is not None:
+            pool.close()
+
+
+def _looks(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
+           base: Mapping[str, float | str], running: dict[str, PathPlan],
+           sampled: Mapping[str, dict[str, np.ndarray]], done: dict[str, int],
+           store: ResultStore, options: SimulationOptions, progress: Progress,
+           summary: SimulationSummary, collisions: Any, pool: Any,
+           parts: dict[str, list[Any]], rows: dict[str, list[np.ndarray]],
+           statistics: dict[str, Any], paired: bool) -> None:
+    """Look after look: simulate the running paths' next batch on ``pool``, evaluate it, and
+    stop each path whose verdict and rank are settled (or that reached ``max_runs``)."""
+    settings = campaign.adaptive
+    sigma = initial_position_sigma(campaign)
     for look in settings.looks():
         if not running:
             break
         _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
-                       progress, summary)
+                       progress, summary, pool)
         for name, plan in running.items():
             evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
                                               within=slice(done[name], look))
@@ -129,7 +150,7 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                    running: Mapping[str, PathPlan], sampled: Mapping[str, dict[str, np.ndarray]],
                    done: Mapping[str, int], look: int, store: ResultStore,
                    options: SimulationOptions, progress: Progress,
-                   summary: SimulationSummary) -> None:
+                   summary: SimulationSummary, pool: Any) -> None:
     """Simulate and store every missing run below ``look`` of the running paths."""
     tasks: list[tuple[tuple[str, int], RunTask]] = []
     for name, plan in running.items():
@@ -141,7 +162,7 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
             tasks.append(((name, run), _task(campaign, fmu, plan, parameters, encode=True)))
-    run_and_store(campaign, tasks, running, store, options, progress, summary)
+    run_and_store(campaign, tasks, running, store, options, progress, summary, pool)
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

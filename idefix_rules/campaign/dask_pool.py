@@ -62,11 +62,13 @@ class DaskPool:
     """The local pool's interface on a Dask cluster (``address``) or a LocalCluster."""
 
     def __init__(self, function: TaskFunction, address: str | None = None,
-                 workers: int | None = None, run_timeout: Timeouts = None) -> None:
+                 workers: int | None = None, run_timeout: Timeouts = None,
+                 persistent: bool = False) -> None:
         from dask.distributed import Client, LocalCluster
 
         self.function = function
         self.run_timeout = run_timeout
+        self.persistent = persistent  # as LocalPool's: kept for the next map, closed by its owner
         self._cluster = None
         if address is None:
             import dask
@@ -111,6 +113,7 @@ class DaskPool:
         deaths = _Deaths()
         losses: Counter[Hashable] = Counter()
         watch = _Watch(self._client, stall)
+        finished = False
         try:
             while keys:
                 batch = completed.next_batch(block=False)
@@ -129,8 +132,10 @@ class DaskPool:
                         completed.add(again)
                         continue
                     yield key, outcome
+            finished = True
         finally:
-            self.close()
+            if not (self.persistent and finished):
+                self.close()
 
     def _outcome(self, future: Any, key: Hashable, deaths: _Deaths,
                  losses: Counter[Hashable]) -> Outcome | None:

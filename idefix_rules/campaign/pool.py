@@ -68,10 +68,14 @@ class LocalPool:
     """A pool of worker processes, one task each at a time, with crash and timeout handling."""
 
     def __init__(self, function: TaskFunction, workers: int | None = None,
-                 run_timeout: Timeouts = None, start_method: str | None = None) -> None:
+                 run_timeout: Timeouts = None, start_method: str | None = None,
+                 persistent: bool = False) -> None:
         self.function = function
         self.size = max(1, workers or os.cpu_count() or 1)
         self.run_timeout = run_timeout
+        # persistent: the workers (and the FMU each holds) outlive a map that ran to its end,
+        # for the next map (an adaptive campaign's looks); the owner closes the pool
+        self.persistent = persistent
         if start_method is None:
             start_method = "fork" if sys.platform.startswith("linux") else "spawn"
         self._context = multiprocessing.get_context(start_method)
@@ -101,6 +105,7 @@ class LocalPool:
         again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside
         payloads: dict[Hashable, Any] = {}  # of the runs being executed
         kills: dict[Hashable, list[str]] = {}
+        finished = False
         try:
             while True:
                 while (again or not exhausted) and len(self._workers) < self.size:
@@ -122,6 +127,7 @@ class LocalPool:
                 busy = [w for w in self._workers if w.key is not None]
                 if not busy:
                     if exhausted and not again:
+                        finished = True
                         return
                     continue
                 for key, outcome in self._collect(busy):
@@ -135,7 +141,8 @@ class LocalPool:
                         outcome = Outcome(False, None, killed_reason(signals))
                     yield key, outcome
         finally:
-            self.close()
+            if not (self.persistent and finished):  # stopped early: busy workers end now
+                self.close()
 
     def _hand(self, worker: _Worker, key: Hashable, payload: Any) -> bool:
         """Give a worker its task (False: the worker is gone, and retired)."""

@@ -145,24 +145,30 @@ def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathP
     return PathPlan(spec, steps * settings.output_interval, steps + 1, ideal)
 
 
-def _pool(function: Any, options: SimulationOptions, campaign: Campaign,
-          timeouts: Timeouts) -> Any:
+def open_pool(function: Any, options: SimulationOptions, campaign: Campaign,
+              timeouts: Timeouts, persistent: bool = False) -> Any:
+    """The campaign's pool: local processes, or Dask. ``persistent``: its workers (and the
+    FMU each has loaded) serve map after map until the caller closes it."""
     if options.scheduler or options.dask_local:
         return DaskPool(function, address=options.scheduler,
-                        workers=options.workers or campaign.workers, run_timeout=timeouts)
+                        workers=options.workers or campaign.workers, run_timeout=timeouts,
+                        persistent=persistent)
     return LocalPool(function, workers=options.workers or campaign.workers,
-                     run_timeout=timeouts)
+                     run_timeout=timeouts, persistent=persistent)
 
 
 @contextlib.contextmanager
-def _map(pool: Any, tasks: list[tuple[Any, RunTask]]) -> Iterator[Iterator[tuple[Any, Outcome]]]:
-    """The pool's results; on any exit (Ctrl-C included) busy workers are ended at once."""
+def _map(pool: Any, tasks: list[tuple[Any, RunTask]], close: bool = True
+         ) -> Iterator[Iterator[tuple[Any, Outcome]]]:
+    """The pool's results; on any exit (Ctrl-C included) busy workers are ended at once.
+    ``close``: close the pool after its last result too (a persistent pool stays open)."""
     results = pool.map(tasks)
     try:
         yield results
     finally:
         results.close()
-        pool.close()
+        if close:
+            pool.close()
 
 
 def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
@@ -406,8 +412,8 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
     progress.message(f"reference runs of {len(todo)} path(s)")
     tasks = [(plan.spec.name, _task(campaign, fmu, plan, nominal)) for plan in todo]
     by_name = {plan.spec.name: plan for plan in todo}
-    pool = _pool(simulate, options, campaign,
-                 run_timeouts.reference_timeouts(by_name, options.run_timeout))
+    pool = open_pool(simulate, options, campaign,
+                     run_timeouts.reference_timeouts(by_name, options.run_timeout))
     with _map(pool, tasks) as results:
         for name, outcome in results:
             _reference_outcome(campaign, evaluator, rover, store, by_name[name], nominal,
@@ -503,11 +509,21 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
                   progress, summary)
 
 
+def monte_carlo_pool(campaign: Campaign, plans: Mapping[str, PathPlan], store: ResultStore,
+                     options: SimulationOptions) -> Any:
+    """A persistent pool for Monte Carlo runs of ``plans`` (each run's default timeout from
+    its path), for :func:`run_and_store` to use look after look; the caller closes it."""
+    return open_pool(simulate, options, campaign,
+                     run_timeouts.monte_carlo_timeouts(dict(plans), store, options.run_timeout),
+                     persistent=True)
+
+
 def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask]],
                   plans: Mapping[str, PathPlan], store: ResultStore, options: SimulationOptions,
-                  progress: Progress, summary: SimulationSummary) -> None:
+                  progress: Progress, summary: SimulationSummary, pool: Any = None) -> None:
     """Simulate Monte Carlo runs ``((path, run), task)`` and store each as it finishes
-    (``plans`` by name give each run's default timeout)."""
+    (``plans`` by name give each run's default timeout). ``pool``: a persistent pool
+    (:func:`monte_carlo_pool`) to run them on and leave open; else one for these runs."""
     if not tasks:
         return
     # Interleave paths so every progress bar moves from the start.
@@ -524,9 +540,13 @@ def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask
         return f"store the {remaining.total()} runs still to simulate"
 
     diskspace.require(store.folder, needed(), doing())
-    pool = _pool(simulate, options, campaign,
-                 run_timeouts.monte_carlo_timeouts(dict(plans), store, options.run_timeout))
-    with diskspace.guard(store.folder, doing, needed=needed), _map(pool, tasks) as results:
+    own = pool is None
+    if own:
+        pool = open_pool(simulate, options, campaign,
+                         run_timeouts.monte_carlo_timeouts(dict(plans), store,
+                                                           options.run_timeout))
+    with diskspace.guard(store.folder, doing, needed=needed), \
+            _map(pool, tasks, close=own) as results:
         for (name, run), outcome in results:
             _raise_input_problem(outcome)
             summary.simulated_runs += 1

@@ -68,3 +68,8 @@ def marked_simulate(task):
     if f"{len(task.chain)}:{dict(task.parameters).get('initial.x')!r}" == os.environ.get(MARKED):
         _announce()
     return simulate(task)
+
+
+def pid(payload):
+    """The process that ran the task."""
+    return os.getpid()

@@ -192,3 +192,31 @@ def test_the_diff_of_an_adaptive_campaign_uses_its_confidence_sequences(
             # summary.json keeps 4 decimals of a risk (half a unit: 5e-5)
             assert path_diff.new.risk_ci == pytest.approx(tuple(stored["risk_ci95"]),
                                                           abs=5.1e-5)
+
+
+def test_every_look_runs_on_one_pool_of_workers(campaign_dir: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    # The workers (and the FMU each loaded) live from the first look to the last: one pool for
+    # the reference runs, one for all the Monte Carlo looks, not one per look.
+    from idefix_rules.campaign import simulate
+
+    made: list[bool] = []
+    maps: list[int] = []
+
+    class Counted(simulate.LocalPool):
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+            made.append(self.persistent)
+
+        def map(self, tasks):  # type: ignore[no-untyped-def]
+            listed = list(tasks)
+            maps.append(len(listed))
+            return super().map(listed)
+
+    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    run_campaign(load_campaign(path), SimulationOptions(workers=2), report=False)
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    looks = max(p["runs_used"] for p in summary["paths"] if p.get("runs_used"))
+    assert looks > 10 and len(maps) >= 3  # the references, then at least two looks
+    assert made == [False, True]  # the references' pool, then one for every look

@@ -41,3 +41,29 @@ def test_closing_the_iteration_early_ends_the_busy_worker_processes() -> None:
     iterator.close()
     assert pool._workers == []
     assert all(not process.is_alive() for process in processes)
+
+
+def test_a_persistent_pool_keeps_its_workers_from_map_to_map_until_closed() -> None:
+    # An adaptive campaign's looks run on one pool: the second batch goes to the workers (and
+    # the FMU each has loaded) of the first; a pool made for one map closes after it.
+    pool = LocalPool(tasks.pid, workers=2, persistent=True)
+    first = {outcome.value for _, outcome in pool.map((i, i) for i in range(8))}
+    processes = [w.process for w in pool._workers]
+    assert len(processes) == 2 and all(process.is_alive() for process in processes)
+    second = {outcome.value for _, outcome in pool.map((i, i) for i in range(8))}
+    assert second <= first and second == {process.pid for process in processes}
+    pool.close()
+    assert pool._workers == [] and not any(process.is_alive() for process in processes)
+
+    once = LocalPool(tasks.pid, workers=2)
+    dict(once.map((i, i) for i in range(4)))
+    assert once._workers == []
+
+
+def test_a_persistent_pool_stopped_early_still_ends_its_busy_workers() -> None:
+    pool = LocalPool(tasks.misbehave, workers=2, run_timeout=30.0, persistent=True)
+    iterator = pool.map(enumerate(["a", "hang", "b"]))
+    next(iterator)
+    processes = [w.process for w in pool._workers]
+    iterator.close()
+    assert pool._workers == [] and not any(process.is_alive() for process in processes)
