@@ -4,7 +4,8 @@ Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--stri
 warnings W601–W613 count too: unused constants, zero-weight indices and the lints of
 :mod:`idefix_rules.rulebook.lints`). ``--format json`` prints the diagnostics' ``to_dict()``
 records instead of text (start and end of each span; the end column is exclusive). The language
-server (``idefix-verify lsp``) publishes the same diagnostics through :func:`check_source`.
+server (``idefix-verify lsp``) publishes the same diagnostics through
+:func:`idefix_rules.rulebook.checking.check_source`.
 """
 
 from __future__ import annotations
@@ -12,12 +13,13 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 from idefix_rules.cli.pipes import StdoutConsole
-from idefix_rules.errors import Diagnostic, Severity, UserInputError, render_diagnostics
-from idefix_rules.rulebook import check_text, read_source
+from idefix_rules.errors import render_diagnostics
+from idefix_rules.rulebook.checking import FileReport, check_file, check_source
+
+__all__ = ["FileReport", "add_arguments", "check_file", "check_source", "render_report", "run"]
 
 NAME = "check"
 HELP = ("Check rulebooks: syntax, names, units and dimensions, weights, required sections. "
@@ -37,42 +39,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "
                              "message, path, line, column, end_line, end_column, hint)")
-
-
-@dataclass(frozen=True)
-class FileReport:
-    """The outcome of checking one file: its diagnostics and its text (for carets)."""
-
-    path: str
-    diagnostics: tuple[Diagnostic, ...]
-    source: str
-
-    @property
-    def errors(self) -> int:
-        return sum(d.severity is Severity.ERROR for d in self.diagnostics)
-
-    @property
-    def warnings(self) -> int:
-        return sum(d.severity is Severity.WARNING for d in self.diagnostics)
-
-
-def check_file(path: str | Path, strict: bool = False) -> FileReport:
-    """Read, parse and check one rulebook; never raises for a user mistake."""
-    name = str(path)
-    try:
-        source = read_source(path)
-    except UserInputError as failure:
-        return FileReport(name, tuple(failure.diagnostics), "")
-    return check_source(source, name, strict)
-
-
-def check_source(source: str, name: str, strict: bool = False) -> FileReport:
-    """Parse and check rulebook text read from ``name`` (an open editor buffer, a file)."""
-    try:
-        result = check_text(source, name, strict=strict)
-    except UserInputError as failure:
-        return FileReport(name, tuple(failure.diagnostics), source)
-    return FileReport(name, tuple(result.diagnostics), source)
 
 
 def render_report(report: FileReport) -> str:

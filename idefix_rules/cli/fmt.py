@@ -15,10 +15,9 @@ import tempfile
 from pathlib import Path
 
 from idefix_rules.cli.pipes import StdoutConsole
-from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.rulebook import read_source
-from idefix_rules.rulebook.format import format_rulebook
-from idefix_rules.rulebook.parser import parse_rulebook
+from idefix_rules.rulebook.format import formatted_text
 
 NAME = "fmt"
 HELP = ("Format rulebooks in place (canonical order and layout, comments kept). With --check, "
@@ -34,16 +33,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--diff", action="store_true",
                         help="print a unified diff of the changes (with --check: nothing is "
                              "written)")
-
-
-def formatted_text(source: str, path: str) -> str:
-    """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors."""
-    rulebook = parse_rulebook(source, path)
-    text = format_rulebook(rulebook)
-    if parse_rulebook(text, path) != rulebook:  # never write a file that means something else
-        raise InfrastructureError(f"{path}: the formatter changed the rule model; "
-                                  "file left untouched (please report)")
-    return text
 
 
 def replace_text(path: Path, text: str) -> None:

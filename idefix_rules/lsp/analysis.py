@@ -14,12 +14,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from idefix_rules.cli.check import check_source
 from idefix_rules.errors import Diagnostic, UserInputError
 from idefix_rules.lsp.positions import LineIndex
 from idefix_rules.lsp.symbols import SymbolIndex, symbol_index
 from idefix_rules.rulebook import check, parse_text
 from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.checking import check_source
 from idefix_rules.rulebook.model import Rulebook
 
 # ``check --strict``: the editor shows the warnings too (unused constants, zero weights).

@@ -20,13 +20,13 @@ from pygls.uris import to_fs_path
 from pygls.workspace import TextDocument
 
 from idefix_rules import __version__
-from idefix_rules.cli.fmt import formatted_text
 from idefix_rules.errors import Diagnostic, IdefixError, Severity
 from idefix_rules.lsp.analysis import Analysis, analyse
 from idefix_rules.lsp.completion import Completion, completions
 from idefix_rules.lsp.fixes import quick_fixes
 from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
+from idefix_rules.rulebook.format import formatted_text
 
 DEBOUNCE_SECONDS = 0.3
 SOURCE = "idefix-rules"

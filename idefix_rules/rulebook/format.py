@@ -19,7 +19,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
+from idefix_rules.errors import InfrastructureError
 from idefix_rules.rulebook import model
+from idefix_rules.rulebook.parser import parse_rulebook
 
 LINE_WIDTH = 100
 INDENT = "  "
@@ -364,3 +366,13 @@ def format_rulebook(rulebook: model.Rulebook) -> str:
     if rulebook.trailing_comments:
         sections.append(list(rulebook.trailing_comments))
     return "\n\n".join("\n".join(section) for section in sections) + "\n"
+
+
+def formatted_text(source: str, path: str) -> str:
+    """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors."""
+    rulebook = parse_rulebook(source, path)
+    text = format_rulebook(rulebook)
+    if parse_rulebook(text, path) != rulebook:  # never write a file that means something else
+        raise InfrastructureError(f"{path}: the formatter changed the rule model; "
+                                  "file left untouched (please report)")
+    return text
