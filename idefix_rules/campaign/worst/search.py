@@ -18,8 +18,8 @@ Two phases share the path's run budget:
 ...                     nominal_risk=0.0)
 >>> while len(points := search.ask()):
 ...     search.tell(np.clip(points[:, 0] / 1.5, 0, 1), ["I_a"] * len(points))
->>> round(search.worst.risk, 2), round(float(search.worst.z[0]), 1)
-(1.0, 1.5)
+>>> search.worst.risk, bool(1.5 <= search.worst.z[0] < 1.8)   # critical from z = 1.5 on
+(1.0, True)
 >>> low, high = search.rays[0].bracket
 >>> low <= 1.5 <= high and high - low < 0.1
 True
@@ -168,10 +168,12 @@ class PathSearch:
 
     @property
     def worst(self) -> Point:
-        """The riskiest world simulated (ties: the nearest to the nominal world); the nominal
-        world itself (row -1) when no search run completed or none is riskier."""
+        """The riskiest world the search phase simulated (ties: the nearest to the nominal
+        world); the nominal world itself (row -1) when no search run completed or none is
+        riskier. The boundary's worlds are the boundary's answer, not candidates: the ray
+        "toward the worst world" keeps pointing at this one."""
         nominal = Point(-1, self.origin, self.nominal_risk, self.nominal_dominant, "nominal")
-        candidates = [nominal, *self.points]
+        candidates = [nominal, *(p for p in self.points if p.phase == SEARCH)]
         order = ranking(np.array([p.risk for p in candidates]),
                         np.array([p.z for p in candidates]), self.origin, resolution=0.0)
         return candidates[int(order[0])]

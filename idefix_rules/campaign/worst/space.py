@@ -116,14 +116,17 @@ def distance(z: np.ndarray, origin: np.ndarray) -> np.ndarray:
 def one_in(probability: float) -> str:
     """``1 in 2,300`` for a probability, as people read a rarity.
 
-    >>> one_in(0.00043), one_in(0.5), one_in(1.0)
-    ('1 in 2,300', '1 in 2', '1 in 1')
+    >>> one_in(0.00043), one_in(0.0712), one_in(0.784), one_in(1.0)
+    ('1 in 2,300', '1 in 14', '1 in 1.3', '1 in 1')
     """
     if probability <= 0.0 or not math.isfinite(probability):
         return "fewer than 1 in 10^15"
     ratio = 1.0 / probability
     if ratio >= 1e15:
         return "fewer than 1 in 10^15"
+    if ratio < 10:
+        shown = f"{ratio:.1f}"
+        return f"1 in {shown.removesuffix('.0')}"
     digits = max(0, math.floor(math.log10(ratio)) - 1)
     rounded = round(ratio / 10 ** digits) * 10 ** digits
     return f"1 in {rounded:,.0f}"
