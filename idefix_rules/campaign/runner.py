@@ -63,6 +63,7 @@ SUMMARY_FILE = "summary.json"
 EVALUATION_BYTES_PER_RUN = 2048
 STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
 REPORT_FILE = "report.html"
+SEARCHED_RUNS = "worst"  # runs_mode of a worst-case search's results file
 
 
 @dataclass
@@ -451,6 +452,12 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then)
     state = str(store.attrs.get("state", "complete"))
+    if str(store.attrs.get("runs_mode", "fixed")) == SEARCHED_RUNS:
+        result.warnings.append(
+            f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
+            "worlds the search chose, not draws of the campaign's distributions, so each "
+            "run's risk holds but a path's mean risk, chances and verdict are not the "
+            "campaign's (docs/worst-case.md)")
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
                            store.attrs.get("seed"),

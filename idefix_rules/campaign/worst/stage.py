@@ -24,6 +24,7 @@ import numpy as np
 from idefix_rules.campaign import sampling
 from idefix_rules.campaign.evaluation import evaluate_path, run_context
 from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.runner import SEARCHED_RUNS
 from idefix_rules.campaign.schema import Fixed
 from idefix_rules.campaign.simulate import (
     FmuSource,
@@ -44,7 +45,7 @@ from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.commands import RoverGeometry
 
 WORST_STREAM = 0x776F7273  # "wors": keeps the search's draws apart from any campaign's
-RUNS_MODE = "worst"
+RUNS_MODE = SEARCHED_RUNS
 SAMPLING = "cross_entropy"
 SEED_DERIVATION = ("worst-case search: path p draws from SeedSequence(seed, spawn_key="
                    f"({WORST_STREAM}, h)) with h the first 32 bits of sha256(p); row j is the "
