@@ -175,3 +175,19 @@ def test_dask_searches_the_same_worlds_as_the_local_pool(
     records = [json.loads((campaign_dir / name / "worst.json").read_text())
                for name in ("local", "dask")]
     assert comparable(records[0]) == comparable(records[1])
+
+
+def test_the_report_opens_with_the_worst_case_and_draws_the_worst_runs(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = campaign_dir / "reported"
+    code = main(["worst", str(campaign_dir / "campaign.yaml"), "--quiet", "--runs", "66",
+                 "--out", str(out)])
+    output = capsys.readouterr().out
+    assert code == 0 and f"report: {out / 'report.html'}" in " ".join(output.split())
+    page = (out / "report.html").read_text()
+    assert 'id="worst"' in page and 'id="decision"' not in page
+    assert "holds a worst-case search" in page
+    record = json.loads((out / "worst.json").read_text())
+    for path in record["paths"]:
+        assert f"<td>{path['name']}</td>" in page
+    assert (out / "risk_map_straight.png").is_file()
