@@ -22,6 +22,7 @@ from rich.table import Table
 from idefix_rules.campaign.load import load_campaign
 from idefix_rules.campaign.simulate import SimulationOptions
 from idefix_rules.campaign.wording import DisplayUnits, parameter_text, percent
+from idefix_rules.campaign.worst.outcome import rarity, sigmas
 from idefix_rules.cli.destinations import output_folder
 from idefix_rules.cli.numbers import integer, positive_int, seconds, seed_number
 from idefix_rules.cli.progress import PlainProgress, make_progress
@@ -156,7 +157,7 @@ def _change(path: Mapping[str, Any]) -> str:
     if change is None:
         return "no critical world found" if not path.get("critical") \
             else "not found along the rays searched"
-    return f"{change['distance']:.2f} σ ({escape(str(change['direction']))})"
+    return f"{sigmas(change['distance'])} ({escape(str(change['direction']))})"
 
 
 def print_worst(console: Console, record: Mapping[str, Any], units: DisplayUnits) -> None:
@@ -164,7 +165,7 @@ def print_worst(console: Console, record: Mapping[str, Any], units: DisplayUnits
     threshold = float(record.get("threshold", 1.0))
     table = Table(title=f"Worst case per path ({record.get('runs')} runs per path at most, "
                         f"critical at I_max ≥ {_risk(threshold)})", title_justify="left")
-    for column in ("path", "nominal I_max", "worst I_max", "dominant", "as far out as",
+    for column in ("path", "nominal I_max", "worst I_max", "dominant", "as far out as¹",
                    "smallest change to critical"):
         table.add_column(column, overflow="fold")
     for path in record.get("paths", []):
@@ -175,8 +176,10 @@ def print_worst(console: Console, record: Mapping[str, Any], units: DisplayUnits
         worst = path["worst"]
         table.add_row(escape(path["name"]), _risk(path["nominal"]["risk"]),
                       _risk(worst["risk"]), escape(str(worst.get("dominant_index") or "–")),
-                      escape(worst["one_in"]), _change(path))
+                      rarity(worst["tail_probability"]), _change(path))
     console.print(table)
+    console.print("¹ the share of the campaign's worlds at least as far from the median world as "
+                  "the worst one (docs/worst-case.md)")
     stored_units = {entry["name"]: entry.get("unit", "") for entry in record.get("parameters",
                                                                                  [])}
     for path in record.get("paths", []):
@@ -216,8 +219,8 @@ def _print_path(console: Console, path: Mapping[str, Any], stored_units: Mapping
     where = "the nominal world" if worst.get("run") is None else f"run {worst['run']}"
     console.print(f"  worst: I_max {_risk(worst['risk'])} "
                   f"({escape(str(worst.get('dominant_index') or '–'))}) in {where}, "
-                  f"{worst['distance']:.2f} σ from nominal; {escape(worst['one_in'])} campaign "
-                  "worlds is at least as far from the median world")
+                  f"{sigmas(worst['distance'])} from the nominal world; as far out as "
+                  f"{rarity(worst['tail_probability'])} of the campaign's worlds")
     console.print(f"    {_world(worst, stored_units, units)}")
     if path.get("sensitivity"):
         shown = ", ".join(f"{escape(a['parameter'])} ρ {a['rho']:+.2f}"
@@ -227,10 +230,11 @@ def _print_path(console: Console, path: Mapping[str, Any], stored_units: Mapping
     for boundary in path.get("boundaries", []):
         label = escape(str(boundary["direction"]))
         if not boundary["found"]:
-            console.print(f"  boundary {label}: none up to {boundary['searched_to']:.2f} σ")
+            console.print(f"  boundary {label}: none up to {sigmas(boundary['searched_to'])}")
             continue
         low, high = boundary["bracket"]
-        console.print(f"  boundary {label}: between {low:.2f} and {high:.2f} σ; critical at")
+        console.print(f"  boundary {label}: between {sigmas(low)} and {sigmas(high)}; "
+                      "critical at")
         critical = boundary.get("critical_world")
         if critical is not None:
             console.print(f"    {_world(critical, stored_units, units)} "

@@ -17,6 +17,7 @@ import numpy as np
 
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits, parameter_text, percent
+from idefix_rules.campaign.worst.outcome import rarity, sigmas
 
 NOTE = ("This file holds a worst-case search (idefix-verify worst): its runs are the worlds "
         "the search chose, not draws of the campaign's distributions. Each run's risk holds; "
@@ -70,7 +71,7 @@ def _change(path: Mapping[str, Any]) -> str:
     if change is None:
         return ("no critical world found" if not path.get("critical")
                 else "not found along the rays searched")
-    return f"{change['distance']:.2f} σ ({escape(str(change['direction']))})"
+    return f"{sigmas(change['distance'])} ({escape(str(change['direction']))})"
 
 
 def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
@@ -91,7 +92,8 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
             f"<td class=\"num\">{percent(path['nominal']['risk'])}</td>"
             f"<td class=\"num\">{percent(worst['risk'])}</td>"
             f"<td>{escape(str(worst.get('dominant_index') or '–'))}</td>"
-            f"<td>{escape(worst['one_in'])} ({worst['distance']:.2f} σ)</td>"
+            f"<td>{escape(rarity(worst['tail_probability']))} "
+            f"({sigmas(worst['distance'])})</td>"
             f"<td>{_change(path)}</td></tr>")
     head = ("path", "nominal I_max", "worst I_max", "dominant", "as far out as",
             "smallest change to critical")
@@ -116,12 +118,12 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
             label = escape(str(boundary["direction"]))
             if not boundary["found"]:
                 items.append(f"<li>boundary {label}: none up to "
-                             f"{boundary['searched_to']:.2f} σ</li>")
+                             f"{sigmas(boundary['searched_to'])}</li>")
                 continue
             low, high = boundary["bracket"]
             critical = boundary.get("critical_world") or {}
-            items.append(f"<li>boundary {label}: between {low:.2f} and {high:.2f} σ, critical "
-                         f"at {_world(critical, units, stored_units)}</li>")
+            items.append(f"<li>boundary {label}: between {sigmas(low)} and {sigmas(high)}, "
+                         f"critical at {_world(critical, units, stored_units)}</li>")
         parts.append(f"<h3>{escape(path['name'])}</h3><p>{path['runs_used']} runs "
                      f"({path['search_runs']} searching, {path['boundary_runs']} on the "
                      f"boundary)</p><ul>{''.join(items)}</ul>")

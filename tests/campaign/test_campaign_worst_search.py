@@ -13,6 +13,7 @@ from scipy import stats
 
 import idefix_rules.campaign.worst.boundary
 import idefix_rules.campaign.worst.cross_entropy
+import idefix_rules.campaign.worst.outcome
 import idefix_rules.campaign.worst.search
 import idefix_rules.campaign.worst.space
 from idefix_rules.campaign.sampling import cumulative, inverse_cdf
@@ -71,7 +72,8 @@ def new_search(runs: int = 150, seed: int = 7, **settings: float) -> PathSearch:
 @pytest.mark.parametrize("module", [idefix_rules.campaign.worst.space,
                                     idefix_rules.campaign.worst.cross_entropy,
                                     idefix_rules.campaign.worst.boundary,
-                                    idefix_rules.campaign.worst.search])
+                                    idefix_rules.campaign.worst.search,
+                                    idefix_rules.campaign.worst.outcome])
 def test_docstring_examples(module: ModuleType) -> None:
     failures, tried = doctest.testmod(module)
     assert tried > 0 and failures == 0

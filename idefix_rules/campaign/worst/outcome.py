@@ -26,6 +26,29 @@ METHOD = ("cross-entropy search of the run risk I_max in standard-normal quantil
           "nominal world")
 
 
+def rarity(probability: float) -> str:
+    """A world's tail probability as people read it: a percentage down to 1 %, then
+    ``1 in N``.
+
+    >>> rarity(0.943), rarity(0.0133), rarity(0.000127)
+    ('94 %', '1.3 %', '1 in 7,900')
+    """
+    if probability >= 0.1:
+        return f"{probability:.0%}".replace("%", " %")
+    if probability >= 0.01:
+        return f"{100 * probability:.1f} %"
+    return one_in(probability)
+
+
+def sigmas(distance: float) -> str:
+    """A distance in the quantile coordinates' standard deviations, to 3 digits.
+
+    >>> sigmas(0.0468), sigmas(4.021), sigmas(0.0)
+    ('0.0468 σ', '4.02 σ', '0 σ')
+    """
+    return f"{distance:.3g} σ"
+
+
 def _round(value: float | None, digits: int = 4) -> float | None:
     if value is None or not math.isfinite(value):
         return None
