@@ -118,7 +118,9 @@ def run(args: argparse.Namespace) -> int:
     console = make_console()
     campaign = load_campaign(args.campaign)
     output = (args.out or default_output(campaign)).resolve()
-    campaign = campaign.with_overrides(seed=args.seed, output=output, workers=args.workers)
+    # a fixed count: an adaptive campaign's settings mean nothing to the search
+    campaign = campaign.with_overrides(runs=args.runs, seed=args.seed, output=output,
+                                       workers=args.workers)
     settings = SearchSettings(runs=args.runs, threshold=args.critical,
                               tail=args.tail if args.tail is not None else DEFAULT_TAIL,
                               rounds=args.rounds, axes=args.axes)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign import outputs
+from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.runner import (
@@ -47,7 +47,7 @@ from idefix_rules.campaign.worst.outcome import (
 from idefix_rules.campaign.worst.search import SearchSettings
 from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.campaign.worst.stage import WorstStage, stored_record
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 
 RECORD_FILE = "worst.json"
@@ -139,8 +139,15 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
     workers = 1 if options.scheduler else max(
         1, options.workers or campaign.workers or os.cpu_count() or 1)
     stage = WorstStage(settings, workers=workers)
-    simulation = simulate_campaign(campaign, evaluator, prepared.fmu_path, prepared.fixed,
-                                   options, progress, prepared.collisions, stage=stage)
+    try:
+        with diskspace.guard(campaign.output, "search the worst case",
+                             f"free space, then run `{again}`"):
+            simulation = simulate_campaign(campaign, evaluator, prepared.fmu_path,
+                                           prepared.fixed, options, progress,
+                                           prepared.collisions, stage=stage)
+    except OSError as failure:  # the results file could not be written (locked …)
+        raise InfrastructureError(f"writing {campaign.output / RESULTS_FILE} failed: "
+                                  f"{failure}") from failure
     simulated = time.perf_counter()
     results = simulation.results
     info = rulebook_info(evaluator, campaign.rulebook)
