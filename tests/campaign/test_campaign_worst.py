@@ -191,3 +191,21 @@ def test_the_report_opens_with_the_worst_case_and_draws_the_worst_runs(
     for path in record["paths"]:
         assert f"<td>{path['name']}</td>" in page
     assert (out / "risk_map_straight.png").is_file()
+
+
+def test_a_search_into_a_campaigns_folder_is_refused_and_leaves_its_results(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) in (0, 1)
+    capsys.readouterr()
+    results = campaign_dir / "out" / "results.h5"
+    before = results.stat().st_mtime_ns
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out",
+                         str(campaign_dir / "out"))
+    assert code == 2 and "error[C713]" in output and "holds a campaign's results" in output
+    assert results.stat().st_mtime_ns == before
+    assert not (campaign_dir / "out" / "results.previous.h5").exists()
+    # the default folder is inside the campaign's: it leaves the campaign's results alone
+    code, output = worst(campaign_dir, capsys, "--runs", "66")
+    assert code == 0, output
+    assert results.stat().st_mtime_ns == before
+    assert (campaign_dir / "out" / "worst" / "worst.json").is_file()

@@ -19,6 +19,7 @@ from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.load import Campaign
 from idefix_rules.campaign.runner import (
+    SEARCHED_RUNS,
     claimed_output,
     evaluation_revision,
     prepare_simulation,
@@ -95,6 +96,28 @@ def check_search(campaign: Campaign, settings: SearchSettings) -> QuantileSpace:
     return space
 
 
+def check_folder(campaign: Campaign) -> None:
+    """The search's folder must not hold a campaign's results: they would be set aside
+    (``results.previous.h5``) for the search's (C713)."""
+    import h5py
+
+    results = campaign.output / RESULTS_FILE
+    if not results.is_file() or not h5py.is_hdf5(results):
+        return
+    try:
+        with h5py.File(results, "r") as file:
+            mode = file.attrs.get("runs_mode")
+            ours = file.attrs.get("format") == "idefix-results"
+    except OSError:
+        return
+    if ours and str(mode) != SEARCHED_RUNS:
+        raise UserInputError(error(
+            "C713", f"{campaign.output} holds a campaign's results ({RESULTS_FILE}): a search "
+                    "there would set them aside", Span(str(results)),
+            hint=f"leave out --out (the search writes into {default_output(campaign)}) or "
+                 "give a folder of its own"))
+
+
 def _check_threshold(campaign: Campaign, evaluator: Any, settings: SearchSettings) -> None:
     weights = dict(getattr(evaluator.checked, "weights", {}) or {})
     highest = max(weights.values(), default=0.0)
@@ -114,6 +137,7 @@ def run_worst(campaign: Campaign, settings: SearchSettings,
     ``results.h5``, ``worst.json`` and the report there."""
     options = options or SimulationOptions()
     space = check_search(campaign, settings)
+    check_folder(campaign)
     with claimed_output(campaign) as lock:
         set_aside(campaign.output / RECORD_FILE)
         result = _run_owned(campaign, settings, space, options, progress, report)
