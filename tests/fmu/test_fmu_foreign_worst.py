@@ -81,7 +81,6 @@ Z_SLIP = float(stats.norm.ppf(0.75))  # slip 0.075
 Z_LEFT = 1.5  # y0 1.5 cm
 
 
-@pytest.mark.slow
 def test_the_reported_boundary_is_the_closed_form_one_within_a_64th_of_the_ray(
         tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "Unicycle.fmu").write_bytes(unicycle_fmu.read_bytes())
