@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import h5py
+
 from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.load import Campaign
@@ -99,8 +101,6 @@ def check_search(campaign: Campaign, settings: SearchSettings) -> QuantileSpace:
 def check_folder(campaign: Campaign) -> None:
     """The search's folder must not hold a campaign's results: they would be set aside
     (``results.previous.h5``) for the search's (C713)."""
-    import h5py
-
     results = campaign.output / RESULTS_FILE
     if not results.is_file() or not h5py.is_hdf5(results):
         return

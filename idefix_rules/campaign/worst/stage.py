@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import h5py
 import numpy as np
 
 from idefix_rules.campaign import sampling
@@ -165,14 +166,8 @@ def stored_record(store: ResultStore, record: Mapping[str, Any]) -> None:
     group = store.file.require_group("worst")
     if "record" in group:
         del group["record"]
-    group.create_dataset("record", data=json.dumps(record), dtype=h5py_string())
+    group.create_dataset("record", data=json.dumps(record), dtype=h5py.string_dtype("utf-8"))
     store.file.flush()
-
-
-def h5py_string() -> Any:
-    import h5py
-
-    return h5py.string_dtype("utf-8")
 
 
 def read_record(file: Any) -> dict[str, Any] | None:
