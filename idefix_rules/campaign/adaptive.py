@@ -34,13 +34,13 @@ from idefix_rules.campaign.simulate import (
     Progress,
     SimulationOptions,
     SimulationSummary,
-    _task,
     initial_position_sigma,
     monte_carlo_pool,
     nominal_parameters,
     parameter_info,
     path_stream,
     run_and_store,
+    run_task,
 )
 from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
@@ -161,7 +161,7 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                 continue
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
-            tasks.append(((name, run), _task(campaign, fmu, plan, parameters, encode=True)))
+            tasks.append(((name, run), run_task(campaign, fmu, plan, parameters, encode=True)))
     run_and_store(campaign, tasks, running, store, options, progress, summary, pool)
 
 

@@ -25,6 +25,7 @@ from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
+    CollisionFunction,
     collision_function,
     evaluate_store,
 )
@@ -62,6 +63,7 @@ SUMMARY_FILE = "summary.json"
 EVALUATION_BYTES_PER_RUN = 2048
 STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
 REPORT_FILE = "report.html"
+SEARCHED_RUNS = "worst"  # runs_mode of a worst-case search's results file
 
 
 @dataclass
@@ -184,12 +186,25 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         return result
 
 
-def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progress | None,
-               junit: Path | None, report: bool) -> CampaignResult:
-    started = time.perf_counter()
-    say = progress.message if progress is not None else (lambda text: None)
-    # How far a phase is, where the progress shows it (an ETA); optional in the protocol.
-    advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
+@dataclass
+class PreparedSimulation:
+    """What simulating a campaign needs once its inputs are checked: the compiled rulebook,
+    the FMU, the run-independent FMU parameters (the terrain file), the obstacle checker
+    (None when the rulebook reads no collision) and the warnings to say with the outcome."""
+
+    evaluator: Any
+    fmu_path: Path
+    fixed: dict[str, float | str]
+    collisions: CollisionFunction | None
+    warnings: list[str]
+
+
+def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
+                       again: str) -> PreparedSimulation:
+    """Compile the rulebook, check the waivers and the FMU's mapping, build the terrain (and
+    write it where the FMU reads it) and the obstacle checker; every mistake is a
+    :class:`UserInputError` before anything is simulated. ``again`` is the command that goes
+    on after a full disk was freed."""
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
     mistakes = waivers.waiver_problems(campaign, evaluator.rulebook)
@@ -206,14 +221,27 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
-    again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
-                           campaign.adaptive.min_runs if campaign.adaptive else None)
     if mapping.terrain_input:
         doing, then = "write the terrain file", f"free space, then run `{again}`"
         diskspace.require(campaign.output, terrain.heights.size * 8, doing, then)
         with diskspace.guard(campaign.output, doing, then):
             fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
+    return PreparedSimulation(evaluator, fmu_path, fixed, collisions, warnings)
+
+
+def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progress | None,
+               junit: Path | None, report: bool) -> CampaignResult:
+    started = time.perf_counter()
+    say = progress.message if progress is not None else (lambda text: None)
+    # How far a phase is, where the progress shows it (an ETA); optional in the protocol.
+    advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
+    again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
+                           campaign.adaptive.min_runs if campaign.adaptive else None)
+    prepared = prepare_simulation(campaign, say, again)
+    evaluator, fmu_path, fixed, collisions = (prepared.evaluator, prepared.fmu_path,
+                                              prepared.fixed, prepared.collisions)
+    warnings = prepared.warnings
     try:
         with diskspace.guard(campaign.output, "simulate the campaign",
                              f"free space, then continue with `{again}`"):
@@ -429,6 +457,12 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then)
     state = str(store.attrs.get("state", "complete"))
+    if str(store.attrs.get("runs_mode", "fixed")) == SEARCHED_RUNS:
+        result.warnings.append(
+            f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
+            "worlds the search chose, not draws of the campaign's distributions, so each "
+            "run's risk holds but a path's mean risk, chances and verdict are not the "
+            "campaign's (docs/worst-case.md)")
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
                            store.attrs.get("seed"),

@@ -86,6 +86,29 @@ def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
     return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
 
 
+def cumulative(spec: AnyDistribution, values: np.ndarray) -> np.ndarray:
+    """The quantile of each value: the inverse of :func:`inverse_cdf` (a fixed parameter is
+    always at its median, 0.5).
+
+    >>> round(float(cumulative(Uniform(distribution="uniform", low=0.0, high=4.0),
+    ...                        np.array(3.0))), 3)
+    0.75
+    """
+    values = np.asarray(values, dtype=float)
+    if isinstance(spec, Fixed):
+        return np.full(values.shape, 0.5)
+    if isinstance(spec, Normal):
+        return np.asarray(stats.norm.cdf(values, loc=spec.mean, scale=spec.std), dtype=float)
+    if isinstance(spec, TruncatedNormal):
+        low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
+        return np.asarray(stats.truncnorm.cdf(values, low, high, loc=spec.mean,
+                                              scale=spec.std), dtype=float)
+    if isinstance(spec, Uniform):
+        return np.asarray(np.clip((values - spec.low) / (spec.high - spec.low), 0.0, 1.0),
+                          dtype=float)
+    return np.asarray(stats.lognorm.cdf(values, spec.sigma, scale=spec.median), dtype=float)
+
+
 Stream = tuple[int, ...]
 PAIRED_STREAM: Stream = ()
 

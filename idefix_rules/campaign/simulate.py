@@ -101,6 +101,17 @@ class SimulationSummary:
     path_seconds: dict[str, float] = field(default_factory=dict)  # the same, per path
 
 
+class RunStage(Protocol):
+    """What simulates a campaign's runs once the reference runs are stored (the Monte Carlo
+    stage by default): it allocates and writes the runs of the ``simulated`` paths into
+    ``store``, with :func:`run_and_store`."""
+
+    def __call__(self, campaign: Campaign, evaluator: Any, rover: RoverGeometry,
+                 fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
+                 plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
+                 progress: Progress, summary: SimulationSummary, collisions: Any) -> None: ...
+
+
 def now_iso() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
@@ -175,10 +186,13 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
                       fmu_parameters: Mapping[str, float | str],
                       options: SimulationOptions | None = None,
                       progress: Progress | None = None,
-                      collisions: Any = None) -> SimulationSummary:
+                      collisions: Any = None,
+                      stage: RunStage | None = None) -> SimulationSummary:
     """Run every stage up to a complete ``results.h5``; returns what happened per path.
 
     ``fmu_parameters`` are the run-independent parameters (terrain file, regolith values).
+    ``stage`` replaces the Monte Carlo stage (fixed or adaptive) after the reference runs:
+    the worst-case search (:mod:`idefix_rules.campaign.worst`) chooses its runs itself.
     """
     options = options or SimulationOptions()
     progress = progress or SilentProgress()
@@ -200,7 +214,10 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         _command_rules(campaign, evaluator, rover, plans, store)
         _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
                         options, progress, collisions, summary)
-        if campaign.adaptive is not None:
+        if stage is not None:
+            stage(campaign, evaluator, rover, fmu, fmu_parameters, plans, store, options,
+                  progress, summary, collisions)
+        elif campaign.adaptive is not None:
             from idefix_rules.campaign.adaptive import adaptive_monte_carlo
 
             adaptive_monte_carlo(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
@@ -378,8 +395,10 @@ def _describe(item: Any) -> str:
     return str(item)
 
 
-def _task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
-          parameters: Mapping[str, float | str], encode: bool = False) -> RunTask:
+def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
+             parameters: Mapping[str, float | str], encode: bool = False) -> RunTask:
+    """The task simulating one run of ``plan``'s chain with ``parameters`` (SI, by the
+    campaign's names); ``encode``: the worker hands back the chunks the results file stores."""
     maps = campaign.model.fmu
     return RunTask(
         fmu_path=fmu.path,
@@ -410,7 +429,7 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
         return
     nominal = {**fmu_parameters, **nominal_parameters(campaign)}
     progress.message(f"reference runs of {len(todo)} path(s)")
-    tasks = [(plan.spec.name, _task(campaign, fmu, plan, nominal)) for plan in todo]
+    tasks = [(plan.spec.name, run_task(campaign, fmu, plan, nominal)) for plan in todo]
     by_name = {plan.spec.name: plan for plan in todo}
     pool = open_pool(simulate, options, campaign,
                      run_timeouts.reference_timeouts(by_name, options.run_timeout))
@@ -503,8 +522,8 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         for run in missing:
             parameters = dict(base)
             parameters.update({key: float(values[run]) for key, values in sampled.items()})
-            tasks.append(((name, int(run)), _task(campaign, fmu, plan, parameters,
-                                                  encode=True)))
+            tasks.append(((name, int(run)), run_task(campaign, fmu, plan, parameters,
+                                                     encode=True)))
     run_and_store(campaign, tasks, {plan.spec.name: plan for plan in plans}, store, options,
                   progress, summary)
 

@@ -495,6 +495,29 @@ class ResultStore:
                 dataset.resize(rows, axis=0)
         self._allocated[name] = rows
 
+    def set_parameters(self, name: str, start: int, values: Mapping[str, np.ndarray]) -> None:
+        """The parameter values of rows ``start …`` of a path's runs when they are chosen as
+        the path runs (a worst-case search), not planned up front: kept for the blocks of rows
+        still to allocate, and written in place into rows already allocated (their chunks
+        exist: raw data, like a run's status). Every key must be a parameter given to
+        :meth:`allocate_runs`."""
+        plans = self._plans[name]
+        count = 0
+        for key, array in values.items():
+            row_values = np.asarray(array, dtype=np.float64)
+            count = row_values.size
+            plans[key] = np.array(plans[key], dtype=np.float64)  # a copy this store may write
+            plans[key][start:start + count] = row_values
+        datasets, _, _ = self._run_handles(name)
+        group = self.path_group(name)["runs"]
+        allocated = next(iter(datasets.values())).shape[0] if datasets \
+            else int(group["status"].shape[0])
+        stop = min(start + count, allocated)
+        if stop > start:
+            for key in values:
+                group["parameters"][key][start:stop] = plans[key][start:stop]
+            self.file.flush()
+
     def has_runs(self, name: str) -> bool:
         group = self.path_group(name).get("runs")
         return group is not None and "status" in group

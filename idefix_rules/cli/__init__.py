@@ -27,6 +27,7 @@ from idefix_rules.errors import IdefixError
 # Module names under idefix_rules.cli, in the order --help lists them.
 COMMAND_MODULES: tuple[str, ...] = (
     "run",
+    "worst",
     "evaluate",
     "check",
     "fmt",

@@ -179,6 +179,7 @@ class PlainProgress:
         self.timer: threading.Timer | None = None
         self.paths: dict[str, _PathRuns] = {}
         self.runs_began: float | None = None
+        self.runs_label = "Monte Carlo runs"  # what the runs are, in the line that ends them
 
     def _say(self, text: str) -> None:
         self.console.print(text, markup=False, highlight=False, soft_wrap=True)
@@ -228,7 +229,7 @@ class PlainProgress:
             total = sum(p.done for p in self.paths.values())
             failed = sum(p.failed for p in self.paths.values())
             failures = f", {failed} failed" if failed else ""
-            self._say(f"Monte Carlo runs of {len(self.paths)} path(s): {total} runs{failures} "
+            self._say(f"{self.runs_label} of {len(self.paths)} path(s): {total} runs{failures} "
                       f"({self.clock() - self.runs_began:.1f} s)")
             self.runs_began = None
             self.paths = {}

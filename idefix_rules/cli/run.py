@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
-import re
 from pathlib import Path
 
 from rich.console import Console
@@ -13,9 +11,16 @@ from rich.markup import escape
 
 from idefix_rules.campaign.load import Campaign, load_campaign
 from idefix_rules.campaign.resume import interrupted_runs
-from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
+from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
+from idefix_rules.cli.numbers import (
+    positive_int,
+    run_count,
+    run_count_only,
+    seconds,
+    seed_number,
+)
 from idefix_rules.cli.outcome import index_titles, print_outcome
 from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress
@@ -32,22 +37,22 @@ HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo),
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (YAML)")
-    parser.add_argument("--runs", type=_run_count, metavar="N|auto",
+    parser.add_argument("--runs", type=run_count, metavar="N|auto",
                         help="Monte Carlo runs per path "
                         f"(overrides the campaign's `runs`; at most {MAX_RUNS}), or `auto`: "
                         "simulate in batches and stop each path once its verdict is decided "
                         "and its rank settled")
-    parser.add_argument("--max-runs", type=_run_count_only, metavar="N",
+    parser.add_argument("--max-runs", type=run_count_only, metavar="N",
                         help="with runs auto: the most runs per path (overrides `max_runs`)")
-    parser.add_argument("--min-runs", type=_run_count_only, metavar="N",
+    parser.add_argument("--min-runs", type=run_count_only, metavar="N",
                         help="with runs auto: runs before the first look (overrides "
                              "`min_runs`)")
     parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
-    parser.add_argument("--seed", type=_seed, help="campaign seed, 0 … 2^64 - 1 (overrides "
-                        "`uncertainty.seed`)")
-    parser.add_argument("--workers", type=_positive_int,
+    parser.add_argument("--seed", type=seed_number,
+                        help="campaign seed, 0 … 2^64 - 1 (overrides `uncertainty.seed`)")
+    parser.add_argument("--workers", type=positive_int,
                         help="worker processes (default: the campaign's, else all cores)")
-    parser.add_argument("--run-timeout", type=_timeout, metavar="SECONDS",
+    parser.add_argument("--run-timeout", type=seconds, metavar="SECONDS",
                         help="a run taking longer is killed and recorded as failed (default: "
                              "derived from the path's simulated duration and the measured "
                              "cost of its reference run, see docs/operations.md; 0: none)")
@@ -66,55 +71,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                          help="run on a Dask distributed cluster (scheduler address)")
     cluster.add_argument("--dask-local", action="store_true",
                          help="run on a local Dask cluster instead of the process pool")
-
-
-def _positive_int(text: str) -> int:
-    value = _integer(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}")
-    return value
-
-
-def _run_count(text: str) -> int | str:
-    if text.strip().lower() == "auto":
-        return "auto"
-    return _run_count_only(text)
-
-
-def _run_count_only(text: str) -> int:
-    value = _positive_int(text)
-    if value > MAX_RUNS:
-        raise argparse.ArgumentTypeError(f"at most {MAX_RUNS} runs per path, got {text}")
-    return value
-
-
-def _seed(text: str) -> int:
-    value = _integer(text)
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number from 0 to 2^64 - 1 "
-                                         f"({MAX_SEED}), got {text}")
-    return value
-
-
-def _integer(text: str) -> int:
-    # int() would also take '７', '1_000' and a thousand digits; a count or seed is [0-9]+
-    if not re.fullmatch(r"[ \t]*[-+]?[0-9]{1,40}[ \t]*", text):
-        digits = " written with the digits 0-9" if not text.isascii() else ""
-        raise argparse.ArgumentTypeError(f"expected a whole number{digits}, got {text!r}")
-    return int(text)
-
-
-def _timeout(text: str) -> float:
-    try:
-        if not text.isascii():  # float() would take '５'
-            raise ValueError(text)
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0 <= value < math.inf:  # also refuses nan and inf (no timeout: 0)
-        raise argparse.ArgumentTypeError(f"expected a number of seconds >= 0 (0: no timeout), "
-                                         f"got {text}")
-    return value
 
 
 def make_console() -> Console:

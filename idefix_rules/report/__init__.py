@@ -12,7 +12,7 @@ Stages: read the data (:mod:`.data`), evaluate per-sample risk and bin it (:mod:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from html import escape
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,8 @@ from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
+from idefix_rules.report.worst import NOTE as WORST_NOTE
+from idefix_rules.report.worst import read_worst, worst_html, worst_tracks
 
 REPORT_FILE = "report.html"
 
@@ -33,14 +35,15 @@ def _safe(name: str) -> str:
 
 
 def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path,
-                done: Callable[[float], None] = lambda share: None) -> list[html.Image]:
+                done: Callable[[float], None] = lambda share: None,
+                worst: Mapping[str, tuple[Any, Any]] | None = None) -> list[html.Image]:
     order = [path.name for path in data.paths]
     images = []
     what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
     if maps.combined.runs == 0:
         what = "no evaluated runs (reference runs only)"
     overlay = figures.MapOverlay(maps.reference_tracks, maps.ideal_tracks, maps.wheel_tracks,
-                                 maps.contacts, maps.wheel_bands)
+                                 maps.contacts, maps.wheel_bands, worst or {})
     combined = figures.risk_map_figure(
         maps.combined.values(), maps.grid, setup.environment, overlay, order,
         f"All paths: {what}", maps.cell_reason)
@@ -143,10 +146,12 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [path.name for path in data.paths]
+    searched = read_worst(Path(results_h5))  # a worst-case search's outcome, if it is one
+    tracks = worst_tracks(Path(results_h5), searched) if searched is not None else {}
     advance(PREPARE_SHARE, "result maps")
     map_images = _map_images(data, maps, setup, out_dir,
                              lambda share: advance(PREPARE_SHARE + MAPS_SHARE * share,
-                                                   "result maps"))
+                                                   "result maps"), tracks)
     advance(PREPARE_SHARE + MAPS_SHARE, "box plots, sensitivity, the page")
     box_images = _box_images(data, out_dir)
     dominance = None
@@ -165,6 +170,8 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
             "Per path, Spearman rank correlation of each sampled parameter with the run "
             "risk I_max and its 95 % interval; filled bars: the interval excludes 0."))
     notes = list(setup.notes)
+    if searched is not None:
+        notes.insert(0, WORST_NOTE)
     if not data.evaluated_paths:
         notes.append("no path has an evaluation: run `idefix-verify evaluate` first")
     map_text = (f"<p>Grid: {escape(maps.cell_reason)}. A cell crossed by one run shows "
@@ -182,7 +189,7 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     colours = {name: figures.path_colour(position) for position, name in enumerate(order)}
     payload = interactive.payload_json(interactive.payload(data, setup, maps, units))
     parts = [
-        sections.decision_html(data),
+        sections.decision_html(data) if searched is None else worst_html(searched, units),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
         html.slip_html(_slip_records(Path(results_h5))),

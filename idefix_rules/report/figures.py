@@ -92,6 +92,8 @@ class MapOverlay:
         default_factory=dict)
     contacts: Mapping[str, Sequence[Mapping[str, Any]]] = field(default_factory=dict)
     bands: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
+    # a worst-case search's worst run per path (docs/worst-case.md)
+    worst: Mapping[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironment,
@@ -128,6 +130,10 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
         if track is not None:
             axes.plot(track[0], track[1], color=colour, linewidth=2.2 if strong else 0.9,
                       alpha=alpha, label=name, zorder=6)
+        worst = overlay.worst.get(name)
+        if worst is not None and strong:
+            axes.plot(worst[0], worst[1], color=colour, linestyle=(0, (1, 1.5)), linewidth=2.0,
+                      zorder=6)
         points = overlay.contacts.get(name) or ()
         if points and strong:
             axes.scatter([p["x"] for p in points], [p["y"] for p in points], marker="x",
@@ -138,6 +144,9 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     axes.plot([], [], color=grey, linewidth=2.2, label="reference run (body centre)")
     axes.plot([], [], color=grey, linestyle=(0, (5, 3)), linewidth=1.5,
               label="ideal (commanded) path")
+    if overlay.worst:
+        axes.plot([], [], color=grey, linestyle=(0, (1, 1.5)), linewidth=2.0,
+                  label="worst world found (body centre)")
     if highlight is not None and overlay.wheels.get(highlight):
         axes.plot([], [], color=grey, linewidth=0.8, label="wheel tracks (reference run)")
     axes.add_patch(Polygon(np.zeros((3, 2)), facecolor=grey, alpha=0.25, edgecolor="none",

@@ -1,0 +1,131 @@
+"""The report of a worst-case search (``idefix-verify worst``): its section and the worst runs'
+tracks on the result map.
+
+A search's results file holds, besides its runs, the search's outcome (``/worst/record``, the
+JSON of ``worst.json``). The report then opens with a table per path of what the search found
+in place of the decision (a search chooses its worlds, so no verdict on them decides anything),
+and draws each path's worst run on the result maps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from html import escape
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.wording import DisplayUnits, parameter_text, percent
+from idefix_rules.campaign.worst.outcome import rarity, sigmas
+
+NOTE = ("This file holds a worst-case search (idefix-verify worst): its runs are the worlds "
+        "the search chose, not draws of the campaign's distributions. Each run's risk holds; "
+        "Table 1's mean risks, chances and verdicts below are over the searched worlds, not "
+        "the campaign's, and decide nothing.")
+
+
+def read_worst(results_h5: Any) -> dict[str, Any] | None:
+    """The search's outcome stored in a results file (None: a campaign's file)."""
+    from idefix_rules.campaign.worst.stage import read_record
+
+    store = ResultStore.open(results_h5)
+    try:
+        return read_record(store.file)
+    finally:
+        store.close()
+
+
+def worst_tracks(results_h5: Any, record: Mapping[str, Any]
+                 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per searched path, the body centre's track (x, y) of its worst run (none when the
+    worst world is the nominal one: the reference run is drawn already)."""
+    tracks = {}
+    store = ResultStore.open(results_h5)
+    try:
+        for path in record.get("paths", []):
+            row = (path.get("worst") or {}).get("run")
+            if row is None or not store.has_path(path["name"]) \
+                    or not store.has_runs(path["name"]):
+                continue
+            signals = store.read_runs(path["name"], np.array([int(row)]), ["x", "y"])
+            if "x" in signals and "y" in signals:
+                tracks[str(path["name"])] = (signals["x"][0], signals["y"][0])
+    finally:
+        store.close()
+    return tracks
+
+
+def _world(world: Mapping[str, Any], units: DisplayUnits,
+           stored_units: Mapping[str, str]) -> str:
+    return "; ".join(
+        f"{escape(name)} {escape(parameter_text(name, float(entry['value']), stored_units.get(name, ''), units))}"  # noqa: E501
+        f" <span class=\"muted\">(q {entry['quantile']:.4g})</span>"
+        for name, entry in world.get("parameters", {}).items())
+
+
+def _change(path: Mapping[str, Any]) -> str:
+    if path.get("nominal_critical"):
+        return "none: the nominal world is critical already"
+    change = path.get("smallest_change")
+    if change is None:
+        return ("no critical world found" if not path.get("critical")
+                else "not found along the rays searched")
+    return f"{sigmas(change['distance'])} ({escape(str(change['direction']))})"
+
+
+def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
+    """The section: per path the nominal and worst run risk, how rare the worst world is, the
+    smallest change to critical; then per path the worlds and the boundary along each ray."""
+    stored_units = {p["name"]: p.get("unit", "") for p in record.get("parameters", [])}
+    threshold = percent(float(record.get("threshold", 1.0)), 0)
+    rows = []
+    for path in record.get("paths", []):
+        if path.get("status") != "searched":
+            rows.append(f"<tr><td>{escape(path['name'])}</td><td colspan=\"5\">not searched: "
+                        f"{escape(path.get('status', ''))} {escape(path.get('reason', ''))}"
+                        "</td></tr>")
+            continue
+        worst = path["worst"]
+        rows.append(
+            f"<tr><td>{escape(path['name'])}</td>"
+            f"<td class=\"num\">{percent(path['nominal']['risk'])}</td>"
+            f"<td class=\"num\">{percent(worst['risk'])}</td>"
+            f"<td>{escape(str(worst.get('dominant_index') or '–'))}</td>"
+            f"<td>{escape(rarity(worst['tail_probability']))} "
+            f"({sigmas(worst['distance'])})</td>"
+            f"<td>{_change(path)}</td></tr>")
+    head = ("path", "nominal I_max", "worst I_max", "dominant", "as far out as",
+            "smallest change to critical")
+    parts = [
+        '<section id="worst"><h2>Worst case per path</h2>'
+        f"<p>{escape(str(record.get('method', '')))}; at most {record.get('runs')} runs per "
+        f"path, critical at I_max ≥ {threshold}. <i>As far out as</i>: the share of the "
+        "campaign's worlds at least as far from the median world (every parameter at its "
+        "median) as the worst one, in standard-normal quantile coordinates; σ: its distance "
+        "from the nominal world there (docs/worst-case.md).</p>",
+        '<div class="scroll"><table><thead><tr>'
+        + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr></thead><tbody>"
+        + "".join(rows) + "</tbody></table></div>"]
+    for path in record.get("paths", []):
+        if path.get("status") != "searched":
+            continue
+        worst = path["worst"]
+        where = "the nominal world" if worst.get("run") is None else f"run {worst['run']}"
+        items = [f"<li>worst: I_max {percent(worst['risk'])} in {where} (dotted on the result "
+                 f"maps): {_world(worst, units, stored_units)}</li>"]
+        for boundary in path.get("boundaries", []):
+            label = escape(str(boundary["direction"]))
+            if not boundary["found"]:
+                items.append(f"<li>boundary {label}: none up to "
+                             f"{sigmas(boundary['searched_to'])}</li>")
+                continue
+            low, high = boundary["bracket"]
+            critical = boundary.get("critical_world") or {}
+            items.append(f"<li>boundary {label}: between {sigmas(low)} and {sigmas(high)}, "
+                         f"critical at {_world(critical, units, stored_units)}</li>")
+        parts.append(f"<h3>{escape(path['name'])}</h3><p>{path['runs_used']} runs "
+                     f"({path['search_runs']} searching, {path['boundary_runs']} on the "
+                     f"boundary)</p><ul>{''.join(items)}</ul>")
+    parts.append("</section>")
+    return "".join(parts)

@@ -1,0 +1,211 @@
+"""``idefix-verify worst`` on the toy FMU: exit codes and messages, the same outcome for 1 and
+2 workers (and on Dask), and searched runs that evaluate and diff read like a campaign's."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import pytest
+from campaign_texts import RULEBOOK
+
+from idefix_rules.cli import main
+
+
+def worst(campaign_dir: Path, capsys: pytest.CaptureFixture[str], *extra: str
+          ) -> tuple[int, str]:
+    code = main(["worst", str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report",
+                 *extra])
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert "Traceback" not in output
+    return code, " ".join(output.split())
+
+
+def comparable(record: dict[str, Any]) -> dict[str, Any]:
+    """worst.json without what names the folder it was written to."""
+    return {key: value for key, value in record.items() if key not in ("results", "campaign")}
+
+
+def stored_runs(results: Path) -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    with h5py.File(results, "r") as file:
+        for name, group in file["paths"].items():
+            if "runs" not in group:
+                continue
+            found[name] = {
+                "status": group["runs/status"][()].tolist(),
+                "parameters": {key: np.nan_to_num(data[()], nan=-1.0).tolist()
+                               for key, data in group["runs/parameters"].items()},
+                "x": np.nan_to_num(group["runs/signals/x"][()], nan=-1.0).tolist(),
+                "i_max": np.nan_to_num(group["evaluation/i_max"][()], nan=-1.0).tolist()}
+    return found
+
+
+def test_the_outcome_is_the_same_for_one_and_two_workers(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    outcomes = []
+    for workers in ("1", "2"):
+        out = campaign_dir / f"out-{workers}"
+        code, output = worst(campaign_dir, capsys, "--runs", "70", "--workers", workers,
+                             "--out", str(out))
+        assert code == 0, output
+        record = json.loads((out / "worst.json").read_text())
+        outcomes.append((comparable(record), stored_runs(out / "results.h5")))
+    assert outcomes[0] == outcomes[1]
+    record, runs = outcomes[0]
+    searched = {path["name"]: path for path in record["paths"]}
+    # the too-fast chain breaks a command rule: not searched, and said so
+    assert searched["too-fast"]["status"] == "rejected"
+    for name in ("straight", "arc"):
+        path = searched[name]
+        # 70 runs: 30 kept for the boundary's three rays, 40 to search (24 + 12 + 4)
+        assert path["status"] == "searched" and path["search_runs"] == 40
+        assert path["runs_used"] <= 70
+        assert path["worst"]["risk"] >= path["nominal"]["risk"]
+        status = runs[name]["status"]
+        # rows the search did not use are marked not needed, as an adaptive campaign does
+        assert status[:path["runs_used"]] == [1] * path["runs_used"]
+        assert set(status[path["runs_used"]:]) <= {3}
+        # the stored parameters are the worlds searched: the worst one's included
+        row = path["worst"]["run"]
+        if row is not None:
+            for key, entry in path["worst"]["parameters"].items():
+                assert runs[name]["parameters"][key][row] == pytest.approx(entry["value"],
+                                                                           rel=1e-5)
+            assert runs[name]["i_max"][row] == pytest.approx(path["worst"]["risk"], abs=1e-4)
+
+
+def test_another_seed_searches_other_worlds(campaign_dir: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    first = worst(campaign_dir, capsys, "--runs", "66", "--out", str(campaign_dir / "a"))
+    second = worst(campaign_dir, capsys, "--runs", "66", "--seed", "6", "--out",
+                   str(campaign_dir / "b"))
+    assert first[0] == second[0] == 0
+    a = stored_runs(campaign_dir / "a" / "results.h5")["straight"]["parameters"]
+    b = stored_runs(campaign_dir / "b" / "results.h5")["straight"]["parameters"]
+    assert a["toy.slip"][:5] != b["toy.slip"][:5]
+
+
+def test_the_searched_runs_are_evaluated_again_and_diffed_like_a_campaign(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = campaign_dir / "search"
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
+    assert code == 0, output
+    results = out / "results.h5"
+    stricter = campaign_dir / "stricter.rules"
+    stricter.write_text(RULEBOOK.replace("limit  = critical_slip", "limit  = 20 %")
+                        .replace('version "0.1.0"', 'version "0.2.0"'))
+    code = main(["evaluate", str(results), "--rulebook", str(stricter)])
+    evaluated = capsys.readouterr()
+    assert code in (0, 1) and "Traceback" not in evaluated.out + evaluated.err
+    assert "holds a worst-case search" in " ".join((evaluated.out + evaluated.err).split())
+    code = main(["diff", str(campaign_dir / "test.rules"), str(stricter), "--results",
+                 str(results)])
+    diffed = capsys.readouterr()
+    assert code in (0, 1) and "Traceback" not in diffed.out + diffed.err
+    assert "I_s" in diffed.out
+
+
+def test_nothing_uncertain_is_exit_2_at_the_uncertainty_section(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = (campaign_dir / "campaign.yaml").read_text()
+    start = text.index("  parameters:\n")
+    end = text.index("paths:")
+    fixed = text[:start] + "  parameters:\n    toy.slip: {distribution: fixed, value: 0.1}\n" \
+        + text[end:]
+    (campaign_dir / "campaign.yaml").write_text(fixed)
+    code, output = worst(campaign_dir, capsys)
+    assert code == 2
+    assert "campaign.yaml:" in output and "error[C710]" in output
+    assert "no parameter that varies" in output
+    assert not (campaign_dir / "out").exists()
+
+
+def test_a_budget_too_small_says_how_many_runs_it_needs(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, output = worst(campaign_dir, capsys, "--runs", "40")
+    assert code == 2 and "error[C711]" in output
+    assert "at least 66 runs per path" in output and "--runs 66" in output
+
+
+def test_a_critical_level_above_every_weight_is_exit_2(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rules = campaign_dir / "test.rules"
+    rules.write_text(rules.read_text().replace("weight = 1", "weight = 0.8"))
+    code, output = worst(campaign_dir, capsys, "--runs", "66")
+    assert code == 2 and "error[C712]" in output and "--critical 0.8" in output
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--critical", "80 %")
+    assert code == 0, output
+
+
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--critical", "0", "a run risk lies in (0, 1]"),
+    ("--critical", "150 %", "a run risk lies in (0, 1]"),
+    ("--critical", "high", "expected a run risk such as 1, 0.9 or 90 %"),
+    ("--tail", "0.7", "a tail probability lies in (0, 0.5)"),
+    ("--runs", "0", "expected a positive whole number"),
+    ("--axes", "-1", "expected a whole number >= 0"),
+    ("--seed", "-3", "a seed is a whole number from 0 to 2^64 - 1"),
+])
+def test_usage_mistakes_are_exit_2_with_what_was_expected(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str], option: str, value: str,
+        message: str) -> None:
+    code, output = worst(campaign_dir, capsys, option, value)
+    assert code == 2 and message in output
+
+
+def test_a_missing_campaign_is_exit_2(tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["worst", str(tmp_path / "nowhere.yaml"), "--quiet"])
+    output = " ".join((capsys.readouterr().err).split())
+    assert code == 2 and "error[C010]" in output and "Traceback" not in output
+
+
+@pytest.mark.slow
+def test_dask_searches_the_same_worlds_as_the_local_pool(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    local = worst(campaign_dir, capsys, "--runs", "66", "--out", str(campaign_dir / "local"))
+    dask = worst(campaign_dir, capsys, "--runs", "66", "--out", str(campaign_dir / "dask"),
+                 "--dask-local", "--workers", "2")
+    assert local[0] == dask[0] == 0, dask[1]
+    records = [json.loads((campaign_dir / name / "worst.json").read_text())
+               for name in ("local", "dask")]
+    assert comparable(records[0]) == comparable(records[1])
+
+
+def test_the_report_opens_with_the_worst_case_and_draws_the_worst_runs(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = campaign_dir / "reported"
+    code = main(["worst", str(campaign_dir / "campaign.yaml"), "--quiet", "--runs", "66",
+                 "--out", str(out)])
+    output = capsys.readouterr().out
+    assert code == 0 and f"report: {out / 'report.html'}" in " ".join(output.split())
+    page = (out / "report.html").read_text()
+    assert 'id="worst"' in page and 'id="decision"' not in page
+    assert "holds a worst-case search" in page
+    record = json.loads((out / "worst.json").read_text())
+    for path in record["paths"]:
+        assert f"<td>{path['name']}</td>" in page
+    assert (out / "risk_map_straight.png").is_file()
+
+
+def test_a_search_into_a_campaigns_folder_is_refused_and_leaves_its_results(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) in (0, 1)
+    capsys.readouterr()
+    results = campaign_dir / "out" / "results.h5"
+    before = results.stat().st_mtime_ns
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out",
+                         str(campaign_dir / "out"))
+    assert code == 2 and "error[C713]" in output and "holds a campaign's results" in output
+    assert results.stat().st_mtime_ns == before
+    assert not (campaign_dir / "out" / "results.previous.h5").exists()
+    # the default folder is inside the campaign's: it leaves the campaign's results alone
+    code, output = worst(campaign_dir, capsys, "--runs", "66")
+    assert code == 0, output
+    assert results.stat().st_mtime_ns == before
+    assert (campaign_dir / "out" / "worst" / "worst.json").is_file()
