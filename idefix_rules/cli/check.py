@@ -15,9 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import Diagnostic, Severity, UserInputError, render_diagnostics
-from idefix_rules.rulebook import check_text, read_source
 
 NAME = "check"
 HELP = ("Check rulebooks: syntax, names, units and dimensions, weights, required sections. "
@@ -58,6 +56,8 @@ class FileReport:
 
 def check_file(path: str | Path, strict: bool = False) -> FileReport:
     """Read, parse and check one rulebook; never raises for a user mistake."""
+    from idefix_rules.rulebook import read_source
+
     name = str(path)
     try:
         source = read_source(path)
@@ -68,6 +68,8 @@ def check_file(path: str | Path, strict: bool = False) -> FileReport:
 
 def check_source(source: str, name: str, strict: bool = False) -> FileReport:
     """Parse and check rulebook text read from ``name`` (an open editor buffer, a file)."""
+    from idefix_rules.rulebook import check_text
+
     try:
         result = check_text(source, name, strict=strict)
     except UserInputError as failure:
@@ -98,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
         records = [d.to_dict() for report in reports for d in report.diagnostics]
         print(json.dumps(records, indent=2, ensure_ascii=False))
         return 2 if failed else 0
+    from idefix_rules.cli.console import StdoutConsole
+
     console = StdoutConsole(highlight=False, soft_wrap=True)
     for report in reports:
         style = "red" if report.errors else "yellow" if report.warnings else "green"

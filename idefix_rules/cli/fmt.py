@@ -14,11 +14,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
-from idefix_rules.rulebook import read_source
-from idefix_rules.rulebook.format import format_rulebook
-from idefix_rules.rulebook.parser import parse_rulebook
 
 NAME = "fmt"
 HELP = ("Format rulebooks in place (canonical order and layout, comments kept). With --check, "
@@ -38,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def formatted_text(source: str, path: str) -> str:
     """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors."""
+    from idefix_rules.rulebook.format import format_rulebook
+    from idefix_rules.rulebook.parser import parse_rulebook
+
     rulebook = parse_rulebook(source, path)
     text = format_rulebook(rulebook)
     if parse_rulebook(text, path) != rulebook:  # never write a file that means something else
@@ -65,6 +64,9 @@ def replace_text(path: Path, text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.rulebook import read_source
+
     console = StdoutConsole(highlight=False, soft_wrap=True)
     invalid: list[UserInputError] = []
     changed = []

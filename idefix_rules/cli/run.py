@@ -4,25 +4,20 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rich.console import Console
-from rich.markup import escape
-
-from idefix_rules.campaign.load import Campaign, load_campaign
-from idefix_rules.campaign.resume import interrupted_runs
-from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
-from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
-from idefix_rules.cli.outcome import index_titles, print_outcome
-from idefix_rules.cli.pipes import StdoutConsole
-from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress
 from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.files import previous_path
+from idefix_rules.limits import MAX_RUNS, MAX_SEED
 
-__all__ = ["PlainProgress", "RichProgress", "make_console", "print_outcome", "stored_titles"]
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from idefix_rules.campaign.load import Campaign
+    from idefix_rules.campaign.simulate import SimulationOptions
+    from idefix_rules.cli.progress import PlainProgress, RichProgress
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -117,18 +112,10 @@ def _timeout(text: str) -> float:
     return value
 
 
-def make_console() -> Console:
-    """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
-    columns wide (CI logs), a terminal as wide as it is."""
-    console = StdoutConsole(highlight=False)
-    if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
-        console = StdoutConsole(highlight=False, width=150)
-    return console
-
-
 def stored_titles(results: Path) -> dict[str, str]:
     """Index titles of the rulebook stored in a results file (empty when unreadable)."""
     from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.cli.outcome import index_titles
     from idefix_rules.rulebook import check_text
 
     try:
@@ -144,7 +131,15 @@ def stored_titles(results: Path) -> dict[str, str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.markup import escape
+
+    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.resume import interrupted_runs
     from idefix_rules.campaign.runner import claimed_output
+    from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
+    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.progress import make_progress
+    from idefix_rules.files import previous_path
 
     console = make_console()
     campaign = load_campaign(args.campaign)
@@ -199,7 +194,10 @@ def _again(args: argparse.Namespace) -> str:
 
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
                progress: RichProgress | PlainProgress, console: Console) -> int:
+    from rich.markup import escape
+
     from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.cli.outcome import print_outcome
 
     try:
         result = run_campaign(campaign, options, progress, junit=args.junit,
