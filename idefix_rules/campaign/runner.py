@@ -22,7 +22,7 @@ import numpy as np
 
 from idefix_rules.campaign import diskspace, outputs, waivers
 from idefix_rules.campaign.dask_pool import ClusterError
-from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
+from idefix_rules.campaign.environment import build_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
     collision_function,
@@ -47,6 +47,12 @@ from idefix_rules.campaign.simulate import (
 )
 from idefix_rules.campaign.slip import slip_warning
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.stored_terrain import (
+    StoredTerrain,
+    TerrainSource,
+    terrain_for_rescoring,
+    terrain_for_resume,
+)
 from idefix_rules.campaign.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
@@ -55,6 +61,7 @@ from idefix_rules.campaign.validate import (
 from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
+from idefix_rules.fmu.terrain import Terrain
 
 SUMMARY_FILE = "summary.json"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
@@ -206,6 +213,10 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
+    source = TerrainSource.of(campaign.dem)
+    if options.resume:  # the runs still missing are simulated on the terrain stored so far
+        terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)
+        warnings += notes
     again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
                            campaign.adaptive.min_runs if campaign.adaptive else None)
     if mapping.terrain_input:
@@ -218,7 +229,7 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
         with diskspace.guard(campaign.output, "simulate the campaign",
                              f"free space, then continue with `{again}`"):
             simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options,
-                                           progress, collisions)
+                                           progress, collisions, (terrain, source))
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
@@ -270,6 +281,23 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                       "writing": simulation.write_seconds,
                       "simulated_runs": float(simulation.simulated_runs)}
     return result
+
+
+def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource
+                     ) -> tuple[Terrain, list[str]]:
+    """The terrain a ``--resume`` of ``results`` simulates on (the stored one) and what to say
+    about it (:func:`~idefix_rules.campaign.stored_terrain.terrain_for_resume`)."""
+    if not results.is_file():
+        return terrain, []
+    roll_back(results)  # a change of its structure a kill cut off (journal.py)
+    try:
+        store = ResultStore.open(results)
+    except UserInputError:  # not a results file: resuming it says so, with what to do
+        return terrain, []
+    try:
+        return terrain_for_resume(store.file, terrain, source, results)
+    finally:
+        store.close()
 
 
 def _warn_lost_runs(result: CampaignResult, again: str) -> None:
@@ -410,8 +438,10 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         rulebook_path = rulebook
         evaluator = compile_rulebook_file(rulebook)
     _check_stored_signals(store, evaluator, results)
-    collisions = collision_function(model.environment, evaluator,
-                                    read_terrain(results.parent))
+    # the terrain matters to the scores only through the collision and area checks
+    ground = terrain_for_rescoring(store.file, results) \
+        if getattr(evaluator, "needs_collisions", False) else StoredTerrain(None)
+    collisions = collision_function(model.environment, evaluator, ground.terrain)
     clock = PathClock()
     then = f"{results} is unchanged; free space, then evaluate again"
     with evaluation_revision(store, then) as revision:
@@ -429,6 +459,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                            store.attrs.get("seed"),
                            store.attrs.get("min_runs") if adaptive else None)
     _warn_lost_runs(result, again)
+    result.warnings.extend(ground.warnings)
     if state != "complete":  # its missing runs count as failed: say why
         result.warnings.append(
             f"{results} holds a campaign that is {state}: runs never simulated count as "

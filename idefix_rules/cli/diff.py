@@ -229,12 +229,15 @@ def _path_block(path: PathDiff) -> list[str]:
 
 
 def print_results(console: Console, file: ResultsFileDiff) -> None:
+    from rich.markup import escape
     from rich.table import Table
 
     from idefix_rules.cli.outcome import fits
 
     console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
                   f"collisions {file.collisions})")
+    for warning in file.warnings:
+        console.print(f"[bold yellow]warning:[/bold yellow] {escape(warning)}")
     table = Table(show_lines=True)
     table.add_column("path", no_wrap=True)
     table.add_column("verdict", overflow="fold")
