@@ -15,6 +15,7 @@ import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
 from idefix_rules.campaign import stored_terrain
+from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.stored_terrain import (
     TerrainSource,
     read_terrain,
@@ -26,6 +27,7 @@ from idefix_rules.campaign.stored_terrain import (
 from idefix_rules.cli import main
 from idefix_rules.fmu.terrain import Rock, Terrain, synthetic_terrain
 from idefix_rules.fmu.terrain import write_terrain as write_terrain_file
+from idefix_rules.report.prepare import setup_from_store
 
 SYNTHETIC = TerrainSource("synthetic")
 ROCKY = synthetic_terrain(size=2.0, cell=0.05, slope=0.1, roughness=0.003, seed=4,
@@ -226,6 +228,16 @@ def test_a_results_file_copied_alone_rescores_as_the_campaign_did(
     changed = evaluation_of(older)
     assert any(not np.array_equal(np.asarray(changed[key]), np.asarray(values))
                for key, values in original.items() if key.endswith("collisions/details"))
+
+    # The report's maps stand on the same terrain, and say the same when it is missing.
+    for results, notes in ((alone, 0), (older, 1)):
+        store = ResultStore.open(results)
+        try:
+            setup = setup_from_store(store)
+        finally:
+            store.close()
+        assert setup.collisions is not None
+        assert sum("holds no terrain" in note for note in setup.notes) == notes
 
 
 @pytest.mark.slow
