@@ -64,27 +64,45 @@ class CommandKinematics:
 
 
 def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinematics:
-    """Duration, speeds and wheel rates of a command executed without slip."""
+    """Duration, speeds and wheel rates of a command executed without slip.
+
+    Only a command with no rate or no motion at all is empty (no time, no wheel turning). Any
+    other command moves its fastest wheel at ``max_wheel_rate``, however small its motion: a
+    turn by a vanishing angle (even the smallest subnormal) is a point turn like any other,
+    at the same wheel and yaw rates, that lasts a vanishing time.
+
+    >>> k = command_kinematics(Command(0.05, 0.0, 5e-324), RoverGeometry())
+    >>> k.wheel_rates == command_kinematics(Command(0.05, 0.0, 1.0), RoverGeometry()).wheel_rates
+    True
+    >>> k.duration > 0.0
+    True
+    """
     rate = abs(command.max_wheel_rate)
     dp, dh = command.delta_position, command.delta_heading
     b, r = rover.half_track, rover.wheel_radius
     if rate == 0.0 or (dp == 0.0 and dh == 0.0):
         return CommandKinematics(math.inf, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
+    # The rates depend only on the command's shape (dp : dh), its size only sets the duration.
+    # So the kinematics are worked out on the command scaled by a power of two (exact) that
+    # brings its larger component to [0.5, 1): b·Δψ of a subnormal turn no longer underflows to
+    # 0, and every result of a command of ordinary size is the same to the last bit.
+    exponent = math.frexp(max(abs(dp), abs(dh)))[1]
+    dp_scaled, dh_scaled = math.ldexp(dp, -exponent), math.ldexp(dh, -exponent)
     # Path length of each side: centre arc length ± b·|Δψ| (left side is inside for a left turn).
-    left_path = dp - b * dh
-    right_path = dp + b * dh
+    left_path = dp_scaled - b * dh_scaled
+    right_path = dp_scaled + b * dh_scaled
     fastest = max(abs(left_path), abs(right_path))
-    if fastest == 0.0:  # a motion too small to represent (b·Δψ underflows): no command at all
+    if fastest == 0.0:  # a rover without track turning on the spot: no wheel moves
         return CommandKinematics(math.inf, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
-    duration = fastest / (rate * r)
-    left_rate = left_path / duration / r
-    right_rate = right_path / duration / r
+    scaled_duration = fastest / (rate * r)
+    left_rate = left_path / scaled_duration / r
+    right_rate = right_path / scaled_duration / r
     turn_radius = math.inf if dh == 0.0 else dp / dh
     return CommandKinematics(
         turn_radius=turn_radius,
-        duration=duration,
-        speed=dp / duration,
-        yaw_rate=dh / duration,
+        duration=math.ldexp(scaled_duration, exponent),
+        speed=dp_scaled / scaled_duration,
+        yaw_rate=dh_scaled / scaled_duration,
         wheel_rates=(left_rate, right_rate, left_rate, right_rate),
     )
 
@@ -129,7 +147,9 @@ def ideal_poses(chain: list[Command] | tuple[Command, ...], rover: RoverGeometry
         if k.duration <= 0.0:
             continue
         t1 = t0 + k.duration
-        frac = np.clip((times - t0) / k.duration, 0.0, 1.0)
+        # a command lasting a subnormal time overflows the fraction to ±inf: before or done
+        with np.errstate(over="ignore"):
+            frac = np.clip((times - t0) / k.duration, 0.0, 1.0)
         active = times >= t0
         dp = command.delta_position * scale * frac
         dh = command.delta_heading * scale * frac

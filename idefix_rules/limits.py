@@ -1,5 +1,7 @@
 """How large an input file may be: larger ones are refused at once (exit 2), before any of it
-is read, so a damaged or generated file cannot exhaust memory or time.
+is read, so a damaged or generated file cannot exhaust memory or time. Also the most runs a path
+may have and the largest seed (the campaign schema and the command line both check them, and
+the command line's help names them without importing the schema).
 
 The limits are far above what the files are for (the operations rulebook is 7 kB, a campaign
 3 kB) and below what parses in a few seconds; what is accepted is parsed in time linear in its
@@ -20,6 +22,12 @@ MAX_CAMPAIGN_BYTES = 256 * 1024
 MAX_TERRAIN_HEADER_BYTES = 1024 * 1024
 MAX_NPY_DEM_BYTES = 16_000_000 * 8 + 64 * 1024
 MAX_CSV_DEM_BYTES = 64 * 1024 * 1024
+
+# Monte Carlo runs per path: the paper's campaigns use hundreds; a million already means
+# results files of terabytes, so more is refused rather than attempted.
+MAX_RUNS = 1_000_000
+# Seeds are stored as 64-bit unsigned integers (results.h5, docs/results-format.md).
+MAX_SEED = 2**64 - 1
 
 RULEBOOK_TOO_LARGE = "E900"
 RULEBOOK_LINE_TOO_LONG = "E901"

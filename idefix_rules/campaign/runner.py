@@ -22,7 +22,7 @@ import numpy as np
 
 from idefix_rules.campaign import diskspace, outputs, waivers
 from idefix_rules.campaign.dask_pool import ClusterError
-from idefix_rules.campaign.environment import build_terrain, read_terrain, write_terrain
+from idefix_rules.campaign.environment import build_terrain, write_terrain
 from idefix_rules.campaign.evaluation import (
     CampaignEvaluation,
     CollisionFunction,
@@ -48,6 +48,12 @@ from idefix_rules.campaign.simulate import (
 )
 from idefix_rules.campaign.slip import slip_warning
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.stored_terrain import (
+    StoredTerrain,
+    TerrainSource,
+    terrain_for_rescoring,
+    terrain_for_resume,
+)
 from idefix_rules.campaign.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
@@ -56,6 +62,7 @@ from idefix_rules.campaign.validate import (
 from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
+from idefix_rules.fmu.terrain import Terrain
 
 SUMMARY_FILE = "summary.json"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
@@ -197,14 +204,17 @@ class PreparedSimulation:
     fixed: dict[str, float | str]
     collisions: CollisionFunction | None
     warnings: list[str]
+    terrain: Terrain  # what the runs are simulated on, stored in the results file
+    source: TerrainSource  # where it came from
 
 
 def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
-                       again: str) -> PreparedSimulation:
+                       again: str, resume: bool = False) -> PreparedSimulation:
     """Compile the rulebook, check the waivers and the FMU's mapping, build the terrain (and
     write it where the FMU reads it) and the obstacle checker; every mistake is a
     :class:`UserInputError` before anything is simulated. ``again`` is the command that goes
-    on after a full disk was freed."""
+    on after a full disk was freed; ``resume``: the terrain stored in the results file so far
+    is the one the missing runs are simulated on."""
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
     mistakes = waivers.waiver_problems(campaign, evaluator.rulebook)
@@ -221,13 +231,18 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
+    source = TerrainSource.of(campaign.dem)
+    if resume:  # the runs still missing are simulated on the terrain stored so far
+        terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)
+        warnings += notes
     if mapping.terrain_input:
         doing, then = "write the terrain file", f"free space, then run `{again}`"
         diskspace.require(campaign.output, terrain.heights.size * 8, doing, then)
         with diskspace.guard(campaign.output, doing, then):
             fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
     collisions = collision_function(campaign.model.environment, evaluator, terrain)
-    return PreparedSimulation(evaluator, fmu_path, fixed, collisions, warnings)
+    return PreparedSimulation(evaluator, fmu_path, fixed, collisions, warnings, terrain,
+                              source)
 
 
 def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progress | None,
@@ -238,15 +253,16 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
     again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
                            campaign.adaptive.min_runs if campaign.adaptive else None)
-    prepared = prepare_simulation(campaign, say, again)
+    prepared = prepare_simulation(campaign, say, again, options.resume)
     evaluator, fmu_path, fixed, collisions = (prepared.evaluator, prepared.fmu_path,
                                               prepared.fixed, prepared.collisions)
+    terrain, source = prepared.terrain, prepared.source
     warnings = prepared.warnings
     try:
         with diskspace.guard(campaign.output, "simulate the campaign",
                              f"free space, then continue with `{again}`"):
             simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options,
-                                           progress, collisions)
+                                           progress, collisions, (terrain, source))
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
@@ -298,6 +314,23 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                       "writing": simulation.write_seconds,
                       "simulated_runs": float(simulation.simulated_runs)}
     return result
+
+
+def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource
+                     ) -> tuple[Terrain, list[str]]:
+    """The terrain a ``--resume`` of ``results`` simulates on (the stored one) and what to say
+    about it (:func:`~idefix_rules.campaign.stored_terrain.terrain_for_resume`)."""
+    if not results.is_file():
+        return terrain, []
+    roll_back(results)  # a change of its structure a kill cut off (journal.py)
+    try:
+        store = ResultStore.open(results)
+    except UserInputError:  # not a results file: resuming it says so, with what to do
+        return terrain, []
+    try:
+        return terrain_for_resume(store.file, terrain, source, results)
+    finally:
+        store.close()
 
 
 def _warn_lost_runs(result: CampaignResult, again: str) -> None:
@@ -443,8 +476,10 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     if mistakes:
         raise UserInputError(mistakes, sources={str(stub.source): stub.text})
     _check_stored_signals(store, evaluator, results)
-    collisions = collision_function(model.environment, evaluator,
-                                    read_terrain(results.parent))
+    # the terrain matters to the scores only through the collision and area checks
+    ground = terrain_for_rescoring(store.file, results) \
+        if getattr(evaluator, "needs_collisions", False) else StoredTerrain(None)
+    collisions = collision_function(model.environment, evaluator, ground.terrain)
     clock = PathClock()
     then = f"{results} is unchanged; free space, then evaluate again"
     with evaluation_revision(store, then) as revision:
@@ -468,6 +503,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                            store.attrs.get("seed"),
                            store.attrs.get("min_runs") if adaptive else None)
     _warn_lost_runs(result, again)
+    result.warnings.extend(ground.warnings)
     if state != "complete":  # its missing runs count as failed: say why
         result.warnings.append(
             f"{results} holds a campaign that is {state}: runs never simulated count as "

@@ -28,12 +28,11 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from idefix_rules import units
+from idefix_rules.limits import MAX_RUNS, MAX_SEED
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
 LEVELS = ("L1", "L2", "L3")
 
-# Seeds are stored as 64-bit unsigned integers (results.h5, docs/results-format.md).
-MAX_SEED = 2**64 - 1
 
 
 def _seed_range(value: int) -> int:
@@ -433,9 +432,6 @@ def _path_name(value: Any) -> Any:
 
 PathName = Annotated[str, BeforeValidator(_path_name)]
 
-# Monte Carlo runs per path: the paper's campaigns use hundreds; a million already means
-# results files of terabytes, so more is refused rather than attempted.
-MAX_RUNS = 1_000_000
 RunCount = Annotated[StrictInt, Field(ge=1, le=MAX_RUNS)]
 
 def _runs(value: Any) -> Any:

@@ -22,7 +22,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from idefix_rules import __version__
-from idefix_rules.campaign import diskspace, sampling, waivers
+from idefix_rules.campaign import diskspace, sampling, stored_terrain, waivers
 from idefix_rules.campaign import resume as resuming
 from idefix_rules.campaign import timeouts as run_timeouts
 from idefix_rules.campaign.load import Campaign, PathSpec
@@ -33,10 +33,12 @@ from idefix_rules.campaign.store import (
     ResultStore,
     run_bytes,
 )
+from idefix_rules.campaign.stored_terrain import TerrainSource
 from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.fmu.terrain import Terrain
 
 RESULTS_FILE = "results.h5"
 
@@ -187,10 +189,14 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
                       options: SimulationOptions | None = None,
                       progress: Progress | None = None,
                       collisions: Any = None,
+                      terrain: tuple[Terrain, TerrainSource] | None = None,
                       stage: RunStage | None = None) -> SimulationSummary:
     """Run every stage up to a complete ``results.h5``; returns what happened per path.
 
     ``fmu_parameters`` are the run-independent parameters (terrain file, regolith values).
+    ``terrain`` is the terrain the runs are simulated on and where it came from: stored in
+    the results file when it is created (or resumed without one), so that the file alone
+    re-scores as the campaign did (:mod:`idefix_rules.campaign.stored_terrain`).
     ``stage`` replaces the Monte Carlo stage (fixed or adaptive) after the reference runs:
     the worst-case search (:mod:`idefix_rules.campaign.worst`) chooses its runs itself.
     """
@@ -202,7 +208,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     warning = _sampling_warning(campaign)
     if warning:
         summary.warnings.append(warning)  # said once, with the outcome
-    store = _open_store(campaign, evaluator, fmu_path, results, options.resume)
+    store = _open_store(campaign, evaluator, fmu_path, results, options.resume, terrain)
     was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()
     try:
@@ -291,7 +297,7 @@ def _unzip_once(fmu_path: Path, options: SimulationOptions,
 
 
 def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
-                resume: bool) -> ResultStore:
+                resume: bool, terrain: tuple[Terrain, TerrainSource] | None) -> ResultStore:
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
         diskspace.require(results.parent, 0, f"continue {results.name}")
@@ -314,9 +320,18 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
                          "--seed and FMU, or choose another --out"))
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))
         store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
-        store.attrs["format_version"] = FORMAT_VERSION  # paths allocated now grow by blocks
+        if terrain is not None and not stored_terrain.has_terrain(store.file):
+            # written before results held their terrain: the one the runs now see is stored
+            with store.structural_change(stored_terrain.stored_bytes(terrain[0]),
+                                         f"store the terrain in {results.name}", 0):
+                stored_terrain.write_terrain(store.file, *terrain)
+        # paths allocated now grow by blocks; the terrain is stored
+        store.attrs["format_version"] = FORMAT_VERSION
         return store
     rulebook_text = campaign.rulebook.read_text(encoding="utf-8")
+    if terrain is not None:  # checked before the file is made (or the last one set aside)
+        diskspace.require(results.parent, stored_terrain.stored_bytes(terrain[0]),
+                          f"store the terrain in {results.name}")
     store = ResultStore.create(results, {
         "campaign_name": campaign.name,
         "campaign_path": str(campaign.source),
@@ -333,12 +348,19 @@ def _open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Pat
         "state": "running",
         "output_interval": campaign.model.simulation.output_interval,
     }, {"campaign": campaign.text, "rulebook": rulebook_text})
-    text = store.file["provenance"]["rulebook"]
-    text.attrs["name"] = evaluator.name
-    text.attrs["version"] = evaluator.version
-    text.attrs["sha256"] = evaluator.source_hash
-    text.attrs["path"] = str(campaign.rulebook)
-    store.file.flush()
+    try:
+        text = store.file["provenance"]["rulebook"]
+        text.attrs["name"] = evaluator.name
+        text.attrs["version"] = evaluator.version
+        text.attrs["sha256"] = evaluator.source_hash
+        text.attrs["path"] = str(campaign.rulebook)
+        if terrain is not None:
+            stored_terrain.write_terrain(store.file, *terrain)
+        store.file.flush()
+    except BaseException:
+        with contextlib.suppress(Exception):  # the error on its way says what went wrong
+            store.close()
+        raise
     return store
 
 

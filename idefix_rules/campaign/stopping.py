@@ -29,13 +29,13 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.schema import MAX_RUNS
 from idefix_rules.campaign.sequential import (
     asymptotic_half_width,
     asymptotic_interval,
     betting_interval,
     threshold_rejected,
 )
+from idefix_rules.limits import MAX_RUNS
 
 STOP_FIXED = "fixed run count"
 

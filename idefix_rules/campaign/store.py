@@ -40,10 +40,11 @@ from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.signals import lookup
 
 FORMAT = "idefix-results"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 # Files a --resume continues: format 2 allocated every run at the start, which format 3 reads
-# as one block holding every row.
-RESUMABLE_FORMAT_VERSIONS = (2, 3)
+# as one block holding every row; formats 2 and 3 hold no terrain, which a resume stores
+# (format 4: idefix_rules.campaign.stored_terrain).
+RESUMABLE_FORMAT_VERSIONS = (2, 3, 4)
 
 STATUS_MISSING = 0
 STATUS_COMPLETE = 1
@@ -237,6 +238,13 @@ class ResultStore:
         # No HDF5 file lock: worker processes forked while the file was open share the one
         # taken then (the output folder's lock keeps other campaigns out).
         self.file = h5py.File(self.path, "r+", locking=False)
+
+    def structural_change(self, needed: int, doing: str, datasets: int
+                          ) -> contextlib.AbstractContextManager[None]:
+        """A change of the file's structure other than the runs' (``needed`` bytes, changing
+        ``datasets`` existing datasets), made all or nothing through the undo journal as a
+        block allocation is; ``self.file`` is open to write inside the ``with`` block."""
+        return self._structural(needed, doing, datasets)
 
     def _run_handles(self, name: str) -> tuple[dict[str, h5py.Dataset], h5py.Dataset,
                                                h5py.Dataset]:

@@ -1,7 +1,11 @@
 """``idefix-verify``: the command line.
 
 Each subcommand lives in its own module of this package with ``NAME``, ``HELP``,
-``add_arguments(parser)`` and ``run(args) -> int``. The dispatcher catches only
+``add_arguments(parser)`` and ``run(args) -> int``. A command module imports at its top only
+what reading the command line needs (argparse, :mod:`idefix_rules.limits` …); what the command
+needs to run (rich, numpy, h5py, the rulebook, the campaign) it imports inside ``run``, so
+``--version`` and every ``--help`` answer in a tenth of a second
+(``tests/cli/test_cli_startup.py``, ``benchmarks/bench_startup.py``). The dispatcher catches only
 :class:`~idefix_rules.errors.IdefixError` (rendered, exit code from the error); anything else is
 an internal error (exit 3). ``idefix-verify campaign.yaml`` is short for
 ``idefix-verify run campaign.yaml``. A reader that closes standard output early

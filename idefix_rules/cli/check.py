@@ -14,12 +14,12 @@ import argparse
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import render_diagnostics
-from idefix_rules.rulebook.checking import FileReport, check_file, check_source
 
-__all__ = ["FileReport", "add_arguments", "check_file", "check_source", "render_report", "run"]
+if TYPE_CHECKING:
+    from idefix_rules.rulebook.checking import FileReport
 
 NAME = "check"
 HELP = ("Check rulebooks: syntax, names, units and dimensions, weights, required sections. "
@@ -39,6 +39,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "
                              "message, path, line, column, end_line, end_column, hint)")
+
+
+def check_file(path: str | Path, strict: bool = False) -> FileReport:
+    """Read, parse and check one rulebook; never raises for a user mistake
+    (:func:`idefix_rules.rulebook.checking.check_file`, imported when used)."""
+    from idefix_rules.rulebook.checking import check_file as check
+
+    return check(path, strict)
+
+
+def check_source(source: str, name: str, strict: bool = False) -> FileReport:
+    """Parse and check rulebook text read from ``name``
+    (:func:`idefix_rules.rulebook.checking.check_source`, imported when used)."""
+    from idefix_rules.rulebook.checking import check_source as check
+
+    return check(source, name, strict)
 
 
 def render_report(report: FileReport) -> str:
@@ -64,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
         records = [d.to_dict() for report in reports for d in report.diagnostics]
         print(json.dumps(records, indent=2, ensure_ascii=False))
         return 2 if failed else 0
+    from idefix_rules.cli.console import StdoutConsole
+
     console = StdoutConsole(highlight=False, soft_wrap=True)
     for report in reports:
         style = "red" if report.errors else "yellow" if report.warnings else "green"

@@ -13,13 +13,9 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rich.console import Console
-from rich.table import Table
-
-from idefix_rules.cli.outcome import fits
-from idefix_rules.cli.run import make_console
-
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from idefix_rules.diff.results import PathDiff, ResultsDiff, ResultsFileDiff, SideResult
     from idefix_rules.diff.rules import RuleChange, RuleDiff
 
@@ -55,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.campaign.evaluation import as_plain
+    from idefix_rules.cli.console import make_console
     from idefix_rules.diff import diff_rules, load_source
     from idefix_rules.diff.results import diff_results
     from idefix_rules.errors import UserInputError, error
@@ -139,6 +136,8 @@ _DIRECTION_STYLE = {"stricter": "bold red", "looser": "bold green", "unknown": "
 
 
 def print_rules(console: Console, diff: RuleDiff) -> None:
+    from rich.table import Table
+
     old, new = diff.old, diff.new
     console.print(f"[bold]rulebook diff[/bold]: {old.name} {old.version} ({old.label}) → "
                   f"{new.name} {new.version} ({new.label})")
@@ -230,8 +229,15 @@ def _path_block(path: PathDiff) -> list[str]:
 
 
 def print_results(console: Console, file: ResultsFileDiff) -> None:
+    from rich.markup import escape
+    from rich.table import Table
+
+    from idefix_rules.cli.outcome import fits
+
     console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
                   f"collisions {file.collisions})")
+    for warning in file.warnings:
+        console.print(f"[bold yellow]warning:[/bold yellow] {escape(warning)}")
     table = Table(show_lines=True)
     table.add_column("path", no_wrap=True)
     table.add_column("verdict", overflow="fold")

@@ -5,10 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rich.console import Console
-
 from idefix_rules.cli.destinations import output_file, output_folder
-from idefix_rules.cli.run import make_console, print_outcome, stored_titles
 
 NAME = "evaluate"
 HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
@@ -27,7 +24,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
     from idefix_rules.campaign.runner import rescore
+    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.outcome import print_outcome
+    from idefix_rules.cli.run import stored_titles
 
     console = make_console()
     with Console(stderr=True).status("evaluating the stored runs (collision checks, rulebook)"):

@@ -14,20 +14,16 @@ import argparse
 import json
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rich.table import Table
+# The rulebook and rich are imported by the functions that use them: the command line is read
+# (and `explain --help` printed) without them.
+if TYPE_CHECKING:
+    from rich.table import Table
 
-from idefix_rules.cli.pipes import StdoutConsole
-from idefix_rules.rulebook import load_checked
-from idefix_rules.rulebook.across import runs_reductions
-from idefix_rules.rulebook.check import CheckedRulebook
-from idefix_rules.rulebook.fold import NotConstant
-from idefix_rules.rulebook.format import format_expr, format_number
-from idefix_rules.rulebook.infer import infer_type
-from idefix_rules.rulebook.model import Binary, Expr, Number
-from idefix_rules.rulebook.summary import areas, constants, obstacle_levels, settings
-from idefix_rules.units import ANGLE, LENGTH, Dimension
+    from idefix_rules.rulebook.check import CheckedRulebook
+    from idefix_rules.rulebook.model import Expr
+    from idefix_rules.units import Dimension
 
 NAME = "explain"
 HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, threshold, "
@@ -44,12 +40,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _si(value: float, dimension: Dimension | None) -> str:
+    from idefix_rules.rulebook.format import format_number
+
     unit = "" if dimension is None or dimension.is_dimensionless else f" {dimension}"
     return f"{format_number(float(f'{value:.6g}'))}{unit}"
 
 
 def _threshold(checked: CheckedRulebook, expr: Expr, dimension: Dimension | None) -> str:
     """The limit as written, with its SI value when the text is not already that."""
+    from idefix_rules.rulebook.fold import NotConstant
+    from idefix_rules.rulebook.format import format_expr
+    from idefix_rules.rulebook.model import Number
+
     written = format_expr(expr)
     try:
         value = checked.value(expr)
@@ -64,6 +66,9 @@ def _threshold(checked: CheckedRulebook, expr: Expr, dimension: Dimension | None
 
 def _condition_threshold(checked: CheckedRulebook, condition: Expr, scope: str) -> str:
     """For ``x <= 90 deg`` the threshold is ``<= 90 deg (= 1.5708 rad)``; else empty."""
+    from idefix_rules.rulebook.infer import infer_type
+    from idefix_rules.rulebook.model import Binary
+
     if isinstance(condition, Binary) and condition.op in _COMPARISONS:
         limit_type = infer_type(condition.right, checked.scope(scope), [])
         dimension = limit_type.dimension if limit_type is not None else None
@@ -73,6 +78,9 @@ def _condition_threshold(checked: CheckedRulebook, condition: Expr, scope: str) 
 
 def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
     """(kind, name, formula, unit, threshold, weight, rationale) per rule, in canonical order."""
+    from idefix_rules.rulebook.across import runs_reductions
+    from idefix_rules.rulebook.format import format_expr, format_number
+
     rulebook = checked.rulebook
     for rule in rulebook.command_rules:
         yield ("command", rule.name, format_expr(rule.condition), "condition",
@@ -115,6 +123,9 @@ _ROW_KEYS = ("kind", "name", "formula", "unit", "threshold", "weight", "rational
 def as_data(checked: CheckedRulebook) -> dict[str, Any]:
     """The JSON form: header, rules (the table's rows), constants, settings, obstacle levels,
     combination and ranking."""
+    from idefix_rules.rulebook.format import format_expr
+    from idefix_rules.rulebook.summary import areas, constants, obstacle_levels, settings
+
     rulebook = checked.rulebook
     header = rulebook.header
     rules = []
@@ -138,6 +149,11 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.table import Table
+
+    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.rulebook import load_checked
+
     checked = load_checked(args.rulebook)
     if args.format == "json":
         print(json.dumps(as_data(checked), indent=2, ensure_ascii=False))
@@ -163,6 +179,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _constants_table(checked: CheckedRulebook) -> Table:
+    from rich.table import Table
+
+    from idefix_rules.rulebook.summary import constants
+
     table = Table(title="constants", show_lines=False, expand=False)
     table.add_column("name", style="bold", no_wrap=True)
     table.add_column("value", ratio=1, overflow="fold")
@@ -175,6 +195,10 @@ def _constants_table(checked: CheckedRulebook) -> Table:
 
 
 def _footer(checked: CheckedRulebook) -> Iterator[str]:
+    from idefix_rules.rulebook.format import format_expr, format_number
+    from idefix_rules.rulebook.summary import areas, obstacle_levels, settings
+    from idefix_rules.units import ANGLE, LENGTH
+
     rulebook = checked.rulebook
     for setting in settings(checked):
         written = setting.written if setting.written is not None else "(default)"

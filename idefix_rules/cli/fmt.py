@@ -14,10 +14,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.rulebook import read_source
-from idefix_rules.rulebook.format import formatted_text
 
 NAME = "fmt"
 HELP = ("Format rulebooks in place (canonical order and layout, comments kept). With --check, "
@@ -33,6 +30,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--diff", action="store_true",
                         help="print a unified diff of the changes (with --check: nothing is "
                              "written)")
+
+
+def formatted_text(source: str, path: str) -> str:
+    """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors
+    (:func:`idefix_rules.rulebook.format.formatted_text`, imported when used)."""
+    from idefix_rules.rulebook.format import formatted_text as formatted
+
+    return formatted(source, path)
 
 
 def replace_text(path: Path, text: str) -> None:
@@ -54,6 +59,9 @@ def replace_text(path: Path, text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.rulebook import read_source
+
     console = StdoutConsole(highlight=False, soft_wrap=True)
     invalid: list[UserInputError] = []
     changed = []

@@ -7,7 +7,7 @@ import argparse
 import math
 import re
 
-from idefix_rules.campaign.schema import MAX_RUNS, MAX_SEED
+from idefix_rules.limits import MAX_RUNS, MAX_SEED
 
 
 def positive_int(text: str) -> int:

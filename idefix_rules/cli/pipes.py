@@ -1,8 +1,9 @@
 """Standard output whose reader went away: every command ends the same quiet way.
 
-Rich handles a broken pipe on its own (``SystemExit(1)``); :class:`StdoutConsole` hands it back
-as :class:`BrokenPipeError` instead, so ``idefix_rules.cli.main`` ends plain ``print`` output and
-rich output alike with exit 141 and no traceback.
+Rich handles a broken pipe on its own (``SystemExit(1)``);
+:class:`~idefix_rules.cli.console.StdoutConsole` hands it back as :class:`BrokenPipeError`
+instead, so ``idefix_rules.cli.main`` ends plain ``print`` output and rich output alike with
+exit 141 and no traceback.
 """
 
 from __future__ import annotations
@@ -10,18 +11,8 @@ from __future__ import annotations
 import os
 import sys
 
-from rich.console import Console
-
 # 128 + SIGPIPE: what a shell reports for the writer of `yes | head -1`.
 BROKEN_PIPE_EXIT = 141
-
-
-class StdoutConsole(Console):
-    """A rich console on standard output that lets a broken pipe propagate."""
-
-    def on_broken_pipe(self) -> None:
-        self.quiet = True
-        raise BrokenPipeError
 
 
 def quiet_broken_pipe() -> int:

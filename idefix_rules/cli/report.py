@@ -10,10 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rich.console import Console
-
 from idefix_rules.cli.destinations import output_folder
-from idefix_rules.cli.pipes import StdoutConsole
 
 NAME = "report"
 HELP = ("Write the HTML report of a results file: the decision, Table 1, an interactive "
@@ -30,7 +27,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
     from idefix_rules.campaign.runner import write_report
+    from idefix_rules.cli.console import StdoutConsole
 
     out = args.out if args.out is not None else args.results.resolve().parent
     console = Console(stderr=True)

@@ -3,16 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rich.console import Console
-from rich.markup import escape
-
-from idefix_rules.campaign.load import Campaign, load_campaign
-from idefix_rules.campaign.resume import interrupted_runs
-from idefix_rules.campaign.schema import MAX_RUNS
-from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.numbers import (
     positive_int,
@@ -21,13 +14,15 @@ from idefix_rules.cli.numbers import (
     seconds,
     seed_number,
 )
-from idefix_rules.cli.outcome import index_titles, print_outcome
-from idefix_rules.cli.pipes import StdoutConsole
-from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress
 from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.files import previous_path
+from idefix_rules.limits import MAX_RUNS
 
-__all__ = ["PlainProgress", "RichProgress", "make_console", "print_outcome", "stored_titles"]
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from idefix_rules.campaign.load import Campaign
+    from idefix_rules.campaign.simulate import SimulationOptions
+    from idefix_rules.cli.progress import PlainProgress, RichProgress
 
 NAME = "run"
 HELP = ("Run a campaign: simulate every command chain (reference + Monte Carlo), evaluate "
@@ -48,8 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with runs auto: runs before the first look (overrides "
                              "`min_runs`)")
     parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
-    parser.add_argument("--seed", type=seed_number,
-                        help="campaign seed, 0 … 2^64 - 1 (overrides `uncertainty.seed`)")
+    parser.add_argument("--seed", type=seed_number, help="campaign seed, 0 … 2^64 - 1 (overrides "
+                        "`uncertainty.seed`)")
     parser.add_argument("--workers", type=positive_int,
                         help="worker processes (default: the campaign's, else all cores)")
     parser.add_argument("--run-timeout", type=seconds, metavar="SECONDS",
@@ -73,18 +68,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                          help="run on a local Dask cluster instead of the process pool")
 
 
-def make_console() -> Console:
-    """Rich console. ``COLUMNS`` sets its width; without it a log (not a terminal) is 150
-    columns wide (CI logs), a terminal as wide as it is."""
-    console = StdoutConsole(highlight=False)
-    if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
-        console = StdoutConsole(highlight=False, width=150)
-    return console
-
-
 def stored_titles(results: Path) -> dict[str, str]:
     """Index titles of the rulebook stored in a results file (empty when unreadable)."""
     from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.cli.outcome import index_titles
     from idefix_rules.rulebook import check_text
 
     try:
@@ -100,7 +87,15 @@ def stored_titles(results: Path) -> dict[str, str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.markup import escape
+
+    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.resume import interrupted_runs
     from idefix_rules.campaign.runner import claimed_output
+    from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
+    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.progress import make_progress
+    from idefix_rules.files import previous_path
 
     console = make_console()
     campaign = load_campaign(args.campaign)
@@ -155,7 +150,10 @@ def _again(args: argparse.Namespace) -> str:
 
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
                progress: RichProgress | PlainProgress, console: Console) -> int:
+    from rich.markup import escape
+
     from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.cli.outcome import print_outcome
 
     try:
         result = run_campaign(campaign, options, progress, junit=args.junit,

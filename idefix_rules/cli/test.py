@@ -14,14 +14,16 @@ import argparse
 import json
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rich.console import Console
-from rich.table import Table
-
-from idefix_rules.cli.pipes import StdoutConsole
 from idefix_rules.errors import UserInputError, render_diagnostics
-from idefix_rules.testing.mutations import NUDGE
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+# idefix_rules.testing.mutations.NUDGE in percent, the default of --nudge (a test holds them
+# equal; the command line is read without importing the mutations)
+DEFAULT_NUDGE_PERCENT = 10.0
 
 NAME = "test"
 HELP = ("Run the example cases of rulebooks (case files, default rulebooks/tests/): "
@@ -52,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --mutate: exit 0 when at least PERCENT %% of the mutants "
                              "are killed, even if some survive (default: any survivor "
                              "exits 1; implies --mutate)")
-    parser.add_argument("--nudge", type=float, metavar="PERCENT", default=NUDGE * 100,
+    parser.add_argument("--nudge", type=float, metavar="PERCENT", default=DEFAULT_NUDGE_PERCENT,
                         help="how far a mutant moves a threshold, limit, nominal or factor, "
                              "both ways (default %(default)g %%)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
@@ -60,6 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from idefix_rules.cli.console import StdoutConsole
     from idefix_rules.errors import error
     from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
     from idefix_rules.testing.coverage import by_rulebook, coverage_of_files, coverage_percent
@@ -172,6 +175,8 @@ _STATE_STYLE = {"across": "green", "near": "yellow", "untouched": "red"}
 
 
 def _print_coverage(console: Console, group: list[Any], items: list[Any]) -> None:
+    from rich.table import Table
+
     cases = sum(len(f.outcomes) for f in group)
     files = ", ".join(f"{f.case_file.path} ({len(f.outcomes)})" for f in group)
     table = Table(title=f"rule coverage: {group[0].case_file.rulebook_path} "

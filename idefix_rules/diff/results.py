@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from idefix_rules.campaign.decision import reasons_of
-from idefix_rules.campaign.environment import named_areas, read_terrain
+from idefix_rules.campaign.environment import named_areas
 from idefix_rules.campaign.evaluation import (
     PathResult,
     collision_function,
@@ -39,6 +39,7 @@ from idefix_rules.campaign.runner import stored_campaign
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.stopping import sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.stored_terrain import terrain_for_rescoring
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.diff.evaluators import (
     STORED_COLLISIONS,
@@ -143,6 +144,7 @@ class ResultsFileDiff:
     new_ranking: tuple[str, ...]
     collisions: str
     timings: dict[str, float] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()  # about the terrain the collision and area checks used
 
     @property
     def first_changed(self) -> bool:
@@ -153,7 +155,7 @@ class ResultsFileDiff:
                 "paths": [p.to_dict() for p in self.paths],
                 "old_ranking": list(self.old_ranking), "new_ranking": list(self.new_ranking),
                 "first_changed": self.first_changed, "collisions": self.collisions,
-                "timings": dict(self.timings)}
+                "timings": dict(self.timings), "warnings": list(self.warnings)}
 
 
 @dataclass(frozen=True)
@@ -232,14 +234,17 @@ class _Collisions:
     """Collision signals per chunk for each side: stored, or checked once per distinct level
     set."""
 
-    def __init__(self, store: ResultStore, folder: Path, evaluators: Sequence[Any],
+    def __init__(self, store: ResultStore, results: Path, evaluators: Sequence[Any],
                  sources: Sequence[RulebookSource], environment: Any) -> None:
         self.evaluators = list(evaluators)
         self.needed = [bool(collision_reads(e) or area_reads(e)) for e in evaluators]
         self._areas: dict[tuple[Any, ...], dict[str, Any]] = {}
-        self.folder, self.environment = folder, environment
+        self.store, self.results, self.environment = store, results, environment
         self._functions: dict[tuple[Any, ...], Any] = {}
         self._terrain: Any = None
+        # what the user should know about the terrain the checks stand on (an older file
+        # holding none, a DEM changed since the simulation)
+        self.warnings: list[str] = []
         self.recomputed_paths: list[str] = []
         self.mode = "none"
         if not any(self.needed):
@@ -264,11 +269,18 @@ class _Collisions:
         evaluator = self.evaluators[position]
         key = collision_setup(evaluator.checked)
         if key not in self._functions:
-            if self._terrain is None:
-                self._terrain = read_terrain(self.folder) or False
             self._functions[key] = collision_function(self.environment, evaluator,
-                                                      self._terrain or None)
+                                                      self._ground())
         return self._functions[key]
+
+    def _ground(self) -> Any:
+        """The terrain the campaign was simulated on, read once from the results file
+        (None: the rocks on the flat datum, for an older file without one)."""
+        if self._terrain is None:
+            ground = terrain_for_rescoring(self.store.file, self.results)
+            self._terrain = ground.terrain or False
+            self.warnings.extend(ground.warnings)
+        return self._terrain or None
 
     def _area_signals(self, position: int, signals: dict[str, np.ndarray]
                       ) -> dict[str, np.ndarray]:
@@ -287,10 +299,7 @@ class _Collisions:
             if not checked.areas:
                 self._areas[key] = {}
             else:
-                if self._terrain is None:
-                    self._terrain = read_terrain(self.folder) or False
-                self._areas[key] = named_areas(self.environment, checked,
-                                               self._terrain or None)
+                self._areas[key] = named_areas(self.environment, checked, self._ground())
         return self._areas[key]
 
     def stored_for(self, store: ResultStore, name: str) -> dict[str, np.ndarray] | None:
@@ -373,7 +382,7 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                 "D010", f"{path}: the stored campaign cannot be read back: {failure}")) from None
         context = {"rover": rover_geometry(campaign), "sigma": initial_position_sigma(campaign)}
         evaluators = [values_only(old.checked), values_only(new.checked)]
-        collisions = _Collisions(store, path.parent, evaluators, (old, new),
+        collisions = _Collisions(store, path, evaluators, (old, new),
                                  campaign.model.environment)
         required = set().union(*(e.required_signals | e.optional_signals for e in evaluators))
         prepared = time.perf_counter()
@@ -406,7 +415,8 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                       for name, sides, moves in path_sides)
         timings["total"] = time.perf_counter() - started
         return ResultsFileDiff(str(path), str(store.attrs.get("campaign_name", "")), paths,
-                               rankings[0], rankings[1], collisions.describe(), timings)
+                               rankings[0], rankings[1], collisions.describe(), timings,
+                               tuple(collisions.warnings))
     finally:
         store.close()
 

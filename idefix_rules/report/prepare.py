@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
+from idefix_rules.campaign.stored_terrain import StoredTerrain, terrain_for_rescoring
 from idefix_rules.commands import Command, RoverGeometry, chain_duration, ideal_poses
 from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData
@@ -121,22 +122,25 @@ def setup_from_store(store: ResultStore) -> Setup:
                                f"({type(failure).__name__}: {failure})")
     campaign_text = store.text("campaign") if "campaign" in store.file["provenance"] else ""
     setup.campaign_text = campaign_text
-    terrain = _stored_terrain(Path(store.file.filename).parent)
-    setup.environment, notes = map_environment(campaign_text, setup.checked, terrain)
+    ground = _stored_terrain(store)
+    setup.environment, notes = map_environment(campaign_text, setup.checked, ground.terrain)
     setup.notes += notes
     if campaign_text:
-        _campaign_context(store, campaign_text, setup, terrain)
+        _campaign_context(store, campaign_text, setup, ground.terrain)
+    if setup.collisions is not None:  # the maps' collision and area risks stand on it
+        setup.notes += ground.warnings
     return setup
 
 
-def _stored_terrain(folder: Path) -> Any:
-    """The terrain file the campaign wrote next to its results (rock heights, DEM areas)."""
+def _stored_terrain(store: ResultStore) -> StoredTerrain:
+    """The terrain the campaign was simulated on (rock heights, the ground, steep areas), as
+    the evaluation takes it (:func:`terrain_for_rescoring`)."""
     try:
-        from idefix_rules.campaign.environment import read_terrain
-
-        return read_terrain(folder)
-    except Exception:  # no terrain file, or one this version cannot read: rocks on the datum
-        return None
+        return terrain_for_rescoring(store.file, store.path)
+    except Exception as failure:  # a stored terrain this version cannot read
+        return StoredTerrain(None, (f"the stored terrain could not be read "
+                                    f"({type(failure).__name__}: {failure}): the rocks are "
+                                    "placed on the flat datum",))
 
 
 def _campaign_context(store: ResultStore, text: str, setup: Setup, terrain: Any) -> None:

@@ -316,8 +316,9 @@ class DerivedSignals:
         turned_before = np.concatenate([[0.0], np.cumsum(turns)])  # before command k
         index = np.maximum(active, 0)
         duration = durations[index]
-        fraction = np.clip(np.divide(since, duration, out=np.ones_like(since),
-                                     where=duration > 0), 0.0, 1.0)
+        with np.errstate(over="ignore"):  # a subnormal duration: ±inf, clipped
+            fraction = np.clip(np.divide(since, duration, out=np.ones_like(since),
+                                         where=duration > 0), 0.0, 1.0)
         turned = np.where(active >= 0, turned_before[index] + turns[index] * fraction, 0.0)
         return active, turned
 

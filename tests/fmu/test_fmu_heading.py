@@ -129,9 +129,11 @@ def test_the_smooth_detour_on_flat_ground_ends_short_by_its_arcs_balance(
     assert 1.0 - out["x"][-1] > 0.1
 
 
-def test_a_command_too_small_to_represent_is_skipped_by_the_fmu(rover: FmuRunner) -> None:
-    # b · Δψ underflows: the controller skips it as an empty command (no NaN wheel rates) and
-    # executes the next one
-    out = rover.run(GYRO, [Command(0.05, 0.0, 5e-324), Command(0.05, 0.1, 0.0)], 60.0, 0.1)
+@pytest.mark.parametrize("heading", [5e-324, -1e-300])
+def test_a_vanishing_turn_is_a_point_turn_done_within_a_step(rover: FmuRunner,
+                                                             heading: float) -> None:
+    # the controller turns by it (b · Δψ would underflow: no NaN wheel rates), is done at the
+    # end of the first step, and executes the next command
+    out = rover.run(GYRO, [Command(0.05, 0.0, heading), Command(0.05, 0.1, 0.0)], 60.0, 0.1)
     assert np.all(np.isfinite(out["wheel.rate"])) and np.all(np.isfinite(out["x"]))
-    assert out["command"][0] == 1 and out["x"][-1] > 0.09
+    assert out["command"][0] == 0 and out["command"][1] == 1 and out["x"][-1] > 0.09

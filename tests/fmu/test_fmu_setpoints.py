@@ -62,9 +62,17 @@ def test_the_active_command_follows_the_ideal_timing() -> None:
     assert active[0] == 2.0 and active[-1] == -1.0
 
 
-@pytest.mark.parametrize("heading", [5e-324, -5e-324])
-def test_a_turn_too_small_to_represent_is_no_command(heading: float) -> None:
-    # b · Δψ underflows to 0: no wheel would move, so the command takes no time (a random
-    # hypothesis seed found the division by zero this used to be)
-    kinematics = command_kinematics(Command(0.0625, 0.0, heading), RoverGeometry())
-    assert kinematics.duration == 0.0 and kinematics.wheel_rates == (0.0, 0.0, 0.0, 0.0)
+@pytest.mark.parametrize("heading", [5e-324, -5e-324, 1e-300])
+def test_a_vanishing_turn_before_a_drive_leaves_its_set_points_as_they_were(
+        heading: float) -> None:
+    # a point turn by a vanishing angle is a command lasting a vanishing time (a random
+    # hypothesis seed found the division by zero a subnormal angle used to be): no step sees it
+    rover = RoverGeometry()
+    drive = Command(0.0625, 0.1, 0.0)
+    alone = chain_setpoints([drive], rover, 0.5, 60)
+    values = chain_setpoints([Command(0.0625, 0.0, heading), drive], rover, 0.5, 60)
+    for name, series in alone.items():
+        assert np.all(np.isfinite(values[name])), name
+        if name != "command":
+            np.testing.assert_allclose(values[name], series, rtol=0.0, atol=1e-12)
+    np.testing.assert_array_equal(values["command"], np.where(alone["command"] >= 0, 1.0, -1.0))

@@ -13,8 +13,9 @@ static int command_is_empty(const Instance *inst, int k)
     double rate = inst->r[VR_CHAIN_MAX_WHEEL_RATE + k];
     double dp = inst->r[VR_CHAIN_DELTA_POSITION + k], dh = inst->r[VR_CHAIN_DELTA_HEADING + k];
     double b = inst->r[VR_ROVER_HALF_TRACK];
-    /* a motion too small to represent (b * dh underflows) moves no wheel: empty too */
-    return rate == 0.0 || (dp - b * dh == 0.0 && dp + b * dh == 0.0);
+    /* any motion, however small, is a command (a subnormal turn too: arc_rates); without a
+     * track a point turn moves no wheel */
+    return rate == 0.0 || (dp == 0.0 && (dh == 0.0 || b == 0.0));
 }
 
 static int closed_loop(const Instance *inst)
@@ -22,20 +23,30 @@ static int closed_loop(const Instance *inst)
     return inst->r[VR_CONTROLLER_HEADING_FEEDBACK] != 0.0;
 }
 
-/* Nominal wheel rates of an arc (dp, dh) with the fastest wheel at `rate`, and its duration. */
+/* Nominal wheel rates of an arc (dp, dh) with the fastest wheel at `rate`, and its duration.
+ * Worked out, as command_kinematics does, on the arc scaled by a power of two (exact) that
+ * brings its larger component to [0.5, 1): a turn by a subnormal angle keeps its rates (b * dh
+ * would underflow to 0), and an arc of ordinary size gets the same values to the last bit. */
 static void arc_rates(Instance *inst, double rate, double dp, double dh)
 {
     Controller *c = &inst->ctrl;
     double radius = inst->r[VR_ROVER_WHEEL_RADIUS], b = inst->r[VR_ROVER_HALF_TRACK];
-    double left = dp - b * dh, right = dp + b * dh;
-    double fastest = fabs(left) > fabs(right) ? fabs(left) : fabs(right);
-    c->duration = fastest / (rate * radius);
-    c->target_angle = fastest / radius;
-    c->rates[0] = c->rates[2] = left / c->duration / radius;   /* FL, RL */
-    c->rates[1] = c->rates[3] = right / c->duration / radius;  /* FR, RR */
+    double left, right, fastest, duration;
+    int exponent;
+    (void)frexp(fabs(dp) > fabs(dh) ? fabs(dp) : fabs(dh), &exponent);
+    dp = ldexp(dp, -exponent);
+    dh = ldexp(dh, -exponent);
+    left = dp - b * dh;
+    right = dp + b * dh;
+    fastest = fabs(left) > fabs(right) ? fabs(left) : fabs(right);
+    duration = fastest / (rate * radius);  /* of the scaled arc */
+    c->duration = ldexp(duration, exponent);
+    c->target_angle = ldexp(fastest / radius, exponent);
+    c->rates[0] = c->rates[2] = left / duration / radius;   /* FL, RL */
+    c->rates[1] = c->rates[3] = right / duration / radius;  /* FR, RR */
     c->fastest = fabs(left) > fabs(right) ? 0 : 1;
-    c->commanded_speed = dp / c->duration;
-    c->commanded_yaw_rate = dh / c->duration;
+    c->commanded_speed = dp / duration;
+    c->commanded_yaw_rate = dh / duration;
     /* a trapezoidal profile takes rate/acceleration longer than the ideal duration */
     c->ramp_time = inst->r[VR_CONTROLLER_WHEEL_ACCELERATION] > 0.0 ?
                    rate / inst->r[VR_CONTROLLER_WHEEL_ACCELERATION] : 0.0;

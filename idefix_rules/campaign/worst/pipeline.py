@@ -168,7 +168,8 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
                              f"free space, then run `{again}`"):
             simulation = simulate_campaign(campaign, evaluator, prepared.fmu_path,
                                            prepared.fixed, options, progress,
-                                           prepared.collisions, stage=stage)
+                                           prepared.collisions,
+                                           (prepared.terrain, prepared.source), stage=stage)
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / RESULTS_FILE} failed: "
                                   f"{failure}") from failure
