@@ -195,7 +195,7 @@ def rocky_campaign(campaign_dir: Path) -> Path:
     (campaign_dir / "test.rules").write_text(rulebook)
     path = campaign_dir / "campaign.yaml"
     path.write_text(CAMPAIGN + ENVIRONMENT)
-    assert main([str(path), "--quiet", "--no-report"]) in (0, 1)
+    assert main([str(path), "--quiet", "--no-report"]) == 1
     return campaign_dir / "out" / "results.h5"
 
 
@@ -208,7 +208,7 @@ def test_a_results_file_copied_alone_rescores_as_the_campaign_did(
     alone.parent.mkdir()
     shutil.copy(rocky_campaign, alone)  # without its terrain.dem
     capsys.readouterr()
-    assert main(["evaluate", str(alone), "--quiet"]) in (0, 1)
+    assert main(["evaluate", str(alone), "--quiet"]) == 1
     shown = capsys.readouterr().out
     assert "terrain" not in shown  # nothing to warn about
     assert_same(evaluation_of(alone), original)
@@ -221,7 +221,7 @@ def test_a_results_file_copied_alone_rescores_as_the_campaign_did(
     with h5py.File(older, "r+") as file:
         del file["terrain"]
         file.attrs["format_version"] = 3
-    assert main(["evaluate", str(older), "--quiet"]) in (0, 1)
+    assert main(["evaluate", str(older), "--quiet"]) == 1
     shown = " ".join(capsys.readouterr().out.split())
     assert f"{older} holds no terrain (results format 3" in shown
     assert "no terrain.dem is beside it" in shown
@@ -251,7 +251,7 @@ def test_a_changed_dem_is_named_by_evaluate_and_resume_and_never_used(
     path = campaign_dir / "campaign.yaml"
     path.write_text(CAMPAIGN + 'environment:\n  terrain: {dem: site.npy, cell: "5 cm"}\n'
                     '  rocks:\n    - {x: "0.3 m", y: "-0.26 m", radius: "4 cm", level: L2}\n')
-    assert main([str(path), "--quiet", "--no-report"]) in (0, 1)
+    assert main([str(path), "--quiet", "--no-report"]) == 1
     results = campaign_dir / "out" / "results.h5"
     original = evaluation_of(results)
     with h5py.File(results, "r") as file:
@@ -260,12 +260,12 @@ def test_a_changed_dem_is_named_by_evaluate_and_resume_and_never_used(
 
     np.save(dem, ROCKY.heights + 0.05)  # the site's DEM is replaced after the campaign ran
     capsys.readouterr()
-    assert main(["evaluate", str(results), "--quiet"]) in (0, 1)
+    assert main(["evaluate", str(results), "--quiet"]) == 1
     shown = " ".join(capsys.readouterr().out.split())
     assert f"the campaign's DEM {dem.resolve()} has changed" in shown
     assert_same(evaluation_of(results), original)
 
-    assert main([str(path), "--quiet", "--no-report", "--resume"]) in (0, 1)
+    assert main([str(path), "--quiet", "--no-report", "--resume"]) == 1
     shown = " ".join(capsys.readouterr().out.split())
     assert f"the DEM {dem.resolve()} now gives another terrain" in shown
     assert "heights differ by up to 0.05 m" in shown
