@@ -146,8 +146,8 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     """
     advance = advance or _quiet
     searched = read_worst(Path(results_h5))  # a worst-case search's outcome, if it is one
-    worst_runs = worst_rows(searched) if searched is not None else {}
-    data, setup, maps = prepare_report(Path(results_h5), advance, worst_runs)
+    searched_rows = worst_rows(searched) if searched is not None else {}
+    data, setup, maps = prepare_report(Path(results_h5), advance, searched_rows)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [path.name for path in data.paths]
@@ -192,13 +192,13 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
                               dict(getattr(setup.checked, "weights", {}) or {}), titles)
     colours = {name: figures.path_colour(position) for position, name in enumerate(order)}
     payload = interactive.payload_json(interactive.payload(data, setup, maps, units,
-                                                           worst_runs))
+                                                           searched_rows))
     parts = [
         sections.decision_html(data) if searched is None else worst_html(searched, units),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
         html.slip_html(_slip_records(Path(results_h5))),
-        sections.interactive_html(payload, order, colours, worst=bool(worst_runs)),
+        sections.interactive_html(payload, order, colours, worst=bool(searched_rows)),
         html.figures_html("Result maps (printable)", map_images, map_text, wide=True),
         html.figures_html("Final errors (paper Fig. 9)", box_images),
         sections.sensitivity_html(sensitivity, sensitivity_images, titles),
