@@ -25,7 +25,7 @@ from idefix_rules.report import figures, html, interactive, script, sections
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
 from idefix_rules.report.worst import NOTE as WORST_NOTE
-from idefix_rules.report.worst import read_worst, worst_html, worst_tracks
+from idefix_rules.report.worst import read_worst, worst_html, worst_rows, worst_tracks
 
 REPORT_FILE = "report.html"
 
@@ -94,16 +94,19 @@ def _quiet(fraction: float, stage: str) -> None:
     pass
 
 
-def prepare_report(results_h5: Path, advance: Advance = _quiet
+def prepare_report(results_h5: Path, advance: Advance = _quiet,
+                   embed: Mapping[str, int] | None = None
                    ) -> tuple[ReportData, Setup, MapSet]:
-    """Everything the report shows, as data: read, evaluate per sample, bin (no drawing)."""
+    """Everything the report shows, as data: read, evaluate per sample, bin (no drawing).
+    ``embed``: a run per path the interactive map holds besides the worst ones."""
     store = ResultStore.open(results_h5)
     try:
         data = read_report_data(store)
         setup = setup_from_store(store)
         return data, setup, prepare(store, data, setup,
                                     lambda share, name: advance(PREPARE_SHARE * share,
-                                                                f"per-sample risk of {name}"))
+                                                                f"per-sample risk of {name}"),
+                                    embed)
     finally:
         store.close()
 
@@ -142,11 +145,12 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     A missing or foreign results file raises :class:`~idefix_rules.errors.UserInputError`.
     """
     advance = advance or _quiet
-    data, setup, maps = prepare_report(Path(results_h5), advance)
+    searched = read_worst(Path(results_h5))  # a worst-case search's outcome, if it is one
+    searched_rows = worst_rows(searched) if searched is not None else {}
+    data, setup, maps = prepare_report(Path(results_h5), advance, searched_rows)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [path.name for path in data.paths]
-    searched = read_worst(Path(results_h5))  # a worst-case search's outcome, if it is one
     tracks = worst_tracks(Path(results_h5), searched) if searched is not None else {}
     advance(PREPARE_SHARE, "result maps")
     map_images = _map_images(data, maps, setup, out_dir,
@@ -187,13 +191,14 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     context = html.WhyContext(units, dict(getattr(setup.checked, "limits", {}) or {}),
                               dict(getattr(setup.checked, "weights", {}) or {}), titles)
     colours = {name: figures.path_colour(position) for position, name in enumerate(order)}
-    payload = interactive.payload_json(interactive.payload(data, setup, maps, units))
+    payload = interactive.payload_json(interactive.payload(data, setup, maps, units,
+                                                           searched_rows))
     parts = [
         sections.decision_html(data) if searched is None else worst_html(searched, units),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
         html.slip_html(_slip_records(Path(results_h5))),
-        sections.interactive_html(payload, order, colours),
+        sections.interactive_html(payload, order, colours, worst=bool(searched_rows)),
         html.figures_html("Result maps (printable)", map_images, map_text, wide=True),
         html.figures_html("Final errors (paper Fig. 9)", box_images),
         sections.sensitivity_html(sensitivity, sensitivity_images, titles),

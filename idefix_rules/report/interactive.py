@@ -3,8 +3,9 @@
 The page's own script (:mod:`.script`) draws from it; nothing is fetched. Contents: the map grid
 and, per path, each crossed cell's sum of run maxima, runs, dominant index and worst embedded
 run; reference, ideal and wheel tracks; contacts; the embedded runs (thinned, display units);
-obstacles; and each time series' limit from the rulebook (the limit of the index that reads the
-series' signal, converted to the series' unit).
+for a worst-case search, the embedded run that is the path's worst (``worst``); obstacles; and
+each time series' limit from the rulebook (the limit of the index that reads the series'
+signal, converted to the series' unit).
 """
 
 from __future__ import annotations
@@ -67,9 +68,10 @@ def _sparse_cells(maps: MapSet, name: str, names: list[str]) -> list[list[Any]]:
     return rows
 
 
-def payload(data: ReportData, setup: Setup, maps: MapSet,
-            units: DisplayUnits) -> dict[str, Any]:
-    """Everything the page's script reads."""
+def payload(data: ReportData, setup: Setup, maps: MapSet, units: DisplayUnits,
+            worst: Mapping[str, int] | None = None) -> dict[str, Any]:
+    """Everything the page's script reads; ``worst``: per path, the row of the worst run a
+    worst-case search found (the page marks it when it holds that run)."""
     grid = maps.grid
     order = [path.name for path in data.paths]
     paths = []
@@ -101,6 +103,9 @@ def payload(data: ReportData, setup: Setup, maps: MapSet,
                         for key, values in path.parameters.items()
                         if math.isfinite(float(values[run]))]}
             entry["runs"] = runs
+            row = (worst or {}).get(path.name)
+            if row is not None and str(row) in runs:
+                entry["worst"] = int(row)
         paths.append(entry)
     env = setup.environment
     return {

@@ -15,7 +15,7 @@ each run's stored I_max along its whole track and the report says so.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -325,10 +325,12 @@ def _details(store: ResultStore, name: str) -> Any:
 
 
 def prepare(store: ResultStore, data: ReportData, setup: Setup,
-            advance: Callable[[float, str], None] | None = None) -> MapSet:
+            advance: Callable[[float, str], None] | None = None,
+            embed: Mapping[str, int] | None = None) -> MapSet:
     """Fill the risk maps, each path's final errors and the interactive page's per-run data
     (cells, thinned runs, contacts) in one chunked pass over the runs; ``advance(share,
-    path)`` hears as each path starts (share: of the runs done before it)."""
+    path)`` hears as each path starts (share: of the runs done before it). ``embed`` names a
+    run per path the page holds besides its worst ones (a worst-case search's worst run)."""
     setup.notes += missing_signal_notes(store, data)
     grid, reason = choose_grid(store, data, setup)
     per_path: dict[str, RiskAccumulator] = {}
@@ -362,6 +364,8 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup,
         accumulator = RiskAccumulator(grid)
         cells = CellRuns(grid, len(path.index_names))
         embedded = {int(run) for run in path.worst_order(limits, weights)[:EMBEDDED_RUNS]}
+        if embed is not None and path.name in embed:
+            embedded.add(int(embed[path.name]))
         series: dict[int, dict[str, Any]] = {}
         contacts: list[dict[str, Any]] = []
         details = _details(store, path.name)

@@ -1,6 +1,6 @@
 """The report page's own script: the interactive result map and the run panel (no library).
 
-About 250 lines of plain JavaScript on ``<canvas>``: the page stays one small offline file that
+About 400 lines of plain JavaScript on ``<canvas>``: the page stays one small offline file that
 any browser opens from disk, under a Content-Security-Policy that forbids every request. It reads
 the JSON of :mod:`.interactive` from ``<script id="report-data" type="application/json">``.
 
@@ -14,6 +14,9 @@ the JSON of :mod:`.interactive` from ``<script id="report-data" type="applicatio
 - Checkboxes switch paths on and off. A click on a cell, or on a row of a worst-runs table,
   opens that run: its track and wheel footprints on the map, its time series against the
   rulebook's limits.
+- A worst-case search's page (a path's ``worst`` in the JSON) draws each path's worst run
+  dotted over a white halo, with a dot at its end and a label (path, run, I_max) moved down
+  until it overlaps no other; hovering the label explains it, a click on it opens the run.
 """
 
 CSS = """
@@ -44,7 +47,7 @@ SCRIPT = r"""
   if (!root) { return; }
   var canvas = root.querySelector("canvas"), tip = root.querySelector(".tip");
   var panel = document.getElementById("runpanel");
-  var on = {}, selected = null, g = data.grid, view = null;
+  var on = {}, selected = null, g = data.grid, view = null, marks = [];
   var LEVEL = {L1: "#1f77b4", L2: "#ff7f0e", L3: "#d62728"};
   var STOPS = [[26, 152, 80], [145, 207, 96], [254, 224, 139], [252, 141, 89], [215, 48, 39]];
   data.paths.forEach(function (p) { on[p.name] = true; });
@@ -221,6 +224,21 @@ SCRIPT = r"""
         ctx.moveTo(x - 4, y + 4); ctx.lineTo(x + 4, y - 4); ctx.stroke();
       });
     });
+    marks = [];
+    data.paths.forEach(function (p) {  // a worst-case search's worst run of each path
+      var run = p.worst === undefined ? null : p.runs[String(p.worst)];
+      if (!on[p.name] || !run) { return; }
+      line(ctx, run.x, run.y, "rgba(255,255,255,.85)", 4.6);
+      line(ctx, run.x, run.y, p.colour, 2.4, [2, 3]);
+      for (var i = run.x.length - 1; i >= 0; i--) {
+        if (run.x[i] !== null && run.y[i] !== null) {
+          marks.push({path: p.name, run: p.worst, colour: p.colour, x: sx(run.x[i]),
+                      y: sy(run.y[i]), text: p.name + " · worst run " + p.worst + " · I_max " +
+                      percent(run.i_max)});
+          break;
+        }
+      }
+    });
     if (selected) {
       var wheels = wheelsOf(selected.run);
       if (wheels) {
@@ -233,6 +251,43 @@ SCRIPT = r"""
       line(ctx, selected.run.x, selected.run.y, "#000", 3);
     }
     drawAxes(ctx);
+    labelMarks(ctx);
+  }
+  function labelMarks(ctx) {  // each worst run's end: a dot, and a label that hides no other
+    ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "left";
+    ctx.textBaseline = "middle";
+    var placed = [];
+    marks.forEach(function (m) {
+      var w = ctx.measureText(m.text).width + 10, h = 18;
+      var left = Math.max(AXIS_LEFT + 2, Math.min(m.x + 10, view.width - AXIS_PAD - w));
+      var top = Math.max(2, m.y - h - 6);
+      for (var tries = 0; tries < 40 && placed.some(function (b) {
+        return left < b.left + b.w && b.left < left + w && top < b.top + b.h &&
+          b.top < top + h; }); tries++) { top += h + 3; }
+      m.box = {left: left, top: top, w: w, h: h};
+      placed.push(m.box);
+      ctx.strokeStyle = m.colour; ctx.lineWidth = 1; ctx.setLineDash([]);
+      ctx.beginPath(); ctx.moveTo(m.x, m.y);
+      ctx.lineTo(Math.max(left, Math.min(m.x, left + w)), top + h / 2); ctx.stroke();
+      ctx.fillStyle = "rgba(255,255,255,.92)"; ctx.fillRect(left, top, w, h);
+      ctx.lineWidth = 1.5; ctx.strokeRect(left, top, w, h);
+      ctx.fillStyle = "#1d232a"; ctx.fillText(m.text, left + 5, top + h / 2 + 0.5);
+      ctx.beginPath(); ctx.arc(m.x, m.y, 4.5, 0, 2 * Math.PI); ctx.fillStyle = m.colour;
+      ctx.fill(); ctx.strokeStyle = "#000"; ctx.lineWidth = 1.2; ctx.stroke();
+    });
+    ctx.textBaseline = "alphabetic";
+  }
+  function markAt(event) {  // the worst-run label (or end dot) under the mouse, if any
+    var box = canvas.getBoundingClientRect();
+    var px = event.clientX - box.left, py = event.clientY - box.top;
+    for (var i = marks.length - 1; i >= 0; i--) {
+      var m = marks[i], b = m.box;
+      if ((b && px >= b.left - 2 && px <= b.left + b.w + 2 && py >= b.top - 2 &&
+           py <= b.top + b.h + 2) || Math.hypot(px - m.x, py - m.y) <= 7) {
+        return {mark: m, px: px, py: py};
+      }
+    }
+    return null;
   }
   function cellAt(event) {
     var box = canvas.getBoundingClientRect();
@@ -246,6 +301,16 @@ SCRIPT = r"""
   function text(s) { var d = document.createElement("div"); d.textContent = s;
     return d.innerHTML; }
   canvas.addEventListener("mousemove", function (event) {
+    var hit = markAt(event);
+    canvas.style.cursor = hit ? "pointer" : "";
+    if (hit) {
+      tip.innerHTML = "<b>" + text(hit.mark.text) + "</b><br>the highest run risk the " +
+        "worst-case search found on this path<br><i>click: open this run</i>";
+      tip.style.display = "block";
+      tip.style.left = Math.min(hit.px + 14, root.clientWidth - tip.offsetWidth - 4) + "px";
+      tip.style.top = (hit.py + 14) + "px";
+      return;
+    }
     var at = cellAt(event), cells = cellTable(), e = at && cells[at.key];
     if (!e) { tip.style.display = "none"; return; }
     var html = "<b>risk " + percent(e.total / e.runs) + "</b> · " + e.runs +
@@ -261,6 +326,8 @@ SCRIPT = r"""
   });
   canvas.addEventListener("mouseleave", function () { tip.style.display = "none"; });
   canvas.addEventListener("click", function (event) {
+    var hit = markAt(event);
+    if (hit) { openRun(hit.mark.path, hit.mark.run); return; }
     var at = cellAt(event), cells = cellTable(), e = at && cells[at.key];
     if (!e) { return; }
     var best = null;
@@ -349,8 +416,16 @@ SCRIPT = r"""
     return {x: box.left + sx(g.x0 + (col + 0.5) * g.cell),
             y: box.top + sy(g.y0 + (row + 0.5) * g.cell)};
   }
+  function worst() {  // the worst-run marks drawn: label centre and end dot, client coordinates
+    var box = canvas.getBoundingClientRect();
+    return marks.map(function (m) {
+      return {path: m.path, run: m.run, text: m.text, colour: m.colour,
+              x: box.left + m.box.left + m.box.w / 2, y: box.top + m.box.top + m.box.h / 2,
+              end: {x: box.left + m.x, y: box.top + m.y}, box: m.box};
+    });
+  }
   window.idefixReport = {openRun: openRun, cells: cellTable, draw: draw, at: at,
-                         axes: function () { return axes; }, focus: focus};
+                         axes: function () { return axes; }, focus: focus, worst: worst};
   draw();
 })();
 """

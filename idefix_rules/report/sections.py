@@ -49,8 +49,9 @@ def decision_html(data: ReportData) -> str:
 
 
 def interactive_html(payload_json: str, order: Sequence[str],
-                     colours: Mapping[str, str]) -> str:
-    """The interactive result map with its legend, path switches and the run panel."""
+                     colours: Mapping[str, str], worst: bool = False) -> str:
+    """The interactive result map with its legend, path switches and the run panel;
+    ``worst``: the page is a worst-case search's, whose worst runs the map marks."""
     switches = "".join(
         f'<label><input type="checkbox" value="{escape(name)}" checked> '
         f'<span class="swatch" style="background:{escape(colours.get(name, "#333"))}">'
@@ -59,6 +60,9 @@ def interactive_html(payload_json: str, order: Sequence[str],
               "(commanded) path</span><span>thin: wheel tracks of the reference run</span>"
               "<span>✕ first contact with an obstacle (at the touching wheel)</span>"
               "<span>dashed ring: the obstacle level's buffer zone</span>")
+    if worst:
+        legend += ("<span>dotted, with a ● and a label: the path's worst run found by the "
+                   "search (body centre); click the label to open it</span>")
     return (
         '<section id="map-section"><h2>Result map (paper Fig. 8), interactive</h2>'
         "<p>Hover a cell for its risk and, per path, the runs that crossed it and their "

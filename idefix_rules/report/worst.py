@@ -1,10 +1,11 @@
 """The report of a worst-case search (``idefix-verify worst``): its section and the worst runs'
-tracks on the result map.
+tracks on the result maps.
 
 A search's results file holds, besides its runs, the search's outcome (``/worst/record``, the
 JSON of ``worst.json``). The report then opens with a table per path of what the search found
 in place of the decision (a search chooses its worlds, so no verdict on them decides anything),
-and draws each path's worst run on the result maps.
+and draws each path's worst run on the printable result maps (dotted) and on the interactive
+one (dotted and labelled, opened by a click on its label or on its row of the table).
 """
 
 from __future__ import annotations
@@ -36,21 +37,30 @@ def read_worst(results_h5: Any) -> dict[str, Any] | None:
         store.close()
 
 
+def worst_rows(record: Mapping[str, Any]) -> dict[str, int]:
+    """Per searched path, the row of its worst run among the path's runs (none when the worst
+    world is the nominal one: that is the reference run, drawn already)."""
+    rows = {}
+    for path in record.get("paths", []):
+        row = (path.get("worst") or {}).get("run") if path.get("status") == "searched" \
+            else None
+        if row is not None:
+            rows[str(path["name"])] = int(row)
+    return rows
+
+
 def worst_tracks(results_h5: Any, record: Mapping[str, Any]
                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per searched path, the body centre's track (x, y) of its worst run (none when the
-    worst world is the nominal one: the reference run is drawn already)."""
+    """Per searched path, the body centre's track (x, y) of its worst run (:func:`worst_rows`)."""
     tracks = {}
     store = ResultStore.open(results_h5)
     try:
-        for path in record.get("paths", []):
-            row = (path.get("worst") or {}).get("run")
-            if row is None or not store.has_path(path["name"]) \
-                    or not store.has_runs(path["name"]):
+        for name, row in worst_rows(record).items():
+            if not store.has_path(name) or not store.has_runs(name):
                 continue
-            signals = store.read_runs(path["name"], np.array([int(row)]), ["x", "y"])
+            signals = store.read_runs(name, np.array([row]), ["x", "y"])
             if "x" in signals and "y" in signals:
-                tracks[str(path["name"])] = (signals["x"][0], signals["y"][0])
+                tracks[name] = (signals["x"][0], signals["y"][0])
     finally:
         store.close()
     return tracks
@@ -87,8 +97,13 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
                         "</td></tr>")
             continue
         worst = path["worst"]
+        opens = ""  # a row with a worst run opens it on the interactive map, as Why's rows do
+        if worst.get("run") is not None:
+            opens = (f' class="run" data-path="{escape(path["name"])}" '
+                     f'data-run="{int(worst["run"])}" title="open run {int(worst["run"])} in '
+                     'the map and its time series"')
         rows.append(
-            f"<tr><td>{escape(path['name'])}</td>"
+            f"<tr{opens}><td>{escape(path['name'])}</td>"
             f"<td class=\"num\">{percent(path['nominal']['risk'])}</td>"
             f"<td class=\"num\">{percent(worst['risk'])}</td>"
             f"<td>{escape(str(worst.get('dominant_index') or '–'))}</td>"
@@ -103,7 +118,9 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
         f"path, critical at I_max ≥ {threshold}. <i>As far out as</i>: the share of the "
         "campaign's worlds at least as far from the median world (every parameter at its "
         "median) as the worst one, in standard-normal quantile coordinates; σ: its distance "
-        "from the nominal world there (docs/worst-case.md).</p>",
+        "from the nominal world there (docs/worst-case.md). Each worst run is dotted and "
+        "labelled on the interactive result map; click its row (or its label) to open it "
+        "there with its time series.</p>",
         '<div class="scroll"><table><thead><tr>'
         + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr></thead><tbody>"
         + "".join(rows) + "</tbody></table></div>"]
@@ -112,8 +129,9 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
             continue
         worst = path["worst"]
         where = "the nominal world" if worst.get("run") is None else f"run {worst['run']}"
-        items = [f"<li>worst: I_max {percent(worst['risk'])} in {where} (dotted on the result "
-                 f"maps): {_world(worst, units, stored_units)}</li>"]
+        drawn = "" if worst.get("run") is None else " (dotted on the result maps)"
+        items = [f"<li>worst: I_max {percent(worst['risk'])} in {where}{drawn}: "
+                 f"{_world(worst, units, stored_units)}</li>"]
         for boundary in path.get("boundaries", []):
             label = escape(str(boundary["direction"]))
             if not boundary["found"]:

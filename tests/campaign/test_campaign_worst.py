@@ -177,6 +177,34 @@ def test_dask_searches_the_same_worlds_as_the_local_pool(
     assert comparable(records[0]) == comparable(records[1])
 
 
+def test_every_round_runs_on_one_pool_of_workers(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The workers (and the FMU each loaded) live from the first round to the last: one pool
+    # for the reference runs, one for every generation and boundary round, not one per round.
+    from idefix_rules.campaign import simulate
+
+    made: list[bool] = []
+    maps: list[int] = []
+
+    class Counted(simulate.LocalPool):
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+            made.append(self.persistent)
+
+        def map(self, tasks):  # type: ignore[no-untyped-def]
+            listed = list(tasks)
+            maps.append(len(listed))
+            return super().map(listed)
+
+    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--workers", "2", "--out",
+                         str(campaign_dir / "pooled"))
+    assert code == 0, output
+    assert len(maps) >= 4  # the references, then at least three rounds
+    assert made == [False, True]  # the references' pool, then one for every round
+
+
 def test_the_report_opens_with_the_worst_case_and_draws_the_worst_runs(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = campaign_dir / "reported"
