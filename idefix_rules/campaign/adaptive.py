@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign import pairwise, sampling
+from idefix_rules.campaign.bounds import failure_sequence, judged_statistics
+from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
@@ -41,7 +43,7 @@ from idefix_rules.campaign.simulate import (
     path_stream,
     run_and_store,
 )
-from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
+from idefix_rules.campaign.stopping import settle, stop_reason
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
@@ -86,8 +88,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     sigma = initial_position_sigma(campaign)
     parts: dict[str, list[Any]] = {name: [] for name in running}
     rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
-    paired = bool(campaign.model.uncertainty.paired) and pairwise.uses_paired_risk(
-        evaluator.rulebook)
+    drawn_paired = bool(campaign.model.uncertainty.paired)
+    paired = drawn_paired and pairwise.uses_paired_risk(evaluator.rulebook)
+    budget = alpha_budget(evaluator, len(running), drawn_paired)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     for look in settings.looks():
@@ -105,13 +108,16 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             if parts[name]:
                 whole = concatenate(parts[name])
                 # runs lost to the infrastructure are no failure of the path's
-                failed = sum(run < look and not is_infrastructure(reason)
-                             for run, reason in store.failures(name).items())
-                fixed = evaluator.path_statistics(whole, failed_runs=failed)
-                statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
+                failed = np.array(sorted(run for run, reason in store.failures(name).items()
+                                         if run < look and not is_infrastructure(reason)),
+                                  dtype=np.int64)
+                fixed = evaluator.path_statistics(whole, failed_runs=failed.size)
+                statistics[name] = judged_statistics(
+                    whole, fixed, plan.stop_time, budget, sequential=True,
+                    failures=failure_sequence(np.concatenate(rows[name]), failed))
         pairs = pairwise.compare_pairs(
             {name: (np.concatenate(rows[name]), np.asarray(concatenate(parts[name]).i_max))
-             for name in statistics}, list(statistics), evaluator.checked.confidence,
+             for name in statistics}, list(statistics), budget.comparison_alpha,
             evaluator.checked.indifference) if paired else []
         settlements = settle(evaluator, statistics, pairs)
         for name in list(running):

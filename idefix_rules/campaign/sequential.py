@@ -46,13 +46,15 @@ def plugin_bets(values: np.ndarray, alpha: float, two_sided: bool = True,
     bettors share α (log(2/α)), else one bettor has it all (log(1/α)). ``fixed_runs``: bets
     tuned for an interval after that many runs only (a fixed-count campaign), still valid at
     every run count."""
-    n = values.size
+    n = values.shape[-1]
     t = np.arange(1, n + 1, dtype=np.float64)
-    # mean and variance estimates after t runs (t = 0 … n-1 used for run t+1)
-    running_mean = (0.5 + np.cumsum(values)) / (t + 1.0)
-    squares = np.cumsum((values - running_mean) ** 2)
+    # mean and variance estimates after t runs (t = 0 … n-1 used for run t+1), along the last
+    # axis (one stream per row when given several)
+    running_mean = (0.5 + np.cumsum(values, axis=-1)) / (t + 1.0)
+    squares = np.cumsum((values - running_mean) ** 2, axis=-1)
     variance = (0.25 + squares) / (t + 1.0)
-    previous_variance = np.concatenate(([0.25], variance[:-1]))
+    previous_variance = np.concatenate((np.full((*values.shape[:-1], 1), 0.25),
+                                        variance[..., :-1]), axis=-1)
     level = math.log((2.0 if two_sided else 1.0) / alpha)
     horizon = t * np.log1p(t) if fixed_runs is None else float(max(fixed_runs, 1))
     return np.sqrt(2.0 * level / (previous_variance * horizon))
@@ -95,6 +97,29 @@ def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray
         log_up = np.broadcast_to(up, (x.shape[0], candidates.size))[-1]
         log_down = np.broadcast_to(down, (x.shape[0], candidates.size))[-1]
     return first
+
+
+def rejections(values: np.ndarray, candidate: float, alpha: float, side: str,
+               fixed_runs: int | None = None) -> np.ndarray:
+    """For many streams at once (one per row, runs along the last axis): after each run count,
+    whether the ``side`` bettor (``lower``/``upper``, as in :func:`first_rejection`) has
+    rejected ``candidate`` at level ``alpha`` by then. The simulations of
+    :mod:`idefix_rules.campaign.error_rates` read it.
+
+    >>> rows = np.vstack([np.ones(64), np.zeros(64)])
+    >>> rejections(rows, 0.5, 0.05, "lower")[:, -1].tolist()
+    [True, False]
+    """
+    x = np.clip(np.asarray(values, dtype=np.float64), 0.0, 1.0)
+    bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
+    if side == "lower":
+        cap = BET_TRUNCATION / candidate if candidate > 0 else np.inf
+        steps = np.log1p(np.minimum(bets, cap) * (x - candidate))
+    else:
+        cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else np.inf
+        steps = np.log1p(-np.minimum(bets, cap) * (x - candidate))
+    capital = np.cumsum(steps, axis=-1)
+    return np.asarray(np.maximum.accumulate(capital >= math.log(1.0 / alpha), axis=-1))
 
 
 def one_sided_bound(values: np.ndarray, alpha: float, side: str,

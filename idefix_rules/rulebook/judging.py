@@ -10,7 +10,8 @@ against another statistic, with ``==``) is judged on both sides.
 
 Only statistics estimated from the runs count: ``risk``, ``time``, ``energy``, ``failed``,
 ``chance(NAME)`` and ``mean(INDEX)``. ``runs`` and ``max(INDEX)`` are facts of the runs that
-were simulated, not estimates.
+were simulated, not estimates, and so is a chance compared with 0 (``failed <= 0 %``: no run
+failed; no number of runs bounds a chance to 0).
 
 >>> from idefix_rules.rulebook.parser import parse_rulebook
 >>> book = parse_rulebook('''
@@ -39,6 +40,7 @@ from idefix_rules.rulebook.model import (
     Call,
     Expr,
     Name,
+    Number,
     Reduce,
     Rulebook,
     Select,
@@ -126,6 +128,17 @@ def _comparison(expr: Binary) -> tuple[str, Direction] | None:
     return statistic, "lower" if low_passes else "upper"
 
 
+def _against_zero(expr: Binary) -> bool:
+    """``failed <= 0 %``, ``chance(x) == 0``: a chance compared with a written 0, which the
+    verdict reads on the runs themselves (no run failed), not on bounds."""
+    for side, other in ((expr.left, expr.right), (expr.right, expr.left)):
+        statistic = estimated_statistic(side)
+        if statistic is not None and (statistic == "failed" or statistic.startswith("chance(")) \
+                and isinstance(other, Number) and other.value == 0:
+            return True
+    return False
+
+
 def _walk(expr: Expr, positive: bool) -> Iterator[tuple[str, Direction, int]]:
     """``(statistic, direction, units)`` per occurrence, with ``not`` turning the direction."""
     if isinstance(expr, Unary) and expr.op == "not":
@@ -136,6 +149,8 @@ def _walk(expr: Expr, positive: bool) -> Iterator[tuple[str, Direction, int]]:
         yield from _walk(expr.right, positive)
         return
     if isinstance(expr, Binary):
+        if _against_zero(expr):
+            return  # read on the runs themselves: no bound, nothing spent
         found = _comparison(expr)
         if found is not None:
             statistic, direction = found

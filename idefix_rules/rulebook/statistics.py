@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.rulebook.fold import fold
+from idefix_rules.rulebook.fold import NotConstant, fold
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -170,8 +170,34 @@ def _evaluate(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any],
         return _call(expr.function, args, interval)
     if isinstance(expr, Binary):
         left, right = recurse(expr.left), recurse(expr.right)
+        if interval and expr.op in _COMPARISONS:
+            left, right = _against_zero(expr, stats, constants, left, right)
         return _binary(expr.op, left, right, interval, margin)
     raise ValueError(f"cannot evaluate {type(expr).__name__} on path statistics")
+
+
+_COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
+
+
+def _against_zero(expr: Binary, stats: PathStatistics, constants: Mapping[str, Any],
+                  left: _Value, right: _Value) -> tuple[_Value, _Value]:
+    """A chance (``chance(NAME)``, ``failed``) compared with exactly 0 is read on the runs
+    themselves (``failed <= 0 %``: no run failed): no number of runs bounds a chance to 0,
+    so on its bounds such a rule could never pass."""
+    for side, other in ((expr.left, expr.right), (expr.right, expr.left)):
+        found = _statistic(side, stats)
+        if found is None or not (found[0] == "failed" or found[0].startswith("chance(")) \
+                or _statistic(other, stats) is not None:
+            continue
+        try:
+            limit = float(fold(other, constants))  # type: ignore[arg-type]
+        except (NotConstant, TypeError, ValueError):
+            continue
+        if limit == 0.0:
+            value = found[1].value
+            exact = (value, value)
+            return (exact, right) if side is expr.left else (left, exact)
+    return left, right
 
 
 def _call(function: str, args: list[_Value], interval: bool) -> _Value:

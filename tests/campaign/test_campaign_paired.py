@@ -102,9 +102,12 @@ def test_resume_refuses_results_drawn_the_other_way(campaign_dir: Path, tmp_path
     assert "its paired is False, this campaign's is True" in capsys.readouterr().err
 
 
+# twin drives arc's chain: both pass, so the decision depends on their comparison
 TWINS = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\nbatch_runs: 16") \
     .replace("paths:\n", 'paths:\n  twin:\n    - {max_wheel_rate: "0.1 rad/s", '
-             'delta_position: "0.1 m", delta_heading: "0 deg"}\n')
+             'delta_position: "0.1 m", delta_heading: "20 deg"}\n'
+             '    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.05 m", '
+             'delta_heading: "-20 deg"}\n')
 MARGIN_RULEBOOK = "\ncombine {\n  indifference = 5 %\n}\n"
 
 
@@ -123,21 +126,23 @@ def run_twins(folder: Path, source: Path, text: str, margin: bool,
 
 def test_an_adaptive_campaign_stops_on_a_tie_and_reports_it(
         campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # twin and straight drive the same chain: in the same worlds their run risks are equal
+    # twin and arc drive the same chain: in the same worlds their run risks are equal
     summary, out = run_twins(tmp_path / "tie", campaign_dir, TWINS, True, capsys)
     paths = {p["name"]: p for p in summary["paths"]}
     used = paths["twin"]["runs_used"]
-    assert used < 200 and paths["straight"]["runs_used"] == used
+    assert used < 200 and paths["arc"]["runs_used"] == used
     assert paths["twin"]["stop_reason"].startswith(f"decided after {used} runs")
-    assert paths["twin"]["rank"] == paths["straight"]["rank"]
+    assert paths["twin"]["rank"] == paths["arc"]["rank"]
     assert summary["paired"] is True and summary["indifference"] == pytest.approx(0.05)
-    assert summary["ties"] == [["straight", "twin"]]  # equal risks: in name order
-    [pair] = [p for p in summary["pairs"] if set(p["paths"]) == {"twin", "straight"}]
+    assert summary["ties"] == [["arc", "twin"]]  # equal risks: in name order
+    [pair] = [p for p in summary["pairs"] if set(p["paths"]) == {"twin", "arc"}]
     assert pair["outcome"] == "tied" and pair["equal"] == pair["shared_runs"] == used
-    assert pair["first_safer"] == pair["second_safer"] == 0
+    assert pair["first_safer"] == pair["second_safer"] == 0 and pair["needed"]
     assert -0.05 < pair["ci"][0] <= 0.0 <= pair["ci"][1] < 0.05
-    assert "Ranking: arc > straight > twin\ntie: straight = twin (risk difference within ±5 %)" \
+    assert "Ranking: arc > twin > straight\ntie: arc = twin (risk difference within ±5 %)" \
         in out
+    # straight fails: no decision depends on its rank, it stops on its verdict alone
+    assert paths["straight"]["stop_reason"].endswith("(no decision depends on its rank)")
 
 
 @pytest.mark.parametrize(("text", "margin"), [
@@ -150,4 +155,4 @@ def test_without_a_margin_or_without_pairing_equal_paths_never_tie(
     summary, out = run_twins(tmp_path / "open", campaign_dir, text, margin, capsys)
     assert summary["ties"] == [] and "tie:" not in out
     paths = {p["name"]: p for p in summary["paths"]}
-    assert paths["twin"]["rank"] != paths["straight"]["rank"]
+    assert paths["twin"]["rank"] != paths["arc"]["rank"]

@@ -133,3 +133,16 @@ def test_a_rulebook_without_margins_judges_as_before():
     verdict = rules.verdict(statistics(hit=(0.05, 0.042, 0.058)))
     assert not verdict.decided and not verdict.marginal
     assert dataclasses.asdict(verdict.rules[0])["near"] is False
+
+
+def test_a_chance_compared_with_zero_is_read_on_the_runs_themselves():
+    rules = compile_rulebook(checked("verdict none_failed: require failed <= 0 %\n"
+                                     "verdict no_hit: require chance(hit) == 0 %\n").checked)
+    bounded = dataclasses.replace(statistics(hit=(0.0, 0.0, 0.03)),
+                                  failed=Estimate(0.0, 0.0, 0.02))
+    verdict = rules.verdict(bounded)
+    assert verdict.passed and verdict.decided
+    hit = dataclasses.replace(bounded, chances={"hit": Estimate(0.01, 0.001, 0.05)})
+    assert not rules.verdict(hit).passed and rules.verdict(hit).decided
+    assert judging(parse_rulebook(HEADER + INDEX + "verdict v: require failed <= 0 %",
+                                  "t.rules")).units == 0
