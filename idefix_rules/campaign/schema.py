@@ -332,7 +332,7 @@ class CommandSpec(Strict):
 
 class PathVerdictExpectation(Strict):
     path: str
-    verdict: Literal["pass", "fail"]
+    verdict: Literal["pass", "fail", "marginal"]
 
 
 class RankFirstExpectation(Strict):

@@ -143,8 +143,8 @@ def completions(text: str, position: Position) -> list[Completion]:
         start = position.character - len(unit_tail.group(1) or "")
         after_number = Range(Position(position.line, start), position)
         # a keyword may follow a number too: `percentile 95 over`, `x > 0 and`
-        words = ("over",) if re.search(r"\b(percentile|time_above)[ \t]+\S+[ \t]*\S*$",
-                                       before) else ("and", "or", "because")
+        words: tuple[str, ...] = ("over",) if re.search(
+            r"\b(percentile|time_above)[ \t]+\S+[ \t]*\S*$", before) else ("and", "or", "because")
         if kind == "verdict" and "because" in words:
             words += ("indifference",)  # a verdict's margin follows its condition
         return [*_unit_items(after_number),

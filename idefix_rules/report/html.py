@@ -196,7 +196,7 @@ def _titled(name: str | None, titles: Mapping[str, str]) -> str:
 def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
                    reasons: Mapping[str, list[str]] | None = None) -> str:
     titles = titles or {}
-    head = ("Rank", "Path", "Risk [%]", "95 % CI [%]", "L1 hit [%]", "L2 hit [%]",
+    head = ("Rank", "Path", "Risk [%]", "95 % bounds [%]", "L1 hit [%]", "L2 hit [%]",
             "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
             "Energy [mAs]", "Time [s]", "Verdict", "Runs (failed)", "Dominant index")
     rows = []
