@@ -32,13 +32,12 @@ from idefix_rules.campaign.evaluation import (
     complete_chunks,
     concatenate,
     fill_result,
-    judge_path,
     prescreen_reference,
-    ranked_paths,
     run_context,
     stored_path_result,
 )
 from idefix_rules.campaign.runner import stored_campaign
+from idefix_rules.campaign.scoring import judge_path, ranked_paths
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command, RoverGeometry

@@ -14,8 +14,9 @@ from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.bounds import judged_statistics
 from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.decision import decide
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, decision_pairs
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import exit_code, junit_xml
+from idefix_rules.campaign.scoring import decision_pairs
 from idefix_rules.campaign.sequential import one_sided_bound
 from idefix_rules.campaign.stopping import settle
 from idefix_rules.cli.outcome import print_answer
