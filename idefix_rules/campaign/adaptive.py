@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign import pairwise, sampling
+from idefix_rules.campaign.bounds import failure_sequence, judged_statistics
+from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
@@ -42,7 +44,7 @@ from idefix_rules.campaign.simulate import (
     run_and_store,
     run_task,
 )
-from idefix_rules.campaign.stopping import sequential_statistics, settle, stop_reason
+from idefix_rules.campaign.stopping import settle, stop_reason
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
@@ -86,15 +88,16 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
     parts: dict[str, list[Any]] = {name: [] for name in running}
     rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
-    paired = bool(campaign.model.uncertainty.paired) and pairwise.uses_paired_risk(
-        evaluator.rulebook)
+    drawn_paired = bool(campaign.model.uncertainty.paired)
+    paired = drawn_paired and pairwise.uses_paired_risk(evaluator.rulebook)
+    budget = alpha_budget(evaluator, len(running), drawn_paired)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     pool = monte_carlo_pool(campaign, running, store, options) if running else None
     try:
         _looks(campaign, evaluator, rover, fmu, base, running, sampled, done, store, options,
-               progress, summary, collisions, pool, parts, rows, statistics, paired)
+               progress, summary, collisions, pool, parts, rows, statistics, paired, budget)
     finally:
         if pool is not None:
             pool.close()
@@ -106,7 +109,7 @@ def _looks(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
            store: ResultStore, options: SimulationOptions, progress: Progress,
            summary: SimulationSummary, collisions: Any, pool: Any,
            parts: dict[str, list[Any]], rows: dict[str, list[np.ndarray]],
-           statistics: dict[str, Any], paired: bool) -> None:
+           statistics: dict[str, Any], paired: bool, budget: Any) -> None:
     """Look after look: simulate the running paths' next batch on ``pool``, evaluate it, and
     stop each path whose verdict and rank are settled (or that reached ``max_runs``)."""
     settings = campaign.adaptive
@@ -126,13 +129,16 @@ def _looks(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
             if parts[name]:
                 whole = concatenate(parts[name])
                 # runs lost to the infrastructure are no failure of the path's
-                failed = sum(run < look and not is_infrastructure(reason)
-                             for run, reason in store.failures(name).items())
-                fixed = evaluator.path_statistics(whole, failed_runs=failed)
-                statistics[name] = sequential_statistics(whole, fixed, plan.stop_time)
+                failed = np.array(sorted(run for run, reason in store.failures(name).items()
+                                         if run < look and not is_infrastructure(reason)),
+                                  dtype=np.int64)
+                fixed = evaluator.path_statistics(whole, failed_runs=failed.size)
+                statistics[name] = judged_statistics(
+                    whole, fixed, plan.stop_time, budget, sequential=True,
+                    failures=failure_sequence(np.concatenate(rows[name]), failed))
         pairs = pairwise.compare_pairs(
             {name: (np.concatenate(rows[name]), np.asarray(concatenate(parts[name]).i_max))
-             for name in statistics}, list(statistics), evaluator.checked.confidence,
+             for name in statistics}, list(statistics), budget.comparison_alpha,
             evaluator.checked.indifference) if paired else []
         settlements = settle(evaluator, statistics, pairs)
         for name in list(running):

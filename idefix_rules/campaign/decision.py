@@ -11,6 +11,10 @@ entries, which may well assert that a chain fails):
   those chains may be the best, and the ranking between them is not a decision.
 - **unsettled**: no chain passes decidedly, and some chain's verdict is not decided at this
   number of runs (a threshold lies inside a confidence interval): more runs are needed.
+- **marginal**: no chain passes and none is open, but some chain fails no rule decidedly: a
+  statistic of it lies within its rule's indifference margin of the limit. It is not shown to
+  pass, so it is not sent; the decision names it and the rules, and leaves the call to a
+  person (more runs would not settle what the rulebook says does not matter).
 - **none**: no chain is acceptable; the best-ranked simulated chain is named as the least bad,
   with the verdicts it fails.
 
@@ -31,7 +35,7 @@ from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_
 from idefix_rules.campaign.pairwise import OPEN, TIED, find
 from idefix_rules.campaign.wording import verdict_reason_items
 
-DecisionKind = Literal["send", "none", "unsettled"]
+DecisionKind = Literal["send", "none", "unsettled", "marginal"]
 
 
 @dataclass(frozen=True)
@@ -69,8 +73,8 @@ def _unsettled_with(best: str, others: Sequence[Any], pairs: Sequence[Any]
 
 
 def decide(paths: Sequence[Any], pairs: Sequence[Any] = ()) -> Decision:
-    """The decision from per-path ``name``, ``verdict`` (pass, waived, fail, rejected,
-    excluded, error), ``undecided``, ``rank`` (None when not ranked), ``reasons`` (failing
+    """The decision from per-path ``name``, ``verdict`` (pass, waived, fail, marginal,
+    rejected, excluded, error), ``undecided``, ``rank`` (None when not ranked), ``reasons`` (failing
     verdicts) and optionally ``waived`` (the rules waived on it: a waived chain may be sent,
     and the decision says it is waived); ``pairs`` the paired comparisons
     (:class:`~idefix_rules.campaign.pairwise.PairComparison`) of a paired campaign.
@@ -123,6 +127,16 @@ their risks are not told apart at this number of runs: run more to tell which is
                         f"not settled yet: the verdict of {names} is not decided at this "
                         "number of runs (run more to settle it)",
                         tuple(undecided[0].reasons))
+    marginal = sorted((p for p in paths if p.verdict == "marginal"), key=_rank)
+    if marginal:
+        near = marginal[0]
+        names = ", ".join(p.name for p in marginal)
+        rules = "; ".join(near.reasons)
+        return Decision("marginal", near.name,
+                        f"no chain is shown to pass: {names} "
+                        f"{'is' if len(marginal) == 1 else 'are'} within the rulebook's margin "
+                        f"of a limit ({near.name}: {rules}); not sent: accepting such a chain "
+                        "is a person's call", tuple(near.reasons))
     if not ranked:
         return Decision("none", None, "no chain is acceptable (none was simulated: every "
                         "chain was rejected or excluded before Monte Carlo)")

@@ -21,8 +21,11 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign import pairwise
+from idefix_rules.campaign.budget import AlphaBudget, alpha_budget
 from idefix_rules.campaign.processes import is_infrastructure
-from idefix_rules.campaign.stopping import STOP_FIXED, runs_needed, sequential_statistics
+from idefix_rules.campaign.runs_needed import runs_needed
+from idefix_rules.campaign.scoring import decision_pairs, judge_path, ranked_paths
+from idefix_rules.campaign.stopping import STOP_FIXED
 from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.campaign.waivers import STORED_ATTRIBUTE, WaivedRule, to_store, waive_verdict
 from idefix_rules.campaign.waivers import stored as stored_waivers
@@ -103,6 +106,12 @@ class PathResult:
         return sum(is_infrastructure(reason) for reason in self.failures.values())
 
     @property
+    def marginal(self) -> bool:
+        """Not passed because a statistic lies within its rule's margin of the limit, with no
+        rule failing decidedly: neither shown to pass nor to fail."""
+        return bool(getattr(self.verdict, "marginal", False)) and not self.passed
+
+    @property
     def verdict_text(self) -> str:
         if self.status == "rejected":
             return "rejected"
@@ -111,7 +120,7 @@ class PathResult:
         if self.status not in ("simulated",) or self.passed is None:
             return "error"
         if not self.passed:
-            return "fail"
+            return "marginal" if self.marginal else "fail"
         return "waived" if self.waivers else "pass"
 
 
@@ -129,6 +138,8 @@ class CampaignEvaluation:
     indifference: float = 0.0
     pairs: list[Any] = field(default_factory=list)
     ties: list[tuple[str, str]] = field(default_factory=list)
+    # how α was spent over the paths' verdicts and the comparisons (campaign/budget.py)
+    budget: AlphaBudget | None = None
 
     def path(self, name: str) -> PathResult:
         for result in self.paths:
@@ -395,12 +406,13 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     statistics: dict[str, Any] = {}
     run_risks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
+    paired = bool(store.attrs.get("paired", False))
+    budget = alpha_budget(evaluator, ranked_paths(store), paired)
     for name in store.path_names:
         result = stored_path_result(store, name)
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue
-        missing = result.runs - result.completed - len(result.failures)
         if on_path is not None:
             on_path(name, result.completed)
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
@@ -409,11 +421,10 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             result.passed = False
             result.verdict_reasons = ["no complete run to evaluate"]
             continue
-        stats = evaluator.path_statistics(evaluation, failed_runs=result.failed + missing)
         stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
-        if sequential:  # stopped on confidence sequences: report those, not fixed-count CIs
-            stats = sequential_statistics(evaluation, stats, stop_time)
-        elif not result.stop_reason:
+        stats, failures = judge_path(evaluator, evaluation, result, extra["rows"], stop_time,
+                                     budget, sequential)
+        if not sequential and not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
         verdict, waived = waive_verdict(evaluator.verdict(stats), waivers, name)
         result.waivers.extend(waived)
@@ -423,16 +434,13 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         result.stop_time = stop_time
         if extra["finished"] is not None:
             result.unfinished = int(np.sum(~extra["finished"]))
-        fill_runs_needed(result, evaluation, verdict, float(stats.confidence), sequential,
-                         stop_time)
+        fill_runs_needed(result, evaluation, verdict, budget, sequential, stop_time, failures)
         if write:
             _write_path_evaluation(target, name, evaluation, extra, stats, verdict,
                                    len(store.run_status(name)), waived)
     ranking = list(evaluator.rank(statistics)) if statistics else []
-    paired = bool(store.attrs.get("paired", False))
     margin = float(getattr(evaluator.checked, "indifference", 0.0))
-    pairs = pairwise.compare_pairs(run_risks, ranking, float(evaluator.checked.confidence),
-                                   margin) \
+    pairs = decision_pairs(run_risks, ranking, results, budget, margin, sequential) \
         if paired and pairwise.uses_paired_risk(evaluator.rulebook) else []
     passed = {result.name: bool(result.passed) for result in results}
     ranks, ties = pairwise.shared_ranks(ranking, passed, pairs)
@@ -442,7 +450,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     provenance = {key: as_plain(value) for key, value in store.attrs.items()}
     campaign_eval = CampaignEvaluation(results, ranking, rulebook_info, provenance,
                                        _slip_checks(store, evaluator, rulebook_info),
-                                       paired, margin, pairs, ties)
+                                       paired, margin, pairs, ties, budget)
     if write:
         root = target.file.require_group("evaluation")
         for key, value in rulebook_info.items():
@@ -467,18 +475,18 @@ def _slip_checks(store: ResultStore, evaluator: Any, info: Mapping[str, str]) ->
     return slip_checks(store, float(settings.theoretical_slip), name)
 
 
-def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, confidence: float,
-                     sequential: bool, stop_time: float) -> None:
-    """Roughly how many runs would decide each verdict rule that is not decided."""
-    result.runs_needed = {rule.name: runs_needed(rule, evaluation, confidence, sequential,
-                                                 stop_time)
-                          for rule in verdict.rules if not rule.decided}
+def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: AlphaBudget,
+                     sequential: bool, stop_time: float,
+                     failures: np.ndarray | None = None) -> None:
+    """Roughly how many runs would settle each verdict rule that is not decided."""
+    result.runs_needed = {
+        rule.name: runs_needed(rule, evaluation, budget.levels(rule.statistic or ""),
+                               sequential, stop_time, failures)
+        for rule in verdict.rules if not rule.decided}
     shown = {_reason_text(rule): rule.name for rule in verdict.rules if not rule.decided}
     result.verdict_reasons = [
         f"{text}; {runs_needed_text(result.runs_needed[shown[text]])}" if text in shown else text
         for text in result.verdict_reasons]
-
-
 
 
 def stored_path_result(store: ResultStore, name: str) -> PathResult:

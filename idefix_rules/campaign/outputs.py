@@ -71,8 +71,8 @@ def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> Expec
             held = False
         if path.failed:
             message += f"; {path.failed} failed run(s)"
-        return ExpectationResult(f"{path.name} {'passes' if wanted == 'pass' else 'fails'}",
-                                 held, message)
+        says = {"pass": "passes", "fail": "fails"}.get(wanted, "is within a margin of a limit")
+        return ExpectationResult(f"{path.name} {says}", held, message)
     if isinstance(expectation, MeanRiskExpectation):
         bound = expectation.max_mean_risk
         risk = path.mean_risk
@@ -226,6 +226,8 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "indifference": evaluation.indifference,
         "ties": [list(tie) for tie in evaluation.ties],
         "pairs": [significant(pair.to_dict()) for pair in evaluation.pairs],
+        "alpha": (significant(evaluation.budget.to_dict())
+                  if evaluation.budget is not None else None),
         "sensitivity": sensitivity or {},
         "expectations": [{"description": e.description, "held": e.held, "message": e.message}
                          for e in expectations],
@@ -345,7 +347,7 @@ def _path_detail(path: PathResult) -> str:
     if path.reason:
         lines.append(f"reason: {path.reason}")
     if path.mean_risk is not None:
-        ci = f" (95 % CI {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
+        ci = f" (95 % bounds {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
             if path.risk_ci else ""
         lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
     # An undecided verdict is said by the reasons (each undecided rule's message says it).

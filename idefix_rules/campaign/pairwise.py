@@ -15,20 +15,23 @@ A pair is decided when its interval says so:
 * ``first`` / ``second`` safer — otherwise, the interval lies below / above 0;
 * ``open`` — neither yet.
 
-α is split evenly over the pairs (Bonferroni): with ``m`` pairs each interval is a confidence
-sequence at ``α / m``, so the chance that *any* pair is ever wrongly ordered or wrongly tied, at
-any look, is at most α (``docs/campaign-format.md``, "Ranks on paired differences").
+Each side of the interval is a one-sided bound at the campaign's comparison α
+(:class:`~idefix_rules.campaign.budget.AlphaBudget`): the decision depends only on the chain to
+send against each other chain (:func:`needed`), so only those ``P − 1`` comparisons spend α;
+pairs among the other chains are shown but decide nothing (``docs/campaign-format.md``, "How
+α is spent").
 
 >>> import numpy as np
 >>> rows = np.arange(200)
 >>> [pair] = compare_pairs({"a": (rows, np.full(200, 0.5)), "b": (rows, np.full(200, 0.5))},
-...                        ["a", "b"], confidence=0.95, margin=0.05)
+...                        ["a", "b"], alpha=0.05, margin=0.05)
 >>> pair.outcome, pair.shared, pair.equal
 ('tied', 200, 200)
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations, pairwise
@@ -36,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.sequential import betting_interval
+from idefix_rules.campaign.sequential import one_sided_bound
 
 TIED = "tied"
 FIRST_SAFER = "first safer"
@@ -59,9 +62,11 @@ class PairComparison:
     difference: float  # mean of I_max(first) − I_max(second) over the shared worlds
     low: float  # the confidence sequence's interval of that difference
     high: float
-    confidence: float  # of this pair's interval (the campaign's α split over the pairs)
+    confidence: float  # of each side of this pair's interval (1 − the comparison α)
     margin: float  # the indifference margin
     outcome: str  # tied | first safer | second safer | open
+    needed: bool = True  # the decision depends on it (the chain to send against another)
+    runs_needed: int | None = None  # open at the end: paired runs that would settle it
 
     @property
     def settled(self) -> bool:
@@ -76,7 +81,8 @@ class PairComparison:
                 "first_safer": self.first_safer, "second_safer": self.second_safer,
                 "equal": self.equal, "risk_difference": self.difference,
                 "ci": [self.low, self.high], "confidence": self.confidence,
-                "indifference": self.margin, "outcome": self.outcome}
+                "indifference": self.margin, "outcome": self.outcome,
+                "needed": self.needed, "runs_needed": self.runs_needed}
 
 
     @classmethod
@@ -87,7 +93,9 @@ class PairComparison:
         return cls(first, second, int(data["shared_runs"]), int(data["first_safer"]),
                    int(data["second_safer"]), int(data["equal"]),
                    float(data["risk_difference"]), low, high, float(data["confidence"]),
-                   float(data["indifference"]), str(data["outcome"]))
+                   float(data["indifference"]), str(data["outcome"]),
+                   bool(data.get("needed", True)),
+                   None if data.get("runs_needed") is None else int(data["runs_needed"]))
 
 
 def _points(value: float) -> str:
@@ -122,6 +130,9 @@ def describe(pair: PairComparison, subject: str) -> str:
     if pair.outcome == TIED:
         return (f"{subject} and {other} are tied (risk difference within "
                 f"±{100.0 * pair.margin:.3g} %): {subject} safer in {share}: {numbers}")
+    if pair.outcome == OPEN and not pair.needed:
+        return (f"{subject} vs {other} not compared further (no decision depends on their "
+                f"order): {subject} safer in {share}: {numbers}")
     if pair.outcome == OPEN:
         return f"{subject} vs {other} not settled: {subject} safer in {share}: {numbers}"
     if high < 0:
@@ -141,9 +152,15 @@ def adjacent(ranking: Sequence[str], pairs: Sequence[PairComparison]
     return found
 
 
-def difference_interval(differences: np.ndarray, alpha: float) -> tuple[float, float]:
-    """Anytime-valid interval for the mean of ``differences`` (values in [−1, 1], run order)."""
-    low, high = betting_interval((np.asarray(differences, dtype=np.float64) + 1.0) / 2.0, alpha)
+def difference_interval(differences: np.ndarray, alpha: float, sequential: bool = True
+                        ) -> tuple[float, float]:
+    """The mean of ``differences`` (values in [−1, 1], run order) between a lower and an upper
+    bound, each at ``alpha``: anytime-valid when ``sequential``, else with bets tuned for
+    their number."""
+    unit = (np.asarray(differences, dtype=np.float64) + 1.0) / 2.0
+    fixed = None if sequential else int(unit.size)
+    low = one_sided_bound(unit, alpha, "lower", fixed)
+    high = one_sided_bound(unit, alpha, "upper", fixed)
     return 2.0 * low - 1.0, 2.0 * high - 1.0
 
 
@@ -160,14 +177,15 @@ def outcome(low: float, high: float, margin: float) -> str:
 
 
 def compare(first: str, second: str, first_risks: RunRisks, second_risks: RunRisks,
-            alpha: float, margin: float) -> PairComparison:
-    """One pair on the worlds both completed, in run order."""
+            alpha: float, margin: float, sequential: bool = True) -> PairComparison:
+    """One pair on the worlds both completed, in run order; each side of its interval at
+    ``alpha``."""
     rows, first_at, second_at = np.intersect1d(first_risks[0], second_risks[0],
                                                assume_unique=True, return_indices=True)
     differences = (np.asarray(first_risks[1], dtype=np.float64)[first_at]
                    - np.asarray(second_risks[1], dtype=np.float64)[second_at])
     if rows.size:
-        low, high = difference_interval(differences, alpha)
+        low, high = difference_interval(differences, alpha, sequential)
         mean = float(differences.mean())
     else:
         low, high, mean = -1.0, 1.0, float("nan")
@@ -176,16 +194,39 @@ def compare(first: str, second: str, first_risks: RunRisks, second_risks: RunRis
                           low, high, 1.0 - alpha, margin, outcome(low, high, margin))
 
 
-def compare_pairs(risks: Mapping[str, RunRisks], order: Sequence[str], confidence: float,
-                  margin: float) -> list[PairComparison]:
-    """Every pair of the paths in ``order`` (first before second as listed), each on a
-    confidence sequence at ``(1 − confidence) / pairs``."""
+def compare_pairs(risks: Mapping[str, RunRisks], order: Sequence[str], alpha: float,
+                  margin: float, sequential: bool = True) -> list[PairComparison]:
+    """Every pair of the paths in ``order`` (first before second as listed), each side of its
+    interval at ``alpha``."""
     names = [name for name in order if name in risks]
-    pairs = list(combinations(names, 2))
-    if not pairs:
-        return []
-    alpha = (1.0 - confidence) / len(pairs)
-    return [compare(a, b, risks[a], risks[b], alpha, margin) for a, b in pairs]
+    return [compare(a, b, risks[a], risks[b], alpha, margin, sequential)
+            for a, b in combinations(names, 2)]
+
+
+def paired_differences(first_risks: RunRisks, second_risks: RunRisks) -> np.ndarray:
+    """I_max(first) − I_max(second) over the worlds both completed, in run order."""
+    _, first_at, second_at = np.intersect1d(first_risks[0], second_risks[0],
+                                            assume_unique=True, return_indices=True)
+    return (np.asarray(first_risks[1], dtype=np.float64)[first_at]
+            - np.asarray(second_risks[1], dtype=np.float64)[second_at])
+
+
+def needed(contenders: Sequence[str]) -> set[frozenset[str]]:
+    """The pairs the decision depends on: ``contenders`` are the paths that pass or may
+    still pass, best first; the first (the chain to send) against each of the others.
+
+    >>> sorted(sorted(pair) for pair in needed(["b", "a", "c"]))
+    [['a', 'b'], ['b', 'c']]
+    """
+    return {frozenset((contenders[0], other)) for other in contenders[1:]}
+
+
+def mark_needed(pairs: Sequence[PairComparison], contenders: Sequence[str]
+                ) -> list[PairComparison]:
+    """``pairs`` with ``needed`` set from :func:`needed`."""
+    wanted = needed(contenders) if contenders else set()
+    return [dataclasses.replace(pair, needed=frozenset((pair.first, pair.second)) in wanted)
+            for pair in pairs]
 
 
 def find(pairs: Sequence[PairComparison], first: str, second: str) -> PairComparison | None:

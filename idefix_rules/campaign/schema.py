@@ -331,7 +331,7 @@ class CommandSpec(Strict):
 
 class PathVerdictExpectation(Strict):
     path: str
-    verdict: Literal["pass", "fail"]
+    verdict: Literal["pass", "fail", "marginal"]
 
 
 class RankFirstExpectation(Strict):

@@ -40,16 +40,24 @@ ZOOMS = 4  # finer grids tried when the interval is narrower than a cell
 BLOCK_RUNS = 8192  # runs processed at once (memory stays flat in the run count)
 
 
-def plugin_bets(values: np.ndarray, alpha: float) -> np.ndarray:
-    """Predictable bets λₜ (t = 1 … n): each uses only the runs before it."""
-    n = values.size
+def plugin_bets(values: np.ndarray, alpha: float, two_sided: bool = True,
+                fixed_runs: int | None = None) -> np.ndarray:
+    """Predictable bets λₜ (t = 1 … n): each uses only the runs before it. ``two_sided``: both
+    bettors share α (log(2/α)), else one bettor has it all (log(1/α)). ``fixed_runs``: bets
+    tuned for an interval after that many runs only (a fixed-count campaign), still valid at
+    every run count."""
+    n = values.shape[-1]
     t = np.arange(1, n + 1, dtype=np.float64)
-    # mean and variance estimates after t runs (t = 0 … n-1 used for run t+1)
-    running_mean = (0.5 + np.cumsum(values)) / (t + 1.0)
-    squares = np.cumsum((values - running_mean) ** 2)
+    # mean and variance estimates after t runs (t = 0 … n-1 used for run t+1), along the last
+    # axis (one stream per row when given several)
+    running_mean = (0.5 + np.cumsum(values, axis=-1)) / (t + 1.0)
+    squares = np.cumsum((values - running_mean) ** 2, axis=-1)
     variance = (0.25 + squares) / (t + 1.0)
-    previous_variance = np.concatenate(([0.25], variance[:-1]))
-    return np.sqrt(2.0 * math.log(2.0 / alpha) / (previous_variance * t * np.log1p(t)))
+    previous_variance = np.concatenate((np.full((*values.shape[:-1], 1), 0.25),
+                                        variance[..., :-1]), axis=-1)
+    level = math.log((2.0 if two_sided else 1.0) / alpha)
+    horizon = t * np.log1p(t) if fixed_runs is None else float(max(fixed_runs, 1))
+    return np.sqrt(2.0 * level / (previous_variance * horizon))
 
 
 def rejected(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
@@ -60,11 +68,14 @@ def rejected(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
 
 
 def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray,
-                    alpha: float) -> np.ndarray:
+                    alpha: float, side: str = "both") -> np.ndarray:
     """The number of runs after which each candidate mean is first rejected (``values.size``
     + 1 when never): the running intersection after ``t`` runs holds the candidates with a
-    first rejection above ``t``."""
+    first rejection above ``t``. ``side``: ``both`` (the hedged pair of bettors, α shared),
+    ``lower`` (only the bettor on runs above the candidate: rejects candidates below the mean,
+    a lower bound at α) or ``upper`` (the mirror)."""
     threshold = math.log(1.0 / alpha)
+    hedge = math.log(0.5) if side == "both" else 0.0
     candidates = np.asarray(candidates, dtype=np.float64)
     with np.errstate(divide="ignore"):
         up_cap = np.where(candidates > 0, BET_TRUNCATION / candidates, np.inf)
@@ -75,14 +86,69 @@ def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray
     for start in range(0, values.size, BLOCK_RUNS):
         x = values[start:start + BLOCK_RUNS, None]
         bet = bets[start:start + BLOCK_RUNS, None]
-        up = log_up + np.cumsum(np.log1p(np.minimum(bet, up_cap) * (x - candidates)), axis=0)
-        down = log_down + np.cumsum(np.log1p(-np.minimum(bet, down_cap) * (x - candidates)),
-                                    axis=0)
-        hit = np.maximum(up, down) + math.log(0.5) >= threshold
+        up = log_up + (np.cumsum(np.log1p(np.minimum(bet, up_cap) * (x - candidates)), axis=0)
+                       if side != "upper" else 0.0)
+        down = log_down + (np.cumsum(np.log1p(-np.minimum(bet, down_cap) * (x - candidates)),
+                                     axis=0) if side != "lower" else 0.0)
+        capital = up if side == "lower" else down if side == "upper" else np.maximum(up, down)
+        hit = np.broadcast_to(capital, (x.shape[0], candidates.size)) + hedge >= threshold
         found = hit.any(axis=0) & (first > values.size)
         first[found] = start + 1 + np.argmax(hit[:, found], axis=0)
-        log_up, log_down = up[-1], down[-1]
+        log_up = np.broadcast_to(up, (x.shape[0], candidates.size))[-1]
+        log_down = np.broadcast_to(down, (x.shape[0], candidates.size))[-1]
     return first
+
+
+def rejections(values: np.ndarray, candidate: float, alpha: float, side: str,
+               fixed_runs: int | None = None) -> np.ndarray:
+    """For many streams at once (one per row, runs along the last axis): after each run count,
+    whether the ``side`` bettor (``lower``/``upper``, as in :func:`first_rejection`) has
+    rejected ``candidate`` at level ``alpha`` by then. The simulations of
+    :mod:`idefix_rules.campaign.error_rates` read it.
+
+    >>> rows = np.vstack([np.ones(64), np.zeros(64)])
+    >>> rejections(rows, 0.5, 0.05, "lower")[:, -1].tolist()
+    [True, False]
+    """
+    x = np.clip(np.asarray(values, dtype=np.float64), 0.0, 1.0)
+    bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
+    if side == "lower":
+        cap = BET_TRUNCATION / candidate if candidate > 0 else np.inf
+        steps = np.log1p(np.minimum(bets, cap) * (x - candidate))
+    else:
+        cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else np.inf
+        steps = np.log1p(-np.minimum(bets, cap) * (x - candidate))
+    capital = np.cumsum(steps, axis=-1)
+    return np.asarray(np.maximum.accumulate(capital >= math.log(1.0 / alpha), axis=-1))
+
+
+def one_sided_bound(values: np.ndarray, alpha: float, side: str,
+                    fixed_runs: int | None = None) -> float:
+    """A one-sided bound at level ``alpha`` for the mean of ``values`` (in [0, 1], run order):
+    ``lower`` or ``upper``; the running intersection over every run count, with bets tuned
+    for ``fixed_runs`` when given. 0 (lower) or 1 (upper) without values.
+
+    Each bettor's capital falls as the candidate moves towards the far side of the mean, so
+    the rejected candidates form one interval from the near end ([0, L) for ``lower``) and
+    bisection finds its edge.
+
+    >>> round(one_sided_bound(np.ones(128), 0.05, "lower", fixed_runs=128), 3)
+    0.969
+    """
+    x = np.clip(np.asarray(values, dtype=np.float64).ravel(), 0.0, 1.0)
+    if x.size == 0:
+        return 0.0 if side == "lower" else 1.0
+    bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
+    inside, outside = (1.0, 0.0) if side == "lower" else (0.0, 1.0)
+    if first_rejection(x, bets, np.array([outside]), alpha, side)[0] > x.size:
+        return outside  # not even the far end is rejected
+    for _ in range(BISECTION_STEPS + 10):
+        middle = 0.5 * (inside + outside)
+        if first_rejection(x, bets, np.array([middle]), alpha, side)[0] <= x.size:
+            outside = middle
+        else:
+            inside = middle
+    return float(outside)
 
 
 def _last_survivors(x: np.ndarray, bets: np.ndarray, alpha: float) -> tuple[float, float]:

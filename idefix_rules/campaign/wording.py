@@ -211,7 +211,7 @@ def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
     >>> rule_text({"name": "acceptable_risk", "passed": False, "decided": True,
     ...            "statistic": "risk", "value": 0.9439, "interval": [0.921, 0.9667],
     ...            "threshold": 0.7, "message": "…"})
-    'acceptable_risk: risk 94.4 % (95 % CI 92.1–96.7 %) is above the limit 70 %'
+    'acceptable_risk: risk 94.4 % (95 % bounds 92.1–96.7 %) is above the limit 70 %'
     """
     name = str(rule.get("name", ""))
     statistic = rule.get("statistic")
@@ -221,14 +221,18 @@ def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
     stat = str(statistic)
     interval = rule.get("interval")
     ci = ""
-    if interval and None not in interval[:2] and stat not in ("failed",):
+    if interval and None not in interval[:2]:
         low = _statistic_value(stat, float(interval[0])).rsplit(" ", 1)[0]
-        ci = (f" ({confidence * 100:.0f} % CI {low}–"
+        ci = (f" ({confidence * 100:.0f} % bounds {low}–"
               f"{_statistic_value(stat, float(interval[1]))})")
     limit = _statistic_value(stat, float(threshold))
     passed, decided = bool(rule.get("passed", True)), bool(rule.get("decided", True))
     side = "above" if float(value) > float(threshold) else "below"
-    if not decided:
+    if rule.get("near"):
+        margin = _statistic_value(stat, float(rule.get("margin") or 0.0))
+        verdict = (f"is within ± {margin} of the limit {limit}: neither shown to pass nor to "
+                   "fail (the rulebook's margin)")
+    elif not decided:
         verdict = f"not decided: the limit {limit} lies inside the interval"
     elif passed:
         verdict = f"within the limit {limit}"

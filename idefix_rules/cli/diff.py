@@ -241,7 +241,7 @@ def print_results(console: Console, file: ResultsFileDiff) -> None:
     table = Table(show_lines=True)
     table.add_column("path", no_wrap=True)
     table.add_column("verdict", overflow="fold")
-    table.add_column("risk (95 % CI)", min_width=10, overflow="fold")
+    table.add_column("risk (95 % bounds)", min_width=10, overflow="fold")
     for column in ("rank", "chances that changed", "dominant index (runs)", "runs moved"):
         table.add_column(column, overflow="fold")
     for path in file.paths:

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from rich.table import Table
 
     from idefix_rules.rulebook.check import CheckedRulebook
-    from idefix_rules.rulebook.model import Expr
+    from idefix_rules.rulebook.model import Expr, VerdictRule
     from idefix_rules.units import Dimension
 
 NAME = "explain"
@@ -113,8 +113,28 @@ def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
                prescreen.rationale or "")
     for verdict in rulebook.verdicts:
         yield ("verdict", verdict.name, format_expr(verdict.condition), "condition",
-               _condition_threshold(checked, verdict.condition, "path"), "",
-               verdict.rationale or "")
+               _condition_threshold(checked, verdict.condition, "path")
+               + _margin_text(checked, verdict), "", verdict.rationale or "")
+
+
+def _margin_text(checked: CheckedRulebook, verdict: VerdictRule) -> str:
+    """``marginal within ± 0.5 %`` of a verdict with an indifference margin (its own or the
+    ``verdict_indifference`` default), on a line of its own; else empty."""
+    from idefix_rules.rulebook.format import format_expr, format_number
+    from idefix_rules.rulebook.infer import infer_type
+
+    margin = checked.verdict_margins.get(verdict.name, 0.0)
+    if margin <= 0:
+        return ""
+    if verdict.indifference is not None:
+        written = format_expr(verdict.indifference)
+        limit_type = infer_type(verdict.indifference, checked.scope("constant"), [])
+        dimension = limit_type.dimension if limit_type is not None else None
+        si = _si(margin, dimension)
+        shown = written if si == written else f"{written} (= {si})"
+    else:
+        shown = f"{format_number(float(f'{margin * 100:.6g}'))} % (verdict_indifference)"
+    return f"\nmarginal within ± {shown}"
 
 
 _ROW_KEYS = ("kind", "name", "formula", "unit", "threshold", "weight", "rationale")
@@ -142,7 +162,8 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
         "obstacle_levels": [level.to_dict() for level in obstacle_levels(checked)],
         "areas": [area.to_dict() for area in areas(checked)],
         "combine": {"run": combine.run, "path": combine.path,
-                    "confidence": checked.confidence},
+                    "confidence": checked.confidence, "indifference": checked.indifference,
+                    "verdict_margins": dict(checked.verdict_margins)},
         "ranking": [format_expr(key.expr) + (" desc" if key.descending else "")
                     for key in rulebook.ranking.keys],
     }
@@ -220,6 +241,9 @@ def _footer(checked: CheckedRulebook) -> Iterator[str]:
     combine = rulebook.combine
     yield (f"run risk: {combine.run} (eq. 1); path risk: {combine.path} of runs (eq. 2); "
            f"confidence {format_number(checked.confidence * 100)} %")
+    if checked.indifference > 0:
+        yield (f"ranks: paths whose risks differ by less than "
+               f"{format_number(float(f'{checked.indifference * 100:.6g}'))} % are tied")
     keys = ", ".join(format_expr(key.expr) + (" desc" if key.descending else "")
                      for key in rulebook.ranking.keys)
     yield f"rank by {keys}"

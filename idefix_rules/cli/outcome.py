@@ -23,12 +23,13 @@ from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.decision import Decision, campaign_decision, reason_items
 from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.outputs import ExpectationResult
+from idefix_rules.campaign.pairwise import OPEN
 from idefix_rules.campaign.processes import is_infrastructure
 from idefix_rules.campaign.stopping import STOP_FIXED
 from idefix_rules.campaign.wording import percent, unfinished_text
 
 LEVELS = ("L1", "L2", "L3")
-STYLES = {"pass": "green", "fail": "red", "waived": "magenta"}
+STYLES = {"pass": "green", "fail": "red", "waived": "magenta", "marginal": "yellow"}
 
 
 def _ordered(evaluation: CampaignEvaluation) -> list[PathResult]:
@@ -65,7 +66,7 @@ def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> 
     table = Table(title="Path evaluation", title_justify="left")
     table.add_column("path", no_wrap=True)
     table.add_column("risk %", justify="right")
-    table.add_column("95 % CI", justify="right")
+    table.add_column("95 % bounds", justify="right")
     for level in LEVELS:
         table.add_column(f"hit {level} %", justify="right")
     table.add_column("energy mAs", justify="right")
@@ -92,7 +93,7 @@ def path_lines(path: PathResult, titles: Mapping[str, str]) -> list[str]:
     rank = f"#{path.rank} " if path.rank is not None else ""
     lines = [f"[bold]{rank}{escape(path.name)}[/bold]  {_verdict(path)}"]
     if path.mean_risk is not None:
-        ci = (f" (95 % CI {_pct(path.risk_ci[0])}–{_pct(path.risk_ci[1])})"
+        ci = (f" (95 % bounds {_pct(path.risk_ci[0])}–{_pct(path.risk_ci[1])})"
               if path.risk_ci else "")
         lines.append(f"  risk {percent(path.mean_risk)}{ci}")
         hits = "  ".join(f"{level} {_pct(path.collision_chance.get(level))}"
@@ -114,7 +115,7 @@ def fits(console: Console, table: Table) -> bool:
 
 
 def print_decision(console: Console, decision: Decision) -> None:
-    style = {"send": "green", "none": "red"}.get(decision.kind, "yellow")
+    style = {"send": "green", "none": "red"}.get(decision.kind, "yellow")  # marginal: yellow
     console.print(f"[bold]Decision:[/bold] [{style}]{escape(decision.text)}[/{style}]")
 
 
@@ -135,12 +136,19 @@ def ci_line(expectations: Sequence[ExpectationResult], code: int,
 
 FAILED_MARK = "✗"
 UNDECIDED_MARK = "?"
+NEAR_MARK = "≈"
 LEGEND = (f"{FAILED_MARK} rule failed · {UNDECIDED_MARK} rule not decided yet (its limit is "
-          "inside the CI: run more)")
+          f"inside the bounds: run more) · {NEAR_MARK} within the rule's margin of its limit "
+          "(neither passed nor failed)")
 
 
 def _rule_name(text: str) -> str:
     return text.split(":", 1)[0] if ":" in text else text
+
+
+def _near_rules(path: PathResult) -> set[str]:
+    """The verdict rules of a path that lie within their margin of the limit."""
+    return {rule.name for rule in getattr(path.verdict, "rules", ()) if rule.near}
 
 
 def verdict_line(path: PathResult) -> str:
@@ -151,10 +159,15 @@ def verdict_line(path: PathResult) -> str:
     if path.mean_risk is not None:
         parts.append(f"risk {percent(path.mean_risk)}")
     items = reason_items(path)
-    failed = [_rule_name(text) for decided, text in items if decided]
+    near = _near_rules(path)
+    failed = [_rule_name(text) for decided, text in items
+              if decided and _rule_name(text) not in near]
+    within = [_rule_name(text) for decided, text in items if _rule_name(text) in near]
     open_ = [_rule_name(text) for decided, text in items if not decided]
     if failed and path.verdict_text != "pass" and path.verdict is not None:
         parts.append("fails " + ", ".join(escape(n) for n in failed))
+    if within:
+        parts.append("within the margin: " + ", ".join(escape(n) for n in within))
     if open_:
         parts.append("not decided: " + ", ".join(escape(n) for n in open_))
     parts.extend(f"{escape(w.rule)} {escape(w.text())}" for w in path.waivers)
@@ -207,9 +220,11 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         if path.unfinished and path.stop_time is not None:
             text = unfinished_text(path.name, path.unfinished, path.completed, path.stop_time)
             console.print(f"  [yellow]{escape(text)}[/yellow]")
+        near = _near_rules(path)
         for decided, reason in reason_items(path):
             marks = True
-            mark = (f"[red]{FAILED_MARK}[/red]" if decided
+            mark = (f"[yellow]{NEAR_MARK}[/yellow]" if _rule_name(reason) in near
+                    else f"[red]{FAILED_MARK}[/red]" if decided
                     else f"[yellow]{UNDECIDED_MARK}[/yellow]")
             console.print(f"  {mark} {escape(path.name)}: {escape(reason)}" if wide
                           else f"  {mark} {escape(reason)}")
@@ -253,8 +268,24 @@ def index_titles(rulebook: Any) -> dict[str, str]:
 
 
 def _print_ties(console: Console, evaluation: CampaignEvaluation) -> None:
-    """One line per tie of the ranking: ``tie: A = B (risk difference within ±2 %)``."""
+    """One line per tie of the ranking: ``tie: A = B (risk difference within ±2 %)``; one per
+    comparison the decision depends on that is still open, with the paired runs that would
+    settle it."""
     margin = f"{evaluation.indifference * 100:.3g} %"
     for first, second in evaluation.ties:
         console.print(f"tie: {first} = {second} (risk difference within ±{margin})",
                       markup=False)
+    for pair in evaluation.pairs:
+        if pair.needed and pair.outcome == OPEN:
+            console.print(open_pair_text(pair), markup=False)
+
+
+def open_pair_text(pair: Any) -> str:
+    """``open: a vs b after 400 paired runs (risk difference −1.2 … +0.8 %): about 1,900
+    paired runs would settle it at the present spread``."""
+    low, high = f"{100 * pair.low:+.1f}", f"{100 * pair.high:+.1f}"
+    needed = (f"about {pair.runs_needed:,} paired runs would settle it at the present spread"
+              if pair.runs_needed is not None else
+              "no run count up to 1,000,000 is estimated to settle it")
+    return (f"open: {pair.first} vs {pair.second} after {pair.shared} paired runs (risk "
+            f"difference {low} … {high} %): {needed}")

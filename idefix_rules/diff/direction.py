@@ -32,8 +32,10 @@ condition (the rest of the condition unchanged), a level's buffer (more buffer e
 ``collision.buffer``), ``tolerance_growth`` (a wider ``tolerance_radius``). An added command
 rule, prescreen or verdict is stricter, a removed one looser; an added index raises the risk
 (stricter when verdicts bound the risk from above). Header, ranking, titles, rationales, maps
-``confidence`` (which only decides whether a verdict is *decided*) and ``indifference`` (which
-only decides whether two paths' ranks are tied) are neutral; a changed
+``confidence`` (which only decides whether a verdict is *decided*), ``indifference`` (which
+only decides whether two paths' ranks are tied) and a verdict's margin (``indifference`` after
+its condition, ``verdict_indifference``: whether an open verdict is within the margin of its
+limit; a path passes or fails as before) are neutral; a changed
 expression shape, a level size threshold read by the rules, or ``theoretical_slip`` are
 unknown.
 """
@@ -533,6 +535,8 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
         return constant_direction(old, new, name)
     if section == "index":
         return index_direction(old, new, name, fields)
+    if section == "verdict" and set(fields) == {"indifference"}:
+        return "neutral"  # a margin only turns an open verdict into one within the margin
     if section in ("command", "chance", "prescreen", "verdict"):
         if kind == "affected":
             return _affected_condition(old, new, section, name, upstream)
@@ -543,7 +547,7 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
         return level_direction(old, new, name)
     if section == "area":
         return area_direction(old, new, name)
-    return "neutral"  # header, combine (confidence, indifference), ranking
+    return "neutral"  # header, combine (confidence, indifference, …), ranking
 
 
 def area_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Direction:

@@ -23,6 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.decision import reasons_of
 from idefix_rules.campaign.environment import named_areas
 from idefix_rules.campaign.evaluation import (
@@ -36,8 +37,8 @@ from idefix_rules.campaign.evaluation import (
     stored_path_result,
 )
 from idefix_rules.campaign.runner import stored_campaign
+from idefix_rules.campaign.scoring import judge_path, ranked_paths
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
-from idefix_rules.campaign.stopping import sequential_statistics
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.campaign.stored_terrain import terrain_for_rescoring
 from idefix_rules.commands import Command, RoverGeometry
@@ -504,16 +505,16 @@ def _evaluate_path(store: ResultStore, name: str, chain: tuple[Command, ...],
         runs.close()
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
+    paths, paired = ranked_paths(store), bool(store.attrs.get("paired", False))
+    rows = np.concatenate(all_rows) if all_rows else np.zeros(0, dtype=np.int64)
     for side in active:
         result = side.result
         side.evaluation = concatenate(side.parts)
         side.parts = []
-        missing = result.runs - result.completed - len(result.failures)
-        side.statistics = side.evaluator.path_statistics(side.evaluation,
-                                                         failed_runs=result.failed + missing)
-        if adaptive:  # the intervals the evaluation of an adaptive campaign reports
-            side.statistics = sequential_statistics(side.evaluation, side.statistics,
-                                                    stop_time)
+        # the bounds the evaluation of the campaign judges with (campaign/bounds.py)
+        side.statistics, _ = judge_path(side.evaluator, side.evaluation, result, rows,
+                                        stop_time, alpha_budget(side.evaluator, paths, paired),
+                                        adaptive)
         fill_result(result, side.evaluation, side.statistics,
                     side.evaluator.verdict(side.statistics))
     if len(active) == 2 and all_rows:

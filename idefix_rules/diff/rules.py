@@ -226,8 +226,15 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
             "prescreen": model.prescreens, "verdict": model.verdicts}
         rules = sections[section]
         for rule in rules:
-            found[rule.name] = _Declaration(rule.name, {"condition": _item(rule.condition)},
-                                            rule.rationale, (rule.condition,))
+            rule_fields: Fields = {"condition": _item(rule.condition)}
+            margin = getattr(rule, "indifference", None)
+            if section == "verdict":
+                rule_fields["indifference"] = _item(margin, si_text(
+                    checked.verdict_margins[rule.name])
+                    if rule.name in checked.verdict_margins and margin is not None else None)
+            found[rule.name] = _Declaration(rule.name, rule_fields, rule.rationale,
+                                            tuple(e for e in (rule.condition, margin)
+                                                  if e is not None))
     elif section == "index":
         for index in model.indices:
             index_dimension = _dimension(checked.index_types, index.name)
@@ -252,8 +259,10 @@ def _declarations(checked: CheckedRulebook, section: str) -> dict[str, _Declarat
                            else "", si_text(checked.confidence)),
             "indifference": (format_expr(combine.indifference)
                              if combine.indifference is not None else "",
-                             si_text(checked.indifference))}, None,
-            tuple(e for e in (combine.confidence, combine.indifference) if e is not None))
+                             si_text(checked.indifference)),
+            "verdict_indifference": _item(combine.verdict_indifference)}, None,
+            tuple(e for e in (combine.confidence, combine.indifference,
+                              combine.verdict_indifference) if e is not None))
     elif section == "ranking":
         ranking: Ranking = model.ranking
         keys = ", ".join(format_expr(key.expr) + (" desc" if key.descending else "")

@@ -36,7 +36,7 @@ Kind = Literal["constant", "signal", "variable", "reducer", "function", "unit", 
 
 REDUCERS: tuple[str, ...] = get_args(Reducer)  # the rule model's, so none is missed
 INDEX_ITEMS = ("value", "nominal", "limit", "weight", "map", "because")
-COMBINE_ITEMS = ("run", "path", "confidence", "indifference")
+COMBINE_ITEMS = ("run", "path", "confidence", "indifference", "verdict_indifference")
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WORD = re.compile(r"[A-Za-z_][\w.]*$")
 _UNIT_TAIL = re.compile(rf"{_NUMBER}[ \t]*([A-Za-z%°][A-Za-z%°·*/^\d-]*)?$")
@@ -143,8 +143,10 @@ def completions(text: str, position: Position) -> list[Completion]:
         start = position.character - len(unit_tail.group(1) or "")
         after_number = Range(Position(position.line, start), position)
         # a keyword may follow a number too: `percentile 95 over`, `x > 0 and`
-        words = ("over",) if re.search(r"\b(percentile|time_above)[ \t]+\S+[ \t]*\S*$",
-                                       before) else ("and", "or", "because")
+        words: tuple[str, ...] = ("over",) if re.search(
+            r"\b(percentile|time_above)[ \t]+\S+[ \t]*\S*$", before) else ("and", "or", "because")
+        if kind == "verdict" and "because" in words:
+            words += ("indifference",)  # a verdict's margin follows its condition
         return [*_unit_items(after_number),
                 *(Completion(w, "keyword", "keyword", after_number) for w in words)]
     if re.search(r"\bover[ \t]+\w*$", before):

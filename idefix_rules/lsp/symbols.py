@@ -109,10 +109,14 @@ def expressions(rulebook: Rulebook) -> Iterator[tuple[Expr, ScopeKind]]:
         yield rulebook.combine.confidence, "constant"
     if rulebook.combine.indifference is not None:
         yield rulebook.combine.indifference, "constant"
+    if rulebook.combine.verdict_indifference is not None:
+        yield rulebook.combine.verdict_indifference, "constant"
     for prescreen in rulebook.prescreens:
         yield prescreen.condition, "prescreen"
     for verdict in rulebook.verdicts:
         yield verdict.condition, "path"
+        if verdict.indifference is not None:
+            yield verdict.indifference, "constant"
     for key in rulebook.ranking.keys:
         yield key.expr, "path"
 

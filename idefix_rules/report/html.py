@@ -197,7 +197,7 @@ def _titled(name: str | None, titles: Mapping[str, str]) -> str:
 def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
                    reasons: Mapping[str, list[str]] | None = None) -> str:
     titles = titles or {}
-    head = ("Rank", "Path", "Risk [%]", "95 % CI [%]", "L1 hit [%]", "L2 hit [%]",
+    head = ("Rank", "Path", "Risk [%]", "95 % bounds [%]", "L1 hit [%]", "L2 hit [%]",
             "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
             "Energy [mAs]", "Time [s]", "Verdict", "Runs (failed)", "Dominant index")
     rows = []
@@ -261,7 +261,8 @@ def pairs_html(data: ReportData) -> str:
         low, high = sorted((flip * pair.low, flip * pair.high))
         safer = pair.first_safer if above == pair.first else pair.second_safer
         outcome = {pairwise.TIED: f"tied (within ±{100 * pair.margin:.3g} %)",
-                   pairwise.OPEN: "not settled"}.get(
+                   pairwise.OPEN: "not settled" if pair.needed else
+                   "not compared further (no decision depends on it)"}.get(
             pair.outcome, "safer" if high < 0 else "riskier")
         rows.append((f"{above} vs {below}", f"{safer} of {pair.shared}",
                      f"{100 * flip * pair.difference:+.1f}",

@@ -18,6 +18,7 @@ from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, Severity, error, warning
 from idefix_rules.rulebook.fold import NotConstant, Value, fold
 from idefix_rules.rulebook.infer import did_you_mean, infer_type
+from idefix_rules.rulebook.judging import MARGIN_RANGE, verdict_margins
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -85,6 +86,8 @@ class CheckedRulebook:
     index_types: dict[str, ExprType]
     confidence: float
     indifference: float = 0.0  # run-risk difference within which two paths tie (0: never)
+    # per verdict, the margin around its limits (SI; 0: none): within it is "marginal"
+    verdict_margins: dict[str, float] = field(default_factory=dict)
     nominals: dict[str, float] = field(default_factory=dict)  # indices that give a nominal
     areas: tuple[AreaSpec, ...] = ()
 
@@ -134,6 +137,8 @@ class _Env:
     areas: list[AreaSpec] = field(default_factory=list)
     confidence: float = 0.95
     indifference: float = 0.0
+    verdict_indifference: float = 0.0
+    verdict_margins: dict[str, float] = field(default_factory=dict)
 
     def scope(self, kind: str) -> Scope:
         return _scope(kind, self.rulebook, self.constant_types)
@@ -573,6 +578,26 @@ def check_combine(env: _Env) -> list[Diagnostic]:
                                       "e.g. indifference = 2 %"))
             else:
                 env.indifference = value
+    if combine.verdict_indifference is not None:
+        value = _constant_quantity(env, combine.verdict_indifference, DIMENSIONLESS,
+                                   "verdict_indifference", problems)
+        if value is not None:
+            if not 0.0 <= value < 0.5:
+                problems.append(error(MARGIN_RANGE, "verdict_indifference must lie in "
+                                      "[0 %, 50 %)", combine.verdict_indifference.span,
+                                      "a margin around the limits of verdicts on ratios, "
+                                      "e.g. verdict_indifference = 0.5 %"))
+            else:
+                env.verdict_indifference = value
+    return problems
+
+
+def check_verdict_margins(env: _Env) -> list[Diagnostic]:
+    """Each verdict's indifference: of the dimension it compares, 0 or more."""
+    problems: list[Diagnostic] = []
+    env.verdict_margins = verdict_margins(env.rulebook, env.scope("path"),
+                                          env.scope("constant"), env.constants,
+                                          env.verdict_indifference, problems)
     return problems
 
 
@@ -640,10 +665,14 @@ def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
         yield rulebook.combine.confidence
     if rulebook.combine.indifference is not None:
         yield rulebook.combine.indifference
+    if rulebook.combine.verdict_indifference is not None:
+        yield rulebook.combine.verdict_indifference
     for p in rulebook.prescreens:
         yield p.condition
     for v in rulebook.verdicts:
         yield v.condition
+        if v.indifference is not None:
+            yield v.indifference
     for key in rulebook.ranking.keys:
         yield key.expr
 
@@ -660,6 +689,7 @@ CHECKS: tuple[Check, ...] = (
     check_combine,
     check_prescreens,
     check_verdicts,
+    check_verdict_margins,
     check_ranking,
     check_required_sections,
 )
@@ -696,6 +726,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
             index_types=env.index_types,
             confidence=env.confidence,
             indifference=env.indifference,
+            verdict_margins=env.verdict_margins,
         )
     return CheckResult(diagnostics, checked)
 

@@ -392,10 +392,12 @@ class CompiledRulebook:
         return statistics.path_statistics(evaluation, self.confidence, failed_runs)
 
     def verdict(self, stats: PathStatistics) -> Verdict:
-        return statistics.verdict(self.rulebook, self.checked.constants, stats)
+        return statistics.verdict(self.rulebook, self.checked.constants, stats,
+                                  self.checked.verdict_margins)
 
     def rank(self, stats_by_path: Mapping[str, PathStatistics]) -> list[str]:
-        return statistics.rank(self.rulebook, self.checked.constants, stats_by_path)
+        return statistics.rank(self.rulebook, self.checked.constants, stats_by_path,
+                               self.checked.verdict_margins)
 
 
 _FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals

@@ -278,8 +278,14 @@ def _obstacles(levels: Sequence[model.ObstacleLevel],
 def _rules(keyword: str, rules: Sequence[model.CommandRule | model.Prescreen
                                          | model.VerdictRule]) -> list[str]:
     return _simple_section([(rule, f"{keyword} {rule.name}: require "
-                             f"{format_expr(rule.condition)}", rule.rationale)
+                             f"{format_expr(rule.condition)}{_margin(rule)}", rule.rationale)
                             for rule in rules])
+
+
+def _margin(rule: model.ConditionRule) -> str:
+    """`` indifference 2 %`` of a verdict that gives one."""
+    margin = getattr(rule, "indifference", None)
+    return "" if margin is None else f" indifference {format_expr(margin)}"
 
 
 def _chances(chances: Sequence[model.Chance]) -> list[str]:
@@ -327,6 +333,8 @@ def _combine(combine: model.Combine) -> list[str]:
         items.append(("confidence", format_expr(combine.confidence)))
     if combine.indifference is not None:
         items.append(("indifference", format_expr(combine.indifference)))
+    if combine.verdict_indifference is not None:
+        items.append(("verdict_indifference", format_expr(combine.verdict_indifference)))
     return _item_block(combine, "combine {", "combine", items)
 
 

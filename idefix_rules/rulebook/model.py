@@ -259,6 +259,8 @@ class Combine:
     path: PathCombination = "mean"
     confidence: Expr | None = None  # e.g. 95 %; None = 95 %
     indifference: Expr | None = None  # risk difference two paths tie within; None = 0 (no ties)
+    # the margin around a verdict's limit (ratio statistics) when a verdict gives none
+    verdict_indifference: Expr | None = None
     span: Span = _span()
     comments: tuple[str, ...] = _comments()
 
@@ -270,7 +272,11 @@ class Prescreen(ConditionRule):
 
 @dataclass(frozen=True)
 class VerdictRule(ConditionRule):
-    """``verdict acceptable_risk: require risk <= 70 % because "…"`` on path statistics."""
+    """``verdict acceptable_risk: require risk <= 70 % because "…"`` on path statistics;
+    ``indifference 2 %`` after the condition: the margin around its limits (None: the
+    combine block's ``verdict_indifference``)."""
+
+    indifference: Expr | None = None
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ Comments are kept on the declaration they belong to (``comments``; the end of th
 * a comment at the end of a line of a declaration: ``"@eol # text"``; inside an ``index`` or
   ``combine`` block ``"@ITEM # text"`` where ITEM is the line's item (``value``, ``nominal``,
   ``limit``, ``weight``, ``map``, ``because``, ``run``, ``path``, ``confidence``,
-  ``indifference``, the block's own keyword for its first line, ``}`` for its last);
+  ``indifference``, ``verdict_indifference``, the block's own keyword for its first line,
+  ``}`` for its last);
 * a comment on its own line inside such a block: ``"@ITEM^ # text"`` (printed above ITEM);
 * a comment before ``settings {`` / ``obstacles {``: ``"@block^ # text"`` on the first entry.
 
@@ -368,9 +369,12 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
         return model.Prescreen(str(name), condition, self._because(because), span=self._s(meta))
 
     def verdict(self, meta: Any, children: list[Any]) -> model.VerdictRule:
-        name, condition, because = children
+        name, condition, margin, because = children
         return model.VerdictRule(str(name), condition, self._because(because),
-                                 span=self._s(meta))
+                                 span=self._s(meta), indifference=margin)
+
+    def verdict_margin(self, meta: Any, children: list[Any]) -> Any:
+        return children[0]
 
     def chance(self, meta: Any, children: list[Any]) -> model.Chance:
         name, condition, because = children
@@ -443,14 +447,19 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
     def combine_indifference(self, meta: Any, children: list[Any]) -> _Item:
         return _Item("indifference", children[0], self._s(meta))
 
+    def combine_verdict_indifference(self, meta: Any, children: list[Any]) -> _Item:
+        return _Item("verdict_indifference", children[0], self._s(meta))
+
     def combine(self, meta: Any, children: list[_Item]) -> model.Combine:
         found = self._items("combine", children)
         run = found["run"].value if "run" in found else "max_weighted"
         path = found["path"].value if "path" in found else "mean"
         confidence = found["confidence"].value if "confidence" in found else None
         indifference = found["indifference"].value if "indifference" in found else None
+        verdicts = (found["verdict_indifference"].value if "verdict_indifference" in found
+                    else None)
         return model.Combine(run, path, confidence, indifference,  # type: ignore[arg-type]
-                             span=self._s(meta))
+                             verdicts, span=self._s(meta))
 
     def rank_key(self, meta: Any, children: list[Any]) -> model.RankKey:
         expr, descending = children

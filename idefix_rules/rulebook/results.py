@@ -215,6 +215,8 @@ class PathStatistics:
     time: Estimate
     energy: Estimate
     dominant_counts: dict[str, int]
+    # the share of failed runs with bounds (a campaign's); None: judged as the exact share
+    failed: Estimate | None = None
 
     @property
     def failed_fraction(self) -> float:
@@ -242,6 +244,10 @@ class RuleResult:
     rationale: str | None
     message: str
     span: Span | None = None
+    # within the rule's indifference margin of its limit (then neither passed nor failed:
+    # ``passed`` is False, ``decided`` True); the margin in SI, 0 when the rule has none
+    near: bool = False
+    margin: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return _plain_dict(self.__dict__)
@@ -250,9 +256,9 @@ class RuleResult:
 @dataclass(frozen=True)
 class Verdict:
     """Pass/fail of a path: every rule passes. ``decided`` is True when every rule is decided,
-    or when at least one rule fails decidedly (the path fails whatever the undecided rules say);
-    otherwise the verdict is not decided at this number of runs (a threshold lies inside a
-    confidence interval)."""
+    or when at least one rule fails decidedly or lies within its margin of the limit (the path
+    does not pass whatever the undecided rules say); otherwise the verdict is not decided at
+    this number of runs (a threshold lies inside a confidence interval)."""
 
     passed: bool
     decided: bool
@@ -262,6 +268,13 @@ class Verdict:
     def failed_rules(self) -> tuple[RuleResult, ...]:
         return tuple(r for r in self.rules if not r.passed)
 
+    @property
+    def marginal(self) -> bool:
+        """Not passed because some rule is within its margin of the limit, none failing
+        decidedly: the path is neither shown to pass nor to fail."""
+        return (not self.passed and any(r.near for r in self.rules)
+                and not any(not r.passed and r.decided and not r.near for r in self.rules))
+
     def to_dict(self) -> dict[str, Any]:
-        return {"passed": self.passed, "decided": self.decided,
+        return {"passed": self.passed, "decided": self.decided, "marginal": self.marginal,
                 "rules": [r.to_dict() for r in self.rules]}

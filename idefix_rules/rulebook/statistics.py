@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.rulebook.fold import fold
+from idefix_rules.rulebook.fold import NotConstant, fold
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -122,6 +122,8 @@ def _statistic(expr: Expr, stats: PathStatistics) -> tuple[str, Estimate] | None
         if expr.name == "energy":
             return "energy", stats.energy
         if expr.name == "failed":
+            if stats.failed is not None:
+                return "failed", stats.failed
             f = stats.failed_fraction
             return "failed", Estimate(f, f, f)
         if expr.name == "runs":
@@ -139,12 +141,16 @@ def _statistic(expr: Expr, stats: PathStatistics) -> tuple[str, Estimate] | None
     return None
 
 
-_Value = Any  # float, bool, Interval or bool | None
+_Value = Any  # float, bool, Interval, or bool | None | NEAR
+NEAR = "near"  # the fourth value of a condition on intervals: within the margin of a limit
 
 
 def _evaluate(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any],
-              interval: bool) -> _Value:
-    """Point (``interval=False``) or interval/three-valued evaluation of a path expression."""
+              interval: bool, margin: float = 0.0) -> _Value:
+    """Point (``interval=False``) or interval evaluation of a path expression. On intervals a
+    condition is True or False when decided, None when not, and :data:`NEAR` when a
+    comparison's two sides are confidently within ``margin`` of each other (and no other part
+    decides it)."""
     found = _statistic(expr, stats)
     if found is not None:
         estimate = found[1]
@@ -153,19 +159,45 @@ def _evaluate(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any],
         value = float(fold(expr, constants))  # type: ignore[arg-type]
         return (value, value) if interval else value
     def recurse(e: Expr) -> _Value:
-        return _evaluate(e, stats, constants, interval)
+        return _evaluate(e, stats, constants, interval, margin)
     if isinstance(expr, Unary):
         operand = recurse(expr.operand)
         if expr.op == "not":
-            return None if operand is None else not operand
+            return operand if operand is None or operand is NEAR else not operand
         return (-operand[1], -operand[0]) if interval else -operand
     if isinstance(expr, Call):
         args = [recurse(a) for a in expr.args]
         return _call(expr.function, args, interval)
     if isinstance(expr, Binary):
         left, right = recurse(expr.left), recurse(expr.right)
-        return _binary(expr.op, left, right, interval)
+        if interval and expr.op in _COMPARISONS:
+            left, right = _against_zero(expr, stats, constants, left, right)
+        return _binary(expr.op, left, right, interval, margin)
     raise ValueError(f"cannot evaluate {type(expr).__name__} on path statistics")
+
+
+_COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
+
+
+def _against_zero(expr: Binary, stats: PathStatistics, constants: Mapping[str, Any],
+                  left: _Value, right: _Value) -> tuple[_Value, _Value]:
+    """A chance (``chance(NAME)``, ``failed``) compared with exactly 0 is read on the runs
+    themselves (``failed <= 0 %``: no run failed): no number of runs bounds a chance to 0,
+    so on its bounds such a rule could never pass."""
+    for side, other in ((expr.left, expr.right), (expr.right, expr.left)):
+        found = _statistic(side, stats)
+        if found is None or not (found[0] == "failed" or found[0].startswith("chance(")) \
+                or _statistic(other, stats) is not None:
+            continue
+        try:
+            limit = float(fold(other, constants))  # type: ignore[arg-type]
+        except (NotConstant, TypeError, ValueError):
+            continue
+        if limit == 0.0:
+            value = found[1].value
+            exact = (value, value)
+            return (exact, right) if side is expr.left else (left, exact)
+    return left, right
 
 
 def _call(function: str, args: list[_Value], interval: bool) -> _Value:
@@ -204,19 +236,24 @@ def _call(function: str, args: list[_Value], interval: bool) -> _Value:
     raise ValueError(f"unknown function {function}")
 
 
-def _binary(op: str, left: _Value, right: _Value, interval: bool) -> _Value:
+def _binary(op: str, left: _Value, right: _Value, interval: bool,
+            margin: float = 0.0) -> _Value:
     if op == "and":
         if not interval:
             return bool(left) and bool(right)
         if left is False or right is False:
             return False
-        return None if left is None or right is None else True
+        if left is None or right is None:
+            return None
+        return NEAR if NEAR in (left, right) else True
     if op == "or":
         if not interval:
             return bool(left) or bool(right)
         if left is True or right is True:
             return True
-        return None if left is None or right is None else False
+        if left is None or right is None:
+            return None
+        return NEAR if NEAR in (left, right) else False
     if not interval:
         return _POINT[op](left, right)
     (a, b), (c, d) = left, right
@@ -231,6 +268,16 @@ def _binary(op: str, left: _Value, right: _Value, interval: bool) -> _Value:
             return (-math.inf, math.inf)
         return (min(corners), max(corners))
     # comparisons: decided when every value of the intervals gives the same answer
+    decided = _compare(op, a, b, c, d)
+    if decided is None and margin > 0 and op in ("<", "<=", ">", ">=") \
+            and a - d > -margin and b - c < margin:
+        return NEAR  # the two sides differ by less than the margin, whatever they are
+    return decided
+
+
+def _compare(op: str, a: float, b: float, c: float, d: float) -> bool | None:
+    """A comparison of the intervals (a, b) and (c, d): True or False when every value of
+    them gives that answer, else None."""
     always = _POINT[op](b, c) if op in ("<", "<=") else _POINT[op](a, d)
     never_op = {"<": ">=", "<=": ">", ">": "<=", ">=": "<"}.get(op)
     if never_op is not None:
@@ -281,26 +328,36 @@ def _explain(expr: Expr, stats: PathStatistics, constants: Mapping[str, Any]
     return None, None, None, None
 
 
-def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatistics) -> Verdict:
-    """Every verdict rule on one path's statistics (plus ``no_failed_runs``, see module doc)."""
+def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatistics,
+            margins: Mapping[str, float] | None = None) -> Verdict:
+    """Every verdict rule on one path's statistics (plus ``no_failed_runs``, see module doc).
+    ``margins``: each rule's indifference margin (SI); a rule whose statistic lies
+    confidently within it of the limit, and is not decided otherwise, is *near* the limit:
+    neither passed nor failed, and the path does not pass."""
     results = []
     for rule in rulebook.verdicts:
+        margin = float((margins or {}).get(rule.name, 0.0))
         passed = bool(_evaluate(rule.condition, stats, constants, interval=False))
-        three_valued = _evaluate(rule.condition, stats, constants, interval=True)
-        decided = three_valued is not None
+        judged = _evaluate(rule.condition, stats, constants, interval=True, margin=margin)
+        near = judged is NEAR
+        decided = judged is not None
+        passed = passed and not near
         name, value, interval, threshold = _explain(rule.condition, stats, constants)
-        state = "passes" if passed else "fails"
+        state = "is within the margin of its limit" if near else \
+            "passes" if passed else "fails"
         message = f"verdict '{rule.name}' {state}"
         if name is not None and value is not None:
             message += f": {name} = {value:.4g}"
             if interval is not None:
                 message += f" [{interval[0]:.4g}, {interval[1]:.4g}]"
             message += f", threshold {threshold:.4g}"
+            if near:
+                message += f" ± {margin:.4g}"
         if not decided:
             message += f" (not decided at {stats.runs} runs: the threshold lies inside the " \
                        f"{stats.confidence:.0%} confidence interval)"
         results.append(RuleResult(rule.name, passed, decided, name, value, interval, threshold,
-                                  rule.rationale, message, rule.condition.span))
+                                  rule.rationale, message, rule.condition.span, near, margin))
     reads_failed = any("failed" in names_in(rule.condition) for rule in rulebook.verdicts)
     if not reads_failed:
         passed = stats.failed_runs == 0
@@ -315,14 +372,15 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
 
 def verdict_decided(rules: Sequence[RuleResult]) -> bool:
     """A verdict is decided when it passes with every rule decided, or when at least one rule
-    fails decidedly (then no number of runs can make the path pass)."""
+    fails decidedly or is near its limit (then the path does not pass)."""
     if any(not rule.passed and rule.decided for rule in rules):
         return True
     return all(rule.decided for rule in rules)
 
 
 def rank(rulebook: Rulebook, constants: Mapping[str, Any],
-         stats_by_path: Mapping[str, PathStatistics]) -> list[str]:
+         stats_by_path: Mapping[str, PathStatistics],
+         margins: Mapping[str, float] | None = None) -> list[str]:
     """Path names, best first: passing paths, then the others; each by the rank keys."""
     def key(path: str) -> tuple[Any, ...]:
         stats = stats_by_path[path]
@@ -333,7 +391,7 @@ def rank(rulebook: Rulebook, constants: Mapping[str, Any],
                 values.append(math.inf)  # unknown statistics rank last either way
             else:
                 values.append(-value if rank_key.descending else value)
-        passed = verdict(rulebook, constants, stats).passed
+        passed = verdict(rulebook, constants, stats, margins).passed
         return (0 if passed else 1, *values, path)
 
     return sorted(stats_by_path, key=key)

@@ -273,7 +273,8 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
     if chance_names and draw(st.booleans()):
         prescreens.append(Prescreen("ps_chance", Unary("not", Name(chance_names[0]))))
     verdicts = [VerdictRule("v_risk", Binary("<=", Name("risk"), numbers_value(draw, "%")),
-                            draw(st.none() | _TEXT))]
+                            draw(st.none() | _TEXT),
+                            indifference=draw(st.sampled_from([None, Number(1.0, "%")])))]
     for n in chance_names[:1]:
         verdicts.append(VerdictRule("v_chance", Binary("<=", Call("chance", (Name(n),)),
                                                        numbers_value(draw, "%"))))
@@ -288,6 +289,7 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
                                        Number(99.0, "%")]))
     indifference = draw(st.sampled_from([None, Number(0.0, "%"), Number(2.0, "%"),
                                          Number(0.05)]))
+    verdict_indifference = draw(st.sampled_from([None, Number(0.5, "%")]))
     return Rulebook(
         header=Header(draw(_WORDS), f"{draw(st.integers(0, 3))}.{draw(st.integers(0, 9))}.0",
                       draw(_TEXT)),
@@ -297,7 +299,8 @@ def rulebooks(draw: Any, max_indices: int = 4, obstacles: bool | None = None) ->
         command_rules=tuple(command_rules),
         indices=tuple(index_list),
         chances=tuple(chances),
-        combine=Combine(confidence=confidence, indifference=indifference),
+        combine=Combine(confidence=confidence, indifference=indifference,
+                        verdict_indifference=verdict_indifference),
         prescreens=tuple(prescreens),
         verdicts=tuple(verdicts),
         ranking=ranking,

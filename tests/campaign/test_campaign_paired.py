@@ -102,9 +102,12 @@ def test_resume_refuses_results_drawn_the_other_way(campaign_dir: Path, tmp_path
     assert "its paired is False, this campaign's is True" in capsys.readouterr().err
 
 
+# twin drives arc's chain: both pass, so the decision depends on their comparison
 TWINS = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\nbatch_runs: 16") \
     .replace("paths:\n", 'paths:\n  twin:\n    - {max_wheel_rate: "0.1 rad/s", '
-             'delta_position: "0.1 m", delta_heading: "0 deg"}\n')
+             'delta_position: "0.1 m", delta_heading: "20 deg"}\n'
+             '    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.05 m", '
+             'delta_heading: "-20 deg"}\n')
 MARGIN_RULEBOOK = "\ncombine {\n  indifference = 5 %\n}\n"
 
 
@@ -123,21 +126,23 @@ def run_twins(folder: Path, source: Path, text: str, margin: bool,
 
 def test_an_adaptive_campaign_stops_on_a_tie_and_reports_it(
         campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # twin and straight drive the same chain: in the same worlds their run risks are equal
+    # twin and arc drive the same chain: in the same worlds their run risks are equal
     summary, out = run_twins(tmp_path / "tie", campaign_dir, TWINS, True, capsys)
     paths = {p["name"]: p for p in summary["paths"]}
     used = paths["twin"]["runs_used"]
-    assert used < 200 and paths["straight"]["runs_used"] == used
+    assert used < 200 and paths["arc"]["runs_used"] == used
     assert paths["twin"]["stop_reason"].startswith(f"decided after {used} runs")
-    assert paths["twin"]["rank"] == paths["straight"]["rank"]
+    assert paths["twin"]["rank"] == paths["arc"]["rank"]
     assert summary["paired"] is True and summary["indifference"] == pytest.approx(0.05)
-    assert summary["ties"] == [["straight", "twin"]]  # equal risks: in name order
-    [pair] = [p for p in summary["pairs"] if set(p["paths"]) == {"twin", "straight"}]
+    assert summary["ties"] == [["arc", "twin"]]  # equal risks: in name order
+    [pair] = [p for p in summary["pairs"] if set(p["paths"]) == {"twin", "arc"}]
     assert pair["outcome"] == "tied" and pair["equal"] == pair["shared_runs"] == used
-    assert pair["first_safer"] == pair["second_safer"] == 0
+    assert pair["first_safer"] == pair["second_safer"] == 0 and pair["needed"]
     assert -0.05 < pair["ci"][0] <= 0.0 <= pair["ci"][1] < 0.05
-    assert "Ranking: arc > straight > twin\ntie: straight = twin (risk difference within ±5 %)" \
+    assert "Ranking: arc > twin > straight\ntie: arc = twin (risk difference within ±5 %)" \
         in out
+    # straight fails: no decision depends on its rank, it stops on its verdict alone
+    assert paths["straight"]["stop_reason"].endswith("(no decision depends on its rank)")
 
 
 @pytest.mark.parametrize(("text", "margin"), [
@@ -150,7 +155,7 @@ def test_without_a_margin_or_without_pairing_equal_paths_never_tie(
     summary, out = run_twins(tmp_path / "open", campaign_dir, text, margin, capsys)
     assert summary["ties"] == [] and "tie:" not in out
     paths = {p["name"]: p for p in summary["paths"]}
-    assert paths["twin"]["rank"] != paths["straight"]["rank"]
+    assert paths["twin"]["rank"] != paths["arc"]["rank"]
 
 
 def test_the_ranking_s_neighbours_are_compared_in_words_in_the_console_junit_and_report(
@@ -169,36 +174,43 @@ def test_the_ranking_s_neighbours_are_compared_in_words_in_the_console_junit_and
     main([str(path), "--junit", str(folder / "junit.xml")])
     out = capsys.readouterr().out
     summary = json.loads((folder / "out" / "summary.json").read_text())
-    arc = next(p for p in summary["pairs"] if p["paths"] == ["arc", "straight"])
-    shared, safer = arc["shared_runs"], arc["first_safer"]
-    assert arc["outcome"] == "first safer" and 0 < safer <= shared
-    share = f"{100 * safer / shared:.0f} % of the same worlds ({safer} of {shared})"
-    first = f"arc is safer than straight in {share}: risk "
-    twins = next(p for p in summary["pairs"] if set(p["paths"]) == {"straight", "twin"})
-    second = (f"straight and twin are tied (risk difference within ±5 %): straight safer in "
-              f"0 % of the same worlds (0 of {twins['shared_runs']}): risk +0.0 %")
+    tie = next(p for p in summary["pairs"] if p["paths"] == ["arc", "twin"])
+    last = next(p for p in summary["pairs"] if p["paths"] == ["twin", "straight"])
+    assert tie["outcome"] == "tied" and tie["needed"]
+    assert last["outcome"] == "open" and not last["needed"]  # straight fails: stopped early
+    first = (f"arc and twin are tied (risk difference within ±5 %): arc safer in 0 % of the "
+             f"same worlds (0 of {tie['shared_runs']}): risk +0.0 % (")
+    shared, safer = last["shared_runs"], last["first_safer"]
+    second = (f"twin vs straight not compared further (no decision depends on their order): "
+              f"twin safer in {100 * safer / shared:.0f} % of the same worlds ({safer} of "
+              f"{shared}): risk ")
     flat = " ".join(out.split())  # the console wraps long lines
-    found = re.search(r"Ranking: arc > straight > twin tie: straight = twin \(risk difference "
-                      rf"within ±5 %\) {re.escape(first)}(\S+) % \(([\d.]+) % CI (\S+) % … "
-                      rf"(\S+) %\) {re.escape(second)}", flat)
+    found = re.search(r"Ranking: arc > twin > straight tie: arc = twin \(risk difference "
+                      rf"within ±5 %\) {re.escape(first)}([\d.]+) % CI (\S+) % … (\S+) %\) "
+                      rf"{re.escape(second)}(\S+) % \(([\d.]+) % CI (\S+) % … (\S+) %\)",
+                      flat)
     assert found, flat
     # summary.json keeps 4 significant digits: the printed numbers agree to its last digit
-    printed = [float(found.group(k)) / 100 for k in (1, 2, 3, 4)]
-    stored = [arc["risk_difference"], arc["confidence"], *arc["ci"]]
+    printed = [float(found.group(k)) / 100 for k in range(1, 8)]
+    stored = [tie["confidence"], *tie["ci"], last["risk_difference"], last["confidence"],
+              *last["ci"]]
     assert printed == pytest.approx(stored, abs=0.0011)
-    assert "arc vs twin" not in flat and "arc is safer than twin" not in flat  # neighbours only
-    first += found.group(1)
+    assert "arc vs straight" not in flat and "arc is safer than straight" not in flat
+    first = first[:-2]  # up to the numbers
 
     suite = ET.parse(folder / "junit.xml").getroot().find("testsuite")
     assert suite is not None
-    assert suite.findtext("system-out", "").splitlines()[0].startswith(f"pair: {first} %")
+    neighbours = suite.findtext("system-out", "").splitlines()
+    assert neighbours[0].startswith(f"pair: {first}") and len(neighbours) == 2
+    assert neighbours[1].startswith(f"pair: {second}")
     cases = {case.get("name"): case.findtext("system-out", "") for case in suite.iter("testcase")}
     assert f"pair: {first}" in cases["arc"]
-    assert "pair: arc is safer than twin" in cases["arc"]  # a path's case: all its pairs
-    assert "pair: straight is riskier than arc" in cases["straight"]
+    assert "pair: arc vs straight not compared further" in cases["arc"]  # all its pairs
+    assert "pair: straight vs arc not compared further" in cases["straight"]
     assert "pair:" not in cases["too-fast"]  # rejected: never simulated, never compared
 
     report = (folder / "out" / "report.html").read_text()
     assert '<h3 id="pairs">Paired comparisons</h3>' in report
     assert first in report
     assert "<td data-label=\"Outcome\">tied (within ±5 %)</td>" in report
+    assert "not compared further (no decision depends on it)</td>" in report

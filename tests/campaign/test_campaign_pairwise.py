@@ -70,19 +70,24 @@ def test_the_difference_is_taken_over_the_worlds_both_paths_completed() -> None:
     assert pair.low <= pair.difference <= pair.high
 
 
-def test_alpha_is_split_over_the_pairs() -> None:
+def test_every_pair_is_compared_and_only_the_first_contender_against_the_others_is_needed(
+        ) -> None:
     rows = np.arange(64)
     risks = {name: (rows, np.full(64, 0.5)) for name in "abc"}
-    pairs = pairwise.compare_pairs(risks, ["a", "b", "c"], confidence=0.95, margin=0.0)
+    pairs = pairwise.compare_pairs(risks, ["a", "b", "c"], alpha=0.05 / 3, margin=0.0)
     assert [(p.first, p.second) for p in pairs] == [("a", "b"), ("a", "c"), ("b", "c")]
     assert all(p.confidence == pytest.approx(1 - 0.05 / 3) for p in pairs)
-    assert pairwise.compare_pairs({"a": risks["a"]}, ["a"], 0.95, 0.0) == []
+    assert pairwise.compare_pairs({"a": risks["a"]}, ["a"], 0.05, 0.0) == []
+    # the decision depends on the chain to send against each other contender only
+    marked = pairwise.mark_needed(pairs, ["b", "a"])
+    assert [(p.first, p.second, p.needed) for p in marked] == [
+        ("a", "b", True), ("a", "c", False), ("b", "c", False)]
 
 
 def test_tied_neighbours_share_a_rank_within_the_same_verdict() -> None:
     rows = np.arange(400)
     same = {name: (rows, np.full(400, 0.7)) for name in ("a", "b", "c")}
-    pairs = pairwise.compare_pairs(same, ["a", "b", "c"], 0.95, MARGIN)
+    pairs = pairwise.compare_pairs(same, ["a", "b", "c"], ALPHA / 3, MARGIN)
     ranks, ties = pairwise.shared_ranks(["a", "b", "c"], {"a": True, "b": True, "c": True},
                                         pairs)
     assert ranks == {"a": 1, "b": 1, "c": 1} and ties == [("a", "b"), ("b", "c")]

@@ -228,8 +228,10 @@ def test_waived_failures_are_reported_waived_and_count_as_held(
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     assert summary["exit_code"] == 0
     paths = {p["name"]: p for p in summary["paths"]}
+    # six runs do not show arc's risk below 50 % on bounds that hold for any run risks: its
+    # acceptable_risk is open, and the waiver for every path covers it too
     assert {name: p["verdict"] for name, p in paths.items()} == {
-        "straight": "waived", "arc": "pass", "too-fast": "waived"}
+        "straight": "waived", "arc": "waived", "too-fast": "waived"}
     signed = {"reason": "survey shows the slope is benign", "approved_by": "J. Doe",
               "until": "2026-12-01"}
     assert paths["straight"]["waivers"] == [
@@ -237,7 +239,7 @@ def test_waived_failures_are_reported_waived_and_count_as_held(
     assert paths["too-fast"]["waivers"] == [
         {"rule": "wheel_rate_limit", "kind": "command", **signed},
         {"rule": "acceptable_risk", "kind": "verdict", **signed}]
-    assert paths["arc"]["waivers"] == []
+    assert paths["arc"]["waivers"] == [{"rule": "acceptable_risk", "kind": "verdict", **signed}]
     # three runs cannot tell the chains apart in the same drawn worlds: each could be best
     decision = summary["decision"]
     assert decision["path"] == "arc"
@@ -247,15 +249,15 @@ def test_waived_failures_are_reported_waived_and_count_as_held(
     assert "not told apart" in decision["text"]
     said = "waived: survey shows the slope is benign (approved by J. Doe until 2026-12-01)"
     assert f"straight: waived · risk 86.0 % · acceptable_risk {said}" in out
-    assert "passed, 2 waived (exit 0)" in out
+    assert "0 of 3 passed, 3 waived (exit 0)" in out
     suite = ET.parse(junit).getroot().find("testsuite")
     assert suite is not None
-    assert (suite.get("skipped"), suite.get("failures")) == ("2", "0")
+    assert (suite.get("skipped"), suite.get("failures")) == ("3", "0")
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     skipped = cases["straight"].find("skipped")
     assert skipped is not None and cases["straight"].find("failure") is None
     assert skipped.get("message") == f"{said} [acceptable_risk]"
-    assert cases["arc"].find("skipped") is None
+    assert cases["arc"].find("failure") is None
 
 
 def test_a_chain_whose_only_failures_are_waived_may_be_sent_and_the_decision_says_so(

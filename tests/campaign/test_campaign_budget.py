@@ -1,0 +1,160 @@
+"""The α budget over verdicts and the comparisons the decision depends on, the judged bounds,
+what an adaptive campaign waits for, and how a marginal chain is reported."""
+
+from __future__ import annotations
+
+import dataclasses
+from types import SimpleNamespace as P
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+from idefix_rules.campaign import pairwise
+from idefix_rules.campaign.bounds import judged_statistics
+from idefix_rules.campaign.budget import alpha_budget
+from idefix_rules.campaign.decision import decide
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
+from idefix_rules.campaign.outputs import exit_code, junit_xml
+from idefix_rules.campaign.scoring import decision_pairs
+from idefix_rules.campaign.sequential import one_sided_bound
+from idefix_rules.campaign.stopping import settle
+from idefix_rules.cli.outcome import print_answer
+from idefix_rules.rulebook.check import check
+from idefix_rules.rulebook.compile import compile_rulebook
+from idefix_rules.rulebook.parser import parse_rulebook
+from idefix_rules.rulebook.results import Estimate, PathStatistics, RunEvaluation
+
+RULES = """rulebook "t" version "1.0.0"
+purpose "test"
+index I_a { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }
+chance stuck_run = any over time (pitch > 1 rad)
+verdict acceptable: require risk <= 70 %
+verdict rarely_stuck: require chance(stuck_run) <= 5 % indifference 2 %
+verdict none_failed: require failed <= 0 %
+"""
+
+
+def evaluator(extra: str = ""):
+    result = check(parse_rulebook(RULES + extra, "t.rules"))
+    assert result.checked is not None, result.diagnostics
+    return compile_rulebook(result.checked)
+
+
+def runs(risk: np.ndarray, stuck: np.ndarray) -> RunEvaluation:
+    n = risk.size
+    return RunEvaluation(
+        index_names=("I_a",), values={"I_a": risk}, raw={"I_a": risk},
+        per_sample={"I_a": np.zeros((n, 0))}, weighted={"I_a": risk}, i_max=risk,
+        dominant=np.zeros(n, dtype=int), dominant_sample=np.zeros(n, dtype=int),
+        chance_names=("stuck_run",), chances={"stuck_run": stuck},
+        time=np.full(n, 100.0), energy=np.full(n, 1.0))
+
+
+def test_alpha_is_spent_over_paths_and_the_comparisons_the_decision_depends_on():
+    rules = evaluator()
+    paired = alpha_budget(rules, paths=4, paired=True)
+    assert (paired.paths, paired.comparisons) == (4, 3)
+    assert paired.pass_alpha == pytest.approx(0.05 / 7)
+    # two verdicts judge a statistic on bounds; `failed <= 0 %` reads the runs themselves
+    assert paired.judging.units == 2
+    assert paired.fail_alpha == pytest.approx(0.05 / 7 / 2)
+    assert paired.levels("risk") == (paired.fail_alpha, paired.pass_alpha)
+    assert alpha_budget(rules, paths=4, paired=False).comparisons == 4
+    assert alpha_budget(rules, paths=1, paired=True).per_path == pytest.approx(0.05)
+
+
+def test_each_statistic_gets_its_bounds_in_the_direction_it_is_judged():
+    rules = evaluator()
+    budget = alpha_budget(rules, paths=3, paired=True)
+    rng = np.random.default_rng(2)
+    evaluation = runs(rng.beta(3, 7, 400), rng.random(400) < 0.02)
+    failures = np.zeros(401)
+    failures[-1] = 1.0
+    stats = judged_statistics(evaluation, rules.path_statistics(evaluation, 1), 0.0, budget,
+                              sequential=True, failures=failures)
+    # `risk <= 70 %`: the lower bound decides a failure (β / U), the upper one a pass (β)
+    assert stats.risk.low == one_sided_bound(evaluation.i_max, budget.fail_alpha, "lower")
+    assert stats.risk.high == one_sided_bound(evaluation.i_max, budget.pass_alpha, "upper")
+    assert stats.failed is not None and stats.failed.low < 1 / 401 < stats.failed.high
+    fixed = judged_statistics(evaluation, rules.path_statistics(evaluation), 0.0, budget,
+                              sequential=False)
+    assert fixed.chances["stuck_run"].high < stats.chances["stuck_run"].high
+
+
+def statistics(risk: float, stuck: float = 0.0, spread: float = 0.01) -> PathStatistics:
+    return PathStatistics(
+        runs=400, failed_runs=0, confidence=0.95, risk=Estimate(risk, risk - spread,
+                                                                risk + spread),
+        risk_std=0.1, index_mean={}, index_max={}, chances={
+            "stuck_run": Estimate(stuck, max(0.0, stuck - spread), stuck + spread)},
+        time=Estimate(100.0, 99.0, 101.0), energy=Estimate(1.0, 0.9, 1.1),
+        dominant_counts={}, failed=Estimate(0.0, 0.0, 0.01))
+
+
+def pair(first: str, second: str, outcome: str) -> P:
+    return P(first=first, second=second, outcome=outcome,
+             order=lambda: {"first safer": -1, "second safer": 1, "tied": 0}.get(outcome))
+
+
+def test_only_the_leading_contender_against_the_others_is_waited_for():
+    rules = evaluator()
+    stats = {"a": statistics(0.3), "b": statistics(0.4), "c": statistics(0.45),
+             "f": statistics(0.9), "g": statistics(0.92)}
+    open_among_the_rest = [pair("a", "b", "first safer"), pair("a", "c", "first safer"),
+                           pair("b", "c", "open"), pair("f", "g", "open"),
+                           pair("a", "f", "open")]
+    found = settle(rules, stats, open_among_the_rest)
+    assert all(s.done for s in found.values())
+    assert not found["f"].contender and found["f"].outcome == "fail"
+    lead_open = [pair("a", "b", "open"), pair("a", "c", "first safer"),
+                 pair("b", "c", "first safer")]
+    found = settle(rules, stats, lead_open)
+    assert found["a"].unsettled_against == ("b",) and found["b"].unsettled_against == ("a",)
+    assert found["c"].done and found["f"].done
+
+
+def test_a_marginal_chain_is_not_sent_not_passed_and_said_so():
+    rules = evaluator()
+    near = statistics(0.3, stuck=0.05, spread=0.01)  # 4–6 %, within 5 % ± 2 %
+    verdict = rules.verdict(near)
+    assert verdict.marginal and verdict.decided and not verdict.passed
+    result = PathResult("near", 0, "simulated", runs=400, completed=400, rank=1)
+    result.verdict, result.passed, result.statistics = verdict, False, near
+    assert result.verdict_text == "marginal"
+    decision = decide([P(name="near", verdict="marginal", undecided=False, rank=1,
+                         reasons=["rarely_stuck: within the margin"])])
+    assert decision.kind == "marginal" and decision.path == "near"
+    assert decision.text.startswith("no chain is shown to pass: near is within the rulebook's "
+                                    "margin of a limit")
+    evaluation = CampaignEvaluation([result], ["near"], {}, {})
+    assert exit_code(evaluation, [], has_expectations=False) == 1
+    assert 'type="marginal"' in junit_xml(evaluation, [], "c")
+    console = Console(width=150, record=True)
+    print_answer(console, evaluation, [], 1)
+    text = console.export_text()
+    assert "within the margin: rarely_stuck" in text and "Decision: no chain is shown" in text
+
+
+def test_an_open_comparison_says_how_many_paired_runs_would_settle_it():
+    rows = np.arange(200)
+    rng = np.random.default_rng(5)
+    world = rng.uniform(0, 0.5, 200)
+    first = (rows, world + rng.normal(0.0, 0.05, 200))
+    second = (rows, world + 0.01 + rng.normal(0.0, 0.05, 200))
+    [found] = pairwise.compare_pairs({"a": first, "b": second}, ["a", "b"], 0.01, 0.0)
+    assert found.outcome == pairwise.OPEN
+    results = [PathResult(name, 0, "simulated", passed=True) for name in ("a", "b")]
+    budget = dataclasses.replace(alpha_budget(evaluator(), 2, True), alpha=0.03)
+    [marked] = decision_pairs({"a": first, "b": second}, ["a", "b"], results, budget, 0.0,
+                              sequential=True)
+    assert marked.needed and marked.outcome == pairwise.OPEN
+    assert marked.runs_needed is not None and marked.runs_needed > 200
+    evaluation = CampaignEvaluation(results, ["a", "b"], {}, {}, paired=True, pairs=[marked])
+    console = Console(width=200, record=True)
+    print_answer(console, evaluation, [], 0)
+    text = console.export_text()
+    assert "open: a vs b after 200 paired runs (risk difference " in text
+    assert f"about {marked.runs_needed:,} paired runs would settle it at the present spread" \
+        in text
+    assert marked.to_dict()["runs_needed"] == marked.runs_needed
