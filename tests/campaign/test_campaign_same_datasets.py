@@ -26,8 +26,8 @@ from idefix_rules.fmu.build import source_hash
 
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing and the
 # first-touch rock contact; results format 2, default stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "699cc862f80ae2488b7c678d1abf5770ffd76adaa4169a564f8a036396983893"
-ROVER_DIGEST = "bc67a3521a228b41ba6bcbd45bef9429d36ae8bb9c67626ab504c97a05428fcd"
+ROVER_SOURCE_HASH = "7c7ca845527c91fa9b3ee699533b667f6b1a3be9e9e4d2cbf718b73fc3c43c5f"
+ROVER_DIGEST = "84787f1edff2f728aacecb2b07219365066b7e2dd9e35b0e74da56c3fc89a72f"
 TOY_DIGEST = "d957ee916d07921e27ee17e134c5ee39afa04beeb8b66222642cf7db4039b765"
 
 
