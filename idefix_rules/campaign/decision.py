@@ -85,16 +85,34 @@ def decide(paths: Sequence[Any], pairs: Sequence[Any] = ()) -> Decision:
     >>> decide([a, b], [P(first="a", second="b", outcome="open", margin=0.0)]).text
     'send a or b (each passes every verdict; a ranks first, but in the same drawn worlds \
 their risks are not told apart at this number of runs: run more to tell which is safer)'
+    >>> w = P(name="w", verdict="waived", undecided=False, rank=1, reasons=[],
+    ...       waived=("acceptable_risk",))
+    >>> c = P(name="c", verdict="pass", undecided=False, rank=2, reasons=[])
+    >>> decide([w, c]).text
+    'send c (passes every verdict, rank 2 of 2); w ranks better but passes only under a \
+waiver of acceptable_risk'
+    >>> decide([w]).text
+    'send w (waived: breaks acceptable_risk under a waiver, passes every other verdict, rank 1 \
+of 1)'
     """
     ranked = [p for p in paths if getattr(p, "rank", None) is not None]
     total = len(ranked)
     passing = sorted((p for p in paths if p.verdict in ("pass", "waived") and not p.undecided),
                      key=_rank)
+    # A chain that passes every verdict is sent before one that passes only under a waiver:
+    # a waiver accepts a failure when it is needed, it is no reason to prefer the chain.
+    clean = [p for p in passing if p.verdict == "pass"]
+    ahead = [p for p in passing if clean and p.verdict == "waived"
+             and _rank(p) < _rank(clean[0])]
+    if clean:
+        passing = clean
     if passing:
         best = passing[0]
         where = f"rank {best.rank} of {total}" if best.rank is not None else "not ranked"
         others = [p.name for p in paths if p.undecided and _rank(p) < _rank(best)]
         note = (f"; {', '.join(others)} ranks better but is not decided yet" if others else "")
+        note += "".join(f"; {p.name} ranks better but passes only under a waiver of "
+                        f"{', '.join(getattr(p, 'waived', ())) or 'a rule'}" for p in ahead)
         waived = tuple(getattr(best, "waived", ()))
         held = (f"waived: breaks {', '.join(waived)} under a waiver, passes every other "
                 "verdict" if best.verdict == "waived" else "passes every verdict")

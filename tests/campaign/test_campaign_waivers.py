@@ -140,7 +140,7 @@ def test_evaluate_checks_the_waivers_expiry_against_today(
     set_today(date(2026, 12, 1))  # the last day: the stored campaign's waivers still hold
     assert main(["evaluate", str(results)]) == 0
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
-    assert [p["verdict"] for p in summary["paths"]] == ["waived", "pass", "waived"]
+    assert [p["verdict"] for p in summary["paths"]] == ["waived", "waived", "waived"]
     capsys.readouterr()
     set_today(date(2026, 12, 2))  # the day after: expired, as a run would find it
     assert main(["evaluate", str(results)]) == 2
@@ -166,8 +166,10 @@ def test_a_waiver_of_a_rule_that_holds_matches_nothing_exit_2(
 
 def test_a_waiver_of_a_rule_the_named_path_passes_matches_nothing_and_waives_nothing(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # acceptable_risk fails on straight, passes on arc: a waiver naming arc covers nothing.
-    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="arc"))
+    # acceptable_risk fails on straight, passes on arc (decided with 40 runs: six cannot show
+    # arc's risk below 50 % on exact bounds): a waiver naming arc covers nothing.
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="arc"),
+                        campaign=CAMPAIGN.replace("runs: 6", "runs: 40"))
     assert main([str(path), "--quiet", "--no-report"]) == 2  # not 1: the waiver is a mistake
     err = " ".join(capsys.readouterr().err.split())
     assert f"campaign.yaml:{CAMPAIGN.count(chr(10)) + 2}:5: error[C215]" in err
@@ -320,13 +322,15 @@ def test_a_prescreen_waiver_lets_an_excluded_chain_go_on_to_monte_carlo(
                         "arc": ("excluded", "excluded", 0),
                         "too-fast": ("rejected", "rejected", 0)}
     junit = campaign_dir / "junit.xml"
-    path = with_waivers(campaign_dir, waiver("reference_not_critical", path="arc"))
+    # 40 runs: six cannot show arc's risk below 50 % on exact bounds (its verdict undecided)
+    path = with_waivers(campaign_dir, waiver("reference_not_critical", path="arc"),
+                        campaign=CAMPAIGN.replace("runs: 6", "runs: 40"))
     assert main([str(path), "--quiet", "--no-report", "--junit", str(junit)]) == 1
     out = " ".join(capsys.readouterr().out.split())
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     paths = {p["name"]: p for p in summary["paths"]}
     assert (paths["arc"]["status"], paths["arc"]["verdict"]) == ("simulated", "waived")
-    assert paths["arc"]["completed_runs"] == 6  # simulated in Monte Carlo
+    assert paths["arc"]["completed_runs"] == 40  # simulated in Monte Carlo
     assert paths["arc"]["waivers"] == [
         {"rule": "reference_not_critical", "kind": "prescreen",
          "reason": "survey shows the slope is benign", "approved_by": "J. Doe",
@@ -334,9 +338,9 @@ def test_a_prescreen_waiver_lets_an_excluded_chain_go_on_to_monte_carlo(
     assert (paths["straight"]["status"], paths["straight"]["waivers"]) == ("excluded", [])
     assert "fails prescreen 'reference_not_critical'" in paths["straight"]["reason"]
     said = "waived: survey shows the slope is benign (approved by J. Doe until 2026-12-01)"
-    assert f"arc: waived · risk 32.3 % · reference_not_critical {said}" in out
+    assert f"arc: waived · risk 37.2 % · reference_not_critical {said}" in out
     with h5py.File(campaign_dir / "out" / "results.h5") as file:
-        assert file["paths/arc/runs/status"].shape == (6,)
+        assert file["paths/arc/runs/status"].shape == (40,)
         assert "runs" not in file["paths/straight"]
     suite = ET.parse(junit).getroot().find("testsuite")
     assert suite is not None and (suite.get("skipped"), suite.get("failures")) == ("1", "2")
