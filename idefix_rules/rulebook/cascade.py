@@ -18,7 +18,6 @@ from collections.abc import Iterator, Mapping
 from dataclasses import replace
 
 from idefix_rules.errors import Diagnostic, Severity, Span
-from idefix_rules.rulebook.check import names_in
 from idefix_rules.rulebook.format import format_expr
 from idefix_rules.rulebook.model import (
     Binary,
@@ -33,6 +32,7 @@ from idefix_rules.rulebook.model import (
     Unary,
 )
 from idefix_rules.rulebook.types import ExprType
+from idefix_rules.rulebook.walk import names_in, rulebook_expressions
 from idefix_rules.units import describe
 
 _UNKNOWN = re.compile(r"^unknown name '([^']+)'")
@@ -156,12 +156,11 @@ def fold_misfit_constants(rulebook: Rulebook, constant_types: Mapping[str, ExprT
     """A constant whose *every* use is a dimension error (``critical_tilt = 15 cm`` used as
     the limit of two angle indices) is wrong at its definition: one error there, the uses as
     notes. When some uses fit, the misfits stay where they are (the use is the mistake)."""
-    from idefix_rules.rulebook.check import _all_expressions
 
     constants = {c.name: c for c in rulebook.constants}
     by_span: dict[Span, Expr] = {}
     uses: dict[str, int] = {name: 0 for name in constants}
-    for expr in _all_expressions(rulebook):
+    for expr in rulebook_expressions(rulebook):
         for node in _nodes(expr):
             by_span.setdefault(node.span, node)
             if isinstance(node, Name) and node.name in uses:

@@ -16,60 +16,28 @@ from typing import Any
 
 from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, Severity, error, warning
+from idefix_rules.rulebook.environment import AreaSpec, CheckEnv, ObstacleLevelSpec, scope_of
 from idefix_rules.rulebook.fold import NotConstant, Value, fold
 from idefix_rules.rulebook.infer import did_you_mean, infer_type
 from idefix_rules.rulebook.judging import MARGIN_RANGE, verdict_margins
 from idefix_rules.rulebook.model import (
-    Binary,
-    Call,
     Expr,
     Index,
-    Name,
-    Reduce,
     Rulebook,
-    Select,
-    Table,
-    Unary,
 )
 from idefix_rules.rulebook.types import (
-    AREA_SIGNAL_TYPE,
     COMMAND_NAMES,
     PATH_NAMES,
-    RATIO,
     SETTINGS,
     ExprType,
     Scope,
 )
+from idefix_rules.rulebook.walk import names_in, rulebook_expressions
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, describe
 
 _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
                      r"(?:\+[0-9A-Za-z.-]+)?$")
 LEVELS = signals.AXIS_LABELS["level"]
-
-
-@dataclass(frozen=True)
-class ObstacleLevelSpec:
-    """A level's size threshold (exclusive upper bound, m; None = no upper bound) and buffer."""
-
-    level: str
-    below: float | None
-    buffer: float
-
-
-@dataclass(frozen=True)
-class AreaSpec:
-    """A named area: its kind, obstacle level, buffer (m) and, when steep, the inclination
-    (rad) it starts at. Runs read ``area.NAME.inside`` and ``area.NAME.buffer``."""
-
-    name: str
-    kind: str
-    level: str
-    buffer: float
-    above: float | None = None
-
-    def signal_names(self) -> tuple[str, str]:
-        return (f"{signals.AREA_PREFIX}{self.name}.inside",
-                f"{signals.AREA_PREFIX}{self.name}.buffer")
 
 
 @dataclass(frozen=True)
@@ -93,7 +61,7 @@ class CheckedRulebook:
 
     def scope(self, kind: str) -> Scope:
         """The scope the checker used for one context (``command``, ``run``, …)."""
-        return _scope(kind, self.rulebook, self.constant_types)
+        return scope_of(kind, self.rulebook, self.constant_types)
 
     def value(self, expr: Expr) -> Value:
         """SI value of a constant expression of this rulebook (windows, thresholds …)."""
@@ -121,71 +89,8 @@ class CheckResult:
         return not self.errors
 
 
-@dataclass
-class _Env:
-    """What the passes share: resolved constants and collected values."""
-
-    rulebook: Rulebook
-    constant_types: dict[str, ExprType] = field(default_factory=dict)
-    constants: dict[str, Value] = field(default_factory=dict)
-    limits: dict[str, float] = field(default_factory=dict)
-    nominals: dict[str, float] = field(default_factory=dict)
-    weights: dict[str, float] = field(default_factory=dict)
-    index_types: dict[str, ExprType] = field(default_factory=dict)
-    settings: dict[str, float] = field(default_factory=dict)
-    levels: list[ObstacleLevelSpec] = field(default_factory=list)
-    areas: list[AreaSpec] = field(default_factory=list)
-    confidence: float = 0.95
-    indifference: float = 0.0
-    verdict_indifference: float = 0.0
-    verdict_margins: dict[str, float] = field(default_factory=dict)
-
-    def scope(self, kind: str) -> Scope:
-        return _scope(kind, self.rulebook, self.constant_types)
-
-
-Check = Callable[["_Env"], list[Diagnostic]]
-
-
-def _scope(kind: str, rulebook: Rulebook, constant_types: dict[str, ExprType]) -> Scope:
-    indices = frozenset(i.name for i in rulebook.indices)
-    chances = frozenset(c.name for c in rulebook.chances)
-    extra: dict[str, ExprType] = {}
-    if kind == "command":
-        extra = dict(COMMAND_NAMES)
-    elif kind == "prescreen":
-        extra = {name: RATIO for name in indices}
-        extra.update({name: ExprType(DIMENSIONLESS, (), True) for name in chances})
-        extra["risk"] = RATIO
-    elif kind == "path":
-        extra = dict(PATH_NAMES)
-    elif kind == "run":
-        extra = {f"{signals.AREA_PREFIX}{area.name}.{part}": AREA_SIGNAL_TYPE
-                 for area in rulebook.areas for part in signals.AREA_SIGNAL_PARTS}
-    return Scope(kind, dict(constant_types), extra, chances, indices)  # type: ignore[arg-type]
-
-
-def names_in(expr: Expr) -> Iterator[Name]:
-    """Every :class:`Name` read by an expression (windows and parameters included)."""
-    if isinstance(expr, Name):
-        yield expr
-    elif isinstance(expr, Select | Unary):
-        yield from names_in(expr.operand)
-    elif isinstance(expr, Binary):
-        yield from names_in(expr.left)
-        yield from names_in(expr.right)
-    elif isinstance(expr, Call):
-        for arg in expr.args:
-            yield from names_in(arg)
-    elif isinstance(expr, Table):
-        for _, value in expr.entries:
-            yield from names_in(value)
-    elif isinstance(expr, Reduce):
-        yield from names_in(expr.operand)
-        if expr.parameter is not None:
-            yield from names_in(expr.parameter)
-        if expr.window is not None:
-            yield from names_in(expr.window.value)
+_Env = CheckEnv  # the passes' shared state (rulebook/environment.py)
+Check = Callable[[CheckEnv], list[Diagnostic]]
 
 
 # ----------------------------------------------------------------------------- constants
@@ -626,7 +531,7 @@ def check_required_sections(env: _Env) -> list[Diagnostic]:
 
 def warn_unused_constants(env: _Env) -> list[Diagnostic]:
     used: set[str] = set()
-    for expr in _all_expressions(env.rulebook):
+    for expr in rulebook_expressions(env.rulebook):
         used.update(name.name for name in names_in(expr))
     return [warning("W601", f"constant '{c.name}' is never used", c.span)
             for c in env.rulebook.constants if c.name not in used]
@@ -636,45 +541,6 @@ def warn_zero_weights(env: _Env) -> list[Diagnostic]:
     return [warning("W602", f"index '{i.name}' has weight 0 and never affects the risk",
                     i.weight.span)
             for i in env.rulebook.indices if env.weights.get(i.name) == 0.0]
-
-
-def _all_expressions(rulebook: Rulebook) -> Iterator[Expr]:
-    for c in rulebook.constants:
-        yield c.value
-    for s in rulebook.settings:
-        yield s.value
-    for level in rulebook.obstacle_levels:
-        if level.below is not None:
-            yield level.below
-        yield level.buffer
-    for area in rulebook.areas:
-        yield area.buffer
-        if area.above is not None:
-            yield area.above
-    for r in rulebook.command_rules:
-        yield r.condition
-    for i in rulebook.indices:
-        yield from (i.value, i.limit, i.weight)
-        if i.nominal is not None:
-            yield i.nominal
-        if i.map is not None:
-            yield i.map
-    for ch in rulebook.chances:
-        yield ch.condition
-    if rulebook.combine.confidence is not None:
-        yield rulebook.combine.confidence
-    if rulebook.combine.indifference is not None:
-        yield rulebook.combine.indifference
-    if rulebook.combine.verdict_indifference is not None:
-        yield rulebook.combine.verdict_indifference
-    for p in rulebook.prescreens:
-        yield p.condition
-    for v in rulebook.verdicts:
-        yield v.condition
-        if v.indifference is not None:
-            yield v.indifference
-    for key in rulebook.ranking.keys:
-        yield key.expr
 
 
 CHECKS: tuple[Check, ...] = (

@@ -28,7 +28,7 @@ from idefix_rules.commands import Command, RoverGeometry, command_kinematics, fo
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
 from idefix_rules.rulebook.across import AcrossRuns, finished, runs_reductions
-from idefix_rules.rulebook.check import CheckedRulebook, ObstacleLevelSpec, check
+from idefix_rules.rulebook.check import CheckedRulebook, check
 from idefix_rules.rulebook.derived import (
     DerivedSettings,
     DerivedSignals,
@@ -36,6 +36,7 @@ from idefix_rules.rulebook.derived import (
     inputs_of,
     optional_inputs_of,
 )
+from idefix_rules.rulebook.environment import ObstacleLevelSpec
 from idefix_rules.rulebook.expressions import (
     Closure,
     ExpressionCompiler,

@@ -33,13 +33,12 @@ from idefix_rules.rulebook.model import (
     Reduce,
     Rulebook,
     Select,
-    Table,
-    Unary,
 )
+from idefix_rules.rulebook.walk import nodes, rulebook_expressions
 from idefix_rules.units import DIMENSIONLESS, Dimension, UnitError, parse_quantity, parse_unit
 
 if TYPE_CHECKING:
-    from idefix_rules.rulebook.check import _Env
+    from idefix_rules.rulebook.environment import CheckEnv as _Env
 
 # Quantities that are fractions (0..1, shown as %): where a bare 70 means 7000 %.
 RATIO_SIGNALS = frozenset({"wheel.slip", "ref.wheel.slip"})
@@ -65,25 +64,6 @@ def _conditions(rulebook: Rulebook) -> Iterator[tuple[str, str, Expr]]:
                         ("verdict", rulebook.verdicts)):
         for rule in rules:
             yield kind, rule.name, rule.condition
-
-
-def _walk(expr: Expr) -> Iterator[Expr]:
-    yield expr
-    children: tuple[Any, ...] = ()
-    if isinstance(expr, Binary):
-        children = (expr.left, expr.right)
-    elif isinstance(expr, Unary | Select):
-        children = (expr.operand,)
-    elif isinstance(expr, Call):
-        children = expr.args
-    elif isinstance(expr, Reduce):
-        children = (expr.operand, *(e for e in (expr.parameter,) if e is not None))
-        if expr.window is not None:
-            children += (expr.window.value,)
-    elif isinstance(expr, Table):
-        children = tuple(v for _, v in expr.entries)
-    for child in children:
-        yield from _walk(child)
 
 
 # ----------------------------------------------------------------------------- W610
@@ -140,7 +120,7 @@ def lint_bare_ratios(env: _Env) -> list[Diagnostic]:
             f"{value / 100:g} as a plain ratio"), related))
 
     for _, _, condition in _conditions(rulebook):
-        for node in _walk(condition):
+        for node in nodes(condition):
             if isinstance(node, Binary) and node.op in _COMPARISONS | {"==", "!="}:
                 for ratio, other in ((node.left, node.right), (node.right, node.left)):
                     bare = _bare_number(other, rulebook)
@@ -219,7 +199,7 @@ def lint_constant_comparisons(env: _Env) -> list[Diagnostic]:
 
     found: list[Diagnostic] = []
     for kind, name, condition in _conditions(env.rulebook):
-        for node in _walk(condition):
+        for node in nodes(condition):
             if not (isinstance(node, Binary) and node.op in _COMPARISONS):
                 continue
             for quantity, other, op in ((node.left, node.right, node.op),
@@ -326,7 +306,7 @@ def lint_underflow(env: _Env) -> list[Diagnostic]:
     source = env.rulebook.source.splitlines()
     found: list[Diagnostic] = []
     for expr in _every_expression(env.rulebook):
-        for node in _walk(expr):
+        for node in nodes(expr):
             if not isinstance(node, Number):
                 continue
             try:
@@ -354,9 +334,8 @@ def _written(span: Span, lines: list[str]) -> str:
 
 
 def _every_expression(rulebook: Rulebook) -> Iterator[Expr]:
-    from idefix_rules.rulebook.check import _all_expressions
 
-    yield from _all_expressions(rulebook)
+    yield from rulebook_expressions(rulebook)
 
 
 # ----------------------------------------------------------------------------- W614
