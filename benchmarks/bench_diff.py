@@ -23,9 +23,9 @@ import time
 from pathlib import Path
 
 from idefix_rules.campaign.environment import read_terrain
-from idefix_rules.campaign.evaluation import collision_function, evaluate_store
+from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.runner import run_campaign, stored_campaign
+from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulate import (
     SimulationOptions,
     initial_position_sigma,
@@ -34,6 +34,8 @@ from idefix_rules.campaign.simulate import (
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.diff import load_source
 from idefix_rules.diff.results import diff_results
+from idefix_rules.results.campaign import rebuilt_campaign
+from idefix_rules.results.collisions import collision_function
 from idefix_rules.rulebook import compile_rulebook
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,7 +86,7 @@ def time_two_evaluations(results: Path) -> float:
         evaluator = compile_rulebook(load_source(str(rulebook)).checked)
         store = ResultStore.open(results)
         try:
-            campaign = stored_campaign(store)
+            campaign = rebuilt_campaign(store)
             collisions = collision_function(campaign.model.environment, evaluator,
                                             read_terrain(results.parent))
             evaluate_store(store, evaluator, rover_geometry(campaign),

@@ -234,8 +234,10 @@ def print_results(console: Console, file: ResultsFileDiff) -> None:
 
     from idefix_rules.cli.outcome import fits
 
+    reused = (f"; {' and '.join(file.stored_evaluation)}: per-run values of the stored "
+              "evaluation") if file.stored_evaluation else ""
     console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
-                  f"collisions {file.collisions})")
+                  f"collisions {file.collisions}{reused})")
     for warning in file.warnings:
         console.print(f"[bold yellow]warning:[/bold yellow] {escape(warning)}")
     table = Table(show_lines=True)

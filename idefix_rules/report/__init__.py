@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign.sensitivity import store_sensitivity
-from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits
 from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
@@ -26,6 +25,7 @@ from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
 from idefix_rules.report.worst import NOTE as WORST_NOTE
 from idefix_rules.report.worst import read_worst, worst_html, worst_tracks
+from idefix_rules.results.reader import StoredResults
 
 REPORT_FILE = "report.html"
 
@@ -97,7 +97,7 @@ def _quiet(fraction: float, stage: str) -> None:
 def prepare_report(results_h5: Path, advance: Advance = _quiet
                    ) -> tuple[ReportData, Setup, MapSet]:
     """Everything the report shows, as data: read, evaluate per sample, bin (no drawing)."""
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         data = read_report_data(store)
         setup = setup_from_store(store)
@@ -128,7 +128,7 @@ def _limit_texts(setup: Setup) -> dict[str, str]:
 
 
 def _sensitivity(results_h5: Path) -> dict[str, Any]:
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         return store_sensitivity(store.file)
     finally:
