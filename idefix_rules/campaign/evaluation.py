@@ -26,7 +26,12 @@ from idefix_rules.campaign.waivers import stored as stored_waivers
 from idefix_rules.campaign.wording import runs_needed_text
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.plain import as_plain
-from idefix_rules.results.collisions import CollisionFunction
+from idefix_rules.results.collisions import (
+    CONTACT_COLUMNS,
+    CollisionFunction,
+    clearance_profile,
+    contact_intervals,
+)
 from idefix_rules.results.reader import StoredResults
 from idefix_rules.results.runs import ParallelRuns, complete_rows
 from idefix_rules.results.scoring import score_chunks
@@ -181,7 +186,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
     parts = []
-    hits, buffers, details = [], [], []
+    hits, buffers, details, contacts, profiles = [], [], [], [], []
     finished: list[np.ndarray | None] = []
     runs = ParallelRuns(store)
     try:
@@ -194,6 +199,12 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
                 hits.append(extra.get("collision.hits"))
                 buffers.append(extra.get("collision.buffer"))
                 details.extend(chunk_details)
+                # kept small: the contacts as intervals, the clearance as a profile
+                if "collision.contact" in extra:
+                    contacts.append(contact_intervals(extra["collision.contact"], chunk.rows))
+                if "collision.clearance" in extra and "t" in chunk.signals:
+                    profiles.append(clearance_profile(extra["collision.clearance"],
+                                                      chunk.signals["t"]))
             parts.append(without_samples(chunk.evaluations[0]))
     finally:
         runs.close()
@@ -207,6 +218,9 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["buffer"] = np.concatenate([b for b in buffers if b is not None]) \
             if any(b is not None for b in buffers) else None
         extra_store["details"] = details
+        extra_store["contact"] = np.concatenate(contacts) if contacts else None
+        extra_store["clearance_profile"] = np.concatenate(profiles) \
+            if profiles and len(profiles) == len(parts) else None
     return evaluation, extra_store
 
 
@@ -449,6 +463,12 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         for row, record in zip(rows, extra.get("details", []), strict=False):
             texts[int(row)] = json.dumps(record)
         collisions.create_dataset("details", data=texts, dtype=h5py.string_dtype("utf-8"))
+        if extra.get("contact") is not None:  # per-sample contacts as intervals (format 5)
+            table = collisions.create_dataset("contact", data=extra["contact"])
+            table.attrs["columns"] = list(CONTACT_COLUMNS)
+        if extra.get("clearance_profile") is not None:
+            array(collisions, "clearance_profile", full(extra["clearance_profile"]))
+            collisions["clearance_profile"].attrs["unit"] = "m"
     target.attrs["statistics"] = json.dumps(as_plain(stats))
     target.attrs["verdict"] = json.dumps(as_plain(verdict))
     # the verdict rules waived on the path, which ``verdict`` leaves out: a reader without the

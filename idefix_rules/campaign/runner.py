@@ -55,8 +55,9 @@ from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_f
 
 SUMMARY_FILE = "summary.json"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
-# energy, chances, collision counts and details), for the free-space check before it starts.
-EVALUATION_BYTES_PER_RUN = 2048
+# energy, chances, collision counts and details, the clearance profile), for the free-space
+# check before it starts.
+EVALUATION_BYTES_PER_RUN = 3072
 REPORT_FILE = "report.html"
 SEARCHED_RUNS = "worst"  # runs_mode of a worst-case search's results file
 

@@ -15,9 +15,10 @@ space (:mod:`idefix_rules.campaign.diskspace`). Each run is written as its data,
 either complete-and-valid or not marked complete, which ``--resume`` re-runs
 (``tests/campaign/test_campaign_store_kill.py`` kills a writer at random moments to check it).
 
-Signals are stored with the precision they need (:func:`storage_dtype`): the pose, time and
-energy signals, which the evaluator differentiates, as float64; the per-wheel signals and the
-integer-valued ``command`` / ``stuck`` as float32 (docs/results-format.md gives the error).
+Signals are stored with the precision they need (:func:`storage_dtype`): the planar position,
+heading and time, which the evaluator differentiates, as float64; the per-wheel signals, the
+tilt angles, the height, the charge and the integer-valued ``command`` / ``stuck`` as float32
+(docs/results-format.md gives the error).
 """
 
 from __future__ import annotations
@@ -59,7 +60,8 @@ from idefix_rules.signals import lookup
 __all__ = ["CHAIN_COLUMNS", "CHAIN_UNITS", "COMPRESSION", "COMPRESSION_LEVEL",
            "FLOAT32_SIGNALS", "FORMAT", "FORMAT_VERSION", "RESUMABLE_FORMAT_VERSIONS",
            "STATUS_COMPLETE", "STATUS_FAILED", "STATUS_MISSING", "STATUS_NOT_NEEDED",
-           "EncodedChunk", "ResultStore", "allocated_rows", "decode_reason", "encode_chunk",
+           "EncodedChunk", "ResultStore", "allocated_rows", "decode_chunk", "decode_reason",
+           "encode_chunk",
            "encode_reason", "encode_run", "fill_chunk_bytes", "previous_results_path",
            "run_bytes", "signal_attrs", "storage_dtype"]
 
@@ -148,6 +150,13 @@ def encode_chunk(name: str, values: np.ndarray) -> EncodedChunk:
     array = np.ascontiguousarray(values, dtype=storage_dtype(name))
     shuffled = array.view(np.uint8).reshape(-1, array.itemsize).T.tobytes()
     return EncodedChunk(array.shape, array.dtype.str, zlib.compress(shuffled, COMPRESSION_LEVEL))
+
+
+def decode_chunk(chunk: EncodedChunk) -> np.ndarray:
+    """The values of an encoded chunk (:func:`encode_chunk` undone)."""
+    dtype = np.dtype(chunk.dtype)
+    raw = np.frombuffer(zlib.decompress(chunk.data), dtype=np.uint8)
+    return raw.reshape(dtype.itemsize, -1).T.copy().view(dtype).reshape(chunk.shape)
 
 
 def encode_run(signals: Mapping[str, np.ndarray]) -> dict[str, EncodedChunk]:
@@ -472,11 +481,16 @@ class ResultStore(StoredResults):
         for key, dataset in datasets.items():
             value = signals[key]
             if isinstance(value, EncodedChunk):
-                if value.shape != dataset.shape[1:] or np.dtype(value.dtype) != dataset.dtype:
+                if value.shape != dataset.shape[1:]:
                     raise ValueError(f"signal {key!r} of run {run} has shape {value.shape} "
                                      f"{value.dtype}, the dataset stores {dataset.shape[1:]} "
                                      f"{dataset.dtype}")
-                dataset.id.write_direct_chunk((run,) + (0,) * len(value.shape), value.data)
+                if np.dtype(value.dtype) != dataset.dtype:
+                    # a dataset an earlier format made (z and energy were float64 before
+                    # format 5), continued by --resume: the values in its precision
+                    dataset[run] = decode_chunk(value).astype(dataset.dtype)
+                else:
+                    dataset.id.write_direct_chunk((run,) + (0,) * len(value.shape), value.data)
             else:
                 dataset[run] = np.asarray(value, dtype=dataset.dtype)
         self.file.flush()

@@ -43,7 +43,7 @@ from idefix_rules.report.runs import (
     wheel_tracks,
 )
 from idefix_rules.results.campaign import StoredCampaign
-from idefix_rules.results.collisions import CollisionSources
+from idefix_rules.results.collisions import CollisionSources, stored_clearance_profile
 from idefix_rules.results.reader import StoredResults
 from idefix_rules.results.runs import ParallelRuns, complete_chunks
 from idefix_rules.results.scoring import score_chunks
@@ -331,12 +331,17 @@ def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, 
         context = setup.stored.context(path.name, reference) if setup.stored is not None \
             else None
         local, heading = [], []
+        # the evaluation's clearance profiles, for runs whose collisions come from the store
+        profiles = stored_clearance_profile(store, path.name) \
+            if setup.collisions is not None else None
         for rows, signals, risk in _scored(runs_reader, path, setup, context, required):
             accumulator.add(signals["x"], signals["y"], risk)
             cells.add(rows, signals["x"], signals["y"], risk, path.dominant, embedded)
             for position, run in enumerate(rows):
                 if int(run) in embedded:
-                    series[int(run)] = run_series(signals, position, risk, reference)
+                    stored = {"collision.clearance": profiles[int(run)]} \
+                        if profiles is not None else None
+                    series[int(run)] = run_series(signals, position, risk, reference, stored)
             if details is not None:
                 contacts += contact_points(details, rows, signals, setup.rover)
             errors = _final_errors(setup, signals, context) if context is not None else None

@@ -12,6 +12,7 @@ computed from the poses: they are cheap and follow each rulebook's own area decl
 from __future__ import annotations
 
 import hashlib
+import itertools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
@@ -19,12 +20,15 @@ import numpy as np
 
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.plain import as_plain
-from idefix_rules.results.format import STATUS_COMPLETE
+from idefix_rules.results.format import CLEARANCE_POINTS, STATUS_COMPLETE
 from idefix_rules.results.reader import StoredResults
 
 POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
-# Collision signals the results file stores per run (evaluation/collisions/<name>).
-STORED_COLLISIONS = {"collision.hits": "hits", "collision.buffer": "buffer"}
+# Collision signals the results file stores per run (evaluation/collisions/<name>); the
+# per-sample contacts as a table of intervals (format 5 on, :func:`contact_intervals`).
+STORED_COLLISIONS = {"collision.hits": "hits", "collision.buffer": "buffer",
+                     "collision.contact": "contact"}
+CONTACT_COLUMNS = ("run", "part", "level", "first_sample", "stop_sample", "value")
 
 
 class CollisionFunction(Protocol):
@@ -144,6 +148,81 @@ def can_use_stored(evaluators: Sequence[Any], stored: tuple[Any, ...] | None,
     return True
 
 
+# --- what the evaluation stores of the per-sample collision signals ---------------------------
+
+def contact_intervals(contact: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``collision.contact`` of runs ``rows`` ((runs, samples, part, level), mostly 0) as a
+    table of intervals, one row per stretch of equal nonzero value: run, part, level, first
+    sample, stop sample (exclusive), value (:data:`CONTACT_COLUMNS`).
+
+    >>> contact = np.zeros((1, 6, 3, 3), np.int8); contact[0, 2:4, 0, 1] = 1
+    >>> contact_intervals(contact, np.array([7])).tolist()
+    [[7, 0, 1, 2, 4, 1]]
+    """
+    values = np.asarray(contact)
+    runs, samples = values.shape[:2]
+    found = []
+    flat = values.reshape(runs, samples, -1)
+    for run, column in zip(*np.nonzero(flat.any(axis=1)), strict=True):
+        series = flat[run, :, column].astype(np.int64)
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], series, [0]))) != 0)
+        part, level = divmod(int(column), values.shape[3])
+        for first, stop in itertools.pairwise(edges):
+            if series[first]:
+                found.append((int(rows[run]), part, level, int(first), int(stop),
+                              int(series[first])))
+    return np.array(found, dtype=np.int32).reshape(-1, len(CONTACT_COLUMNS))
+
+
+def contact_from_intervals(table: np.ndarray, rows: np.ndarray, samples: int,
+                           shape: tuple[int, int] = (3, 3)) -> np.ndarray:
+    """``collision.contact`` of runs ``rows`` ((runs, samples, part, level) int8) from the
+    stored table of intervals (:func:`contact_intervals`)."""
+    out = np.zeros((rows.size, samples, *shape), dtype=np.int8)
+    if table.size:
+        position = {int(run): index for index, run in enumerate(rows)}
+        for run, part, level, first, stop, value in np.asarray(table):
+            index = position.get(int(run))
+            if index is not None:
+                out[index, first:stop, part, level] = value
+    return out
+
+
+def profile_edges(valid: int, points: int = CLEARANCE_POINTS) -> np.ndarray:
+    """The edges of at most ``points`` equal stretches of ``valid`` samples."""
+    count = max(1, min(points, valid))
+    return np.linspace(0, valid, count + 1).round().astype(int)
+
+
+def clearance_profile(clearance: np.ndarray, t: np.ndarray,
+                      points: int = CLEARANCE_POINTS) -> np.ndarray:
+    """Per run, the smallest clearance of any body part (``collision.clearance``, (runs,
+    samples, part)) over each of ``points`` equal stretches of its samples with a time
+    (NaN where a stretch has none, or the run fewer samples): (runs, points)."""
+    values = np.asarray(clearance, dtype=np.float64)
+    nearest = values.min(axis=2) if values.ndim > 2 else values
+    out = np.full((values.shape[0], points), np.nan)
+    for run in range(values.shape[0]):
+        timed = np.isfinite(t[run])
+        valid = int(np.flatnonzero(timed)[-1] + 1) if timed.any() else 0
+        edges = profile_edges(valid, points)
+        for index, (start, stop) in enumerate(itertools.pairwise(edges)):
+            stretch = nearest[run, start:max(stop, start + 1)]
+            finite = stretch[np.isfinite(stretch)]
+            if finite.size:
+                out[run, index] = float(finite.min())
+    return out
+
+
+def stored_clearance_profile(store: StoredResults, name: str) -> np.ndarray | None:
+    """The path's stored clearance profiles (rows, :data:`CLEARANCE_POINTS`), None when not
+    stored (files before format 5, rulebooks reading no collision)."""
+    group = store.path_group(name).get("evaluation/collisions")
+    if group is None or "clearance_profile" not in group:
+        return None
+    return np.asarray(group["clearance_profile"][()], dtype=np.float64)
+
+
 def stored_collisions(store: StoredResults, name: str, wanted: set[str]
                       ) -> dict[str, np.ndarray] | None:
     """A path's stored collision arrays (every row), or None when one that is ``wanted`` is
@@ -160,6 +239,9 @@ def stored_collisions(store: StoredResults, name: str, wanted: set[str]
                 return None
             continue
         values = np.asarray(group[dataset][()])
+        if signal == "collision.contact":  # a table of intervals, not a row per run
+            arrays[signal] = values.reshape(-1, len(CONTACT_COLUMNS))
+            continue
         if values.shape[0] != status.shape[0] or not np.all(np.isfinite(values[complete])):
             return None
         arrays[signal] = values
@@ -280,5 +362,11 @@ class StoredChunks:
     def __call__(self, signals: Mapping[str, np.ndarray], rows: np.ndarray | None = None
                  ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
         assert rows is not None
-        picked = {key: values[rows] for key, values in self.stored.items()}
+        picked = {}
+        for key, values in self.stored.items():
+            if key == "collision.contact":
+                samples = next(iter(signals.values())).shape[1]
+                picked[key] = contact_from_intervals(values, rows, samples)
+            else:
+                picked[key] = values[rows]
         return {**picked, **self.areas(signals)}, []
