@@ -327,7 +327,7 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, confiden
 
 
 
-def stored_path_result(store: ResultStore, name: str) -> PathResult:
+def stored_path_result(store: StoredResults, name: str) -> PathResult:
     """A path's stored status and run counts (failures included), not yet evaluated."""
     group = store.path_group(name)
     result = PathResult(name=name, index=int(group.attrs["index"]),

@@ -218,6 +218,7 @@ def _scored(runs: ParallelRuns, path: PathReport, setup: Setup, context: Any,
             signals = {**signals, **collided[0]}
         shape = signals["x"].shape
         evaluation = chunk.evaluations[0]
+        assert evaluation is not None
         per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
                       for name, values in evaluation.per_sample.items()}
         yield chunk.rows, signals, per_sample_risk(per_sample, weights)

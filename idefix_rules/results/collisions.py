@@ -11,6 +11,7 @@ computed from the poses: they are cheap and follow each rulebook's own area decl
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 from collections.abc import Callable, Mapping, Sequence
@@ -344,8 +345,8 @@ class CollisionSources:
             elif stored is not None and not area_reads(self.evaluators[position]):
                 sources.append(plain)
             elif stored is not None:
-                sources.append(StoredChunks(stored, lambda signals, p=position:
-                                             self._area_signals(p, signals)))
+                sources.append(StoredChunks(stored, functools.partial(self._area_signals,
+                                                                      position)))
             else:
                 sources.append(self.function(position))
         return sources

@@ -96,7 +96,7 @@ class _FirstPass:
             chunk_runs: int, keep: bool) -> None:
         from idefix_rules.rulebook.across import first_pass
 
-        kept: dict[int, dict[str, np.ndarray]] = {}
+        kept: dict[int, dict[str, np.ndarray]] | None = {}
         size = 0
 
         def chunks(names: set[str]) -> Iterator[dict[str, np.ndarray]]:
