@@ -28,6 +28,7 @@ from idefix_rules.campaign import pairwise, sampling
 from idefix_rules.campaign.bounds import failure_sequence, judged_statistics
 from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
+from idefix_rules.campaign.load import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.schema import SamplingMethod
 from idefix_rules.campaign.simulate import (
@@ -36,9 +37,7 @@ from idefix_rules.campaign.simulate import (
     Progress,
     SimulationOptions,
     SimulationSummary,
-    initial_position_sigma,
     monte_carlo_pool,
-    nominal_parameters,
     parameter_info,
     path_stream,
     run_and_store,

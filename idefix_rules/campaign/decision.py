@@ -31,9 +31,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.pairwise import OPEN, TIED, find
 from idefix_rules.campaign.wording import verdict_reason_items
+from idefix_rules.plain import as_plain
 
 DecisionKind = Literal["send", "none", "unsettled", "marginal"]
 

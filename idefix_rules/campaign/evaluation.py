@@ -10,12 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import multiprocessing
-from collections import deque
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
@@ -31,32 +28,24 @@ from idefix_rules.campaign.waivers import STORED_ATTRIBUTE, WaivedRule, to_store
 from idefix_rules.campaign.waivers import stored as stored_waivers
 from idefix_rules.campaign.wording import runs_needed_text
 from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.plain import as_plain
+from idefix_rules.results.collisions import (
+    CONTACT_COLUMNS,
+    CollisionFunction,
+    clearance_profile,
+    contact_intervals,
+)
+from idefix_rules.results.reader import StoredResults
+from idefix_rules.results.runs import ParallelRuns, complete_rows
+from idefix_rules.results.scoring import score_chunks
 from idefix_rules.signals import AXIS_LABELS
 
 if TYPE_CHECKING:
     from idefix_rules.campaign.schema import Waiver
 
-POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 DEFAULT_CHUNK_RUNS = 64
 # From this many rows on the evaluation's per-run arrays are stored compressed (shuffle+gzip).
 COMPRESSED_ROWS = 1024
-
-
-class CollisionFunction(Protocol):
-    """Collision signals and per-run details of runs of poses (axis 0 = run). ``runs`` are the
-    path's run numbers of those rows, written into the details (None: numbered from 0)."""
-
-    def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
-                 ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]: ...
-
-
-class RunReader(Protocol):
-    """What reading runs needs of a results file (:class:`ResultStore` or a stand-in)."""
-
-    def run_status(self, name: str) -> np.ndarray: ...
-
-    def read_runs(self, name: str, selection: slice | np.ndarray,
-                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]: ...
 
 
 @dataclass
@@ -148,61 +137,6 @@ class CampaignEvaluation:
         raise KeyError(name)
 
 
-# --- plain data -------------------------------------------------------------------------------
-
-def as_plain(obj: Any) -> Any:
-    """JSON-ready form of the rulebook's dataclasses (statistics, verdicts)."""
-    to_dict = getattr(obj, "to_dict", None)
-    if callable(to_dict):
-        return as_plain(to_dict())
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: as_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
-    if isinstance(obj, Mapping):
-        return {str(k): as_plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [as_plain(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
-    return obj
-
-
-# --- collisions -------------------------------------------------------------------------------
-
-def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
-                       rover: RoverGeometry | None = None) -> CollisionFunction | None:
-    """The obstacle checker for a campaign environment, or None if the rulebook needs none;
-    it gives the collision signals and the signals of the rulebook's named areas."""
-    if not getattr(evaluator, "needs_collisions", False):
-        return None
-    from idefix_rules.campaign.environment import named_areas, obstacle_set
-    from idefix_rules.obstacles import collision_signals
-    from idefix_rules.obstacles.named import all_area_signals
-
-    obstacles = obstacle_set(environment, evaluator, terrain)
-    areas = named_areas(environment, evaluator, terrain)
-    geometry = rover or RoverGeometry()
-
-    def check(poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
-              ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
-        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, obstacles)
-        details = [as_plain(d) for d in result.details]
-        if runs is not None:
-            # The checker numbers the rows it was given from 0; a chunk of complete runs is
-            # not contiguous when runs failed, so each row takes its own run number.
-            for record in details:
-                record["run"] = int(runs[record["run"]])
-        signals = dict(result.signals)
-        if areas:
-            signals.update(all_area_signals(areas, poses, geometry))
-        return signals, details
-
-    return check
-
-
 # --- evaluation -------------------------------------------------------------------------------
 
 def run_context(chain: Sequence[Command], rover: RoverGeometry, sigma: float,
@@ -251,119 +185,40 @@ def chain_finished(signals: Mapping[str, np.ndarray]) -> np.ndarray | None:
     return None
 
 
-def _chunk_signals(store: RunReader, name: str, rows: np.ndarray,
-                   required: set[str] | None, poses: bool = True) -> dict[str, np.ndarray]:
-    extra = set(POSE_SIGNALS) if poses else set()
-    # Used when stored (a foreign FMU may lack them): run time, energy, and the height the
-    # global error adds to a position (rulebook.derived.DERIVED_INPUTS requires only x, y).
-    optional = {"command", "done", "energy", "t"} | ({"z"} if required and "x" in required
-                                                     else set())
-    keys = None if required is None else sorted(required | extra | optional)
-    start, stop = int(rows[0]), int(rows[-1]) + 1
-    chunk = store.read_runs(name, slice(start, stop), keys)
-    if stop - start == len(rows):  # no gaps: the chunk as read
-        return chunk
-    offset = rows - start
-    return {key: values[offset] for key, values in chunk.items()}
-
-
-def complete_chunks(store: RunReader, name: str, required: set[str] | None,
-                    chunk_runs: int = DEFAULT_CHUNK_RUNS, poses: bool = True,
-                    within: slice | None = None
-                    ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
-    """``(rows, signals)`` of a path's complete runs (those among the rows ``within``, when
-    given), ``chunk_runs`` at a time; each chunk is read once. ``required`` None reads every
-    stored signal; ``poses`` adds the pose signals the obstacle checker reads."""
-    complete = complete_rows(store.run_status(name), within)
-    for begin in range(0, len(complete), chunk_runs):
-        rows = complete[begin:begin + chunk_runs]
-        yield rows, _chunk_signals(store, name, rows, required, poses)
-
-
-def complete_rows(status: np.ndarray, within: slice | None = None) -> np.ndarray:
-    """Row numbers of complete runs, in order (only those in ``within`` when given)."""
-    rows = np.flatnonzero(status == STATUS_COMPLETE)
-    if within is None:
-        return rows
-    start, stop, _ = within.indices(status.size)
-    return rows[(rows >= start) & (rows < stop)]
-
-
-# The collision checker of the pool's workers: set before the pool forks, so the workers
-# inherit it (its python-fcl objects cannot be pickled).
-_WORKER_COLLISIONS: CollisionFunction | None = None
-
-
-def _check_in_worker(poses: dict[str, np.ndarray], rows: np.ndarray
-                     ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
-    assert _WORKER_COLLISIONS is not None
-    return _WORKER_COLLISIONS(poses, rows)
-
-
-def _with_collisions(chunks: Iterator[tuple[np.ndarray, dict[str, np.ndarray]]],
-                     collisions: CollisionFunction, workers: int
-                     ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], Any]]:
-    """``(rows, signals, (collision signals, details))`` per chunk, in chunk order.
-
-    With several workers the collision checks (the costly part of an evaluation) run in forked
-    processes, at most two chunks per worker in flight; each chunk's result is a pure function
-    of its poses, so the outcome does not depend on the number of workers.
-    """
-    if workers <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-        for rows, signals in chunks:
-            yield rows, signals, collisions(signals, rows)
-        return
-    global _WORKER_COLLISIONS
-    _WORKER_COLLISIONS = collisions
-    pending: deque[tuple[np.ndarray, dict[str, np.ndarray], Future[Any]]] = deque()
-    try:
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")
-                                 ) as pool:
-            for rows, signals in chunks:
-                poses = {key: signals[key] for key in POSE_SIGNALS}
-                pending.append((rows, signals, pool.submit(_check_in_worker, poses, rows)))
-                while len(pending) >= 2 * workers:
-                    done_rows, done_signals, future = pending.popleft()
-                    yield done_rows, done_signals, future.result()
-            while pending:
-                done_rows, done_signals, future = pending.popleft()
-                yield done_rows, done_signals, future.result()
-    finally:
-        _WORKER_COLLISIONS = None
-
-
-def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeometry,
+def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverGeometry,
                   sigma: float, collisions: CollisionFunction | None,
                   chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
                   within: slice | None = None) -> tuple[Any, dict[str, Any]]:
     """Evaluate the complete runs of a path (among the rows ``within``, when given) chunk by
-    chunk; returns (evaluation, stored).
+    chunk (:func:`idefix_rules.results.scoring.score_chunks`); returns (evaluation, stored):
+    what is stored besides the evaluation (rows, whether each chain finished, collisions).
 
     ``workers`` > 1 spreads the collision checks over that many processes."""
-    group = store.path_group(name)
-    chain = tuple(Command(*row) for row in group["chain"][()])
-    reference = store.reference(name)
-    context = run_context(chain, rover, sigma, reference)
+    context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
-    required = set(getattr(evaluator, "required_signals", ())) or None
-    # Path-level values (reductions over runs) need every run first: a pass reading only
-    # what they read, then the chunks are evaluated with them.
-    across = _first_pass(store, name, evaluator, context, chunk_runs)
     parts = []
-    hits, buffers, details = [], [], []
+    hits, buffers, details, contacts, profiles = [], [], [], [], []
     finished: list[np.ndarray | None] = []
-    chunks = complete_chunks(store, name, required, chunk_runs, within=within)
-    checked = (_with_collisions(chunks, collisions, workers) if collisions is not None
-               else ((rows, signals, None) for rows, signals in chunks))
-    for _rows, signals, collided in checked:
-        finished.append(chain_finished(signals))
-        if collided is not None:
-            extra, chunk_details = collided
-            signals.update(extra)
-            hits.append(extra.get("collision.hits"))
-            buffers.append(extra.get("collision.buffer"))
-            details.extend(chunk_details)
-        parts.append(without_samples(evaluator.evaluate(signals, context, across=across)))
+    runs = ParallelRuns(store)
+    try:
+        for chunk in score_chunks(runs, name, [evaluator], context, [collisions],
+                                  chunk_runs=chunk_runs, within=within, workers=workers):
+            finished.append(chain_finished(chunk.signals))
+            collided = chunk.collisions[0]
+            if collided is not None:
+                extra, chunk_details = collided
+                hits.append(extra.get("collision.hits"))
+                buffers.append(extra.get("collision.buffer"))
+                details.extend(chunk_details)
+                # kept small: the contacts as intervals, the clearance as a profile
+                if "collision.contact" in extra:
+                    contacts.append(contact_intervals(extra["collision.contact"], chunk.rows))
+                if "collision.clearance" in extra and "t" in chunk.signals:
+                    profiles.append(clearance_profile(extra["collision.clearance"],
+                                                      chunk.signals["t"]))
+            parts.append(without_samples(chunk.evaluations[0]))
+    finally:
+        runs.close()
     evaluation = concatenate(parts) if parts else None
     extra_store: dict[str, Any] = {"rows": complete, "finished": None}
     if finished and all(part is not None for part in finished):
@@ -374,19 +229,10 @@ def evaluate_path(store: ResultStore, name: str, evaluator: Any, rover: RoverGeo
         extra_store["buffer"] = np.concatenate([b for b in buffers if b is not None]) \
             if any(b is not None for b in buffers) else None
         extra_store["details"] = details
+        extra_store["contact"] = np.concatenate(contacts) if contacts else None
+        extra_store["clearance_profile"] = np.concatenate(profiles) \
+            if profiles and len(profiles) == len(parts) else None
     return evaluation, extra_store
-
-
-def _first_pass(store: RunReader, name: str, evaluator: Any, context: Any,
-                chunk_runs: int) -> Any:
-    """The path-level values of ``evaluator`` over the path's complete runs (None: none)."""
-    if not getattr(evaluator, "runs_reductions", ()):
-        return None
-    from idefix_rules.rulebook.across import first_pass
-
-    return first_pass([evaluator], lambda names: (
-        signals for _, signals in complete_chunks(store, name, names, chunk_runs, poses=False)),
-        context)[0]
 
 
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
@@ -489,7 +335,7 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: 
         for text in result.verdict_reasons]
 
 
-def stored_path_result(store: ResultStore, name: str) -> PathResult:
+def stored_path_result(store: StoredResults, name: str) -> PathResult:
     """A path's stored status and run counts (failures included), not yet evaluated."""
     group = store.path_group(name)
     result = PathResult(name=name, index=int(group.attrs["index"]),
@@ -625,6 +471,12 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         for row, record in zip(rows, extra.get("details", []), strict=False):
             texts[int(row)] = json.dumps(record)
         collisions.create_dataset("details", data=texts, dtype=h5py.string_dtype("utf-8"))
+        if extra.get("contact") is not None:  # per-sample contacts as intervals (format 5)
+            table = collisions.create_dataset("contact", data=extra["contact"])
+            table.attrs["columns"] = list(CONTACT_COLUMNS)
+        if extra.get("clearance_profile") is not None:
+            array(collisions, "clearance_profile", full(extra["clearance_profile"]))
+            collisions["clearance_profile"].attrs["unit"] = "m"
     target.attrs["statistics"] = json.dumps(as_plain(stats))
     target.attrs["verdict"] = json.dumps(as_plain(verdict))
     # the verdict rules waived on the path, which ``verdict`` leaves out: a reader without the

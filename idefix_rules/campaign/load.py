@@ -25,7 +25,7 @@ from idefix_rules.campaign.schema import (
     TerrainSection,
 )
 from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
-from idefix_rules.commands import Command
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
 from idefix_rules.limits import CAMPAIGN_TOO_LARGE, MAX_CAMPAIGN_BYTES, check_file_size
@@ -302,3 +302,40 @@ def _dem_grid_checks(terrain: TerrainSection, locations: SourceMap) -> list[Diag
                           f"its own {key}; remove it (only .npy and .csv DEMs take one)",
                   locations.span((*loc, key))) for key in given]
 
+
+# --- what the campaign says of the rover, for the evaluation ---------------------------------
+
+# Campaign regolith keys are the FMU's soil parameters without their prefix.
+REGOLITH_PREFIX = "soil."
+GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track": "half_track",
+                       "rover.half_wheelbase": "half_wheelbase",
+                       "controller.wheel_acceleration": "wheel_acceleration"}
+INITIAL_POSITION = ("initial.x", "initial.y")
+
+
+def rover_geometry(campaign: Campaign) -> RoverGeometry:
+    """Kinematic geometry: defaults, or fixed/nominal values the campaign gives."""
+    values = nominal_parameters(campaign)
+    overrides = {field_name: float(values[name]) for name, field_name in
+                 GEOMETRY_PARAMETERS.items() if name in values}
+    return RoverGeometry(**overrides)
+
+
+def nominal_parameters(campaign: Campaign) -> dict[str, float]:
+    """Parameter values of the reference run: regolith values, then uncertainty nominals."""
+    from idefix_rules.campaign.sampling import nominal_values  # scipy: only when needed
+
+    values = {REGOLITH_PREFIX + key if "." not in key else key: value
+              for key, value in campaign.model.environment.regolith.items()}
+    values.update(nominal_values(campaign.model.uncertainty.parameters))
+    return values
+
+
+def initial_position_sigma(campaign: Campaign) -> float:
+    """σ of the initial position (the larger of x and y): the starting tolerance radius."""
+    from idefix_rules.campaign.sampling import standard_deviation
+
+    parameters = campaign.model.uncertainty.parameters
+    sigmas = [standard_deviation(parameters[name]) for name in INITIAL_POSITION
+              if name in parameters]
+    return max(sigmas, default=0.0)

@@ -24,7 +24,7 @@ from idefix_rules import __version__
 from idefix_rules.campaign import pairwise
 from idefix_rules.campaign.dask_pool import is_infrastructure
 from idefix_rules.campaign.decision import campaign_decision, reasons_of
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult, as_plain
+from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
 from idefix_rules.campaign.schema import (
     CollisionExpectation,
     MeanRiskExpectation,
@@ -33,6 +33,7 @@ from idefix_rules.campaign.schema import (
 )
 from idefix_rules.campaign.wording import unfinished_text
 from idefix_rules.files import write_atomic
+from idefix_rules.plain import as_plain
 
 EXIT_OK = 0
 EXIT_FAILED = 1

@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import json
 import os
 import time
@@ -23,52 +22,40 @@ import numpy as np
 from idefix_rules.campaign import diskspace, outputs, waivers
 from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, write_terrain
-from idefix_rules.campaign.evaluation import (
-    CampaignEvaluation,
-    CollisionFunction,
-    collision_function,
-    evaluate_store,
-)
+from idefix_rules.campaign.evaluation import CampaignEvaluation, evaluate_store
 from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.journal import roll_back
-from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.ownership import FolderLock, own_folder
 from idefix_rules.campaign.resume import resume_command
 from idefix_rules.campaign.revision import Revision
-from idefix_rules.campaign.schema import CampaignFile
 from idefix_rules.campaign.sensitivity import store_sensitivity
 from idefix_rules.campaign.simulate import (
     RESULTS_FILE,
     TERRAIN_PARAMETER,
     Progress,
     SimulationOptions,
-    initial_position_sigma,
-    rover_geometry,
     simulate_campaign,
 )
 from idefix_rules.campaign.slip import slip_warning
 from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.campaign.stored_terrain import (
-    StoredTerrain,
-    TerrainSource,
-    terrain_for_rescoring,
-    terrain_for_resume,
-)
 from idefix_rules.campaign.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
     prepare_output,
 )
-from idefix_rules.campaign.yamlsource import SourceMap, load_yaml
 from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
+from idefix_rules.results.campaign import StoredCampaign
+from idefix_rules.results.collisions import CollisionFunction, collision_function
+from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
 
 SUMMARY_FILE = "summary.json"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
-# energy, chances, collision counts and details), for the free-space check before it starts.
-EVALUATION_BYTES_PER_RUN = 2048
-STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
+# energy, chances, collision counts and details, the clearance profile), for the free-space
+# check before it starts.
+EVALUATION_BYTES_PER_RUN = 3072
 REPORT_FILE = "report.html"
 SEARCHED_RUNS = "worst"  # runs_mode of a worst-case search's results file
 
@@ -319,7 +306,7 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
 def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource
                      ) -> tuple[Terrain, list[str]]:
     """The terrain a ``--resume`` of ``results`` simulates on (the stored one) and what to say
-    about it (:func:`~idefix_rules.campaign.stored_terrain.terrain_for_resume`)."""
+    about it (:func:`~idefix_rules.results.terrain.terrain_for_resume`)."""
     if not results.is_file():
         return terrain, []
     roll_back(results)  # a change of its structure a kill cut off (journal.py)
@@ -461,12 +448,15 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
 
 def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                    junit: Path | None, output: Path) -> CampaignResult:
-    stub = stored_campaign(store)
+    stored = StoredCampaign(store)
+    stub = stored.require_campaign()
     model = stub.model
     if rulebook is None:
+        from idefix_rules.rulebook import compile_rulebook
+
         # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
-        rulebook_path = Path(f"{results}:{STORED_RULEBOOK}")
-        evaluator = _compile_text(store.text("rulebook"), str(rulebook_path))
+        rulebook_path = Path(stored.rulebook_text()[1])
+        evaluator = compile_rulebook(stored.checked_rulebook())
     else:
         rulebook_path = rulebook
         evaluator = compile_rulebook_file(rulebook)
@@ -477,14 +467,13 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         raise UserInputError(mistakes, sources={str(stub.source): stub.text})
     _check_stored_signals(store, evaluator, results)
     # the terrain matters to the scores only through the collision and area checks
-    ground = terrain_for_rescoring(store.file, results) \
-        if getattr(evaluator, "needs_collisions", False) else StoredTerrain(None)
-    collisions = collision_function(model.environment, evaluator, ground.terrain)
+    ground = stored.ground() if getattr(evaluator, "needs_collisions", False) \
+        else StoredTerrain(None)
+    collisions = stored.collision_function(evaluator)
     clock = PathClock()
     then = f"{results} is unchanged; free space, then evaluate again"
     with evaluation_revision(store, then) as revision:
-        evaluation = evaluate_store(store, evaluator, rover_geometry(stub),
-                                    initial_position_sigma(stub), collisions,
+        evaluation = evaluate_store(store, evaluator, stored.rover, stored.sigma, collisions,
                                     rulebook_info(evaluator, rulebook_path),
                                     on_path=clock.start, into=revision.store,
                                     waivers=model.waivers)
@@ -533,40 +522,3 @@ def _check_stored_signals(store: ResultStore, evaluator: Any, results: Path) -> 
                      "it mapped, or score with a rulebook that does not read it"))
     if problems:
         raise UserInputError(problems)
-
-
-def _compile_text(text: str, name: str) -> Any:
-    """Check and compile rulebook text read from somewhere else than a file of its own."""
-    from idefix_rules.rulebook import check_text, compile_rulebook
-
-    result = check_text(text, name)
-    if result.checked is None:
-        raise UserInputError(result.errors, {name: text})
-    return compile_rulebook(result.checked.rulebook)
-
-
-def stored_campaign(store: ResultStore) -> Campaign:
-    """The campaign a results file was simulated from, rebuilt from its stored text (for
-    geometry, uncertainty and environment; the FMU and DEM are not resolved)."""
-    campaign_text = store.text("campaign")
-    campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
-    document = load_yaml(campaign_text, campaign_path)
-    model = CampaignFile.model_validate(document.data)
-    return _campaign_stub(model, Path(campaign_path).parent, campaign_text, campaign_path,
-                          document.locations)
-
-
-def _campaign_stub(model: CampaignFile, base: Path, text: str, path: str,
-                   locations: SourceMap | None = None) -> Campaign:
-    """A :class:`Campaign` rebuilt from stored text (for geometry and uncertainty only)."""
-    from idefix_rules.campaign.load import PathSpec
-    from idefix_rules.commands import Command
-
-    paths = tuple(PathSpec(name, index, tuple(Command(c.max_wheel_rate, c.delta_position,
-                                                      c.delta_heading) for c in chain))
-                  for index, (name, chain) in enumerate(model.paths.items()))
-    return Campaign(source=Path(path), text=text,
-                    sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(), model=model,
-                    paths=paths, rulebook=base / model.rulebook, output=base / model.output,
-                    fmu=None, dem=None, runs=model.run_count, seed=model.uncertainty.seed,
-                    workers=None, locations=locations or SourceMap(path), adaptive=model.adaptive)

@@ -21,10 +21,10 @@ from idefix_rules.campaign.runs_needed import pair_runs_needed
 
 if TYPE_CHECKING:
     from idefix_rules.campaign.evaluation import PathResult
-    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.results.reader import StoredResults
 
 
-def ranked_paths(store: ResultStore) -> int:
+def ranked_paths(store: StoredResults) -> int:
     """How many paths of a results file were simulated (and are ranked): the ``P`` of the
     campaign's α budget."""
     return sum(str(store.path_group(name).attrs.get("status", "")) == "simulated"

@@ -22,10 +22,16 @@ from typing import Any, Protocol
 import numpy as np
 
 from idefix_rules import __version__
-from idefix_rules.campaign import diskspace, sampling, stored_terrain, waivers
+from idefix_rules.campaign import diskspace, sampling, waivers
 from idefix_rules.campaign import resume as resuming
 from idefix_rules.campaign import timeouts as run_timeouts
-from idefix_rules.campaign.load import Campaign, PathSpec
+from idefix_rules.campaign.load import (
+    Campaign,
+    PathSpec,
+    initial_position_sigma,
+    nominal_parameters,
+    rover_geometry,
+)
 from idefix_rules.campaign.pool import DaskPool, LocalPool, Outcome, Timeouts
 from idefix_rules.campaign.store import (
     FORMAT_VERSION,
@@ -33,21 +39,16 @@ from idefix_rules.campaign.store import (
     ResultStore,
     run_bytes,
 )
-from idefix_rules.campaign.stored_terrain import TerrainSource
 from idefix_rules.campaign.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.worker import InputProblem, RunTask, simulate
 from idefix_rules.commands import RoverGeometry, chain_duration
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.fmu.terrain import Terrain
+from idefix_rules.results import terrain as stored_terrain
+from idefix_rules.results.terrain import TerrainSource
 
 RESULTS_FILE = "results.h5"
 
-# Campaign regolith keys are the FMU's soil parameters without their prefix.
-REGOLITH_PREFIX = "soil."
-GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track": "half_track",
-                       "rover.half_wheelbase": "half_wheelbase",
-                       "controller.wheel_acceleration": "wheel_acceleration"}
-INITIAL_POSITION = ("initial.x", "initial.y")
 TERRAIN_PARAMETER = "terrain.file"
 
 
@@ -126,30 +127,6 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def rover_geometry(campaign: Campaign) -> RoverGeometry:
-    """Kinematic geometry: defaults, or fixed/nominal values the campaign gives."""
-    values = nominal_parameters(campaign)
-    overrides = {field_name: float(values[name]) for name, field_name in
-                 GEOMETRY_PARAMETERS.items() if name in values}
-    return RoverGeometry(**overrides)
-
-
-def nominal_parameters(campaign: Campaign) -> dict[str, float]:
-    """Parameter values of the reference run: regolith values, then uncertainty nominals."""
-    values = {REGOLITH_PREFIX + key if "." not in key else key: value
-              for key, value in campaign.model.environment.regolith.items()}
-    values.update(sampling.nominal_values(campaign.model.uncertainty.parameters))
-    return values
-
-
-def initial_position_sigma(campaign: Campaign) -> float:
-    """σ of the initial position (the larger of x and y): the starting tolerance radius."""
-    parameters = campaign.model.uncertainty.parameters
-    sigmas = [sampling.standard_deviation(parameters[name]) for name in INITIAL_POSITION
-              if name in parameters]
-    return max(sigmas, default=0.0)
-
-
 def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathPlan:
     settings = campaign.model.simulation
     ideal = chain_duration(spec.chain, rover)
@@ -196,7 +173,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     ``fmu_parameters`` are the run-independent parameters (terrain file, regolith values).
     ``terrain`` is the terrain the runs are simulated on and where it came from: stored in
     the results file when it is created (or resumed without one), so that the file alone
-    re-scores as the campaign did (:mod:`idefix_rules.campaign.stored_terrain`).
+    re-scores as the campaign did (:mod:`idefix_rules.results.terrain`).
     ``stage`` replaces the Monte Carlo stage (fixed or adaptive) after the reference runs:
     the worst-case search (:mod:`idefix_rules.campaign.worst`) chooses its runs itself.
     """

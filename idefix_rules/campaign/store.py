@@ -15,9 +15,10 @@ space (:mod:`idefix_rules.campaign.diskspace`). Each run is written as its data,
 either complete-and-valid or not marked complete, which ``--resume`` re-runs
 (``tests/campaign/test_campaign_store_kill.py`` kills a writer at random moments to check it).
 
-Signals are stored with the precision they need (:func:`storage_dtype`): the pose, time and
-energy signals, which the evaluator differentiates, as float64; the per-wheel signals and the
-integer-valued ``command`` / ``stuck`` as float32 (docs/results-format.md gives the error).
+Signals are stored with the precision they need (:func:`storage_dtype`): the planar position,
+heading and time, which the evaluator differentiates, as float64; the per-wheel signals, the
+tilt angles, the height, the charge and the integer-valued ``command`` / ``stuck`` as float32
+(docs/results-format.md gives the error).
 """
 
 from __future__ import annotations
@@ -36,34 +37,36 @@ import numpy as np
 from idefix_rules.campaign import diskspace
 from idefix_rules.campaign.journal import JournaledFile, repair_end, roll_back, undo_path
 from idefix_rules.commands import Command
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.results.format import (
+    CHAIN_COLUMNS,
+    CHAIN_UNITS,
+    COMPRESSION,
+    COMPRESSION_LEVEL,
+    FLOAT32_SIGNALS,
+    FORMAT,
+    FORMAT_VERSION,
+    RESUMABLE_FORMAT_VERSIONS,
+    STATUS_COMPLETE,
+    STATUS_FAILED,
+    STATUS_MISSING,
+    STATUS_NOT_NEEDED,
+    decode_reason,
+    storage_dtype,
+)
+from idefix_rules.results.reader import StoredResults
 from idefix_rules.signals import lookup
 
-FORMAT = "idefix-results"
-FORMAT_VERSION = 4
-# Files a --resume continues: format 2 allocated every run at the start, which format 3 reads
-# as one block holding every row; formats 2 and 3 hold no terrain, which a resume stores
-# (format 4: idefix_rules.campaign.stored_terrain).
-RESUMABLE_FORMAT_VERSIONS = (2, 3, 4)
-
-STATUS_MISSING = 0
-STATUS_COMPLETE = 1
-STATUS_FAILED = 2
-STATUS_NOT_NEEDED = 3  # an adaptive campaign stopped its path before this run
-
-# Read through max / percentile / comparisons or as small angles, never differentiated as
-# large values: float32 keeps them to 6e-8 of their value (a tilt of 0.1 rad to 6e-9 rad), far
-# inside any rulebook tolerance (docs/results-format.md).
-FLOAT32_SIGNALS = frozenset({"wheel.rate", "wheel.slip", "wheel.slip_angle", "wheel.sinkage",
-                             "wheel.current", "command", "stuck", "roll", "pitch"})
-COMPRESSION = "gzip"
-COMPRESSION_LEVEL = 1
+# The format's names, for the writer's callers (defined in idefix_rules.results.format).
+__all__ = ["CHAIN_COLUMNS", "CHAIN_UNITS", "COMPRESSION", "COMPRESSION_LEVEL",
+           "FLOAT32_SIGNALS", "FORMAT", "FORMAT_VERSION", "RESUMABLE_FORMAT_VERSIONS",
+           "STATUS_COMPLETE", "STATUS_FAILED", "STATUS_MISSING", "STATUS_NOT_NEEDED",
+           "EncodedChunk", "ResultStore", "allocated_rows", "decode_chunk", "decode_reason",
+           "encode_chunk",
+           "encode_reason", "encode_run", "fill_chunk_bytes", "previous_results_path",
+           "run_bytes", "signal_attrs", "storage_dtype"]
 
 REASON_BYTES = 240
 _REASON_DTYPE = f"S{REASON_BYTES}"
-
-CHAIN_COLUMNS = ("max_wheel_rate", "delta_position", "delta_heading")
-CHAIN_UNITS = ("rad/s", "m", "rad")
 
 # Rows of a path's runs allocated at first, and the largest step a block allocation adds. Every
 # block boundary is a multiple of ROW_CHUNK, the chunk of the per-row datasets (status, failure,
@@ -131,11 +134,6 @@ def run_bytes(signals: Mapping[str, np.ndarray]) -> int:
                for name, values in signals.items()) + REASON_BYTES + 64
 
 
-def storage_dtype(name: str) -> np.dtype[Any]:
-    """The dtype a run signal is stored with (float32 where that is enough, else float64)."""
-    return np.dtype(np.float32 if name in FLOAT32_SIGNALS else np.float64)
-
-
 @dataclass(frozen=True)
 class EncodedChunk:
     """One run of one signal as the bytes of its stored chunk (shuffled, deflated): what the
@@ -154,6 +152,13 @@ def encode_chunk(name: str, values: np.ndarray) -> EncodedChunk:
     return EncodedChunk(array.shape, array.dtype.str, zlib.compress(shuffled, COMPRESSION_LEVEL))
 
 
+def decode_chunk(chunk: EncodedChunk) -> np.ndarray:
+    """The values of an encoded chunk (:func:`encode_chunk` undone)."""
+    dtype = np.dtype(chunk.dtype)
+    raw = np.frombuffer(zlib.decompress(chunk.data), dtype=np.uint8)
+    return raw.reshape(dtype.itemsize, -1).T.copy().view(dtype).reshape(chunk.shape)
+
+
 def encode_run(signals: Mapping[str, np.ndarray]) -> dict[str, EncodedChunk]:
     """Every signal of one run encoded as its stored chunk."""
     return {name: encode_chunk(name, values) for name, values in signals.items()}
@@ -162,10 +167,6 @@ def encode_run(signals: Mapping[str, np.ndarray]) -> dict[str, EncodedChunk]:
 def encode_reason(reason: str) -> bytes:
     data = reason.encode("utf-8")[:REASON_BYTES]
     return data.decode("utf-8", errors="ignore").encode("utf-8")
-
-
-def decode_reason(value: bytes) -> str:
-    return bytes(value).rstrip(b"\0").decode("utf-8", errors="replace")
 
 
 def signal_attrs(name: str) -> dict[str, Any]:
@@ -180,23 +181,17 @@ def previous_results_path(path: Path) -> Path:
     return path.with_name(f"{path.stem}.previous{path.suffix}")
 
 
-class ResultStore:
-    """Writer and reader of one ``results.h5``."""
+class ResultStore(StoredResults):
+    """Writer of one ``results.h5`` (and its reader: :class:`StoredResults`)."""
 
     def __init__(self, file: h5py.File, path: Path | None = None) -> None:
-        self.file = file
-        self.path = Path(path if path is not None else file.filename)
+        super().__init__(file, path)
         # Open dataset handles per path: looking them up by name costs more than the write.
         self._handles: dict[str, tuple[dict[str, h5py.Dataset], h5py.Dataset, h5py.Dataset]] = {}
         # The sampled parameters of each path's planned runs, written a block at a time, and
         # the rows allocated so far.
         self._plans: dict[str, dict[str, np.ndarray]] = {}
         self._allocated: dict[str, int] = {}
-
-    @property
-    def folder(self) -> Path:
-        """The folder of the results file (whose free space the writes need)."""
-        return self.path.parent
 
     def _require(self, needed: int, doing: str) -> None:
         diskspace.require(self.folder, needed, doing)
@@ -288,37 +283,13 @@ class ResultStore:
         """Open an existing results file; :class:`UserInputError` if it is not one. Opened to
         write, a structural change a kill cut off is rolled back first
         (:func:`~idefix_rules.campaign.journal.roll_back`)."""
-        try:
-            if writable:
-                roll_back(path)
-                repair_end(path)
-            file = h5py.File(path, "r+" if writable else "r")
-        except FileNotFoundError:
-            raise UserInputError(error("H001", f"results file {path} not found",
-                                       Span(str(path)))) from None
-        except IsADirectoryError:
-            raise UserInputError(error("H002", f"cannot open results file {path}: a folder",
-                                       Span(str(path)), hint="give its results.h5")) from None
-        except OSError as failure:
-            if not h5py.is_hdf5(path):
-                raise UserInputError(error(
-                    "H002", f"cannot open results file {path}: not an HDF5 file", Span(str(path)),
-                    hint="give the results.h5 a campaign run wrote")) from None
-            raise UserInputError(error(
-                "H002", f"cannot open results file {path}: {failure}", Span(str(path)),
-                hint="a file damaged while its structure was being written cannot be resumed: "
-                     "run the campaign again without --resume" if writable else None)) from None
-        store = cls(file, path)
-        if file.attrs.get("format") != FORMAT:
-            store.close()
-            raise UserInputError(error("H003", f"{path} is not an idefix results file",
-                                       Span(str(path))))
-        missing = [name for name in ("provenance", "paths") if name not in file]
-        if missing:
-            store.close()
-            raise UserInputError(error("H003", f"{path} is an incomplete idefix results file "
-                                               f"(no {' or '.join(missing)} group)",
-                                       Span(str(path)), hint="run the campaign again"))
+        if writable:
+            roll_back(path)
+            repair_end(path)
+        store = cls.opened(Path(path), "r+" if writable else "r", damaged_hint=(
+            "a file damaged while its structure was being written cannot be resumed: run the "
+            "campaign again without --resume") if writable else None)
+        assert isinstance(store, ResultStore)
         return store
 
     def close(self) -> None:
@@ -331,26 +302,7 @@ class ResultStore:
             finally:
                 self.file.close()
 
-    @property
-    def attrs(self) -> h5py.AttributeManager:
-        return self.file.attrs
-
-    def text(self, key: str) -> str:
-        value = self.file["provenance"][key][()]
-        return value.decode("utf-8") if isinstance(value, bytes) else str(value)
-
     # --- paths ------------------------------------------------------------------------------
-
-    @property
-    def path_names(self) -> list[str]:
-        group = self.file["paths"]
-        return sorted(group, key=lambda name: int(group[name].attrs["index"]))
-
-    def path_group(self, name: str) -> h5py.Group:
-        return self.file["paths"][name]
-
-    def has_path(self, name: str) -> bool:
-        return name in self.file["paths"]
 
     def create_path(self, name: str, index: int, chain: Sequence[Command],
                     attrs: Mapping[str, Any]) -> h5py.Group:
@@ -394,12 +346,6 @@ class ResultStore:
         group.attrs["status"] = STATUS_COMPLETE if signals is not None else STATUS_FAILED
         group.attrs["failure"] = reason
         self.file.flush()
-
-    def reference(self, name: str) -> dict[str, np.ndarray] | None:
-        group = self.path_group(name).get("reference")
-        if group is None or group.attrs.get("status") != STATUS_COMPLETE:
-            return None
-        return {key: dataset[()] for key, dataset in group["signals"].items()}
 
     def allocate_runs(self, name: str, runs: int, shapes: Mapping[str, tuple[int, ...]],
                       parameters: Mapping[str, np.ndarray],
@@ -526,10 +472,6 @@ class ResultStore:
                 group["parameters"][key][start:stop] = plans[key][start:stop]
             self.file.flush()
 
-    def has_runs(self, name: str) -> bool:
-        group = self.path_group(name).get("runs")
-        return group is not None and "status" in group
-
     def write_run(self, name: str, run: int,
                   signals: Mapping[str, np.ndarray | EncodedChunk]) -> None:
         """Store one complete run: its data (arrays, or chunks :func:`encode_run` made), a
@@ -539,11 +481,16 @@ class ResultStore:
         for key, dataset in datasets.items():
             value = signals[key]
             if isinstance(value, EncodedChunk):
-                if value.shape != dataset.shape[1:] or np.dtype(value.dtype) != dataset.dtype:
+                if value.shape != dataset.shape[1:]:
                     raise ValueError(f"signal {key!r} of run {run} has shape {value.shape} "
                                      f"{value.dtype}, the dataset stores {dataset.shape[1:]} "
                                      f"{dataset.dtype}")
-                dataset.id.write_direct_chunk((run,) + (0,) * len(value.shape), value.data)
+                if np.dtype(value.dtype) != dataset.dtype:
+                    # a dataset an earlier format made (z and energy were float64 before
+                    # format 5), continued by --resume: the values in its precision
+                    dataset[run] = decode_chunk(value).astype(dataset.dtype)
+                else:
+                    dataset.id.write_direct_chunk((run,) + (0,) * len(value.shape), value.data)
             else:
                 dataset[run] = np.asarray(value, dtype=dataset.dtype)
         self.file.flush()
@@ -558,24 +505,6 @@ class ResultStore:
         status[run] = STATUS_FAILED
         self.file.flush()
 
-    def run_status(self, name: str) -> np.ndarray:
-        return np.asarray(self.path_group(name)["runs"]["status"][()])
-
-    def failures(self, name: str) -> dict[int, str]:
-        group = self.path_group(name)["runs"]
-        status = group["status"][()]
-        reasons = group["failure"][()]
-        return {int(j): decode_reason(reasons[j]) for j in np.flatnonzero(status == STATUS_FAILED)}
-
-    def read_runs(self, name: str, selection: slice | np.ndarray,
-                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-        """Signals of the selected runs, ``(runs, samples[, …])`` by contract name, as float64
-        whatever their stored precision."""
-        datasets = self.path_group(name)["runs"]["signals"]
-        wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
-        chosen = np.sort(selection) if isinstance(selection, np.ndarray) else selection
-        return {key: np.asarray(datasets[key][chosen], dtype=np.float64) for key in wanted}
-
     def mark_not_needed(self, name: str, first: int) -> None:
         """Rows from ``first`` on that are still missing will never be simulated: an adaptive
         campaign stopped the path (raw data written in place, like a run's status)."""
@@ -589,6 +518,3 @@ class ResultStore:
                               "need", 1):
             self.path_group(name)["runs"]["status"][first:] = np.where(
                 current == STATUS_MISSING, STATUS_NOT_NEEDED, current)
-
-    def signal_names(self, name: str) -> list[str]:
-        return list(self.path_group(name)["runs"]["signals"])

@@ -86,7 +86,8 @@ def _not_settable(campaign: Campaign, loc: tuple[str, ...], variable: FmuVariabl
 
 def check_simulation_size(campaign: Campaign) -> None:
     """Refuse a run longer than :data:`MAX_SAMPLES` output samples before simulating."""
-    from idefix_rules.campaign.simulate import plan_path, rover_geometry
+    from idefix_rules.campaign.load import rover_geometry
+    from idefix_rules.campaign.simulate import plan_path
 
     rover = rover_geometry(campaign)
     settings = campaign.model.simulation

@@ -50,11 +50,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from idefix_rules.campaign.evaluation import as_plain
     from idefix_rules.cli.console import make_console
     from idefix_rules.diff import diff_rules, load_source
     from idefix_rules.diff.results import diff_results
     from idefix_rules.errors import UserInputError, error
+    from idefix_rules.plain import as_plain
 
     if args.top < 0 or args.chunk_runs < 1 or args.threads < 1:
         raise UserInputError(error("D020", "--top must be ≥ 0, --chunk-runs and --threads ≥ 1"))
@@ -234,8 +234,10 @@ def print_results(console: Console, file: ResultsFileDiff) -> None:
 
     from idefix_rules.cli.outcome import fits
 
+    reused = (f"; {' and '.join(file.stored_evaluation)}: per-run values of the stored "
+              "evaluation") if file.stored_evaluation else ""
     console.print(f"\n[bold]results[/bold]: {file.results} (campaign {file.campaign}; "
-                  f"collisions {file.collisions})")
+                  f"collisions {file.collisions}{reused})")
     for warning in file.warnings:
         console.print(f"[bold yellow]warning:[/bold yellow] {escape(warning)}")
     table = Table(show_lines=True)

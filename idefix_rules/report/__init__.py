@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign.sensitivity import store_sensitivity
-from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits
 from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
@@ -26,6 +25,7 @@ from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
 from idefix_rules.report.worst import NOTE as WORST_NOTE
 from idefix_rules.report.worst import read_worst, worst_html, worst_rows, worst_tracks
+from idefix_rules.results.reader import StoredResults
 
 REPORT_FILE = "report.html"
 
@@ -34,9 +34,12 @@ def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
-def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path,
+Drawing = tuple[str, Any, str]  # file name, matplotlib figure, caption
+
+
+def _map_images(data: ReportData, maps: MapSet, setup: Setup,
                 done: Callable[[float], None] = lambda share: None,
-                worst: Mapping[str, tuple[Any, Any]] | None = None) -> list[html.Image]:
+                worst: Mapping[str, tuple[Any, Any]] | None = None) -> list[Drawing]:
     order = [path.name for path in data.paths]
     images = []
     what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
@@ -47,21 +50,19 @@ def _map_images(data: ReportData, maps: MapSet, setup: Setup, out_dir: Path,
     combined = figures.risk_map_figure(
         maps.combined.values(), maps.grid, setup.environment, overlay, order,
         f"All paths: {what}", maps.cell_reason)
-    images.append(html.Image("risk_map_all.png",
-                             figures.save_png(combined, out_dir / "risk_map_all.png"),
-                             f"Result map, all paths together ({maps.combined.runs} runs)."))
+    images.append(("risk_map_all.png", combined,
+                   f"Result map, all paths together ({maps.combined.runs} runs)."))
     for position, (name, accumulator) in enumerate(maps.per_path.items(), start=1):
         done(position / (len(maps.per_path) + 1))
         file = f"risk_map_{_safe(name)}.png"
         figure = figures.risk_map_figure(accumulator.values(), maps.grid, setup.environment,
                                          overlay, order, f"{name}: {what}",
                                          maps.cell_reason, highlight=name)
-        images.append(html.Image(file, figures.save_png(figure, out_dir / file),
-                                 f"Result map of path {name} ({accumulator.runs} runs)."))
+        images.append((file, figure, f"Result map of path {name} ({accumulator.runs} runs)."))
     return images
 
 
-def _box_images(data: ReportData, out_dir: Path) -> list[html.Image]:
+def _box_images(data: ReportData) -> list[Drawing]:
     order = [path.name for path in data.paths]
     local = {p.name: p.final_local_error for p in data.paths if p.final_local_error is not None}
     heading = {p.name: p.final_heading_error for p in data.paths
@@ -70,17 +71,15 @@ def _box_images(data: ReportData, out_dir: Path) -> list[html.Image]:
     if local:
         figure = figures.box_plot_figure(local, order, "final local error [m]",
                                          "Final local error per path")
-        images.append(html.Image("box_local_error.png",
-                                 figures.save_png(figure, out_dir / "box_local_error.png"),
-                                 "Final local error (distance to the theoretical path at the "
-                                 "end of the run) per path; triangle = mean."))
+        images.append(("box_local_error.png", figure,
+                       "Final local error (distance to the theoretical path at the "
+                       "end of the run) per path; triangle = mean."))
     if heading:
         figure = figures.box_plot_figure(heading, order, "final heading error [deg]",
                                          "Final heading error per path", scale=180.0 / math.pi)
-        images.append(html.Image("box_heading_error.png",
-                                 figures.save_png(figure, out_dir / "box_heading_error.png"),
-                                 "Final heading error (yaw minus the reference run's yaw at "
-                                 "the end) per path; triangle = mean."))
+        images.append(("box_heading_error.png", figure,
+                       "Final heading error (yaw minus the reference run's yaw at "
+                       "the end) per path; triangle = mean."))
     return images
 
 
@@ -99,7 +98,7 @@ def prepare_report(results_h5: Path, advance: Advance = _quiet,
                    ) -> tuple[ReportData, Setup, MapSet]:
     """Everything the report shows, as data: read, evaluate per sample, bin (no drawing).
     ``embed``: a run per path the interactive map holds besides the worst ones."""
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         data = read_report_data(store)
         setup = setup_from_store(store)
@@ -131,7 +130,7 @@ def _limit_texts(setup: Setup) -> dict[str, str]:
 
 
 def _sensitivity(results_h5: Path) -> dict[str, Any]:
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         return store_sensitivity(store.file)
     finally:
@@ -153,26 +152,31 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     order = [path.name for path in data.paths]
     tracks = worst_tracks(Path(results_h5), searched) if searched is not None else {}
     advance(PREPARE_SHARE, "result maps")
-    map_images = _map_images(data, maps, setup, out_dir,
-                             lambda share: advance(PREPARE_SHARE + MAPS_SHARE * share,
-                                                   "result maps"), tracks)
+    map_drawings = _map_images(data, maps, setup,
+                               lambda share: advance(PREPARE_SHARE + MAPS_SHARE * share,
+                                                     "result maps"), tracks)
     advance(PREPARE_SHARE + MAPS_SHARE, "box plots, sensitivity, the page")
-    box_images = _box_images(data, out_dir)
-    dominance = None
+    box_drawings = _box_images(data)
+    other: dict[str, Drawing] = {}
     counts = {path.name: path.dominance() for path in data.evaluated_paths}
     if any(counts.values()):
-        figure = figures.dominance_figure(counts, order)
-        dominance = html.Image("dominant_index.png",
-                               figures.save_png(figure, out_dir / "dominant_index.png"),
-                               "Share of runs in which each index set the run risk I_max.")
+        other["dominance"] = ("dominant_index.png", figures.dominance_figure(counts, order),
+                              "Share of runs in which each index set the run risk I_max.")
     sensitivity = _sensitivity(Path(results_h5))
-    sensitivity_images = []
     if any(record.get("risk") for record in sensitivity.values()):
-        figure = figures.sensitivity_figure(sensitivity, order)
-        sensitivity_images.append(html.Image(
-            "sensitivity.png", figures.save_png(figure, out_dir / "sensitivity.png"),
+        other["sensitivity"] = (
+            "sensitivity.png", figures.sensitivity_figure(sensitivity, order),
             "Per path, Spearman rank correlation of each sampled parameter with the run "
-            "risk I_max and its 95 % interval; filled bars: the interval excludes 0."))
+            "risk I_max and its 95 % interval; filled bars: the interval excludes 0.")
+    # every figure drawn at once, on the cores there are (figures.png_files)
+    drawings = [*map_drawings, *box_drawings, *other.values()]
+    pngs = figures.png_files([(figure, out_dir / file) for file, figure, _ in drawings])
+    images = {file: html.Image(file, png, caption)
+              for (file, _, caption), png in zip(drawings, pngs, strict=True)}
+    map_images = [images[file] for file, _, _ in map_drawings]
+    box_images = [images[file] for file, _, _ in box_drawings]
+    dominance = images[other["dominance"][0]] if "dominance" in other else None
+    sensitivity_images = [images[other["sensitivity"][0]]] if "sensitivity" in other else []
     notes = list(setup.notes)
     if searched is not None:
         notes.insert(0, WORST_NOTE)

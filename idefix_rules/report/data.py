@@ -18,8 +18,9 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign.pairwise import PairComparison
-from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED, ResultStore
 from idefix_rules.campaign.waivers import recorded
+from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED
+from idefix_rules.results.reader import StoredResults
 
 LEVELS = ("L1", "L2", "L3")
 # An index "came near its limit" in a campaign when some run reached this share of it.
@@ -445,7 +446,7 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
     return path
 
 
-def read_report_data(store: ResultStore) -> ReportData:
+def read_report_data(store: StoredResults) -> ReportData:
     """Everything the report shows except the figures' derived data (maps, box plots)."""
     file = store.file
     evaluation = file.get("evaluation")

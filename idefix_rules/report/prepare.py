@@ -1,10 +1,13 @@
 """Data the figures need that the results file does not hold directly: risk maps, final errors.
 
 The results file keeps per-run index values, not per-sample ones. For the result map the
-stored runs of each path are evaluated again, chunk by chunk, with the rulebook stored in
-``/provenance/rulebook`` (the one the evaluation used), the same run context and the same
-collision checker as the campaign's evaluation, and the per-sample run risk (max over indices
-of weight × per-sample value) is binned on the map grid (:mod:`idefix_rules.report.riskmap`).
+stored runs of each path are scored again chunk by chunk
+(:func:`idefix_rules.results.scoring.score_chunks`) with the rulebook stored in
+``/provenance/rulebook`` (the one the evaluation used), the run context of the stored campaign
+(:class:`idefix_rules.results.campaign.StoredCampaign`) and its collision signals (stored by the
+evaluation when they are those the rulebook reads, else from the obstacle checker on the
+stored terrain), and the per-sample run risk (max over indices of weight × per-sample value)
+is binned on the map grid (:mod:`idefix_rules.report.riskmap`).
 The same pass computes each run's final local error and final heading error (box plots, paper
 Fig. 9) with the rulebook's derived signals.
 
@@ -14,17 +17,13 @@ each run's stored I_max along its whole track and the report says so.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.campaign.stored_terrain import StoredTerrain, terrain_for_rescoring
-from idefix_rules.commands import Command, RoverGeometry, chain_duration, ideal_poses
+from idefix_rules.commands import RoverGeometry, chain_duration, ideal_poses
 from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData
 from idefix_rules.report.environment import MapEnvironment, map_environment
@@ -43,6 +42,11 @@ from idefix_rules.report.runs import (
     wheel_bands,
     wheel_tracks,
 )
+from idefix_rules.results.campaign import StoredCampaign
+from idefix_rules.results.collisions import CollisionSources, stored_clearance_profile
+from idefix_rules.results.reader import StoredResults
+from idefix_rules.results.runs import ParallelRuns, complete_chunks
+from idefix_rules.results.scoring import score_chunks
 
 CHUNK_RUNS = 64
 # Wheel width the footprints are drawn with: the obstacle checker's wheel (docs/obstacles.md).
@@ -59,10 +63,11 @@ class Setup:
     evaluator: Any | None = None  # compiled rulebook, None when it cannot be compiled
     rover: RoverGeometry = field(default_factory=RoverGeometry)
     sigma: float = 0.0
-    collisions: Any | None = None
+    collisions: CollisionSources | None = None  # None: the rulebook reads no collision
     environment: MapEnvironment = field(default_factory=MapEnvironment)
     notes: list[str] = field(default_factory=list)
     campaign_text: str = ""
+    stored: StoredCampaign | None = None
 
 
 @dataclass
@@ -85,20 +90,15 @@ class MapSet:
     wheel_bands: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
-def _campaign_model(text: str, path: str) -> Any:
-    from idefix_rules.campaign.schema import CampaignFile
-    from idefix_rules.campaign.yamlsource import load_yaml
-
-    return CampaignFile.model_validate(load_yaml(text, path).data)
-
-
-def setup_from_store(store: ResultStore) -> Setup:
-    """Compile the stored rulebook and rebuild the campaign's run context and collisions."""
-    setup = Setup()
+def setup_from_store(store: StoredResults) -> Setup:
+    """Compile the stored rulebook and take the stored campaign's run context and collisions
+    (:class:`~idefix_rules.results.campaign.StoredCampaign`)."""
+    stored = StoredCampaign(store)
+    setup = Setup(stored=stored)
     try:
         rulebook_text = store.text("rulebook")
-        stored = store.file["provenance"]["rulebook"].attrs
-        rulebook_path = str(stored.get("path", "rulebook.rules"))
+        attributes = store.file["provenance"]["rulebook"].attrs
+        rulebook_path = str(attributes.get("path", "rulebook.rules"))
     except KeyError:
         setup.notes.append("the results file holds no rulebook text: no per-sample risk")
         rulebook_text, rulebook_path = "", ""
@@ -122,78 +122,40 @@ def setup_from_store(store: ResultStore) -> Setup:
                                f"({type(failure).__name__}: {failure})")
     campaign_text = store.text("campaign") if "campaign" in store.file["provenance"] else ""
     setup.campaign_text = campaign_text
-    ground = _stored_terrain(store)
+    # the terrain the campaign was simulated on (rock heights, the ground, steep areas), as
+    # the evaluation takes it
+    ground = stored.ground(tolerant=True)
     setup.environment, notes = map_environment(campaign_text, setup.checked, ground.terrain)
     setup.notes += notes
     if campaign_text:
-        _campaign_context(store, campaign_text, setup, ground.terrain)
+        _campaign_context(stored, setup)
     if setup.collisions is not None:  # the maps' collision and area risks stand on it
         setup.notes += ground.warnings
     return setup
 
 
-def _stored_terrain(store: ResultStore) -> StoredTerrain:
-    """The terrain the campaign was simulated on (rock heights, the ground, steep areas), as
-    the evaluation takes it (:func:`terrain_for_rescoring`)."""
-    try:
-        return terrain_for_rescoring(store.file, store.path)
-    except Exception as failure:  # a stored terrain this version cannot read
-        return StoredTerrain(None, (f"the stored terrain could not be read "
-                                    f"({type(failure).__name__}: {failure}): the rocks are "
-                                    "placed on the flat datum",))
-
-
-def _campaign_context(store: ResultStore, text: str, setup: Setup, terrain: Any) -> None:
-    """Rover geometry, initial-position σ and the collision checker, as the campaign had them."""
-    campaign_path = str(store.attrs.get("campaign_path", "campaign.yaml"))
-    try:
-        model = _campaign_model(text, campaign_path)
-        from idefix_rules.campaign.load import Campaign, PathSpec
-        from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
-        from idefix_rules.campaign.yamlsource import SourceMap
-
-        base = Path(campaign_path).parent
-        paths = tuple(PathSpec(name, index, ()) for index, name in enumerate(model.paths))
-        campaign = Campaign(source=Path(campaign_path), text=text,
-                            sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(),
-                            model=model, paths=paths, rulebook=base / model.rulebook,
-                            output=base / model.output, fmu=None, dem=None, runs=model.run_count,
-                            seed=model.uncertainty.seed, workers=None,
-                            locations=SourceMap(campaign_path))
-        setup.rover = rover_geometry(campaign)
-        setup.sigma = initial_position_sigma(campaign)
-    except Exception as failure:
-        setup.notes.append(f"campaign geometry not rebuilt ({type(failure).__name__}): "
+def _campaign_context(stored: StoredCampaign, setup: Setup) -> None:
+    """Rover geometry, initial-position σ and the collision signals, as the campaign had
+    them."""
+    if stored.campaign is None:
+        setup.notes.append(f"campaign geometry not rebuilt ({type(stored.problem).__name__}): "
                            "default rover geometry used")
         return
+    setup.rover, setup.sigma = stored.rover, stored.sigma
     if setup.evaluator is not None and getattr(setup.evaluator, "needs_collisions", False):
         try:
-            from idefix_rules.campaign.evaluation import collision_function
-
-            setup.collisions = collision_function(model.environment, setup.evaluator, terrain)
+            sources = CollisionSources(stored, [setup.evaluator], [setup.checked])
+            if sources.mode == "recomputed":
+                sources.function(0)  # the checker now, so a failure is said here
+            setup.collisions = sources
         except Exception as failure:
             setup.notes.append(f"collision signals not rebuilt ({type(failure).__name__}: "
                                f"{failure}): the maps show each run's I_max instead")
             setup.evaluator = None
 
 
-def _complete_rows(store: ResultStore, name: str) -> np.ndarray:
-    if not store.has_runs(name):
-        return np.zeros(0, dtype=np.int64)
-    return np.flatnonzero(store.run_status(name) == STATUS_COMPLETE)
-
-
-def _chunks(store: ResultStore, name: str, keys: list[str] | None,
-            chunk_runs: int = CHUNK_RUNS) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
-    rows = _complete_rows(store, name)
-    for begin in range(0, rows.size, chunk_runs):
-        chunk = rows[begin:begin + chunk_runs]
-        data = store.read_runs(name, slice(int(chunk[0]), int(chunk[-1]) + 1), keys)
-        offset = chunk - chunk[0]
-        yield chunk, {key: values[offset] for key, values in data.items()}
-
-
-def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[RiskGrid, str]:
+def choose_grid(store: StoredResults, data: ReportData, setup: Setup,
+                runs: Any = None) -> tuple[RiskGrid, str]:
     """A grid covering every complete run's track (and nearby obstacles), cell from the rover."""
     bounds = [np.inf, -np.inf, np.inf, -np.inf]
 
@@ -207,7 +169,9 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
         reference = store.reference(path.name)
         if reference is not None and "x" in reference and "y" in reference:
             include(np.asarray(reference["x"]), np.asarray(reference["y"]))
-        for _, chunk in _chunks(store, path.name, ["x", "y"], 256):
+        if not store.has_path(path.name) or not store.has_runs(path.name):
+            continue
+        for _, chunk in complete_chunks(runs or store, path.name, ["x", "y"], 256):
             if "x" in chunk and "y" in chunk:  # a foreign FMU need not give a position
                 include(chunk["x"], chunk["y"])
     obstacle_bounds = setup.environment.bounds()
@@ -235,31 +199,29 @@ def choose_grid(store: ResultStore, data: ReportData, setup: Setup) -> tuple[Ris
     return grid, reason
 
 
-def _risk_of_chunk(setup: Setup, path: PathReport, rows: np.ndarray,
-                   signals: dict[str, np.ndarray], context: Any,
-                   across: Any = None) -> np.ndarray:
-    if setup.evaluator is None or setup.checked is None:
-        return np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
-    if setup.collisions is not None:
-        extra, _ = setup.collisions(signals)
-        signals.update(extra)
-    evaluation = setup.evaluator.evaluate(signals, context, across=across)
-    shape = signals["x"].shape
-    per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
-                  for name, values in evaluation.per_sample.items()}
-    return per_sample_risk(per_sample, setup.checked.weights)
-
-
-def _first_pass(store: ResultStore, name: str, setup: Setup, context: Any) -> Any:
-    """Path-level values (reductions over runs) of the path, so that each chunk's map shows
-    the path's value rather than the chunk's (None when the rulebook has none)."""
-    if setup.evaluator is None or context is None \
-            or not getattr(setup.evaluator, "runs_reductions", ()):
-        return None
-    from idefix_rules.rulebook.across import first_pass
-
-    return first_pass([setup.evaluator], lambda names: (
-        signals for _, signals in _chunks(store, name, sorted(names))), context)[0]
+def _scored(runs: ParallelRuns, path: PathReport, setup: Setup, context: Any,
+            keys: set[str]) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]:
+    """``(rows, signals, per-sample risk)`` of the path's complete runs, chunk by chunk: the
+    stored rulebook's per-sample risk, or each run's stored I_max along its whole track when
+    the rulebook cannot be evaluated. ``signals`` holds the collision signals too."""
+    if setup.evaluator is None or setup.checked is None or context is None:
+        for rows, signals in complete_chunks(runs, path.name, keys, CHUNK_RUNS):
+            yield rows, signals, np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
+        return
+    sources = setup.collisions.for_path(path.name) if setup.collisions is not None else [None]
+    weights = setup.checked.weights
+    for chunk in score_chunks(runs, path.name, [setup.evaluator], context, sources,
+                              keys=keys, per_sample=True, chunk_runs=CHUNK_RUNS):
+        signals = chunk.signals
+        collided = chunk.collisions[0] if chunk.collisions else None
+        if collided is not None:
+            signals = {**signals, **collided[0]}
+        shape = signals["x"].shape
+        evaluation = chunk.evaluations[0]
+        assert evaluation is not None
+        per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
+                      for name, values in evaluation.per_sample.items()}
+        yield chunk.rows, signals, per_sample_risk(per_sample, weights)
 
 
 def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
@@ -286,7 +248,7 @@ OPTIONAL_SIGNALS = {"x": "the result maps show no runs and no box plots are draw
                     "command": "a run's time is its stop time"}
 
 
-def missing_signal_notes(store: ResultStore, data: ReportData) -> list[str]:
+def missing_signal_notes(store: StoredResults, data: ReportData) -> list[str]:
     """One note per optional signal the stored runs lack, saying what is not drawn."""
     stored: set[str] = set()
     for path in data.paths:
@@ -299,24 +261,17 @@ def missing_signal_notes(store: ResultStore, data: ReportData) -> list[str]:
             if name not in stored and not (name == "command" and "done" in stored)]
 
 
-def _context(store: ResultStore, name: str, setup: Setup) -> Any:
-    from idefix_rules.rulebook.derived import RunContext
-
-    chain = tuple(Command(*map(float, row)) for row in store.path_group(name)["chain"][()])
-    return RunContext(chain=chain, rover=setup.rover, initial_position_sigma=setup.sigma,
-                      reference=store.reference(name))
-
-
-def _ideal_track(store: ResultStore, name: str, setup: Setup) -> tuple[np.ndarray, np.ndarray]:
+def _ideal_track(store: StoredResults, name: str, setup: Setup
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The commanded chain executed ideally (no slip) from the start pose: the ideal path."""
-    chain = tuple(Command(*map(float, row)) for row in store.path_group(name)["chain"][()])
+    chain = store.chain(name)
     duration = chain_duration(chain, setup.rover)
     times = np.linspace(0.0, duration, 400) if duration > 0 else np.zeros(1)
     poses = ideal_poses(chain, setup.rover, times)
     return poses[:, 0], poses[:, 1]
 
 
-def _details(store: ResultStore, name: str) -> Any:
+def _details(store: StoredResults, name: str) -> Any:
     evaluation = store.path_group(name).get("evaluation")
     if evaluation is None or "collisions" not in evaluation:
         return None
@@ -324,7 +279,7 @@ def _details(store: ResultStore, name: str) -> Any:
     return collisions["details"][()] if "details" in collisions else None
 
 
-def prepare(store: ResultStore, data: ReportData, setup: Setup,
+def prepare(store: StoredResults, data: ReportData, setup: Setup,
             advance: Callable[[float, str], None] | None = None,
             embed: Mapping[str, int] | None = None) -> MapSet:
     """Fill the risk maps, each path's final errors and the interactive page's per-run data
@@ -332,14 +287,24 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup,
     path)`` hears as each path starts (share: of the runs done before it). ``embed`` names a
     run per path the page holds besides its worst ones (a worst-case search's worst run)."""
     setup.notes += missing_signal_notes(store, data)
-    grid, reason = choose_grid(store, data, setup)
+    runs_reader = ParallelRuns(store)
+    try:
+        return _prepare(store, runs_reader, data, setup, advance, embed)
+    finally:
+        runs_reader.close()
+
+
+def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, setup: Setup,
+             advance: Callable[[float, str], None] | None,
+             embed: Mapping[str, int] | None = None) -> MapSet:
+    grid, reason = choose_grid(store, data, setup, runs_reader)
     per_path: dict[str, RiskAccumulator] = {}
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     maps = MapSet(grid, reason, per_path, RiskAccumulator(grid), setup.evaluator is not None,
                   references)
-    required = sorted(set(getattr(setup.evaluator, "required_signals", ()) or ())
-                      | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"}
-                      | {"wheel.slip", "wheel.slip_angle", "wheel.sinkage"})
+    required = (set(getattr(setup.evaluator, "required_signals", ()) or ())
+                | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"}
+                | {"wheel.slip", "wheel.slip_angle", "wheel.sinkage"})
     limits = dict(getattr(setup.checked, "limits", {}) or {})
     weights = dict(getattr(setup.checked, "weights", {}) or {})
     runs = [int(path.complete.sum()) if path.evaluated else 0 for path in data.paths]
@@ -369,18 +334,20 @@ def prepare(store: ResultStore, data: ReportData, setup: Setup,
         series: dict[int, dict[str, Any]] = {}
         contacts: list[dict[str, Any]] = []
         details = _details(store, path.name)
-        context = _context(store, path.name, setup) if reference is not None else None
+        context = setup.stored.context(path.name, reference) if setup.stored is not None \
+            else None
         local, heading = [], []
-        across = _first_pass(store, path.name, setup, context)
-        stored = store.path_group(path.name)["runs"]["signals"]
-        keys = [key for key in required if key in stored]
-        for rows, signals in _chunks(store, path.name, keys):
-            risk = _risk_of_chunk(setup, path, rows, signals, context, across)
+        # the evaluation's clearance profiles, for runs whose collisions come from the store
+        profiles = stored_clearance_profile(store, path.name) \
+            if setup.collisions is not None else None
+        for rows, signals, risk in _scored(runs_reader, path, setup, context, required):
             accumulator.add(signals["x"], signals["y"], risk)
             cells.add(rows, signals["x"], signals["y"], risk, path.dominant, embedded)
             for position, run in enumerate(rows):
                 if int(run) in embedded:
-                    series[int(run)] = run_series(signals, position, risk, reference)
+                    stored = {"collision.clearance": profiles[int(run)]} \
+                        if profiles is not None else None
+                    series[int(run)] = run_series(signals, position, risk, reference, stored)
             if details is not None:
                 contacts += contact_points(details, rows, signals, setup.rover)
             errors = _final_errors(setup, signals, context) if context is not None else None

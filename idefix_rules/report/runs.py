@@ -29,8 +29,10 @@ import numpy as np
 
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.report.riskmap import RiskGrid, run_cell_maxima
+from idefix_rules.results.collisions import profile_edges
+from idefix_rules.results.format import CLEARANCE_POINTS
 
-POINTS = 120
+POINTS = CLEARANCE_POINTS  # 120
 # Contacts per path the page draws (the first ones by run number; all are in results.h5).
 MAX_CONTACTS = 1000
 # Runs per path whose track and time series the page holds (the worst first).
@@ -93,9 +95,9 @@ def wheel_bands(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, rover: RoverGeome
 
 
 def _buckets(valid: int, points: int = POINTS) -> np.ndarray:
-    """Bucket edges over ``valid`` samples (at most ``points`` buckets)."""
-    count = max(1, min(points, valid))
-    return np.linspace(0, valid, count + 1).round().astype(int)
+    """Bucket edges over ``valid`` samples (at most ``points`` buckets): the stretches of
+    the clearance profile the evaluation stores."""
+    return profile_edges(valid, points)
 
 
 def _reduce(values: np.ndarray, edges: np.ndarray, how: str) -> list[float]:
@@ -115,9 +117,12 @@ def _rounded(values: list[float], digits: int = 3) -> list[float | None]:
 
 
 def run_series(signals: Mapping[str, np.ndarray], row: int, risk: np.ndarray,
-               reference: Mapping[str, np.ndarray] | None) -> dict[str, Any]:
+               reference: Mapping[str, np.ndarray] | None,
+               profiles: Mapping[str, np.ndarray] | None = None) -> dict[str, Any]:
     """One run (row ``row`` of a chunk) thinned for the page: ``t, x, y, yaw, risk`` and each
-    :data:`SERIES` entry the stored signals hold."""
+    :data:`SERIES` entry the stored signals hold. ``profiles``: a series the evaluation
+    stored already thinned (the clearance profile, by signal name), for a signal the chunk
+    does not hold."""
     t = np.asarray(signals["t"][row], dtype=float)
     valid = int(np.flatnonzero(np.isfinite(t))[-1] + 1) if np.isfinite(t).any() else 0
     edges = _buckets(valid)
@@ -134,6 +139,10 @@ def run_series(signals: Mapping[str, np.ndarray], row: int, risk: np.ndarray,
     for spec in SERIES:
         data = signals.get(spec.signal)
         if data is None:
+            profile = (profiles or {}).get(spec.signal)
+            if profile is not None:  # the same minima per stretch, stored
+                thinned = np.asarray(profile, dtype=float)[:len(edges) - 1] * spec.scale
+                out["series"][spec.key] = _rounded([float(v) for v in thinned])
             continue
         values = np.asarray(data[row], dtype=float)[:valid]
         if spec.reduce == "dev":

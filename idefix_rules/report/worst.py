@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.store import ResultStore
 from idefix_rules.campaign.wording import DisplayUnits, parameter_text, percent
 from idefix_rules.campaign.worst.outcome import rarity, sigmas
+from idefix_rules.results.reader import StoredResults
 
 NOTE = ("This file holds a worst-case search (idefix-verify worst): its runs are the worlds "
         "the search chose, not draws of the campaign's distributions. Each run's risk holds; "
@@ -30,7 +30,7 @@ def read_worst(results_h5: Any) -> dict[str, Any] | None:
     """The search's outcome stored in a results file (None: a campaign's file)."""
     from idefix_rules.campaign.worst.stage import read_record
 
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         return read_record(store.file)
     finally:
@@ -53,7 +53,7 @@ def worst_tracks(results_h5: Any, record: Mapping[str, Any]
                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per searched path, the body centre's track (x, y) of its worst run (:func:`worst_rows`)."""
     tracks = {}
-    store = ResultStore.open(results_h5)
+    store = StoredResults.open(results_h5)
     try:
         for name, row in worst_rows(record).items():
             if not store.has_path(name) or not store.has_runs(name):

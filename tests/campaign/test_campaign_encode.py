@@ -45,3 +45,28 @@ def test_an_encoded_run_of_the_wrong_shape_is_refused(tmp_path: Path) -> None:
         assert store.run_status("p")[0] == 0  # nothing marked complete
     finally:
         store.close()
+
+
+def test_a_resumed_older_file_keeps_the_precision_its_datasets_were_made_with(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from idefix_rules.results import format as results_format
+
+    rng = np.random.default_rng(5)
+    run = {"z": 0.3 + rng.normal(0.0, 1e-3, 50), "energy": np.cumsum(rng.random(50))}
+    store = ResultStore.create(tmp_path / "r.h5", {"runs": 1}, {"campaign": "name: e\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        # before format 5, z and energy were stored as float64
+        with monkeypatch.context() as patch:
+            patch.setattr(results_format, "FLOAT32_SIGNALS",
+                          results_format.FLOAT32_SIGNALS - {"z", "energy"})
+            store.allocate_runs("p", 1, {key: value.shape for key, value in run.items()},
+                                {}, {})
+        store.write_run("p", 0, encode_run(run))  # a format-5 worker: float32 chunks
+        signals = store.path_group("p")["runs"]["signals"]
+        for key, values in run.items():
+            assert signals[key].dtype == np.float64
+            read = store.read_runs("p", slice(0, 1), [key])[key][0]
+            np.testing.assert_array_equal(read, values.astype(np.float32).astype(np.float64))
+    finally:
+        store.close()

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from idefix_rules.campaign.evaluation import evaluate_path
-from idefix_rules.campaign.runner import stored_campaign
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
+from idefix_rules.results.campaign import rebuilt_campaign
 from idefix_rules.rulebook import check_text, compile_rulebook
 
 pytestmark = pytest.mark.slow
@@ -79,7 +79,7 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
     # is the same value in every run, and the same whatever the chunk size.
     store = ResultStore.open(out / "results.h5")
     try:
-        campaign = stored_campaign(store)
+        campaign = rebuilt_campaign(store)
         evaluator = compile_rulebook(check_text(POSITION_ONLY).checked)
         rover, sigma = rover_geometry(campaign), initial_position_sigma(campaign)
         whole, _ = evaluate_path(store, "straight", evaluator, rover, sigma, None, chunk_runs=100)

@@ -276,7 +276,9 @@ def test_a_disk_filling_up_while_runs_are_stored(small_disk: Path, toy_fmu: Path
     with h5py.File(results_file, "r") as file:
         stored = sum(int(np.sum(file[f"paths/{name}/runs/status"][()] != 0))
                      for name in ("straight", "arc"))
-    assert 150 <= stored < 160  # the disk really filled while runs were being stored
+    # the disk really filled while runs were being stored (a few runs still fit in what the
+    # filler leaves: 160 since format 5 stores z and energy in float32, 150-159 before)
+    assert 150 <= stored < 165
     filler = small_disk / "filler"
     # evaluating the interrupted file on the full disk: refused, the file untouched
     before = results_file.read_bytes()

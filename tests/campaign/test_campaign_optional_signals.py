@@ -12,9 +12,10 @@ from hypothesis import event, given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays as hypothesis_arrays
 
-from idefix_rules.campaign.evaluation import complete_chunks
 from idefix_rules.campaign.store import STATUS_COMPLETE
 from idefix_rules.commands import Command
+from idefix_rules.results.runs import complete_chunks
+from idefix_rules.results.scoring import signals_to_read
 
 POSITION_RULEBOOK = ('rulebook "t" version "1.0.0"\npurpose "test"\n'
                      "index I_end { value = final over time (local_error) limit = 5 cm "
@@ -30,6 +31,14 @@ def _position_rulebook() -> tuple[Any, Any]:
     checked = check(parse_rulebook(POSITION_RULEBOOK, "t.rules")).checked
     assert checked is not None
     return checked, compile_rulebook(checked)
+
+
+class Reads:
+    """A stand-in rulebook that requires ``signals`` and reads nothing optionally."""
+
+    def __init__(self, *signals: str) -> None:
+        self.required_signals = frozenset(signals)
+        self.optional_signals: frozenset[str] = frozenset()
 
 
 class Stored:
@@ -49,13 +58,13 @@ class Stored:
 
 
 def test_a_rulebook_reading_position_gets_height_run_time_and_energy_when_stored() -> None:
-    ((rows, signals),) = complete_chunks(Stored(), "p", {"t", "x", "y"}, poses=False)
+    ((rows, signals),) = complete_chunks(Stored(), "p", signals_to_read([Reads("t", "x", "y")]))
     assert sorted(signals) == ["command", "energy", "t", "x", "y", "z"]
     np.testing.assert_array_equal(rows, [0, 1])
 
 
 def test_a_rulebook_reading_no_position_reads_no_height() -> None:
-    ((_, signals),) = complete_chunks(Stored(), "p", {"t", "wheel.slip"}, poses=False)
+    ((_, signals),) = complete_chunks(Stored(), "p", signals_to_read([Reads("t", "wheel.slip")]))
     assert sorted(signals) == ["command", "energy", "t", "wheel.slip"]
 
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation import _with_collisions
+from idefix_rules.results.scoring import with_collisions
 
 
 def _fake_collisions(poses, rows):
@@ -22,8 +22,8 @@ def _chunks(count):
 
 
 def test_forked_collision_checks_equal_the_serial_ones_in_chunk_order():
-    serial = list(_with_collisions(_chunks(9), _fake_collisions, workers=1))
-    forked = list(_with_collisions(_chunks(9), _fake_collisions, workers=2))
+    serial = list(with_collisions(_chunks(9), _fake_collisions, workers=1))
+    forked = list(with_collisions(_chunks(9), _fake_collisions, workers=2))
     assert len(serial) == len(forked) == 9
     for (rows_a, _, (signals_a, details_a)), (rows_b, _, (signals_b, details_b)) in zip(
             serial, forked, strict=True):

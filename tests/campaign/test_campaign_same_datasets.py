@@ -8,7 +8,9 @@ stop limit became 3 × the ideal duration + 5 s (longer runs: the earlier sample
 added ones held; the rover's on its recorded sources, where its turn chain now finishes in every
 run), and both when campaigns became paired (run ``j`` of every path draws from the stream
 ``()``: with the earlier derivation, ``spawn_key=(path index, j)``, both old digests were
-reproduced exactly before they were replaced). A change to either must
+reproduced exactly before they were replaced), and the toy's when results format 5 stored
+``z`` and ``energy`` as float32 (with the format 4 precision it still gave the old digest,
+checked before it was replaced). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -27,8 +29,8 @@ from idefix_rules.fmu.build import source_hash
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing and the
 # first-touch rock contact; results format 2, default stop limit 3 × ideal, held after the chain.
 ROVER_SOURCE_HASH = "7c7ca845527c91fa9b3ee699533b667f6b1a3be9e9e4d2cbf718b73fc3c43c5f"
-ROVER_DIGEST = "84787f1edff2f728aacecb2b07219365066b7e2dd9e35b0e74da56c3fc89a72f"
-TOY_DIGEST = "d957ee916d07921e27ee17e134c5ee39afa04beeb8b66222642cf7db4039b765"
+ROVER_DIGEST = "67a4ec15450f9efe0cfada6f98648c19236c347da67b652ff9165dc28ebfdf04"
+TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 
 def test_toy_fmu_campaign_stores_the_same_datasets(campaign_dir: Path) -> None:

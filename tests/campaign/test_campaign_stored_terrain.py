@@ -14,9 +14,13 @@ import numpy as np
 import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
-from idefix_rules.campaign import stored_terrain
 from idefix_rules.campaign.store import ResultStore
-from idefix_rules.campaign.stored_terrain import (
+from idefix_rules.cli import main
+from idefix_rules.fmu.terrain import Rock, Terrain, synthetic_terrain
+from idefix_rules.fmu.terrain import write_terrain as write_terrain_file
+from idefix_rules.report.prepare import setup_from_store
+from idefix_rules.results import terrain as stored_terrain
+from idefix_rules.results.terrain import (
     TerrainSource,
     read_terrain,
     terrain_for_rescoring,
@@ -24,10 +28,6 @@ from idefix_rules.campaign.stored_terrain import (
     terrain_sha256,
     write_terrain,
 )
-from idefix_rules.cli import main
-from idefix_rules.fmu.terrain import Rock, Terrain, synthetic_terrain
-from idefix_rules.fmu.terrain import write_terrain as write_terrain_file
-from idefix_rules.report.prepare import setup_from_store
 
 SYNTHETIC = TerrainSource("synthetic")
 ROCKY = synthetic_terrain(size=2.0, cell=0.05, slope=0.1, roughness=0.003, seed=4,

@@ -8,7 +8,7 @@ import numpy as np
 
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.commands import Command
-from idefix_rules.diff.reader import MappedRuns, mappable
+from idefix_rules.results.mapped import MappedRuns, mappable
 
 
 def small_store(path: Path, contiguous: bool = False) -> ResultStore:

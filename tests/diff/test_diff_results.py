@@ -11,13 +11,14 @@ from pathlib import Path
 import pytest
 
 from idefix_rules.campaign.environment import read_terrain
-from idefix_rules.campaign.evaluation import collision_function, evaluate_store
-from idefix_rules.campaign.runner import stored_campaign
+from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.diff import load_source
 from idefix_rules.diff.results import diff_results
+from idefix_rules.results.campaign import rebuilt_campaign
+from idefix_rules.results.collisions import collision_function
 from idefix_rules.rulebook import compile_rulebook
 
 pytestmark = pytest.mark.slow
@@ -143,7 +144,7 @@ def test_other_obstacle_buffers_recompute_collisions_like_the_evaluation_stage(
     evaluator = compile_rulebook(new.checked)
     store = ResultStore.open(stored_results)
     try:
-        campaign = stored_campaign(store)
+        campaign = rebuilt_campaign(store)
         collisions = collision_function(campaign.model.environment, evaluator,
                                         read_terrain(stored_results.parent))
         expected = evaluate_store(store, evaluator, rover_geometry(campaign),
@@ -266,7 +267,7 @@ def test_shared_evaluation_equals_two_separate_evaluations(stored_results: Path)
     new = values_only(load_source(str(FIXTURES / "idefix-ops-1.1.0.rules")).checked)
     store = ResultStore.open(stored_results)
     try:
-        campaign = stored_campaign(store)
+        campaign = rebuilt_campaign(store)
         chain = tuple(Command(*row) for row in store.path_group("smooth-detour")["chain"][()])
         signals = store.read_runs("smooth-detour", slice(0, 4))
         signals["collision.hits"] = store.path_group(

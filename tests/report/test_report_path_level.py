@@ -40,10 +40,9 @@ def test_the_map_of_a_path_level_index_does_not_depend_on_the_chunk_size(
         path_level_results: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     _, setup, whole = prepare_report(path_level_results)
     assert setup.evaluator is not None and setup.evaluator.runs_reductions
-    chunks = prepare._chunks.__defaults__
-    monkeypatch.setattr(prepare._chunks, "__defaults__", (1,))  # one run per chunk
+    monkeypatch.setattr(prepare, "CHUNK_RUNS", 1)  # one run per chunk
     _, _, one_by_one = prepare_report(path_level_results)
-    monkeypatch.setattr(prepare._chunks, "__defaults__", chunks)
+    monkeypatch.undo()
     for name, accumulator in whole.per_path.items():
         np.testing.assert_allclose(one_by_one.per_path[name].values(), accumulator.values(),
                                    equal_nan=True, err_msg=name)

@@ -19,7 +19,7 @@ import h5py
 
 from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.evaluation import evaluate_store
-from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.runner import (
     SEARCHED_RUNS,
     claimed_output,
@@ -33,9 +33,7 @@ from idefix_rules.campaign.simulate import (
     RESULTS_FILE,
     Progress,
     SimulationOptions,
-    initial_position_sigma,
     parameter_info,
-    rover_geometry,
     simulate_campaign,
 )
 from idefix_rules.campaign.store import ResultStore

@@ -24,7 +24,7 @@ import numpy as np
 
 from idefix_rules.campaign import sampling
 from idefix_rules.campaign.evaluation import evaluate_path, run_context
-from idefix_rules.campaign.load import Campaign
+from idefix_rules.campaign.load import Campaign, initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.runner import SEARCHED_RUNS
 from idefix_rules.campaign.schema import Fixed
 from idefix_rules.campaign.simulate import (
@@ -33,9 +33,7 @@ from idefix_rules.campaign.simulate import (
     Progress,
     SimulationOptions,
     SimulationSummary,
-    initial_position_sigma,
     monte_carlo_pool,
-    nominal_parameters,
     parameter_info,
     run_and_store,
     run_task,

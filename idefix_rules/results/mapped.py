@@ -6,10 +6,11 @@ its path starts, so its bytes sit at a fixed offset of the file and numpy can ma
 map of its rows; the evaluator touches only the samples it reads, straight from the page cache,
 instead of HDF5 copying every value into a new array first. Datasets that are chunked,
 compressed (format 2 and later: ``docs/results-format.md``), not native float64 or in a file
-driver other than the default are read through h5py, a chunk of rows at a time, as float64.
+driver other than the default are read through h5py, a chunk of rows at a time, as float64
+(:class:`~idefix_rules.results.runs.ParallelRuns` maps through this module what it can).
 
-:class:`MappedRuns` stands in for :class:`~idefix_rules.campaign.store.ResultStore` where
-:func:`~idefix_rules.campaign.evaluation.complete_chunks` reads runs.
+:class:`MappedRuns` stands in for :class:`~idefix_rules.results.reader.StoredResults` where
+:func:`~idefix_rules.results.runs.complete_chunks` reads runs.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.results.reader import StoredResults
 
 
 def mappable(dataset: h5py.Dataset) -> int | None:
@@ -37,13 +38,13 @@ def mappable(dataset: h5py.Dataset) -> int | None:
 
 
 class MappedRuns:
-    """The run reading of a :class:`ResultStore`, through memory maps where possible.
+    """The run reading of a :class:`StoredResults`, through memory maps where possible.
 
     Each read maps only the rows it covers, so what stays mapped is bounded by the chunks in
     use (a view keeps its map alive; the map goes when the chunk's arrays do).
     """
 
-    def __init__(self, store: ResultStore) -> None:
+    def __init__(self, store: StoredResults) -> None:
         self.store = store
         self.filename = Path(store.file.filename)
         self._offsets: dict[tuple[str, str], int | None] = {}
@@ -65,7 +66,7 @@ class MappedRuns:
 
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
-        """Like :meth:`ResultStore.read_runs`; mapped datasets come back as maps of the rows."""
+        """Like :meth:`StoredResults.read_runs`; mapped datasets come back as maps of the rows."""
         datasets = self.store.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
         out: dict[str, Any] = {}

@@ -1,0 +1,239 @@
+"""Reading a path's stored runs chunk by chunk, fast.
+
+A results file stores each run of each signal as one chunk, shuffled and deflated (HDF5's
+built-in filters, ``docs/results-format.md``). Through h5py a read decompresses every chunk
+in turn on the calling thread, under h5py's lock. :class:`ParallelRuns` reads the same
+chunks' bytes straight from the file (their places are listed once per dataset) and inflates
+and unshuffles them on worker threads: zlib and numpy's copies release the GIL, so the cores
+share the work, and reading goes on while the evaluation computes. What it gives back equals
+h5py's reading bit for bit (float64 whatever the stored precision); a dataset stored any
+other way is read through h5py, or mapped when it is contiguous float64 (format 1,
+:mod:`idefix_rules.results.mapped`).
+
+:func:`complete_chunks` yields a path's complete runs a chunk at a time from either reader,
+so memory is bounded by the chunk size, not the run count.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import zlib
+from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import h5py
+import numpy as np
+
+from idefix_rules.results.format import STATUS_COMPLETE
+from idefix_rules.results.mapped import MappedRuns
+from idefix_rules.results.reader import StoredResults
+
+DEFAULT_CHUNK_RUNS = 64
+
+
+class RunReader(Protocol):
+    """What reading runs needs of a results file (:class:`StoredResults` or a stand-in)."""
+
+    def run_status(self, name: str) -> np.ndarray: ...
+
+    def read_runs(self, name: str, selection: slice | np.ndarray,
+                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]: ...
+
+
+def complete_rows(status: np.ndarray, within: slice | None = None) -> np.ndarray:
+    """Row numbers of complete runs, in order (only those in ``within`` when given)."""
+    rows = np.flatnonzero(status == STATUS_COMPLETE)
+    if within is None:
+        return rows
+    start, stop, _ = within.indices(status.size)
+    return rows[(rows >= start) & (rows < stop)]
+
+
+def read_rows(store: RunReader, name: str, rows: np.ndarray,
+              keys: Sequence[str] | None) -> dict[str, np.ndarray]:
+    """The signals ``keys`` (None: all) of the runs ``rows`` (sorted), axis 0 in their order."""
+    start, stop = int(rows[0]), int(rows[-1]) + 1
+    chunk = store.read_runs(name, slice(start, stop), keys)
+    if stop - start == len(rows):  # no gaps: the chunk as read
+        return chunk
+    offset = rows - start
+    return {key: values[offset] for key, values in chunk.items()}
+
+
+def complete_chunks(store: RunReader, name: str, keys: Sequence[str] | set[str] | None,
+                    chunk_runs: int = DEFAULT_CHUNK_RUNS, within: slice | None = None
+                    ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray]]]:
+    """``(rows, signals)`` of a path's complete runs (those among the rows ``within``, when
+    given), ``chunk_runs`` at a time; ``keys`` None reads every stored signal."""
+    complete = complete_rows(store.run_status(name), within)
+    wanted = None if keys is None else sorted(keys)
+    for begin in range(0, len(complete), chunk_runs):
+        rows = complete[begin:begin + chunk_runs]
+        yield rows, read_rows(store, name, rows, wanted)
+
+
+# --- reading stored chunks on threads ----------------------------------------------------------
+
+_SHUFFLE = h5py.h5z.FILTER_SHUFFLE
+_DEFLATE = h5py.h5z.FILTER_DEFLATE
+
+
+@dataclass(frozen=True)
+class ChunkLayout:
+    """Where each run's chunk of one signal lies in the file and how it is encoded."""
+
+    dtype: np.dtype[Any]
+    shape: tuple[int, ...]  # one run
+    shuffled: bool
+    deflated: bool
+    offsets: np.ndarray  # per row, -1 where no chunk is stored
+    sizes: np.ndarray
+    masks: np.ndarray  # HDF5's filter mask per chunk (0: every filter applied)
+
+
+def chunk_layout(dataset: h5py.Dataset) -> ChunkLayout | None:
+    """The layout of a run dataset whose chunks can be read and decoded here: one run per
+    chunk, little-endian float32/float64, filters shuffle and/or deflate only, in a plain
+    file. None otherwise (h5py reads it)."""
+    if dataset.chunks is None or dataset.chunks != (1, *dataset.shape[1:]):
+        return None
+    if dataset.dtype.str not in ("<f4", "<f8") or dataset.file.driver != "sec2":
+        return None
+    plist = dataset.id.get_create_plist()
+    filters = [plist.get_filter(i)[0] for i in range(plist.get_nfilters())]
+    if filters not in ([], [_DEFLATE], [_SHUFFLE], [_SHUFFLE, _DEFLATE]):
+        return None
+    rows = dataset.shape[0]
+    offsets = np.full(rows, -1, dtype=np.int64)
+    sizes = np.zeros(rows, dtype=np.int64)
+    masks = np.zeros(rows, dtype=np.int64)
+
+    def take(info: Any) -> None:
+        row = int(info.chunk_offset[0])
+        if info.byte_offset is not None and row < rows:
+            offsets[row], sizes[row], masks[row] = info.byte_offset, info.size, \
+                info.filter_mask
+
+    try:
+        dataset.id.chunk_iter(take)
+    except (AttributeError, RuntimeError, ValueError):  # an HDF5 without chunk iteration
+        return None
+    return ChunkLayout(dataset.dtype, tuple(dataset.shape[1:]), _SHUFFLE in filters,
+                       _DEFLATE in filters, offsets, sizes, masks)
+
+
+def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray) -> None:
+    """Inflate and unshuffle stored chunks, one run each, into ``into`` (runs, …) float64.
+
+    Each chunk is inflated on its own (zlib releases the GIL), then the runs are unshuffled
+    and converted together, a few array operations for the whole block rather than a few
+    per run (per-run operations cost more in interpreter time than in copying)."""
+    size = layout.dtype.itemsize
+    count = int(np.prod(layout.shape, dtype=np.int64))
+    raw = np.empty((len(chunks), size * count), dtype=np.uint8)
+    for position, data in enumerate(chunks):
+        plain = zlib.decompress(data) if layout.deflated else data
+        if len(plain) != raw.shape[1]:
+            raise ValueError(f"a stored chunk holds {len(plain)} bytes, {raw.shape[1]} "
+                             "expected")
+        raw[position] = np.frombuffer(plain, dtype=np.uint8)
+    if layout.shuffled:  # byte planes: every value's first bytes, then its second bytes …
+        planes = raw.reshape(len(chunks), size, count)
+        joined = np.empty((len(chunks), count, size), dtype=np.uint8)
+        for byte in range(size):
+            joined[:, :, byte] = planes[:, byte, :]
+        raw = joined.reshape(len(chunks), size * count)
+    into[...] = raw.view(layout.dtype).reshape(into.shape)
+
+
+class ParallelRuns:
+    """The run reading of a results file, its chunks decoded on ``threads`` threads (see the
+    module docstring). Stands in for :class:`StoredResults` wherever runs are read."""
+
+    def __init__(self, store: StoredResults, threads: int = 2) -> None:
+        self.store = store
+        self.threads = max(1, threads)
+        self._layouts: dict[tuple[str, str], ChunkLayout | None] = {}
+        self._mapped = MappedRuns(store)  # contiguous datasets (format 1): mapped
+        self._file: int | None = None
+        self._pool: ThreadPoolExecutor | None = None
+        self._lock = threading.Lock()
+
+    def run_status(self, name: str) -> np.ndarray:
+        return self.store.run_status(name)
+
+    def _layout(self, name: str, key: str, dataset: h5py.Dataset) -> ChunkLayout | None:
+        if (name, key) not in self._layouts:
+            self._layouts[(name, key)] = chunk_layout(dataset)
+        return self._layouts[(name, key)]
+
+    def _descriptor(self) -> int:
+        if self._file is None:
+            self._file = os.open(self.store.path, os.O_RDONLY)
+        return self._file
+
+    def read_runs(self, name: str, selection: slice | np.ndarray,
+                  keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+        """Like :meth:`StoredResults.read_runs` (float64, axis 0 the selected rows)."""
+        datasets = self.store.path_group(name)["runs"]["signals"]
+        wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
+        out: dict[str, np.ndarray] = {}
+        jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]] = []
+        for key in wanted:
+            dataset = datasets[key]
+            if isinstance(selection, slice):
+                rows = np.arange(*selection.indices(dataset.shape[0]))
+            else:
+                rows = np.sort(np.asarray(selection, dtype=np.int64))
+            layout = self._layout(name, key, dataset)
+            usable = layout is not None and rows.size > 0 \
+                and bool(np.all(layout.offsets[rows] >= 0)) and not layout.masks[rows].any()
+            if not usable or layout is None:
+                out[key] = self._mapped.read_runs(name, selection, [key])[key]
+                continue
+            out[key] = np.empty((rows.size, *layout.shape), dtype=np.float64)
+            jobs.append((layout, rows, out[key]))
+        self._decode(jobs)
+        return out
+
+    def _decode(self, jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]]) -> None:
+        """Read and decode every (layout, rows, output) job, split over the threads."""
+        descriptor = self._descriptor()
+        parts = [(layout, rows[i::self.threads], target[i::self.threads])
+                 for layout, rows, target in jobs for i in range(self.threads)
+                 if rows[i::self.threads].size]
+
+        def run(part: tuple[ChunkLayout, np.ndarray, np.ndarray]) -> None:
+            layout, rows, target = part
+            decode_rows([os.pread(descriptor, int(layout.sizes[row]), int(layout.offsets[row]))
+                         for row in rows], layout, target)
+
+        if self.threads == 1 or len(parts) <= 1:
+            for part in parts:
+                run(part)
+            return
+        with self._lock:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="results")
+            pool = self._pool
+        for future in [pool.submit(run, part) for part in parts]:
+            future.result()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+        if self._file is not None:
+            os.close(self._file)
+            self._file = None
+        self._layouts.clear()
+        self._mapped.close()
+
+    def __enter__(self) -> ParallelRuns:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
