@@ -48,17 +48,11 @@ from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
 
-SAMPLING: SamplingMethod = "monte_carlo"
+SAMPLING: SamplingMethod = sampling.ADAPTIVE_SAMPLING
 NO_COMPLETE_RUN = "stopped: no run of the path completed"
 
 
-def sampling_note(method: str) -> str | None:
-    """Said once when the campaign asks for a design an adaptive campaign cannot use."""
-    if method == SAMPLING:
-        return None
-    return (f"runs: auto draws every run independently (monte_carlo); the campaign's {method} "
-            "design is not used, because the confidence sequences that decide when to stop "
-            "need independent runs")
+sampling_note = sampling.adaptive_sampling_note
 
 
 def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,

@@ -303,7 +303,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             root.attrs[f"rulebook_{key}"] = value
         root.attrs["ranking"] = json.dumps(ranking)
         root.attrs["ties"] = json.dumps(ties)
-        from idefix_rules.campaign.simulate import now_iso
+        from idefix_rules.timestamps import now_iso
 
         root.attrs["evaluated"] = now_iso()
         target.file.flush()

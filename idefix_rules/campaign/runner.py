@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign import diskspace, outputs, waivers
+from idefix_rules.campaign.adaptive import adaptive_monte_carlo
 from idefix_rules.campaign.dask_pool import ClusterError
 from idefix_rules.campaign.environment import build_terrain, write_terrain
 from idefix_rules.campaign.evaluation import CampaignEvaluation, evaluate_store
@@ -49,6 +50,7 @@ from idefix_rules.files import set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import StoredCampaign
 from idefix_rules.results.collisions import CollisionFunction, collision_function
+from idefix_rules.results.format import SEARCHED_RUNS
 from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
 
 SUMMARY_FILE = "summary.json"
@@ -57,7 +59,6 @@ SUMMARY_FILE = "summary.json"
 # check before it starts.
 EVALUATION_BYTES_PER_RUN = 3072
 REPORT_FILE = "report.html"
-SEARCHED_RUNS = "worst"  # runs_mode of a worst-case search's results file
 
 
 @dataclass
@@ -248,8 +249,10 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     try:
         with diskspace.guard(campaign.output, "simulate the campaign",
                              f"free space, then continue with `{again}`"):
-            simulation = simulate_campaign(campaign, evaluator, fmu_path, fixed, options,
-                                           progress, collisions, (terrain, source))
+            simulation = simulate_campaign(
+                campaign, evaluator, fmu_path, fixed, options, progress, collisions,
+                (terrain, source),
+                stage=adaptive_monte_carlo if campaign.adaptive is not None else None)
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure

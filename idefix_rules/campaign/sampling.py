@@ -193,3 +193,17 @@ def sample_path(parameters: Mapping[str, AnyDistribution], method: SamplingMetho
 
 def nominal_values(parameters: Mapping[str, AnyDistribution]) -> dict[str, float]:
     return {name: nominal(spec) for name, spec in parameters.items()}
+
+
+# An adaptive campaign (runs: auto) draws every run independently: its stopping bounds need
+# independent runs, so a design (Latin hypercube, Sobol) is not used.
+ADAPTIVE_SAMPLING: SamplingMethod = "monte_carlo"
+
+
+def adaptive_sampling_note(method: str) -> str | None:
+    """Said once when the campaign asks for a design an adaptive campaign cannot use."""
+    if method == ADAPTIVE_SAMPLING:
+        return None
+    return (f"runs: auto draws every run independently (monte_carlo); the campaign's {method} "
+            "design is not used, because the confidence sequences that decide when to stop "
+            "need independent runs")

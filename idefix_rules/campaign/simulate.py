@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import contextlib
-import datetime
 import hashlib
 import json
 import math
@@ -46,6 +45,7 @@ from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
 from idefix_rules.results.terrain import TerrainSource
+from idefix_rules.timestamps import now_iso
 
 RESULTS_FILE = "results.h5"
 
@@ -113,10 +113,6 @@ class RunStage(Protocol):
                  fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
                  progress: Progress, summary: SimulationSummary, collisions: Any) -> None: ...
-
-
-def now_iso() -> str:
-    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
 def file_sha256(path: Path) -> str:
@@ -201,10 +197,10 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
             stage(campaign, evaluator, rover, fmu, fmu_parameters, plans, store, options,
                   progress, summary, collisions)
         elif campaign.adaptive is not None:
-            from idefix_rules.campaign.adaptive import adaptive_monte_carlo
-
-            adaptive_monte_carlo(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
-                                 options, progress, summary, collisions)
+            # the adaptive stage (campaign/adaptive.py) sits above this module: its caller
+            # passes it as ``stage``
+            raise ValueError("an adaptive campaign (runs: auto) needs its stage: pass "
+                             "stage=adaptive_monte_carlo")
         else:
             _monte_carlo(campaign, fmu, fmu_parameters, plans, store, options, progress,
                          summary)
@@ -230,9 +226,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
 def _sampling_warning(campaign: Campaign) -> str | None:
     method = campaign.model.uncertainty.method
     if campaign.adaptive is not None:
-        from idefix_rules.campaign.adaptive import sampling_note
-
-        return sampling_note(method)
+        return sampling.adaptive_sampling_note(method)
     return sampling.sobol_warning(method, campaign.runs)
 
 
@@ -243,10 +237,10 @@ def run_settings(campaign: Campaign) -> dict[str, Any]:
     if adaptive is None:
         return {"runs": campaign.runs, "runs_mode": "fixed",
                 "sampling": campaign.model.uncertainty.method, "paired": paired}
-    from idefix_rules.campaign.adaptive import SAMPLING
 
     return {"runs": adaptive.max_runs, "runs_mode": "auto", "min_runs": adaptive.min_runs,
-            "batch_runs": adaptive.batch_runs, "sampling": SAMPLING, "paired": paired}
+            "batch_runs": adaptive.batch_runs, "sampling": sampling.ADAPTIVE_SAMPLING,
+            "paired": paired}
 
 
 @dataclass(frozen=True)

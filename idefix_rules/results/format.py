@@ -52,3 +52,7 @@ def storage_dtype(name: str) -> np.dtype[Any]:
 def decode_reason(value: bytes) -> str:
     """A stored failure reason (fixed-size, NUL-padded UTF-8) as text."""
     return bytes(value).rstrip(b"\0").decode("utf-8", errors="replace")
+
+# ``runs_mode`` of a worst-case search's results file (``idefix-verify worst``): its runs are
+# searched worlds, not Monte Carlo draws.
+SEARCHED_RUNS = "worst"

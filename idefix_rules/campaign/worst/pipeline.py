@@ -21,7 +21,6 @@ from idefix_rules.campaign import diskspace, outputs
 from idefix_rules.campaign.evaluation import evaluate_store
 from idefix_rules.campaign.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.runner import (
-    SEARCHED_RUNS,
     claimed_output,
     evaluation_revision,
     prepare_simulation,
@@ -50,6 +49,7 @@ from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.campaign.worst.stage import WorstStage, stored_record
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
+from idefix_rules.results.format import SEARCHED_RUNS
 
 RECORD_FILE = "worst.json"
 FOLDER = "worst"  # inside the campaign's output folder

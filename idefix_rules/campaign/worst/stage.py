@@ -25,7 +25,6 @@ import numpy as np
 from idefix_rules.campaign import sampling
 from idefix_rules.campaign.evaluation import evaluate_path, run_context
 from idefix_rules.campaign.load import Campaign, initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.runner import SEARCHED_RUNS
 from idefix_rules.campaign.schema import Fixed
 from idefix_rules.campaign.simulate import (
     FmuSource,
@@ -43,6 +42,7 @@ from idefix_rules.campaign.worker import RunTask
 from idefix_rules.campaign.worst.search import PathSearch, SearchSettings
 from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.commands import RoverGeometry
+from idefix_rules.results.format import SEARCHED_RUNS
 
 WORST_STREAM = 0x776F7273  # "wors": keeps the search's draws apart from any campaign's
 RUNS_MODE = SEARCHED_RUNS
