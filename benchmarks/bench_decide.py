@@ -37,7 +37,7 @@ CAMPAIGNS = [ROOT / "campaigns" / "rock-detour.yaml", ROOT / "campaigns" / "pebb
 PAIRED_LINE = "uncertainty:\n"
 
 
-def unpaired_copy(source: Path, folder: Path) -> Path:
+def unpaired_copy(source: Path) -> Path:
     """The campaign with ``paired: false``, its relative paths kept (written beside it)."""
     text = source.read_text(encoding="utf-8")
     assert PAIRED_LINE in text, f"{source}: no uncertainty block"
@@ -94,7 +94,7 @@ def main() -> None:
             rows = [("fixed (baseline)", fixed, fixed_s)]
             auto, auto_s = run(source, base / "auto", "auto", args.runs, args.workers)
             rows.append(("adaptive paired", auto, auto_s))
-            unpaired = unpaired_copy(source, base)
+            unpaired = unpaired_copy(source)
             try:
                 loose, loose_s = run(unpaired, base / "unpaired", "auto", args.runs,
                                      args.workers)

@@ -19,6 +19,7 @@ gives the same decisions, and simulates only what is missing.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,7 +31,6 @@ from idefix_rules.campaign.budget import alpha_budget
 from idefix_rules.campaign.evaluation import concatenate, evaluate_path
 from idefix_rules.campaign.load import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
-from idefix_rules.campaign.schema import SamplingMethod
 from idefix_rules.campaign.simulate import (
     FmuSource,
     PathPlan,
@@ -48,11 +48,7 @@ from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
 from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
 
-SAMPLING: SamplingMethod = sampling.ADAPTIVE_SAMPLING
 NO_COMPLETE_RUN = "stopped: no run of the path completed"
-
-
-sampling_note = sampling.adaptive_sampling_note
 
 
 def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
@@ -68,9 +64,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         if plan.status != "simulated" or plan.reference is None:
             continue
         name = plan.spec.name
-        values = sampling.sample_path(campaign.model.uncertainty.parameters, SAMPLING,
-                                      campaign.seed, path_stream(campaign, name),
-                                      settings.max_runs)
+        values = sampling.sample_path(campaign.model.uncertainty.parameters,
+                                      sampling.ADAPTIVE_SAMPLING, campaign.seed,
+                                      path_stream(campaign, name), settings.max_runs)
         # created, or (resumed) taken up for the blocks of rows still to allocate
         shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
         store.allocate_runs(name, settings.max_runs, shapes, values,
@@ -86,63 +82,48 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     budget = alpha_budget(evaluator, len(running), drawn_paired)
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
-    # one pool for every look: its workers keep their loaded FMU from batch to batch
-    pool = monte_carlo_pool(campaign, running, store, options) if running else None
-    try:
-        _looks(campaign, evaluator, rover, fmu, base, running, sampled, done, store, options,
-               progress, summary, collisions, pool, parts, rows, statistics, paired, budget)
-    finally:
-        if pool is not None:
-            pool.close()
-
-
-def _looks(campaign: Any, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
-           base: Mapping[str, float | str], running: dict[str, PathPlan],
-           sampled: Mapping[str, dict[str, np.ndarray]], done: dict[str, int],
-           store: ResultStore, options: SimulationOptions, progress: Progress,
-           summary: SimulationSummary, collisions: Any, pool: Any,
-           parts: dict[str, list[Any]], rows: dict[str, list[np.ndarray]],
-           statistics: dict[str, Any], paired: bool, budget: Any) -> None:
-    """Look after look: simulate the running paths' next batch on ``pool``, evaluate it, and
-    stop each path whose verdict and rank are settled (or that reached ``max_runs``)."""
-    settings = campaign.adaptive
     sigma = initial_position_sigma(campaign)
-    for look in settings.looks():
-        if not running:
-            break
-        _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
-                       progress, summary, pool)
-        for name, plan in running.items():
-            evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
-                                              within=slice(done[name], look))
-            if evaluation is not None:
-                parts[name].append(evaluation)
-                rows[name].append(np.asarray(extra["rows"]))
-            done[name] = look
-            if parts[name]:
-                whole = concatenate(parts[name])
-                # runs lost to the infrastructure are no failure of the path's
-                failed = np.array(sorted(run for run, reason in store.failures(name).items()
-                                         if run < look and not is_infrastructure(reason)),
-                                  dtype=np.int64)
-                fixed = evaluator.path_statistics(whole, failed_runs=failed.size)
-                statistics[name] = judged_statistics(
-                    whole, fixed, plan.stop_time, budget, sequential=True,
-                    failures=failure_sequence(np.concatenate(rows[name]), failed))
-        pairs = pairwise.compare_pairs(
-            {name: (np.concatenate(rows[name]), np.asarray(concatenate(parts[name]).i_max))
-             for name in statistics}, list(statistics), budget.comparison_alpha,
-            evaluator.checked.indifference) if paired else []
-        settlements = settle(evaluator, statistics, pairs)
-        for name in list(running):
-            settlement = settlements.get(name)
-            reason = NO_COMPLETE_RUN if settlement is None else \
-                stop_reason(settlement, look, settings.max_runs)
-            if reason is None:
-                continue
-            _stop(store, name, look, reason)
-            progress.message(f"{name}: {reason}")
-            del running[name]
+    # one pool for every look: its workers keep their loaded FMU from batch to batch
+    with contextlib.ExitStack() as stack:
+        pool = stack.enter_context(contextlib.closing(
+            monte_carlo_pool(campaign, running, store, options))) if running else None
+        for look in settings.looks():
+            if not running:
+                break
+            _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
+                           progress, summary, pool)
+            for name, plan in running.items():
+                evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
+                                                  collisions, within=slice(done[name], look))
+                if evaluation is not None:
+                    parts[name].append(evaluation)
+                    rows[name].append(np.asarray(extra["rows"]))
+                done[name] = look
+                if parts[name]:
+                    whole = concatenate(parts[name])
+                    # runs lost to the infrastructure are no failure of the path's
+                    failed = np.array(sorted(
+                        run for run, reason in store.failures(name).items()
+                        if run < look and not is_infrastructure(reason)), dtype=np.int64)
+                    fixed = evaluator.path_statistics(whole, failed_runs=failed.size)
+                    statistics[name] = judged_statistics(
+                        whole, fixed, plan.stop_time, budget, sequential=True,
+                        failures=failure_sequence(np.concatenate(rows[name]), failed))
+            pairs = pairwise.compare_pairs(
+                {name: (np.concatenate(rows[name]),
+                        np.asarray(concatenate(parts[name]).i_max)) for name in statistics},
+                list(statistics), budget.comparison_alpha,
+                evaluator.checked.indifference) if paired else []
+            settlements = settle(evaluator, statistics, pairs)
+            for name in list(running):
+                settlement = settlements.get(name)
+                reason = NO_COMPLETE_RUN if settlement is None else \
+                    stop_reason(settlement, look, settings.max_runs)
+                if reason is None:
+                    continue
+                _stop(store, name, look, reason)
+                progress.message(f"{name}: {reason}")
+                del running[name]
 
 
 def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str],

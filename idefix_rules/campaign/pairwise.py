@@ -103,6 +103,15 @@ def _points(value: float) -> str:
     return f"{100.0 * value:+.1f} %"
 
 
+def seen_from(pair: PairComparison, subject: str) -> tuple[str, int, float, float, float]:
+    """The comparison with ``subject`` (one of the pair) first: the other path, in how many
+    shared worlds ``subject`` was the safer, and its risk minus the other's with that
+    difference's interval (low, high)."""
+    if subject == pair.first:
+        return pair.second, pair.first_safer, pair.difference, pair.low, pair.high
+    return pair.first, pair.second_safer, -pair.difference, -pair.high, -pair.low
+
+
 def describe(pair: PairComparison, subject: str) -> str:
     """The comparison in words with ``subject`` (one of the pair) first: in how many of the
     shared worlds it was the safer, its risk minus the other's and that difference's interval,
@@ -117,12 +126,7 @@ def describe(pair: PairComparison, subject: str) -> str:
     'straight is riskier than arc: safer in 10 % of the same worlds (20 of 200):
      risk +13.0 % (95 % CI +10.0 % … +16.0 %)'
     """
-    if subject == pair.first:
-        other, safer = pair.second, pair.first_safer
-        difference, low, high = pair.difference, pair.low, pair.high
-    else:
-        other, safer = pair.first, pair.second_safer
-        difference, low, high = -pair.difference, -pair.high, -pair.low
+    other, safer, difference, low, high = seen_from(pair, subject)
     share = (f"{100.0 * safer / pair.shared:.0f} % of the same worlds ({safer} of {pair.shared})"
              if pair.shared else "none of the same worlds (no world both completed)")
     numbers = (f"risk {_points(difference)} ({100.0 * pair.confidence:.3g} % CI "

@@ -256,16 +256,13 @@ def pairs_html(data: ReportData) -> str:
             "Interval [%]", "Outcome")
     rows = []
     for above, pair in neighbours:
-        below = pair.second if above == pair.first else pair.first
-        flip = 1.0 if above == pair.first else -1.0
-        low, high = sorted((flip * pair.low, flip * pair.high))
-        safer = pair.first_safer if above == pair.first else pair.second_safer
+        below, safer, difference, low, high = pairwise.seen_from(pair, above)
         outcome = {pairwise.TIED: f"tied (within ±{100 * pair.margin:.3g} %)",
                    pairwise.OPEN: "not settled" if pair.needed else
                    "not compared further (no decision depends on it)"}.get(
             pair.outcome, "safer" if high < 0 else "riskier")
         rows.append((f"{above} vs {below}", f"{safer} of {pair.shared}",
-                     f"{100 * flip * pair.difference:+.1f}",
+                     f"{100 * difference:+.1f}",
                      f"{100 * low:+.1f} … {100 * high:+.1f} ({100 * pair.confidence:.3g} %)",
                      outcome))
     sentences = "".join(f"<li>{escape(pairwise.describe(pair, above))}</li>"

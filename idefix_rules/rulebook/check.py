@@ -89,13 +89,12 @@ class CheckResult:
         return not self.errors
 
 
-_Env = CheckEnv  # the passes' shared state (rulebook/environment.py)
 Check = Callable[[CheckEnv], list[Diagnostic]]
 
 
 # ----------------------------------------------------------------------------- constants
 
-def resolve_constants(env: _Env) -> list[Diagnostic]:
+def resolve_constants(env: CheckEnv) -> list[Diagnostic]:
     """Type and fold every constant, in dependency order; report cycles."""
     problems: list[Diagnostic] = []
     declared = {c.name: c for c in env.rulebook.constants}
@@ -148,7 +147,7 @@ def resolve_constants(env: _Env) -> list[Diagnostic]:
 
 # ----------------------------------------------------------------------------- passes
 
-def check_header(env: _Env) -> list[Diagnostic]:
+def check_header(env: CheckEnv) -> list[Diagnostic]:
     header = env.rulebook.header
     problems = []
     if not _SEMVER.match(header.version):
@@ -176,7 +175,7 @@ def _declarations(rulebook: Rulebook) -> Iterator[tuple[str, str, object]]:
         yield "verdict", v.name, v
 
 
-def check_names(env: _Env) -> list[Diagnostic]:
+def check_names(env: CheckEnv) -> list[Diagnostic]:
     """Duplicate declarations, and names that would hide a signal or a built-in name."""
     problems = []
     seen: dict[str, tuple[str, object]] = {}
@@ -203,7 +202,7 @@ def check_names(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_settings(env: _Env) -> list[Diagnostic]:
+def check_settings(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     env.settings = {name: default for name, (_, default) in SETTINGS.items()}
     for setting in env.rulebook.settings:
@@ -227,7 +226,7 @@ def check_settings(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def _constant_quantity(env: _Env, expr: Expr, wanted: object, what: str,
+def _constant_quantity(env: CheckEnv, expr: Expr, wanted: object, what: str,
                        problems: list[Diagnostic]) -> float | None:
     """Type-check ``expr`` as a constant of dimension ``wanted`` and fold it."""
     found = infer_type(expr, env.scope("constant"), problems)
@@ -253,7 +252,7 @@ def _constant_quantity(env: _Env, expr: Expr, wanted: object, what: str,
     return float(value)
 
 
-def check_areas(env: _Env) -> list[Diagnostic]:
+def check_areas(env: CheckEnv) -> list[Diagnostic]:
     """Named areas: declared once, a known level, a buffer, a steep area's inclination."""
     problems: list[Diagnostic] = []
     seen: set[str] = set()
@@ -284,7 +283,7 @@ def check_areas(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
+def check_obstacle_levels(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     declared = env.rulebook.obstacle_levels
     seen: set[str] = set()
@@ -336,7 +335,7 @@ def check_obstacle_levels(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def _condition(env: _Env, expr: Expr, kind: str, what: str,
+def _condition(env: CheckEnv, expr: Expr, kind: str, what: str,
                problems: list[Diagnostic]) -> ExprType | None:
     found = infer_type(expr, env.scope(kind), problems)
     if found is None:
@@ -364,7 +363,7 @@ def _check_conditions(kind: str, label: str,
                       rules: Callable[[Rulebook], tuple[Any, ...]]) -> Check:
     """A pass checking that each rule's ``condition`` is one boolean in scope ``kind``."""
 
-    def check_pass(env: _Env) -> list[Diagnostic]:
+    def check_pass(env: CheckEnv) -> list[Diagnostic]:
         problems: list[Diagnostic] = []
         for rule in rules(env.rulebook):
             _condition(env, rule.condition, kind, f"{label} '{rule.name}'", problems)
@@ -379,7 +378,7 @@ check_prescreens = _check_conditions("prescreen", "prescreen", lambda r: r.presc
 check_verdicts = _check_conditions("path", "verdict", lambda r: r.verdicts)
 
 
-def check_indices(env: _Env) -> list[Diagnostic]:
+def check_indices(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     run_scope = env.scope("run")
     for index in env.rulebook.indices:
@@ -430,7 +429,7 @@ def check_indices(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def _check_nominal(env: _Env, index: Index, found: ExprType, limit: float | None,
+def _check_nominal(env: CheckEnv, index: Index, found: ExprType, limit: float | None,
                    problems: list[Diagnostic]) -> None:
     """An index's nominal: the value's dimension (as the limit), above zero, below the limit."""
     assert index.nominal is not None
@@ -460,7 +459,7 @@ def _check_nominal(env: _Env, index: Index, found: ExprType, limit: float | None
         env.nominals[index.name] = nominal
 
 
-def check_combine(env: _Env) -> list[Diagnostic]:
+def check_combine(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     combine = env.rulebook.combine
     if combine.confidence is not None:
@@ -497,7 +496,7 @@ def check_combine(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_verdict_margins(env: _Env) -> list[Diagnostic]:
+def check_verdict_margins(env: CheckEnv) -> list[Diagnostic]:
     """Each verdict's indifference: of the dimension it compares, 0 or more."""
     problems: list[Diagnostic] = []
     env.verdict_margins = verdict_margins(env.rulebook, env.scope("path"),
@@ -506,7 +505,7 @@ def check_verdict_margins(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_ranking(env: _Env) -> list[Diagnostic]:
+def check_ranking(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     for key in env.rulebook.ranking.keys:
         found = infer_type(key.expr, env.scope("path"), problems)
@@ -516,7 +515,7 @@ def check_ranking(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def check_required_sections(env: _Env) -> list[Diagnostic]:
+def check_required_sections(env: CheckEnv) -> list[Diagnostic]:
     rulebook = env.rulebook
     problems = []
     if not rulebook.indices:
@@ -529,7 +528,7 @@ def check_required_sections(env: _Env) -> list[Diagnostic]:
     return problems
 
 
-def warn_unused_constants(env: _Env) -> list[Diagnostic]:
+def warn_unused_constants(env: CheckEnv) -> list[Diagnostic]:
     used: set[str] = set()
     for expr in rulebook_expressions(env.rulebook):
         used.update(name.name for name in names_in(expr))
@@ -537,7 +536,7 @@ def warn_unused_constants(env: _Env) -> list[Diagnostic]:
             for c in env.rulebook.constants if c.name not in used]
 
 
-def warn_zero_weights(env: _Env) -> list[Diagnostic]:
+def warn_zero_weights(env: CheckEnv) -> list[Diagnostic]:
     return [warning("W602", f"index '{i.name}' has weight 0 and never affects the risk",
                     i.weight.span)
             for i in env.rulebook.indices if env.weights.get(i.name) == 0.0]
@@ -568,7 +567,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
     from idefix_rules.rulebook.cascade import fold_cascades, fold_misfit_constants, path_hints
     from idefix_rules.rulebook.lints import LINTS
 
-    env = _Env(rulebook)
+    env = CheckEnv(rulebook)
     diagnostics = resolve_constants(env)
     for check_pass in CHECKS + (STRICT_CHECKS + LINTS if strict else ()):
         diagnostics.extend(check_pass(env))

@@ -38,7 +38,7 @@ from idefix_rules.rulebook.walk import nodes, rulebook_expressions
 from idefix_rules.units import DIMENSIONLESS, Dimension, UnitError, parse_quantity, parse_unit
 
 if TYPE_CHECKING:
-    from idefix_rules.rulebook.environment import CheckEnv as _Env
+    from idefix_rules.rulebook.environment import CheckEnv
 
 # Quantities that are fractions (0..1, shown as %): where a bare 70 means 7000 %.
 RATIO_SIGNALS = frozenset({"wheel.slip", "ref.wheel.slip"})
@@ -100,7 +100,7 @@ def _bare_number(expr: Expr, rulebook: Rulebook) -> tuple[float, Span, str | Non
     return None
 
 
-def lint_bare_ratios(env: _Env) -> list[Diagnostic]:
+def lint_bare_ratios(env: CheckEnv) -> list[Diagnostic]:
     rulebook = env.rulebook
     found: list[Diagnostic] = []
     seen: set[tuple[int, int]] = set()
@@ -194,7 +194,7 @@ def _always(op: str, low: float, high: float, threshold: float) -> bool | None:
 _FLIP = {"<": ">", "<=": ">=", ">": "<", ">=": "<="}
 
 
-def lint_constant_comparisons(env: _Env) -> list[Diagnostic]:
+def lint_constant_comparisons(env: CheckEnv) -> list[Diagnostic]:
     from idefix_rules.rulebook.format import format_expr
 
     found: list[Diagnostic] = []
@@ -246,7 +246,7 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str]]:
             break
 
 
-def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
+def lint_rationale_numbers(env: CheckEnv) -> list[Diagnostic]:
     """Constants, index limits, and rules whose condition compares with one constant."""
     from idefix_rules.rulebook.format import format_expr
 
@@ -293,7 +293,7 @@ def lint_rationale_numbers(env: _Env) -> list[Diagnostic]:
     return found
 
 
-def _dimension_of(expr: Expr, env: _Env) -> Dimension | None:
+def _dimension_of(expr: Expr, env: CheckEnv) -> Dimension | None:
     from idefix_rules.rulebook.infer import infer_type
 
     found = infer_type(expr, env.scope("constant"), [])
@@ -302,7 +302,7 @@ def _dimension_of(expr: Expr, env: _Env) -> Dimension | None:
 
 # ----------------------------------------------------------------------------- W613
 
-def lint_underflow(env: _Env) -> list[Diagnostic]:
+def lint_underflow(env: CheckEnv) -> list[Diagnostic]:
     source = env.rulebook.source.splitlines()
     found: list[Diagnostic] = []
     for expr in _every_expression(env.rulebook):
@@ -345,7 +345,7 @@ def _every_expression(rulebook: Rulebook) -> Iterator[Expr]:
 STEP_SHARE = 0.1
 
 
-def lint_step_nominal(env: _Env) -> list[Diagnostic]:
+def lint_step_nominal(env: CheckEnv) -> list[Diagnostic]:
     found: list[Diagnostic] = []
     for index in env.rulebook.indices:
         nominal, limit = env.nominals.get(index.name), env.limits.get(index.name)
@@ -366,6 +366,6 @@ def lint_step_nominal(env: _Env) -> list[Diagnostic]:
     return found
 
 
-LINTS: tuple[Callable[[_Env], list[Diagnostic]], ...] = (
+LINTS: tuple[Callable[[CheckEnv], list[Diagnostic]], ...] = (
     lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow,
     lint_step_nominal)

@@ -73,3 +73,24 @@ def marked_simulate(task):
 def pid(payload):
     """The process that ran the task."""
     return os.getpid()
+
+
+def count_pools(monkeypatch):
+    """Make the campaign's local pools count themselves: returns ``(made, maps)``, each pool's
+    ``persistent`` flag as it is made and each map's task count as it starts."""
+    from idefix_rules.campaign import simulate
+
+    made, maps = [], []
+
+    class Counted(simulate.LocalPool):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self.persistent)
+
+        def map(self, tasks):
+            listed = list(tasks)
+            maps.append(len(listed))
+            return super().map(listed)
+
+    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    return made, maps

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import campaign_pool_tasks
 import h5py
 import numpy as np
 import pytest
@@ -198,22 +199,7 @@ def test_every_look_runs_on_one_pool_of_workers(campaign_dir: Path,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
     # The workers (and the FMU each loaded) live from the first look to the last: one pool for
     # the reference runs, one for all the Monte Carlo looks, not one per look.
-    from idefix_rules.campaign import simulate
-
-    made: list[bool] = []
-    maps: list[int] = []
-
-    class Counted(simulate.LocalPool):
-        def __init__(self, *args: object, **kwargs: object) -> None:
-            super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-            made.append(self.persistent)
-
-        def map(self, tasks):  # type: ignore[no-untyped-def]
-            listed = list(tasks)
-            maps.append(len(listed))
-            return super().map(listed)
-
-    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    made, maps = campaign_pool_tasks.count_pools(monkeypatch)
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
     run_campaign(load_campaign(path), SimulationOptions(workers=2), report=False)
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import campaign_pool_tasks
 import h5py
 import numpy as np
 import pytest
@@ -182,22 +183,7 @@ def test_every_round_runs_on_one_pool_of_workers(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # The workers (and the FMU each loaded) live from the first round to the last: one pool
     # for the reference runs, one for every generation and boundary round, not one per round.
-    from idefix_rules.campaign import simulate
-
-    made: list[bool] = []
-    maps: list[int] = []
-
-    class Counted(simulate.LocalPool):
-        def __init__(self, *args: object, **kwargs: object) -> None:
-            super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-            made.append(self.persistent)
-
-        def map(self, tasks):  # type: ignore[no-untyped-def]
-            listed = list(tasks)
-            maps.append(len(listed))
-            return super().map(listed)
-
-    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    made, maps = campaign_pool_tasks.count_pools(monkeypatch)
     code, output = worst(campaign_dir, capsys, "--runs", "66", "--workers", "2", "--out",
                          str(campaign_dir / "pooled"))
     assert code == 0, output
