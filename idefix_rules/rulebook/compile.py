@@ -55,7 +55,12 @@ from idefix_rules.rulebook.results import (
     RunEvaluation,
     Verdict,
 )
-from idefix_rules.rulebook.semantics import names_in, per_sample_form
+from idefix_rules.rulebook.semantics import (
+    OWN_SAMPLES_INPUTS,
+    any_counts_own_samples,
+    names_in,
+    per_sample_form,
+)
 from idefix_rules.signals import AREA_PREFIX, AXIS_LABELS, lookup
 
 
@@ -181,8 +186,13 @@ class CompiledRulebook:
         self.required_signals: frozenset[str] = frozenset(provided | {"t"})
         # Read when the runs hold them, done without otherwise (the start yaw of 'drift'):
         # whoever reads stored runs for this evaluator reads these too.
+        # and what tells where each run's own samples end, for the reductions counting them
+        # (semantics: "A run's own samples")
+        counting = any(any_counts_own_samples(expr, self.constants) for expr in
+                       (*(i.value for i in model.indices), *(c.condition for c in model.chances)))
         self.optional_signals: frozenset[str] = frozenset(
-            set().union(*(optional_inputs_of(name) for name in read)) - self.required_signals
+            (set().union(*(optional_inputs_of(name) for name in read))
+             | (OWN_SAMPLES_INPUTS if counting else set())) - self.required_signals
             if read else ())
         # the signals of the rulebook's named areas (given with the collision signals)
         self.area_signals: tuple[str, ...] = tuple(
@@ -194,9 +204,12 @@ class CompiledRulebook:
             bool(self.area_signals_read)
         across_read = set(self._signals_read(*(n.operand for n in self.runs_reductions)))
         # What the first pass over a path's runs reads (never collision signals: E802).
+        across_counting = any(any_counts_own_samples(n.operand, self.constants)
+                              for n in self.runs_reductions)
         self.across_signals: frozenset[str] = frozenset(
             set().union(*(inputs_of(name) | optional_inputs_of(name) for name in across_read))
-            | {"t", "command"} if self.runs_reductions else ())
+            | {"t", "command"} | (OWN_SAMPLES_INPUTS if across_counting else set())
+            if self.runs_reductions else ())
 
     def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
         """Pickle as the checked model and compile again on loading (closures do not pickle),

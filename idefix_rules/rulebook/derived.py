@@ -157,6 +157,7 @@ class DerivedSignals:
         self.settings = settings or DerivedSettings()
         self._cache: dict[str, np.ndarray] = {}
         self._command_cache: tuple[np.ndarray, np.ndarray] | None = None
+        self._own_samples: tuple[np.ndarray | None] | None = None
         if "t" not in signals:
             raise UserInputError(error("E701", "the run signals lack the time signal 't'"))
         t_all = np.asarray(signals["t"], dtype=float)
@@ -257,6 +258,38 @@ class DerivedSignals:
             active, _ = self._command_progress()
             done = active == len(self.context.chain)
         return np.maximum.accumulate(done, axis=1).astype(np.float64)
+
+    def run_lengths(self) -> np.ndarray | None:
+        """How many leading samples of each run are its own, (runs,) int (semantics: "A run's
+        own samples"): through the first sample after its chain's end from which its pose no
+        longer changes (without a pose: the sample after the end); all of them for a run that
+        never finished. None when the runs give neither 'command' nor 'done'."""
+        if not (self.provides("command") or self.provides("done")):
+            return None
+        done = self.get("chain_done") > 0
+        finished = done[:, -1]
+        end = np.where(finished, np.argmax(done, axis=1), self.samples - 1)
+        still_from = np.zeros(self.runs, dtype=np.int64)
+        pose = [name for name in ("x", "y", "yaw") if self.provides(name)]
+        if pose:
+            changing = np.zeros((self.runs, self.samples), dtype=bool)
+            for name in pose:
+                column = np.broadcast_to(self._given(name), (self.runs, self.samples))
+                changing |= column != column[:, -1:]  # NaN never equals: all samples count
+            last_change = self.samples - 1 - np.argmax(changing[:, ::-1], axis=1)
+            still_from = np.where(changing.any(axis=1), last_change + 1, 0)
+        last = np.minimum(np.maximum(end + 1, still_from), self.samples - 1)
+        return np.where(finished, last + 1, self.samples).astype(np.int64)
+
+    def own_samples(self) -> np.ndarray | None:
+        """(runs, samples) bool: the samples that are each run's own (:meth:`run_lengths`);
+        None when every sample is (no 'command' nor 'done', or no run holds samples)."""
+        if self._own_samples is None:
+            lengths = self.run_lengths()
+            own = None if lengths is None or bool(np.all(lengths >= self.samples)) else \
+                np.arange(self.samples)[np.newaxis] < lengths[:, np.newaxis]
+            self._own_samples = (own,)
+        return self._own_samples[0]
 
     def _rate(self, values: np.ndarray) -> np.ndarray:
         if self.samples < 2:

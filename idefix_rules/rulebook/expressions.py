@@ -38,6 +38,7 @@ from idefix_rules.rulebook.semantics import (
     AXES,
     LABEL_AXIS,
     Masked,
+    counts_own_samples,
 )
 from idefix_rules.signals import AXIS_LABELS, lookup
 
@@ -296,12 +297,22 @@ class ExpressionCompiler:
 
             return rate
 
+        own = counts_own_samples(expr, self.constants)
+
         def run(frame: Frame) -> Any:
             value = np.asarray(operand(frame))
             if value.ndim == 0:
                 value = value.reshape((1,) * _NDIM)
             t = frame.source.t if frame.source is not None and axis_name == "time" else None
             mask = window(frame)
+            if own and frame.source is not None:
+                samples = frame.source.own_samples()
+                if samples is not None:
+                    if reducer == "time_above":  # the run's last own sample holds no time
+                        samples = np.concatenate(
+                            [samples[:, 1:], np.zeros((samples.shape[0], 1), bool)], axis=1)
+                    samples = layout(samples, ("time",))
+                    mask = samples if mask is None else mask & samples
             return reducers.reduce(reducer, value, axis, axis_size(axis_name, frame), mask,
                                    parameter, t)
 

@@ -44,6 +44,7 @@ from idefix_rules.rulebook.semantics import (
     AXES,
     LABEL_AXIS,
     Masked,
+    counts_own_samples,
     names_in,
     normalised,
     per_sample_form,
@@ -228,6 +229,12 @@ class _Run:
         parameter = (None if expr.parameter is None
                      else float(constant_value(expr.parameter, self.constants).only()))
         inside = self.window(expr.window) if expr.window is not None else [True] * size
+        if counts_own_samples(expr, self.constants):
+            lengths = self.source.run_lengths()
+            if lengths is not None:  # the samples held after the run's end do not count
+                # (the run's last own sample holds no time: time_above's hold ends with it)
+                own = int(lengths[0]) - (1 if expr.reducer == "time_above" else 0)
+                inside = [keep and k < own for k, keep in enumerate(inside)]
         times = self.t if axis == "time" else None
         if axis not in operand.axes:  # constant along the axis
             operand = elementwise(lambda x, _: x, [operand, _ones(axis, size)], self.size)

@@ -40,6 +40,22 @@ order (``final`` = the last label). An operand without the reduced axis counts a
 it (``sum over wheels (1)`` is 4). Windows: ``during command K`` ⇔ ``command == K - 1``;
 ``after Q`` ⇔ ``t >= Q``; ``before Q`` ⇔ ``t < Q`` (simulation time, which starts at 0).
 
+A run's own samples. All runs of a chain share one time grid, up to the chain's stop limit; a
+run that finished its chain earlier is stored with its last sample held to the end of the grid
+(the rover standing where it stopped). Its own samples are those up to the first sample, after
+the one in which its chain is complete (``command`` back at -1, else ``done``), from which its
+pose (``x``, ``y``, ``yaw``, those the runs give) no longer changes; without a pose, the sample
+after the chain's end. A counting reducer (``mean``, ``rms``, ``sum``, ``count``, ``fraction``,
+``percentile``, ``integral``, ``time_above``) over time of an operand that reads the run's own
+signals counts only these samples (its window intersected with them; for ``time_above``
+the last of them holds for no time, the run ending there), so that what a run
+scores does not depend on how long the grid goes on after it: on the stop limit, or on how
+long the other runs of the chain took. The other reducers (``final``, ``initial``, ``max``,
+``min``, ``any``, ``all``) give the same value either way (the held samples repeat the last
+one). Runs that give neither ``command`` nor ``done`` have no known end: every sample is
+theirs. An operand that reads no signal of the run (only constants, ``ref.*`` or values over
+runs) counts every sample of the grid.
+
 Over ``runs`` (a path-level value): the same reducers (no ``final``/``initial``/``integral``/
 ``time_above``) apply across the runs of the evaluation, label by label of the operand's other
 axes, the runs in any order; ``fraction`` is ``count / n``. The value is the same in every run,
@@ -68,6 +84,7 @@ in [0, 1].
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, fields, is_dataclass
 
 from idefix_rules.rulebook.model import (
@@ -94,6 +111,13 @@ TIME_ONLY_REDUCERS = frozenset({"integral", "time_above", "rate"})
 # Operators written like reductions that keep their axis (semantics in the module docstring).
 AXIS_KEEPING_REDUCERS = frozenset({"rate"})
 BOOLEAN_REDUCERS = frozenset({"any", "all"})
+# Reducers whose value depends on how many samples their window holds: over time they count a
+# run's own samples only (module docstring, "A run's own samples").
+COUNTING_REDUCERS = frozenset({"mean", "rms", "sum", "count", "fraction", "percentile",
+                               "integral", "time_above"})
+# What tells where a run's own samples end (derived.DerivedSignals.own_samples): the chain's
+# end ('command', else 'done') and the pose that must no longer change after it.
+OWN_SAMPLES_INPUTS = frozenset({"command", "done", "x", "y", "yaw"})
 
 
 
@@ -151,6 +175,41 @@ def per_sample_form(expr: Expr) -> Expr:
     if isinstance(expr, Select):
         return Select(per_sample_form(expr.operand), expr.labels)
     return expr
+
+
+def reads_run_signal(expr: Expr, constants: Collection[str]) -> bool:
+    """Whether ``expr`` reads a signal of the run itself: a name that is not a constant, not
+    the reference run's (``ref.*``), outside every reduction over runs (whose value is the
+    path's, the same in every run)."""
+    if isinstance(expr, Reduce) and expr.domain == "runs":
+        return False
+    if isinstance(expr, Name):
+        return expr.name not in constants and not expr.name.startswith("ref.")
+    if isinstance(expr, tuple):
+        return any(reads_run_signal(item, constants) for item in expr)
+    if is_dataclass(expr) and not isinstance(expr, type):
+        return any(reads_run_signal(getattr(expr, f.name), constants)
+                   for f in fields(expr) if f.name not in ("span", "window", "parameter"))
+    return False
+
+
+def counts_own_samples(expr: Reduce, constants: Collection[str]) -> bool:
+    """Whether the reduction ``expr`` counts only the run's own samples: a counting reducer over
+    time of an operand that reads the run's signals."""
+    return (expr.domain == "time" and expr.reducer in COUNTING_REDUCERS
+            and reads_run_signal(expr.operand, constants))
+
+
+def any_counts_own_samples(expr: object, constants: Collection[str]) -> bool:
+    """Whether some time reduction in ``expr`` counts only the run's own samples."""
+    if isinstance(expr, Reduce) and counts_own_samples(expr, constants):
+        return True
+    if isinstance(expr, tuple):
+        return any(any_counts_own_samples(item, constants) for item in expr)
+    if is_dataclass(expr) and not isinstance(expr, type):
+        return any(any_counts_own_samples(getattr(expr, f.name), constants)
+                   for f in fields(expr) if f.name != "span")
+    return False
 
 
 def names_in(expr: object) -> set[str]:
