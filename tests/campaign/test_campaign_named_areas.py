@@ -101,14 +101,23 @@ def test_areas_are_entered_approached_and_counted(areas_dir: Path, capsys,
         assert np.all(chances["hit_L3"][()] == 1)  # the crater is an L3 obstacle
         raw = results["paths/straight/evaluation/raw/I_area"][()]
         # time in the crater: from the first sample with the front wheels (20 cm ahead of the
-        # centre, yaw ~0) past x = 0.45 m to the last sample, within one output interval
+        # centre, yaw ~0) past x = 0.45 m to the run's end (its chain complete, the rover at
+        # rest; the samples held after it to the end of the grid do not count), within one
+        # output interval
         signals = results["paths/straight/runs/signals"]
+        ended = 0
         for number, value in enumerate(raw):
             t, x = signals["t"][number], signals["x"][number]
+            command = signals["command"][number]
             kept = np.isfinite(x)
-            t, x = t[kept], x[kept]
+            t, x, command = t[kept], x[kept], command[kept]
             entry = t[np.argmax(x + 0.2 * np.cos(signals["yaw"][number][kept]) > 0.45)]
-            assert value == pytest.approx(t[-1] - entry, abs=0.5)
+            finished = bool(np.any(command == -1))
+            ended += finished
+            end = t[np.argmax(command == -1) + 1] if finished else t[-1]
+            assert end < t[-1] or not finished  # samples were held after the run's end
+            assert value == pytest.approx(end - entry, abs=0.5)
+        assert ended >= 1
     summary = json.loads((areas_dir / "out" / "summary.json").read_text())
     paths = {record["name"]: record for record in summary["paths"]}
     assert paths["straight"]["verdict"] == "fail"
