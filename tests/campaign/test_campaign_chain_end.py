@@ -144,3 +144,60 @@ def test_runs_ending_with_their_chain_store_the_same_datasets_on_one_and_two_wor
     assert run(chain_end_dir, "two", monkeypatch, "--workers", "2") == 1
     assert_same_datasets(chain_end_dir / "one" / "results.h5",
                          chain_end_dir / "two" / "results.h5")
+
+
+# The samples a finished run holds to the end of its grid are the rover standing still; the
+# counting reducers count only the run's own samples, so a longer stop limit changes nothing a
+# run scores (docs/rulebook-language.md, "A run's own samples").
+COUNTING_RULEBOOK = """\
+rulebook "own-samples" version "1.0.0"
+purpose "Counting reducers over a run's own samples"
+
+index I_s "sustained slip" {
+  value  = percentile 90 over time (max over wheels (abs(wheel.slip)))
+  limit  = 100 %
+  weight = 1
+  because "Slip"
+}
+
+index I_rate "mean wheel rate" {
+  value  = mean over time (max over wheels (abs(wheel.rate)))
+  limit  = 0.1 rad/s
+  weight = 1
+  because "Rate"
+}
+
+chance often_turning = fraction over time (max over wheels (abs(wheel.rate)) > 0.01 rad/s) > 50 %
+  because "Wheels turning for most of the run"
+
+verdict mostly_driving: require chance(often_turning) <= 100 %
+  because "Always holds"
+"""
+
+
+def test_a_longer_stop_limit_changes_nothing_a_finished_run_scores(
+        chain_end_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (chain_end_dir / "end.rules").write_text(COUNTING_RULEBOOK)
+    text = CAMPAIGN.replace("  duration_margin: 1.0\n", "  duration_margin: 3.0\n")
+    (chain_end_dir / "campaign.yaml").write_text(text)
+    assert run(chain_end_dir, "short", monkeypatch) == 0
+    (chain_end_dir / "campaign.yaml").write_text(text.replace("duration_margin: 3.0",
+                                                              "duration_margin: 6.0"))
+    assert run(chain_end_dir, "long", monkeypatch) == 0
+    values = {}
+    for out in ("short", "long"):
+        with h5py.File(chain_end_dir / out / "results.h5", "r") as results:
+            for path in ("straight", "turn"):
+                evaluation = results[f"paths/{path}/evaluation"]
+                assert evaluation["finished"][()].all()  # every run ended its chain
+                samples = results[f"paths/{path}/runs/signals/t"].shape[1]
+                values[out, path] = (samples, evaluation["raw/I_s"][()],
+                                     evaluation["raw/I_rate"][()],
+                                     evaluation["chances/often_turning"][()],
+                                     evaluation["time"][()])
+    for path in ("straight", "turn"):
+        short, long = values["short", path], values["long", path]
+        assert long[0] > 1.5 * short[0]  # the longer grid holds many more samples after the end
+        for got, want in zip(long[1:], short[1:], strict=True):
+            np.testing.assert_array_equal(got, want)
+        assert np.all(short[2] > 0.01)  # the mean rate is not a trivial 0
