@@ -14,6 +14,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import unicodedata
@@ -213,8 +214,11 @@ def underflows(number_text: str, value: float) -> bool:
     return value == 0 and any(char in "123456789" for char in mantissa)
 
 
+@functools.lru_cache(maxsize=1024)
 def parse_unit(text: str) -> Unit:
     """Parse a unit expression: atoms joined by ``*``, ``·`` or ``/`` with ``^n`` powers.
+    Units are immutable, so each text is parsed once (a report converts hundreds of values
+    between the same few units).
 
     >>> parse_unit("m/s^2").dimension == ACCELERATION
     True

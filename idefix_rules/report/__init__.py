@@ -34,32 +34,53 @@ def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
-Drawing = tuple[str, Any, str]  # file name, matplotlib figure, caption
+# A figure: its file name, the function of :mod:`.figures` that makes it and its arguments,
+# its caption.
+Drawing = tuple[str, Callable[..., Any], tuple[Any, ...], dict[str, Any], str]
 
 
-def _map_images(data: ReportData, maps: MapSet, setup: Setup,
-                done: Callable[[float], None] = lambda share: None,
-                worst: Mapping[str, tuple[Any, Any]] | None = None) -> list[Drawing]:
-    order = [path.name for path in data.paths]
-    images = []
-    what = "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
-    if maps.combined.runs == 0:
-        what = "no evaluated runs (reference runs only)"
-    overlay = figures.MapOverlay(maps.reference_tracks, maps.ideal_tracks, maps.wheel_tracks,
-                                 maps.contacts, maps.wheel_bands, worst or {})
-    combined = figures.risk_map_figure(
-        maps.combined.values(), maps.grid, setup.environment, overlay, order,
-        f"All paths: {what}", maps.cell_reason)
-    images.append(("risk_map_all.png", combined,
-                   f"Result map, all paths together ({maps.combined.runs} runs)."))
-    for position, (name, accumulator) in enumerate(maps.per_path.items(), start=1):
-        done(position / (len(maps.per_path) + 1))
-        file = f"risk_map_{_safe(name)}.png"
-        figure = figures.risk_map_figure(accumulator.values(), maps.grid, setup.environment,
-                                         overlay, order, f"{name}: {what}",
-                                         maps.cell_reason, highlight=name)
-        images.append((file, figure, f"Result map of path {name} ({accumulator.runs} runs)."))
-    return images
+def _what(maps: MapSet, runs: int) -> str:
+    """What a map of ``runs`` runs shows (its title)."""
+    if runs == 0:
+        return "no evaluated runs (reference runs only)"
+    return "per-sample risk" if maps.per_sample else "run risk I_max (per-sample values missing)"
+
+
+def _overlay(maps: MapSet, worst: Mapping[str, tuple[Any, Any]] | None,
+             highlight: str | None) -> figures.MapOverlay:
+    """What the map drawn for ``highlight`` (None: all paths) shows over its cells: every
+    path's reference run and ideal path, and the wheel tracks and footprints of the path it
+    highlights, the contacts of those it draws strong (only these are handed to the drawing
+    process)."""
+    strong = maps.contacts if highlight is None else \
+        {name: points for name, points in maps.contacts.items() if name == highlight}
+    shown = () if highlight is None else (highlight,)
+    return figures.MapOverlay(
+        maps.reference_tracks, maps.ideal_tracks,
+        {name: maps.wheel_tracks[name] for name in shown if name in maps.wheel_tracks},
+        strong, {name: maps.wheel_bands[name] for name in shown if name in maps.wheel_bands},
+        worst or {})
+
+
+def _path_map(data: ReportData, maps: MapSet, setup: Setup, name: str,
+              worst: Mapping[str, tuple[Any, Any]] | None = None) -> Drawing:
+    """The result map of path ``name`` (its data complete)."""
+    accumulator = maps.per_path[name]
+    return (f"risk_map_{_safe(name)}.png", figures.risk_map_figure,
+            (accumulator.values(), maps.grid, setup.environment,
+             _overlay(maps, worst, name), [path.name for path in data.paths],
+             f"{name}: {_what(maps, accumulator.runs)}", maps.cell_reason),
+            {"highlight": name}, f"Result map of path {name} ({accumulator.runs} runs).")
+
+
+def _combined_map(data: ReportData, maps: MapSet, setup: Setup,
+                  worst: Mapping[str, tuple[Any, Any]] | None = None) -> Drawing:
+    """The result map of all paths together (every path's data complete)."""
+    return ("risk_map_all.png", figures.risk_map_figure,
+            (maps.combined.values(), maps.grid, setup.environment,
+             _overlay(maps, worst, None), [path.name for path in data.paths],
+             f"All paths: {_what(maps, maps.combined.runs)}", maps.cell_reason), {},
+            f"Result map, all paths together ({maps.combined.runs} runs).")
 
 
 def _box_images(data: ReportData) -> list[Drawing]:
@@ -67,26 +88,26 @@ def _box_images(data: ReportData) -> list[Drawing]:
     local = {p.name: p.final_local_error for p in data.paths if p.final_local_error is not None}
     heading = {p.name: p.final_heading_error for p in data.paths
                if p.final_heading_error is not None}
-    images = []
+    images: list[Drawing] = []
     if local:
-        figure = figures.box_plot_figure(local, order, "final local error [m]",
-                                         "Final local error per path")
-        images.append(("box_local_error.png", figure,
-                       "Final local error (distance to the theoretical path at the "
-                       "end of the run) per path; triangle = mean."))
+        images.append(("box_local_error.png", figures.box_plot_figure,
+                       (local, order, "final local error [m]", "Final local error per path"),
+                       {}, "Final local error (distance to the theoretical path at the "
+                           "end of the run) per path; triangle = mean."))
     if heading:
-        figure = figures.box_plot_figure(heading, order, "final heading error [deg]",
-                                         "Final heading error per path", scale=180.0 / math.pi)
-        images.append(("box_heading_error.png", figure,
+        images.append(("box_heading_error.png", figures.box_plot_figure,
+                       (heading, order, "final heading error [deg]",
+                        "Final heading error per path"), {"scale": 180.0 / math.pi},
                        "Final heading error (yaw minus the reference run's yaw at "
                        "the end) per path; triangle = mean."))
     return images
 
 
 Advance = Callable[[float, str], None]
-# Shares of the report's time (measured on the example): the per-sample pass over the runs, then
-# the printable maps, then the rest (box plots, sensitivity, the page).
-PREPARE_SHARE, MAPS_SHARE = 0.25, 0.65
+# Shares of the report's time (measured on the example): the per-sample pass over the runs
+# (the paths' maps drawn meanwhile), then the rest (the map of all paths, box plots,
+# sensitivity, the page).
+PREPARE_SHARE = 0.8
 
 
 def _quiet(fraction: float, stage: str) -> None:
@@ -102,12 +123,17 @@ def prepare_report(results_h5: Path, advance: Advance = _quiet,
     try:
         data = read_report_data(store)
         setup = setup_from_store(store)
-        return data, setup, prepare(store, data, setup,
-                                    lambda share, name: advance(PREPARE_SHARE * share,
-                                                                f"per-sample risk of {name}"),
-                                    embed)
+        return data, setup, _maps(store, data, setup, advance, embed)
     finally:
         store.close()
+
+
+def _maps(store: StoredResults, data: ReportData, setup: Setup, advance: Advance,
+          embed: Mapping[str, int] | None,
+          mapped: Callable[[MapSet, str], None] | None = None) -> MapSet:
+    return prepare(store, data, setup,
+                   lambda share, name: advance(PREPARE_SHARE * share,
+                                               f"per-sample risk of {name}"), embed, mapped)
 
 
 def _limit_texts(setup: Setup) -> dict[str, str]:
@@ -129,14 +155,6 @@ def _limit_texts(setup: Setup) -> dict[str, str]:
     return texts
 
 
-def _sensitivity(results_h5: Path) -> dict[str, Any]:
-    store = StoredResults.open(results_h5)
-    try:
-        return store_sensitivity(store.file)
-    finally:
-        store.close()
-
-
 def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None) -> Path:
     """Write ``report.html`` and the figures as PNG into ``out_dir``; returns the HTML path.
     ``advance(fraction, stage)`` hears how far it is (for an ETA).
@@ -146,37 +164,57 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     advance = advance or _quiet
     searched = read_worst(Path(results_h5))  # a worst-case search's outcome, if it is one
     searched_rows = worst_rows(searched) if searched is not None else {}
-    data, setup, maps = prepare_report(Path(results_h5), advance, searched_rows)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    order = [path.name for path in data.paths]
     tracks = worst_tracks(Path(results_h5), searched) if searched is not None else {}
-    advance(PREPARE_SHARE, "result maps")
-    map_drawings = _map_images(data, maps, setup,
-                               lambda share: advance(PREPARE_SHARE + MAPS_SHARE * share,
-                                                     "result maps"), tracks)
-    advance(PREPARE_SHARE + MAPS_SHARE, "box plots, sensitivity, the page")
-    box_drawings = _box_images(data)
-    other: dict[str, Drawing] = {}
+    store = StoredResults.open(Path(results_h5))
+    try:
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        # Figures are drawn in forked processes as their data are ready: each path's map
+        # while the next path is evaluated, the rest while the page is put together. The
+        # processes start now, before any run is read.
+        drawing = figures.FigureProcesses()
+        try:
+            return _write_report(store, out_dir, advance, searched, searched_rows, tracks,
+                                 drawing)
+        finally:
+            drawing.close()
+    finally:
+        store.close()
+
+
+def _write_report(store: StoredResults, out_dir: Path, advance: Advance, searched: Any,
+                  searched_rows: Mapping[str, int], tracks: Mapping[str, tuple[Any, Any]],
+                  drawing: figures.FigureProcesses) -> Path:
+    drawings: dict[str, Drawing] = {}
+
+    def draw(key: str, drawn: Drawing) -> None:
+        drawings[key] = drawn
+        file, make, arguments, keywords, _ = drawn
+        drawing.draw(out_dir / file, make, *arguments, **keywords)
+
+    data = read_report_data(store)
+    order = [path.name for path in data.paths]
+    # the figures whose data are read already, drawn while the runs are evaluated
     counts = {path.name: path.dominance() for path in data.evaluated_paths}
     if any(counts.values()):
-        other["dominance"] = ("dominant_index.png", figures.dominance_figure(counts, order),
-                              "Share of runs in which each index set the run risk I_max.")
-    sensitivity = _sensitivity(Path(results_h5))
+        draw("dominance", ("dominant_index.png", figures.dominance_figure, (counts, order), {},
+                           "Share of runs in which each index set the run risk I_max."))
+    sensitivity = store_sensitivity(store.file)
     if any(record.get("risk") for record in sensitivity.values()):
-        other["sensitivity"] = (
-            "sensitivity.png", figures.sensitivity_figure(sensitivity, order),
+        draw("sensitivity", (
+            "sensitivity.png", figures.sensitivity_figure, (sensitivity, order), {},
             "Per path, Spearman rank correlation of each sampled parameter with the run "
-            "risk I_max and its 95 % interval; filled bars: the interval excludes 0.")
-    # every figure drawn at once, on the cores there are (figures.png_files)
-    drawings = [*map_drawings, *box_drawings, *other.values()]
-    pngs = figures.png_files([(figure, out_dir / file) for file, figure, _ in drawings])
-    images = {file: html.Image(file, png, caption)
-              for (file, _, caption), png in zip(drawings, pngs, strict=True)}
-    map_images = [images[file] for file, _, _ in map_drawings]
-    box_images = [images[file] for file, _, _ in box_drawings]
-    dominance = images[other["dominance"][0]] if "dominance" in other else None
-    sensitivity_images = [images[other["sensitivity"][0]]] if "sensitivity" in other else []
+            "risk I_max and its 95 % interval; filled bars: the interval excludes 0."))
+    setup = setup_from_store(store)
+
+    def mapped(maps: MapSet, name: str) -> None:
+        draw(f"map {name}", _path_map(data, maps, setup, name, tracks))
+
+    maps = _maps(store, data, setup, advance, searched_rows, mapped)
+    advance(PREPARE_SHARE, "the map of all paths, box plots, the page")
+    draw("map", _combined_map(data, maps, setup, tracks))
+    for position, drawn in enumerate(_box_images(data)):
+        draw(f"box {position}", drawn)
     notes = list(setup.notes)
     if searched is not None:
         notes.insert(0, WORST_NOTE)
@@ -197,17 +235,27 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     colours = {name: figures.path_colour(position) for position, name in enumerate(order)}
     payload = interactive.payload_json(interactive.payload(data, setup, maps, units,
                                                            searched_rows))
+    slip = html.slip_html(_slip_records(store))
+    limit_texts = _limit_texts(setup)
+    # the page's figures, once drawn
+    pngs = dict(zip([drawn[0] for drawn in drawings.values()], drawing.wait(), strict=True))
+    images = {key: html.Image(file, pngs[file], caption)
+              for key, (file, _, _, _, caption) in drawings.items()}
+    map_images = [images[key] for key in ["map", *(f"map {name}" for name in maps.per_path)]
+                  if key in images]
+    box_images = [images[key] for key in sorted(images) if key.startswith("box ")]
+    sensitivity_images = [images["sensitivity"]] if "sensitivity" in images else []
     parts = [
         sections.decision_html(data) if searched is None else worst_html(searched, units),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
-        html.slip_html(_slip_records(Path(results_h5))),
+        slip,
         sections.interactive_html(payload, order, colours, worst=bool(searched_rows)),
         html.figures_html("Result maps (printable)", map_images, map_text, wide=True),
         html.figures_html("Final errors (paper Fig. 9)", box_images),
         sections.sensitivity_html(sensitivity, sensitivity_images, titles),
-        html.why_html(data, dominance, context),
-        sections.indices_html(info, _limit_texts(setup)),
+        html.why_html(data, images.get("dominance"), context),
+        sections.indices_html(info, limit_texts),
         html.expectations_html(data.expectations),
         html.provenance_html(data),
     ]
@@ -217,14 +265,11 @@ def write_report(results_h5: Path, out_dir: Path, advance: Advance | None = None
     return target
 
 
-def _slip_records(results_h5: Path) -> list[dict[str, object]]:
+def _slip_records(store: StoredResults) -> list[dict[str, object]]:
     """Assumed vs simulated slip per path from the stored summary (campaign/slip.py)."""
-    import h5py
-
     from idefix_rules.campaign.slip import stored_records
 
-    with h5py.File(results_h5, "r") as file:
-        return stored_records(file)
+    return stored_records(store.file)
 
 
 __all__ = ["REPORT_FILE", "prepare_report", "write_report"]

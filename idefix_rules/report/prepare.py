@@ -33,9 +33,11 @@ from idefix_rules.report.riskmap import (
     cell_size_for,
     grid_covering,
     per_sample_risk,
+    run_cell_maxima,
 )
 from idefix_rules.report.runs import (
     EMBEDDED_RUNS,
+    SERIES,
     CellRuns,
     contact_points,
     run_series,
@@ -51,8 +53,12 @@ from idefix_rules.results.scoring import score_chunks
 CHUNK_RUNS = 64
 # Wheel width the footprints are drawn with: the obstacle checker's wheel (docs/obstacles.md).
 WHEEL_WIDTH = RoverBodies().wheel_width
-POSE_SIGNALS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
+# What the report reads of every run besides what the rulebook's per-sample values read:
+# the track and heading (maps, contacts, thinned runs), what the final errors need, and the
+# run panel's series (runs.SERIES).
+POSE_SIGNALS = ("t", "x", "y", "roll", "pitch", "yaw")
 ERROR_SIGNALS = ("t", "x", "y", "yaw", "command")
+SERIES_SIGNALS = tuple(spec.signal for spec in SERIES if not spec.signal.startswith("collision."))
 
 
 @dataclass
@@ -155,8 +161,11 @@ def _campaign_context(stored: StoredCampaign, setup: Setup) -> None:
 
 
 def choose_grid(store: StoredResults, data: ReportData, setup: Setup,
-                runs: Any = None) -> tuple[RiskGrid, str]:
-    """A grid covering every complete run's track (and nearby obstacles), cell from the rover."""
+                runs: Any = None,
+                references: Mapping[str, Mapping[str, np.ndarray] | None] | None = None
+                ) -> tuple[RiskGrid, str]:
+    """A grid covering every complete run's track (and nearby obstacles), cell from the rover.
+    ``references``: each path's reference run, when read already."""
     bounds = [np.inf, -np.inf, np.inf, -np.inf]
 
     def include(x: np.ndarray, y: np.ndarray) -> None:
@@ -166,7 +175,8 @@ def choose_grid(store: StoredResults, data: ReportData, setup: Setup,
                       min(bounds[2], np.nanmin(y)), max(bounds[3], np.nanmax(y))]
 
     for path in data.paths:
-        reference = store.reference(path.name)
+        reference = references[path.name] if references is not None \
+            else store.reference(path.name)
         if reference is not None and "x" in reference and "y" in reference:
             include(np.asarray(reference["x"]), np.asarray(reference["y"]))
         if not store.has_path(path.name) or not store.has_runs(path.name):
@@ -200,44 +210,53 @@ def choose_grid(store: StoredResults, data: ReportData, setup: Setup,
 
 
 def _scored(runs: ParallelRuns, path: PathReport, setup: Setup, context: Any,
-            keys: set[str]) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]]:
-    """``(rows, signals, per-sample risk)`` of the path's complete runs, chunk by chunk: the
-    stored rulebook's per-sample risk, or each run's stored I_max along its whole track when
-    the rulebook cannot be evaluated. ``signals`` holds the collision signals too."""
+            keys: set[str]
+            ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, Any | None]]:
+    """``(rows, signals, per-sample risk, derived signals)`` of the path's complete runs,
+    chunk by chunk: the stored rulebook's per-sample risk and the derived signals it was
+    computed from, or each run's stored I_max along its whole track (and no derived signals)
+    when the rulebook cannot be evaluated. ``signals`` holds the collision signals too."""
     if setup.evaluator is None or setup.checked is None or context is None:
         for rows, signals in complete_chunks(runs, path.name, keys, CHUNK_RUNS):
-            yield rows, signals, np.broadcast_to(path.i_max[rows][:, None], signals["x"].shape)
+            yield rows, signals, np.broadcast_to(path.i_max[rows][:, None],
+                                                 signals["x"].shape), None
         return
     sources = setup.collisions.for_path(path.name) if setup.collisions is not None else [None]
     weights = setup.checked.weights
+    # the per-sample values only: the per-run ones are stored (Table 1 reads them)
     for chunk in score_chunks(runs, path.name, [setup.evaluator], context, sources,
-                              keys=keys, per_sample=True, chunk_runs=CHUNK_RUNS):
+                              keys=keys, per_sample=True, per_run=False,
+                              chunk_runs=CHUNK_RUNS):
         signals = chunk.signals
         collided = chunk.collisions[0] if chunk.collisions else None
         if collided is not None:
             signals = {**signals, **collided[0]}
         shape = signals["x"].shape
-        evaluation = chunk.evaluations[0]
-        assert evaluation is not None
+        samples = chunk.samples[0]
+        assert samples is not None
         per_sample = {name: np.broadcast_to(np.asarray(values, dtype=float), shape)
-                      for name, values in evaluation.per_sample.items()}
-        yield chunk.rows, signals, per_sample_risk(per_sample, weights)
+                      for name, values in samples.items()}
+        yield chunk.rows, signals, per_sample_risk(per_sample, weights), chunk.sources[0]
 
 
-def _final_errors(setup: Setup, signals: dict[str, np.ndarray],
-                  context: Any) -> tuple[np.ndarray, np.ndarray] | None:
+def _final_errors(setup: Setup, signals: dict[str, np.ndarray], context: Any,
+                  scored: Any | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each run's local and heading error at its last sample, with the rulebook's derived
+    signals (``scored``: those the per-sample risk was computed from, when their settings
+    are the rulebook's: what they hold already is not computed again)."""
     try:
         from idefix_rules.rulebook.derived import DerivedSettings, DerivedSignals
     except ImportError:
         return None
     settings = getattr(setup.checked, "settings", {}) or {}
-    derived = DerivedSignals(signals, context, DerivedSettings(
-        theoretical_slip=float(settings.get("theoretical_slip", 0.0)),
-        tolerance_growth=float(settings.get("tolerance_growth", 0.0))))
-    local = np.asarray(derived.get("local_error"))[:, -1]
+    wanted = DerivedSettings(theoretical_slip=float(settings.get("theoretical_slip", 0.0)),
+                             tolerance_growth=float(settings.get("tolerance_growth", 0.0)))
+    derived = scored if isinstance(scored, DerivedSignals) and scored.settings == wanted \
+        and scored.context is context else DerivedSignals(signals, context, wanted)
+    local = np.asarray(derived.last("local_error"))
     if "yaw" not in signals or context.reference is None or "yaw" not in context.reference:
         return local, np.full(local.shape, np.nan)  # a foreign FMU need not give yaw
-    return local, np.asarray(derived.get("heading_error"))[:, -1]
+    return local, np.asarray(derived.last("heading_error"))
 
 
 # What the report draws from each optional signal, to name what a foreign FMU's runs lack.
@@ -248,11 +267,15 @@ OPTIONAL_SIGNALS = {"x": "the result maps show no runs and no box plots are draw
                     "command": "a run's time is its stop time"}
 
 
-def missing_signal_notes(store: StoredResults, data: ReportData) -> list[str]:
-    """One note per optional signal the stored runs lack, saying what is not drawn."""
+def missing_signal_notes(store: StoredResults, data: ReportData,
+                         references: Mapping[str, Mapping[str, np.ndarray] | None] | None = None
+                         ) -> list[str]:
+    """One note per optional signal the stored runs lack, saying what is not drawn
+    (``references``: each path's reference run, when read already)."""
     stored: set[str] = set()
     for path in data.paths:
-        reference = store.reference(path.name)
+        reference = references[path.name] if references is not None \
+            else store.reference(path.name)
         stored |= set(reference or ())
     if not stored:
         return []
@@ -281,37 +304,36 @@ def _details(store: StoredResults, name: str) -> Any:
 
 def prepare(store: StoredResults, data: ReportData, setup: Setup,
             advance: Callable[[float, str], None] | None = None,
-            embed: Mapping[str, int] | None = None) -> MapSet:
+            embed: Mapping[str, int] | None = None,
+            mapped: Callable[[MapSet, str], None] | None = None) -> MapSet:
     """Fill the risk maps, each path's final errors and the interactive page's per-run data
     (cells, thinned runs, contacts) in one chunked pass over the runs; ``advance(share,
     path)`` hears as each path starts (share: of the runs done before it). ``embed`` names a
-    run per path the page holds besides its worst ones (a worst-case search's worst run)."""
-    setup.notes += missing_signal_notes(store, data)
+    run per path the page holds besides its worst ones (a worst-case search's worst run).
+    ``mapped(maps, path)`` hears as soon as a path's map and what is drawn over it are
+    complete (the report draws that map meanwhile); every path's reference run, ideal path
+    and wheel tracks are there before the first."""
+    references = {path.name: store.reference(path.name) for path in data.paths}
+    setup.notes += missing_signal_notes(store, data, references)
     runs_reader = ParallelRuns(store)
     try:
-        return _prepare(store, runs_reader, data, setup, advance, embed)
+        return _prepare(store, runs_reader, data, setup, references, advance, embed, mapped)
     finally:
         runs_reader.close()
 
 
 def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, setup: Setup,
+             stored_references: Mapping[str, Mapping[str, np.ndarray] | None],
              advance: Callable[[float, str], None] | None,
-             embed: Mapping[str, int] | None = None) -> MapSet:
-    grid, reason = choose_grid(store, data, setup, runs_reader)
+             embed: Mapping[str, int] | None = None,
+             mapped: Callable[[MapSet, str], None] | None = None) -> MapSet:
+    grid, reason = choose_grid(store, data, setup, runs_reader, stored_references)
     per_path: dict[str, RiskAccumulator] = {}
     references: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     maps = MapSet(grid, reason, per_path, RiskAccumulator(grid), setup.evaluator is not None,
                   references)
-    required = (set(getattr(setup.evaluator, "required_signals", ()) or ())
-                | set(POSE_SIGNALS) | set(ERROR_SIGNALS) | {"energy"}
-                | {"wheel.slip", "wheel.slip_angle", "wheel.sinkage"})
-    limits = dict(getattr(setup.checked, "limits", {}) or {})
-    weights = dict(getattr(setup.checked, "weights", {}) or {})
-    runs = [int(path.complete.sum()) if path.evaluated else 0 for path in data.paths]
-    for position, path in enumerate(data.paths):
-        if advance is not None:
-            advance(sum(runs[:position]) / max(sum(runs), 1), path.name)
-        reference = store.reference(path.name)
+    for path in data.paths:  # what every path's map draws of the others
+        reference = stored_references[path.name]
         if store.has_path(path.name) and "chain" in store.path_group(path.name):
             maps.ideal_tracks[path.name] = _ideal_track(store, path.name, setup)
         if reference is not None and "x" in reference:
@@ -323,6 +345,14 @@ def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, 
                 maps.wheel_bands[path.name] = wheel_bands(
                     np.asarray(reference["x"]), np.asarray(reference["y"]),
                     np.asarray(reference["yaw"]), setup.rover, WHEEL_WIDTH)
+    required = set(POSE_SIGNALS) | set(ERROR_SIGNALS) | set(SERIES_SIGNALS)
+    limits = dict(getattr(setup.checked, "limits", {}) or {})
+    weights = dict(getattr(setup.checked, "weights", {}) or {})
+    runs = [int(path.complete.sum()) if path.evaluated else 0 for path in data.paths]
+    for position, path in enumerate(data.paths):
+        if advance is not None:
+            advance(sum(runs[:position]) / max(sum(runs), 1), path.name)
+        reference = stored_references[path.name]
         if not path.evaluated or not path.complete.any() or reference is None \
                 or not {"x", "y"} <= set(reference):
             continue
@@ -340,9 +370,11 @@ def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, 
         # the evaluation's clearance profiles, for runs whose collisions come from the store
         profiles = stored_clearance_profile(store, path.name) \
             if setup.collisions is not None else None
-        for rows, signals, risk in _scored(runs_reader, path, setup, context, required):
-            accumulator.add(signals["x"], signals["y"], risk)
-            cells.add(rows, signals["x"], signals["y"], risk, path.dominant, embedded)
+        for rows, signals, risk, derived in _scored(runs_reader, path, setup, context,
+                                                    required):
+            maxima = run_cell_maxima(grid, signals["x"], signals["y"], risk)
+            accumulator.add_maxima(maxima, len(rows))
+            cells.add_maxima(rows, maxima, path.dominant, embedded)
             for position, run in enumerate(rows):
                 if int(run) in embedded:
                     stored = {"collision.clearance": profiles[int(run)]} \
@@ -350,7 +382,8 @@ def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, 
                     series[int(run)] = run_series(signals, position, risk, reference, stored)
             if details is not None:
                 contacts += contact_points(details, rows, signals, setup.rover)
-            errors = _final_errors(setup, signals, context) if context is not None else None
+            errors = _final_errors(setup, signals, context, derived) \
+                if context is not None else None
             if errors is not None:
                 local.append(errors[0])
                 heading.append(errors[1])
@@ -362,6 +395,8 @@ def _prepare(store: StoredResults, runs_reader: ParallelRuns, data: ReportData, 
             path.final_local_error = np.concatenate(local)
             headings = np.concatenate(heading)
             path.final_heading_error = None if np.isnan(headings).all() else headings
+        if mapped is not None:
+            mapped(maps, path.name)
     for accumulator in per_path.values():
         maps.combined.merge(accumulator)
     return maps

@@ -111,7 +111,8 @@ def grid_covering(xmin: float, xmax: float, ymin: float, ymax: float, cell: floa
 
 def rasterise(x: np.ndarray, y: np.ndarray, risk: np.ndarray,
               spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Sub-sample each run's polyline at most ``spacing`` apart: flat (run, x, y, risk) points.
+    """Sub-sample each run's polyline at most ``spacing`` apart: flat (run, x, y, risk) points,
+    each run's in driving order.
 
     Each segment gets its own number of sub-samples (``ceil(length / spacing)``), so the result
     does not depend on which other runs are processed together. Non-finite samples (a run's NaN
@@ -128,36 +129,45 @@ def rasterise(x: np.ndarray, y: np.ndarray, risk: np.ndarray,
     risk = np.atleast_2d(np.asarray(risk, dtype=float))
     runs, samples = x.shape
     ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(risk)
-    run_of = np.broadcast_to(np.arange(runs)[:, None], x.shape)
-    # Every valid sample is a point; segments between two valid samples add their inside points.
-    along = np.broadcast_to(np.arange(samples, dtype=float)[None, :], x.shape)
-    points = [(run_of[ok], x[ok], y[ok], risk[ok], along[ok])]
+    # Per sample: the sample itself (when valid) and the points strictly inside the segment
+    # to the next one; each sample's points are written at its offset in the output, so the
+    # points come out in driving order without sorting.
+    inner = np.zeros((runs, samples), dtype=np.int64)
     if samples >= 2:
         dx, dy = np.diff(x, axis=1), np.diff(y, axis=1)
         segment_ok = ok[:, :-1] & ok[:, 1:]
         length = np.where(segment_ok, np.hypot(dx, dy), 0.0)
         steps = np.clip(np.ceil(length / spacing - 1e-9), 1, MAX_SUBSAMPLES).astype(np.int64)
-        inner = np.where(segment_ok, steps - 1, 0).ravel()  # points strictly inside
-        if inner.sum() > 0:
-            seg = np.repeat(np.arange(inner.size), inner)
-            first = np.cumsum(inner) - inner
-            j = np.arange(seg.size) - np.repeat(first, inner) + 1
-            fraction = j / steps.ravel()[seg]
-            start_x, start_y = x[:, :-1].ravel()[seg], y[:, :-1].ravel()[seg]
-            near_end = fraction >= 0.5
-            seg_risk = np.where(near_end, risk[:, 1:].ravel()[seg], risk[:, :-1].ravel()[seg])
-            points.append((run_of[:, :-1].ravel()[seg],
-                           start_x + fraction * dx.ravel()[seg],
-                           start_y + fraction * dy.ravel()[seg], seg_risk,
-                           along[:, :-1].ravel()[seg] + fraction))
-    run_ids, px, py, pr, position = (np.concatenate(parts) for parts in zip(*points, strict=True))
-    order = np.lexsort((position, run_ids))  # each run's points in driving order
-    return run_ids[order], px[order], py[order], pr[order]
+        inner[:, :-1] = np.where(segment_ok, steps - 1, 0)
+    flat_ok = ok.ravel()
+    count = flat_ok + inner.ravel()
+    offset = np.cumsum(count) - count
+    total = int(count.sum())
+    run_ids = np.empty(total, dtype=np.int64)
+    px, py, pr = np.empty(total), np.empty(total), np.empty(total)
+    at = offset[flat_ok]
+    run_ids[at] = np.repeat(np.arange(runs), samples)[flat_ok]
+    px[at], py[at], pr[at] = x.ravel()[flat_ok], y.ravel()[flat_ok], risk.ravel()[flat_ok]
+    per_sample = inner.ravel()
+    if per_sample.any():
+        sample = np.repeat(np.arange(per_sample.size), per_sample)  # flat (run, sample)
+        first = np.cumsum(per_sample) - per_sample
+        j = np.arange(sample.size) - first[sample] + 1  # 1 … steps - 1 along the segment
+        fraction = j / (per_sample[sample] + 1)
+        after = sample + 1  # the segment's end (a segment never ends a run's row)
+        flat_x, flat_y, flat_risk = x.ravel(), y.ravel(), risk.ravel()
+        at = offset[sample] + j  # after the segment's first sample
+        run_ids[at] = sample // samples
+        px[at] = flat_x[sample] + fraction * (flat_x[after] - flat_x[sample])
+        py[at] = flat_y[sample] + fraction * (flat_y[after] - flat_y[sample])
+        pr[at] = np.where(fraction >= 0.5, flat_risk[after], flat_risk[sample])
+    return run_ids, px, py, pr
 
 
 def run_cell_maxima(grid: RiskGrid, x: np.ndarray, y: np.ndarray,
                     risk: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For every (run, cell) a run visited: the run index, the flat cell and the run's maximum.
+    """For every (run, cell) a run visited: the run index, the flat cell and the run's maximum,
+    ordered by run, then cell.
 
     Inputs are (runs, samples) arrays; segments are rasterised first (:func:`rasterise`).
     """
@@ -169,11 +179,16 @@ def run_cell_maxima(grid: RiskGrid, x: np.ndarray, y: np.ndarray,
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty, np.zeros(0)
     size = grid.nx * grid.ny
-    key = run_of.astype(np.int64) * size + cells
-    order = np.lexsort((values, key))  # by key, then value: the last of a key is its max
+    key = run_of * size + cells
+    # A run stays in a cell for many points in a row (a cell is several samples long, and a
+    # run holds its last pose after its chain): each stretch is reduced to its maximum first,
+    # so only the stretches are sorted.
+    stretch = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    key, values = key[stretch], np.maximum.reduceat(values, stretch)
+    order = np.argsort(key, kind="stable")
     key, values = key[order], values[order]
-    last = np.flatnonzero(np.r_[key[1:] != key[:-1], True])
-    key, values = key[last], values[last]
+    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    key, values = key[first], np.maximum.reduceat(values, first)
     return key // size, key % size, values
 
 
@@ -188,11 +203,15 @@ class RiskAccumulator:
 
     def add(self, x: np.ndarray, y: np.ndarray, risk: np.ndarray) -> None:
         """Add runs: body-centre ``x``, ``y`` and per-sample risk, each (runs, samples)."""
-        _, cells, values = run_cell_maxima(self.grid, x, y, risk)
+        self.add_maxima(run_cell_maxima(self.grid, x, y, risk), int(np.atleast_2d(x).shape[0]))
+
+    def add_maxima(self, maxima: tuple[np.ndarray, np.ndarray, np.ndarray], runs: int) -> None:
+        """Add ``runs`` runs by their :func:`run_cell_maxima` on this grid."""
+        _, cells, values = maxima
         size = self.grid.nx * self.grid.ny
         self.total += np.bincount(cells, weights=values, minlength=size)
         self.count += np.bincount(cells, minlength=size)
-        self.runs += int(np.atleast_2d(x).shape[0])
+        self.runs += runs
 
     def merge(self, other: RiskAccumulator) -> None:
         """Add another accumulator on the same grid (the combined map of several paths)."""
@@ -220,9 +239,15 @@ def per_sample_risk(per_sample: dict[str, np.ndarray], weights: dict[str, float]
     ...                 {"a": 0.5, "b": 1.0}).tolist()
     [[0.5, 0.4]]
     """
-    stacked = [weights[name] * np.asarray(values, dtype=float)
-               for name, values in per_sample.items()]
-    if not stacked:
+    if not per_sample:
         raise ValueError("no per-sample index values")
-    risk: np.ndarray = np.clip(np.max(np.stack(stacked), axis=0), 0.0, 1.0)
+    risk: np.ndarray | None = None
+    for name, values in per_sample.items():  # a running maximum: no stack of every index
+        weighted = weights[name] * np.asarray(values, dtype=float)
+        if risk is None:
+            risk = np.array(weighted, dtype=float)  # writable, whatever broadcast it came from
+        else:
+            np.maximum(risk, weighted, out=risk)
+    assert risk is not None
+    np.clip(risk, 0.0, 1.0, out=risk)
     return risk

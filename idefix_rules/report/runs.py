@@ -101,6 +101,16 @@ def _buckets(valid: int, points: int = POINTS) -> np.ndarray:
 
 
 def _reduce(values: np.ndarray, edges: np.ndarray, how: str) -> list[float]:
+    """The extreme (``how``: "min", else the maximum) of the finite values of each stretch
+    between two edges (a stretch of no sample: the sample at its start; none finite: NaN)."""
+    starts = edges[:-1]
+    if values.ndim == 1 and starts.size and starts[0] == 0 and edges[-1] == values.size \
+            and np.all(np.diff(edges) > 0):
+        # contiguous stretches covering the values: one reduction over all of them
+        finite = np.where(np.isfinite(values), values, np.nan)
+        with np.errstate(invalid="ignore"):
+            extremes = (np.fmin if how == "min" else np.fmax).reduceat(finite, starts)
+        return [float(value) for value in extremes]
     out = []
     for start, stop in itertools.pairwise(edges):
         chunk = values[start:max(stop, start + 1)]
@@ -109,6 +119,17 @@ def _reduce(values: np.ndarray, edges: np.ndarray, how: str) -> list[float]:
             out.append(math.nan)
         else:
             out.append(float(finite.min() if how == "min" else finite.max()))
+    return out
+
+
+def _across(values: np.ndarray, how: str) -> np.ndarray:
+    """Per sample the minimum (``how`` "min") or maximum over the wheels, (samples, wheels)
+    → (samples,); NaN where a wheel is NaN, as ``np.min``/``np.max`` over the axis, whose
+    reduction of four columns is several times slower than combining them."""
+    combine = np.minimum if how == "min" else np.maximum
+    out = np.array(values[:, 0], dtype=float)
+    for column in range(1, values.shape[1]):
+        combine(out, values[:, column], out=out)
     return out
 
 
@@ -151,8 +172,7 @@ def run_series(signals: Mapping[str, np.ndarray], row: int, risk: np.ndarray,
             base = np.asarray(reference[spec.signal], dtype=float)[:valid]
             values = np.abs(values - base)
         elif values.ndim > 1:
-            values = (np.min(values, axis=1) if spec.reduce == "min"
-                      else np.max(np.abs(values), axis=1))
+            values = _across(values if spec.reduce == "min" else np.abs(values), spec.reduce)
         elif spec.reduce == "max":
             values = np.abs(values)
         out["series"][spec.key] = _rounded(_reduce(values * spec.scale, edges, spec.reduce))
@@ -174,7 +194,12 @@ class CellRuns:
             dominant: np.ndarray, embedded: set[int]) -> None:
         """Add a chunk: ``rows`` its path run numbers, ``dominant`` each run's dominant index
         (-1 none)."""
-        local, cells, values = run_cell_maxima(self.grid, x, y, risk)
+        self.add_maxima(rows, run_cell_maxima(self.grid, x, y, risk), dominant, embedded)
+
+    def add_maxima(self, rows: np.ndarray, maxima: tuple[np.ndarray, np.ndarray, np.ndarray],
+                   dominant: np.ndarray, embedded: set[int]) -> None:
+        """Add a chunk by its :func:`run_cell_maxima` on this grid (as :meth:`add`)."""
+        local, cells, values = maxima
         if cells.size == 0:
             return
         runs = rows[local]

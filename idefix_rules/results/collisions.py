@@ -176,10 +176,11 @@ def contact_intervals(contact: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 
 def contact_from_intervals(table: np.ndarray, rows: np.ndarray, samples: int,
-                           shape: tuple[int, int] = (3, 3)) -> np.ndarray:
-    """``collision.contact`` of runs ``rows`` ((runs, samples, part, level) int8) from the
-    stored table of intervals (:func:`contact_intervals`)."""
-    out = np.zeros((rows.size, samples, *shape), dtype=np.int8)
+                           shape: tuple[int, int] = (3, 3), dtype: Any = np.int8
+                           ) -> np.ndarray:
+    """``collision.contact`` of runs ``rows`` ((runs, samples, part, level), int8 unless
+    ``dtype`` says otherwise) from the stored table of intervals (:func:`contact_intervals`)."""
+    out = np.zeros((rows.size, samples, *shape), dtype=dtype)
     if table.size:
         position = {int(run): index for index, run in enumerate(rows)}
         for run, part, level, first, stop, value in np.asarray(table):
@@ -367,7 +368,9 @@ class StoredChunks:
         for key, values in self.stored.items():
             if key == "collision.contact":
                 samples = next(iter(signals.values())).shape[1]
-                picked[key] = contact_from_intervals(values, rows, samples)
+                # as float64, the type an evaluation computes with: no int8 copy converted
+                # then (the zeros cost nothing until they are read)
+                picked[key] = contact_from_intervals(values, rows, samples, dtype=np.float64)
             else:
                 picked[key] = values[rows]
         return {**picked, **self.areas(signals)}, []

@@ -46,6 +46,9 @@ from idefix_rules.results.runs import (
 
 # Signals read whenever stored: a run's time and energy, whether its chain finished.
 RUN_SIGNALS = frozenset({"command", "done", "energy", "t"})
+# Of those, what derived signals use when stored (a run's progress along its chain), read
+# for the per-sample values too.
+PROGRESS_SIGNALS = frozenset({"command", "done", "t"})
 # The signals of a path's first pass (reductions over runs) are kept for the evaluation
 # pass when they take at most this many bytes, and read again otherwise: memory stays
 # bounded whatever the run count.
@@ -58,22 +61,34 @@ class ScoredChunk:
 
     rows: np.ndarray  # the path's run numbers, axis 0 of everything below
     signals: dict[str, np.ndarray]  # the stored signals read
-    evaluations: list[Any | None]  # per rulebook (None: not scored)
+    evaluations: list[Any | None]  # per rulebook (None: not scored, or per-sample only)
     # per rulebook: its collision signals and per-run collision details (None: it reads none)
     collisions: list[tuple[dict[str, np.ndarray], list[dict[str, Any]]] | None] = field(
         default_factory=list)
+    # per rulebook, scored with ``per_run=False``: each index's normalised per-sample value
+    samples: list[dict[str, np.ndarray] | None] = field(default_factory=list)
+    # per rulebook, the derived signals it was scored on (DerivedSignals, each signal it
+    # computed kept; None: not scored): a caller derives more from them without computing
+    # those again
+    sources: list[Any | None] = field(default_factory=list)
 
 
 def signals_to_read(evaluators: Iterable[Any | None], extra: Iterable[str] = (),
-                    poses: bool = False) -> set[str]:
+                    poses: bool = False, per_run: bool = True) -> set[str]:
     """What a chunk must hold for ``evaluators``: the signals they read (required and
     optional), a run's time, energy and end, the height a global error adds to a position,
-    ``extra``, and the poses when the obstacle checker runs on them."""
-    keys = set(RUN_SIGNALS) | set(extra)
+    ``extra``, and the poses when the obstacle checker runs on them. ``per_run=False``:
+    only what their per-sample values read (no energy, no signal of a chance alone, the
+    height only when they read a global error)."""
+    keys = set(RUN_SIGNALS if per_run else PROGRESS_SIGNALS) | set(extra)
     for evaluator in evaluators:
-        if evaluator is not None:
+        if evaluator is None:
+            continue
+        if per_run:
             keys |= set(evaluator.required_signals) | set(evaluator.optional_signals)
-    if "x" in keys:
+        else:
+            keys |= set(evaluator.sample_signals) | set(evaluator.sample_optional_signals)
+    if per_run and "x" in keys:
         keys.add("z")
     if poses:
         keys |= set(POSE_SIGNALS)
@@ -201,15 +216,20 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
 
 def _evaluate(evaluators: Sequence[Any | None], signals: dict[str, np.ndarray],
               collided: list[tuple[dict[str, np.ndarray], list[dict[str, Any]]] | None],
-              context: Any, across: Sequence[Any], per_sample: bool) -> list[Any | None]:
-    """One chunk under every rulebook. Rulebooks with equal derived settings and the same
-    collision signals share one signal source: derived signals are computed once, and so is
-    every index value or chance the rulebooks write the same."""
+              context: Any, across: Sequence[Any], per_sample: bool, per_run: bool = True
+              ) -> tuple[list[Any | None], list[Any | None]]:
+    """One chunk under every rulebook: each one's evaluation and derived-signal source.
+    Rulebooks with equal derived settings and the same collision signals share one signal
+    source: derived signals are computed once, and so is every index value or chance the
+    rulebooks write the same. ``per_run=False``: each rulebook's per-sample values only
+    (:meth:`CompiledRulebook.per_sample_values`)."""
     sources: dict[tuple[Any, int], tuple[Any, dict[Any, Any]]] = {}
     out: list[Any | None] = []
+    used: list[Any | None] = []
     for position, evaluator in enumerate(evaluators):
         if evaluator is None:
             out.append(None)
+            used.append(None)
             continue
         extra = collided[position]
         chunk = {**signals, **extra[0]} if extra is not None else signals
@@ -217,14 +237,19 @@ def _evaluate(evaluators: Sequence[Any | None], signals: dict[str, np.ndarray],
         if key not in sources:
             sources[key] = (evaluator.derived_signals(chunk, context), {})
         source, shared = sources[key]
+        used.append(source)
+        if not per_run:
+            out.append(evaluator.per_sample_values(chunk, context, source=source,
+                                                   across=across[position]))
+            continue
         out.append(evaluator.evaluate(chunk, context, per_sample=per_sample, source=source,
                                       shared=shared, across=across[position]))
-    return out
+    return out, used
 
 
 def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
                  context: Any, collisions: Sequence[ChunkCollisions | None] = (), *,
-                 keys: Iterable[str] = (), per_sample: bool = False,
+                 keys: Iterable[str] = (), per_sample: bool = False, per_run: bool = True,
                  chunk_runs: int = DEFAULT_CHUNK_RUNS, within: slice | None = None,
                  workers: int = 1, threads: int = 1,
                  timings: dict[str, float] | None = None) -> Iterator[ScoredChunk]:
@@ -234,7 +259,10 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
     ``collisions``: per rulebook, what gives a chunk its collision signals (a checker or the
     stored ones; None or missing: it reads none); one checker shared by several rulebooks
     checks each chunk once. ``keys``: signals to read besides those the rulebooks read.
-    ``per_sample``: keep the per-sample values (the report's maps). ``workers`` > 1: the
+    ``per_sample``: keep the per-sample values (the report's maps). ``per_run=False``:
+    compute nothing else (``evaluations`` hold None, ``samples`` each rulebook's per-sample
+    values): no per-run value, chance, time or energy, only the signals the per-sample values
+    read, and no first pass unless they reduce over runs. ``workers`` > 1: the
     collision checks run in that many forked processes (one checker only); ``threads`` > 1:
     that many chunks are evaluated at the same time. ``timings`` adds the seconds spent
     reading, checking collisions and evaluating (waiting for it, when on threads).
@@ -252,34 +280,40 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
     sources = list(collisions) + [None] * (len(evaluators) - len(collisions))
     checkers = {id(source): source for source in sources if source is not None}
     first = _FirstPass(evaluators)
-    if any(getattr(e, "runs_reductions", ()) for e in evaluators if e is not None):
+    reductions = "runs_reductions" if per_run else "sample_runs_reductions"
+    if any(getattr(e, reductions, ()) for e in evaluators if e is not None):
         mark = time.perf_counter()
         every = complete_rows(status)
         first.run(reader, name, context, every, chunk_runs,
                   keep=within is None or np.array_equal(every, rows))
         timings["read"] += time.perf_counter() - mark
     needs_poses = any(not _is_stored(source) for source in checkers.values())
-    wanted = signals_to_read(evaluators, keys, needs_poses)
+    wanted = signals_to_read(evaluators, keys, needs_poses, per_run)
     chunks = _read_chunks(reader, name, rows, wanted, chunk_runs, first, timings)
     checked = _with_sources(chunks, sources, checkers, workers, timings)
     pool = ThreadPoolExecutor(threads, thread_name_prefix="results-score") if threads > 1 \
         else None
     pending: deque[tuple[np.ndarray, dict[str, np.ndarray], list[Any], Future[Any]]] = deque()
 
-    def submit(signals: dict[str, np.ndarray], collided: list[Any]) -> Future[Any]:
-        arguments = (evaluators, signals, collided, context, first.across, per_sample)
+    def submit(signals: dict[str, np.ndarray], collided: list[Any]
+               ) -> Future[tuple[list[Any | None], list[Any | None]]]:
+        arguments = (evaluators, signals, collided, context, first.across, per_sample,
+                     per_run)
         if pool is not None:
             return pool.submit(_evaluate, *arguments)
-        future: Future[Any] = Future()
+        future: Future[tuple[list[Any | None], list[Any | None]]] = Future()
         future.set_result(_evaluate(*arguments))
         return future
 
     def done() -> ScoredChunk:
         done_rows, done_signals, collided, future = pending.popleft()
         mark = time.perf_counter()
-        evaluations = future.result()
+        evaluations, used = future.result()
         timings["evaluate"] += time.perf_counter() - mark
-        return ScoredChunk(done_rows, done_signals, evaluations, collided)
+        if not per_run:
+            return ScoredChunk(done_rows, done_signals, [None] * len(evaluations), collided,
+                               evaluations, used)
+        return ScoredChunk(done_rows, done_signals, evaluations, collided, sources=used)
 
     try:
         for part, signals, collided in checked:

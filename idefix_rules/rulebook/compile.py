@@ -210,6 +210,22 @@ class CompiledRulebook:
             set().union(*(inputs_of(name) | optional_inputs_of(name) for name in across_read))
             | {"t", "command"} | (OWN_SAMPLES_INPUTS if across_counting else set())
             if self.runs_reductions else ())
+        # What the per-sample values alone need (per_sample_values): the result map's
+        # signals and reductions over runs, a subset of the whole evaluation's.
+        sample_forms = [sample for _, sample in forms]
+        self.sample_runs_reductions: tuple[Reduce, ...] = runs_reductions(sample_forms)
+        sample_read = set(self._signals_read(*sample_forms))
+        self.sample_signals: frozenset[str] = frozenset(
+            set().union(*(inputs_of(name) for name in sample_read)) | {"t"})
+        # (the height adds to a global error when the runs hold it; a reduction left in a
+        # per-sample form that counts a run's own samples reads where the runs end)
+        sample_counting = any(any_counts_own_samples(form, self.constants)
+                              for form in sample_forms)
+        self.sample_optional_signals: frozenset[str] = frozenset(
+            set().union(*(optional_inputs_of(name) for name in sample_read),
+                        {"z"} if "global_error" in sample_read else set(),
+                        OWN_SAMPLES_INPUTS if sample_counting else set())
+            - self.sample_signals if sample_read else ())
 
     def __reduce__(self) -> tuple[type[CompiledRulebook], tuple[CheckedRulebook]]:
         """Pickle as the checked model and compile again on loading (closures do not pickle),
@@ -268,17 +284,18 @@ class CompiledRulebook:
 
         Call it on every chunk of a path's complete runs (``into`` the same accumulator), then
         pass the accumulator to :meth:`evaluate` of each chunk. ``source`` as in
-        :meth:`evaluate`.
+        :meth:`evaluate`. An ``into`` made for some of the reductions
+        (``AcrossRuns(self.sample_runs_reductions)``) folds only those.
         """
         across = into if into is not None else AcrossRuns(self.runs_reductions)
-        if not self.runs_reductions:
+        if not across.accumulators:
             return across
         if source is None:
             source = self.derived_signals(signals, context)
         frame = Frame(source=source)
         with np.errstate(all="ignore"):
-            for node, operand in self._runs_operands.items():
-                across.accumulators[node].add(runs_first(operand(frame), source.runs))
+            for node, accumulator in across.accumulators.items():
+                accumulator.add(runs_first(self._runs_operands[node](frame), source.runs))
         return across
 
     def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
@@ -341,8 +358,7 @@ class CompiledRulebook:
                 values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit,
                                                                    index.nominal))
                 if per_sample:
-                    sample = per_run_sample(index.per_sample(frame), runs, samples)
-                    sample_values[index.name] = _normalise(sample, index.limit, index.nominal)
+                    sample_values[index.name] = _sample_value(index, frame, runs, samples)
                 else:
                     sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
@@ -362,6 +378,30 @@ class CompiledRulebook:
             weighted=weighted, i_max=stacked.max(axis=0), dominant=dominant,
             dominant_sample=dominant_sample, chance_names=self.chance_names, chances=chances,
             time=time, energy=energy)
+
+    def per_sample_values(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
+                          source: DerivedSignals | None = None,
+                          across: AcrossRuns | Mapping[Reduce, np.ndarray] | None = None
+                          ) -> dict[str, np.ndarray]:
+        """Each index's normalised per-sample value, (runs, samples): ``evaluate(...)
+        .per_sample`` and nothing else (no per-run value, chance, time or energy), for
+        callers that draw per sample (the report's result maps). It reads only
+        :attr:`sample_signals` (and :attr:`sample_optional_signals` when given); ``across``
+        is needed only for :attr:`sample_runs_reductions`. ``source`` as in
+        :meth:`evaluate`."""
+        if source is None:
+            source = self.derived_signals(signals, context)
+        elif source.settings != self.derived_settings:
+            raise ValueError("a shared signal source needs equal derived settings")
+        if across is None and self.sample_runs_reductions:
+            across = self.across_runs(signals, context, source=source,
+                                      into=AcrossRuns(self.sample_runs_reductions))
+        frame = Frame(source=source, across=finished(across) if across is not None else {})
+        with np.errstate(all="ignore"):
+            values = {index.name: _sample_value(index, frame, source.runs, source.samples)
+                      for index in self._indices}
+        frame.memo.clear()
+        return values
 
     @staticmethod
     def _time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
@@ -415,6 +455,12 @@ class CompiledRulebook:
 
 
 _FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals
+
+
+def _sample_value(index: _Index, frame: Frame, runs: int, samples: int) -> np.ndarray:
+    """An index's normalised per-sample value, (runs, samples)."""
+    sample = per_run_sample(index.per_sample(frame), runs, samples)
+    return _normalise(sample, index.limit, index.nominal)
 
 
 def _normalise(value: np.ndarray, limit: float, nominal: float | None) -> np.ndarray:

@@ -176,6 +176,21 @@ class DerivedSignals:
             self._cache[name] = cached
         return cached
 
+    def last(self, name: str) -> np.ndarray:
+        """``get(name)`` at the last sample, (runs, …): the theoretical path and the errors
+        against it and the reference run are computed at that sample only (a run's final
+        errors), every other signal is taken from :meth:`get`."""
+        if name in ("theory.x", "theory.y", "theory.yaw"):
+            x, y, yaw = self._theory(last=True)
+            return {"theory.x": x, "theory.y": y, "theory.yaw": yaw}[name][:, -1]
+        if name == "local_error":
+            x, y, _ = self._theory(last=True)
+            return np.asarray(np.hypot(self.get("x")[:, -1] - x[:, -1],
+                                       self.get("y")[:, -1] - y[:, -1]))
+        if name == "heading_error":
+            return wrap_angle(self.get("yaw")[:, -1] - self.get("ref.yaw")[:, -1])
+        return np.asarray(self.get(name))[:, -1]
+
     # ------------------------------------------------------------------ sources
     def _given(self, name: str) -> np.ndarray:
         if name not in self._signals:
@@ -365,14 +380,18 @@ class DerivedSignals:
         x, y = self.get("x")[:, :1], self.get("y")[:, :1]
         return x, y, self.get("yaw")[:, :1] if self.provides("yaw") else np.zeros_like(x)
 
-    def _theory(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _theory(self, last: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The theoretical pose at every sample, (runs, samples); ``last``: at the last
+        sample only, (runs, 1) (each sample's pose depends on its own progress alone)."""
         active, since = self._command_progress()
+        if last:
+            active, since = active[:, -1:], since[:, -1:]
         chain, rover = self.context.chain, self.context.rover
         scale = 1.0 - self.settings.theoretical_slip
         # Start pose of every command in the path's own frame (start at the origin).
         ideal_starts = np.cumsum([0.0] + [command_kinematics(c, rover).duration for c in chain])
         command_starts = ideal_poses(chain, rover, ideal_starts, scale=scale)
-        local = np.empty((3, self.runs, self.samples))
+        local = np.empty((3, *active.shape))
         local[:, active < 0] = 0.0
         for k, command in enumerate(chain):
             mask = active == k

@@ -2,17 +2,23 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.report.riskmap import (
+    MAX_SUBSAMPLES,
     RiskAccumulator,
     RiskGrid,
     cell_size_for,
     grid_covering,
     per_sample_risk,
     rasterise,
+    run_cell_maxima,
 )
 
 NAN = float("nan")
@@ -84,10 +90,63 @@ def test_rasterise_carries_the_nearer_sample_risk() -> None:
     assert pr.tolist() == [0.1, 0.7, 0.7, 0.3, 0.3]
 
 
+def _rasterised_run_by_run(x, y, risk, spacing):
+    """The rasterising written out sample by sample: the definition the fast one keeps."""
+    points = []
+    for run in range(x.shape[0]):
+        for i in range(x.shape[1]):
+            ok = all(math.isfinite(v[run, i]) for v in (x, y, risk))
+            if not ok:
+                continue
+            points.append((run, x[run, i], y[run, i], risk[run, i]))
+            if i + 1 == x.shape[1] or not all(math.isfinite(v[run, i + 1])
+                                              for v in (x, y, risk)):
+                continue
+            dx, dy = x[run, i + 1] - x[run, i], y[run, i + 1] - y[run, i]
+            length = float(np.hypot(dx, dy))
+            steps = min(max(math.ceil(length / spacing - 1e-9), 1), MAX_SUBSAMPLES)
+            for j in range(1, steps):
+                fraction = j / steps
+                points.append((run, x[run, i] + fraction * dx, y[run, i] + fraction * dy,
+                               risk[run, i + 1] if fraction >= 0.5 else risk[run, i]))
+    return points
+
+
+finite_or_not = st.one_of(st.floats(-3.0, 6.0), st.just(NAN))
+
+
+@given(st.integers(1, 3).flatmap(lambda runs: st.integers(1, 12).flatmap(
+    lambda samples: st.tuples(*(st.lists(st.lists(finite_or_not, min_size=samples,
+                                                  max_size=samples),
+                                         min_size=runs, max_size=runs)
+                                for _ in range(3))))))
+def test_rasterise_and_run_maxima_follow_their_definition(tracks) -> None:
+    x, y, risk = (np.array(values, dtype=float) for values in tracks)
+    risk = np.abs(risk) / 6.0
+    run, px, py, pr = rasterise(x, y, risk, 0.5)
+    assert list(zip(run.tolist(), px.tolist(), py.tolist(), pr.tolist(), strict=True)) == \
+        [tuple(float(v) if i else int(v) for i, v in enumerate(point))
+         for point in _rasterised_run_by_run(x, y, risk, 0.5)]
+    # every (run, cell) the points visit once, with the run's largest risk there
+    maxima: dict[tuple[int, int], float] = {}
+    cells = GRID.cell_index(px, py)
+    for r, cell, value in zip(run.tolist(), cells.tolist(), pr.tolist(), strict=True):
+        if cell >= 0:
+            maxima[(r, cell)] = max(maxima.get((r, cell), -1.0), min(max(value, 0.0), 1.0))
+    runs, flat, values = run_cell_maxima(GRID, x, y, risk)
+    assert list(zip(runs.tolist(), flat.tolist(), values.tolist(), strict=True)) == \
+        [(r, cell, value) for (r, cell), value in sorted(maxima.items())]
+
+
 def test_per_sample_risk_is_the_weighted_maximum() -> None:
     risk = per_sample_risk({"I_s": np.array([[0.5, 1.0]]), "I_obs": np.array([[0.9, 0.0]])},
                            {"I_s": 0.8, "I_obs": 1.0})
     np.testing.assert_allclose(risk, [[0.9, 0.8]])
+    # a NaN stays NaN whatever the other indices say; a value the same for every sample
+    # (broadcast, read only) is taken as it is
+    risk = per_sample_risk({"I_a": np.broadcast_to(np.array([[0.3]]), (1, 3)),
+                            "I_b": np.array([[NAN, 0.1, 2.0]])}, {"I_a": 1.0, "I_b": 1.0})
+    np.testing.assert_array_equal(risk, [[NAN, 0.3, 1.0]])
 
 
 def test_cell_size_follows_the_rover_and_the_grid_stays_bounded() -> None:

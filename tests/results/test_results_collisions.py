@@ -27,6 +27,10 @@ def test_contacts_come_back_from_their_intervals(contact: np.ndarray) -> None:
     some = rows[::2]
     np.testing.assert_array_equal(contact_from_intervals(table, some, contact.shape[1]),
                                   contact[::2])
+    # as the scoring takes them: float64, the type the evaluation computes with
+    as_float = contact_from_intervals(table, rows, contact.shape[1], dtype=np.float64)
+    assert as_float.dtype == np.float64
+    np.testing.assert_array_equal(as_float, contact.astype(np.float64))
 
 
 @given(st.integers(1, 400), st.integers(0, 399))

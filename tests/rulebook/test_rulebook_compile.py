@@ -411,3 +411,51 @@ def test_rover_geometry_ramp_matches_the_fmu_parameter_default():
     from idefix_rules.fmu.variables import VARIABLES_BY_NAME
     assert RoverGeometry().wheel_acceleration == \
         VARIABLES_BY_NAME["controller.wheel_acceleration"].start
+
+
+# ---------------------------------------------------------------- per-sample values alone
+def test_per_sample_values_are_the_evaluations_and_read_only_their_signals():
+    checked = rulebook("""
+settings { tolerance_growth = 5 cm/rad }
+index I_pos { value = final over time (global_error / tolerance_radius) limit = 1 weight = 1 }
+index I_s { value = percentile 95 over time (max over wheels (abs(wheel.slip))) limit = 1
+            weight = 1 }
+chance fast = max over time (speed) > 1 cm/s
+chance far = final over time (mean over runs (x)) > 1 m
+""")
+    evaluator = compile_rulebook(checked)
+    signals, context = batch(3, x=X3, wheel__slip=np.full((3, 6, 4), 0.25))
+    signals["z"] = np.tile([0.0, 0.0, 0.01, 0.02, 0.02, 0.02], (3, 1))
+    # the chances read x and y and reduce over runs; the per-sample values read no more than
+    # their own signals (z, which a global error adds when stored), and nothing over runs
+    assert evaluator.sample_signals == {"t", "x", "y", "wheel.slip"}
+    assert evaluator.sample_optional_signals == {"z"}
+    assert evaluator.sample_runs_reductions == ()
+    read = {name: signals[name] for name in ("t", "command", "x", "y", "z", "wheel.slip")}
+    alone = evaluator.per_sample_values(read, context)
+    whole = evaluator.evaluate(signals, context).per_sample
+    assert alone.keys() == whole.keys()
+    for name, values in whole.items():
+        np.testing.assert_array_equal(alone[name], values, err_msg=name)
+
+
+def test_per_sample_values_of_a_path_level_map_use_the_values_over_runs():
+    checked = rulebook("index I_m {\n  value = final over time (abs(x))\n  limit = 1 m\n"
+                       "  weight = 1\n  map = abs(mean over runs (x))\n}\n"
+                       "chance pitched = max over time (abs(pitch)) > mean over runs "
+                       "(max over time (abs(pitch)))\n")
+    evaluator = compile_rulebook(checked)
+    assert len(evaluator.runs_reductions) == 2 and len(evaluator.sample_runs_reductions) == 1
+    signals, context = batch(3, x=X3)
+    whole = evaluator.evaluate(signals, context)
+    # without the pitch only the chance reads, the map's own reduction over runs alone
+    without = {name: values for name, values in signals.items() if name != "pitch"}
+    np.testing.assert_array_equal(evaluator.per_sample_values(without, context)["I_m"],
+                                  whole.per_sample["I_m"])
+    # the first chunk's values with the path's mean over all three runs
+    across = evaluator.across_runs(signals, context)
+    chunk = {name: values[:1] for name, values in signals.items()}
+    np.testing.assert_array_equal(evaluator.per_sample_values(chunk, context, across=across)
+                                  ["I_m"], whole.per_sample["I_m"][:1])
+    np.testing.assert_array_equal(evaluator.per_sample_values(signals, context)["I_m"],
+                                  whole.per_sample["I_m"])

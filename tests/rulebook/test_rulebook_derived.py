@@ -141,3 +141,23 @@ def test_signal_shapes_are_checked():
     run["wheel.slip"] = np.zeros((1, 3, 3))  # three wheels
     with pytest.raises(UserInputError, match=r"wheel\.slip"):
         DerivedSignals(run, RunContext()).get("wheel.slip")
+
+
+def test_the_last_sample_alone_equals_the_whole_signals_last_sample():
+    # two commands, the second started late in run 0; the runs end turned and off the path
+    chain = (Command(0.1, 0.04, 0.3), Command(0.1, 0.04, -0.2))
+    t = np.arange(0.0, 14.0)
+    late = np.where(t < 8, 0, np.where(t < 12, 1, -1))
+    running = np.where(t < 4, 0, 1)  # still in its second command at the end
+    reference = {"x": np.linspace(0.0, 0.1, 14), "y": np.zeros(14),
+                 "yaw": np.linspace(0.0, 0.5, 14), "z": np.zeros(14)}
+    run = run_of(np.tile(t, (2, 1)), np.stack([late, running]),
+                 x=np.tile(np.linspace(0.0, 0.08, 14), (2, 1)),
+                 y=np.tile(np.linspace(0.0, 0.01, 14), (2, 1)),
+                 yaw=np.stack([np.full(14, 3.1), np.full(14, -3.1)]))
+    context = RunContext(chain, ROVER, reference=reference)
+    whole = DerivedSignals(run, context, DerivedSettings(theoretical_slip=0.2))
+    alone = DerivedSignals(run, context, DerivedSettings(theoretical_slip=0.2))
+    for name in ("local_error", "heading_error", "theory.x", "theory.y", "theory.yaw",
+                 "drift"):
+        np.testing.assert_array_equal(alone.last(name), whole.get(name)[:, -1], err_msg=name)

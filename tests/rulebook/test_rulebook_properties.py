@@ -64,6 +64,21 @@ def test_compiled_evaluator_equals_the_per_run_interpreter(model, batch):
 
 @PROPERTY
 @given(rulebooks(), run_batches(non_finite=True))
+def test_per_sample_values_alone_equal_the_evaluations(model, batch):
+    evaluator = compile_rulebook(checked(model))
+    signals, context = batch
+    # only what the per-sample values read, with the progress signals a run holds
+    wanted = evaluator.sample_signals | evaluator.sample_optional_signals | {"command"}
+    alone = evaluator.per_sample_values({k: v for k, v in signals.items() if k in wanted},
+                                        context)
+    whole = evaluator.evaluate(signals, context).per_sample
+    assert alone.keys() == whole.keys()
+    for name, values in whole.items():
+        np.testing.assert_array_equal(alone[name], values, err_msg=name)
+
+
+@PROPERTY
+@given(rulebooks(), run_batches(non_finite=True))
 def test_indices_and_i_max_stay_in_the_unit_interval(model, batch):
     evaluation = compile_rulebook(checked(model)).evaluate(*batch)
     arrays = [evaluation.i_max, *evaluation.values.values(), *evaluation.per_sample.values(),
