@@ -34,6 +34,7 @@ from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.simulate import (
     FmuSource,
     PathPlan,
+    PlannedRuns,
     Progress,
     SimulationOptions,
     SimulationSummary,
@@ -41,11 +42,10 @@ from idefix_rules.campaign.simulate import (
     parameter_info,
     path_stream,
     run_and_store,
-    run_task,
+    sampled_task,
 )
 from idefix_rules.campaign.stopping import settle, stop_reason
 from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
-from idefix_rules.campaign.worker import RunTask
 from idefix_rules.commands import RoverGeometry
 
 NO_COMPLETE_RUN = "stopped: no run of the path completed"
@@ -132,17 +132,13 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                    options: SimulationOptions, progress: Progress,
                    summary: SimulationSummary, pool: Any) -> None:
     """Simulate and store every missing run below ``look`` of the running paths."""
-    tasks: list[tuple[tuple[str, int], RunTask]] = []
-    for name, plan in running.items():
+    rows = {}
+    for name in running:
         # stored before a --resume: skipped; lost to the infrastructure: simulated again
-        again = set(runs_to_simulate(store, name, reset=True).tolist())
-        for run in range(done[name], look):
-            if run not in again:
-                continue
-            parameters = dict(base)
-            parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
-            tasks.append(((name, run), run_task(campaign, fmu, plan, parameters, encode=True)))
-    run_and_store(campaign, tasks, running, store, options, progress, summary, pool)
+        missing = runs_to_simulate(store, name, reset=True)
+        rows[name] = missing[(missing >= done[name]) & (missing < look)]
+    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled)),
+                  running, store, options, progress, summary, pool)
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

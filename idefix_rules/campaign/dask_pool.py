@@ -23,6 +23,7 @@ trouble:
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from collections import Counter
@@ -51,6 +52,10 @@ STALL_MARGIN = 120.0  # s
 POLL = 0.05  # s between looks at the cluster while no run finishes
 HEALTH_CHECK = 5.0  # s between asking the scheduler about its workers
 RESULT_WAIT = 60.0  # s to fetch a finished run's result before it counts as lost
+# Runs submitted at once per worker thread: enough that a thread finds its next run queued,
+# few enough that the runs not yet started are not all held (the parent's memory does not
+# grow with the number of runs).
+IN_FLIGHT_PER_THREAD = 2
 
 
 class ClusterError(InfrastructureError):
@@ -97,24 +102,35 @@ class DaskPool:
             pure=False, retries=0)
 
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
-        """Run every task; yields ``(key, Outcome)`` as each finishes."""
+        """Run every task; yields ``(key, Outcome)`` as each finishes. Tasks are taken from
+        ``tasks`` as runs finish, :data:`IN_FLIGHT_PER_THREAD` per worker thread at most
+        submitted at once (each kept until its outcome, to submit it again if lost)."""
         from dask.distributed import as_completed
 
-        payloads = dict(tasks)
+        pending = iter(tasks)
+        payloads: dict[Hashable, Any] = {}  # of the runs submitted
         keys: dict[Any, Hashable] = {}
         completed: Any = as_completed()  # type: ignore[no-untyped-call]
-        for key, payload in payloads.items():
+        deaths = _Deaths()
+        losses: Counter[Hashable] = Counter()
+        watch = _Watch(self._client, None)
+        limits = _Limits()
+
+        def submit(key: Hashable, payload: Any) -> None:
             future = self._submit(key, payload)
             keys[future] = key
             completed.add(future)
-        limits = [timeout_of(self.run_timeout, key) for key in payloads]
-        stall = None if not limits or None in limits \
-            else max(x for x in limits if x is not None) + STALL_MARGIN
-        deaths = _Deaths()
-        losses: Counter[Hashable] = Counter()
-        watch = _Watch(self._client, stall)
+
+        def top_up() -> None:
+            room = IN_FLIGHT_PER_THREAD * max(self.size, watch.threads) - len(keys)
+            for key, payload in itertools.islice(pending, max(0, room)):
+                payloads[key] = payload
+                watch.stall = limits.add(timeout_of(self.run_timeout, key))
+                submit(key, payload)
+
         finished = False
         try:
+            top_up()
             while keys:
                 batch = completed.next_batch(block=False)
                 if not batch:
@@ -127,11 +143,13 @@ class DaskPool:
                     outcome = self._outcome(future, key, deaths, losses)
                     future.release()
                     if outcome is None:  # lost to the cluster: run it again
-                        again = self._submit(key, payloads[key])
-                        keys[again] = key
-                        completed.add(again)
+                        submit(key, payloads[key])
                         continue
+                    del payloads[key]
+                    deaths.forget(key)
+                    losses.pop(key, None)
                     yield key, outcome
+                top_up()
             finished = True
         finally:
             if not (self.persistent and finished):
@@ -175,6 +193,25 @@ class DaskPool:
             self._cluster.close()
 
 
+class _Limits:
+    """The largest run timeout among the runs submitted so far (None once one has none):
+    how long the cluster may go without finishing a run, plus :data:`STALL_MARGIN`."""
+
+    def __init__(self) -> None:
+        self.largest: float | None = None
+        self.unlimited = False
+
+    def add(self, timeout: float | None) -> float | None:
+        """Count a submitted run's timeout; the stall limit that follows (None: none)."""
+        if timeout is None:
+            self.unlimited = True
+        else:
+            self.largest = timeout if self.largest is None else max(self.largest, timeout)
+        if self.unlimited or self.largest is None:
+            return None
+        return self.largest + STALL_MARGIN
+
+
 class _Deaths:
     """The deaths of each run's processes: its child killed from outside, its Dask worker lost.
     A run is submitted again until they reach :data:`MAX_WORKER_DEATHS`."""
@@ -191,6 +228,11 @@ class _Deaths:
     def worker_died(self, key: Hashable, times: int) -> Outcome | None:
         """Its Dask worker died ``times`` times (``KilledWorker``)."""
         return self._after(key, times)
+
+    def forget(self, key: Hashable) -> None:
+        """The run has its outcome: its deaths are no longer needed."""
+        self.count.pop(key, None)
+        self.signals.pop(key, None)
 
     def _after(self, key: Hashable, times: int) -> Outcome | None:
         self.count[key] += times
@@ -212,6 +254,7 @@ class _Watch:
         self.last_progress = time.monotonic()
         self.last_check = 0.0
         self.no_workers_since: float | None = None
+        self.threads = 0  # the cluster's worker threads when last asked
 
     def progress(self) -> None:
         self.last_progress = time.monotonic()
@@ -230,6 +273,7 @@ class _Watch:
             workers = self.client.scheduler_info(n_workers=-1).get("workers", {})
         except (OSError, TimeoutError) as failure:
             raise ClusterError(f"the Dask scheduler does not answer: {failure}") from None
+        self.threads = sum(int(worker.get("nthreads", 0) or 0) for worker in workers.values())
         if workers:
             self.no_workers_since = None
         elif self.no_workers_since is None:

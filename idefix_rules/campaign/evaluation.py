@@ -197,7 +197,8 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
     parts = []
-    hits, buffers, details, contacts, profiles = [], [], [], [], []
+    hits, buffers, contacts, profiles = [], [], [], []
+    details: list[tuple[np.ndarray, np.ndarray]] = []  # per chunk: rows, their JSON texts
     finished: list[np.ndarray | None] = []
     runs = ParallelRuns(store)
     try:
@@ -209,7 +210,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
                 extra, chunk_details = collided
                 hits.append(extra.get("collision.hits"))
                 buffers.append(extra.get("collision.buffer"))
-                details.extend(chunk_details)
+                details.append((chunk.rows, detail_texts(chunk_details)))
                 # kept small: the contacts as intervals, the clearance as a profile
                 if "collision.contact" in extra:
                     contacts.append(contact_intervals(extra["collision.contact"], chunk.rows))
@@ -233,6 +234,16 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["clearance_profile"] = np.concatenate(profiles) \
             if profiles and len(profiles) == len(parts) else None
     return evaluation, extra_store
+
+
+def detail_texts(records: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """A chunk's per-run collision details as the JSON text the evaluation stores (UTF-8
+    bytes, one row per run): kept this way, not as nested dicts, until the path is written.
+
+    >>> detail_texts([{"run": 3, "hits": {"wheel": []}}])
+    array([b'{"run": 3, "hits": {"wheel": []}}'], dtype='|S33')
+    """
+    return np.array([json.dumps(record).encode("utf-8") for record in records], dtype=bytes)
 
 
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,
@@ -467,10 +478,7 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         array(collisions, "hits", full(extra["hits"]))
         if extra.get("buffer") is not None:
             array(collisions, "buffer", full(extra["buffer"]))
-        texts = [""] * runs
-        for row, record in zip(rows, extra.get("details", []), strict=False):
-            texts[int(row)] = json.dumps(record)
-        collisions.create_dataset("details", data=texts, dtype=h5py.string_dtype("utf-8"))
+        _write_details(collisions, runs, extra.get("details", []))
         if extra.get("contact") is not None:  # per-sample contacts as intervals (format 5)
             table = collisions.create_dataset("contact", data=extra["contact"])
             table.attrs["columns"] = list(CONTACT_COLUMNS)
@@ -483,3 +491,17 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
     # summary (report) still tells a waived path from a passing one
     target.attrs[STORED_ATTRIBUTE] = to_store("", waived)
     store.file.flush()
+
+
+def _write_details(group: h5py.Group, runs: int,
+                   chunks: Sequence[tuple[np.ndarray, np.ndarray]]) -> None:
+    """The per-run collision details (``""`` for a run without), written a chunk of runs at a
+    time so that only one chunk's texts are ever Python strings."""
+    dataset = group.create_dataset("details", shape=(runs,), dtype=h5py.string_dtype("utf-8"))
+    for rows, texts in chunks:
+        if not len(rows):
+            continue
+        first, stop = int(rows[0]), int(rows[-1]) + 1
+        block = np.full(stop - first, "", dtype=object)
+        block[np.asarray(rows) - first] = [text.decode("utf-8") for text in texts]
+        dataset[first:stop] = block

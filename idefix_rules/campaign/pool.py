@@ -99,7 +99,9 @@ class LocalPool:
         self._workers.remove(worker)
 
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
-        """Run every task; yields ``(key, Outcome)`` as each finishes."""
+        """Run every task; yields ``(key, Outcome)`` as each finishes. A task is taken from
+        ``tasks`` when a worker is free for it: at most one per worker is held at a time
+        (and those a kill from outside sends round again)."""
         pending = iter(tasks)
         exhausted = False
         again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside
@@ -139,6 +141,7 @@ class LocalPool:
                             again.append((key, payload))
                             continue
                         outcome = Outcome(False, None, killed_reason(signals))
+                    kills.pop(key, None)
                     yield key, outcome
         finally:
             if not (self.persistent and finished):  # stopped early: busy workers end now

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import heapq
 import json
 import math
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -144,7 +145,7 @@ def open_pool(function: Any, options: SimulationOptions, campaign: Campaign,
 
 
 @contextlib.contextmanager
-def _map(pool: Any, tasks: list[tuple[Any, RunTask]], close: bool = True
+def _map(pool: Any, tasks: Iterable[tuple[Any, RunTask]], close: bool = True
          ) -> Iterator[Iterator[tuple[Any, Outcome]]]:
     """The pool's results; on any exit (Ctrl-C included) busy workers are ended at once.
     ``close``: close the pool after its last result too (a persistent pool stays open)."""
@@ -497,28 +498,72 @@ def path_stream(campaign: Campaign, name: str) -> sampling.Stream:
 def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
                  progress: Progress, summary: SimulationSummary) -> None:
-    tasks: list[tuple[tuple[str, int], RunTask]] = []
     base = {**fmu_parameters, **nominal_parameters(campaign)}
+    by_name = {plan.spec.name: plan for plan in plans}
+    sampled: dict[str, dict[str, np.ndarray]] = {}
+    rows: dict[str, np.ndarray] = {}
     for plan in plans:
         if plan.status != "simulated" or plan.reference is None:
             continue
         name = plan.spec.name
-        sampled = sampling.sample_path(campaign.model.uncertainty.parameters,
-                                       campaign.model.uncertainty.method, campaign.seed,
-                                       path_stream(campaign, name), campaign.runs)
+        sampled[name] = sampling.sample_path(campaign.model.uncertainty.parameters,
+                                             campaign.model.uncertainty.method, campaign.seed,
+                                             path_stream(campaign, name), campaign.runs)
         # created, or (resumed) taken up for the blocks of rows still to allocate
         shapes = {key: tuple(np.shape(value)) for key, value in plan.reference.items()}
-        store.allocate_runs(name, campaign.runs, shapes, sampled,
-                            parameter_info(campaign, list(sampled)))
-        missing = resuming.runs_to_simulate(store, name, reset=True)
-        progress.start_path(name, campaign.runs, campaign.runs - len(missing))
-        for run in missing:
-            parameters = dict(base)
-            parameters.update({key: float(values[run]) for key, values in sampled.items()})
-            tasks.append(((name, int(run)), run_task(campaign, fmu, plan, parameters,
-                                                     encode=True)))
-    run_and_store(campaign, tasks, {plan.spec.name: plan for plan in plans}, store, options,
-                  progress, summary)
+        store.allocate_runs(name, campaign.runs, shapes, sampled[name],
+                            parameter_info(campaign, list(sampled[name])))
+        rows[name] = resuming.runs_to_simulate(store, name, reset=True)
+        progress.start_path(name, campaign.runs, campaign.runs - len(rows[name]))
+    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, by_name,
+                                                           sampled)),
+                  by_name, store, options, progress, summary)
+
+
+TaskMaker = Callable[[str, int], RunTask]
+
+
+@dataclass(frozen=True)
+class PlannedRuns:
+    """Monte Carlo runs to simulate: per path the rows (run numbers, ascending) and what makes
+    a row's task. Iterating gives ``((path, run), task)`` with each task made only when it is
+    taken, paths interleaved (every row's runs, then the next row's) so every progress bar
+    moves from the start: a pool that takes a task when a worker is free holds a few at a
+    time, whatever the number of runs.
+
+    >>> planned = PlannedRuns({"b": np.array([0, 1]), "a": np.array([1])},
+    ...                       lambda name, run: f"{name}{run}")
+    >>> list(planned), planned.counts()
+    ([(('b', 0), 'b0'), (('a', 1), 'a1'), (('b', 1), 'b1')], {'b': 2, 'a': 1})
+    """
+
+    rows: Mapping[str, np.ndarray]
+    make: TaskMaker
+
+    def counts(self) -> dict[str, int]:
+        """The runs to simulate per path."""
+        return {name: int(np.size(rows)) for name, rows in self.rows.items()}
+
+    def __iter__(self) -> Iterator[tuple[tuple[str, int], RunTask]]:
+        def keys(name: str, rows: np.ndarray) -> Iterator[tuple[int, str]]:
+            for run in rows:
+                yield int(run), name
+
+        for run, name in heapq.merge(*(keys(name, rows) for name, rows in self.rows.items())):
+            yield (name, run), self.make(name, run)
+
+
+def sampled_task(campaign: Campaign, fmu: FmuSource, base: Mapping[str, float | str],
+                 plans: Mapping[str, PathPlan],
+                 sampled: Mapping[str, Mapping[str, np.ndarray]]) -> TaskMaker:
+    """What makes the task of run ``run`` of a path: its chain with the run-independent
+    parameters ``base`` and the run's row of the path's ``sampled`` values."""
+    def make(name: str, run: int) -> RunTask:
+        parameters = dict(base)
+        parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
+        return run_task(campaign, fmu, plans[name], parameters, encode=True)
+
+    return make
 
 
 def monte_carlo_pool(campaign: Campaign, plans: Mapping[str, PathPlan], store: ResultStore,
@@ -530,20 +575,19 @@ def monte_carlo_pool(campaign: Campaign, plans: Mapping[str, PathPlan], store: R
                      persistent=True)
 
 
-def run_and_store(campaign: Campaign, tasks: list[tuple[tuple[str, int], RunTask]],
-                  plans: Mapping[str, PathPlan], store: ResultStore, options: SimulationOptions,
-                  progress: Progress, summary: SimulationSummary, pool: Any = None) -> None:
-    """Simulate Monte Carlo runs ``((path, run), task)`` and store each as it finishes
-    (``plans`` by name give each run's default timeout). ``pool``: a persistent pool
+def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, PathPlan],
+                  store: ResultStore, options: SimulationOptions, progress: Progress,
+                  summary: SimulationSummary, pool: Any = None) -> None:
+    """Simulate Monte Carlo runs and store each as it finishes (``plans`` by name give each
+    run's default timeout). Tasks are made as the pool takes them, never listed: the parent's
+    memory does not grow with the number of runs. ``pool``: a persistent pool
     (:func:`monte_carlo_pool`) to run them on and leave open; else one for these runs."""
-    if not tasks:
+    remaining = Counter({name: count for name, count in tasks.counts().items() if count})
+    if not remaining:
         return
-    # Interleave paths so every progress bar moves from the start.
-    tasks.sort(key=lambda item: (item[0][1], item[0][0]))
     # Room for every run before the first is simulated: each about as large as its path's
     # reference run once stored (docs/operations.md, "Full disk").
     sizes = {name: run_bytes(plan.reference or {}) for name, plan in plans.items()}
-    remaining = Counter(name for (name, _), _ in tasks)
 
     def needed() -> int:
         return sum(sizes[name] * count for name, count in remaining.items())

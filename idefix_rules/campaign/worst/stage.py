@@ -29,9 +29,11 @@ from idefix_rules.campaign.schema import Fixed
 from idefix_rules.campaign.simulate import (
     FmuSource,
     PathPlan,
+    PlannedRuns,
     Progress,
     SimulationOptions,
     SimulationSummary,
+    TaskMaker,
     monte_carlo_pool,
     parameter_info,
     run_and_store,
@@ -126,20 +128,34 @@ class WorstStage:
             batches = {name: batch for name, batch in batches.items() if len(batch[1])}
             if not batches:
                 break
-            tasks: list[tuple[tuple[str, int], RunTask]] = []
+            worlds: dict[str, tuple[int, dict[str, np.ndarray]]] = {}
             for name, (start, points) in batches.items():
-                values = space.values(points)
-                store.set_parameters(name, start, values)
-                for offset in range(len(points)):
-                    world = dict(base)
-                    world.update({key: float(column[offset]) for key, column in values.items()})
-                    tasks.append(((name, start + offset),
-                                  run_task(campaign, fmu, by_name[name], world, encode=True)))
-            run_and_store(campaign, tasks, by_name, store, options, progress, summary, pool)
+                worlds[name] = (start, space.values(points))
+                store.set_parameters(name, start, worlds[name][1])
+            rows = {name: np.arange(start, start + len(points), dtype=np.int64)
+                    for name, (start, points) in batches.items()}
+            make = _world_task(campaign, fmu, base, by_name, worlds)
+            run_and_store(campaign, PlannedRuns(rows, make), by_name, store, options, progress,
+                          summary, pool)
             for name, (start, points) in batches.items():
                 risks, dominants = batch_risks(store, name, evaluator, rover, sigma, collisions,
                                                start, len(points), self.workers)
                 self.searches[name].tell(risks, dominants)
+
+
+def _world_task(campaign: Campaign, fmu: FmuSource, base: Mapping[str, float | str],
+                plans: Mapping[str, PathPlan],
+                worlds: Mapping[str, tuple[int, Mapping[str, np.ndarray]]]
+                ) -> TaskMaker:
+    """What makes the task of run ``run`` of a path: the world at ``run - start`` of the
+    path's batch ``(start, values)`` in ``worlds``."""
+    def make(name: str, run: int) -> RunTask:
+        start, values = worlds[name]
+        world = dict(base)
+        world.update({key: float(column[run - start]) for key, column in values.items()})
+        return run_task(campaign, fmu, plans[name], world, encode=True)
+
+    return make
 
 
 def reference_risk(evaluator: Any, plan: PathPlan, rover: RoverGeometry, sigma: float,
