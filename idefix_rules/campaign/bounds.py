@@ -75,9 +75,9 @@ def unbounded_estimate(values: np.ndarray, alpha_low: float, alpha_high: float,
     def half(alpha: float) -> float:
         if sequential:  # the sequence's half width at 2α puts α on each side
             return asymptotic_half_width(x.size, variance, min(2.0 * alpha, 0.999))
-        from scipy import stats as scipy_stats
+        from scipy.special import stdtrit  # Student's t quantile (scipy.stats.t.ppf)
 
-        return float(scipy_stats.t.ppf(1.0 - alpha, x.size - 1)) * math.sqrt(variance / x.size)
+        return float(stdtrit(x.size - 1, 1.0 - alpha)) * math.sqrt(variance / x.size)
 
     return Estimate(mean, mean - half(alpha_low), mean + half(alpha_high))
 

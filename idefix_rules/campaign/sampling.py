@@ -24,8 +24,6 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
-from scipy import stats
-from scipy.stats import qmc
 
 from idefix_rules.campaign.schema import (
     Fixed,
@@ -37,6 +35,10 @@ from idefix_rules.campaign.schema import (
 )
 
 AnyDistribution = Fixed | Normal | TruncatedNormal | Uniform | LogNormal
+
+# scipy.stats takes about a second to import: it is imported by the functions that draw or
+# transform values, not by those that only read a distribution's nominal value (re-scoring a
+# stored campaign needs only those).
 
 # Keeps inverse CDFs finite at the ends of the unit interval.
 _EDGE = 1e-12
@@ -61,16 +63,20 @@ def standard_deviation(spec: AnyDistribution) -> float:
         return 0.0
     if isinstance(spec, Normal):
         return spec.std
+    if isinstance(spec, Uniform):
+        return (spec.high - spec.low) / math.sqrt(12.0)
+    from scipy import stats
+
     if isinstance(spec, TruncatedNormal):
         low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
         return float(stats.truncnorm.std(low, high, loc=spec.mean, scale=spec.std))
-    if isinstance(spec, Uniform):
-        return (spec.high - spec.low) / math.sqrt(12.0)
     return float(stats.lognorm.std(spec.sigma, scale=spec.median))
 
 
 def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
     """Map uniform numbers in (0, 1) to the distribution."""
+    from scipy import stats
+
     u = np.clip(u, _EDGE, 1.0 - _EDGE)
     if isinstance(spec, Fixed):
         return np.full(u.shape, spec.value)
@@ -94,6 +100,8 @@ def cumulative(spec: AnyDistribution, values: np.ndarray) -> np.ndarray:
     ...                        np.array(3.0))), 3)
     0.75
     """
+    from scipy import stats
+
     values = np.asarray(values, dtype=float)
     if isinstance(spec, Fixed):
         return np.full(values.shape, 0.5)
@@ -162,6 +170,8 @@ def unit_design(method: SamplingMethod, dimensions: int, seed: int, stream: Stre
             design[run_index] = rng.random(dimensions)
         return design
     rng = np.random.default_rng(path_seed(seed, stream))
+    from scipy.stats import qmc
+
     if method == "latin_hypercube":
         return np.asarray(qmc.LatinHypercube(d=dimensions, rng=rng).random(runs))
     exponent = max(0, math.ceil(math.log2(runs)))

@@ -140,15 +140,33 @@ def one_sided_bound(values: np.ndarray, alpha: float, side: str,
         return 0.0 if side == "lower" else 1.0
     bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
     inside, outside = (1.0, 0.0) if side == "lower" else (0.0, 1.0)
-    if first_rejection(x, bets, np.array([outside]), alpha, side)[0] > x.size:
+    if not candidate_rejected(x, bets, outside, alpha, side):
         return outside  # not even the far end is rejected
     for _ in range(BISECTION_STEPS + 10):
         middle = 0.5 * (inside + outside)
-        if first_rejection(x, bets, np.array([middle]), alpha, side)[0] <= x.size:
+        if candidate_rejected(x, bets, middle, alpha, side):
             outside = middle
         else:
             inside = middle
     return float(outside)
+
+
+def candidate_rejected(values: np.ndarray, bets: np.ndarray, candidate: float, alpha: float,
+                       side: str) -> bool:
+    """Whether the ``side`` bettor (``lower`` or ``upper``) rejects one candidate mean by the
+    last of ``values``: ``first_rejection(…)[0] <= values.size``, with the same arithmetic
+    but without the bookkeeping of many candidates, which a bisection asks for forty times
+    (a tenth of the time on a thousand runs)."""
+    if values.size > BLOCK_RUNS:  # capital summed a block at a time: that sum's rounding
+        return bool(first_rejection(values, bets, np.array([candidate]), alpha, side)[0]
+                    <= values.size)
+    if side == "lower":
+        cap = BET_TRUNCATION / candidate if candidate > 0 else math.inf
+        steps = np.log1p(np.minimum(bets, cap) * (values - candidate))
+    else:
+        cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else math.inf
+        steps = np.log1p(-np.minimum(bets, cap) * (values - candidate))
+    return bool(np.any(np.cumsum(steps) >= math.log(1.0 / alpha)))
 
 
 def _last_survivors(x: np.ndarray, bets: np.ndarray, alpha: float) -> tuple[float, float]:

@@ -40,8 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "changes (rank), or never")
     parser.add_argument("--top", type=int, default=5, metavar="N",
                         help="runs whose I_max moved most, per path (default 5)")
-    parser.add_argument("--chunk-runs", type=int, default=128, metavar="N",
-                        help="runs read and evaluated at a time (memory bound; default 128)")
+    parser.add_argument("--chunk-runs", type=int, default=64, metavar="N",
+                        help="runs read and evaluated at a time (memory bound; default 64)")
     parser.add_argument("--threads", type=int, default=2, metavar="N",
                         help="chunks evaluated at the same time (default 2)")
     parser.add_argument("--format", choices=("text", "json", "md"), default="text",

@@ -4,11 +4,12 @@ A results file stores each run of each signal as one chunk, shuffled and deflate
 built-in filters, ``docs/results-format.md``). Through h5py a read decompresses every chunk
 in turn on the calling thread, under h5py's lock. :class:`ParallelRuns` reads the same
 chunks' bytes straight from the file (their places are listed once per dataset) and inflates
-and unshuffles them on worker threads: zlib and numpy's copies release the GIL, so the cores
-share the work, and reading goes on while the evaluation computes. What it gives back equals
-h5py's reading bit for bit (float64 whatever the stored precision); a dataset stored any
-other way is read through h5py, or mapped when it is contiguous float64 (format 1,
-:mod:`idefix_rules.results.mapped`).
+and unshuffles them on worker threads: zlib-ng (the same deflate format as zlib, inflated
+about twice as fast: 1.33 against 0.69 GB/s out on a campaign's chunks, python-isal 1.10) and
+numpy's copies release the GIL, so the cores share the work, and reading goes on while the
+evaluation computes. What it gives back equals h5py's reading bit for bit (float64 whatever
+the stored precision); a dataset stored any other way is read through h5py, or mapped when it
+is contiguous float64 (format 1, :mod:`idefix_rules.results.mapped`).
 
 :func:`complete_chunks` yields a path's complete runs a chunk at a time from either reader,
 so memory is bounded by the chunk size, not the run count.
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import os
 import threading
-import zlib
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -26,6 +26,7 @@ from typing import Any, Protocol
 
 import h5py
 import numpy as np
+from zlib_ng import zlib_ng
 
 from idefix_rules.results.format import STATUS_COMPLETE
 from idefix_rules.results.mapped import MappedRuns
@@ -128,25 +129,31 @@ def chunk_layout(dataset: h5py.Dataset) -> ChunkLayout | None:
 def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray) -> None:
     """Inflate and unshuffle stored chunks, one run each, into ``into`` (runs, …) float64.
 
-    Each chunk is inflated on its own (zlib releases the GIL), then the runs are unshuffled
-    and converted together, a few array operations for the whole block rather than a few
-    per run (per-run operations cost more in interpreter time than in copying)."""
+    Run by run: a chunk is inflated, its byte planes joined into a buffer of one run (float64
+    ones straight into the run's row) and converted into its row. A run's buffer stays in
+    the processor's cache; joining and converting a block of runs at once streamed every
+    byte through memory twice more."""
     size = layout.dtype.itemsize
     count = int(np.prod(layout.shape, dtype=np.int64))
-    raw = np.empty((len(chunks), size * count), dtype=np.uint8)
+    joined = np.empty((count, size), dtype=np.uint8)
     for position, data in enumerate(chunks):
-        plain = zlib.decompress(data) if layout.deflated else data
-        if len(plain) != raw.shape[1]:
-            raise ValueError(f"a stored chunk holds {len(plain)} bytes, {raw.shape[1]} "
+        plain = zlib_ng.decompress(data) if layout.deflated else data
+        if len(plain) != size * count:
+            raise ValueError(f"a stored chunk holds {len(plain)} bytes, {size * count} "
                              "expected")
-        raw[position] = np.frombuffer(plain, dtype=np.uint8)
-    if layout.shuffled:  # byte planes: every value's first bytes, then its second bytes …
-        planes = raw.reshape(len(chunks), size, count)
-        joined = np.empty((len(chunks), count, size), dtype=np.uint8)
+        stored = np.frombuffer(plain, dtype=np.uint8)
+        row = into[position]
+        if not layout.shuffled:
+            row[...] = stored.view(layout.dtype).reshape(layout.shape)
+            continue
+        # byte planes: every value's first bytes, then its second bytes …
+        direct = row.dtype == layout.dtype and row.flags.c_contiguous
+        target = row.reshape(count).view(np.uint8).reshape(count, size) if direct else joined
+        planes = stored.reshape(size, count)
         for byte in range(size):
-            joined[:, :, byte] = planes[:, byte, :]
-        raw = joined.reshape(len(chunks), size * count)
-    into[...] = raw.view(layout.dtype).reshape(into.shape)
+            target[:, byte] = planes[byte]
+        if not direct:
+            row[...] = joined.view(layout.dtype).reshape(layout.shape)
 
 
 class ParallelRuns:

@@ -18,8 +18,12 @@ from hypothesis import strategies as st
 from idefix_rules.campaign.bernoulli import fixed_upper, sequential_upper
 from idefix_rules.campaign.runs_needed import runs_needed
 from idefix_rules.campaign.sequential import (
+    BLOCK_RUNS,
     asymptotic_interval,
     betting_interval,
+    candidate_rejected,
+    first_rejection,
+    plugin_bets,
     threshold_rejected,
 )
 from idefix_rules.campaign.stopping import _order
@@ -152,3 +156,31 @@ def test_order_is_settled_only_when_every_open_outcome_agrees() -> None:
     assert _order((fails, (0.1, 0.35)), (fails, (0.3, 0.4))) is None  # overlapping
     assert _order((open_, (0.1, 0.2)), (fails, (0.3, 0.4))) == -1  # above either way
     assert _order((open_, (0.5, 0.6)), (fails, (0.3, 0.4))) is None  # depends on the verdict
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 400), st.floats(0.0, 1.0, allow_subnormal=False), st.floats(1e-6, 0.5),
+       st.sampled_from(["lower", "upper"]), st.booleans(), st.integers(0, 2**31))
+@example(runs=1000, candidate=0.0, alpha=0.05, side="lower", binary=True, seed=1)
+@example(runs=1000, candidate=1.0, alpha=0.05, side="upper", binary=True, seed=2)
+def test_one_candidate_is_rejected_as_among_many(runs: int, candidate: float, alpha: float,
+                                                  side: str, binary: bool, seed: int) -> None:
+    """The bisection's one-candidate test says what first_rejection says (same arithmetic)."""
+    rng = np.random.default_rng(seed)
+    x = (rng.random(runs) < rng.random()).astype(float) if binary else rng.beta(0.5, 2.0, runs)
+    for fixed in (None, runs):
+        bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed)
+        for probe in (candidate, float(x.mean()) if runs else 0.5):
+            expected = bool(first_rejection(x, bets, np.array([probe]), alpha, side)[0]
+                            <= x.size)
+            assert candidate_rejected(x, bets, probe, alpha, side) == expected
+
+
+def test_one_candidate_on_a_long_stream_sums_its_capital_by_blocks() -> None:
+    rng = np.random.default_rng(5)
+    x = rng.beta(0.5, 2.0, BLOCK_RUNS + 300)
+    bets = plugin_bets(x, ALPHA, two_sided=False)
+    for side in ("lower", "upper"):
+        for probe in np.linspace(0.0, 1.0, 33):
+            assert candidate_rejected(x, bets, float(probe), ALPHA, side) == bool(
+                first_rejection(x, bets, np.array([probe]), ALPHA, side)[0] <= x.size)
