@@ -112,13 +112,7 @@ def rejections(values: np.ndarray, candidate: float, alpha: float, side: str,
     """
     x = np.clip(np.asarray(values, dtype=np.float64), 0.0, 1.0)
     bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
-    if side == "lower":
-        cap = BET_TRUNCATION / candidate if candidate > 0 else np.inf
-        steps = np.log1p(np.minimum(bets, cap) * (x - candidate))
-    else:
-        cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else np.inf
-        steps = np.log1p(-np.minimum(bets, cap) * (x - candidate))
-    capital = np.cumsum(steps, axis=-1)
+    capital = np.cumsum(_log_steps(x, bets, candidate, side), axis=-1)
     return np.asarray(np.maximum.accumulate(capital >= math.log(1.0 / alpha), axis=-1))
 
 
@@ -160,13 +154,18 @@ def candidate_rejected(values: np.ndarray, bets: np.ndarray, candidate: float, a
     if values.size > BLOCK_RUNS:  # capital summed a block at a time: that sum's rounding
         return bool(first_rejection(values, bets, np.array([candidate]), alpha, side)[0]
                     <= values.size)
+    steps = _log_steps(values, bets, candidate, side)
+    return bool(np.any(np.cumsum(steps) >= math.log(1.0 / alpha)))
+
+
+def _log_steps(x: np.ndarray, bets: np.ndarray, candidate: float, side: str) -> np.ndarray:
+    """The ``side`` bettor's log-capital steps against one candidate mean (bets truncated so
+    that the capital stays positive)."""
     if side == "lower":
         cap = BET_TRUNCATION / candidate if candidate > 0 else math.inf
-        steps = np.log1p(np.minimum(bets, cap) * (values - candidate))
-    else:
-        cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else math.inf
-        steps = np.log1p(-np.minimum(bets, cap) * (values - candidate))
-    return bool(np.any(np.cumsum(steps) >= math.log(1.0 / alpha)))
+        return np.asarray(np.log1p(np.minimum(bets, cap) * (x - candidate)))
+    cap = BET_TRUNCATION / (1.0 - candidate) if candidate < 1 else math.inf
+    return np.asarray(np.log1p(-np.minimum(bets, cap) * (x - candidate)))
 
 
 def _last_survivors(x: np.ndarray, bets: np.ndarray, alpha: float) -> tuple[float, float]:
