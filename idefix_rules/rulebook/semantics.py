@@ -98,6 +98,7 @@ from idefix_rules.rulebook.model import (
     Unary,
     Window,
 )
+from idefix_rules.rulebook.walk import children
 from idefix_rules.signals import AXIS_LABELS
 
 # Axes after the run axis, in the order the compiled evaluator lays arrays out.
@@ -177,7 +178,13 @@ def per_sample_form(expr: Expr) -> Expr:
     return expr
 
 
-def reads_run_signal(expr: Expr, constants: Collection[str]) -> bool:
+def _inside(expr: Expr | Masked) -> tuple[Expr, ...]:
+    """The expressions directly inside ``expr``: the rule model's walk, and a per-sample form's
+    masked operand."""
+    return (expr.operand,) if isinstance(expr, Masked) else children(expr)
+
+
+def reads_run_signal(expr: Expr | Masked, constants: Collection[str]) -> bool:
     """Whether ``expr`` reads a signal of the run itself: a name that is not a constant, not
     the reference run's (``ref.*``), outside every reduction over runs (whose value is the
     path's, the same in every run)."""
@@ -185,12 +192,7 @@ def reads_run_signal(expr: Expr, constants: Collection[str]) -> bool:
         return False
     if isinstance(expr, Name):
         return expr.name not in constants and not expr.name.startswith("ref.")
-    if isinstance(expr, tuple):
-        return any(reads_run_signal(item, constants) for item in expr)
-    if is_dataclass(expr) and not isinstance(expr, type):
-        return any(reads_run_signal(getattr(expr, f.name), constants)
-                   for f in fields(expr) if f.name not in ("span", "window", "parameter"))
-    return False
+    return any(reads_run_signal(inner, constants) for inner in _inside(expr))
 
 
 def counts_own_samples(expr: Reduce, constants: Collection[str]) -> bool:
@@ -200,16 +202,11 @@ def counts_own_samples(expr: Reduce, constants: Collection[str]) -> bool:
             and reads_run_signal(expr.operand, constants))
 
 
-def any_counts_own_samples(expr: object, constants: Collection[str]) -> bool:
+def any_counts_own_samples(expr: Expr | Masked, constants: Collection[str]) -> bool:
     """Whether some time reduction in ``expr`` counts only the run's own samples."""
     if isinstance(expr, Reduce) and counts_own_samples(expr, constants):
         return True
-    if isinstance(expr, tuple):
-        return any(any_counts_own_samples(item, constants) for item in expr)
-    if is_dataclass(expr) and not isinstance(expr, type):
-        return any(any_counts_own_samples(getattr(expr, f.name), constants)
-                   for f in fields(expr) if f.name != "span")
-    return False
+    return any(any_counts_own_samples(inner, constants) for inner in _inside(expr))
 
 
 def names_in(expr: object) -> set[str]:
