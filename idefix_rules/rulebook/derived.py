@@ -158,6 +158,7 @@ class DerivedSignals:
         self._cache: dict[str, np.ndarray] = {}
         self._command_cache: tuple[np.ndarray, np.ndarray] | None = None
         self._own_samples: tuple[np.ndarray | None] | None = None
+        self._run_lengths: tuple[np.ndarray | None] | None = None
         if "t" not in signals:
             raise UserInputError(error("E701", "the run signals lack the time signal 't'"))
         t_all = np.asarray(signals["t"], dtype=float)
@@ -279,6 +280,11 @@ class DerivedSignals:
         own samples"): through the first sample after its chain's end from which its pose no
         longer changes (without a pose: the sample after the end); all of them for a run that
         never finished. None when the runs give neither 'command' nor 'done'."""
+        if self._run_lengths is None:
+            self._run_lengths = (self._lengths(),)
+        return self._run_lengths[0]
+
+    def _lengths(self) -> np.ndarray | None:
         if not (self.provides("command") or self.provides("done")):
             return None
         done = self.get("chain_done") > 0
