@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -52,6 +53,7 @@ from idefix_rules.results.scoring import score_chunks, stored_evaluation
 DEFAULT_CHUNK_RUNS = 64
 DEFAULT_TOP_RUNS = 5
 DEFAULT_THREADS = 2
+PATHS_AT_ONCE = 2
 # |Δ I_max| below this is rounding, not a change.
 MOVE_TOLERANCE = 1e-9
 
@@ -269,22 +271,29 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         digests = [source_sha256(old.checked), source_sha256(new.checked)]
         collisions = CollisionSources(stored, evaluators, (old.checked, new.checked))
         timings["prepare"] = time.perf_counter() - started
-        path_sides: list[tuple[str, list[_Side], tuple[int, int, tuple[RunMove, ...]]]] = []
         reused: set[int] = set()
-        for name in store.path_names:
-            sides = [_Side(e, stored_path_result(store, name)) for e in evaluators]
-            chain = store.chain(name)
-            reference = store.reference(name)
-            for position, side in enumerate(sides):
-                _gate(side, chain, context, reference, collisions.function(position))
-            moves: tuple[int, int, tuple[RunMove, ...]] = (0, 0, ())
-            if any(side.evaluates for side in sides):
-                from_store = [_stored_side(stored, name, side, digest) if reuse else False
-                              for side, digest in zip(sides, digests, strict=True)]
-                reused |= {i for i, used in enumerate(from_store) if used}
-                moves = _score_path(stored, runs, name, reference, sides, collisions,
-                                    chunk_runs, top, timings, threads)
-            path_sides.append((name, sides, moves))
+        scoring: list[tuple[str, list[_Side], Future[tuple[int, int, tuple[RunMove, ...]]]
+                            | None]] = []
+        # Two paths are scored at a time: while one path's last chunks are evaluated the
+        # next one's first are read, so the cores do not wait at every path's start and end.
+        with ThreadPoolExecutor(PATHS_AT_ONCE, thread_name_prefix="diff-path") as pool:
+            for name in store.path_names:
+                sides = [_Side(e, stored_path_result(store, name)) for e in evaluators]
+                chain = store.chain(name)
+                reference = store.reference(name)
+                for position, side in enumerate(sides):
+                    _gate(side, chain, context, reference, collisions.function(position))
+                pending = None
+                if any(side.evaluates for side in sides):
+                    from_store = [_stored_side(stored, name, side, digest) if reuse else False
+                                  for side, digest in zip(sides, digests, strict=True)]
+                    reused |= {i for i, used in enumerate(from_store) if used}
+                    pending = pool.submit(_score_path, stored, runs, name, reference, sides,
+                                          collisions.for_path(name), chunk_runs, top,
+                                          timings, threads)
+                scoring.append((name, sides, pending))
+            path_sides = [(name, sides, (0, 0, ()) if pending is None else pending.result())
+                          for name, sides, pending in scoring]
         rankings = []
         for position, evaluator in enumerate(evaluators):
             stats = {name: sides[position].statistics for name, sides, _ in path_sides
@@ -325,7 +334,7 @@ def _stored_side(stored: StoredCampaign, name: str, side: _Side, digest: str) ->
 
 def _score_path(stored: StoredCampaign, runs: ParallelRuns, name: str,
                 reference: dict[str, np.ndarray] | None, sides: list[_Side],
-                collisions: CollisionSources, chunk_runs: int, top: int,
+                sources: list[Any], chunk_runs: int, top: int,
                 timings: dict[str, float], threads: int
                 ) -> tuple[int, int, tuple[RunMove, ...]]:
     """Score the sides that evaluate and have no stored values; statistics and verdicts of
@@ -333,7 +342,6 @@ def _score_path(stored: StoredCampaign, runs: ParallelRuns, name: str,
     scored = [side.evaluator if side.evaluates and side.evaluation is None else None
               for side in sides]
     if any(evaluator is not None for evaluator in scored):
-        sources = collisions.for_path(name)
         parts: list[list[Any]] = [[] for _ in sides]
         all_rows = []
         for chunk in score_chunks(runs, name, scored, stored.context(name, reference),

@@ -16,6 +16,7 @@ from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometr
 from idefix_rules.campaign.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.diff import load_source
+from idefix_rules.diff import results as diff_module
 from idefix_rules.diff.results import diff_results
 from idefix_rules.results.campaign import rebuilt_campaign
 from idefix_rules.results.collisions import collision_function
@@ -177,16 +178,20 @@ def test_command_rules_and_prescreens_of_each_side_gate_the_paths(
     assert diff.exit_code() == 1
 
 
-def test_chunk_size_and_threads_do_not_change_the_result(stored_results: Path, ops_text: str,
-                                               tmp_path: Path) -> None:
+def test_chunk_size_and_threads_do_not_change_the_result(
+        stored_results: Path, ops_text: str, tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
     old = load_source(str(FIXTURES / "idefix-ops-0.9.0.rules"))
     new = load_source(str(variant(ops_text, tmp_path, "same")))
     whole = diff_results([stored_results], old, new, chunk_runs=100, threads=1).to_dict()
     single = diff_results([stored_results], old, new, chunk_runs=1, threads=1).to_dict()
     threaded = diff_results([stored_results], old, new, chunk_runs=1, threads=2).to_dict()
-    for data in (whole, single, threaded):
+    monkeypatch.setattr(diff_module, "PATHS_AT_ONCE", 1)  # paths scored one after the other
+    serial = diff_results([stored_results], old, new, chunk_runs=1, threads=2).to_dict()
+    for data in (whole, single, threaded, serial):
         data["files"][0].pop("timings")
-    assert whole == single == threaded
+    assert whole == single == threaded == serial
+    assert len(whole["files"][0]["paths"]) >= 2
     assert any(p["changed_runs"] for p in whole["files"][0]["paths"])
 
 

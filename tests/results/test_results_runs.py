@@ -139,3 +139,35 @@ def test_a_chunk_of_the_wrong_size_is_an_error(tmp_path: Path) -> None:
     finally:
         store.close()
 
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_runs_stored_alike_are_copied_and_still_equal_h5py(tmp_path: Path, threads: int) -> None:
+    """Chunks whose bytes equal the chunk before them (the shared time grid, a flag no run
+    raised) are copied instead of inflated; what comes out is still h5py's reading, also where
+    a run differs between equal ones and where equal runs are not neighbours."""
+    store = ResultStore.create(tmp_path / "results.h5", {"runs": RUNS}, {"campaign": "name: t\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        store.allocate_runs("p", RUNS, {"x": (SAMPLES,)}, {}, {})
+        signals = store.path_group("p")["runs"]["signals"]
+        grid = np.linspace(0.0, 3.6, SAMPLES)
+        data = np.tile(grid, (RUNS, 1))
+        data[3] += 1e-12  # one run unlike its neighbours, equal runs on both sides of it
+        data[6, -1] = 7.0
+        dataset = signals.create_dataset("t.shared", shape=data.shape, dtype="<f8",
+                                         chunks=(1, SAMPLES), shuffle=True,
+                                         compression="gzip", compression_opts=1)
+        for run in range(RUNS):
+            dataset[run] = data[run]
+        chunks = [dataset.id.read_direct_chunk((run, 0))[1] for run in range(RUNS)]
+        assert chunks[0] == chunks[1] and chunks[2] != chunks[3] != chunks[4]
+        with ParallelRuns(store, threads) as runs:
+            for selection in (slice(0, RUNS), np.array([0, 2, 4, 5, 6, 8]), slice(3, 5)):
+                got = runs.read_runs("p", selection, ["t.shared"])["t.shared"]
+                expected = store.read_runs("p", selection, ["t.shared"])["t.shared"]
+                assert same_bits(got, expected), selection
+                assert same_bits(got, data[selection if isinstance(selection, slice)
+                                           else np.sort(selection)])
+    finally:
+        store.close()
