@@ -17,9 +17,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
 
 CAMPAIGN = Path(__file__).resolve().parent.parent / "campaigns" / "rock-detour.yaml"
 

@@ -28,9 +28,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
 
 ROOT = Path(__file__).resolve().parent.parent
 CAMPAIGNS = [ROOT / "campaigns" / "rock-detour.yaml", ROOT / "campaigns" / "pebble-field.yaml"]

@@ -32,9 +32,9 @@ from pathlib import Path
 
 from baseline import BASE_COMMIT, baseline_tree, timed_in_baseline
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
 from idefix_rules.diff import load_source
 from idefix_rules.diff.results import diff_results
 from idefix_rules.results.format import FORMAT_VERSION

@@ -2,8 +2,8 @@
 
 2000 simulated campaigns per setting (α = 5 %, looks every 32 runs up to 1000; the family
 setting up to 400), with the bounds, levels and decision rules a campaign uses
-(idefix_rules/campaign/error_rates.py): the share that decided wrongly, the share that decided
-before the cap, and the runs they used. The last line is the family setting with every bound
+(idefix_rules/campaign/statistics/error_rates.py): the share that decided wrongly, the share that
+decided before the cap, and the runs they used. The last line is the family setting with every bound
 at α instead of the campaign's α budget: what the budget prevents. The same numbers are
 asserted by tests/campaign/test_campaign_error_rates.py and copied into
 docs/campaign-format.md ("How α is spent").
@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from idefix_rules.campaign import error_rates
+from idefix_rules.campaign.statistics import error_rates
 
 
 def main() -> None:

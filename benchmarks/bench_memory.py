@@ -89,9 +89,9 @@ def toy_campaign(folder: Path, runs: int, fmu: Path) -> dict[str, Any]:
     sys.path.insert(0, str(TOY_SOURCES))
     from campaign_texts import CAMPAIGN, RULEBOOK
 
-    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulate import SimulationOptions
+    from idefix_rules.campaign.simulation.simulate import SimulationOptions
 
     (folder / "toy.fmu").write_bytes(fmu.read_bytes())
     (folder / "test.rules").write_text(RULEBOOK)
@@ -113,8 +113,8 @@ def toy_campaign(folder: Path, runs: int, fmu: Path) -> dict[str, Any]:
 def stored_evaluation(results: Path) -> dict[str, Any]:
     """Evaluate a stored campaign as ``run_campaign`` does (collision checks on 2
     processes), without writing: memory (MB)."""
-    from idefix_rules.campaign.evaluation import evaluate_store
-    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.campaign.evaluation.evaluate import evaluate_store
+    from idefix_rules.campaign.storage.store import ResultStore
     from idefix_rules.results.campaign import StoredCampaign
     from idefix_rules.rulebook import compile_rulebook
 

@@ -34,10 +34,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
-from idefix_rules.campaign.store import (
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.storage.store import (
     STATUS_COMPLETE,
     ResultStore,
     encode_run,
@@ -223,7 +223,7 @@ def peak_rss_mb() -> float:
 
 def evaluate_file(path: Path) -> dict[str, float]:
     """Evaluate a synthetic file in this process; runs/s and peak RSS (MB)."""
-    from idefix_rules.campaign.evaluation import evaluate_store
+    from idefix_rules.campaign.evaluation.evaluate import evaluate_store
     from idefix_rules.commands import RoverGeometry
     from idefix_rules.rulebook import compile_rulebook
     from idefix_rules.rulebook.parser import parse_rulebook

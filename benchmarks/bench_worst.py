@@ -22,9 +22,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
 from idefix_rules.campaign.worst.pipeline import run_worst
 from idefix_rules.campaign.worst.search import SearchSettings
 from idefix_rules.campaign.worst.space import QuantileSpace

@@ -121,8 +121,41 @@ def test_no_modules_import_each_other_in_a_circle() -> None:
     assert circles == []
 
 
+# The campaign's stages in the order of the data flow, lowest first (docs/architecture.md,
+# "The campaign's stages"); ``adaptive``, ``runner`` and ``worst`` sit above them all.
+CAMPAIGN_STAGES = ("input", "statistics", "storage", "simulation", "evaluation", "outcome")
+
+
+def campaign_stage(module: str) -> int | None:
+    parts = module.split(".")
+    if parts[:2] != ["idefix_rules", "campaign"] or len(parts) < 3:
+        return None
+    return CAMPAIGN_STAGES.index(parts[2]) if parts[2] in CAMPAIGN_STAGES \
+        else len(CAMPAIGN_STAGES)
+
+
+def test_a_campaign_stage_imports_only_its_own_stage_or_earlier_ones() -> None:
+    upward = sorted(f"{module} imports {target}"
+                    for module, targets in graph().items() for target in targets
+                    if (own := campaign_stage(module)) is not None
+                    and (other := campaign_stage(target)) is not None and other > own)
+    assert upward == []
+
+
+def test_the_read_side_imports_only_the_campaign_s_description() -> None:
+    # results.h5 is read back with the modules that describe a campaign, never a stage
+    reached = sorted(f"{module} imports {target}"
+                     for module, targets in graph().items()
+                     if module.startswith("idefix_rules.results")
+                     for target in targets
+                     if target.startswith("idefix_rules.campaign")
+                     and not target.startswith("idefix_rules.campaign.input"))
+    assert reached == []
+
+
 @pytest.mark.parametrize(("module", "layer"), [
-    ("idefix_rules.campaign.runner", "pipelines"), ("idefix_rules.campaign.simulate", "stages"),
+    ("idefix_rules.campaign.runner", "pipelines"),
+    ("idefix_rules.campaign.simulation.simulate", "stages"),
     ("idefix_rules.rulebook.check", "models"), ("idefix_rules.cli.run", "front ends")])
 def test_a_module_s_layer_is_its_longest_prefix(module: str, layer: str) -> None:
     assert LAYERS[layer_of(module)][0] == layer
@@ -141,3 +174,27 @@ def test_the_check_catches_a_deferred_import_from_a_higher_layer(tmp_path: Path)
     source.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
                       "    from idefix_rules.report import write_report\n")
     assert imports(source, modules, root) == set()
+
+
+def private_imports(path: Path, root: Path = PACKAGE) -> list[str]:
+    """Names starting with one underscore that ``path`` imports from a module of the package
+    (``__version__`` and other dunders are public)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith(
+                root.name)):
+            found += [f"{node.module}.{alias.name}" for alias in node.names
+                      if alias.name.startswith("_") and not alias.name.startswith("__")]
+    return found
+
+
+def test_no_module_imports_another_module_s_private_name(tmp_path: Path) -> None:
+    found = sorted(f"{module_name(path)} imports {name}" for path in PACKAGE.rglob("*.py")
+                   for name in private_imports(path))
+    assert found == []
+    # and the check sees one
+    bad = tmp_path / "idefix_rules" / "campaign" / "bad.py"
+    bad.parent.mkdir(parents=True)
+    bad.write_text("def f():\n    from idefix_rules.campaign.simulation.simulate import _map\n")
+    assert private_imports(bad, tmp_path / "idefix_rules") == [
+        "idefix_rules.campaign.simulation.simulate._map"]

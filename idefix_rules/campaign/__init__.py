@@ -1,7 +1,8 @@
 """Campaigns: from a campaign file to a verdict per command chain.
 
-``load`` (schema, positions) → ``sampling`` → ``simulate`` (command rules, reference runs,
-pre-screen, Monte Carlo through ``pool`` and ``worker``) → ``store`` (results.h5) →
-``evaluation`` (compiled rulebook, collisions) → ``outputs`` (expectations, summary.json,
-JUnit). ``runner`` chains the stages; the CLI (``idefix_rules.cli.run``) renders them.
+``input`` (the campaign file, its checks, the sampled values) → ``simulation`` (command rules,
+reference runs, pre-screen, Monte Carlo) → ``storage`` (results.h5) → ``evaluation`` (compiled
+rulebook, collisions, statistics from ``statistics``) → ``outcome`` (decision, summary.json,
+JUnit). ``runner`` chains the stages; ``worst`` is the worst-case search that replaces the
+Monte Carlo stage; the CLI (``idefix_rules.cli.run``) renders them.
 """

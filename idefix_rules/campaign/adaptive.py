@@ -3,13 +3,13 @@
 Every path still running gets the runs up to the next look (``min_runs``, then every
 ``batch_runs``, at most ``max_runs``); once all of them are stored, the new runs are evaluated,
 every ranked path's statistics are put on confidence sequences and
-:func:`~idefix_rules.campaign.stopping.settle` says which paths stop
+:func:`~idefix_rules.campaign.statistics.stopping.settle` says which paths stop
 (docs/campaign-format.md, "Adaptive campaigns"). A stopped path's remaining rows are marked
 ``not needed`` in ``runs/status``.
 
 Determinism: run ``j`` of a path always draws from ``SeedSequence(seed, spawn_key=(*s, j))``
 with the path's stream ``s`` (``()`` for every path of a paired campaign: run ``j`` is the same
-world for every path; :mod:`idefix_rules.campaign.sampling`). Runs are independent of each
+world for every path; :mod:`idefix_rules.campaign.input.sampling`). Runs are independent of each
 other (the confidence sequences need them, so a Latin hypercube or Sobol design of
 the campaign is not used here), and a look reads exactly the runs below its run count in run
 order. The stopping point therefore depends on the seed only, never on the number of workers,
@@ -25,13 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign import pairwise, sampling
-from idefix_rules.campaign.bounds import failure_sequence, judged_statistics
-from idefix_rules.campaign.budget import alpha_budget
-from idefix_rules.campaign.evaluation import concatenate, evaluate_path
-from idefix_rules.campaign.load import initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.resume import is_infrastructure, runs_to_simulate
-from idefix_rules.campaign.simulate import (
+from idefix_rules.campaign.evaluation.evaluate import concatenate, evaluate_path
+from idefix_rules.campaign.input import sampling
+from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
+from idefix_rules.campaign.simulation.simulate import (
     FmuSource,
     PathPlan,
     PlannedRuns,
@@ -44,8 +42,11 @@ from idefix_rules.campaign.simulate import (
     run_and_store,
     sampled_task,
 )
-from idefix_rules.campaign.stopping import settle, stop_reason
-from idefix_rules.campaign.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
+from idefix_rules.campaign.statistics.budget import alpha_budget
+from idefix_rules.campaign.statistics.stopping import settle, stop_reason
+from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
 
 NO_COMPLETE_RUN = "stopped: no run of the path completed"

@@ -19,32 +19,34 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign import diskspace, outputs, waivers
 from idefix_rules.campaign.adaptive import adaptive_monte_carlo
-from idefix_rules.campaign.dask_pool import ClusterError
-from idefix_rules.campaign.environment import build_terrain, write_terrain
-from idefix_rules.campaign.evaluation import CampaignEvaluation, evaluate_store
-from idefix_rules.campaign.fmu_checks import check_fmu, describe_warnings
-from idefix_rules.campaign.journal import roll_back
-from idefix_rules.campaign.load import Campaign, initial_position_sigma, rover_geometry
-from idefix_rules.campaign.ownership import FolderLock, own_folder
-from idefix_rules.campaign.resume import resume_command
-from idefix_rules.campaign.revision import Revision
-from idefix_rules.campaign.sensitivity import store_sensitivity
-from idefix_rules.campaign.simulate import (
+from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, evaluate_store
+from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
+from idefix_rules.campaign.evaluation.slip import slip_warning
+from idefix_rules.campaign.input import waivers
+from idefix_rules.campaign.input.environment import build_terrain, write_terrain
+from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
+from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.validate import (
+    check_rocks_on_terrain,
+    check_simulation_size,
+    prepare_output,
+)
+from idefix_rules.campaign.outcome import outputs
+from idefix_rules.campaign.simulation.dask_pool import ClusterError
+from idefix_rules.campaign.simulation.resume import resume_command
+from idefix_rules.campaign.simulation.simulate import (
     RESULTS_FILE,
     TERRAIN_PARAMETER,
     Progress,
     SimulationOptions,
     simulate_campaign,
 )
-from idefix_rules.campaign.slip import slip_warning
-from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.campaign.validate import (
-    check_rocks_on_terrain,
-    check_simulation_size,
-    prepare_output,
-)
+from idefix_rules.campaign.storage import diskspace
+from idefix_rules.campaign.storage.journal import roll_back
+from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
+from idefix_rules.campaign.storage.revision import Revision
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
@@ -333,7 +335,7 @@ def _warn_lost_runs(result: CampaignResult, again: str) -> None:
 
 def evaluation_revision(store: ResultStore, then: str) -> Revision:
     """The new version of ``store``'s results file the evaluation writes into
-    (:mod:`idefix_rules.campaign.revision`), once the disk has room for it and for the
+    (:mod:`idefix_rules.campaign.storage.revision`), once the disk has room for it and for the
     evaluation (``DiskFull`` otherwise, ``then`` saying what to do next)."""
     try:
         revision = Revision(store.path)

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     rules = diff_rules(old.checked, new.checked, old.label, new.label)
     touched = None
     if args.waivers is not None:
-        from idefix_rules.campaign.load import load_campaign
+        from idefix_rules.campaign.input.load import load_campaign
         from idefix_rules.diff.waivers import touched_waivers
 
         touched = touched_waivers(rules.changes, load_campaign(args.waivers).model.waivers)

@@ -19,14 +19,14 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
-from idefix_rules.campaign import pairwise
-from idefix_rules.campaign.decision import Decision, campaign_decision, reason_items
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
-from idefix_rules.campaign.outputs import ExpectationResult
-from idefix_rules.campaign.pairwise import OPEN
-from idefix_rules.campaign.processes import is_infrastructure
-from idefix_rules.campaign.stopping import STOP_FIXED
-from idefix_rules.campaign.wording import percent, unfinished_text
+from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.input.wording import percent, unfinished_text
+from idefix_rules.campaign.outcome.decision import Decision, campaign_decision, reason_items
+from idefix_rules.campaign.outcome.outputs import ExpectationResult
+from idefix_rules.campaign.simulation.processes import is_infrastructure
+from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.pairwise import OPEN
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED
 
 LEVELS = ("L1", "L2", "L3")
 STYLES = {"pass": "green", "fail": "red", "waived": "magenta", "marginal": "yellow"}
@@ -245,7 +245,8 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         console.print(f"[dim]{escape(LEGEND)}[/dim]")
     measured = [c for c in evaluation.slip if c.measured is not None]
     if measured and not any(c.disagrees for c in measured):
-        # assumed vs simulated slip (campaign/slip.py); a disagreement is a warning instead
+        # assumed vs simulated slip (campaign/evaluation/slip.py); a disagreement is a warning
+        # instead
         console.print(f"slip: rulebook assumes theoretical_slip = {100 * measured[0].assumed:.1f}"
                       " %; reference runs measured " + ", ".join(
                           f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in measured),

@@ -20,8 +20,8 @@ from idefix_rules.limits import MAX_RUNS
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from idefix_rules.campaign.load import Campaign
-    from idefix_rules.campaign.simulate import SimulationOptions
+    from idefix_rules.campaign.input.load import Campaign
+    from idefix_rules.campaign.simulation.simulate import SimulationOptions
     from idefix_rules.cli.progress import PlainProgress, RichProgress
 
 NAME = "run"
@@ -70,7 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def stored_titles(results: Path) -> dict[str, str]:
     """Index titles of the rulebook stored in a results file (empty when unreadable)."""
-    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.campaign.storage.store import ResultStore
     from idefix_rules.cli.outcome import index_titles
     from idefix_rules.rulebook import check_text
 
@@ -89,10 +89,10 @@ def stored_titles(results: Path) -> dict[str, str]:
 def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
-    from idefix_rules.campaign.load import load_campaign
-    from idefix_rules.campaign.resume import interrupted_runs
+    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import claimed_output
-    from idefix_rules.campaign.simulate import RESULTS_FILE, SimulationOptions
+    from idefix_rules.campaign.simulation.resume import interrupted_runs
+    from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, SimulationOptions
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.progress import make_progress
     from idefix_rules.files import previous_path

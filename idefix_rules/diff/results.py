@@ -27,16 +27,16 @@ from typing import Any, Literal
 import numpy as np
 
 from idefix_rules import __version__
-from idefix_rules.campaign.budget import alpha_budget
-from idefix_rules.campaign.decision import reasons_of
-from idefix_rules.campaign.evaluation import (
+from idefix_rules.campaign.evaluation.evaluate import (
     PathResult,
     concatenate,
     fill_result,
-    prescreen_reference,
     stored_path_result,
 )
-from idefix_rules.campaign.scoring import judge_path, ranked_paths
+from idefix_rules.campaign.evaluation.scoring import judge_path, ranked_paths
+from idefix_rules.campaign.outcome.decision import reasons_of
+from idefix_rules.campaign.simulation.prescreen import prescreen_reference
+from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.commands import Command
 from idefix_rules.diff.evaluators import values_only
 from idefix_rules.diff.source import RulebookSource
@@ -363,7 +363,7 @@ def _score_path(stored: StoredCampaign, runs: ParallelRuns, name: str,
     for side in active:
         result = side.result
         rows = side.rows if side.rows is not None else np.zeros(0, dtype=np.int64)
-        # the bounds the evaluation of the campaign judges with (campaign/bounds.py)
+        # the bounds the evaluation of the campaign judges with (campaign/statistics/bounds.py)
         side.statistics, _ = judge_path(side.evaluator, side.evaluation, result, rows,
                                         stop_time, alpha_budget(side.evaluator, paths, paired),
                                         adaptive)

@@ -17,8 +17,8 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign.sensitivity import store_sensitivity
-from idefix_rules.campaign.wording import DisplayUnits
+from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
+from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
 from idefix_rules.report.data import ReportData, read_report_data
@@ -266,8 +266,8 @@ def _write_report(store: StoredResults, out_dir: Path, advance: Advance, searche
 
 
 def _slip_records(store: StoredResults) -> list[dict[str, object]]:
-    """Assumed vs simulated slip per path from the stored summary (campaign/slip.py)."""
-    from idefix_rules.campaign.slip import stored_records
+    """Assumed vs simulated slip per path from the stored summary (campaign/evaluation/slip.py)."""
+    from idefix_rules.campaign.evaluation.slip import stored_records
 
     return stored_records(store.file)
 

@@ -17,8 +17,8 @@ from typing import Any
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.pairwise import PairComparison
-from idefix_rules.campaign.waivers import recorded
+from idefix_rules.campaign.input.waivers import recorded
+from idefix_rules.campaign.statistics.pairwise import PairComparison
 from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED
 from idefix_rules.results.reader import StoredResults
 

@@ -91,7 +91,7 @@ def map_environment(campaign_text: str, checked: Any | None,
     horizontal extent of the rock's geometry. Without it, the campaign's rocks are drawn with
     their explicit level or '?'.
     """
-    from idefix_rules.campaign.schema import EnvironmentSection
+    from idefix_rules.campaign.input.schema import EnvironmentSection
 
     notes: list[str] = []
     try:
@@ -106,7 +106,7 @@ def map_environment(campaign_text: str, checked: Any | None,
     areas = [AreaShape(area.name, np.array(area.polygon, dtype=float), area.level,
                        margins.get(area.level, 0.0)) for area in environment.keep_out]
     try:
-        from idefix_rules.campaign.environment import obstacle_set
+        from idefix_rules.campaign.input.environment import obstacle_set
 
         obstacles = obstacle_set(environment, checked, terrain).obstacles
     except Exception as failure:

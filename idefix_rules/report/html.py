@@ -13,8 +13,8 @@ from html import escape
 
 import numpy as np
 
-from idefix_rules.campaign import pairwise
-from idefix_rules.campaign.wording import DisplayUnits, parameter_text, unfinished_text
+from idefix_rules.campaign.input.wording import DisplayUnits, parameter_text, unfinished_text
+from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.report.data import (
     LEVELS,
     NEAR_LIMIT,
@@ -372,7 +372,8 @@ def expectations_html(expectations: Sequence[Mapping[str, object]]) -> str:
 
 
 def slip_html(records: Sequence[Mapping[str, object]]) -> str:
-    """Assumed vs simulated slip per path (campaign/slip.py), warnings below the table."""
+    """Assumed vs simulated slip per path (campaign/evaluation/slip.py), warnings below the
+    table."""
     if not records:
         return ""
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.wording import DisplayUnits, parameter_text
+from idefix_rules.campaign.input.wording import DisplayUnits, parameter_text
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.figures import path_colour
 from idefix_rules.report.prepare import WHEEL_WIDTH, MapSet, Setup

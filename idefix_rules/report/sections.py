@@ -10,8 +10,8 @@ from collections.abc import Mapping, Sequence
 from html import escape
 from typing import Any
 
-from idefix_rules.campaign.decision import Decision, PathFacts, decide
-from idefix_rules.campaign.wording import verdict_reasons
+from idefix_rules.campaign.input.wording import verdict_reasons
+from idefix_rules.campaign.outcome.decision import Decision, PathFacts, decide
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.html import Image
 

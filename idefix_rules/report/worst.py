@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.wording import DisplayUnits, parameter_text, percent
+from idefix_rules.campaign.input.wording import DisplayUnits, parameter_text, percent
 from idefix_rules.campaign.worst.outcome import rarity, sigmas
 from idefix_rules.results.reader import StoredResults
 

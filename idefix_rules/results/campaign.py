@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.load import (
+from idefix_rules.campaign.input.load import (
     Campaign,
     PathSpec,
     initial_position_sigma,
@@ -39,8 +39,8 @@ def rebuilt_campaign(store: StoredResults) -> Campaign:
 
     KeyError when the file holds no campaign text; ValueError (pydantic's validation error)
     or :class:`~idefix_rules.errors.UserInputError` when this version cannot read it."""
-    from idefix_rules.campaign.schema import CampaignFile
-    from idefix_rules.campaign.yamlsource import load_yaml
+    from idefix_rules.campaign.input.schema import CampaignFile
+    from idefix_rules.campaign.input.yamlsource import load_yaml
 
     text = store.text("campaign")
     path = str(store.attrs.get("campaign_path", "campaign.yaml"))
@@ -146,7 +146,7 @@ class StoredCampaign:
 
     def named_areas(self, checked: Any) -> dict[str, Any]:
         """The named areas of a rulebook on the stored terrain, by name."""
-        from idefix_rules.campaign.environment import named_areas
+        from idefix_rules.campaign.input.environment import named_areas
 
         return named_areas(self.require_campaign().model.environment, checked,
                            self.ground().terrain)

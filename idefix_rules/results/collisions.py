@@ -46,7 +46,7 @@ def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
     it gives the collision signals and the signals of the rulebook's named areas."""
     if not getattr(evaluator, "needs_collisions", False):
         return None
-    from idefix_rules.campaign.environment import named_areas, obstacle_set
+    from idefix_rules.campaign.input.environment import named_areas, obstacle_set
     from idefix_rules.obstacles import collision_signals
     from idefix_rules.obstacles.named import all_area_signals
 

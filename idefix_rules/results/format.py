@@ -1,7 +1,7 @@
 """What a results file is: its name and version, run status codes, the precision each run
 signal is stored with (layout in ``docs/results-format.md``).
 
-Shared by the writer (:mod:`idefix_rules.campaign.store`) and every reader, so neither side
+Shared by the writer (:mod:`idefix_rules.campaign.storage.store`) and every reader, so neither side
 spells a code or a version of its own.
 """
 

@@ -1,7 +1,7 @@
 """Reading a results file: :class:`StoredResults` opens one read only and hands back what a
 campaign stored (provenance texts, paths, chains, reference runs, run status and signals).
 
-The writer, :class:`idefix_rules.campaign.store.ResultStore`, is this reader plus the
+The writer, :class:`idefix_rules.campaign.storage.store.ResultStore`, is this reader plus the
 writing; everything that only reads a results file (evaluation, diff, report) goes through
 the reading half.
 """

@@ -223,8 +223,8 @@ def terrain_for_rescoring(file: h5py.File, results: Path) -> StoredTerrain:
     if terrain is not None:
         source = read_source(file)
         return StoredTerrain(terrain, tuple(_changed_dem(source, results)))
-    from idefix_rules.campaign.environment import TERRAIN_FILE
-    from idefix_rules.campaign.environment import read_terrain as read_terrain_file
+    from idefix_rules.campaign.input.environment import TERRAIN_FILE
+    from idefix_rules.campaign.input.environment import read_terrain as read_terrain_file
 
     version = _text(file.attrs.get("format_version", "?"))
     missing = (f"{results} holds no terrain (results format {version}; the terrain is "

@@ -164,7 +164,7 @@ class CompiledRulebook:
         self._runs_operands = {node: run.compile(node.operand)
                                for node in self.runs_reductions}
 
-        scoped = ExpressionCompiler(self.constants, _scope_closure)
+        scoped = ExpressionCompiler(self.constants, scope_closure)
         self._command_rules = tuple(
             _Condition(r.name, scoped.compile(r.condition), (), r.rationale, r.condition)
             for r in model.command_rules)
@@ -477,7 +477,7 @@ def _normalise(value: np.ndarray, limit: float, nominal: float | None) -> np.nda
     return np.asarray(np.fmax(normalised, 0.0, out=normalised))
 
 
-def _scope_closure(name: str) -> Closure:
+def scope_closure(name: str) -> Closure:
     def run(frame: Frame) -> Any:
         value = frame.scope[name]
         return value if np.ndim(value) == 0 else layout(np.asarray(value), ())

@@ -3,7 +3,8 @@ many bounds a path's verdict rests on, and each rule's indifference margin.
 
 A rule ``risk <= 70 %`` passes when the *upper* bound of ``risk`` lies below 70 % and fails
 when its *lower* bound lies above: each side decides one outcome, so each is a one-sided bound
-with its own error rate (:mod:`idefix_rules.campaign.budget` spends the confidence over them).
+with its own error rate (:mod:`idefix_rules.campaign.statistics.budget` spends the confidence
+over them).
 A statistic compared with a constant under ``and``, ``or`` and ``not`` is judged in one
 direction per comparison (``not`` turns it round); one used any other way (inside ``abs``,
 against another statistic, with ``==``) is judged on both sides.

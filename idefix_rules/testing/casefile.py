@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from idefix_rules import signals
-from idefix_rules.campaign.yamlsource import Loc, SourceMap, load_yaml
+from idefix_rules.campaign.input.yamlsource import Loc, SourceMap, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.rulebook import check_text, read_source

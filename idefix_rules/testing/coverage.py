@@ -32,9 +32,9 @@ import numpy as np
 
 from idefix_rules.rulebook.across import finished
 from idefix_rules.rulebook.compile import (
-    _scope_closure,  # the compiler's own reader of named values
     command_quantities,
     compile_rulebook,
+    scope_closure,  # the compiler's own reader of named values
 )
 from idefix_rules.rulebook.expressions import ExpressionCompiler, Frame, signal_closure
 from idefix_rules.rulebook.model import Binary, Expr, Reduce, Select, Unary
@@ -146,7 +146,7 @@ def coverage_of_files(outcomes: Sequence[FileOutcome]) -> list[RuleCoverage]:
     compiled = compile_rulebook(outcomes[0].case_file.checked)
     model = compiled.rulebook
     constants = compiled.constants
-    scoped = ExpressionCompiler(constants, _scope_closure)
+    scoped = ExpressionCompiler(constants, scope_closure)
     run_compiler = ExpressionCompiler(constants, signal_closure)
     items: dict[tuple[str, str], RuleCoverage] = {}
     for kind, rules in (("command", model.command_rules), ("index", model.indices),

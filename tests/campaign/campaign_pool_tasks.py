@@ -63,7 +63,7 @@ def marked(payload):
 def marked_simulate(task):
     """The campaign's task function; the marked run (its chain's length and its initial.x)
     announces itself."""
-    from idefix_rules.campaign.worker import simulate
+    from idefix_rules.campaign.simulation.worker import simulate
 
     if f"{len(task.chain)}:{dict(task.parameters).get('initial.x')!r}" == os.environ.get(MARKED):
         _announce()
@@ -78,7 +78,7 @@ def pid(payload):
 def count_pools(monkeypatch):
     """Make the campaign's local pools count themselves: returns ``(made, maps)``, each pool's
     ``persistent`` flag as it is made and each map's task count as it starts."""
-    from idefix_rules.campaign import simulate
+    from idefix_rules.campaign.simulation import simulate
 
     made, maps = [], []
 

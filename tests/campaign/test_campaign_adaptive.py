@@ -16,10 +16,10 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import KILLER, assert_same_datasets
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
-from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_NOT_NEEDED
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_NOT_NEEDED
 from idefix_rules.cli import main
 
 pytestmark = pytest.mark.slow

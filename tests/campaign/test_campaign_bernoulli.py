@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from idefix_rules.campaign import bernoulli
-from idefix_rules.campaign.sequential import betting_interval, one_sided_bound
+from idefix_rules.campaign.statistics import bernoulli
+from idefix_rules.campaign.statistics.sequential import betting_interval, one_sided_bound
 
 ALPHA = 0.05
 

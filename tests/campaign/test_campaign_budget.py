@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from idefix_rules.campaign import pairwise
-from idefix_rules.campaign.bounds import judged_statistics
-from idefix_rules.campaign.budget import alpha_budget
-from idefix_rules.campaign.decision import decide
-from idefix_rules.campaign.evaluation import CampaignEvaluation, PathResult
-from idefix_rules.campaign.outputs import exit_code, junit_xml
-from idefix_rules.campaign.scoring import decision_pairs
-from idefix_rules.campaign.sequential import one_sided_bound
-from idefix_rules.campaign.stopping import settle
+from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.scoring import decision_pairs
+from idefix_rules.campaign.outcome.decision import decide
+from idefix_rules.campaign.outcome.outputs import exit_code, junit_xml
+from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.bounds import judged_statistics
+from idefix_rules.campaign.statistics.budget import alpha_budget
+from idefix_rules.campaign.statistics.sequential import one_sided_bound
+from idefix_rules.campaign.statistics.stopping import settle
 from idefix_rules.cli.outcome import print_answer
 from idefix_rules.rulebook.check import check
 from idefix_rules.rulebook.compile import compile_rulebook

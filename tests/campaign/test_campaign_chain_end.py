@@ -118,7 +118,7 @@ def test_runs_stopped_at_the_limit_are_flagged_counted_and_judged(
 
 def test_the_report_counts_the_runs_stopped_at_the_limit(
         chain_end_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from idefix_rules.campaign.store import ResultStore
+    from idefix_rules.campaign.storage.store import ResultStore
     from idefix_rules.report import write_report
     from idefix_rules.report.data import read_path
 

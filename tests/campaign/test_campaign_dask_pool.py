@@ -9,9 +9,9 @@ import time
 import campaign_pool_tasks as tasks
 import pytest
 
-from idefix_rules.campaign.dask_pool import DaskPool, is_infrastructure
-from idefix_rules.campaign.pool import LocalPool
-from idefix_rules.campaign.processes import IsolatedRunner, run_isolated
+from idefix_rules.campaign.simulation.dask_pool import DaskPool, is_infrastructure
+from idefix_rules.campaign.simulation.pool import LocalPool
+from idefix_rules.campaign.simulation.processes import IsolatedRunner, run_isolated
 
 PAYLOADS = ["a", "segfault", "b", "hang", "raise", "exit", "c", "d", "e", "f"]
 

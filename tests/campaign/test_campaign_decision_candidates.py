@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace as P
 
-from idefix_rules.campaign.decision import decide
+from idefix_rules.campaign.outcome.decision import decide
 
 
 def path(name: str, rank: int, verdict: str = "pass", undecided: bool = False) -> P:

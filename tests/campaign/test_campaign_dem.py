@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from campaign_texts import CAMPAIGN
 
-from idefix_rules.campaign.environment import build_terrain
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.environment import build_terrain
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 from idefix_rules.fmu.terrain import Terrain, read_terrain, write_terrain

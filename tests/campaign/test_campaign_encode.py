@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.store import ResultStore, encode_run
+from idefix_rules.campaign.storage.store import ResultStore, encode_run
 from idefix_rules.commands import Command
 
 

@@ -159,7 +159,7 @@ def test_a_value_in_the_wrong_unit_for_the_fmu_parameter_is_an_input_error(
 
 
 def test_the_core_returns_data_the_cli_prints(campaign_dir: Path) -> None:
-    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.input.load import load_campaign
 
     result = runner.run_campaign(load_campaign(campaign_dir / "campaign.yaml"), report=True)
     assert result.exit_code == 1

@@ -1,5 +1,5 @@
 """Wrong decisions of adaptive campaigns on synthetic streams of known means, 2000 simulated
-campaigns per setting (idefix_rules/campaign/error_rates.py; the table is printed by
+campaigns per setting (idefix_rules/campaign/statistics/error_rates.py; the table is printed by
 benchmarks/bench_error_rates.py and copied into docs/campaign-format.md)."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from idefix_rules.campaign import bernoulli, error_rates, pairwise
-from idefix_rules.campaign.sequential import first_rejection, plugin_bets, rejections
+from idefix_rules.campaign.statistics import bernoulli, error_rates, pairwise
+from idefix_rules.campaign.statistics.sequential import first_rejection, plugin_bets, rejections
 
 REPLICATIONS = 2000
 # A wrong rate of at most α, measured on 2000 campaigns, lies below α + 3 standard errors.

@@ -19,8 +19,8 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import assert_same_datasets, simulated_until
 
-from idefix_rules.campaign import dask_pool, timeouts
-from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_FAILED
+from idefix_rules.campaign.simulation import dask_pool, timeouts
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_FAILED
 from idefix_rules.cli import main
 
 pytestmark = pytest.mark.slow

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.evaluation import evaluate_path
-from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.evaluation.evaluate import evaluate_path
+from idefix_rules.campaign.simulation.simulate import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.results.campaign import rebuilt_campaign
 from idefix_rules.rulebook import check_text, compile_rulebook

@@ -28,7 +28,7 @@ import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 from dataset_digest import results_digest
 
-from idefix_rules.campaign.diskspace import MARGIN
+from idefix_rules.campaign.storage.diskspace import MARGIN
 
 pytestmark = pytest.mark.slow
 
@@ -268,7 +268,7 @@ def test_a_disk_filling_up_while_runs_are_stored(small_disk: Path, toy_fmu: Path
     place_campaign(folder, toy_fmu)
     # another program takes the disk once 150 runs are stored: the next ones meet it
     outcome = cli("campaign.yaml", "--quiet", cwd=folder, patch=filled_after(
-        "idefix_rules.campaign.store:ResultStore.write_run", 151, small_disk, 8192))
+        "idefix_rules.campaign.storage.store:ResultStore.write_run", 151, small_disk, 8192))
     line = assert_one_clear_line(outcome, folder / "out")
     assert "needed to store the" in line and "--resume" in line
     results_file = folder / "out" / "results.h5"
@@ -330,7 +330,7 @@ def test_a_disk_full_when_the_evaluation_starts(small_disk: Path, toy_fmu: Path,
 
 
 NO_COPY_ESTIMATE = """
-    from idefix_rules.campaign.revision import Revision
+    from idefix_rules.campaign.storage.revision import Revision
     Revision.needed = lambda self, extra: 0  # the checks pass: the copy fills the disk
 """
 
@@ -383,7 +383,7 @@ def test_a_disk_full_when_the_report_is_written(small_disk: Path, toy_fmu: Path,
 
 NO_REPORT_ESTIMATE = """
     # as if another program filled the disk: the check passes, the report meets a full disk
-    import idefix_rules.campaign.diskspace as diskspace
+    import idefix_rules.campaign.storage.diskspace as diskspace
     import idefix_rules.campaign.runner as runner
     runner.REPORT_BYTES = runner.REPORT_BYTES_PER_PATH = diskspace.MARGIN = 0
 """
@@ -412,7 +412,7 @@ def test_a_disk_full_when_summary_json_is_written(small_disk: Path, toy_fmu: Pat
     assert cli("campaign.yaml", "--quiet", "--no-report", cwd=folder).code == 1
     out = folder / "out"
     # the evaluation is swapped in, then the disk is full for summary.json
-    patch = filled_after("idefix_rules.campaign:outputs.write_summary", 1, small_disk,
+    patch = filled_after("idefix_rules.campaign.outcome:outputs.write_summary", 1, small_disk,
                          0)
     outcome = cli("evaluate", str(out / "results.h5"), cwd=folder, patch=patch)
     line = assert_one_clear_line(outcome, out)
@@ -427,10 +427,10 @@ def test_planning_a_million_runs_writes_almost_nothing_before_the_first_run(
         tmp_path: Path, toy_fmu: Path) -> None:
     """Runs are allocated a block at a time: stopped right after the allocation (as Ctrl-C
     would stop it), a campaign planning 1,000,000 runs has written well under 1 MB."""
-    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulate import SilentProgress, SimulationOptions
-    from idefix_rules.campaign.store import FIRST_ROWS, STATUS_MISSING
+    from idefix_rules.campaign.simulation.simulate import SilentProgress, SimulationOptions
+    from idefix_rules.campaign.storage.store import FIRST_ROWS, STATUS_MISSING
 
     text = TEXT.replace(f"runs: {RUNS}", "runs: 1000000").replace(
         "method: monte_carlo", "method: latin_hypercube")

@@ -19,10 +19,10 @@ import h5py
 import pytest
 from test_campaign_robustness import assert_same_datasets
 
-import idefix_rules.campaign.simulate as simulate_module
-from idefix_rules.campaign.dask_pool import DaskPool
-from idefix_rules.campaign.pool import LocalPool
-from idefix_rules.campaign.store import STATUS_FAILED
+import idefix_rules.campaign.simulation.simulate as simulate_module
+from idefix_rules.campaign.simulation.dask_pool import DaskPool
+from idefix_rules.campaign.simulation.pool import LocalPool
+from idefix_rules.campaign.storage.store import STATUS_FAILED
 from idefix_rules.cli import main
 
 LOST = "infrastructure: killed by SIGKILL 3 times"

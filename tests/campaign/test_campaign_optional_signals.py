@@ -12,7 +12,7 @@ from hypothesis import event, given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays as hypothesis_arrays
 
-from idefix_rules.campaign.store import STATUS_COMPLETE
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE
 from idefix_rules.commands import Command
 from idefix_rules.results.runs import complete_chunks
 from idefix_rules.results.scoring import signals_to_read

@@ -6,24 +6,24 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation import (
+from idefix_rules.campaign.evaluation.evaluate import (
     CampaignEvaluation,
     PathResult,
     collision_chances,
     fill_result,
 )
-from idefix_rules.campaign.outputs import (
+from idefix_rules.campaign.input.schema import (
+    CollisionExpectation,
+    MeanRiskExpectation,
+    PathVerdictExpectation,
+    RankFirstExpectation,
+)
+from idefix_rules.campaign.outcome.outputs import (
     check_expectation,
     check_expectations,
     exit_code,
     junit_xml,
     summary,
-)
-from idefix_rules.campaign.schema import (
-    CollisionExpectation,
-    MeanRiskExpectation,
-    PathVerdictExpectation,
-    RankFirstExpectation,
 )
 from idefix_rules.rulebook import RunEvaluation, check_text, compile_rulebook
 

@@ -18,8 +18,8 @@ from pathlib import Path
 import h5py
 import pytest
 
-from idefix_rules.campaign import ownership
-from idefix_rules.campaign.ownership import (
+from idefix_rules.campaign.storage import ownership
+from idefix_rules.campaign.storage.ownership import (
     LOCK_FILE,
     Owner,
     own_folder,
@@ -314,7 +314,7 @@ def test_ctrl_c_releases_the_folder(campaign_dir: Path) -> None:
 
 KILLED_AT_FIRST_STEP = textwrap.dedent("""\
     import os, signal, sys
-    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
 
     class KillAtFirstStep:  # the first thing a campaign says: "compiling the rulebook …"

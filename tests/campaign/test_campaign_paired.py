@@ -12,9 +12,9 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import assert_same_datasets, copy_campaign
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
 from idefix_rules.cli import main
 
 UNPAIRED = CAMPAIGN.replace("  method: monte_carlo\n", "  method: monte_carlo\n  paired: false\n")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from idefix_rules.campaign import pairwise
+from idefix_rules.campaign.statistics import pairwise
 
 ALPHA = 0.05
 MARGIN = 0.02

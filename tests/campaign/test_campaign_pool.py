@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import campaign_pool_tasks as tasks
 
-from idefix_rules.campaign.pool import LocalPool
+from idefix_rules.campaign.simulation.pool import LocalPool
 
 
 def test_every_task_comes_back_once_with_its_result() -> None:

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from campaign_texts import CAMPAIGN
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
-from idefix_rules.campaign.store import STATUS_COMPLETE, STATUS_MISSING
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_MISSING
 
 pytestmark = pytest.mark.slow
 
@@ -67,9 +67,9 @@ def test_one_worker_and_two_workers_give_identical_datasets(campaign_dir: Path,
 KILLER = textwrap.dedent("""\
     import os, signal, sys
     from pathlib import Path
-    from idefix_rules.campaign.load import load_campaign
+    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulate import SimulationOptions
+    from idefix_rules.campaign.simulation.simulate import SimulationOptions
 
     class KillAfter:
         seen = 0
@@ -253,7 +253,7 @@ def test_an_interrupted_campaign_is_marked_and_resumes_to_the_same_result(
 
 def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from idefix_rules.campaign.resume import interrupted_runs
+    from idefix_rules.campaign.simulation.resume import interrupted_runs
     from idefix_rules.cli import main
 
     campaign = load_campaign(campaign_dir / "campaign.yaml")

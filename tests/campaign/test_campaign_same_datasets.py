@@ -22,7 +22,7 @@ import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 from dataset_digest import ROVER_CAMPAIGN, ROVER_RULEBOOK, results_digest
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 

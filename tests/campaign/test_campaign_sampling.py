@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from idefix_rules.campaign import sampling
-from idefix_rules.campaign.schema import Fixed, LogNormal, Normal, TruncatedNormal, Uniform
+from idefix_rules.campaign.input import sampling
+from idefix_rules.campaign.input.schema import Fixed, LogNormal, Normal, TruncatedNormal, Uniform
 
 PARAMETERS = {
     "initial.x": Normal(distribution="normal", mean="0 m", std="1 cm"),

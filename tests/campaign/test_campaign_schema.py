@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.errors import UserInputError
 
 GOOD = """\

@@ -10,7 +10,11 @@ import numpy as np
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from idefix_rules.campaign.sensitivity import correlations, spearman_interval, store_sensitivity
+from idefix_rules.campaign.evaluation.sensitivity import (
+    correlations,
+    spearman_interval,
+    store_sensitivity,
+)
 
 
 def test_the_driving_parameter_comes_first_with_its_sign() -> None:

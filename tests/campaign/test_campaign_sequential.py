@@ -15,9 +15,9 @@ import pytest
 from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
-from idefix_rules.campaign.bernoulli import fixed_upper, sequential_upper
-from idefix_rules.campaign.runs_needed import runs_needed
-from idefix_rules.campaign.sequential import (
+from idefix_rules.campaign.statistics.bernoulli import fixed_upper, sequential_upper
+from idefix_rules.campaign.statistics.runs_needed import runs_needed
+from idefix_rules.campaign.statistics.sequential import (
     BLOCK_RUNS,
     asymptotic_interval,
     betting_interval,
@@ -26,7 +26,7 @@ from idefix_rules.campaign.sequential import (
     plugin_bets,
     threshold_rejected,
 )
-from idefix_rules.campaign.stopping import _order
+from idefix_rules.campaign.statistics.stopping import _order
 from idefix_rules.rulebook.results import RuleResult
 from idefix_rules.rulebook.statistics import student_interval, wilson_interval
 

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.slip import (
+from idefix_rules.campaign.evaluation.slip import (
     SLIP_MARGIN,
     SlipCheck,
     effective_slip,

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from test_campaign_robustness import KILLER, assert_same_datasets_dicts, datasets
 
-from idefix_rules.campaign.load import load_campaign
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import SimulationOptions
-from idefix_rules.campaign.store import STATUS_FAILED, encode_reason
+from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.storage.store import STATUS_FAILED, encode_reason
 from idefix_rules.cli import main
 from idefix_rules.files import set_aside, write_atomic
 

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import h5py
 
-from idefix_rules.campaign.store import ResultStore, previous_results_path
+from idefix_rules.campaign.storage.store import ResultStore, previous_results_path
 
 
 def test_a_new_results_file_keeps_the_previous_one(tmp_path: Path) -> None:

@@ -2,7 +2,7 @@
 allocation stopped at any of its writes — by a kill, or by a full disk — is rolled back, and a
 run's index entries flushed without the superblock are accounted for. Every run stored before
 reads back, and writing on gives the same datasets as a writer that was never stopped
-(``idefix_rules/campaign/journal.py``)."""
+(``idefix_rules/campaign/storage/journal.py``)."""
 
 from __future__ import annotations
 
@@ -16,11 +16,11 @@ import h5py
 import numpy as np
 import pytest
 
-from idefix_rules.campaign import journal
-from idefix_rules.campaign.diskspace import DiskFull
-from idefix_rules.campaign.journal import stale_end
-from idefix_rules.campaign.revision import Revision
-from idefix_rules.campaign.store import STATUS_COMPLETE, ResultStore, encode_chunk
+from idefix_rules.campaign.storage import journal
+from idefix_rules.campaign.storage.diskspace import DiskFull
+from idefix_rules.campaign.storage.journal import stale_end
+from idefix_rules.campaign.storage.revision import Revision
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore, encode_chunk
 from idefix_rules.commands import Command
 
 RUNS = 200

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.store import (
+from idefix_rules.campaign.storage.store import (
     STATUS_COMPLETE,
     STATUS_MISSING,
     ResultStore,
@@ -30,7 +30,7 @@ WRITER = textwrap.dedent(f"""\
     import sys
     from pathlib import Path
     import numpy as np
-    from idefix_rules.campaign.store import ResultStore, STATUS_MISSING
+    from idefix_rules.campaign.storage.store import ResultStore, STATUS_MISSING
     from idefix_rules.commands import Command
 
     def signals(path, run):

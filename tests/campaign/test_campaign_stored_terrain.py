@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.fmu.terrain import Rock, Terrain, synthetic_terrain
 from idefix_rules.fmu.terrain import write_terrain as write_terrain_file

@@ -12,12 +12,12 @@ import campaign_pool_tasks as tasks
 import numpy as np
 import pytest
 
-from idefix_rules.campaign import simulate
-from idefix_rules.campaign.dask_pool import DaskPool
-from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.pool import LocalPool
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulate import PlannedRuns, SimulationOptions
+from idefix_rules.campaign.simulation import simulate
+from idefix_rules.campaign.simulation.dask_pool import DaskPool
+from idefix_rules.campaign.simulation.pool import LocalPool
+from idefix_rules.campaign.simulation.simulate import PlannedRuns, SimulationOptions
 
 
 class Drawn:

@@ -9,8 +9,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from idefix_rules.campaign import dask_pool, timeouts
-from idefix_rules.campaign.dask_pool import ClusterError, _Watch
+from idefix_rules.campaign.simulation import dask_pool, timeouts
+from idefix_rules.campaign.simulation.dask_pool import ClusterError, _Watch
 
 
 @pytest.mark.parametrize(("seconds", "expected"), [

@@ -16,9 +16,9 @@ import h5py
 import pytest
 from campaign_texts import CAMPAIGN, RULEBOOK
 
-from idefix_rules.campaign import waivers
-from idefix_rules.campaign.load import load_campaign
-from idefix_rules.campaign.waivers import waiver_problems
+from idefix_rules.campaign.input import waivers
+from idefix_rules.campaign.input.load import load_campaign
+from idefix_rules.campaign.input.waivers import waiver_problems
 from idefix_rules.cli import main
 from idefix_rules.rulebook import check_text
 

@@ -9,8 +9,7 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from idefix_rules.campaign.decision import decide
-from idefix_rules.campaign.wording import (
+from idefix_rules.campaign.input.wording import (
     DisplayUnits,
     number,
     parameter_text,
@@ -18,6 +17,7 @@ from idefix_rules.campaign.wording import (
     verdict_reasons,
     violation_text,
 )
+from idefix_rules.campaign.outcome.decision import decide
 from idefix_rules.rulebook.results import CommandViolation
 
 CAMPAIGN = """\

@@ -16,8 +16,8 @@ import idefix_rules.campaign.worst.cross_entropy
 import idefix_rules.campaign.worst.outcome
 import idefix_rules.campaign.worst.search
 import idefix_rules.campaign.worst.space
-from idefix_rules.campaign.sampling import cumulative, inverse_cdf
-from idefix_rules.campaign.schema import (
+from idefix_rules.campaign.input.sampling import cumulative, inverse_cdf
+from idefix_rules.campaign.input.schema import (
     Fixed,
     LogNormal,
     Normal,

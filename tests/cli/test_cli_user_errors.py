@@ -519,7 +519,7 @@ def test_ctrl_c_exits_130_without_a_traceback(monkeypatch: pytest.MonkeyPatch,
 
 def test_an_incomplete_results_file_is_a_user_error(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from idefix_rules.campaign.store import FORMAT
+    from idefix_rules.campaign.storage.store import FORMAT
 
     results = tmp_path / "results.h5"
     with h5py.File(results, "w") as file:

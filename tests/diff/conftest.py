@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import Command
 from idefix_rules.results.mapped import MappedRuns, mappable
 

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.environment import read_terrain
-from idefix_rules.campaign.evaluation import evaluate_store
-from idefix_rules.campaign.simulate import initial_position_sigma, rover_geometry
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.evaluation.evaluate import evaluate_store
+from idefix_rules.campaign.input.environment import read_terrain
+from idefix_rules.campaign.simulation.simulate import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.diff import load_source
 from idefix_rules.diff import results as diff_module
@@ -264,7 +264,7 @@ def test_a_path_the_campaign_did_not_simulate_but_a_rulebook_accepts_is_not_simu
 def test_shared_evaluation_equals_two_separate_evaluations(stored_results: Path) -> None:
     import numpy as np
 
-    from idefix_rules.campaign.evaluation import run_context
+    from idefix_rules.campaign.simulation.prescreen import run_context
     from idefix_rules.commands import Command
     from idefix_rules.diff.evaluators import values_only
 

@@ -186,8 +186,8 @@ paths:
 def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
     import re
 
-    import idefix_rules.campaign.fmu_checks as checks
-    import idefix_rules.campaign.validate as validate
+    import idefix_rules.campaign.input.fmu_checks as checks
+    import idefix_rules.campaign.input.validate as validate
 
     emitted = set(re.findall(r'"(C[45]\d\d)"', Path(checks.__file__).read_text()
                              + Path(validate.__file__).read_text()))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from test_report_browser import check_page, render
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.report import prepare_report
 from idefix_rules.report.data import row_from_arrays

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from report_fixture import write_results
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.report import figures
 from idefix_rules.report.data import ReportData, read_report_data
 from idefix_rules.report.sections import decision_html, indices_html, sensitivity_html
@@ -89,7 +89,7 @@ def test_table_one_lists_the_paths_in_rank_order_and_labels_every_cell(
 def test_a_path_whose_runs_all_score_the_same_says_why_it_has_no_sensitivity() -> None:
     import numpy as np
 
-    from idefix_rules.campaign.sensitivity import why_none
+    from idefix_rules.campaign.evaluation.sensitivity import why_none
 
     record = {"p": {"runs": 16, "dominant_index": "I_s", "risk": [], "dominant": [],
                     "note": why_none({"a": np.arange(16.0)}, np.full(16, 1.0),

@@ -13,7 +13,7 @@ import pytest
 from test_report_browser import check_page, render
 from test_report_campaign import CAMPAIGN, RULEBOOK
 
-from idefix_rules.campaign.wording import DisplayUnits
+from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.cli import main
 from idefix_rules.report import figures, prepare_report, write_report
 from idefix_rules.report.environment import MapEnvironment

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from report_fixture import write_results
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 from idefix_rules.report import prepare_report, write_report

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.evaluation import run_context
+from idefix_rules.campaign.simulation.prescreen import run_context
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.results import scoring
 from idefix_rules.results.format import STATUS_COMPLETE

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import Command
 from idefix_rules.results.runs import ParallelRuns, chunk_layout, decode_rows
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from idefix_rules.campaign.sensitivity import correlations
+from idefix_rules.campaign.evaluation.sensitivity import correlations
 
 FIRST_ROUND = 4  # points along a ray whose end is not simulated yet
 LATER_ROUNDS = 3  # points inside the bracket

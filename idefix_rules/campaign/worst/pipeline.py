@@ -17,9 +17,10 @@ from typing import Any
 
 import h5py
 
-from idefix_rules.campaign import diskspace, outputs
-from idefix_rules.campaign.evaluation import evaluate_store
-from idefix_rules.campaign.load import Campaign, initial_position_sigma, rover_geometry
+from idefix_rules.campaign.evaluation.evaluate import evaluate_store
+from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
+from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
+from idefix_rules.campaign.outcome import outputs
 from idefix_rules.campaign.runner import (
     claimed_output,
     evaluation_revision,
@@ -27,15 +28,15 @@ from idefix_rules.campaign.runner import (
     rulebook_info,
     write_report,
 )
-from idefix_rules.campaign.sensitivity import store_sensitivity
-from idefix_rules.campaign.simulate import (
+from idefix_rules.campaign.simulation.simulate import (
     RESULTS_FILE,
     Progress,
     SimulationOptions,
     parameter_info,
     simulate_campaign,
 )
-from idefix_rules.campaign.store import ResultStore
+from idefix_rules.campaign.storage import diskspace
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.campaign.worst.outcome import (
     FORMAT,
     FORMAT_VERSION,

@@ -2,9 +2,9 @@
 
 Each round, every path still searching asks its :class:`~.search.PathSearch` for a batch of
 worlds; all batches are simulated together on the campaign's pool (local processes or Dask,
-:func:`~idefix_rules.campaign.simulate.run_and_store`) and stored as the path's next rows of
-runs, like Monte Carlo runs, with the values each world gives its parameters; then each path's
-new runs are evaluated with the rulebook and their run risks told to its search. Rows the
+:func:`~idefix_rules.campaign.simulation.simulate.run_and_store`) and stored as the path's next
+rows of runs, like Monte Carlo runs, with the values each world gives its parameters; then each
+path's new runs are evaluated with the rulebook and their run risks told to its search. Rows the
 search did not need are marked *not needed*, as an adaptive campaign marks them.
 
 Reproducible whatever the worker count or backend: a path's search draws from its own generator,
@@ -22,11 +22,12 @@ from typing import Any
 import h5py
 import numpy as np
 
-from idefix_rules.campaign import sampling
-from idefix_rules.campaign.evaluation import evaluate_path, run_context
-from idefix_rules.campaign.load import Campaign, initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.schema import Fixed
-from idefix_rules.campaign.simulate import (
+from idefix_rules.campaign.evaluation.evaluate import evaluate_path
+from idefix_rules.campaign.input import sampling
+from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.input.schema import Fixed
+from idefix_rules.campaign.simulation.prescreen import run_context
+from idefix_rules.campaign.simulation.simulate import (
     FmuSource,
     PathPlan,
     PlannedRuns,
@@ -39,8 +40,8 @@ from idefix_rules.campaign.simulate import (
     run_and_store,
     run_task,
 )
-from idefix_rules.campaign.store import ResultStore
-from idefix_rules.campaign.worker import RunTask
+from idefix_rules.campaign.simulation.worker import RunTask
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.campaign.worst.search import PathSearch, SearchSettings
 from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.commands import RoverGeometry
@@ -63,8 +64,9 @@ def search_seed(seed: int, name: str) -> np.random.SeedSequence:
 
 @dataclass
 class WorstStage:
-    """The stage :func:`~idefix_rules.campaign.simulate.simulate_campaign` runs instead of the
-    Monte Carlo part; afterwards :attr:`searches` holds every searched path's search."""
+    """The stage :func:`~idefix_rules.campaign.simulation.simulate.simulate_campaign` runs
+    instead of the Monte Carlo part; afterwards :attr:`searches` holds every searched path's
+    search."""
 
     settings: SearchSettings
     workers: int = 1  # processes for the collision checks of each round's evaluation

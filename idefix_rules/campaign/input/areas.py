@@ -1,0 +1,63 @@
+"""The campaign's geometry for the rulebook's named areas (``environment.areas``), checked.
+
+A rulebook declares ``area NAME KIND level L buffer B``; the campaign gives a keep-out or an
+unknown-surface area its polygons under ``environment.areas.NAME.polygons``. A steep area is
+found in the terrain (its inclination above the rulebook's ``above``) and takes no polygons.
+"""
+
+from __future__ import annotations
+
+import difflib
+from typing import Any
+
+from idefix_rules.campaign.input.environment import declared_areas
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.errors import Diagnostic, UserInputError, error, warning
+
+
+def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
+    """Areas the rulebook does not declare, polygons for a steep area and polygons without
+    area are errors (C209) at their line; a keep-out or unknown area the campaign gives no
+    polygons is a warning (C210): its signals stay 0 in every run."""
+    from idefix_rules.obstacles.areas import polygon_area
+
+    declared = {spec.name: spec for spec in declared_areas(evaluator)}
+    given = campaign.model.environment.areas
+    problems: list[Diagnostic] = []
+    for name, geometry in given.items():
+        loc: tuple[str | int, ...] = ("environment", "areas", name)
+        spec = declared.get(name)
+        if spec is None:
+            close = difflib.get_close_matches(name, list(declared), n=1)
+            problems.append(error(
+                "C209", f"environment.areas.{name}: the rulebook declares no area {name!r}"
+                + (f" (it declares {', '.join(map(repr, declared))})" if declared else ""),
+                campaign.locations.span(loc, at_key=True),
+                f"did you mean {close[0]!r}?" if close else
+                "declare it in the rulebook's obstacles block: area NAME keep_out level L3 "
+                "buffer 10 cm"))
+            continue
+        if spec.kind == "steep" and geometry.polygons:
+            problems.append(error(
+                "C209", f"environment.areas.{name}: {name!r} is a steep area, found in the "
+                "terrain where its inclination exceeds the rulebook's; it takes no polygons",
+                campaign.locations.span(loc, at_key=True),
+                "remove the entry, or declare the area keep_out in the rulebook"))
+            continue
+        for number, polygon in enumerate(geometry.polygons):
+            try:
+                polygon_area([tuple(point) for point in polygon], spec.level, name)
+            except UserInputError as failure:
+                problems.append(error(
+                    "C209", f"environment.areas.{name}.polygons[{number}]: "
+                    f"{failure.diagnostics[0].message}",
+                    campaign.locations.span((*loc, "polygons", number))))
+    for name, spec in declared.items():
+        if spec.kind != "steep" and name not in given:
+            problems.append(warning(
+                "C210", f"the rulebook declares the {spec.kind.replace('_', '-')} area "
+                f"{name!r}, which this campaign gives no polygons: its signals are 0 in every "
+                "run", campaign.locations.span(("environment",), at_key=True),
+                f"give its polygons under environment.areas.{name}.polygons, or `{name}: "
+                "{polygons: []}` to say the site has none"))
+    return problems

@@ -1,0 +1,354 @@
+"""Loading a campaign file: YAML with positions → pydantic → :class:`Campaign` (paths resolved).
+
+Every mistake of a file is reported in one :class:`UserInputError`, each diagnostic at
+``campaign.yaml:line:col`` with the dotted location, e.g.
+``paths.detour[1].delta_heading: expected an angle, got "90"``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from idefix_rules.campaign.input.schema import (
+    AdaptiveRuns,
+    CampaignFile,
+    CollisionExpectation,
+    MeanRiskExpectation,
+    PathVerdictExpectation,
+    RankFirstExpectation,
+    TerrainSection,
+)
+from idefix_rules.campaign.input.yamlsource import SourceMap, load_yaml
+from idefix_rules.commands import Command, RoverGeometry, chain_duration
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
+from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
+from idefix_rules.limits import CAMPAIGN_TOO_LARGE, MAX_CAMPAIGN_BYTES, check_file_size
+
+BUILTIN_FMU = "builtin"
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """One named command chain of the campaign."""
+
+    name: str
+    index: int
+    chain: tuple[Command, ...]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A validated campaign with every file path resolved against the campaign file."""
+
+    source: Path
+    text: str
+    sha256: str
+    model: CampaignFile
+    paths: tuple[PathSpec, ...]
+    rulebook: Path
+    output: Path
+    fmu: Path | None  # None: the built-in rover FMU
+    dem: Path | None
+    runs: int
+    seed: int
+    workers: int | None  # None: all cores
+    locations: SourceMap
+    adaptive: AdaptiveRuns | None = None  # `runs: auto`; then ``runs`` is its cap
+
+    @property
+    def name(self) -> str:
+        return self.model.name or self.source.stem
+
+    def span(self, loc: Sequence[str | int]) -> Span:
+        return self.locations.span(loc)
+
+    def with_overrides(self, runs: int | str | None = None, seed: int | None = None,
+                       output: Path | None = None, workers: int | None = None,
+                       max_runs: int | None = None, min_runs: int | None = None) -> Campaign:
+        """The same campaign with command-line overrides applied (``runs="auto"``: adaptive;
+        ``max_runs`` / ``min_runs`` apply to an adaptive campaign)."""
+        adaptive = self.adaptive
+        if runs == "auto" and adaptive is None:
+            adaptive = AdaptiveRuns()
+        elif isinstance(runs, int):
+            adaptive = None
+        if adaptive is not None:
+            adaptive = replace(adaptive,
+                               max_runs=adaptive.max_runs if max_runs is None else max_runs,
+                               min_runs=adaptive.min_runs if min_runs is None else min_runs)
+            runs = adaptive.max_runs
+        return replace(
+            self,
+            adaptive=adaptive,
+            runs=self.runs if not isinstance(runs, int) else runs,
+            seed=self.seed if seed is None else seed,
+            output=self.output if output is None else output,
+            workers=self.workers if workers is None else workers,
+        )
+
+
+def format_loc(loc: Sequence[str | int]) -> str:
+    """``("paths", "detour", 1, "delta_heading")`` → ``paths.detour[1].delta_heading``."""
+    text = ""
+    for part in loc:
+        if isinstance(part, int):
+            text += f"[{part}]"
+        else:
+            text += ("." if text else "") + str(part)
+    return text
+
+
+def _data_loc(data: Any, loc: Sequence[str | int]) -> tuple[tuple[str | int, ...], bool]:
+    """Keep only the parts of a pydantic ``loc`` that exist in the data (drops union tags).
+
+    Returns the cleaned location and whether its last part exists in the data.
+    """
+    cleaned: list[str | int] = []
+    node = data
+    found = True
+    for part in loc:
+        in_dict = isinstance(node, dict) and part in node
+        in_list = isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
+        if in_dict or in_list:
+            cleaned.append(part)
+            node = node[part]
+            found = True
+        elif isinstance(node, dict | list):
+            # A union tag (e.g. "normal") or a missing key: keep missing keys for the message.
+            found = False
+            if isinstance(part, str) and part.isidentifier() and part not in _UNION_TAGS:
+                cleaned.append(part)
+                break
+        else:
+            found = False
+            break
+    return tuple(cleaned), found
+
+
+_UNION_TAGS = frozenset({"fixed", "normal", "truncated_normal", "uniform", "log_normal",
+                         "verdict", "rank_first", "max_mean_risk", "max_collision_chance"})
+
+
+def _inside_value(span: Span, value: str, position: int, text: str) -> Span:
+    """The span of character ``position`` of the string ``value`` written at ``span`` (the
+    value's own span when it is not written there as such, e.g. with escapes)."""
+    lines = text.splitlines()
+    if not 0 < span.line <= len(lines):
+        return span
+    found = lines[span.line - 1].find(value, max(span.column - 1, 0))
+    if found < 0 or found > span.column + 1:  # the value, after at most a quote
+        return span
+    column = found + position + 1
+    return Span(span.path, span.line, column, span.line, column + 1)
+
+
+def _diagnostics_from_validation(failure: ValidationError, data: Any,
+                                 locations: SourceMap, text: str) -> list[Diagnostic]:
+    diagnostics = []
+    seen = set()
+    for item in failure.errors(include_url=False):
+        loc, found = _data_loc(data, item["loc"])
+        kind = item["type"]
+        if kind == "extra_forbidden":
+            message = "unknown key"
+            span = locations.span(loc, at_key=True)
+        elif kind == "missing":
+            message = "missing required key"
+            span = locations.span(loc[:-1] if not found else loc)
+        elif kind == "union_tag_invalid":
+            context = item.get("ctx", {})
+            message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
+                       f"{context.get('tag')!r} (expected one of: "
+                       f"{context.get('expected_tags', '')})")
+            span = locations.span((*loc, "distribution"))
+        else:
+            message = item["msg"]
+            # "[key]": pydantic's marker for a mistake in a mapping key, not its value
+            span = locations.span(loc, at_key=item["loc"][-1:] == ("[key]",))
+            position = item.get("ctx", {}).get("position")
+            if isinstance(position, int) and isinstance(item.get("input"), str):
+                span = _inside_value(span, item["input"], position, text)
+        where = format_loc(loc)
+        text = f"{where}: {message}" if where else message
+        if (text, str(span)) in seen:
+            continue
+        seen.add((text, str(span)))
+        diagnostics.append(error("C100", text, span))
+    diagnostics.sort(key=lambda d: (d.span.line, d.span.column) if d.span else (0, 0))
+    return diagnostics
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
+    source = Path(path)
+    shown = str(path)
+    check_file_size(source, MAX_CAMPAIGN_BYTES, CAMPAIGN_TOO_LARGE, "campaign file")
+    text = read_user_text(source, "C010", "campaign file")
+    document = load_yaml(text, shown)
+    if not isinstance(document.data, dict):  # maybe no campaign at all: quote none of it
+        raise UserInputError(error("C101", "a campaign file is a mapping (key: value lines)",
+                                   Span(shown, 1, 1)), sources={shown: ""})
+    try:
+        model = CampaignFile.model_validate(document.data)
+    except ValidationError as failure:
+        raise UserInputError(_diagnostics_from_validation(failure, document.data,
+                                                          document.locations, text),
+                             sources={shown: text}) from None
+    base = source.resolve().parent
+    diagnostics = _cross_checks(model, document.locations, base)
+    if diagnostics:
+        raise UserInputError(diagnostics, sources={shown: text})
+    paths = tuple(
+        PathSpec(name, index, tuple(Command(c.max_wheel_rate, c.delta_position, c.delta_heading)
+                                    for c in chain))
+        for index, (name, chain) in enumerate(model.paths.items()))
+    return Campaign(
+        source=source.resolve(),
+        text=text,
+        sha256=hashlib.sha256(text.encode("utf-8")).hexdigest(),
+        model=model,
+        paths=paths,
+        rulebook=(base / model.rulebook).resolve(),
+        output=(base / model.output).resolve(),
+        fmu=None if model.fmu.path == BUILTIN_FMU else (base / model.fmu.path).resolve(),
+        dem=(base / model.environment.terrain.dem).resolve()
+        if model.environment.terrain.dem else None,
+        runs=model.run_count,
+        seed=model.uncertainty.seed,
+        workers=None if model.workers == "auto" else model.workers,
+        locations=document.locations,
+        adaptive=model.adaptive,
+    )
+
+
+def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list[Diagnostic]:
+    """Checks that need more than one field: files exist, expectations name known paths."""
+    found: list[Diagnostic] = []
+
+    def need_file(relative: str, loc: tuple[str | int, ...], what: str) -> None:
+        if (base / relative).is_dir():
+            found.append(error("C200", f"{format_loc(loc)}: {what} {relative!r} is a folder, "
+                                       "not a file", locations.span(loc)))
+        elif not (base / relative).is_file():
+            found.append(error("C200", f"{format_loc(loc)}: {what} {relative!r} not found "
+                                       f"(relative paths start at the campaign file's folder)",
+                               locations.span(loc)))
+
+    need_file(model.rulebook, ("rulebook",), "rulebook")
+    if model.fmu.path != BUILTIN_FMU:
+        need_file(model.fmu.path, ("fmu", "path"), "FMU")
+    if model.environment.terrain.dem:
+        need_file(model.environment.terrain.dem, ("environment", "terrain", "dem"), "DEM file")
+        found.extend(_dem_grid_checks(model.environment.terrain, locations))
+    if model.workers != "auto" and model.workers < 1:
+        found.append(error("C201", "workers: expected 'auto' or a positive number",
+                           locations.span(("workers",))))
+    found.extend(_adaptive_checks(model, locations))
+    for index, expectation in enumerate(model.expect):
+        if isinstance(expectation, RankFirstExpectation):
+            name, key = expectation.rank_first, "rank_first"
+        elif isinstance(expectation, PathVerdictExpectation | MeanRiskExpectation
+                        | CollisionExpectation):
+            name, key = expectation.path, "path"
+        else:  # pragma: no cover - the schema admits no other kind
+            continue
+        if name not in model.paths:
+            known = ", ".join(model.paths)
+            found.append(error("C202", f"expect[{index}].{key}: unknown path {name!r} "
+                                       f"(paths: {known})",
+                               locations.span(("expect", index, key))))
+    return found
+
+
+def _adaptive_checks(model: CampaignFile, locations: SourceMap) -> list[Diagnostic]:
+    """``max_runs``, ``min_runs`` and ``batch_runs`` belong to ``runs: auto``, and the minimum
+    cannot exceed the cap."""
+    if model.runs != "auto":
+        return [error("C700", f"{key}: only used with 'runs: auto' (runs is {model.runs})",
+                      locations.span((key,), at_key=True),
+                      hint="write 'runs: auto' for an adaptive campaign, or remove the key")
+                for key in ("max_runs", "min_runs", "batch_runs")
+                if getattr(model, key) is not None]
+    adaptive = model.adaptive
+    assert adaptive is not None
+    if adaptive.min_runs > adaptive.max_runs:
+        key = "min_runs" if model.min_runs is not None else "max_runs"
+        return [error("C701", f"{key}: min_runs {adaptive.min_runs} exceeds max_runs "
+                              f"{adaptive.max_runs}", locations.span((key,)))]
+    return []
+
+
+def _dem_grid_checks(terrain: TerrainSection, locations: SourceMap) -> list[Diagnostic]:
+    """A ``.npy``/``.csv`` DEM is bare heights and needs ``cell``; a terrain file carries its
+    own cell and origin, so giving them as well would be silently ignored."""
+    dem = str(terrain.dem)
+    suffix = Path(dem).suffix.lower()
+    loc: tuple[str | int, ...] = ("environment", "terrain")
+    if suffix in HEIGHT_GRID_SUFFIXES:
+        if terrain.cell is None:
+            return [error("C203", f"{format_loc((*loc, 'dem'))}: {dem!r} holds heights only; "
+                                  "give the grid spacing as environment.terrain.cell",
+                          locations.span((*loc, "dem")), hint='e.g. cell: "2 cm" (origin '
+                          "defaults to centring the grid on (0, 0))")]
+        return []
+    given = [key for key in ("cell", "origin") if getattr(terrain, key) is not None]
+    return [error("C204", f"{format_loc((*loc, key))}: {dem!r} is a terrain file, which gives "
+                          f"its own {key}; remove it (only .npy and .csv DEMs take one)",
+                  locations.span((*loc, key))) for key in given]
+
+
+# --- what the campaign says of the rover, for the evaluation ---------------------------------
+
+# Campaign regolith keys are the FMU's soil parameters without their prefix.
+REGOLITH_PREFIX = "soil."
+GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track": "half_track",
+                       "rover.half_wheelbase": "half_wheelbase",
+                       "controller.wheel_acceleration": "wheel_acceleration"}
+INITIAL_POSITION = ("initial.x", "initial.y")
+
+
+def stop_limit(campaign: Campaign, chain: Sequence[Command], rover: RoverGeometry
+               ) -> tuple[float, int, float]:
+    """When a run of ``chain`` is stopped: (stop time, output samples, ideal duration). The stop
+    time is the chain's ideal duration × ``duration_margin`` + ``extra_time``, rounded up to a
+    whole output interval (``docs/campaign-format.md``, "simulation")."""
+    settings = campaign.model.simulation
+    ideal = chain_duration(tuple(chain), rover)
+    raw_stop = ideal * settings.duration_margin + settings.extra_time
+    steps = max(1, math.ceil(raw_stop / settings.output_interval - 1e-9))
+    return steps * settings.output_interval, steps + 1, ideal
+
+
+def rover_geometry(campaign: Campaign) -> RoverGeometry:
+    """Kinematic geometry: defaults, or fixed/nominal values the campaign gives."""
+    values = nominal_parameters(campaign)
+    overrides = {field_name: float(values[name]) for name, field_name in
+                 GEOMETRY_PARAMETERS.items() if name in values}
+    return RoverGeometry(**overrides)
+
+
+def nominal_parameters(campaign: Campaign) -> dict[str, float]:
+    """Parameter values of the reference run: regolith values, then uncertainty nominals."""
+    from idefix_rules.campaign.input.sampling import nominal_values  # scipy: only when needed
+
+    values = {REGOLITH_PREFIX + key if "." not in key else key: value
+              for key, value in campaign.model.environment.regolith.items()}
+    values.update(nominal_values(campaign.model.uncertainty.parameters))
+    return values
+
+
+def initial_position_sigma(campaign: Campaign) -> float:
+    """σ of the initial position (the larger of x and y): the starting tolerance radius."""
+    from idefix_rules.campaign.input.sampling import standard_deviation
+
+    parameters = campaign.model.uncertainty.parameters
+    sigmas = [standard_deviation(parameters[name]) for name in INITIAL_POSITION
+              if name in parameters]
+    return max(sigmas, default=0.0)

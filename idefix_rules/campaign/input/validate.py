@@ -1,0 +1,154 @@
+"""Checks of a campaign before anything is simulated: parameters against the FMU, run sizes,
+rocks on the terrain, the output folder. Mistakes point at the campaign line.
+
+Parameter names (uncertainty, regolith, ``fmu.parameters``) must name settable variables the FMU
+has; a value's dimension must match the FMU variable's unit where that unit is one we know. The
+rest of the FMU mapping is checked by :mod:`idefix_rules.campaign.input.fmu_checks`.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Mapping
+from pathlib import Path
+
+from idefix_rules.campaign.input.load import Campaign, format_loc
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
+from idefix_rules.fmu.description import FmuDescription, FmuVariable
+from idefix_rules.units import Dimension, describe
+
+# Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
+# off by orders of magnitude, which would exhaust memory rather than simulate.
+MAX_SAMPLES = 1_000_000
+
+def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[Diagnostic]:
+    """Parameter names (uncertainty, regolith, ``fmu.parameters``) against the FMU: each must
+    name a settable variable of a numeric type, with a value of its unit's dimension."""
+    variables = description.variables
+    fmu_path = description.path
+    fmu = campaign.model.fmu
+    problems: list[Diagnostic] = []
+    parameter_names = {name: name for name, variable in variables.items() if variable.settable}
+    if fmu.parameters is not None:
+        for fmu_name, our_name in fmu.parameters.items():
+            map_loc = ("fmu", "parameters", fmu_name)
+            variable = variables.get(fmu_name)
+            if variable is None:
+                problems.append(_unknown(campaign, map_loc, fmu_name, variables, "FMU variable",
+                                         fmu_path))
+                parameter_names[our_name] = ""  # reported already; skip its unit check
+                continue
+            if not variable.settable:
+                problems.append(_not_settable(campaign, map_loc, variable))
+                parameter_names[our_name] = ""
+                continue
+            parameter_names[our_name] = fmu_name
+    entries: list[tuple[tuple[str, ...], str, Dimension | None]] = [
+        (("uncertainty", "parameters", name), name, spec.dimension)
+        for name, spec in campaign.model.uncertainty.parameters.items()]
+    entries += [(("environment", "regolith", key), key if "." in key else f"soil.{key}", None)
+                for key in campaign.model.environment.regolith]
+    for loc, name, dimension in entries:
+        if name not in parameter_names:
+            variable = variables.get(name)
+            problems.append(_not_settable(campaign, loc, variable) if variable is not None
+                            else _unknown(campaign, loc, name, parameter_names, "FMU parameter",
+                                          fmu_path))
+            continue
+        if not parameter_names[name]:
+            continue
+        variable = variables[parameter_names[name]]
+        if variable.reader not in ("real", "integer"):
+            problems.append(error(
+                "C505", f"{format_loc(loc)}: FMU parameter {variable.name!r} is a "
+                        f"{variable.type}; a sampled or regolith value needs a Real or Integer",
+                campaign.locations.span(loc, at_key=True)))
+            continue
+        if dimension is None:
+            continue
+        expected = variable.si.dimension if variable.si is not None else None
+        if expected is not None and expected != dimension:
+            problems.append(error(
+                "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
+                        f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
+    return problems
+
+
+def _not_settable(campaign: Campaign, loc: tuple[str, ...], variable: FmuVariable
+                  ) -> Diagnostic:
+    kind = f"{variable.causality} ({variable.variability})" \
+        if variable.causality in ("parameter", "input") else variable.causality
+    return error("C504", f"{format_loc(loc)}: FMU variable {variable.name!r} is {kind}; a "
+                         "parameter must be settable (a parameter or input, not constant)",
+                 campaign.locations.span(loc, at_key=True),
+                 hint="`fmpy info` lists the FMU's parameters and inputs")
+
+
+def check_simulation_size(campaign: Campaign) -> None:
+    """Refuse a run longer than :data:`MAX_SAMPLES` output samples before simulating."""
+    from idefix_rules.campaign.input.load import rover_geometry, stop_limit
+
+    rover = rover_geometry(campaign)
+    settings = campaign.model.simulation
+    problems = []
+    for spec in campaign.paths:
+        samples = stop_limit(campaign, spec.chain, rover)[1]
+        if samples > MAX_SAMPLES:
+            problems.append(error(
+                "C404", f"paths.{spec.name}: a run would last "
+                        f"{samples * settings.output_interval:.6g} s at an output interval of "
+                        f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
+                        f"than {MAX_SAMPLES}",
+                campaign.locations.span(("simulation",), at_key=True),
+                hint="stop time = chain duration × duration_margin + extra_time; check the "
+                     "simulation section and the chain's wheel rates"))
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+
+
+def check_rocks_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
+                           ) -> None:
+    """Every rock centre must lie on the terrain grid ``(x_min, x_max, y_min, y_max)``."""
+    x_min, x_max, y_min, y_max = extent
+    problems = [
+        error("C206", f"environment.rocks[{index}]: ({rock.x:g} m, {rock.y:g} m) is outside "
+                      f"the terrain (x {x_min:g} … {x_max:g} m, y {y_min:g} … {y_max:g} m)",
+              campaign.span(("environment", "rocks", index)),
+              hint="rock positions are world coordinates, in the terrain's frame")
+        for index, rock in enumerate(campaign.model.environment.rocks)
+        if not (x_min <= rock.x <= x_max and y_min <= rock.y <= y_max)]
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+
+
+def prepare_output(campaign: Campaign) -> None:
+    """Create the output folder, or say why it cannot be (a file, no permission …)."""
+    folder = campaign.output
+    from_file = folder == (campaign.source.parent / campaign.model.output).resolve()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / ".idefix-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as failure:
+        reason = ("it is a file" if folder.is_file() or isinstance(failure, FileExistsError)
+                  else failure.strerror or str(failure))
+        raise UserInputError(error(
+            "C205", f"output folder {folder} cannot be used: {reason}",
+            campaign.span(("output",)) if from_file else Span(str(folder)),
+            hint=None if from_file else "given by --out"),
+            sources={str(campaign.source): campaign.text}) from None
+
+
+def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping[str, object],
+             what: str, fmu_path: Path) -> Diagnostic:
+    close = difflib.get_close_matches(name, list(known), n=1)
+    hint = f"did you mean {close[0]!r}?" if close else None
+    if hint is None and what == "FMU parameter":
+        # `fmpy info` lists inputs and outputs only: name the parameters there are
+        names = [n for n in known if n]
+        listing = ", ".join(names[:8]) + (" …" if len(names) > 8 else "")
+        hint = (f"settable variables of {fmu_path.name}: {listing or 'none'}; or map one to "
+                f"this name: fmu.parameters: {{its_name: {name}}}")
+    return error("C401", f"{format_loc(loc)}: unknown {what} {name!r} in {fmu_path.name}",
+                 campaign.locations.span(loc, at_key=True), hint)

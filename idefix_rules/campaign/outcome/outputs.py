@@ -1,0 +1,365 @@
+"""What a campaign hands back: expectation checks, ``summary.json``, JUnit XML, exit code.
+
+Exit codes (DESIGN.md): 0 every expectation holds (no expectations: every path passes),
+1 a path or expectation failed, 2 invalid input, 3 infrastructure error (also when runs failed
+because of the cluster: ``--resume`` runs them again).
+
+Outputs never speak for another run: each names the campaign seed and the results file it was
+made from, is written to a temporary file and renamed, and a run sets the previous run's
+outputs aside (``summary.previous.json`` …) before it simulates anything.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from idefix_rules import __version__
+from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.input.schema import (
+    CollisionExpectation,
+    MeanRiskExpectation,
+    PathVerdictExpectation,
+    RankFirstExpectation,
+)
+from idefix_rules.campaign.input.wording import unfinished_text
+from idefix_rules.campaign.outcome.decision import campaign_decision, reasons_of
+from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
+from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.files import write_atomic
+from idefix_rules.plain import as_plain
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_INPUT = 2  # a mistake of the campaign (a waiver matching nothing shows after evaluation)
+EXIT_INFRASTRUCTURE = 3
+
+
+@dataclass(frozen=True)
+class ExpectationResult:
+    description: str
+    held: bool
+    message: str
+    seconds: float = 0.0  # time the check took (JUnit ``time``)
+
+
+def _percent(value: float | None) -> str:
+    return "n/a" if value is None else f"{100.0 * value:.1f} %"
+
+
+def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> ExpectationResult:
+    """Whether one ``expect:`` entry holds, with a message saying what was found."""
+    if isinstance(expectation, RankFirstExpectation):
+        first = evaluation.ranking[0] if evaluation.ranking else None
+        return ExpectationResult(f"{expectation.rank_first} ranks first",
+                                 first == expectation.rank_first,
+                                 f"ranking: {', '.join(evaluation.ranking) or '(none)'}")
+    path = evaluation.path(expectation.path)
+    if isinstance(expectation, PathVerdictExpectation):
+        wanted = expectation.verdict
+        got = path.verdict_text
+        held = got == wanted or (wanted == "fail" and got in ("rejected", "excluded")) \
+            or (wanted == "pass" and got == "waived")  # a waived failure counts as held
+        message = f"verdict {got}"
+        if path.undecided:
+            message += " (not decided at this number of runs)"
+            held = False
+        if path.failed:
+            message += f"; {path.failed} failed run(s)"
+        says = {"pass": "passes", "fail": "fails"}.get(wanted, "is within a margin of a limit")
+        return ExpectationResult(f"{path.name} {says}", held, message)
+    if isinstance(expectation, MeanRiskExpectation):
+        bound = expectation.max_mean_risk
+        risk = path.mean_risk
+        held = risk is not None and risk <= bound and not path.failed
+        return ExpectationResult(f"{path.name} mean risk <= {_percent(bound)}", held,
+                                 f"mean risk {_percent(risk)}"
+                                 + (f"; {path.failed} failed run(s)" if path.failed else ""))
+    assert isinstance(expectation, CollisionExpectation)
+    problems = []
+    found = []
+    for level, bound in expectation.max_collision_chance.items():
+        chance = _any_collision(path) if level == "any" else path.collision_chance.get(level)
+        found.append(f"{level} {_percent(chance)}")
+        if chance is None or chance > bound:
+            problems.append(level)
+    held = not problems and not path.failed and path.status == "simulated"
+    bounds = ", ".join(f"{lvl} <= {_percent(b)}"
+                       for lvl, b in expectation.max_collision_chance.items())
+    return ExpectationResult(f"{path.name} collision chance {bounds}", held,
+                             "collision chance " + ", ".join(found))
+
+
+def _any_collision(path: PathResult) -> float | None:
+    for key in ("any", "collision", "hit", "collision.any", "hit_any"):
+        if key in path.chances:
+            return path.chances[key]
+    values = list(path.collision_chance.values())
+    # Without a dedicated chance, the largest per-level chance is a lower bound.
+    return max(values) if values else None
+
+
+def check_expectations(expectations: list[Any],
+                       evaluation: CampaignEvaluation) -> list[ExpectationResult]:
+    results = []
+    for expectation in expectations:
+        started = time.perf_counter()
+        result = check_expectation(expectation, evaluation)
+        results.append(dataclasses.replace(result, seconds=time.perf_counter() - started))
+    return results
+
+
+def infrastructure_failures(evaluation: CampaignEvaluation) -> int:
+    """Runs (a reference run too) lost to the infrastructure, not failed for their own reason."""
+    return sum(is_infrastructure(reason) for path in evaluation.paths
+               for reason in (path.reason, *path.failures.values()))
+
+
+def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
+              has_expectations: bool) -> int:
+    if infrastructure_failures(evaluation):
+        return EXIT_INFRASTRUCTURE  # not a verdict on the chains: run them again
+    if has_expectations:
+        return EXIT_OK if all(e.held for e in expectations) else EXIT_FAILED
+    held = ("pass", "waived")  # a waived failure counts as held
+    return EXIT_OK if all(p.verdict_text in held for p in evaluation.paths) else EXIT_FAILED
+
+
+# Units of the numbers in a summary's path records (also in docs/results-format.md).
+SUMMARY_UNITS = {
+    # Fractions here; the console, `diff` and the report show them in percent (× 100).
+    "mean_risk": "fraction 0 … 1, shown in % (run risk I_max, 0 safe … 1 critical; "
+                 "4 decimals)",
+    "risk_ci95": "fraction 0 … 1, shown in % (4 decimals)",
+    "chances": "fraction 0 … 1 of the runs, shown in % (4 decimals)",
+    "collision_chance": "fraction 0 … 1 of the runs per obstacle level, shown in % "
+                        "(4 decimals)",
+    "slip": "fraction 0 … 1 (assumed, measured, wheel_slip, margin), shown in %",
+    "energy_mAs": "mAs (0.1 mAs)",
+    "time_s": "s (0.01 s)",
+    "stop_time_s": "s (0.01 s)",
+    "statistics": "SI, 4 significant digits (risk and chances 1, time s, energy A·s)",
+    "sensitivity": "rank correlations, -1 … 1 (3 decimals)",
+}
+
+
+def _round(value: float | None, decimals: int) -> float | None:
+    return None if value is None else round(float(value), decimals)
+
+
+def significant(obj: Any, digits: int = 4) -> Any:
+    """Every float of a plain tree rounded to ``digits`` significant digits.
+
+    >>> significant({"a": [0.123456, 123456.7], "b": 3})
+    {'a': [0.1235, 123500.0], 'b': 3}
+    """
+    if isinstance(obj, float):
+        return float(f"{obj:.{digits}g}") if obj == obj and abs(obj) != float("inf") else obj
+    if isinstance(obj, dict):
+        return {k: significant(v, digits) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [significant(v, digits) for v in obj]
+    return obj
+
+
+def path_record(path: PathResult) -> dict[str, Any]:
+    return {
+        "name": path.name,
+        "index": path.index,
+        "status": path.status,
+        "reason": path.reason,
+        "runs": path.runs,
+        "completed_runs": path.completed,
+        "failed_runs": path.failed,
+        "failures": [{"run": run, "reason": reason} for run, reason in
+                     sorted(path.failures.items())],
+        "mean_risk": _round(path.mean_risk, 4),
+        "risk_ci95": [round(v, 4) for v in path.risk_ci] if path.risk_ci else None,
+        "chances": {k: round(v, 4) for k, v in path.chances.items()},
+        "collision_chance": {k: round(v, 4) for k, v in path.collision_chance.items()},
+        "energy_mAs": None if path.energy is None else round(path.energy * 1000.0, 1),
+        "time_s": _round(path.time, 2),
+        "stop_time_s": _round(path.stop_time, 2),
+        "unfinished_runs": path.unfinished,
+        "dominant_index": path.dominant_index,
+        "verdict": path.verdict_text,
+        "undecided": path.undecided,
+        "verdict_reasons": path.verdict_reasons,
+        "waivers": [waived.to_dict() for waived in path.waivers],
+        "reasons": reasons_of(path),
+        "runs_used": path.runs,
+        "stop_reason": path.stop_reason,
+        "runs_needed": path.runs_needed,
+        "rank": path.rank,
+        "statistics": significant(as_plain(path.statistics)),
+    }
+
+
+def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
+            code: int, sensitivity: dict[str, Any] | None = None,
+            results: str | None = None) -> dict[str, Any]:
+    prov = evaluation.provenance
+    return {
+        "format": "idefix-summary",
+        "format_version": 1,
+        "results": results,
+        "campaign": {"name": prov.get("campaign_name"), "path": prov.get("campaign_path"),
+                     "sha256": prov.get("campaign_sha256")},
+        "rulebook": evaluation.rulebook,
+        "fmu": {"path": prov.get("fmu_path"), "sha256": prov.get("fmu_sha256")},
+        "package_version": __version__,
+        "runs": prov.get("runs"),
+        "seed": prov.get("seed"),
+        "sampling": prov.get("sampling"),
+        "started": prov.get("started"),
+        "finished": prov.get("finished"),
+        "decision": campaign_decision(evaluation).to_dict(),
+        "units": SUMMARY_UNITS,
+        "paths": [path_record(p) for p in evaluation.paths],
+        "ranking": evaluation.ranking,
+        "paired": evaluation.paired,
+        "indifference": evaluation.indifference,
+        "ties": [list(tie) for tie in evaluation.ties],
+        "pairs": [significant(pair.to_dict()) for pair in evaluation.pairs],
+        "alpha": (significant(evaluation.budget.to_dict())
+                  if evaluation.budget is not None else None),
+        "sensitivity": sensitivity or {},
+        "expectations": [{"description": e.description, "held": e.held, "message": e.message}
+                         for e in expectations],
+        "slip": slip_record(evaluation),
+        "exit_code": code,
+    }
+
+
+def slip_record(evaluation: CampaignEvaluation) -> dict[str, Any]:
+    """Assumed vs simulated slip (idefix_rules.campaign.evaluation.slip), with the margin it
+    warns at."""
+    from idefix_rules.campaign.evaluation.slip import SETTING, SLIP_MARGIN, slip_warning
+
+    return {"setting": SETTING, "margin": SLIP_MARGIN, "warning": slip_warning(evaluation.slip),
+            "paths": [check.to_dict() for check in evaluation.slip]}
+
+
+def write_summary(path: Path, data: dict[str, Any]) -> None:
+    write_atomic(path, json.dumps(data, indent=2, allow_nan=False, default=str) + "\n")
+
+
+def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
+                    results: str | None) -> None:
+    """The campaign seed, run count, results file and input hashes this suite belongs to."""
+    properties = ET.SubElement(suite, "properties")
+    prov = evaluation.provenance
+    for key, value in (("seed", prov.get("seed")), ("runs", prov.get("runs")),
+                       ("results", results), ("campaign_sha256", prov.get("campaign_sha256")),
+                       ("rulebook_sha256", evaluation.rulebook.get("sha256"))):
+        if value is not None:
+            ET.SubElement(properties, "property", name=key, value=str(value))
+
+
+def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
+              suite_name: str, seconds: Mapping[str, float] | None = None,
+              results: str | None = None) -> str:
+    """JUnit XML whose failures are exactly what makes the exit code 1 (docs/ci.md).
+
+    Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
+    (one case per path, its verdict). With expectations, the exit code follows them, so only
+    expectation cases fail; path cases report their verdict (property ``verdict``, text) and
+    pass. Without expectations, every path must pass: a path that does not is a failure (an
+    error when its evaluation broke). ``seconds``: time spent per path (simulation in the
+    workers and evaluation), the ``time`` of its case; each expectation case's time is its
+    check. Each suite's properties name the campaign seed and the results file.
+    """
+    seconds = seconds or {}
+    asserted_paths = not expectations
+    root = ET.Element("testsuites", name=suite_name)
+    paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
+    _run_properties(paths, evaluation, results)
+    failures = errors = skipped = 0
+    for path in evaluation.paths:
+        case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
+                             time=f"{seconds.get(path.name, 0.0):.3f}")
+        properties = ET.SubElement(case, "properties")
+        verdict = path.verdict_text + (" (not decided)" if path.undecided else "")
+        ET.SubElement(properties, "property", name="verdict", value=verdict)
+        ET.SubElement(properties, "property", name="asserted",
+                      value="yes" if asserted_paths else "no: the campaign's expectations "
+                      "decide the exit code")
+        detail = _path_detail(path)
+        if asserted_paths and path.verdict_text == "error":
+            errors += 1
+            ET.SubElement(case, "error", message=f"path {path.name}: {path.reason or 'error'}",
+                          type="error").text = detail
+        elif path.verdict_text == "waived":  # neither a pass nor a failure: said as skipped
+            skipped += 1
+            ET.SubElement(case, "skipped", message="; ".join(
+                f"{waived.text()} [{waived.rule}]" for waived in path.waivers))
+        elif asserted_paths and path.verdict_text != "pass":
+            failures += 1
+            ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
+                          type=path.verdict_text).text = detail
+        compared = [pairwise.describe(pair, path.name) for pair in evaluation.pairs
+                    if path.name in (pair.first, pair.second)]
+        ET.SubElement(case, "system-out").text = "\n".join(
+            [detail, *(f"pair: {line}" for line in compared)])
+    neighbours = pairwise.adjacent(evaluation.ranking, evaluation.pairs)
+    if neighbours:  # the ranking's neighbours compared in the same worlds, best first
+        ET.SubElement(paths, "system-out").text = "\n".join(
+            f"pair: {pairwise.describe(pair, above)}" for above, pair in neighbours)
+    _suite_counts(paths, len(evaluation.paths), failures, errors,
+                  sum(seconds.get(p.name, 0.0) for p in evaluation.paths), skipped)
+    if expectations:
+        suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
+        _run_properties(suite, evaluation, results)
+        failed = 0
+        for index, expectation in enumerate(expectations):
+            case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.expect",
+                                 name=f"expect[{index}] {expectation.description}",
+                                 time=f"{expectation.seconds:.3f}")
+            if not expectation.held:
+                failed += 1
+                ET.SubElement(case, "failure", message=expectation.message,
+                              type="expectation").text = expectation.message
+            ET.SubElement(case, "system-out").text = expectation.message
+        _suite_counts(suite, len(expectations), failed, 0,
+                      sum(e.seconds for e in expectations))
+        failures += failed
+    _suite_counts(root, len(evaluation.paths) + len(expectations), failures, errors,
+                  sum(float(s.get("time", "0")) for s in root.iter("testsuite")), skipped)
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
+                  seconds: float, skipped: int = 0) -> None:
+    element.set("tests", str(tests))
+    element.set("failures", str(failures))
+    element.set("errors", str(errors))
+    element.set("skipped", str(skipped))
+    element.set("time", f"{seconds:.3f}")
+
+
+def _path_detail(path: PathResult) -> str:
+    lines = [f"status: {path.status}"]
+    if path.reason:
+        lines.append(f"reason: {path.reason}")
+    if path.mean_risk is not None:
+        ci = f" (95 % bounds {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
+            if path.risk_ci else ""
+        lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
+    # An undecided verdict is said by the reasons (each undecided rule's message says it).
+    for reason in reasons_of(path):
+        lines.append(f"verdict: {reason}")
+    for waived in path.waivers:
+        lines.append(f"{waived.kind} {waived.rule}: {waived.text()}")
+    if path.unfinished and path.stop_time is not None:
+        lines.append(unfinished_text(path.name, path.unfinished, path.completed,
+                                     path.stop_time))
+    for run, reason in sorted(path.failures.items()):
+        lines.append(f"run {run} failed: {reason}")
+    return "\n".join(lines)

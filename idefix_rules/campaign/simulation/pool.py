@@ -1,0 +1,201 @@
+"""Executing runs: a local process pool robust to crashing and hanging runs, or Dask.
+
+Both backends take ``(key, payload)`` tasks, a module-level task function and a timeout per
+task (a number, a function of the key, or None), and yield ``(key, Outcome)`` as runs finish
+(in completion order; results are stored by key, so order never matters). A run fails only for
+its own reason, with the same words on both: an exception of the task function, a crash of the
+process running it (``the simulation process crashed (SIGSEGV)``), or its timeout.
+
+The local pool gives each worker process one task at a time over a pipe. That is what makes a
+crash attributable: when a worker dies (even by a segfault inside the FMU) the parent knows the
+one run it was executing, records it as failed with the signal, and starts a fresh worker. A run
+that exceeds the timeout is ended by killing its worker. A worker killed from outside while it
+runs a run (SIGKILL or SIGTERM the pool did not send: the out-of-memory killer, an operator)
+says nothing about the run: the run is given to a fresh worker again, up to
+:data:`~idefix_rules.campaign.simulation.processes.MAX_KILLS` attempts, and then yields
+``infrastructure: killed by SIGKILL 3 times``. Workers keep their FMU instance between runs.
+
+On Linux workers are forked: cheap to start again after a crash, and they never re-run the
+caller's ``__main__`` (forkserver and spawn do, which breaks scripts without a main guard). The
+parent holds no FMU instance and the children never touch the parent's HDF5 file (they leave
+through ``os._exit``). Elsewhere the platform's safe default (spawn) is used.
+
+On Dask (:mod:`~idefix_rules.campaign.simulation.dask_pool`) each task runs the same way, in a child
+process of its Dask worker, so a crashing FMU never takes a Dask worker (and the runs queued
+on it) down.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import sys
+import time
+from collections import deque
+from collections.abc import Hashable, Iterable, Iterator
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from typing import Any
+
+from idefix_rules.campaign.simulation.dask_pool import DaskPool
+from idefix_rules.campaign.simulation.processes import (
+    MAX_KILLS,
+    Outcome,
+    TaskFunction,
+    Timeouts,
+    death_outcome,
+    killed_reason,
+    receive,
+    timeout_of,
+    timeout_reason,
+    worker_main,
+)
+
+__all__ = ["DaskPool", "LocalPool", "Outcome", "TaskFunction", "Timeouts", "timeout_of"]
+
+
+@dataclass
+class _Worker:
+    process: multiprocessing.process.BaseProcess
+    connection: Connection
+    key: Hashable | None = None
+    deadline: float | None = None  # monotonic time its task's timeout ends
+    timeout: float | None = None
+
+
+class LocalPool:
+    """A pool of worker processes, one task each at a time, with crash and timeout handling."""
+
+    def __init__(self, function: TaskFunction, workers: int | None = None,
+                 run_timeout: Timeouts = None, start_method: str | None = None,
+                 persistent: bool = False) -> None:
+        self.function = function
+        self.size = max(1, workers or os.cpu_count() or 1)
+        self.run_timeout = run_timeout
+        # persistent: the workers (and the FMU each holds) outlive a map that ran to its end,
+        # for the next map (an adaptive campaign's looks); the owner closes the pool
+        self.persistent = persistent
+        if start_method is None:
+            start_method = "fork" if sys.platform.startswith("linux") else "spawn"
+        self._context = multiprocessing.get_context(start_method)
+        self._workers: list[_Worker] = []
+
+    def _spawn(self) -> _Worker:
+        parent_end, child_end = self._context.Pipe()
+        inherited = parent_end if self._context.get_start_method() == "fork" else None
+        process = self._context.Process(  # type: ignore[attr-defined]
+            target=worker_main, args=(child_end, self.function, os.getpid(), inherited),
+            daemon=True)
+        process.start()
+        child_end.close()
+        return _Worker(process, parent_end)
+
+    def _retire(self, worker: _Worker, kill: bool) -> None:
+        if kill and worker.process.is_alive():
+            worker.process.kill()
+        worker.process.join(timeout=5)
+        worker.connection.close()
+        self._workers.remove(worker)
+
+    def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
+        """Run every task; yields ``(key, Outcome)`` as each finishes. A task is taken from
+        ``tasks`` when a worker is free for it: at most one per worker is held at a time
+        (and those a kill from outside sends round again)."""
+        pending = iter(tasks)
+        exhausted = False
+        again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside
+        payloads: dict[Hashable, Any] = {}  # of the runs being executed
+        kills: dict[Hashable, list[str]] = {}
+        finished = False
+        try:
+            while True:
+                while (again or not exhausted) and len(self._workers) < self.size:
+                    self._workers.append(self._spawn())
+                idle = [w for w in self._workers if w.key is None]
+                for worker in idle:
+                    if again:
+                        key, payload = again.popleft()
+                    else:
+                        try:
+                            key, payload = next(pending)
+                        except StopIteration:
+                            exhausted = True
+                            break
+                    if not self._hand(worker, key, payload):
+                        again.appendleft((key, payload))  # the worker died idle: not the run's
+                        continue
+                    payloads[key] = payload
+                busy = [w for w in self._workers if w.key is not None]
+                if not busy:
+                    if exhausted and not again:
+                        finished = True
+                        return
+                    continue
+                for key, outcome in self._collect(busy):
+                    payload = payloads.pop(key)
+                    if outcome.killed_by:
+                        signals = kills.setdefault(key, [])
+                        signals.append(outcome.killed_by)
+                        if len(signals) < MAX_KILLS:
+                            again.append((key, payload))
+                            continue
+                        outcome = Outcome(False, None, killed_reason(signals))
+                    kills.pop(key, None)
+                    yield key, outcome
+        finally:
+            if not (self.persistent and finished):  # stopped early: busy workers end now
+                self.close()
+
+    def _hand(self, worker: _Worker, key: Hashable, payload: Any) -> bool:
+        """Give a worker its task (False: the worker is gone, and retired)."""
+        try:
+            worker.connection.send((key, payload))
+        except (OSError, ValueError):
+            self._retire(worker, kill=True)
+            return False
+        worker.key = key
+        worker.timeout = timeout_of(self.run_timeout, key)
+        worker.deadline = None if worker.timeout is None else time.monotonic() + worker.timeout
+        return True
+
+    def _collect(self, busy: list[_Worker]) -> Iterator[tuple[Hashable, Outcome]]:
+        deadlines = [w.deadline for w in busy if w.deadline is not None]
+        timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+        handles: dict[Any, _Worker] = {}
+        for worker in busy:
+            handles[worker.connection] = worker
+            handles[worker.process.sentinel] = worker
+        ready = wait(list(handles), timeout=timeout)
+        done: set[int] = set()
+        for handle in ready:
+            worker = handles[handle]
+            if id(worker) in done:
+                continue
+            done.add(id(worker))
+            key = worker.key
+            message = receive(worker.connection)
+            if message is not None:
+                worker.key = worker.deadline = None
+                _, ok, value, reason = message
+                yield key, Outcome(ok, value, reason)
+            else:
+                worker.process.join(timeout=5)
+                outcome = death_outcome(worker.process.exitcode)
+                self._retire(worker, kill=True)
+                yield key, outcome
+        now = time.monotonic()
+        for worker in list(busy):
+            if id(worker) in done or worker.key is None or worker.deadline is None:
+                continue
+            if now >= worker.deadline:
+                key, seconds = worker.key, worker.timeout
+                self._retire(worker, kill=True)
+                yield key, Outcome(False, None, timeout_reason(seconds or 0.0))
+
+    def close(self) -> None:
+        for worker in list(self._workers):
+            if worker.key is None:
+                with contextlib.suppress(OSError, ValueError):
+                    worker.connection.send(None)
+            self._retire(worker, kill=worker.key is not None)

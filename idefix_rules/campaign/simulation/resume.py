@@ -1,0 +1,102 @@
+"""What ``--resume`` simulates again, and the command that continues a campaign.
+
+A run is simulated (again) when it has no stored outcome (killed before it was written), or
+when it failed because of the infrastructure rather than for its own reason (its process was
+killed from outside again and again, its Dask workers died under it, its result was lost:
+reasons starting with ``infrastructure:``); a path whose reference run was lost so starts
+again. A campaign is complete when no reference run and no run of a simulated path is left to
+simulate.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.simulation.processes import INFRASTRUCTURE, is_infrastructure
+from idefix_rules.campaign.storage.store import (
+    STATUS_COMPLETE,
+    STATUS_FAILED,
+    STATUS_MISSING,
+    decode_reason,
+)
+
+__all__ = ["INFRASTRUCTURE", "interrupted_runs", "is_infrastructure", "resume_command",
+           "runs_to_simulate"]
+
+
+def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
+    """Indices of the runs of path ``name`` still to simulate.
+
+    With ``reset`` the runs failed for infrastructure are marked missing again first (their
+    reason cleared), so the file never shows an old reason beside new data.
+    """
+    runs = store.path_group(name)["runs"]
+    status = np.asarray(runs["status"][()])
+    failed = np.flatnonzero(status == STATUS_FAILED)
+    again = []
+    if failed.size:
+        reasons = runs["failure"][()]
+        again = [int(j) for j in failed if is_infrastructure(decode_reason(reasons[j]))]
+    if reset and again:
+        for run in again:
+            runs["failure"][run] = b""
+            runs["status"][run] = STATUS_MISSING
+        store.file.flush()
+    return np.union1d(np.flatnonzero(status == STATUS_MISSING),
+                      np.asarray(again, dtype=np.int64)).astype(np.int64)
+
+
+def interrupted_runs(results: Path) -> tuple[int, int] | None:
+    """``(runs stored, runs planned)`` of a results file whose campaign was interrupted (its
+    state ``running`` or ``interrupted``: killed, stopped, or lost to the infrastructure);
+    None when there is no such file, its campaign completed, or it cannot be read. A run
+    without ``--resume`` sets such a file aside, and says so first."""
+    from idefix_rules.campaign.storage.store import ResultStore
+
+    if not Path(results).is_file():
+        return None
+    try:
+        store = ResultStore.open(Path(results))
+    except Exception:  # unreadable: nothing to resume from either
+        return None
+    try:
+        if str(store.attrs.get("state", "complete")) not in ("running", "interrupted"):
+            return None
+        stored = planned = 0
+        for name in store.path_names:
+            if store.has_runs(name):
+                status = np.asarray(store.path_group(name)["runs"]["status"][()])
+                stored += int(np.sum(status == STATUS_COMPLETE))
+                planned += int(status.size)
+        return stored, planned
+    except Exception:
+        return None
+    finally:
+        store.close()
+
+
+def reference_lost(store: Any, name: str) -> bool:
+    """Whether path ``name``'s reference run was lost to the infrastructure (``--resume``
+    starts the path again)."""
+    group = store.path_group(name)
+    return str(group.attrs.get("status", "")) == "reference_failed" \
+        and is_infrastructure(str(group.attrs.get("reason", "")))
+
+
+def nothing_left(store: Any, names: list[str]) -> bool:
+    """Whether every path of ``names`` has its reference run and all its runs done for good."""
+    return all(not (store.has_path(name) and reference_lost(store, name))
+               and (not store.has_runs(name) or runs_to_simulate(store, name).size == 0)
+               for name in names)
+
+
+def resume_command(source: Any, output: Any, runs: Any, seed: Any,
+                   min_runs: Any = None) -> str:
+    """The command that continues this campaign into the same results file (``min_runs``
+    given: an adaptive campaign, ``runs`` is its cap)."""
+    count = f"--runs {runs}" if min_runs is None else (
+        f"--runs auto --max-runs {runs} --min-runs {min_runs}")
+    return f"idefix-verify {source} --resume --out {output} {count} --seed {seed}"

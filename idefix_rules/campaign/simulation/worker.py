@@ -1,0 +1,132 @@
+"""The task a worker executes: one simulation of one command chain.
+
+The same function runs in the local pool and on Dask workers. Each worker process keeps its
+:class:`~idefix_rules.fmu.FmuRunner` (instantiated once) and reuses it through ``reset`` for
+every later run; a failing run drops the instance so the next run starts clean. The campaign
+extracts the FMU once and names the folder in ``RunTask.unzipped``; a task without it (Dask
+workers on other machines cannot see the folder) makes each worker extract the FMU itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
+from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.errors import Diagnostic, UserInputError
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """Everything one simulation needs; picklable, sent to a worker."""
+
+    fmu_path: str
+    signal_map: tuple[tuple[str, str], ...] | None
+    parameter_map: tuple[tuple[str, str], ...] | None
+    parameters: tuple[tuple[str, float | str], ...]
+    chain: tuple[Command, ...]
+    stop_time: float
+    output_interval: float
+    samples: int
+    unzipped: str | None = None  # the FMU extracted once by the campaign (None: extract here)
+    chain_delivery: str = "parameters"  # parameters, inputs or none (fmu.chain.delivery)
+    chain_inputs: tuple[tuple[str, str], ...] = ()  # FMU input → set-point (delivery inputs)
+    done_at: float = 1.0
+    rover: RoverGeometry | None = None  # geometry of the set-points (delivery inputs)
+    encode: bool = False  # hand back the stored chunks (compressed here), not the arrays
+
+
+@dataclass(frozen=True)
+class InputProblem:
+    """A user mistake found while simulating (bad terrain, unknown variable): not a run
+    failure but a campaign error; the parent raises it as :class:`UserInputError`."""
+
+    diagnostics: tuple[Diagnostic, ...]
+
+
+_RUNNERS: dict[tuple[Any, ...], Any] = {}
+
+
+def _runner(task: RunTask) -> Any:
+    from idefix_rules.fmu import FmuRunner
+
+    key = (task.fmu_path, task.unzipped, task.signal_map, task.parameter_map,
+           task.chain_delivery, task.chain_inputs, task.done_at)
+    runner = _RUNNERS.get(key)
+    if runner is None:
+        for old in _RUNNERS.values():
+            old.close()
+        _RUNNERS.clear()
+        runner = FmuRunner(
+            task.fmu_path,
+            signal_map=dict(task.signal_map) if task.signal_map is not None else None,
+            parameter_map=dict(task.parameter_map) if task.parameter_map is not None else None,
+            unzipped=task.unzipped,
+            chain_delivery=task.chain_delivery,
+            chain_inputs=dict(task.chain_inputs),
+            done_at=task.done_at,
+        )
+        _RUNNERS[key] = runner
+    return runner
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """A run's signals — as arrays, or (``RunTask.encode``) as the compressed chunks the results
+    file stores, so compression runs in the workers — and the seconds spent inside
+    ``FmuRunner.run`` (for the benchmark)."""
+
+    signals: dict[str, np.ndarray]
+    seconds: float
+    encoded: dict[str, EncodedChunk] | None = None
+
+    @property
+    def stored(self) -> Mapping[str, np.ndarray | EncodedChunk]:
+        """What :meth:`ResultStore.write_run` takes."""
+        return self.encoded if self.encoded is not None else self.signals
+
+
+def simulate(task: RunTask) -> RunResult | InputProblem:
+    """Simulate one run; raises on an FMU error or an output that breaks the contract."""
+    try:
+        runner = _runner(task)
+    except UserInputError as failure:
+        return InputProblem(tuple(failure.diagnostics))
+    started = time.perf_counter()
+    try:
+        signals = runner.run(parameters=dict(task.parameters), chain=list(task.chain),
+                             stop_time=task.stop_time, output_interval=task.output_interval,
+                             rover=task.rover)
+    except UserInputError as failure:
+        return InputProblem(tuple(failure.diagnostics))
+    except BaseException:
+        _RUNNERS.clear()
+        with contextlib.suppress(Exception):
+            runner.close()
+        raise
+    seconds = time.perf_counter() - started
+    checked = check_outputs(signals, task.samples)
+    if task.encode:
+        return RunResult({}, seconds, encode_run(checked))
+    return RunResult(checked, seconds)
+
+
+def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
+    """Outputs on the expected grid and finite, as float64 arrays; ValueError otherwise."""
+    checked = {}
+    for name, values in signals.items():
+        array = np.asarray(values, dtype=np.float64)
+        if array.shape[:1] != (samples,):
+            raise ValueError(f"signal {name!r} has {array.shape[0] if array.ndim else 0} "
+                             f"samples, expected {samples}")
+        if not np.all(np.isfinite(array)):
+            first = int(np.flatnonzero(~np.isfinite(array.reshape(samples, -1)).any(axis=1))[0])
+            raise ValueError(f"signal {name!r} is not finite from sample {first}")
+        checked[name] = array
+    return checked

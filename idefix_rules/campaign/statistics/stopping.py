@@ -1,0 +1,155 @@
+"""When an adaptive campaign (``runs: auto``) stops a path.
+
+At each look every ranked path's statistics carry the one-sided bounds its verdict is judged
+on (:mod:`idefix_rules.campaign.statistics.bounds`, at the levels of the campaign's
+:class:`~idefix_rules.campaign.statistics.budget.AlphaBudget`), and the rulebook's own verdict
+logic runs on them. A path stops when
+
+1. its verdict is decided: every verdict rule passes, fails or lies within its margin of the
+   limit, or one fails decidedly or lies within its margin (then the path does not pass,
+   whatever the open rules say), and
+2. the comparisons the decision depends on are settled: a path that does not pass needs none
+   (the order among chains that fail decides nothing); the chain that leads, of those that
+   pass or may still pass, must be settled against each of them, and each of them against it
+   — passing paths rank first, and within a group the first rank key's intervals do not
+   overlap; in a paired campaign ranking first by risk, the confidence sequence of the two
+   paths' per-world risk differences decides instead
+   (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
+   rulebook's indifference margin (a tie is a decision too),
+
+or when it reaches ``max_runs``. Because the bounds hold at every run count at once, looking
+after every batch and stopping on what they say keeps their error rates; a fixed-count
+interval re-checked after every batch would not.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+STOP_FIXED = "fixed run count"
+
+
+@dataclass(frozen=True)
+class Settlement:
+    """What one look says about a path."""
+
+    verdict_decided: bool
+    passed: bool
+    unsettled_against: tuple[str, ...]  # paths whose order against this one is open
+    contender: bool = True  # passes or may still pass: its rank may decide what to send
+    outcome: str = ""  # pass, fail, marginal (within a margin of a limit), or "" when open
+
+    @property
+    def rank_settled(self) -> bool:
+        return not self.unsettled_against
+
+    @property
+    def done(self) -> bool:
+        return self.verdict_decided and self.rank_settled
+
+
+# --- the look ----------------------------------------------------------------------------------
+
+_UNPAIRED = 2  # no paired comparison: the two intervals decide
+
+
+def _order(first: tuple[set[bool], tuple[float, float]],
+           second: tuple[set[bool], tuple[float, float]],
+           paired: int | None = _UNPAIRED) -> int | None:
+    """-1 when the first path ranks above the second whatever the open verdicts turn out to
+    be, 1 when below, 0 when tied, None when it is not settled. ``paired`` is the paired
+    comparison's order (-1, 1, 0 tied, None open) when there is one."""
+    outcomes: set[int | None] = set()
+    (groups_a, (a_low, a_high)), (groups_b, (b_low, b_high)) = first, second
+    for passes_a in groups_a:
+        for passes_b in groups_b:
+            if passes_a != passes_b:
+                outcomes.add(-1 if passes_a else 1)
+            elif paired != _UNPAIRED:
+                outcomes.add(paired)
+            elif a_high < b_low:
+                outcomes.add(-1)
+            elif b_high < a_low:
+                outcomes.add(1)
+            else:
+                outcomes.add(None)
+    return outcomes.pop() if len(outcomes) == 1 else None
+
+
+def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
+           pairs: Sequence[Any] = ()) -> dict[str, Settlement]:
+    """Each ranked path's settlement from its judged statistics and, in a paired campaign, the
+    paired comparisons (:class:`~idefix_rules.campaign.statistics.pairwise.PairComparison`) that
+    decide the first rank key. Only the comparisons the decision depends on are asked for: the
+    leading contender (a path that passes or may pass, first in the ranking) against each
+    other contender."""
+    from idefix_rules.campaign.statistics.pairwise import find
+    from idefix_rules.rulebook.statistics import rank_key_intervals
+
+    def paired_order(name: str, other: str) -> int | None:
+        pair = find(pairs, name, other)
+        if pair is None:
+            return _UNPAIRED
+        order = pair.order()
+        return order if order is None or pair.first == name else -order
+
+    facts = {}
+    outcomes = {}
+    for name, stats in stats_by_path.items():
+        verdict = evaluator.verdict(stats)
+        outcomes[name] = ("" if not verdict.decided else "pass" if verdict.passed
+                          else "marginal" if verdict.marginal else "fail")
+        groups = {bool(verdict.passed)} if verdict.decided else {True, False}
+        keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
+        first_key = keys[0] if keys else (math.nan, math.nan)
+        facts[name] = (bool(verdict.decided), bool(verdict.passed), groups, first_key)
+    ranking = contenders(evaluator, stats_by_path, facts)
+    leader = ranking[0] if ranking else None
+
+    def open_between(name: str, other: str) -> bool:
+        (_, _, groups, key), (_, _, other_groups, other_key) = facts[name], facts[other]
+        return _order((groups, key), (other_groups, other_key),
+                      paired_order(name, other)) is None
+
+    settlements = {}
+    for name, (decided, passed, _, _) in facts.items():
+        if name not in ranking:
+            open_against: tuple[str, ...] = ()
+        elif name == leader:
+            open_against = tuple(other for other in ranking[1:] if open_between(name, other))
+        else:
+            assert leader is not None
+            open_against = (leader,) if open_between(name, leader) else ()
+        settlements[name] = Settlement(decided, passed, open_against, name in ranking,
+                                       outcomes[name])
+    return settlements
+
+
+def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
+               facts: Mapping[str, tuple[bool, bool, set[bool], Any]]) -> list[str]:
+    """The paths that pass or may still pass, in the rulebook's ranking (best first)."""
+    order = evaluator.rank(stats_by_path)
+    return [name for name in order if True in facts[name][2]]
+
+
+def stop_reason(settlement: Settlement, runs: int, cap: int) -> str | None:
+    """Why a path stops after ``runs`` runs, or None when it goes on."""
+    if settlement.done:
+        outcome = settlement.outcome or ("pass" if settlement.passed else "fail")
+        if not settlement.contender:
+            return (f"decided after {runs} runs: verdict {outcome} (no decision depends on its "
+                    "rank)")
+        return (f"decided after {runs} runs: verdict {outcome} and rank settled against every "
+                "path the decision compares it with")
+    if runs < cap:
+        return None
+    missing = []
+    if not settlement.verdict_decided:
+        missing.append("verdict not decided")
+    if settlement.unsettled_against:
+        missing.append("rank against " + ", ".join(settlement.unsettled_against)
+                       + " not settled")
+    return f"cap of {cap} runs reached: " + "; ".join(missing)
