@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import heapq
 import json
 import tempfile
@@ -47,7 +46,7 @@ from idefix_rules.commands import RoverGeometry
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
-from idefix_rules.results.terrain import TerrainSource
+from idefix_rules.results.terrain import TerrainSource, file_sha256
 from idefix_rules.timestamps import now_iso
 
 RESULTS_FILE = "results.h5"
@@ -116,14 +115,6 @@ class RunStage(Protocol):
                  fmu: FmuSource, fmu_parameters: Mapping[str, float | str],
                  plans: list[PathPlan], store: ResultStore, options: SimulationOptions,
                  progress: Progress, summary: SimulationSummary, collisions: Any) -> None: ...
-
-
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathPlan:
