@@ -109,7 +109,9 @@ typedef struct {
     double prev_centre_z;
     /* distance the contact travelled over ground (rut ownership), and where it was */
     double travel, own_span, last_wx, last_wy;
+    double mark_span;        /* own_span + patch_length of the wheel's last mark, m */
     int travel_started;
+    int marked;              /* the wheel marked the soil in the last step */
 } Wheel;
 
 double wheel_path_speed(const Wheel *w, double vx);
