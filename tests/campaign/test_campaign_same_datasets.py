@@ -10,7 +10,10 @@ run), and both when campaigns became paired (run ``j`` of every path draws from 
 ``()``: with the earlier derivation, ``spawn_key=(path index, j)``, both old digests were
 reproduced exactly before they were replaced), and the toy's when results format 5 stored
 ``z`` and ``energy`` as float32 (with the format 4 precision it still gave the old digest,
-checked before it was replaced). A change to either must
+checked before it was replaced), and the rover's when a wheel on a rock got its support at the
+contact point and a wheel sliding off a rock left the chassis on the other three (the old
+digest reproduced on the old sources before it was replaced; the rut window of a lifted wheel,
+fixed after, left it unchanged: only the source hash was recorded again). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -26,10 +29,11 @@ from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 
-# Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing and the
-# first-touch rock contact; results format 2, default stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "7c7ca845527c91fa9b3ee699533b667f6b1a3be9e9e4d2cbf718b73fc3c43c5f"
-ROVER_DIGEST = "67a4ec15450f9efe0cfada6f98648c19236c347da67b652ff9165dc28ebfdf04"
+# Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing, the
+# first-touch rock contact and the loads of a rigid chassis with a rock's support at its contact;
+# results format 2, default stop limit 3 × ideal, held after the chain.
+ROVER_SOURCE_HASH = "0aab0de8e78c7605e1582cf65a823982518ac5e63687494964ea6a0739f8c2f5"
+ROVER_DIGEST = "b58237abe2350a8f2b58c28ebaa503c821e8b1821e3aca7d185c89d364cfd7a8"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

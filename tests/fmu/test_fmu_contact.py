@@ -38,27 +38,43 @@ def _longest_still_while_driving(out: dict[str, np.ndarray]) -> int:
     return longest
 
 
-def test_a_wheel_against_a_face_above_its_axle_is_a_pivot_and_the_rover_drifts_to_its_side(
+def test_a_tall_rock_in_one_track_turns_the_rover_to_its_side_and_is_never_entered(
         rover: FmuRunner, tmp_path: Path) -> None:
     # A 15 cm rock (taller than the 10 cm axle) in the right wheels' track only, half buried: a
-    # dome the front right wheel first touches at 77°, 7.6 cm high, below its axle. Alone on its
-    # corner it is pushed by its diagonal partner only, whose push turns the chassis about it,
-    # so the wheel is held, the left wheels drive on and the rover yaws and drifts towards the
-    # held (right) side, past the rock: "the entire wheel hits the rock, causing the wheel to
-    # get stuck and the rover to drift to the right" (the paper). Open loop, as a rover without
-    # heading control.
+    # dome the front right wheel first touches at 77°, 7.6 cm high, below its axle. Its support
+    # is the contact, r sin 77° = 9.7 cm ahead of the hub (docs/rover-model.md, "Loads"), so the
+    # FR-RL diagonal passes 5 cm left of the centre of gravity and the chassis rests on FR, RL
+    # and RR (RR about 14 mN): RR pushes in line behind the front right wheel, which climbs over
+    # the rock's flank. The rear right wheel then meets the rock, its contact 9.7 cm ahead of
+    # its hub, inside the rectangle: the chassis rests on RR, FL and RL, FR unloaded, and RR is
+    # pushed only by FL and RL, whose push turns the chassis about it: the rover yaws and drifts
+    # towards the held (right) side (the paper: "the wheel ... get stuck and the rover to drift
+    # to the right"). Open loop, as a rover without heading control.
     terrain = _terrain(tmp_path, Rock(0.55, -0.26, 0.06, 0.06, 0.15, z=0.0), "tall.terrain")
     out = rover.run({**ODOMETRY, "terrain.file": terrain}, STRAIGHT, 250.0, 0.1)
     assert out["yaw"].min() < math.radians(-5)  # towards the blocked side, clearly
     assert out["y"][-1] < -0.03
-    assert out["x"][-1] > 0.5  # past the rock: the front right wheel slid along its face
+    assert out["x"][-1] > 0.5  # the front right wheel past the rock
     assert _longest_still_while_driving(out) <= 2  # never frozen while the wheels turn
-    # the wheel rests against the face, never in it: its centre stays outside the rock's
-    # section at axle height (radius 0.06 sqrt(1 - (0.1/0.15)^2) = 4.5 cm) by half its width
-    fr_x = out["x"] + 0.20 * np.cos(out["yaw"]) + 0.26 * np.sin(out["yaw"])
-    fr_y = out["y"] + 0.20 * np.sin(out["yaw"]) - 0.26 * np.cos(out["yaw"])
-    section = 0.06 * math.sqrt(1 - (0.1 / 0.15) ** 2)
-    assert np.all(np.hypot(fr_x - 0.55, fr_y + 0.26) > section + 0.03 - 1e-3)
+    # the front right wheel is never in the rock: its centre stays outside the rock's section
+    # at the height of its axle by half its width. On flat ground, with the other three wheels
+    # out of the rock's reach (on the soil, their contacts at -sinkage), the mean contact height
+    # z - 0.30 m gives the front right one's: h_FR = 4 (z - 0.30) + z_FL + z_RL + z_RR.
+    c, s = np.cos(out["yaw"]), np.sin(out["yaw"])
+    reach = 0.06 + soil_model.RADIUS + soil_model.WIDTH / 2
+    others_off = np.ones(len(c), dtype=bool)
+    for px, py in ((0.20, 0.26), (-0.20, 0.26), (-0.20, -0.26)):  # FL, RL, RR
+        others_off &= np.hypot(out["x"] + px * c - py * s - 0.55,
+                               out["y"] + px * s + py * c + 0.26) > reach
+    sinkage = out["wheel.sinkage"]
+    axle = 4 * (out["z"] - 0.30) + sinkage[:, [0, 2, 3]].sum(axis=1) + soil_model.RADIUS
+    fr_x, fr_y = out["x"] + 0.20 * c + 0.26 * s, out["y"] + 0.20 * s - 0.26 * c
+    past = int(np.argmax(fr_x > 0.55 + 0.06 + soil_model.RADIUS))
+    assert past > 0 and others_off[:past].all()  # the others off the rock until FR is past
+    section = 0.06 * np.sqrt(np.clip(1 - (axle / 0.15) ** 2, 0, None))
+    clearance = np.hypot(fr_x - 0.55, fr_y + 0.26) - section - soil_model.WIDTH / 2
+    assert clearance[others_off].min() > -1e-3
+    assert axle.max() > 0.2  # over the rock's flank: the support at the contact lets it climb
 
 
 def test_a_rover_that_cannot_get_past_is_stuck_and_the_chain_goes_on(

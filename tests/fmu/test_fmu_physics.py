@@ -317,29 +317,45 @@ def _largest_push_over_weight(cohesion: float, dug_in: bool = True) -> tuple[flo
     return best, sinkage
 
 
+def _climb_limit(mu_m: float, push: float) -> float:
+    """Largest contact angle a the front wheels climb: P >= W_f tan(a - atan mu_m), with the
+    rear wheels' push P = push W_r and the loads of a chassis on its four wheels with the front
+    supports at their contacts, r sin a ahead of the hubs (docs/rover-model.md, "Loads"):
+    W_r / W_f = (l + r sin a) / l (l the half wheelbase; moments about the centre of gravity)."""
+    lo, hi = math.atan(mu_m), math.pi / 2
+    for _ in range(60):
+        a = 0.5 * (lo + hi)
+        rear_over_front = 1 + soil_model.RADIUS * math.sin(a) / soil_model.HALF_WHEELBASE
+        lo, hi = (a, hi) if math.tan(a - math.atan(mu_m)) <= push * rear_over_front else (lo, a)
+    rear_over_front = 1 + soil_model.RADIUS / soil_model.HALF_WHEELBASE
+    if math.tan(math.pi / 2 - math.atan(mu_m)) <= push * rear_over_front:
+        return math.atan(mu_m) + math.atan(push * rear_over_front)  # beyond 90°: any wall
+    return lo
+
+
 @pytest.mark.parametrize("cohesion", [5.0, 250.0])
 def test_a_step_is_climbed_while_the_push_lifts_the_wheel_over_its_edge(
         rover: FmuRunner, tmp_path: Path, cohesion: float) -> None:
     # Disc against a rigid edge at contact angle a (from the vertical), friction mobilised to
     # mu_m = 0.95 mu (rock.contact_length / rock.shear_K): the front wheels climb iff the rear
-    # wheels' push P satisfies P >= W tan(a - atan mu_m), i.e. a <= a* = atan mu_m + atan(P/W).
+    # wheels' push P satisfies P >= W_f tan(a - atan mu_m). The walls' contacts are r sin a
+    # ahead of the front hubs, which moves load to the rear: W_r / W_f = (l + r sin a) / l, so
+    # with P = (P/W) W_r the limit a* solves tan(a* - atan mu_m) = (P/W) (1 + r sin a* / l).
     # P depends on how far the slip has dug the pushing wheels in: a*(dug in) <= a* <= a*(fresh
     # soil). Thin walls across both front wheels 5° of contact angle below the first and 10°
     # above the second decide it (the estimate takes the loads at the first contact: as the
     # front wheels rise, load moves to the pushing rear wheels, about 10 % each way, which
     # carries the rover up about 5° further).
-    # Weak soil (c = 5 Pa): P/W = 0.14 dug in, 0.56 fresh: a* between 38° and 59°. Default
-    # soil (P/W = 8.5): a* = 113°: a thin wall's rounded top reaches 90° only at the axle
+    # Weak soil (c = 5 Pa): P/W = 0.14 dug in, 0.56 fresh: a* between 41° and 69°. Default
+    # soil (P/W = 8.5): a* beyond 90°: a thin wall's rounded top reaches 90° only at the axle
     # height, so a wall just below the axle is climbed, and a rock whose face stands above the
     # axle (its top surface there is above the wheel centre: a = 90°, no push lifts the wheel)
     # stops the rover.
     push, sinkage = _largest_push_over_weight(cohesion)
     fresh, _ = _largest_push_over_weight(cohesion, dug_in=False)
     mu_m = 0.6 * (1 - 0.001 / 0.02 * (1 - math.exp(-20)))
-    critical = math.atan(mu_m) + math.atan(push)  # wheels dug in by their slip
-    highest = math.atan(mu_m) + math.atan(fresh)  # on fresh soil, before digging in
-    # the wall heights at those contact angles: for the climb, as seen by a wheel dug in to its
-    # full-slip sinkage (the steepest view); for the stall, by a wheel at its static sinkage
+    critical = _climb_limit(mu_m, push)  # wheels dug in by their slip
+    highest = _climb_limit(mu_m, fresh)  # on fresh soil, before digging in
     heights = []
     for target, rim_depth in ((critical - math.radians(5), sinkage),
                               (highest + math.radians(10),

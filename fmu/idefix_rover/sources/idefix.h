@@ -85,7 +85,8 @@ typedef struct {
     double path_angle;       /* the same path's angle to the horizontal (world), rad */
     double pitch;            /* the body's pitch when the grade was taken, rad */
     int on_rock;
-    int dropping;            /* on a rock face too steep to rest on: carries no load */
+    int dropping;            /* on a rock face too steep to rest on: carries the least load
+                              * the other wheels leave it */
     int blocked;             /* a rock face above the axle in the driving direction */
     double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
@@ -108,7 +109,9 @@ typedef struct {
     double prev_centre_z;
     /* distance the contact travelled over ground (rut ownership), and where it was */
     double travel, own_span, last_wx, last_wy;
+    double mark_span;        /* own_span + patch_length of the wheel's last mark, m */
     int travel_started;
+    int marked;              /* the wheel marked the soil in the last step */
 } Wheel;
 
 double wheel_path_speed(const Wheel *w, double vx);

@@ -180,9 +180,12 @@ void rover_step(Instance *inst, double dt)
     hy = sin(inst->yaw);
     for (i = 0; i < N_WHEELS; i++) {
         Wheel *w = &inst->wheels[i];
-        if (!w->on_rock && w->load > 0.0)
+        w->marked = !w->on_rock && w->load > 0.0;
+        if (w->marked) {
+            w->mark_span = w->own_span + w->patch_length;
             soil_mark(&inst->grid, w->wx, w->wy, hx, hy, w->patch_length, width, w->sinkage, i,
-                      w->travel, w->own_span + w->patch_length);
+                      w->travel, w->mark_span);
+        }
     }
 }
 

@@ -103,8 +103,13 @@ void wheel_ground_state(Instance *inst, int i)
         zs = z0 + w->slip_excavation;
         if (zs > soil->max_sinkage) zs = soil->max_sinkage;
         patch = sqrt(2.0 * radius * zs);
+        /* the cells of the wheel's own moving patch are those it marked within the extent of
+         * the patch that marked them; a wheel that made no mark last step (lifted, or on a
+         * rock) has no patch of its own now, and its present one must not decide which of its
+         * old marks are still "own": that fed back (rut seen -> patch -> own -> no rut -> no
+         * patch -> rut seen) into a period-two flicker of a lifted wheel's sinkage */
         rut = soil_query(&inst->grid, w->wx, w->wy, hx, hy, patch, width, i, w->travel,
-                         w->own_span + w->patch_length);
+                         w->marked ? w->own_span + w->patch_length : w->mark_span);
         cohesion = soil->cohesion * (1.0 - rut.disturbed * (1.0 - soil->rut_cohesion_factor));
         /* multi-pass: a wheel in a rut sinks on by a fraction of its first-pass sinkage */
         rut_floor = rut.rut_depth + soil->multipass_factor * rut.disturbed * zs;

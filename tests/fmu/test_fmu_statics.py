@@ -1,0 +1,184 @@
+"""Wheel loads against the statics of a rigid chassis on four supports (docs/rover-model.md,
+"Loads"): the loads balance the weight's normal component and its moments about the point of
+the contact plane under the centre of gravity, a wheel on a rock is supported at its contact
+point, and a wheel sliding off a rock face leaves the chassis on the other three.
+
+The expectations are solved here from the geometry alone: the rover is started at rest with
+its front right wheel on a rock, the contact found by brute force over the wheel's rim and
+width, the body plane fitted through the four contact heights, and the loads solved from the
+equilibrium equations with numpy (any statics text, e.g. Timoshenko & Young, Engineering
+Mechanics: a rigid body on three supports is statically determinate; on four, compatibility of
+the support deflections closes the problem). The FMU's first sample is its state at rest."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soil_model
+
+from idefix_rules.commands import Command
+from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
+
+WHEELS = ("FL", "FR", "RL", "RR")
+SIDE_X, SIDE_Y = np.array([1.0, 1.0, -1.0, -1.0]), np.array([1.0, -1.0, 1.0, -1.0])
+HUB_X, HUB_Y = SIDE_X * soil_model.HALF_WHEELBASE, SIDE_Y * soil_model.HALF_TRACK
+RADIUS, WIDTH = soil_model.RADIUS, soil_model.WIDTH
+WEIGHT = soil_model.MASS * soil_model.GRAVITY
+FR = 1
+ROCK = Rock(0.55, -0.26, 0.03, 0.06, 0.08, z=0.0)  # 8 cm tall, steep, in the right track
+MU = 0.6  # rock.friction_coefficient
+
+
+def _at_rest(rover: FmuRunner, tmp_path: Path, fr_x: float, rocks: list[Rock] | None = None,
+             **parameters: float) -> dict[str, float | np.ndarray]:
+    """The FMU's state at rest with the front right hub at (fr_x, -0.26), heading +x."""
+    terrain = write_terrain(tmp_path / "statics.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, rocks=[ROCK] if rocks is None else rocks))
+    out = rover.run({"terrain.file": str(terrain), "initial.x": fr_x - soil_model.HALF_WHEELBASE,
+                     **parameters}, [Command(0.05, 1.0, 0.0)], 0.2, 0.1)
+    return {"loads": np.array([out[f"wheel.{w}.load"][0] for w in WHEELS]),
+            "pitch": float(out["pitch"][0]), "roll": float(out["roll"][0])}
+
+
+def _contact(hub_x: float, hub_y: float) -> tuple[float, float]:
+    """Height of the lowest point of a wheel resting on ROCK with its hub above (hub_x, hub_y)
+    and its contact angle from the vertical (positive ahead of the hub): the highest wheel
+    centre over the rock, the rim sampled every 0.01° and the width every mm, then refined."""
+    def best(theta: np.ndarray) -> tuple[float, float]:
+        d, lift = RADIUS * np.sin(theta)[:, None], RADIUS * np.cos(theta)[:, None]
+        e = np.linspace(-WIDTH / 2, WIDTH / 2, 61)[None, :]
+        q = ((hub_x + d - ROCK.x) / ROCK.a) ** 2 + ((hub_y + e - ROCK.y) / ROCK.b) ** 2
+        top = np.where(q < 1, ROCK.c * np.sqrt(np.clip(1 - q, 0, None)), -np.inf)
+        height = top + lift
+        i, _ = np.unravel_index(int(np.argmax(height)), height.shape)
+        return float(height.max()), float(theta[i])
+
+    _, coarse = best(np.radians(np.linspace(-90.0, 90.0, 18001)))
+    centre, angle = best(np.linspace(coarse - 2e-4, coarse + 2e-4, 4001))
+    return centre - RADIUS, angle
+
+
+def _body_plane(heights: np.ndarray) -> tuple[float, float]:
+    """Pitch and roll of the least-squares plane through the four contact heights."""
+    slope_x = float(heights @ HUB_X / (HUB_X @ HUB_X))
+    slope_y = float(heights @ HUB_Y / (HUB_Y @ HUB_Y))
+    return -math.atan(slope_x), math.atan(slope_y)
+
+
+def _weight(pitch: float, roll: float) -> tuple[float, float, float]:
+    """The weight's normal component and its moments about the point of the contact plane under
+    the centre of gravity (the in-plane gravity acting at the CoG height)."""
+    g = soil_model.GRAVITY
+    gx, gy = g * math.sin(pitch), -g * math.sin(roll) * math.cos(pitch)
+    gz = g * math.cos(pitch) * math.cos(roll)
+    m, h = soil_model.MASS, soil_model.COG
+    return m * gz, m * gx * h, m * gy * h
+
+
+def _on_supports(xs: np.ndarray, ys: np.ndarray, pitch: float, roll: float,
+                 wheels: list[int]) -> np.ndarray:
+    """Loads of a rigid body on the three supports `wheels` (the others carry none)."""
+    fz, mx, my = _weight(pitch, roll)
+    a = np.array([np.ones(3), xs[wheels], ys[wheels]])
+    loads = np.zeros(4)
+    loads[wheels] = np.linalg.solve(a, [fz, mx, my])
+    return loads
+
+
+def _assert_balanced(loads: np.ndarray, xs: np.ndarray, pitch: float, roll: float) -> None:
+    fz, mx, my = _weight(pitch, roll)
+    tol = 1e-6 * WEIGHT * soil_model.HALF_TRACK
+    assert loads.sum() == pytest.approx(fz, rel=1e-9)
+    assert loads @ xs == pytest.approx(mx, abs=tol)
+    assert loads @ HUB_Y == pytest.approx(my, abs=tol)
+
+
+def _rock_state(rover: FmuRunner, tmp_path: Path, fr_x: float, **parameters: float
+                ) -> tuple[dict, np.ndarray, float, float, float]:
+    """The FMU at rest with the front right wheel on ROCK, the body plane and the contact
+    angle solved here (and the FMU's plane checked against it), the supports' x in the body
+    frame with the front right one at its contact point."""
+    state = _at_rest(rover, tmp_path, fr_x, **parameters)
+    lowest, angle = _contact(fr_x, -soil_model.HALF_TRACK)
+    heights = np.array([0.0, lowest, 0.0, 0.0])  # soil wheels at rest: no sinkage yet
+    pitch, roll = _body_plane(heights)
+    assert state["pitch"] == pytest.approx(pitch, abs=1e-6)
+    assert state["roll"] == pytest.approx(roll, abs=1e-6)
+    body_angle = angle + pitch  # from the body normal: pitch = -atan(slope along x)
+    xs = HUB_X.copy()
+    xs[FR] += RADIUS * math.sin(body_angle)
+    return state, xs, pitch, roll, body_angle
+
+
+def test_loads_balance_the_weight_on_flat_ground_and_on_a_plane(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    for slope, direction in ((0.0, 0.0), (math.radians(10), math.radians(30))):
+        terrain = write_terrain(tmp_path / "plane.terrain", synthetic_terrain(
+            size=4.0, cell=0.02, slope=slope, slope_direction=direction))
+        out = rover.run({"terrain.file": str(terrain)}, [Command(0.05, 1.0, 0.0)], 0.2, 0.1)
+        loads = np.array([out[f"wheel.{w}.load"][0] for w in WHEELS])
+        pitch, roll = float(out["pitch"][0]), float(out["roll"][0])
+        _assert_balanced(loads, HUB_X, pitch, roll)
+        # a plane has no twist: every wheel carries its static share
+        fz, mx, my = _weight(pitch, roll)
+        shares = fz / 4 + SIDE_X * mx / (4 * soil_model.HALF_WHEELBASE) + \
+            SIDE_Y * my / (4 * soil_model.HALF_TRACK)
+        np.testing.assert_allclose(loads, shares, rtol=1e-9)
+
+
+def test_a_wheel_on_a_rock_is_supported_at_its_contact_point(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # The front right hub 8.5 cm short of the rock's axis: it rests on the rock's front face,
+    # its contact well ahead of the hub. The rock lifts it far more than the legs and soil give
+    # (twist T = 4 w / sum c_i beyond the static loads), so the chassis rests on three wheels:
+    # the front right's diagonal (FR, RL) and the one of FL, RR the twist does not lift.
+    state, xs, pitch, roll, body_angle = _rock_state(rover, tmp_path, ROCK.x - 0.085)
+    assert math.radians(35) < body_angle < math.radians(60)  # d = r sin(angle): 6 to 9 cm
+    candidates = [_on_supports(xs, HUB_Y, pitch, roll, [FR, 2, lifted ^ 3])
+                  for lifted in (0, 3)]  # FL lifted (FR, RL, RR) or RR lifted (FR, RL, FL)
+    admissible = [c for c in candidates if (c >= 0).all()]
+    expected = max(admissible, key=lambda c: c[FR])  # the end the raised wheel's diagonal gains
+    _assert_balanced(state["loads"], xs, pitch, roll)
+    np.testing.assert_allclose(state["loads"], expected, rtol=0, atol=2e-4 * WEIGHT)
+
+
+def test_on_soft_legs_a_wheel_on_a_rock_moves_the_load_by_its_contact_offset(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # Very compliant legs (1000 m/N, the soil's compliance negligible beside it) take the whole
+    # twist: the loads are the four-support solution, the static shares S (the reference the
+    # supports deflect from) moved by what balance and compatibility of the deflections ask:
+    # sum W = Fz, sum W x = Mx, sum W y = My, h_i - c (W_i - S_i) = a0 + ax X_i + ay Y_i (the
+    # plane of the chassis at the hubs, where the legs deflect).
+    compliance = 1e3
+    state, xs, pitch, roll, _ = _rock_state(rover, tmp_path, ROCK.x - 0.085,
+                                            **{"rover.leg_compliance": compliance})
+    fz, mx, my = _weight(pitch, roll)
+    shares = fz / 4 + SIDE_X * mx / (4 * soil_model.HALF_WHEELBASE) + \
+        SIDE_Y * my / (4 * soil_model.HALF_TRACK)
+    heights = np.array([0.0, _contact(ROCK.x - 0.085, -soil_model.HALF_TRACK)[0], 0.0, 0.0])
+    a = np.zeros((7, 7))
+    a[0, :4], a[1, :4], a[2, :4] = 1.0, xs, HUB_Y
+    for i in range(4):
+        a[3 + i, i] = compliance
+        a[3 + i, 4:] = 1.0, HUB_X[i], HUB_Y[i]
+    b = np.concatenate([[fz, mx, my], heights + compliance * shares])
+    expected = np.linalg.solve(a, b)[:4]
+    _assert_balanced(state["loads"], xs, pitch, roll)
+    np.testing.assert_allclose(state["loads"], expected, rtol=0, atol=1e-4 * WEIGHT)
+
+
+def test_a_wheel_sliding_off_a_rock_leaves_the_chassis_on_the_other_three(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # The front right hub 8 cm past the rock's axis: it rests on the rear face, its contact
+    # behind the hub steeper than the friction cone (atan 0.6 = 31°) for a rover about to drive
+    # forwards, so it cannot rest there and slides off; the chassis rocks onto FL, RL, RR, whose
+    # loads the three balances give: about W/2 on the FL-RR diagonal, RL the rest.
+    state, _, pitch, roll, body_angle = _rock_state(rover, tmp_path, ROCK.x + 0.08)
+    assert body_angle < -math.atan(MU)
+    expected = _on_supports(HUB_X, HUB_Y, pitch, roll, [0, 2, 3])
+    assert (expected[[0, 2, 3]] > 0.1 * WEIGHT / 4).all()  # the three can carry it
+    _assert_balanced(state["loads"], HUB_X, pitch, roll)
+    np.testing.assert_allclose(state["loads"], expected, rtol=0, atol=2e-4 * WEIGHT)
