@@ -276,7 +276,8 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                             | None]] = []
         # Two paths are scored at a time: while one path's last chunks are evaluated the
         # next one's first are read, so the cores do not wait at every path's start and end.
-        with ThreadPoolExecutor(PATHS_AT_ONCE, thread_name_prefix="diff-path") as pool:
+        pool = ThreadPoolExecutor(PATHS_AT_ONCE, thread_name_prefix="diff-path")
+        try:
             for name in store.path_names:
                 sides = [_Side(e, stored_path_result(store, name)) for e in evaluators]
                 chain = store.chain(name)
@@ -288,12 +289,17 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                     from_store = [_stored_side(stored, name, side, digest) if reuse else False
                                   for side, digest in zip(sides, digests, strict=True)]
                     reused |= {i for i, used in enumerate(from_store) if used}
+                    scores = any(side.evaluates and side.evaluation is None for side in sides)
+                    sources = collisions.for_path(name) if scores else [None] * len(sides)
                     pending = pool.submit(_score_path, stored, runs, name, reference, sides,
-                                          collisions.for_path(name), chunk_runs, top,
-                                          timings, threads)
+                                          sources, chunk_runs, top, timings, threads)
                 scoring.append((name, sides, pending))
             path_sides = [(name, sides, (0, 0, ()) if pending is None else pending.result())
                           for name, sides, pending in scoring]
+        except BaseException:
+            pool.shutdown(cancel_futures=True)  # an error or Ctrl-C: no queued path is scored
+            raise
+        pool.shutdown()
         rankings = []
         for position, evaluator in enumerate(evaluators):
             stats = {name: sides[position].statistics for name, sides, _ in path_sides

@@ -5,7 +5,7 @@ through it (``docs/architecture.md``, "The read side"):
 
 - :mod:`.format`: the file's name, version, run status codes, storage precision;
 - :mod:`.reader`: :class:`~.reader.StoredResults`, a results file opened to read (the
-  campaign's writer, ``campaign.store.ResultStore``, extends it);
+  campaign's writer, ``campaign.storage.store.ResultStore``, extends it);
 - :mod:`.terrain`: the terrain stored in the file, and which one a re-scoring stands on;
 - :mod:`.campaign`: :class:`~.campaign.StoredCampaign`, the campaign rebuilt once from its
   stored text, with its rover geometry, σ, run contexts and obstacle checker;

@@ -187,9 +187,10 @@ class ParallelRuns:
         return self._layouts[(name, key)]
 
     def _descriptor(self) -> int:
-        if self._file is None:
-            self._file = os.open(self.store.path, os.O_RDONLY)
-        return self._file
+        with self._lock:  # paths may be read from several threads (the diff)
+            if self._file is None:
+                self._file = os.open(self.store.path, os.O_RDONLY)
+            return self._file
 
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:

@@ -1,2 +1,2 @@
-"""What a campaign hands back: the decision in words (``decision``), values in the units they
-were written in (``wording``), and summary.json, JUnit XML and the exit code (``outputs``)."""
+"""What a campaign hands back: the decision in words (``decision``), and summary.json, JUnit XML
+and the exit code (``outputs``)."""
