@@ -36,6 +36,7 @@ from idefix_rules.campaign.simulation.simulate import (
     Progress,
     SimulationOptions,
     SimulationSummary,
+    local_workers,
     monte_carlo_pool,
     parameter_info,
     path_stream,
@@ -84,6 +85,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     sigma = initial_position_sigma(campaign)
+    # a look's new runs of a path are split over the local processes for their collision
+    # checks (the pool waits meanwhile); each chunk's checks depend on its poses alone
+    checkers = local_workers(options, campaign)
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
         pool = stack.enter_context(contextlib.closing(
@@ -94,8 +98,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                            progress, summary, pool)
             for name, plan in running.items():
+                new = look - done[name]  # rows; the complete ones among them are checked
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
-                                                  collisions, within=slice(done[name], look))
+                                                  collisions, within=slice(done[name], look),
+                                                  workers=checkers,
+                                                  chunk_runs=max(8, -(-new // checkers)))
                 if evaluation is not None:
                     parts[name].append(evaluation)
                     rows[name].append(np.asarray(extra["rows"]))

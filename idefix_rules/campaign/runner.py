@@ -40,6 +40,7 @@ from idefix_rules.campaign.simulation.simulate import (
     TERRAIN_PARAMETER,
     Progress,
     SimulationOptions,
+    local_workers,
     simulate_campaign,
 )
 from idefix_rules.campaign.storage import diskspace
@@ -137,14 +138,6 @@ def resolve_fmu(campaign: Campaign) -> Path:
     from idefix_rules.fmu import default_fmu_path
 
     return Path(default_fmu_path())
-
-
-def _local_workers(options: SimulationOptions, campaign: Campaign) -> int:
-    """Processes for the evaluation's collision checks: the local pool's size (1 when the
-    simulation went to a Dask cluster, whose workers are not on this machine)."""
-    if options.scheduler:
-        return 1
-    return max(1, options.workers or campaign.workers or os.cpu_count() or 1)
 
 
 @contextlib.contextmanager
@@ -282,7 +275,7 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
             evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                         initial_position_sigma(campaign), collisions,
                                         rulebook_info(evaluator, campaign.rulebook),
-                                        workers=_local_workers(options, campaign),
+                                        workers=local_workers(options, campaign),
                                         on_path=clock.start, into=revision.store,
                                         waivers=campaign.model.waivers)
             result = _finish(revision, evaluation, campaign, campaign.output, junit,

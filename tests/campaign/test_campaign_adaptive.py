@@ -16,11 +16,22 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import KILLER, assert_same_datasets
 
+from idefix_rules.campaign.evaluation.evaluate import evaluate_path
+from idefix_rules.campaign.input.environment import read_terrain
 from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulation.simulate import SimulationOptions
-from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_NOT_NEEDED
+from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
+from idefix_rules.campaign.simulation.simulate import (
+    SimulationOptions,
+    initial_position_sigma,
+    rover_geometry,
+)
+from idefix_rules.campaign.storage.store import (
+    STATUS_COMPLETE,
+    STATUS_NOT_NEEDED,
+    ResultStore,
+)
 from idefix_rules.cli import main
+from idefix_rules.results.collisions import collision_function
 
 pytestmark = pytest.mark.slow
 
@@ -111,6 +122,57 @@ def test_the_stopping_point_and_datasets_do_not_depend_on_workers(campaign_dir: 
     path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
     assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
                          SimulationOptions(workers=2))
+
+
+# An L2 rock the straight chain's right solar panel reaches in about half of the runs (its chance
+# is then judged on the collision checks of every look).
+ROCK = """environment:
+  rocks:
+    - {x: "0.34 m", y: "-0.26 m", radius: "8 cm", level: L2}
+  rock_levels: {l1_max_size: "2 cm", l2_max_size: "30 cm"}
+"""
+COLLISION_CHANCE = ('chance hit_L2 = any over parts (collision.hits[L2] > 0)\n'
+                    '  because "Runs touching an L2 rock"\n')
+
+
+def test_looks_checking_collisions_on_two_processes_stop_and_store_alike(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    # With two workers a look's new runs of a path are split into chunks whose collision
+    # checks run on forked processes; with one they are checked in the campaign's process.
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace(
+        "prescreen reference_not_critical", COLLISION_CHANCE
+        + "\nprescreen reference_not_critical"))
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE + ROCK)
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
+                         SimulationOptions(workers=2))
+    with h5py.File(tmp_path / "second" / "results.h5", "r") as results:
+        hits = results["paths/straight/evaluation/chances/hit_L2"][()]
+        used = int(results["paths/straight"].attrs["runs_used"])
+    # the checks decided something: some runs hit the rock and some do not
+    assert 0 < int(np.sum(hits[:used])) < used
+
+    # A look's evaluation of its new runs (rows 10 to 25: two chunks of 8 on two processes)
+    # equals the one-process evaluation: per-run values, chances and collision details.
+    campaign = load_campaign(path).with_overrides(output=tmp_path / "second")
+    evaluator = compile_rulebook_file(campaign.rulebook)
+    collisions = collision_function(campaign.model.environment, evaluator,
+                                    read_terrain(campaign.output))
+    store = ResultStore.open(campaign.output / "results.h5")
+    try:
+        looks = [evaluate_path(store, "arc", evaluator, rover_geometry(campaign),
+                               initial_position_sigma(campaign), collisions,
+                               within=slice(10, 26), workers=workers, chunk_runs=chunk)
+                 for workers, chunk in ((1, 64), (2, 8))]
+    finally:
+        store.close()
+    (one, one_extra), (two, two_extra) = looks
+    assert one is not None and two is not None and len(one_extra["rows"]) == 16
+    assert np.array_equal(one.i_max, two.i_max)
+    assert np.array_equal(one.chances["hit_L2"], two.chances["hit_L2"])
+    assert np.array_equal(one_extra["hits"], two_extra["hits"])
+    assert [text for _, texts in one_extra["details"] for text in texts] == \
+        [text for _, texts in two_extra["details"] for text in texts]
 
 
 def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Path,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import heapq
 import json
+import os
 import tempfile
 import time
 from collections import Counter
@@ -551,6 +552,14 @@ def sampled_task(campaign: Campaign, fmu: FmuSource, base: Mapping[str, float | 
         return run_task(campaign, fmu, plans[name], parameters, encode=True)
 
     return make
+
+
+def local_workers(options: SimulationOptions, campaign: Campaign) -> int:
+    """Processes for the evaluation's collision checks: the local pool's size (1 when the
+    simulation went to a Dask cluster, whose workers are not on this machine)."""
+    if options.scheduler:
+        return 1
+    return max(1, options.workers or campaign.workers or os.cpu_count() or 1)
 
 
 def monte_carlo_pool(campaign: Campaign, plans: Mapping[str, PathPlan], store: ResultStore,
