@@ -265,7 +265,7 @@ def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
     capsys.readouterr()
     code = main([str(campaign_dir / "campaign.yaml"), "--no-report"])
     out = capsys.readouterr().out
-    assert code in (0, 1)
+    assert code == 1  # too-fast breaks the command rule wheel_rate_limit: rejected, exit 1
     words = " ".join(out.split())
     note = (f"note: {results} held an interrupted campaign ({stored} of {planned} Monte Carlo "
             "runs stored): it is set aside as results.previous.h5 and this run starts from "
@@ -276,11 +276,13 @@ def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
     assert (campaign.output / "results.previous.h5").is_file()
     assert interrupted_runs(results) is None  # complete now: a rerun says nothing
     code = main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet"])
+    assert code == 1  # too-fast rejected again
     assert "interrupted campaign" not in capsys.readouterr().out
     # with --resume nothing is set aside, so nothing is said
     with pytest.raises(KeyboardInterrupt):
         run_campaign(campaign, progress=InterruptAfter(5), report=False)
-    main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet", "--resume"])
+    assert main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet",
+                 "--resume"]) == 1  # too-fast rejected again
     assert "interrupted campaign" not in capsys.readouterr().out
 
 

@@ -490,7 +490,9 @@ def test_a_seed_above_2_64_changes_nothing_in_the_output_folder(
         capsys: pytest.CaptureFixture[str]) -> None:
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    assert main(list(RUN)) in (0, 1)
+    # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
+    # at 2 runs, which without `expect:` counts as a pass: exit 0
+    assert main(list(RUN)) == 0
     before = {p.name: p.read_bytes() for p in (tmp_path / "out").iterdir()}
     if where == "campaign":
         text = (tmp_path / "campaign.yaml").read_text().replace("seed: 5", f"seed: {2**64}")
@@ -575,7 +577,8 @@ def test_resume_without_results_warns_and_resume_of_another_campaign_is_refused(
         capsys: pytest.CaptureFixture[str]) -> None:
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    assert main([*RUN, "--resume"]) in (0, 1)
+    # nothing to resume, so a whole run: both paths pass (not decided at 2 runs): exit 0
+    assert main([*RUN, "--resume"]) == 0
     output = " ".join("".join(capsys.readouterr()).split())
     assert "warning: nothing to resume in" in output
     assert (tmp_path / "out" / "results.h5").is_file()
@@ -591,9 +594,11 @@ def test_evaluate_with_a_rulebook_reading_a_signal_the_results_lack(
         capsys: pytest.CaptureFixture[str]) -> None:
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    assert main(list(RUN)) in (0, 1)
+    # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
+    # at 2 runs, which without `expect:` counts as a pass: exit 0
+    assert main(list(RUN)) == 0
     results = tmp_path / "out" / "results.h5"
-    assert main(["evaluate", str(results)]) in (0, 1)  # the stored rulebook: fine
+    assert main(["evaluate", str(results)]) == 0  # the stored rulebook: the same verdicts
     with h5py.File(results, "r+") as file:  # as if the FMU map had not provided the slip
         del file["paths/arc/runs/signals/wheel.slip"]
     capsys.readouterr()
@@ -624,12 +629,16 @@ def test_evaluating_an_interrupted_campaign_says_how_to_continue_it(
         capsys: pytest.CaptureFixture[str]) -> None:
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    assert main(list(RUN)) in (0, 1)
+    # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
+    # at 2 runs, which without `expect:` counts as a pass: exit 0
+    assert main(list(RUN)) == 0
     results = tmp_path / "out" / "results.h5"
     with h5py.File(results, "r+") as file:
         file.attrs["state"] = "interrupted"
     capsys.readouterr()
-    assert main(["evaluate", str(results)]) in (0, 1)
+    # every run is stored (only the state says interrupted): none counts as failed, the
+    # same verdicts: exit 0
+    assert main(["evaluate", str(results)]) == 0
     output = " ".join("".join(capsys.readouterr()).split())
     assert f"warning: {results} holds a campaign that is interrupted: runs never simulated " \
            "count as failed" in output
@@ -642,7 +651,9 @@ def test_report_of_results_whose_evaluation_was_never_stored_evaluates_them(
     """Not a mistake: the report scores the stored runs with the stored rulebook itself."""
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    assert main(list(RUN)) in (0, 1)
+    # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
+    # at 2 runs, which without `expect:` counts as a pass: exit 0
+    assert main(list(RUN)) == 0
     results = tmp_path / "out" / "results.h5"
     with h5py.File(results, "r+") as file:  # as if the campaign stopped before evaluating
         for name in ("evaluation", "paths/straight/evaluation", "paths/arc/evaluation"):

@@ -91,7 +91,9 @@ def test_a_campaign_run_writes_a_report_that_renders(tmp_path: Path) -> None:
     campaign.write_text(CAMPAIGN, encoding="utf-8")
     (tmp_path / "report-e2e.rules").write_text(RULEBOOK, encoding="utf-8")
     code = main(["run", str(campaign), "--quiet", "--workers", "2"])
-    assert code in (0, 1)  # verified or a path failed: both are reports worth reading
+    # straight hits the L2 rock in every run (risk 100 % > 70 %): it fails acceptable_risk
+    # (not decided at 4 runs), so not every path passes: exit 1
+    assert code == 1
     out = tmp_path / "out"
     page = out / "report.html"
     assert page.exists() and (out / "risk_map_all.png").exists()
