@@ -21,6 +21,7 @@ import numpy as np
 
 from idefix_rules.campaign.adaptive import adaptive_monte_carlo
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, evaluate_store
+from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
 from idefix_rules.campaign.input import waivers
@@ -52,7 +53,7 @@ from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInput
 from idefix_rules.files import set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import StoredCampaign
-from idefix_rules.results.collisions import CollisionFunction, collision_function
+from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, collision_function
 from idefix_rules.results.format import SEARCHED_RUNS
 from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
 
@@ -241,6 +242,9 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                               prepared.fixed, prepared.collisions)
     terrain, source = prepared.terrain, prepared.source
     warnings = prepared.warnings
+    if campaign.adaptive is not None and isinstance(collisions, ObstacleCheck):
+        # the looks' collision checks, kept for the evaluation stage (not checked again)
+        collisions = RememberedCollisions(collisions)
     try:
         with diskspace.guard(campaign.output, "simulate the campaign",
                              f"free space, then continue with `{again}`"):

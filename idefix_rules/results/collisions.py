@@ -41,22 +41,31 @@ class CollisionFunction(Protocol):
 
 
 def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
-                       rover: RoverGeometry | None = None) -> CollisionFunction | None:
+                       rover: RoverGeometry | None = None) -> ObstacleCheck | None:
     """The obstacle checker for a campaign environment, or None if the rulebook needs none;
     it gives the collision signals and the signals of the rulebook's named areas."""
     if not getattr(evaluator, "needs_collisions", False):
         return None
     from idefix_rules.campaign.input.environment import named_areas, obstacle_set
-    from idefix_rules.obstacles import collision_signals
-    from idefix_rules.obstacles.named import all_area_signals
 
-    obstacles = obstacle_set(environment, evaluator, terrain)
-    areas = named_areas(environment, evaluator, terrain)
-    geometry = rover or RoverGeometry()
+    return ObstacleCheck(obstacle_set(environment, evaluator, terrain),
+                         named_areas(environment, evaluator, terrain), rover or RoverGeometry())
 
-    def check(poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
-              ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
-        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, obstacles)
+
+class ObstacleCheck:
+    """The obstacle checker of a campaign (a :class:`CollisionFunction`): the collision
+    signals of runs of poses against its obstacles, with the signals of its named areas."""
+
+    def __init__(self, obstacles: Any, areas: Mapping[str, Any], rover: RoverGeometry) -> None:
+        self.obstacles = obstacles
+        self.areas = areas
+        self.rover = rover
+
+    def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
+                 ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+        from idefix_rules.obstacles import collision_signals
+
+        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, self.obstacles)
         details = [as_plain(d) for d in result.details]
         if runs is not None:
             # The checker numbers the rows it was given from 0; a chunk of complete runs is
@@ -64,11 +73,16 @@ def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
             for record in details:
                 record["run"] = int(runs[record["run"]])
         signals = dict(result.signals)
-        if areas:
-            signals.update(all_area_signals(areas, poses, geometry))
+        signals.update(self.area_signals(poses))
         return signals, details
 
-    return check
+    def area_signals(self, poses: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The signals of the named areas (``area.NAME.inside`` / ``.buffer``) alone."""
+        if not self.areas:
+            return {}
+        from idefix_rules.obstacles.named import all_area_signals
+
+        return all_area_signals(self.areas, poses, self.rover)
 
 
 # --- what a rulebook puts on the ground --------------------------------------------------------

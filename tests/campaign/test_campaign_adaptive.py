@@ -8,6 +8,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import campaign_pool_tasks
 import h5py
@@ -17,6 +18,7 @@ from campaign_texts import CAMPAIGN
 from test_campaign_robustness import KILLER, assert_same_datasets
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
+from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.input.environment import read_terrain
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
@@ -31,7 +33,7 @@ from idefix_rules.campaign.storage.store import (
     ResultStore,
 )
 from idefix_rules.cli import main
-from idefix_rules.results.collisions import collision_function
+from idefix_rules.results.collisions import ObstacleCheck, collision_function
 
 pytestmark = pytest.mark.slow
 
@@ -135,15 +137,20 @@ COLLISION_CHANCE = ('chance hit_L2 = any over parts (collision.hits[L2] > 0)\n'
                     '  because "Runs touching an L2 rock"\n')
 
 
-def test_looks_checking_collisions_on_two_processes_stop_and_store_alike(
-        campaign_dir: Path, tmp_path: Path) -> None:
-    # With two workers a look's new runs of a path are split into chunks whose collision
-    # checks run on forked processes; with one they are checked in the campaign's process.
+def rock_campaign(campaign_dir: Path) -> Path:
+    """The adaptive toy campaign with :data:`ROCK` and a rulebook judging its hits."""
     rules = (campaign_dir / "test.rules").read_text()
     (campaign_dir / "test.rules").write_text(rules.replace(
         "prescreen reference_not_critical", COLLISION_CHANCE
         + "\nprescreen reference_not_critical"))
-    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE + ROCK)
+    return write_campaign(campaign_dir, campaign_dir, ADAPTIVE + ROCK)
+
+
+def test_looks_checking_collisions_on_two_processes_stop_and_store_alike(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    # With two workers a look's new runs of a path are split into chunks whose collision
+    # checks run on forked processes; with one they are checked in the campaign's process.
+    path = rock_campaign(campaign_dir)
     assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
                          SimulationOptions(workers=2))
     with h5py.File(tmp_path / "second" / "results.h5", "r") as results:
@@ -268,3 +275,53 @@ def test_every_look_runs_on_one_pool_of_workers(campaign_dir: Path,
     looks = max(p["runs_used"] for p in summary["paths"] if p.get("runs_used"))
     assert looks > 10 and len(maps) >= 3  # the references, then at least two looks
     assert made == [False, True]  # the references' pool, then one for every look
+
+
+class CountingCheck(ObstacleCheck):
+    """The campaign's obstacle checker, counting the runs it checks."""
+
+    checked = 0
+
+    def __call__(self, poses: Any, runs: Any = None) -> Any:
+        self.checked += len(poses["x"])
+        return super().__call__(poses, runs)
+
+
+def test_the_evaluation_stage_takes_the_looks_collision_checks(campaign_dir: Path) -> None:
+    # The evaluation stage after the last look scores every run again; with the looks'
+    # collision checks remembered it checks none again and stores exactly what checking them
+    # again gives (per-run values, chances, hits, buffer, contacts, clearance, details).
+    path = rock_campaign(campaign_dir)
+    assert main([str(path), "--quiet", "--no-report"]) == 1  # straight fails its risk rule
+    campaign = load_campaign(path)
+    evaluator = compile_rulebook_file(campaign.rulebook)
+    plain = collision_function(campaign.model.environment, evaluator,
+                               read_terrain(campaign.output))
+    assert isinstance(plain, ObstacleCheck)
+    counting = CountingCheck(plain.obstacles, plain.areas, plain.rover)
+    remembered = RememberedCollisions(counting)
+    store = ResultStore.open(campaign.output / "results.h5")
+    rover, sigma = rover_geometry(campaign), initial_position_sigma(campaign)
+    try:
+        used = int(store.path_group("arc").attrs["runs_used"])
+        assert used == 26  # looks at 10 and 26 runs
+        for look in (slice(0, 10), slice(10, 26)):
+            evaluate_path(store, "arc", evaluator, rover, sigma, remembered, within=look)
+        assert counting.checked == 26
+        again, again_extra = evaluate_path(store, "arc", evaluator, rover, sigma, remembered)
+        assert counting.checked == 26  # nothing checked again
+        fresh, fresh_extra = evaluate_path(store, "arc", evaluator, rover, sigma, plain)
+    finally:
+        store.close()
+    assert again is not None and fresh is not None
+    assert np.array_equal(again.i_max, fresh.i_max)
+    for name in fresh.values:
+        assert np.array_equal(again.values[name], fresh.values[name]), name
+    for name in fresh.chances:
+        assert np.array_equal(again.chances[name], fresh.chances[name]), name
+    assert int(np.sum(fresh_extra["hits"])) > 0 and len(fresh_extra["contact"]) > 0
+    for key in ("rows", "hits", "buffer", "contact", "clearance_profile"):
+        assert np.array_equal(again_extra[key], fresh_extra[key], equal_nan=key.startswith(
+            "clearance")), key
+    assert [text for _, texts in again_extra["details"] for text in texts] == \
+        [text for _, texts in fresh_extra["details"] for text in texts]

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
+from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_path, ranked_paths
 from idefix_rules.campaign.input.waivers import (
     STORED_ATTRIBUTE,
@@ -37,6 +38,7 @@ from idefix_rules.commands import RoverGeometry
 from idefix_rules.plain import as_plain
 from idefix_rules.results.collisions import (
     CONTACT_COLUMNS,
+    ChunkCollisions,
     CollisionFunction,
     clearance_profile,
     contact_intervals,
@@ -183,17 +185,22 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     ``workers`` > 1 spreads the collision checks over that many processes."""
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
+    remembered = collisions if isinstance(collisions, RememberedCollisions) else None
+    known = remembered is not None and remembered.usable_for(evaluator) and \
+        remembered.covers(name, complete)
+    source: ChunkCollisions | None = remembered.source(name, complete) \
+        if remembered is not None and known else collisions
     parts = []
     hits, buffers, contacts, profiles = [], [], [], []
     details: list[tuple[np.ndarray, np.ndarray]] = []  # per chunk: rows, their JSON texts
     finished: list[np.ndarray | None] = []
     runs = ParallelRuns(store)
     try:
-        for chunk in score_chunks(runs, name, [evaluator], context, [collisions],
+        for chunk in score_chunks(runs, name, [evaluator], context, [source],
                                   chunk_runs=chunk_runs, within=within, workers=workers):
             finished.append(chain_finished(chunk.signals))
             collided = chunk.collisions[0]
-            if collided is not None:
+            if collided is not None and not known:
                 extra, chunk_details = collided
                 hits.append(extra.get("collision.hits"))
                 buffers.append(extra.get("collision.buffer"))
@@ -211,7 +218,9 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     extra_store: dict[str, Any] = {"rows": complete, "finished": None}
     if finished and all(part is not None for part in finished):
         extra_store["finished"] = np.concatenate([p for p in finished if p is not None])
-    if collisions is not None and parts:
+    if remembered is not None and known and parts:
+        extra_store.update(remembered.stored_pieces(name, complete))
+    elif collisions is not None and parts:
         extra_store["hits"] = np.concatenate([h for h in hits if h is not None]) \
             if any(h is not None for h in hits) else None
         extra_store["buffer"] = np.concatenate([b for b in buffers if b is not None]) \
@@ -220,6 +229,8 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["contact"] = np.concatenate(contacts) if contacts else None
         extra_store["clearance_profile"] = np.concatenate(profiles) \
             if profiles and len(profiles) == len(parts) else None
+        if remembered is not None:
+            remembered.record(name, complete, extra_store)
     return evaluation, extra_store
 
 

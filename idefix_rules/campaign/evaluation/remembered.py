@@ -1,0 +1,143 @@
+"""The collision checks of an adaptive campaign's looks, kept for its evaluation stage.
+
+Each look of an adaptive campaign (``runs: auto``) scores its new runs, and the obstacle
+checker (the costly part of scoring) runs on their poses. The evaluation stage after the last
+look scores every run again, because a rule over the runs of a path (``mean over runs``)
+changes as runs are added; a run's collisions do not: they are a pure function of its poses
+and the obstacles. :class:`RememberedCollisions` keeps, per path and run, what the evaluation
+stores of them (hits, buffer, the contacts as intervals, the clearance profile, the details)
+and gives the evaluation stage those rows instead of checking the runs again, the way
+``idefix-verify diff --results`` reuses the stored ones
+(:class:`~idefix_rules.results.collisions.StoredChunks`). It stands in for the checker
+wherever one is expected and checks, with it, what it does not hold.
+
+Only rulebooks whose collision reads are among the stored signals (``collision.hits``,
+``collision.buffer``, ``collision.contact``) are given remembered rows; any other read
+(``collision.clearance`` per sample, say) is checked again. Kept per run: about 1 kB.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from idefix_rules.results.collisions import (
+    CONTACT_COLUMNS,
+    STORED_COLLISIONS,
+    ObstacleCheck,
+    StoredChunks,
+    collision_reads,
+)
+
+
+class _PathRows:
+    """What the evaluation stores of one path's collisions, for the runs seen so far."""
+
+    def __init__(self) -> None:
+        self.known: set[int] = set()
+        self.hits: dict[int, np.ndarray] = {}
+        self.buffer: dict[int, np.ndarray] = {}
+        self.profile: dict[int, np.ndarray] = {}
+        self.details: dict[int, bytes] = {}
+        self.contact: list[np.ndarray] = []
+
+
+class RememberedCollisions:
+    """The campaign's obstacle checker, with what its checks found kept per path and run."""
+
+    def __init__(self, checker: ObstacleCheck) -> None:
+        self.checker = checker
+        self.paths: dict[str, _PathRows] = {}
+
+    def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
+                 ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+        return self.checker(poses, runs)
+
+    def usable_for(self, evaluator: Any) -> bool:
+        """Whether the rulebook reads only collision signals the remembered rows hold."""
+        return collision_reads(evaluator) <= set(STORED_COLLISIONS)
+
+    def record(self, name: str, rows: np.ndarray, stored: Mapping[str, Any]) -> None:
+        """Keep what :func:`~idefix_rules.campaign.evaluation.evaluate.evaluate_path` gives
+        to store for the complete runs ``rows`` of path ``name`` (``hits``, ``buffer``,
+        ``contact``, ``clearance_profile``, ``details``); rows already kept are left alone.
+        A look that lacks a piece (a rulebook reading no buffer) records nothing."""
+        if stored.get("hits") is None or stored.get("details") is None:
+            return
+        kept = self.paths.setdefault(name, _PathRows())
+        rows = np.asarray(rows)
+        texts = {int(row): text for chunk_rows, chunk_texts in stored["details"]
+                 for row, text in zip(np.asarray(chunk_rows).tolist(), chunk_texts,
+                                      strict=True)}
+        new = [index for index, row in enumerate(rows.tolist()) if row not in kept.known]
+        if not new or set(rows[new].tolist()) - set(texts):
+            return
+        for index in new:
+            row = int(rows[index])
+            kept.hits[row] = np.asarray(stored["hits"][index])
+            if stored.get("buffer") is not None:
+                kept.buffer[row] = np.asarray(stored["buffer"][index])
+            if stored.get("clearance_profile") is not None:
+                kept.profile[row] = np.asarray(stored["clearance_profile"][index])
+            kept.details[row] = texts[row]
+            kept.known.add(row)
+        contact = stored.get("contact")
+        if contact is not None and len(contact):
+            table = np.asarray(contact).reshape(-1, len(CONTACT_COLUMNS))
+            fresh = np.isin(table[:, 0], rows[new])
+            kept.contact.append(table[fresh])
+
+    def covers(self, name: str, rows: np.ndarray) -> bool:
+        """Whether every one of the complete runs ``rows`` of path ``name`` is kept."""
+        kept = self.paths.get(name)
+        return kept is not None and set(np.asarray(rows).tolist()) <= kept.known
+
+    def source(self, name: str, rows: np.ndarray) -> StoredChunks:
+        """The kept collision rows of path ``name`` as a chunk source (rows outside
+        ``rows`` are not read), the named areas' signals computed from each chunk's poses."""
+        kept = self.paths[name]
+        size = int(np.max(rows)) + 1 if len(rows) else 0
+        stored: dict[str, np.ndarray] = {
+            "collision.hits": _rows_array(kept.hits, size),
+            "collision.contact": _table(kept.contact)}
+        if len(kept.buffer) == len(kept.known):
+            stored["collision.buffer"] = _rows_array(kept.buffer, size)
+        return StoredChunks(stored, self.checker.area_signals)
+
+    def stored_pieces(self, name: str, rows: np.ndarray) -> dict[str, Any]:
+        """What the evaluation stores of the collisions of runs ``rows`` of path ``name``
+        (the pieces :func:`evaluate_path` would have computed), in the order of ``rows``."""
+        kept = self.paths[name]
+        order = np.asarray(rows).tolist()
+        table = _table(kept.contact)
+        pieces: dict[str, Any] = {
+            "hits": np.stack([kept.hits[row] for row in order]) if order else None,
+            "buffer": np.stack([kept.buffer[row] for row in order])
+            if order and len(kept.buffer) == len(kept.known) else None,
+            "details": [(np.asarray(rows), np.array([kept.details[row] for row in order],
+                                                     dtype=bytes))],
+            "contact": table[np.isin(table[:, 0], rows)] if table.size else table,
+            "clearance_profile": np.stack([kept.profile[row] for row in order])
+            if order and len(kept.profile) == len(kept.known) else None}
+        return pieces
+
+
+def _rows_array(values: Mapping[int, np.ndarray], size: int) -> np.ndarray:
+    """A (size, …) array holding ``values`` at their rows (zero elsewhere, never read: a
+    chunk reads only complete runs, all of them kept)."""
+    first = next(iter(values.values()))
+    out = np.zeros((size, *first.shape), dtype=first.dtype)
+    for row, value in values.items():
+        if row < size:
+            out[row] = value
+    return out
+
+
+def _table(parts: list[np.ndarray]) -> np.ndarray:
+    """The contact intervals kept, in one table sorted by run (then as recorded)."""
+    if not parts:
+        return np.zeros((0, len(CONTACT_COLUMNS)), dtype=np.int32)
+    table = np.concatenate(parts)
+    return table[np.argsort(table[:, 0], kind="stable")]
