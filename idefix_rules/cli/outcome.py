@@ -127,9 +127,12 @@ def ci_line(expectations: Sequence[ExpectationResult], code: int,
     if expectations:
         held = sum(1 for e in expectations if e.held)
         return f"CI expectations: {held} of {len(expectations)} held (exit {code})"
-    passed = sum(1 for p in evaluation.paths if p.verdict_text == "pass")
-    waived = sum(1 for p in evaluation.paths if p.verdict_text == "waived")
-    also = f", {waived} waived" if waived else ""
+    passed = sum(1 for p in evaluation.paths if p.held and p.verdict_text == "pass")
+    waived = sum(1 for p in evaluation.paths if p.held and p.verdict_text == "waived")
+    open_ = sum(1 for p in evaluation.paths if p.verdict_text in ("pass", "waived")
+                and not p.held)
+    also = (f", {waived} waived" if waived else "") + \
+        (f", {open_} passing but not decided" if open_ else "")
     return (f"CI verdicts (no expectations: every path must pass): {passed} of "
             f"{len(evaluation.paths)} passed{also} (exit {code})")
 

@@ -25,6 +25,7 @@ from idefix_rules.campaign.outcome.outputs import (
     junit_xml,
     summary,
 )
+from idefix_rules.cli.outcome import ci_line
 from idefix_rules.rulebook import RunEvaluation, check_text, compile_rulebook
 
 
@@ -117,8 +118,9 @@ def test_junit_without_expectations_fails_on_path_verdicts() -> None:
     root, cases = _junit_failures(junit_xml(results, [], "c"))
     assert [s.get("name") for s in root.iter("testsuite")] == ["c.paths"]
     failing = [name for name, c in cases.items() if c.find("failure") is not None]
-    assert failing == ["broken", "rejected"]
-    assert root.get("failures") == "2"
+    # close passes on its point estimate only (not decided): not shown to pass, a failure
+    assert failing == ["close", "broken", "rejected"]
+    assert root.get("failures") == "3"
     assert exit_code(results, [], has_expectations=False) == 1
     passing = CampaignEvaluation(results.paths[:1], ["good"], {}, {})
     root, _ = _junit_failures(junit_xml(passing, [], "c"))
@@ -165,3 +167,18 @@ def test_an_undecided_verdict_says_not_decided_once() -> None:
     results = CampaignEvaluation([path], ["close"], {}, {})
     detail = ET.fromstring(junit_xml(results, [], "c")).find(".//system-out")
     assert detail is not None and (detail.text or "").count("not decided") == 1
+
+
+def test_without_expectations_a_pass_not_decided_fails_ci() -> None:
+    good, close = evaluation().paths[:2]
+    assert good.held and close.verdict_text == "pass" and not close.held
+    decided = CampaignEvaluation([good], ["good"], {}, {})
+    assert exit_code(decided, [], has_expectations=False) == 0
+    both = CampaignEvaluation([good, close], ["good", "close"], {}, {})
+    assert exit_code(both, [], has_expectations=False) == 1
+    root, cases = _junit_failures(junit_xml(both, [], "c"))
+    assert root.get("failures") == "1"
+    failure = cases["close"].find("failure")
+    assert failure is not None and failure.get("message") == "path close: pass (not decided)"
+    assert ci_line([], 1, both) == ("CI verdicts (no expectations: every path must pass): 1 of "
+                                    "2 passed, 1 passing but not decided (exit 1)")

@@ -491,8 +491,8 @@ def test_a_seed_above_2_64_changes_nothing_in_the_output_folder(
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
     # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
-    # at 2 runs, which without `expect:` counts as a pass: exit 0
-    assert main(list(RUN)) == 0
+    # at 2 runs: without `expect:` every path must be shown to pass: exit 1
+    assert main(list(RUN)) == 1
     before = {p.name: p.read_bytes() for p in (tmp_path / "out").iterdir()}
     if where == "campaign":
         text = (tmp_path / "campaign.yaml").read_text().replace("seed: 5", f"seed: {2**64}")
@@ -577,8 +577,8 @@ def test_resume_without_results_warns_and_resume_of_another_campaign_is_refused(
         capsys: pytest.CaptureFixture[str]) -> None:
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
-    # nothing to resume, so a whole run: both paths pass (not decided at 2 runs): exit 0
-    assert main([*RUN, "--resume"]) == 0
+    # nothing to resume, so a whole run: both paths pass, not decided at 2 runs: exit 1
+    assert main([*RUN, "--resume"]) == 1
     output = " ".join("".join(capsys.readouterr()).split())
     assert "warning: nothing to resume in" in output
     assert (tmp_path / "out" / "results.h5").is_file()
@@ -595,10 +595,10 @@ def test_evaluate_with_a_rulebook_reading_a_signal_the_results_lack(
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
     # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
-    # at 2 runs, which without `expect:` counts as a pass: exit 0
-    assert main(list(RUN)) == 0
+    # at 2 runs: without `expect:` every path must be shown to pass: exit 1
+    assert main(list(RUN)) == 1
     results = tmp_path / "out" / "results.h5"
-    assert main(["evaluate", str(results)]) == 0  # the stored rulebook: the same verdicts
+    assert main(["evaluate", str(results)]) == 1  # the stored rulebook: the same verdicts
     with h5py.File(results, "r+") as file:  # as if the FMU map had not provided the slip
         del file["paths/arc/runs/signals/wheel.slip"]
     capsys.readouterr()
@@ -630,15 +630,15 @@ def test_evaluating_an_interrupted_campaign_says_how_to_continue_it(
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
     # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
-    # at 2 runs, which without `expect:` counts as a pass: exit 0
-    assert main(list(RUN)) == 0
+    # at 2 runs: without `expect:` every path must be shown to pass: exit 1
+    assert main(list(RUN)) == 1
     results = tmp_path / "out" / "results.h5"
     with h5py.File(results, "r+") as file:
         file.attrs["state"] = "interrupted"
     capsys.readouterr()
     # every run is stored (only the state says interrupted): none counts as failed, the
-    # same verdicts: exit 0
-    assert main(["evaluate", str(results)]) == 0
+    # same verdicts (passing, not decided): exit 1
+    assert main(["evaluate", str(results)]) == 1
     output = " ".join("".join(capsys.readouterr()).split())
     assert f"warning: {results} holds a campaign that is interrupted: runs never simulated " \
            "count as failed" in output
@@ -652,8 +652,8 @@ def test_report_of_results_whose_evaluation_was_never_stored_evaluates_them(
     materialise(tmp_path, campaign(), cli_toy_fmu)
     monkeypatch.chdir(tmp_path)
     # both paths pass acceptable_risk on their point estimate (risk 19 % <= 50 %), not decided
-    # at 2 runs, which without `expect:` counts as a pass: exit 0
-    assert main(list(RUN)) == 0
+    # at 2 runs: without `expect:` every path must be shown to pass: exit 1
+    assert main(list(RUN)) == 1
     results = tmp_path / "out" / "results.h5"
     with h5py.File(results, "r+") as file:  # as if the campaign stopped before evaluating
         for name in ("evaluation", "paths/straight/evaluation", "paths/arc/evaluation"):

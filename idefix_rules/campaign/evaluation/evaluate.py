@@ -109,6 +109,12 @@ class PathResult:
         return bool(getattr(self.verdict, "marginal", False)) and not self.passed
 
     @property
+    def held(self) -> bool:
+        """Shown to pass (or to fail only waived rules), with every verdict rule decided:
+        what a campaign without expectations asks of every path for exit 0."""
+        return self.verdict_text in ("pass", "waived") and not self.undecided
+
+    @property
     def verdict_text(self) -> str:
         if self.status == "rejected":
             return "rejected"

@@ -127,8 +127,8 @@ def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
         return EXIT_INFRASTRUCTURE  # not a verdict on the chains: run them again
     if has_expectations:
         return EXIT_OK if all(e.held for e in expectations) else EXIT_FAILED
-    held = ("pass", "waived")  # a waived failure counts as held
-    return EXIT_OK if all(p.verdict_text in held for p in evaluation.paths) else EXIT_FAILED
+    # a waived failure counts as held, a pass not decided at this number of runs does not
+    return EXIT_OK if all(p.held for p in evaluation.paths) else EXIT_FAILED
 
 
 # Units of the numbers in a summary's path records (also in docs/results-format.md).
@@ -270,10 +270,11 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
     Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
     (one case per path, its verdict). With expectations, the exit code follows them, so only
     expectation cases fail; path cases report their verdict (property ``verdict``, text) and
-    pass. Without expectations, every path must pass: a path that does not is a failure (an
-    error when its evaluation broke). ``seconds``: time spent per path (simulation in the
-    workers and evaluation), the ``time`` of its case; each expectation case's time is its
-    check. Each suite's properties name the campaign seed and the results file.
+    pass. Without expectations, every path must pass: a path that does not, or whose pass is
+    not decided at this number of runs, is a failure (an error when its evaluation broke).
+    ``seconds``: time spent per path (simulation in the workers and evaluation), the ``time``
+    of its case; each expectation case's time is its check. Each suite's properties name
+    the campaign seed and the results file.
     """
     seconds = seconds or {}
     asserted_paths = not expectations
@@ -295,11 +296,12 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
             errors += 1
             ET.SubElement(case, "error", message=f"path {path.name}: {path.reason or 'error'}",
                           type="error").text = detail
-        elif path.verdict_text == "waived":  # neither a pass nor a failure: said as skipped
+        elif path.verdict_text == "waived" and (path.held or not asserted_paths):
+            # neither a pass nor a failure: said as skipped
             skipped += 1
             ET.SubElement(case, "skipped", message="; ".join(
                 f"{waived.text()} [{waived.rule}]" for waived in path.waivers))
-        elif asserted_paths and path.verdict_text != "pass":
+        elif asserted_paths and not path.held:
             failures += 1
             ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
                           type=path.verdict_text).text = detail
