@@ -311,6 +311,14 @@ def test_the_evaluation_stage_takes_the_looks_collision_checks(campaign_dir: Pat
         again, again_extra = evaluate_path(store, "arc", evaluator, rover, sigma, remembered)
         assert counting.checked == 26  # nothing checked again
         fresh, fresh_extra = evaluate_path(store, "arc", evaluator, rover, sigma, plain)
+        # past its memory budget a path is given up and checked again, to the same result
+        small = RememberedCollisions(counting, budget=10_000)
+        for look in (slice(0, 10), slice(10, 26)):
+            evaluate_path(store, "arc", evaluator, rover, sigma, small, within=look)
+        assert small.given_up == {"arc"} and counting.checked == 52
+        over, _ = evaluate_path(store, "arc", evaluator, rover, sigma, small)
+        assert counting.checked == 78
+        assert over is not None and np.array_equal(over.i_max, fresh.i_max)
     finally:
         store.close()
     assert again is not None and fresh is not None

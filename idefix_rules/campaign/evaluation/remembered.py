@@ -14,7 +14,8 @@ wherever one is expected and checks, with it, what it does not hold.
 Only rulebooks whose collision reads are among the stored signals (``collision.hits``,
 ``collision.buffer``, ``collision.contact``) are given remembered rows; any other read
 (``collision.clearance`` per sample, say) is checked again. Kept per run: about 1.7 kB on the
-pebble field (the details 0.56 kB, the clearance profile 0.96 kB).
+pebble field (the details 0.56 kB, the clearance profile 0.96 kB); at most
+:data:`BUDGET_BYTES` over all paths, the paths past it checked again.
 """
 
 from __future__ import annotations
@@ -32,11 +33,17 @@ from idefix_rules.results.collisions import (
     collision_reads,
 )
 
+# What the kept rows of all paths may take (about 150,000 runs of the pebble field); a path
+# whose rows would pass it is given up (its kept rows freed) and checked again by the
+# evaluation stage.
+BUDGET_BYTES = 256 * 1024 * 1024
+
 
 class _PathRows:
     """What the evaluation stores of one path's collisions, for the runs seen so far."""
 
     def __init__(self) -> None:
+        self.bytes = 0
         self.known: set[int] = set()
         self.hits: dict[int, np.ndarray] = {}
         self.buffer: dict[int, np.ndarray] = {}
@@ -48,9 +55,11 @@ class _PathRows:
 class RememberedCollisions:
     """The campaign's obstacle checker, with what its checks found kept per path and run."""
 
-    def __init__(self, checker: ObstacleCheck) -> None:
+    def __init__(self, checker: ObstacleCheck, budget: int = BUDGET_BYTES) -> None:
         self.checker = checker
+        self.budget = budget
         self.paths: dict[str, _PathRows] = {}
+        self.given_up: set[str] = set()  # paths over the budget: checked again
 
     def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
                  ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
@@ -64,8 +73,9 @@ class RememberedCollisions:
         """Keep what :func:`~idefix_rules.campaign.evaluation.evaluate.evaluate_path` gives
         to store for the complete runs ``rows`` of path ``name`` (``hits``, ``buffer``,
         ``contact``, ``clearance_profile``, ``details``); rows already kept are left alone.
-        A look that lacks a piece (a rulebook reading no buffer) records nothing."""
-        if stored.get("hits") is None or stored.get("details") is None:
+        A look that lacks a piece (a rulebook reading no buffer) records nothing; a path
+        whose rows pass the budget is given up."""
+        if name in self.given_up or stored.get("hits") is None or stored.get("details") is None:
             return
         kept = self.paths.setdefault(name, _PathRows())
         rows = np.asarray(rows)
@@ -75,20 +85,25 @@ class RememberedCollisions:
         new = [index for index, row in enumerate(rows.tolist()) if row not in kept.known]
         if not new or set(rows[new].tolist()) - set(texts):
             return
+        pieces = {"hits": kept.hits, "buffer": kept.buffer, "clearance_profile": kept.profile}
         for index in new:
             row = int(rows[index])
-            kept.hits[row] = np.asarray(stored["hits"][index])
-            if stored.get("buffer") is not None:
-                kept.buffer[row] = np.asarray(stored["buffer"][index])
-            if stored.get("clearance_profile") is not None:
-                kept.profile[row] = np.asarray(stored["clearance_profile"][index])
+            for key, into in pieces.items():
+                if stored.get(key) is not None:
+                    into[row] = np.asarray(stored[key][index])
+                    kept.bytes += into[row].nbytes
             kept.details[row] = texts[row]
+            kept.bytes += len(texts[row])
             kept.known.add(row)
         contact = stored.get("contact")
         if contact is not None and len(contact):
             table = np.asarray(contact).reshape(-1, len(CONTACT_COLUMNS))
-            fresh = np.isin(table[:, 0], rows[new])
-            kept.contact.append(table[fresh])
+            fresh = table[np.isin(table[:, 0], rows[new])]
+            kept.contact.append(fresh)
+            kept.bytes += fresh.nbytes
+        if sum(path.bytes for path in self.paths.values()) > self.budget:
+            del self.paths[name]  # its rows freed: the evaluation stage checks them again
+            self.given_up.add(name)
 
     def covers(self, name: str, rows: np.ndarray) -> bool:
         """Whether every one of the complete runs ``rows`` of path ``name`` is kept."""
