@@ -25,7 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation.evaluate import concatenate, evaluate_path
+from idefix_rules.campaign.evaluation.evaluate import (
+    DEFAULT_CHUNK_RUNS,
+    concatenate,
+    evaluate_path,
+)
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
@@ -86,7 +90,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     statistics: dict[str, Any] = {}
     sigma = initial_position_sigma(campaign)
     # a look's new runs of a path are split over the local processes for their collision
-    # checks (the pool waits meanwhile); each chunk's checks depend on its poses alone
+    # checks (the pool waits meanwhile; at most 64 runs a chunk); each chunk's checks depend on
+    # its poses alone, and the first pass of reductions over runs keeps chunks of 64 whatever
+    # the split (its sums depend on the chunking in the last bit)
     checkers = local_workers(options, campaign)
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
@@ -102,7 +108,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
                                                   collisions, within=slice(done[name], look),
                                                   workers=checkers,
-                                                  chunk_runs=max(8, -(-new // checkers)))
+                                                  chunk_runs=min(DEFAULT_CHUNK_RUNS, max(
+                                                      8, -(-new // checkers))))
                 if evaluation is not None:
                     parts[name].append(evaluation)
                     rows[name].append(np.asarray(extra["rows"]))

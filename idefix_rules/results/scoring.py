@@ -254,7 +254,7 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
                  context: Any, collisions: Sequence[ChunkCollisions | None] = (), *,
                  keys: Iterable[str] = (), per_sample: bool = False, per_run: bool = True,
                  chunk_runs: int = DEFAULT_CHUNK_RUNS, within: slice | None = None,
-                 workers: int = 1, threads: int = 1,
+                 workers: int = 1, threads: int = 1, across_chunk_runs: int | None = None,
                  timings: dict[str, float] | None = None) -> Iterator[ScoredChunk]:
     """Score the complete runs of path ``name`` (those among the rows ``within``, when
     given) chunk by chunk under each of ``evaluators`` (None: skipped), in run order.
@@ -272,7 +272,10 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
 
     Path-level values (reductions over runs) are computed over every complete run of the
     path, ``within`` or not (an adaptive campaign's look scores its new runs with the
-    values of all runs so far)."""
+    values of all runs so far). ``across_chunk_runs``: the chunk size of that first pass
+    (default ``chunk_runs``); its sums over chunks depend on it in the last bit, so a caller
+    whose ``chunk_runs`` varies (an adaptive campaign's looks, with the number of processes)
+    fixes it."""
     timings = timings if timings is not None else {}
     for key in ("read", "collisions", "evaluate"):
         timings.setdefault(key, 0.0)
@@ -287,8 +290,9 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
     if any(getattr(e, reductions, ()) for e in evaluators if e is not None):
         mark = time.perf_counter()
         every = complete_rows(status)
-        first.run(reader, name, context, every, chunk_runs,
-                  keep=within is None or np.array_equal(every, rows))
+        across = across_chunk_runs or chunk_runs
+        first.run(reader, name, context, every, across,
+                  keep=across == chunk_runs and (within is None or np.array_equal(every, rows)))
         timings["read"] += time.perf_counter() - mark
     needs_poses = any(not _is_stored(source) for source in checkers.values())
     wanted = signals_to_read(evaluators, keys, needs_poses, per_run)

@@ -17,6 +17,7 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import KILLER, assert_same_datasets
 
+from idefix_rules.campaign import runner
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.input.environment import read_terrain
@@ -33,6 +34,7 @@ from idefix_rules.campaign.storage.store import (
     ResultStore,
 )
 from idefix_rules.cli import main
+from idefix_rules.commands import RoverGeometry
 from idefix_rules.results.collisions import ObstacleCheck, collision_function
 
 pytestmark = pytest.mark.slow
@@ -135,13 +137,19 @@ ROCK = """environment:
 """
 COLLISION_CHANCE = ('chance hit_L2 = any over parts (collision.hits[L2] > 0)\n'
                     '  because "Runs touching an L2 rock"\n')
+# A reduction over the runs of a path: its sums depend on how the runs are chunked (in the
+# last bit), so a look must chunk them alike whatever the number of processes.
+OVER_RUNS = ('index I_mean "average drift" {\n'
+             '  value  = final over time (hypot(mean over runs (x - ref.x), '
+             'mean over runs (y - ref.y)))\n'
+             '  limit  = 1 m\n  weight = 1\n  because "Average end point off the reference"\n}\n')
 
 
 def rock_campaign(campaign_dir: Path) -> Path:
     """The adaptive toy campaign with :data:`ROCK` and a rulebook judging its hits."""
     rules = (campaign_dir / "test.rules").read_text()
     (campaign_dir / "test.rules").write_text(rules.replace(
-        "prescreen reference_not_critical", COLLISION_CHANCE
+        "prescreen reference_not_critical", COLLISION_CHANCE + OVER_RUNS
         + "\nprescreen reference_not_critical"))
     return write_campaign(campaign_dir, campaign_dir, ADAPTIVE + ROCK)
 
@@ -176,6 +184,7 @@ def test_looks_checking_collisions_on_two_processes_stop_and_store_alike(
     (one, one_extra), (two, two_extra) = looks
     assert one is not None and two is not None and len(one_extra["rows"]) == 16
     assert np.array_equal(one.i_max, two.i_max)
+    assert np.array_equal(one.values["I_mean"], two.values["I_mean"])
     assert np.array_equal(one.chances["hit_L2"], two.chances["hit_L2"])
     assert np.array_equal(one_extra["hits"], two_extra["hits"])
     assert [text for _, texts in one_extra["details"] for text in texts] == \
@@ -292,7 +301,8 @@ def test_the_evaluation_stage_takes_the_looks_collision_checks(campaign_dir: Pat
     # collision checks remembered it checks none again and stores exactly what checking them
     # again gives (per-run values, chances, hits, buffer, contacts, clearance, details).
     path = rock_campaign(campaign_dir)
-    assert main([str(path), "--quiet", "--no-report"]) == 1  # straight fails its risk rule
+    # too-fast is rejected by its command rule (wheel_rate_limit): exit 1
+    assert main([str(path), "--quiet", "--no-report"]) == 1
     campaign = load_campaign(path)
     evaluator = compile_rulebook_file(campaign.rulebook)
     plain = collision_function(campaign.model.environment, evaluator,
@@ -333,3 +343,43 @@ def test_the_evaluation_stage_takes_the_looks_collision_checks(campaign_dir: Pat
             "clearance")), key
     assert [text for _, texts in again_extra["details"] for text in texts] == \
         [text for _, texts in fresh_extra["details"] for text in texts]
+
+
+def test_remembered_collisions_written_by_a_campaign_equal_checking_again(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The same adaptive campaign, its evaluation stage on the looks' collisions (as run) and
+    # with the obstacle checker alone (remembering switched off): the same results file.
+    path = rock_campaign(campaign_dir)
+    campaign = load_campaign(path)
+    run_campaign(campaign.with_overrides(output=tmp_path / "remembered"),
+                 SimulationOptions(workers=2), report=False)
+    monkeypatch.setattr(runner, "RememberedCollisions", lambda checker: checker)
+    run_campaign(campaign.with_overrides(output=tmp_path / "checked"),
+                 SimulationOptions(workers=2), report=False)
+    assert_same_datasets(tmp_path / "remembered" / "results.h5",
+                         tmp_path / "checked" / "results.h5")
+
+
+def test_remembered_rows_give_area_signals_only_to_a_rulebook_that_reads_them() -> None:
+    # A named area can be an obstacle of its level only; a rulebook that reads none of its
+    # signals may read no yaw either, and the chunk then holds none.
+    class Reads:
+        def __init__(self, areas: frozenset[str]) -> None:
+            self.required_signals = frozenset({"collision.hits"})
+            self.area_signals_read = areas
+
+    checker = ObstacleCheck(None, {"scarp": object()}, RoverGeometry())
+    remembered = RememberedCollisions(checker)
+    rows = np.array([0, 1])
+    remembered.record("p", rows, {
+        "hits": np.zeros((2, 3, 3), dtype=np.int64), "buffer": np.zeros((2, 3, 3)),
+        "contact": np.zeros((0, 6), dtype=np.int32), "clearance_profile": np.zeros((2, 4)),
+        "details": [(rows, np.array([b"{}", b"{}"]))]})
+    assert remembered.covers("p", rows)
+    chunk = {"x": np.zeros((2, 5)), "y": np.zeros((2, 5))}  # no yaw
+    signals, details = remembered.source("p", rows, Reads(frozenset()))(chunk, rows)
+    assert set(signals) == {"collision.hits", "collision.buffer", "collision.contact"}
+    assert details == []
+    reading = remembered.source("p", rows, Reads(frozenset({"area.scarp.inside"})))
+    with pytest.raises(KeyError):  # it computes the areas' signals from the poses
+        reading(chunk, rows)

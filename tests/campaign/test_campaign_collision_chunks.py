@@ -35,7 +35,7 @@ def test_collision_details_carry_global_run_numbers_across_chunks(campaign_dir: 
     (campaign_dir / "test.rules").write_text(rulebook)
     path = campaign_dir / "campaign.yaml"
     path.write_text(path.read_text() + ROCK)
-    # the straight chain fails its risk rule: exit 1
+    # too-fast is rejected by its command rule (wheel_rate_limit): exit 1
     assert main([str(path), "--quiet", "--no-report"]) == 1
 
     campaign = load_campaign(path)

@@ -194,7 +194,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     remembered = collisions if isinstance(collisions, RememberedCollisions) else None
     known = remembered is not None and remembered.usable_for(evaluator) and \
         remembered.covers(name, complete)
-    source: ChunkCollisions | None = remembered.source(name, complete) \
+    source: ChunkCollisions | None = remembered.source(name, complete, evaluator) \
         if remembered is not None and known else collisions
     parts = []
     hits, buffers, contacts, profiles = [], [], [], []
@@ -203,7 +203,8 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     runs = ParallelRuns(store)
     try:
         for chunk in score_chunks(runs, name, [evaluator], context, [source],
-                                  chunk_runs=chunk_runs, within=within, workers=workers):
+                                  chunk_runs=chunk_runs, within=within, workers=workers,
+                                  across_chunk_runs=DEFAULT_CHUNK_RUNS):
             finished.append(chain_finished(chunk.signals))
             collided = chunk.collisions[0]
             if collided is not None and not known:
@@ -235,7 +236,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["contact"] = np.concatenate(contacts) if contacts else None
         extra_store["clearance_profile"] = np.concatenate(profiles) \
             if profiles and len(profiles) == len(parts) else None
-        if remembered is not None:
+        if remembered is not None and remembered.usable_for(evaluator):
             remembered.record(name, complete, extra_store)
     return evaluation, extra_store
 

@@ -30,6 +30,7 @@ from idefix_rules.results.collisions import (
     STORED_COLLISIONS,
     ObstacleCheck,
     StoredChunks,
+    area_reads,
     collision_reads,
 )
 
@@ -37,6 +38,9 @@ from idefix_rules.results.collisions import (
 # whose rows would pass it is given up (its kept rows freed) and checked again by the
 # evaluation stage.
 BUDGET_BYTES = 256 * 1024 * 1024
+# Python's share of a kept row besides its data (three small arrays, a bytes object, the dict
+# and set entries), counted against the budget.
+ROW_OVERHEAD_BYTES = 700
 
 
 class _PathRows:
@@ -93,7 +97,7 @@ class RememberedCollisions:
                     into[row] = np.asarray(stored[key][index])
                     kept.bytes += into[row].nbytes
             kept.details[row] = texts[row]
-            kept.bytes += len(texts[row])
+            kept.bytes += len(texts[row]) + ROW_OVERHEAD_BYTES
             kept.known.add(row)
         contact = stored.get("contact")
         if contact is not None and len(contact):
@@ -110,9 +114,10 @@ class RememberedCollisions:
         kept = self.paths.get(name)
         return kept is not None and set(np.asarray(rows).tolist()) <= kept.known
 
-    def source(self, name: str, rows: np.ndarray) -> StoredChunks:
+    def source(self, name: str, rows: np.ndarray, evaluator: Any) -> StoredChunks:
         """The kept collision rows of path ``name`` as a chunk source (rows outside
-        ``rows`` are not read), the named areas' signals computed from each chunk's poses."""
+        ``rows`` are not read), with the named areas' signals computed from each chunk's
+        poses when ``evaluator`` reads them (the chunk holds the poses only then)."""
         kept = self.paths[name]
         size = int(np.max(rows)) + 1 if len(rows) else 0
         stored: dict[str, np.ndarray] = {
@@ -120,7 +125,8 @@ class RememberedCollisions:
             "collision.contact": _table(kept.contact)}
         if len(kept.buffer) == len(kept.known):
             stored["collision.buffer"] = _rows_array(kept.buffer, size)
-        return StoredChunks(stored, self.checker.area_signals)
+        areas = self.checker.area_signals if area_reads(evaluator) else _no_areas
+        return StoredChunks(stored, areas)
 
     def stored_pieces(self, name: str, rows: np.ndarray) -> dict[str, Any]:
         """What the evaluation stores of the collisions of runs ``rows`` of path ``name``
@@ -138,6 +144,10 @@ class RememberedCollisions:
             "clearance_profile": np.stack([kept.profile[row] for row in order])
             if order and len(kept.profile) == len(kept.known) else None}
         return pieces
+
+
+def _no_areas(signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    return {}
 
 
 def _rows_array(values: Mapping[int, np.ndarray], size: int) -> np.ndarray:
