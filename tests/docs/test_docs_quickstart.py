@@ -3,6 +3,7 @@ beside the rulebooks with the page's adaptive command, give the answer the page 
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -62,5 +63,12 @@ def test_the_quickstart_campaign_runs_to_a_decision(tmp_path: Path) -> None:
             assert printed.startswith(expected.split("…")[0]), (expected, printed)
         else:
             assert printed == expected, (expected, printed)
-    summary = (tmp_path / "results" / "my-site" / "summary.json").read_text()
-    assert '"straight"' in summary and '"arc-detour"' in summary
+    summary = json.loads((tmp_path / "results" / "my-site" / "summary.json").read_text())
+    paths = {path["name"]: path for path in summary["paths"]}
+    assert set(paths) == {"straight", "arc-detour"}
+    # the figures the page's prose quotes
+    arc = paths["arc-detour"]
+    assert f"risk {100 * arc['mean_risk']:.1f} % against the rulebook's 70 %" in \
+        " ".join(page.split())
+    assert f"meets that rock in {100 * arc['chances']['hit_L2']:.0f} % of its runs" in \
+        " ".join(page.split())
