@@ -192,10 +192,11 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
     remembered = collisions if isinstance(collisions, RememberedCollisions) else None
-    known = remembered is not None and remembered.usable_for(evaluator) and \
-        remembered.covers(name, complete)
-    source: ChunkCollisions | None = remembered.source(name, complete, evaluator) \
-        if remembered is not None and known else collisions
+    usable = remembered is not None and remembered.usable_for(evaluator)
+    known = remembered if usable and remembered is not None and \
+        remembered.covers(name, complete) else None  # every run's collisions are kept
+    source: ChunkCollisions | None = known.source(name, complete, evaluator) \
+        if known is not None else collisions
     parts = []
     hits, buffers, contacts, profiles = [], [], [], []
     details: list[tuple[np.ndarray, np.ndarray]] = []  # per chunk: rows, their JSON texts
@@ -207,7 +208,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
                                   across_chunk_runs=DEFAULT_CHUNK_RUNS):
             finished.append(chain_finished(chunk.signals))
             collided = chunk.collisions[0]
-            if collided is not None and not known:
+            if collided is not None and known is None:
                 extra, chunk_details = collided
                 hits.append(extra.get("collision.hits"))
                 buffers.append(extra.get("collision.buffer"))
@@ -225,8 +226,8 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     extra_store: dict[str, Any] = {"rows": complete, "finished": None}
     if finished and all(part is not None for part in finished):
         extra_store["finished"] = np.concatenate([p for p in finished if p is not None])
-    if remembered is not None and known and parts:
-        extra_store.update(remembered.stored_pieces(name, complete))
+    if known is not None and parts:
+        extra_store.update(known.stored_pieces(name, complete))
     elif collisions is not None and parts:
         extra_store["hits"] = np.concatenate([h for h in hits if h is not None]) \
             if any(h is not None for h in hits) else None
@@ -236,7 +237,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["contact"] = np.concatenate(contacts) if contacts else None
         extra_store["clearance_profile"] = np.concatenate(profiles) \
             if profiles and len(profiles) == len(parts) else None
-        if remembered is not None and remembered.usable_for(evaluator):
+        if usable and remembered is not None:
             remembered.record(name, complete, extra_store)
     return evaluation, extra_store
 
