@@ -19,12 +19,16 @@ code before the runs were streamed (:data:`PREVIOUS`, exported once under
   all): 10k / 1k is the ratio asked for, 30k / 10k shows what still grows once HDF5's own
   bookkeeping of a file's chunks has reached its bound (docs/operations.md, "Memory");
 * ``rock-detour``: the evaluation stage of the example (``campaigns/rock-detour.yaml``, built-in
-  rover FMU, four paths, runs of 2,700 to 9,600 samples, collision checks on 2 processes) over
-  the first 256, 512 and 1,000 runs per path of its stored campaign (``bench_diff.py``'s,
-  simulated once into ``benchmarks/.cache/`` when missing: about 4,000 runs); simulating it at
-  several sizes would take most of an hour on 2 cores, and the toy shows the simulation stage.
+  rover FMU, four paths, runs of 2,700 to 9,600 samples, collision checks on 2 processes) at
+  256, 1,000 and 10,000 runs per path, from its stored campaign of 1,000 runs per path
+  (``bench_diff.py``'s, simulated once into ``benchmarks/.cache/`` when missing: about 4,000
+  runs): 256 are its first runs, 10,000 a copy whose run ``j`` is the stored run ``j mod 1000``
+  (the compressed chunks copied as they are: about 8 GB in the temporary folder). What the
+  evaluation holds depends on how many runs there are and how long they are, not on their
+  values; simulating 40,000 runs would take about 45 minutes on 2 cores, and the toy shows the
+  simulation stage.
 
-    python benchmarks/bench_memory.py                      # about 15 minutes on 2 cores
+    python benchmarks/bench_memory.py                      # about 25 minutes on 2 cores
     python benchmarks/bench_memory.py --no-previous        # the present code only
     python benchmarks/bench_memory.py --toy-runs 200 2000 --rover-runs 0  # a quick look
 """
@@ -84,14 +88,27 @@ class StageMemory:
 
 # --- in the measuring process ---------------------------------------------------------------
 
+def stage_module(now: str, before: str) -> Any:
+    """A campaign module where the measured code has it: ``now`` in the campaign's stage
+    sub-packages, ``before`` in the flat ``campaign`` package of the code before they were
+    split (the second baseline)."""
+    import importlib
+
+    try:
+        return importlib.import_module(f"idefix_rules.campaign.{now}")
+    except ModuleNotFoundError:
+        return importlib.import_module(f"idefix_rules.campaign.{before}")
+
+
 def toy_campaign(folder: Path, runs: int, fmu: Path) -> dict[str, Any]:
     """Run the toy campaign at ``runs`` per path in ``folder``: memory by stage (MB)."""
     sys.path.insert(0, str(TOY_SOURCES))
     from campaign_texts import CAMPAIGN, RULEBOOK
 
-    from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulation.simulate import SimulationOptions
+
+    load_campaign = stage_module("input.load", "load").load_campaign
+    SimulationOptions = stage_module("simulation.simulate", "simulate").SimulationOptions
 
     (folder / "toy.fmu").write_bytes(fmu.read_bytes())
     (folder / "test.rules").write_text(RULEBOOK)
@@ -113,12 +130,11 @@ def toy_campaign(folder: Path, runs: int, fmu: Path) -> dict[str, Any]:
 def stored_evaluation(results: Path) -> dict[str, Any]:
     """Evaluate a stored campaign as ``run_campaign`` does (collision checks on 2
     processes), without writing: memory (MB)."""
-    from idefix_rules.campaign.evaluation.evaluate import evaluate_store
-    from idefix_rules.campaign.storage.store import ResultStore
     from idefix_rules.results.campaign import StoredCampaign
     from idefix_rules.rulebook import compile_rulebook
 
-    store = ResultStore.open(results)
+    evaluate_store = stage_module("evaluation.evaluate", "evaluation").evaluate_store
+    store = stage_module("storage.store", "store").ResultStore.open(results)
     try:
         stored = StoredCampaign(store)
         evaluator = compile_rulebook(stored.checked_rulebook())
@@ -167,6 +183,53 @@ def cut_copy(source: Path, target: Path, runs: int) -> Path:
     return target
 
 
+def repeated_copy(source: Path, target: Path, runs: int) -> Path:
+    """A copy of a stored campaign with ``runs`` runs per path, run ``j`` being the stored run
+    ``j mod n`` (its compressed chunks copied unchanged); the paths' evaluations are left out
+    (they are what the measured stage writes)."""
+    import h5py
+    import numpy as np
+
+    def copy_runs(group: h5py.Group, into: h5py.Group) -> None:
+        into.attrs.update({key: runs if key == "count" else value
+                           for key, value in group.attrs.items()})
+        for name, item in group.items():
+            if isinstance(item, h5py.Group):
+                copy_runs(item, into.create_group(name))
+                continue
+            stored = item.shape[0]
+            made = into.create_dataset(
+                name, shape=(runs, *item.shape[1:]), dtype=item.dtype, chunks=item.chunks,
+                compression=item.compression, compression_opts=item.compression_opts,
+                shuffle=item.shuffle, fillvalue=item.fillvalue)
+            made.attrs.update(item.attrs)
+            if item.chunks is not None and item.chunks[0] == 1:  # a run's signal: one chunk
+                rest = (0,) * (item.ndim - 1)
+                for run in range(runs):
+                    mask, data = item.id.read_direct_chunk((run % stored, *rest))
+                    made.id.write_direct_chunk((run, *rest), data, mask)
+            else:
+                made[...] = item[()][np.arange(runs) % stored]
+
+    with h5py.File(source, "r") as src, h5py.File(target, "w") as dst:
+        dst.attrs.update(src.attrs)
+        dst.attrs["runs"] = runs
+        for name in src:
+            if name != "paths":
+                src.copy(src[name], dst, name=name)
+        paths = dst.create_group("paths")
+        paths.attrs.update(src["paths"].attrs)
+        for name, group in src["paths"].items():
+            out = paths.create_group(name)
+            out.attrs.update(group.attrs)
+            for part in group:
+                if part == "runs":
+                    copy_runs(group[part], out.create_group(part))
+                elif part != "evaluation":
+                    group.copy(group[part], out, name=part)
+    return target
+
+
 def table(title: str, sizes: list[int], trees: dict[str, list[dict[str, Any]]],
           keys: tuple[tuple[str, str], ...]) -> list[str]:
     """Per code and stage: the figure at each size, the ratio of the second size to the first
@@ -197,7 +260,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--toy-runs", type=int, nargs="+", default=[1000, 10_000, 30_000],
                         help="runs per path of the toy campaign (the first: the baseline)")
-    parser.add_argument("--rover-runs", type=int, nargs="+", default=[256, 512, 1000],
+    parser.add_argument("--rover-runs", type=int, nargs="+", default=[256, 1000, 10_000],
                         help="runs per path of rock-detour's evaluation (0: skip it)")
     parser.add_argument("--no-previous", action="store_true",
                         help=f"skip the code at {PREVIOUS}")
@@ -243,8 +306,10 @@ def main() -> None:
         if min(args.rover_runs) > 0:
             from bench_diff import stored_campaign_file
 
-            source = stored_campaign_file(max(args.rover_runs), 2, rebuild=False)
-            cuts = [cut_copy(source, folder / f"rock-detour-{runs}.h5", runs)
+            stored_runs = 1000
+            source = stored_campaign_file(stored_runs, 2, rebuild=False)
+            cuts = [(cut_copy if runs <= stored_runs else repeated_copy)(
+                        source, folder / f"rock-detour-{runs}.h5", runs)
                     for runs in args.rover_runs]
             rover: dict[str, list[dict[str, Any]]] = {}
             for code, tree in trees.items():
@@ -254,9 +319,9 @@ def main() -> None:
                           f"{json.dumps(measured)}", flush=True)
             lines.append("")
             lines += table(
-                f"rock-detour, the evaluation of its first {', '.join(map(str, args.rover_runs))}"
-                " stored runs per path (4 paths, collision checks on 2 processes): the "
-                "evaluating process", args.rover_runs, rover,
+                f"rock-detour, the evaluation of {', '.join(map(str, args.rover_runs))} runs per "
+                f"path (4 paths; the first of the {stored_runs} stored, or those repeated; "
+                "collision checks on 2 processes): the evaluating process", args.rover_runs, rover,
                 (("start", "before evaluating"), ("evaluation_peak", "peak, evaluation")))
     print("\n".join(lines))
 
