@@ -85,7 +85,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass
 
 from idefix_rules.rulebook.model import (
     Binary,
@@ -98,7 +98,8 @@ from idefix_rules.rulebook.model import (
     Unary,
     Window,
 )
-from idefix_rules.rulebook.walk import children
+from idefix_rules.rulebook.walk import children, nodes
+from idefix_rules.rulebook.walk import names_in as walk_names
 from idefix_rules.signals import AXIS_LABELS
 
 # Axes after the run axis, in the order the compiled evaluator lays arrays out.
@@ -209,23 +210,16 @@ def any_counts_own_samples(expr: Expr | Masked, constants: Collection[str]) -> b
     return any(any_counts_own_samples(inner, constants) for inner in _inside(expr))
 
 
-def names_in(expr: object) -> set[str]:
+def names_in(expr: Expr | Masked) -> set[str]:
     """Every name an expression reads (signals, constants, scope names), ``chance(x)``'s
-    argument included."""
-    found: set[str] = set()
-
-    def walk(node: object) -> None:
-        if isinstance(node, Name):
-            found.add(node.name)
-        elif isinstance(node, tuple):
-            for item in node:
-                walk(item)
-        elif is_dataclass(node) and not isinstance(node, type):
-            for f in fields(node):
-                if f.name != "span":
-                    walk(getattr(node, f.name))
-
-    walk(expr)
+    argument included: the rule model's one walk (:func:`idefix_rules.rulebook.walk.names_in`),
+    and a per-sample form's masked operands with their windows."""
+    if isinstance(expr, Masked):
+        return names_in(expr.operand) | names_in(expr.window.value)
+    found = {name.name for name in walk_names(expr)}
+    for node in nodes(expr):
+        if isinstance(node, Masked):
+            found |= names_in(node)
     return found
 
 
