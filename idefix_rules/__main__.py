@@ -1,5 +1,5 @@
 import sys
 
-from idefix_rules.cli import main
+from idefix_rules.cli import process_main
 
-sys.exit(main())
+sys.exit(process_main())

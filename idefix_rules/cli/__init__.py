@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import importlib
+import signal
 import sys
 import traceback
 from collections.abc import Sequence
@@ -83,6 +84,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             sys.stdout.flush()  # a pipe closed early shows here, not at the interpreter's exit
     except BrokenPipeError:
         return quiet_broken_pipe()
+    return code
+
+
+def process_main() -> int:
+    """``idefix-verify`` as a process (the console script, ``python -m idefix_rules``):
+    :func:`main`, then Ctrl-C ignored while the interpreter shuts down. The command has
+    finished and said what it had to say; an interrupt arriving now (a user pressing Ctrl-C as
+    a long campaign ends) would only print a traceback from the interpreter's clean-up and
+    could not change the exit code."""
+    code = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     return code
 
 
