@@ -13,7 +13,10 @@ reproduced exactly before they were replaced), and the toy's when results format
 checked before it was replaced), and the rover's when a wheel on a rock got its support at the
 contact point and a wheel sliding off a rock left the chassis on the other three (the old
 digest reproduced on the old sources before it was replaced; the rut window of a lifted wheel,
-fixed after, left it unchanged: only the source hash was recorded again). A change to either must
+fixed after, left it unchanged: only the source hash was recorded again), and the rover's when
+a wheel on a rock was compared with the soil at the depth the soil would carry it there instead
+of at zero sinkage (a wheel at a rock's edge no longer alternates between the two every step;
+its 4 cm rock meets it). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -30,10 +33,10 @@ from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.fmu.build import source_hash
 
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing, the
-# first-touch rock contact and the loads of a rigid chassis with a rock's support at its contact;
-# results format 2, default stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "0aab0de8e78c7605e1582cf65a823982518ac5e63687494964ea6a0739f8c2f5"
-ROVER_DIGEST = "b58237abe2350a8f2b58c28ebaa503c821e8b1821e3aca7d185c89d364cfd7a8"
+# first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
+# a wheel on a rock compared with the soil at its supporting depth; results format 2, default stop limit 3 × ideal, held after the chain.
+ROVER_SOURCE_HASH = "95cd50521d9a49cee4d852dbe96588f7b69cc865571ffcaede4a49d3e0941936"
+ROVER_DIGEST = "7000279d374c766e29a8e40b9cddea1dedfca97adf3fdcc4011ecd298c111eea"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

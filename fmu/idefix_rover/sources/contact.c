@@ -57,7 +57,7 @@ static double centre_height(const Instance *inst, const Wheel *w, double x0, dou
                             double *contact_d)
 {
     double radius = inst->r[VR_ROVER_WHEEL_RADIUS], width = inst->r[VR_ROVER_WHEEL_WIDTH];
-    double soil = terrain_height(&inst->terrain, x, y) - w->sinkage + radius;
+    double soil = terrain_height(&inst->terrain, x, y) - w->support_sinkage + radius;
     double rock = NO_ROCK_LIMIT;
     int k;
     *contact_d = 0.0;
@@ -139,7 +139,7 @@ void contact_update(Instance *inst, double contact_angle[N_WHEELS], double soil_
         if (!started) {
             x0 = w->wx;
             y0 = w->wy;
-            axle = terrain_height(&inst->terrain, w->wx, w->wy) - w->sinkage + radius;
+            axle = terrain_height(&inst->terrain, w->wx, w->wy) - w->support_sinkage + radius;
         }
         w->centre_z = centre_height(inst, w, x0, y0, axle, w->wx, w->wy, hx, hy, &w->on_rock, &d);
         /* on a rock: the contact normal's angle from the vertical in the wheel plane, exact

@@ -91,6 +91,9 @@ typedef struct {
     double blocked_time;     /* how long the wheel has turned against a face without progress, s */
     double load;             /* normal load, N */
     double sinkage;          /* below the undisturbed surface, m */
+    double support_sinkage;  /* the sinkage at which the soil alone would carry the wheel: its
+                              * sinkage on soil; on a rock, the static sinkage of its load or
+                              * share of the weight, or a rut's floor there, m */
     double contact_length;   /* length the shear displacement builds over (soil: at least the
                               * grousers'), m */
     double patch_length;     /* geometric patch length sqrt(2 r z) (ruts), m */

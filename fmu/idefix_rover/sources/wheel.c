@@ -84,6 +84,26 @@ void wheel_ground_state(Instance *inst, int i)
         w->shear_K = inst->r[VR_ROCK_SHEAR_K];
         w->resistance = 0.0;
         w->sinkage = 0.0;
+        /* The rock holds the wheel as long as it holds it above the height at which the soil
+         * alone would carry it there: the static sinkage of its load, or of its share of the
+         * weight on four wheels where that is more (a wheel sliding off a rock's far side
+         * carries almost nothing until the soil takes its share), or the floor of a rut it
+         * would sink to, as on soil below (without slip's excavation, which a wheel on a rock
+         * does not dig). The soil's support is compared at that sinkage, not at the rock's
+         * zero: with zero, a rim between the soil surface and that depth was on the soil one
+         * step, sinking to it, and on the rock the next, every step (docs/rover-model.md,
+         * "Rocks"). */
+        {
+            double share = 0.25 * inst->r[VR_ROVER_MASS] * inst->r[VR_ROVER_GRAVITY];
+            double z0 = bekker_static_sinkage(soil, w->load > share ? w->load : share, radius,
+                                              width);
+            RutState under = soil_query(&inst->grid, w->wx, w->wy, hx, hy,
+                                        sqrt(2.0 * radius * z0), width, i, w->travel,
+                                        w->mark_span);
+            double floor_depth = under.rut_depth + soil->multipass_factor * under.disturbed * z0;
+            double support = z0 > floor_depth ? z0 : floor_depth;
+            w->support_sinkage = support < soil->max_sinkage ? support : soil->max_sinkage;
+        }
         w->rut_depth = 0.0;
         w->disturbed = 0.0;
         w->patch_length = 0.0;
@@ -117,6 +137,7 @@ void wheel_ground_state(Instance *inst, int i)
         w->disturbed = rut.disturbed;
         w->sinkage = zs > rut_floor ? zs : rut_floor;
         if (w->sinkage > soil->max_sinkage) w->sinkage = soil->max_sinkage;
+        w->support_sinkage = w->sinkage;
         w->patch_length = sqrt(2.0 * radius * w->sinkage);
         /* The soil's strength acts on the patch the wheel presses (none for a lifted wheel);
          * the shear displacement builds up over at least the length the grousers engage, a
