@@ -180,19 +180,24 @@ def _contact_changes(out: dict[str, np.ndarray]) -> np.ndarray:
 
 
 @pytest.mark.parametrize("feedback", [1.0, 0.0])
+@pytest.mark.parametrize("slope_deg", [0.0, 10.0])
 def test_a_wheel_in_a_rut_takes_a_pebble_once_and_leaves_it_once(
-        rover: FmuRunner, tmp_path: Path, feedback: float) -> None:
-    # A 1 cm pebble in the right wheels' track. The rear right wheel meets it in the front right
-    # wheel's rut, deeper (1.9 mm) than a wheel's static sinkage on fresh soil (1.4 mm). The
-    # rock holds a wheel while it holds it above the depth at which the soil would carry it
-    # there (docs/rover-model.md, "Rocks"): onto the pebble once, off it once. When that depth
-    # was taken as the rock's zero sinkage, a rim between the soil surface and that depth was
-    # on the soil one step and on the rock the next: 26 changes for the front right wheel and
-    # 34 (32 open loop) for the rear right one over this drive, the loads and slips alternating
-    # with them.
-    pebble = Rock(0.35, -0.26, 0.01, 0.01, 0.01, z=0.007)
-    out = rover.run({"terrain.file": _terrain(tmp_path, pebble, "pebble.terrain"),
-                     "controller.heading_feedback": feedback}, STRAIGHT, 300.0, 0.02)
+        rover: FmuRunner, tmp_path: Path, feedback: float, slope_deg: float) -> None:
+    # A 1 cm pebble in the right wheels' track. A wheel meets it where the soil would carry it
+    # some depth below the surface: the front right wheel 1.4 mm (fresh soil), the rear right
+    # one 1.9 mm (in the front wheel's rut). The rock holds a wheel while it holds it above that
+    # depth, taken for a wheel on the rock from its load or share, the rut under it and the
+    # depth it got on with (docs/rover-model.md, "Rocks"): onto the pebble once, off it once.
+    # When the comparison was made at the rock's zero sinkage, a rim between the soil surface
+    # and that depth was on the soil one step and on the rock the next: 26 changes for the
+    # front right wheel and 34 (32 open loop) for the rear right one over this drive on level
+    # ground, the loads and slips alternating with them. Downhill, a wheel carries more on the
+    # soil than a level share and less on the rock: without the depth it got on with, 4 to 6.
+    terrain = str(write_terrain(tmp_path / "pebble.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, slope=math.radians(slope_deg),
+        rocks=[Rock(0.35, -0.26, 0.01, 0.01, 0.01, embed=0.003)])))
+    out = rover.run({"terrain.file": terrain, "controller.heading_feedback": feedback},
+                    STRAIGHT, 300.0, 0.02)
     assert out["x"][-1] > 0.95  # the whole drive, over the pebble
     changes = _contact_changes(out)
     assert changes[[0, 2]].tolist() == [0, 0]  # the left wheels never touch it

@@ -93,7 +93,8 @@ typedef struct {
     double sinkage;          /* below the undisturbed surface, m */
     double support_sinkage;  /* the sinkage at which the soil alone would carry the wheel: its
                               * sinkage on soil; on a rock, the static sinkage of its load or
-                              * share of the weight, or a rut's floor there, m */
+                              * share of the weight, or a rut's floor there, at least the depth
+                              * it got onto the rock with, m */
     double contact_length;   /* length the shear displacement builds over (soil: at least the
                               * grousers'), m */
     double patch_length;     /* geometric patch length sqrt(2 r z) (ruts), m */

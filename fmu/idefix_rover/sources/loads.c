@@ -50,7 +50,8 @@ static void supports(const Instance *inst, const double contact_angle[N_WHEELS],
     for (i = 0; i < N_WHEELS; i++) {
         const Wheel *w = &inst->wheels[i];
         offset[i] = w->on_rock ? radius * sin(contact_angle[i] - atan(plane_x)) : 0.0;
-        height[i] = w->centre_z - radius + (w->on_rock ? 0.0 : w->sinkage);
+        /* the ground contact: on soil the centre stands its supporting depth below the surface */
+        height[i] = w->centre_z - radius + (w->on_rock ? 0.0 : w->support_sinkage);
         compliance[i] = inst->r[VR_ROVER_LEG_COMPLIANCE];
         if (!w->on_rock && w->load > 0.0)
             compliance[i] += bekker_static_sinkage(&inst->soil, w->load, radius, width) /

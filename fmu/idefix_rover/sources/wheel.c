@@ -89,10 +89,13 @@ void wheel_ground_state(Instance *inst, int i)
          * weight on four wheels where that is more (a wheel sliding off a rock's far side
          * carries almost nothing until the soil takes its share), or the floor of a rut it
          * would sink to, as on soil below (without slip's excavation, which a wheel on a rock
-         * does not dig). The soil's support is compared at that sinkage, not at the rock's
-         * zero: with zero, a rim between the soil surface and that depth was on the soil one
-         * step, sinking to it, and on the rock the next, every step (docs/rover-model.md,
-         * "Rocks"). */
+         * does not dig), and never less than the depth it had when it got onto the rock (its
+         * load on the rock differs from its load on the soil, on a slope from that share, and
+         * its sinkage there held slip's excavation: a shallower depth here would hand it back
+         * to the soil at once). The soil's support is compared at that sinkage, not at the
+         * rock's zero: with zero, a rim between the soil surface and that depth was on the
+         * soil one step, sinking to it, and on the rock the next, every step
+         * (docs/rover-model.md, "Rocks"). */
         {
             double share = 0.25 * inst->r[VR_ROVER_MASS] * inst->r[VR_ROVER_GRAVITY];
             double z0 = bekker_static_sinkage(soil, w->load > share ? w->load : share, radius,
@@ -102,6 +105,7 @@ void wheel_ground_state(Instance *inst, int i)
                                         w->mark_span);
             double floor_depth = under.rut_depth + soil->multipass_factor * under.disturbed * z0;
             double support = z0 > floor_depth ? z0 : floor_depth;
+            if (support < w->support_sinkage) support = w->support_sinkage;
             w->support_sinkage = support < soil->max_sinkage ? support : soil->max_sinkage;
         }
         w->rut_depth = 0.0;
