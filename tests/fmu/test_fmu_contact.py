@@ -192,7 +192,8 @@ def test_a_wheel_in_a_rut_takes_a_pebble_once_and_leaves_it_once(
     # and that depth was on the soil one step and on the rock the next: 26 changes for the
     # front right wheel and 34 (32 open loop) for the rear right one over this drive on level
     # ground, the loads and slips alternating with them. Downhill, a wheel carries more on the
-    # soil than a level share and less on the rock: without the depth it got on with, 4 to 6.
+    # soil than a level share and less on the rock: without the depth it got on with, the
+    # front right wheel changes 6 times.
     terrain = str(write_terrain(tmp_path / "pebble.terrain", synthetic_terrain(
         size=4.0, cell=0.02, slope=math.radians(slope_deg),
         rocks=[Rock(0.35, -0.26, 0.01, 0.01, 0.01, embed=0.003)])))

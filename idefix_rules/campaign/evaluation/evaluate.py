@@ -191,10 +191,11 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     ``workers`` > 1 spreads the collision checks over that many processes."""
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
-    remembered = collisions if isinstance(collisions, RememberedCollisions) else None
-    usable = remembered is not None and remembered.usable_for(evaluator)
-    known = remembered if usable and remembered is not None and \
-        remembered.covers(name, complete) else None  # every run's collisions are kept
+    # an adaptive campaign's checker, keeping the looks' checks for a rulebook that can use them
+    remembered = collisions if isinstance(collisions, RememberedCollisions) \
+        and collisions.usable_for(evaluator) else None
+    known = remembered if remembered is not None and remembered.covers(name, complete) \
+        else None  # every run's collisions are kept
     source: ChunkCollisions | None = known.source(name, complete, evaluator) \
         if known is not None else collisions
     parts = []
@@ -237,7 +238,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         extra_store["contact"] = np.concatenate(contacts) if contacts else None
         extra_store["clearance_profile"] = np.concatenate(profiles) \
             if profiles and len(profiles) == len(parts) else None
-        if usable and remembered is not None:
+        if remembered is not None:
             remembered.record(name, complete, extra_store)
     return evaluation, extra_store
 
