@@ -72,7 +72,7 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
     double arm = 4.0 * hw, shift = 0.0, skew = 0.0, twist = 0.0, rhs, stiffness = 0.0;
     double q[N_WHEELS], n[N_WHEELS], base[N_WHEELS], t, t_lo = -1e300, t_hi = 1e300;
     double dropping_slope = 0.0;  /* d/dt of the sliding wheels' total load */
-    int i;
+    int i, lo = -1, hi = -1;  /* the wheels whose loads reach 0 at t_lo, t_hi */
 
     /* gravity in the body frame, R = Rz(yaw) Ry(pitch) Rx(roll), z up */
     gx = g * sin(inst->pitch);
@@ -109,8 +109,14 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
 
     /* the range of t over which no support pulls */
     for (i = 0; i < N_WHEELS; i++) {
-        if (n[i] > 0.0 && -base[i] / n[i] > t_lo) t_lo = -base[i] / n[i];
-        if (n[i] < 0.0 && -base[i] / n[i] < t_hi) t_hi = -base[i] / n[i];
+        if (n[i] > 0.0 && -base[i] / n[i] > t_lo) {
+            t_lo = -base[i] / n[i];
+            lo = i;
+        }
+        if (n[i] < 0.0 && -base[i] / n[i] < t_hi) {
+            t_hi = -base[i] / n[i];
+            hi = i;
+        }
     }
 
     /* A wheel on the far side of a rock, on a face steeper than the friction cone of the
@@ -132,6 +138,11 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
         double load = base[i] + t * n[i];
         inst->wheels[i].load = load > 0.0 ? load : 0.0;
     }
+    /* At a bound the chassis rests on three wheels and the fourth carries nothing: exactly 0,
+     * not the rounding residue of base + t n (a few 1e-18 N), which would count as a load
+     * (a loaded wheel presses and marks the soil; one at 0 is lifted). */
+    if (t == t_lo && lo >= 0) inst->wheels[lo].load = 0.0;
+    if (t == t_hi && hi >= 0) inst->wheels[hi].load = 0.0;
     inst->gx = gx;
     inst->gy = gy;
 }
