@@ -187,10 +187,10 @@ def test_a_wheel_sliding_off_a_rock_leaves_the_chassis_on_the_other_three(
 def test_a_lifted_wheel_carries_exactly_nothing(rover: FmuRunner, tmp_path: Path) -> None:
     # Driving over ROCK the chassis rests on three wheels whenever the rock lifts one diagonal
     # more than the legs and soil give: the fourth wheel carries nothing. Its load must be 0,
-    # not the rounding residue of the four-support solution at its bound (3.5e-18 N was seen in
-    # every run): a wheel with any load presses and marks the soil, and a following wheel
-    # then meets remoulded soil (half the cohesion) that no wheel pressed; the example's
-    # straight runs ended 2-3 cm apart on that residue alone.
+    # not the rounding residue of the four-support solution at its bound (3.5e-18 N in each of
+    # six straight drives of the example): a wheel with any load presses and marks the soil, and
+    # a following wheel then meets remoulded soil (half the cohesion) that no wheel pressed;
+    # those drives ended 2-3 cm further back on that residue alone.
     terrain = write_terrain(tmp_path / "drive.terrain", synthetic_terrain(
         size=4.0, cell=0.02, rocks=[ROCK]))
     out = rover.run({"terrain.file": str(terrain)}, [Command(0.05, 1.0, 0.0)], 300.0, 0.05)
