@@ -187,7 +187,7 @@ def test_a_wheel_sliding_off_a_rock_leaves_the_chassis_on_the_other_three(
 def test_a_lifted_wheel_carries_exactly_nothing(rover: FmuRunner, tmp_path: Path) -> None:
     # Driving over ROCK the chassis rests on three wheels whenever the rock lifts one diagonal
     # more than the legs and soil give: the fourth wheel carries nothing. Its load must be 0,
-    # not the rounding residue of the four-support solution at its bound (3.5e-18 N in each of
+    # not the rounding residue of the four-support solution at its bound (3.5e-18 or 6.9e-18 N in
     # six straight drives of the example): a wheel with any load presses and marks the soil, and
     # a following wheel then meets remoulded soil (half the cohesion) that no wheel pressed;
     # those drives ended 2-3 cm further back on that residue alone.
