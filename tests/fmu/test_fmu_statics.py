@@ -199,3 +199,24 @@ def test_a_lifted_wheel_carries_exactly_nothing(rover: FmuRunner, tmp_path: Path
     assert lifted.sum() > 100  # the precondition: the rock does put the rover on three wheels
     residue = (loads > 0.0) & (loads < 1e-9 * WEIGHT)
     assert not residue.any(), f"loads of {loads[residue].min():.3g} N: a rounding residue"
+
+
+def test_two_wheels_sliding_off_a_ridge_at_once_do_not_let_rounding_choose(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # A low ridge across the track under both front wheels: they slide off its far face at
+    # once, with offsets that cancel. Which of them carries nothing must not be decided by the
+    # sign of a vanishing sum: a start 1e-9 m to either side ends within a micrometre, not
+    # 5.2 mm apart in x (as when the bound was chosen by that sign and the loads switched
+    # between 41/41/30/30 mN and 11/71/61/0 mN).
+    ridge = Rock(0.5, 0.0, 0.03, 0.5, 0.02, embed=0.005)
+    terrain = write_terrain(tmp_path / "ridge.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, rocks=[ridge]))
+    ends = []
+    for dy in (0.0, 1e-9, -1e-9):
+        out = rover.run({"terrain.file": str(terrain), "initial.y": dy},
+                        [Command(0.05, 1.0, 0.0)], 700.0, 0.1)
+        ends.append((out["x"][-1], out["y"][-1], out["yaw"][-1]))
+    ends_array = np.array(ends)
+    assert ends_array[0, 0] > 0.9  # the precondition: the rover drove over the ridge
+    spread = ends_array.max(axis=0) - ends_array.min(axis=0)
+    assert spread[0] < 1e-6 and spread[1] < 1e-6 and spread[2] < 1e-6

@@ -38,7 +38,8 @@ const double SIDE_Y[N_WHEELS] = {1.0, -1.0, 1.0, -1.0};  /* left +1 */
  * Supports push and never pull: t is bounded where a load reaches 0, and the chassis then
  * rests on three wheels, whose loads the three balances give uniquely. A wheel sliding off a
  * rock face (`dropping`) carries the least load these bounds allow: none when the other three
- * can carry the chassis. */
+ * can carry the chassis. Several sliding at once carry the least loads in the least-squares
+ * sense (continuous where their offsets cancel). */
 
 /* Per wheel: the support's offset ahead of the hub, its height and its compliance. */
 static void supports(const Instance *inst, const double contact_angle[N_WHEELS], double plane_x,
@@ -72,6 +73,8 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
     double arm = 4.0 * hw, shift = 0.0, skew = 0.0, twist = 0.0, rhs, stiffness = 0.0;
     double q[N_WHEELS], n[N_WHEELS], base[N_WHEELS], t, t_lo = -1e300, t_hi = 1e300;
     double dropping_slope = 0.0;  /* d/dt of the sliding wheels' total load */
+    double dropping_moment = 0.0, dropping_norm = 0.0;  /* sum b n, sum n^2 over them */
+    int dropping_count = 0;
     int i, lo = -1, hi = -1;  /* the wheels whose loads reach 0 at t_lo, t_hi */
 
     /* gravity in the body frame, R = Rz(yaw) Ry(pitch) Rx(roll), z up */
@@ -127,9 +130,20 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
         Wheel *w = &inst->wheels[i];
         double dir = w->rate > 0.0 ? 1.0 : (w->rate < 0.0 ? -1.0 : (inst->u >= 0.0 ? 1.0 : -1.0));
         w->dropping = w->on_rock && dir * (contact_angle[i] - atan(plane_x)) < -atan(mu);
-        if (w->dropping) dropping_slope += n[i];
+        if (w->dropping) {
+            dropping_slope += n[i];
+            dropping_moment += base[i] * n[i];
+            dropping_norm += n[i] * n[i];
+            dropping_count++;
+        }
     }
-    if (dropping_slope != 0.0) t = dropping_slope > 0.0 ? t_lo : t_hi;
+    /* One sliding wheel goes to the bound where its load vanishes. Several share the least
+     * loads the bounds allow in the least-squares sense, t = -sum b n / sum n^2 (then clamped):
+     * continuous in the geometry. Choosing the bound by the sign of their summed slope, which
+     * nearly cancels when their offsets do, let rounding pick which of them carried nothing
+     * (across a ridge under both front wheels, a 1e-9 m start offset moved the end by 0.3 mm). */
+    if (dropping_count >= 2 && dropping_norm > 0.0) t = -dropping_moment / dropping_norm;
+    else if (dropping_slope != 0.0) t = dropping_slope > 0.0 ? t_lo : t_hi;
 
     /* within the range (where it is empty the chassis tips: outside this model, loads >= 0) */
     t = t < t_lo ? t_lo : t;
