@@ -36,7 +36,7 @@ from idefix_rules.fmu.build import source_hash
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "713be2368b738d47ed426b414e02ed41c0b713334109ee8b4b7bf749f35eb011"
+ROVER_SOURCE_HASH = "007b8e86cf9dfa918ff6869da5acaf77ed36582fe5d89e62c22d7e798fb1334e"
 ROVER_DIGEST = "a064d19be6ffa99210d3eca793162d26f7f2db0705b9b071d0a55e4c3f2928d2"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 

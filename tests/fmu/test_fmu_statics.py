@@ -229,8 +229,8 @@ def test_the_example_s_straight_drive_over_its_rock_is_not_decided_by_rounding(
     # millimetre to either side or a millimetre further on, or half the internal step, must
     # drive the same: the same distance to a millimetre and the same hold at the rock (the
     # share of the drive's samples with a wheel above 70 % slip, which makes the chain
-    # critical). With a lifted wheel's rounding residue of load the ends spread over 1.7 cm
-    # and the hold over 12.4-15.2 % of the samples.
+    # critical). With a lifted wheel's rounding residue of load the ends spread over 1.4 cm
+    # and the hold over 12.4-14.8 % of the samples.
     rock = Rock(0.5, -0.26, 0.04, 0.04, 0.04, embed=0.01)
     terrain = write_terrain(tmp_path / "example.terrain", synthetic_terrain(
         size=4.0, cell=0.02, slope=math.radians(2), roughness=0.003, seed=11, rocks=[rock]))

@@ -141,7 +141,7 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS])
      * loads the bounds allow in the least-squares sense, t = -sum b n / sum n^2 (then clamped):
      * continuous in the geometry. Choosing the bound by the sign of their summed slope, which
      * nearly cancels when their offsets do, let rounding pick which of them carried nothing
-     * (across a ridge under both front wheels, a 1e-9 m start offset moved the end by 0.3 mm). */
+     * (across a ridge under both front wheels, a 1e-9 m start offset moved the end by 5.2 mm). */
     if (dropping_count >= 2 && dropping_norm > 0.0) t = -dropping_moment / dropping_norm;
     else if (dropping_slope != 0.0) t = dropping_slope > 0.0 ? t_lo : t_hi;
 
