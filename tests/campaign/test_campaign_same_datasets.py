@@ -36,8 +36,8 @@ from idefix_rules.fmu.build import source_hash
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "007b8e86cf9dfa918ff6869da5acaf77ed36582fe5d89e62c22d7e798fb1334e"
-ROVER_DIGEST = "a064d19be6ffa99210d3eca793162d26f7f2db0705b9b071d0a55e4c3f2928d2"
+ROVER_SOURCE_HASH = "a0c2b6a38ce6d1b8277f59ccd28e4fd7e4d0991ad14c05803ff5f125fad3cef6"
+ROVER_DIGEST = "055e850a577543a047d90d5ccad370ebd9d2dfc4ed79a505cae1498c3a92ca59"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

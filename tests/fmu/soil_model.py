@@ -9,12 +9,15 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
+
 RADIUS, WIDTH, MASS, GRAVITY = 0.1, 0.06, 25.0, 0.0057
 HALF_WHEELBASE, HALF_TRACK, COG = 0.2, 0.26, 0.25
 COHESION, FRICTION, SHEAR_K = 250.0, math.radians(35.0), 0.012
 K_C, K_PHI, N = 1400.0, 820e3, 1.0
 REFERENCE_COHESION, REFERENCE_GRAVITY = 170.0, 1.62
 GROUSER_HEIGHT, MAX_SINKAGE = 0.001, 0.03
+RUT_COHESION_FACTOR, MULTIPASS_FACTOR = 0.5, 0.3
 WHEEL_LOAD = MASS * GRAVITY / 4
 
 
@@ -79,6 +82,40 @@ def driving_slip(cohesion: float = COHESION, k_phi: float = K_PHI,
     grid = [1e-7 + 0.005 * k for k in range(190)]
     low = next(a for a, b in itertools.pairwise(grid) if excess(a) < 0 <= excess(b))
     return float(brentq(excess, low, low + 0.005))
+
+
+def rut_contact(load: float, slip: float, rut_depth: float) -> tuple[float, float, float, float]:
+    """A wheel in a rut `rut_depth` deep, left by a wheel ahead: sinkage (from the original
+    surface: its slip sinkage, at least the rut's floor plus the multi-pass fraction of it),
+    strength, shear length and compaction resistance. The soil carries it only where the rim
+    presses below the rut's floor (a soil point takes stress only where the wheel is below its
+    deformed level: Project Chrono's SCM, `SCMDeformableTerrain`), so the strength acts on the
+    arc below the floor, `b sqrt(2 r (z - d)) c_r + W tan(phi)`, with the remoulded cohesion
+    c_r, and the compaction runs from the floor down: `b k (z^(n+1) - d^(n+1)) / (n+1)`."""
+    zs = slip_sinkage(static_sinkage(load), slip)
+    z = min(max(zs, rut_depth + MULTIPASS_FACTOR * zs), MAX_SINKAGE)
+    pressed = math.sqrt(2 * RADIUS * max(z - rut_depth, 0.0))
+    cohesion = COHESION * RUT_COHESION_FACTOR
+    shear = max(pressed, math.sqrt(2 * RADIUS * GROUSER_HEIGHT))
+    rolling = WIDTH * modulus() * (z ** (N + 1) - rut_depth ** (N + 1)) / (N + 1)
+    return z, WIDTH * pressed * cohesion + load * math.tan(FRICTION), shear, rolling
+
+
+def two_axle_slip(load: float = WHEEL_LOAD) -> float:
+    """Steady slip of a straight drive on flat soil once the rear wheels run in the front
+    wheels' ruts: all four rims turn at one rate and the body moves at one speed, so the four
+    wheels share the slip s, and the fronts' net pull on fresh soil carries the rears' net
+    drag in the ruts the fronts leave (their slip sinkage at s)."""
+    from scipy.optimize import brentq
+
+    def excess(s: float) -> float:
+        z_front = slip_sinkage(static_sinkage(load), s)
+        front = strength(load, z_front) * janosi(shear_length(z_front) * s) \
+            - compaction(z_front)
+        _, rear_strength, rear_shear, rear_rolling = rut_contact(load, s, z_front)
+        return 2 * front + 2 * (rear_strength * janosi(rear_shear * s) - rear_rolling)
+
+    return float(brentq(excess, 1e-7, 0.5))
 
 
 def wheel_at_rest(load: float, cohesion: float = COHESION) -> tuple[float, float, float]:
@@ -166,67 +203,167 @@ def uphill_slip(slope: float, k_phi: float = K_PHI, cohesion: float = COHESION) 
     return float(brentq(excess, 1e-7, 0.9))
 
 
-def _arc_wheel_force(rim: float, px: float, py: float, u: float, omega: float
-                     ) -> tuple[float, float]:
-    """Force on the body of a wheel at (px, py) on flat fresh soil, rim speed `rim`, body
-    moving at u with yaw rate omega: isotropic shear along the sliding direction with the
-    shear displacement L |v_s| / max(|r w|, |v|), compaction against the rolling, bulldozing
-    (at most the load) against the sideways motion, mobilised by the sideways displacement
-    L |v_y| / max(|r w|, |v|); slip sinkage of the driving slip."""
-    vx, vy = u - omega * py, omega * px
+def _arc_wheel_force(rim: float, px: float, py: float, u: float, v: float, omega: float,
+                     rut_depth: float | None = None) -> tuple[float, float]:
+    """Force on the body of a wheel at (px, py) on flat soil, rim speed `rim`, body moving at
+    (u, v) with yaw rate omega: isotropic shear along the sliding direction with the shear
+    displacement L |v_s| / max(|r w|, |v|), compaction against the rolling, bulldozing (at most
+    the load) against the sideways motion, mobilised by the sideways displacement
+    L |v_y| / max(|r w|, |v|); slip sinkage of the driving slip. On fresh soil, or with
+    `rut_depth` in the rut a wheel ahead left (rut_contact)."""
+    vx, vy = u - omega * py, v + omega * px
     sx, sy = rim - vx, -vy
     sliding = math.hypot(sx, sy)
     slip = 1 - vx / rim if abs(rim) >= abs(vx) else rim / vx - 1
-    z = slip_sinkage(static_sinkage(WHEEL_LOAD), slip)
-    shear = strength(WHEEL_LOAD, z) * janosi(
-        shear_length(z) * sliding / max(abs(rim), math.hypot(vx, vy)))
-    fx = shear * sx / sliding - compaction(z) * math.copysign(1.0, vx)
-    sideways = janosi(shear_length(z) * abs(vy) / max(abs(rim), math.hypot(vx, vy)))
-    fy = shear * sy / sliding - min(bulldozing(z), WHEEL_LOAD) * sideways * math.copysign(1.0, vy)
+    if rut_depth is None:
+        z = slip_sinkage(static_sinkage(WHEEL_LOAD), slip)
+        held, length, rolling, cohesion = strength(WHEEL_LOAD, z), shear_length(z), \
+            compaction(z), COHESION
+    else:
+        z, held, length, rolling = rut_contact(WHEEL_LOAD, slip, rut_depth)
+        cohesion = COHESION * RUT_COHESION_FACTOR
+    reference = max(abs(rim), math.hypot(vx, vy))
+    shear = held * janosi(length * sliding / reference)
+    fx = shear * sx / sliding - rolling * math.copysign(1.0, vx)
+    sideways = janosi(length * abs(vy) / reference)
+    wedge = min(bulldozing(z, cohesion), WHEEL_LOAD) * sideways
+    fy = shear * sy / sliding - wedge * math.copysign(1.0, vy)
     return fx, fy
 
 
-def arc_balance(rate_left: float, rate_right: float) -> tuple[float, float]:
-    """Body speed and yaw rate (u, omega) of the rover on flat fresh soil with its left and
-    right wheels at the given rates (rad/s): the forward force and the yaw moment of the four
-    wheels at (+-a, +-b) balance (the lateral forces cancel by symmetry)."""
+def arc_balance(rate_left: float, rate_right: float,
+                ruts: tuple[bool, bool] = (False, False)) -> tuple[float, float]:
+    """(u, omega) of arc_velocity."""
+    u, _, omega = arc_velocity(rate_left, rate_right, ruts)
+    return u, omega
+
+
+def arc_velocity(rate_left: float, rate_right: float,
+                 ruts: tuple[bool, bool] = (False, False)) -> tuple[float, float, float]:
+    """Body velocity (u, v, omega) of the rover on flat soil with its left and right
+    wheels at the given rates (rad/s): the forward and lateral forces and the yaw moment of
+    the four wheels at (+-a, +-b) balance. `ruts` (left, right): that side's rear wheel runs
+    in the rut of the front wheel ahead of it (as deep as that wheel's slip sinkage; see
+    rut_separation for when it does); otherwise every wheel is on fresh soil and v = 0 by
+    symmetry. A rear wheel in a rut holds less than the front one, so the body side-slips."""
     from scipy.optimize import fsolve
 
     a, b = HALF_WHEELBASE, HALF_TRACK
-    wheels = ((rate_left, a, b), (rate_right, a, -b), (rate_left, -a, b), (rate_right, -a, -b))
+    any_rut = any(ruts)
 
     def residual(q: list[float]) -> list[float]:
-        forward = moment = 0.0
-        for rate, px, py in wheels:
-            fx, fy = _arc_wheel_force(RADIUS * rate, px, py, q[0], q[1])
-            forward += fx
-            moment += px * fy - py * fx
-        return [forward / 0.01, moment / 0.01]
+        u, v, omega = q if any_rut else (q[0], 0.0, q[1])
+        forward = lateral = moment = 0.0
+        for rate, py, rut in ((rate_left, b, ruts[0]), (rate_right, -b, ruts[1])):
+            rim = RADIUS * rate
+            vx = u - omega * py
+            slip = 1 - vx / rim if abs(rim) >= abs(vx) else rim / vx - 1
+            depth = slip_sinkage(static_sinkage(WHEEL_LOAD), slip) if rut else None
+            for px, wheel_rut in ((a, None), (-a, depth)):
+                fx, fy = _arc_wheel_force(rim, px, py, u, v, omega, wheel_rut)
+                forward += fx
+                lateral += fy
+                moment += px * fy - py * fx
+        return [forward / 0.01, lateral / 0.01, moment / 0.01] if any_rut \
+            else [forward / 0.01, moment / 0.01]
 
     mean = RADIUS * (rate_left + rate_right) / 2
-    start = [0.9 * mean, 0.5 * RADIUS * (rate_right - rate_left) / (2 * b)]
-    u, omega = fsolve(residual, start, xtol=1e-12)
-    return float(u), float(omega)
+    yaw = 0.5 * RADIUS * (rate_right - rate_left) / (2 * b)
+    solution = fsolve(residual, [0.9 * mean, 0.0, yaw] if any_rut else [0.9 * mean, yaw],
+                      xtol=1e-12)
+    return float(solution[0]), float(solution[1]) if any_rut else 0.0, float(solution[-1])
 
 
-def side_slope_crab(slope: float) -> float:
+def rut_separation(side_radius: float) -> float:
+    """Heading an arc turns before a side's rear wheel reaches the rut of its front wheel:
+    about a centre abeam the body's middle both run on one circle of radius
+    sqrt(R_side^2 + a^2), the front one 2 atan(a / R_side) ahead (R_side = R -+ b, the side's
+    distance from the centre); a point turn's wheels are 2 atan(a / b) or 2 atan(b / a) apart
+    on their common circle."""
+    return 2 * math.atan2(HALF_WHEELBASE, abs(side_radius))
+
+
+def open_loop_arc_efficiency(radius: float, turn: float) -> float:
+    """Heading reached over heading commanded by an open-loop arc of `radius` turning `turn`
+    left at kinematic rates: the body turns at the efficiency of the balance (omega over the
+    kinematic yaw rate) of each phase, fresh soil until a side's rear wheel reaches its front
+    wheel's rut (rut_separation, in the body's heading, on the circle the body turns on over
+    fresh soil: radius u / omega, wider than the commanded one by the skid), then with that
+    rut."""
+    ratio = (radius - HALF_TRACK) / (radius + HALF_TRACK)
+    kinematic = RADIUS * 0.05 * (1 - ratio) / (2 * HALF_TRACK)
+    u, omega = arc_balance(0.05 * ratio, 0.05)
+    inner, outer = (rut_separation(u / omega - HALF_TRACK), rut_separation(u / omega + HALF_TRACK))
+    heading = commanded = 0.0
+    for end in [*sorted({inner, outer}), math.inf]:
+        ruts = (heading >= inner - 1e-12, heading >= outer - 1e-12)
+        efficiency = arc_balance(0.05 * ratio, 0.05, ruts)[1] / kinematic
+        if commanded + (end - heading) / efficiency >= turn:
+            return (heading + (turn - commanded) * efficiency) / turn
+        commanded += (end - heading) / efficiency
+        heading = end
+    raise AssertionError("unreachable")
+
+
+def side_slope_crab(slope: float, ruts: bool = False) -> float:
     """Downhill drift per metre (tan of the crab angle) driving straight across a side slope
-    on fresh soil with the heading held: the four wheels' lateral shear and bulldozing, both
-    mobilised by the sideways sliding v_y, carry m g sin(slope) (equal loads W cos(slope)/4,
-    the load transfer to the downhill wheels left out)."""
+    with the heading held: the four wheels' lateral shear and bulldozing, both mobilised by
+    the sideways sliding v_y, carry m g sin(slope) (equal loads W cos(slope)/4, the load
+    transfer to the downhill wheels left out). On fresh soil, or with `ruts` the rear wheels
+    in the ruts of the front ones (rut_contact: strength below the rut's floor, the remoulded
+    cohesion in the wedge) and the four sharing the two-axle slip."""
     from scipy.optimize import brentq
 
     load = WHEEL_LOAD * math.cos(slope)
     rim = RADIUS * 0.05
-    slip = driving_slip(load=load)
+    slip = driving_slip(load=load) if not ruts else two_axle_slip(load)
     z = slip_sinkage(static_sinkage(load), slip)
     u = rim * (1 - slip)
+    wheels = [(strength(load, z), shear_length(z), min(bulldozing(z), load))] * 2
+    if ruts:
+        rear_z, held, length, _ = rut_contact(load, slip, z)
+        wedge = min(bulldozing(rear_z, COHESION * RUT_COHESION_FACTOR), load)
+        wheels += [(held, length, wedge)] * 2
+    else:
+        wheels *= 2
 
     def excess(v: float) -> float:
         sliding = math.hypot(rim - u, v)
         reference = max(rim, math.hypot(u, v))
-        shear = strength(load, z) * janosi(shear_length(z) * sliding / reference) * v / sliding
-        wedge = min(bulldozing(z), load) * janosi(shear_length(z) * v / reference)
-        return 4 * (shear + wedge) - MASS * GRAVITY * math.sin(slope)
+        total = 0.0
+        for held, length, wedge in wheels:
+            total += held * janosi(length * sliding / reference) * v / sliding
+            total += wedge * janosi(length * v / reference)
+        return total - MASS * GRAVITY * math.sin(slope)
 
     return float(brentq(excess, 1e-12, rim)) / u
+
+
+def balance_path(rates: np.ndarray, yaw: np.ndarray, command: np.ndarray, turns: list[float],
+                 interval: float, every: int = 5) -> tuple[float, float]:
+    """End position of a chain of arcs (heading changes `turns`, rad, one per command) from
+    the wheel rates and headings a run sampled every `interval` s (`command`: its command
+    index per sample): at every `every`-th sample of a command, the body velocity (u, v) of
+    arc_velocity at the sample's left and right rates, turned to the sample's heading, with
+    each side's rear wheel in its front wheel's rut once the command has turned by the
+    rut_separation of the circle its body turns on over fresh soil (u / omega at the
+    command's steady rates, the middle half of its samples)."""
+    x = y = 0.0
+    for k, turn in enumerate(turns):
+        during = np.flatnonzero(command == k)
+        steady = rates[during[len(during) // 4: 3 * len(during) // 4], :2].mean(axis=0)
+        left_turn = turn > 0
+        inner_rate, outer_rate = (steady[0], steady[1]) if left_turn else (steady[1], steady[0])
+        u, omega = arc_balance(float(inner_rate), float(outer_rate))
+        inner = rut_separation(u / omega - HALF_TRACK)
+        outer = rut_separation(u / omega + HALF_TRACK)
+        for j in during[::every]:
+            left, right = float(rates[j, 0]), float(rates[j, 1])
+            if left * right <= 0.0:  # the ramps' first instant and the trims on the spot
+                continue
+            turned = abs(yaw[j] - yaw[during[0]])
+            ruts = (turned > inner, turned > outer)
+            along, side, _ = arc_velocity(left, right, ruts if left_turn else ruts[::-1])
+            x += (along * math.cos(yaw[j]) - side * math.sin(yaw[j])) * interval * every
+            y += (along * math.sin(yaw[j]) + side * math.cos(yaw[j])) * interval * every
+    return x, y

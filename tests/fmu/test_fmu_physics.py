@@ -25,10 +25,15 @@ def test_flat_straight_drive_slips_as_the_soil_predicts_and_covers_distance_time
     # first pass (before the rear wheels reach the front wheels' ruts at about 83 s): within 2 %
     # (the model's slip sinkage follows the slip over the rim's travel; regularised shear law)
     assert out["wheel.slip"][500] == pytest.approx(np.full(4, predicted), rel=0.02)
+    # once the rear wheels run in the front wheels' ruts (after 0.4 m, 80 s): the soil carries
+    # them only below the rut's floor, with the remoulded cohesion, and compacts it from the
+    # floor down; the four wheels share one slip, the fronts' net pull carrying the rears' net
+    # drag (soil_model.two_axle_slip: 0.0157): within 2 %
+    second = soil_model.two_axle_slip()
+    assert out["wheel.slip"][1500] == pytest.approx(np.full(4, second), rel=0.02)
     driving = out["command"] == 0
     slip = float(out["wheel.slip"][driving].mean())
-    # over the whole drive the rear wheels run in ruts (less compaction, less cohesion): within 5 %
-    assert slip == pytest.approx(predicted, rel=0.05)
+    assert predicted < slip < second
     # consistency: the odometry-ended drive covers the commanded metre times (1 - slip)
     assert out["x"][-1] == pytest.approx(1.0 * (1.0 - slip), rel=0.01)
     assert abs(out["y"][-1]) < 1e-9 and abs(out["yaw"][-1]) < 1e-9
@@ -57,7 +62,7 @@ def test_drive_across_a_slope_crabs_as_the_lateral_shear_and_bulldozing_balance_
     # lateral shear of the patches and the soil's passive (bulldozing) pressure beside each
     # wheel, L z c K_c bounded by the wheel load, both build up with the wheels' sideways
     # displacement (docs/rover-model.md, "Lateral bulldozing"): the rover crabs downhill at the
-    # small angle where they carry the weight, about 3 cm over the metre with the heading held.
+    # small angle where they carry the weight, about 3.6 cm over the metre with the heading held.
     slope = math.radians(10)
     z = soil_model.static_sinkage(soil_model.WHEEL_LOAD)
     lateral = 4 * min(soil_model.bulldozing(z), soil_model.WHEEL_LOAD * math.cos(slope))
@@ -66,8 +71,11 @@ def test_drive_across_a_slope_crabs_as_the_lateral_shear_and_bulldozing_balance_
         size=5.0, cell=0.05, slope=slope, slope_direction=-math.pi / 2))
     out = rover.run({"terrain.file": str(terrain)}, STRAIGHT, 210.0, 0.1)
     assert out["x"][-1] > 0.95
-    expected = soil_model.side_slope_crab(slope) * out["x"][-1]
-    assert -out["y"][-1] == pytest.approx(expected, rel=0.2)
+    # fresh soil for the first 0.4 m (the wheelbase), then the rear wheels in the ruts of the
+    # front ones, where they hold less: 2.9 and 4.3 cm per metre
+    expected = soil_model.side_slope_crab(slope) * 0.4 + soil_model.side_slope_crab(
+        slope, ruts=True) * (out["x"][-1] - 0.4)
+    assert -out["y"][-1] == pytest.approx(expected, rel=0.1)
     assert -out["y"][-1] < 0.05
     # left side up; the loaded downhill wheels sink deeper and add a little roll
     assert out["roll"][-1] == pytest.approx(slope, abs=math.radians(0.5))
@@ -176,7 +184,8 @@ def test_reversing_over_its_own_track_is_a_second_pass_whatever_the_track_age(
     # 0.1 m or 0.3 m forward and back (shorter than the 0.4 m wheelbase: each wheel meets only
     # its own track). Back over it, the soil is a rut the wheel left: multi-pass sinkage
     # z_p + multipass_factor * z (docs/rover-model.md, "Ruts"), 1.3 x the first pass with the
-    # defaults, whether the marks are 20 s or 60 s old.
+    # defaults, whether the marks are 20 s or 60 s old: compared at the same distance into the
+    # reverse (about 4.5 cm, 11 s after it began), where the marks were made alike.
     mid_reverse = []
     for length in (0.1, 0.3):
         out = rover.run({}, [Command(0.05, length, 0.0), Command(0.05, -length, 0.0)],
@@ -184,7 +193,7 @@ def test_reversing_over_its_own_track_is_a_second_pass_whatever_the_track_age(
         forward = np.flatnonzero(out["command"] == 0)
         back = np.flatnonzero(out["command"] == 1)
         first = out["wheel.sinkage"][forward[len(forward) // 2]]
-        second = out["wheel.sinkage"][back[len(back) // 2]]
+        second = out["wheel.sinkage"][back[0] + 110]
         assert np.all(second > 1.25 * first) and np.all(second < 1.4 * first)
         mid_reverse.append(second)
     np.testing.assert_allclose(mid_reverse[0], mid_reverse[1], rtol=1e-3)

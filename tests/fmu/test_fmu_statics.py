@@ -201,6 +201,34 @@ def test_a_lifted_wheel_carries_exactly_nothing(rover: FmuRunner, tmp_path: Path
     assert not residue.any(), f"loads of {loads[residue].min():.3g} N: a rounding residue"
 
 
+def test_a_lifted_wheel_neither_slips_nor_pulls(rover: FmuRunner, tmp_path: Path) -> None:
+    # campaigns/rock-detour.yaml's terrain and rock: on 3 mm roughness the rigid chassis
+    # stands on one diagonal, and the rock lifts wheels for tens of seconds. A wheel the
+    # step's loads leave at 0 has no contact: its slip and slip angle are 0 (a tyre off the
+    # ground has no slip, as in Chrono's TMeasy tyre), not its spinning rim against its hub
+    # (0.89 for the front right one while the rear right climbed; the slip index read it). The
+    # loads a step uses are the outputs of the sample before (one step per sample here).
+    rock = Rock(0.5, -0.26, 0.04, 0.04, 0.04, embed=0.01)
+    terrain = write_terrain(tmp_path / "example.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, slope=math.radians(2), roughness=0.003, seed=11, rocks=[rock]))
+    out = rover.run({"terrain.file": str(terrain)}, [Command(0.05, 1.0, 0.0)], 300.0, 0.05)
+    loads = np.stack([out[f"wheel.{w}.load"] for w in WHEELS], axis=1)
+    lifted = np.zeros_like(loads, dtype=bool)
+    lifted[1:] = (loads[:-1] == 0.0) & (out["wheel.rate"][1:] != 0.0)
+    assert lifted.sum() > 1000  # the precondition: wheels turn in the air
+    assert lifted[:, FR].sum() > 100  # beside the rock while the rear right one climbs it
+    assert np.all(out["wheel.slip"][lifted] == 0.0)
+    assert np.all(out["wheel.slip_angle"][lifted] == 0.0)
+    # a lifted rear wheel in its front wheel's rut presses nothing (the rut's floor is below
+    # it): its rim pulls nothing (3.3 mN when the rut's depth counted as its patch)
+    in_rut = lifted & (out["wheel.sinkage"] > 5e-4)
+    in_rut[:, :2] = False
+    assert in_rut.sum() > 100
+    pull = 2.0 * (out["wheel.current"][in_rut] - 0.0003) / 0.1  # N: k_T (I - I0) / r
+    assert pull.max() < 1e-4
+    assert np.abs(out["wheel.slip"][~lifted]).max() > 0.5  # loaded wheels do slip
+
+
 def test_two_wheels_sliding_off_a_ridge_at_once_do_not_let_rounding_choose(
         rover: FmuRunner, tmp_path: Path) -> None:
     # A low ridge across the track under both front wheels: they slide off its far face at

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,15 @@ class Row:
     duration: float          # s
     finished: bool           # the command ended before the stop time
     steady_rates: tuple[float, float]  # left, right wheel rates in the steady part, rad/s
+    # per sample of the steady part: heading turned since the command began (rad), the left
+    # and right wheel rates (rad/s) and the four wheels' slips: the phases before and after a
+    # rear wheel reaches its front wheel's rut
+    steady_turned: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False,
+                                      compare=False)
+    steady_rate: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)), repr=False,
+                                    compare=False)
+    steady_slip: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)), repr=False,
+                                    compare=False)
 
 
 def command(radius: float) -> Command:
@@ -79,7 +88,9 @@ def measure(rover: FmuRunner, radius: float, parameters: dict[str, float] | None
         current=energy / float(out["t"][end]),
         charge_per_radian=energy / abs(yaw) if abs(yaw) > 1e-3 else math.nan,
         heading=yaw, end_offset=offset, duration=float(out["t"][end]), finished=finished,
-        steady_rates=(float(np.mean(rate[:, 0])), float(np.mean(rate[:, 1]))))
+        steady_rates=(float(np.mean(rate[:, 0])), float(np.mean(rate[:, 1]))),
+        steady_turned=np.abs(out["yaw"][steady] - out["yaw"][active[0]]),
+        steady_rate=rate[:, :2].copy(), steady_slip=slip.copy())
 
 
 def sweep(rover: FmuRunner, parameters: dict[str, float] | None = None) -> list[Row]:

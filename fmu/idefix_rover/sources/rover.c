@@ -161,6 +161,13 @@ void rover_step(Instance *inst, double dt)
         else
             w->blocked_time = 0.0;
         w->slip_angle = sqrt(along * along + vy * vy) > eps ? atan2(vy, fabs(along)) : 0.0;
+        /* slip and slip angle are those of a contact: a wheel the step's loads left without
+         * any (lifted, load 0) neither slips nor skids, whatever its rim and hub do, and its
+         * rim digs nothing (docs/rover-model.md, "Outputs") */
+        if (w->load <= 0.0) {
+            w->slip = 0.0;
+            w->slip_angle = 0.0;
+        }
         w->current = (w->rate != 0.0 ? i0 : 0.0) + fabs(w->thrust * radius) / kt;
         inst->energy += w->current * dt;
     }

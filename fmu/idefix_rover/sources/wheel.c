@@ -120,7 +120,7 @@ void wheel_ground_state(Instance *inst, int i)
          * fills in again the same way on fresh soil. */
         double target = slip_sinkage(z0, w->slip) - z0;
         double relax = w->patch_length > 0.0 ? w->patch_length : sqrt(2.0 * radius * z0);
-        double zs, patch, cohesion, rut_floor, floor_length;
+        double zs, patch, cohesion, rut_floor, floor_length, pressed;
         RutState rut;
         if (relax > 0.0)
             w->slip_excavation += (target - w->slip_excavation) * (1.0 - exp(-w->step_travel / relax));
@@ -143,12 +143,19 @@ void wheel_ground_state(Instance *inst, int i)
         if (w->sinkage > soil->max_sinkage) w->sinkage = soil->max_sinkage;
         w->support_sinkage = w->sinkage;
         w->patch_length = sqrt(2.0 * radius * w->sinkage);
-        /* The soil's strength acts on the patch the wheel presses (none for a lifted wheel);
-         * the shear displacement builds up over at least the length the grousers engage, a
-         * patch as deep as they are tall, however firm the soil. */
+        /* The soil's strength acts on the patch the wheel presses: in a rut, the arc of the
+         * rim below the rut's floor, where the compaction resistance acts too (above the floor
+         * the rim faces the groove the wheel ahead left; a soil point takes stress only where
+         * the wheel is below its deformed level, as in Chrono's SCM); a lifted wheel (load 0,
+         * no static sinkage) presses only what its slip's excavation still holds it in, which
+         * fills in over a patch length of travel. The shear displacement builds up over that
+         * arc, and over at least the length the grousers engage, a patch as deep as they are
+         * tall, however firm the soil. */
+        pressed = w->sinkage > rut.rut_depth ? sqrt(2.0 * radius * (w->sinkage - rut.rut_depth))
+                                             : 0.0;
         floor_length = sqrt(2.0 * radius * inst->r[VR_ROVER_GROUSER_HEIGHT]);
-        w->contact_length = w->patch_length > floor_length ? w->patch_length : floor_length;
-        w->capacity = width * w->patch_length * cohesion + w->load * tan(soil->friction_angle);
+        w->contact_length = pressed > floor_length ? pressed : floor_length;
+        w->capacity = width * pressed * cohesion + w->load * tan(soil->friction_angle);
         w->shear_K = soil->K;
         w->resistance = compaction_resistance(soil, w->sinkage, rut.rut_depth, width);
         /* passive soil pressure beside the wheel: no more than the load that keeps it down (a
