@@ -201,13 +201,16 @@ def test_a_lifted_wheel_carries_exactly_nothing(rover: FmuRunner, tmp_path: Path
     assert not residue.any(), f"loads of {loads[residue].min():.3g} N: a rounding residue"
 
 
-def test_a_lifted_wheel_neither_slips_nor_pulls(rover: FmuRunner, tmp_path: Path) -> None:
+def test_a_lifted_wheel_does_not_slip_nor_pull_on_a_rut(rover: FmuRunner,
+                                                       tmp_path: Path) -> None:
     # campaigns/rock-detour.yaml's terrain and rock: on 3 mm roughness the rigid chassis
     # stands on one diagonal, and the rock lifts wheels for tens of seconds. A wheel the
     # step's loads leave at 0 has no contact: its slip and slip angle are 0 (a tyre off the
     # ground has no slip, as in Chrono's TMeasy tyre), not its spinning rim against its hub
-    # (0.89 for the front right one while the rear right climbed; the slip index read it). The
-    # loads a step uses are the outputs of the sample before (one step per sample here).
+    # (up to 0.91 for the front right one while the rear right climbed; the slip index read it).
+    # The loads a step uses are the outputs of the sample before (one step per sample here).
+    # (A lifted wheel still presses the hole its own slip dug until it fills in: the front right
+    # one pulls up to 21 mN for 2 s here, docs/rover-model.md, "Limitations"; not asserted.)
     rock = Rock(0.5, -0.26, 0.04, 0.04, 0.04, embed=0.01)
     terrain = write_terrain(tmp_path / "example.terrain", synthetic_terrain(
         size=4.0, cell=0.02, slope=math.radians(2), roughness=0.003, seed=11, rocks=[rock]))
