@@ -36,8 +36,8 @@ from idefix_rules.fmu.build import source_hash
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "a0c2b6a38ce6d1b8277f59ccd28e4fd7e4d0991ad14c05803ff5f125fad3cef6"
-ROVER_DIGEST = "055e850a577543a047d90d5ccad370ebd9d2dfc4ed79a505cae1498c3a92ca59"
+ROVER_SOURCE_HASH = "dd52bc2c0908c3c6fedf42ff195f9341f53dfd3f0a7d06e8524fc7b09c2ecfa1"
+ROVER_DIGEST = "e54331f7b43bc2432927853c87cb8df7ed13e8666d84af61c9d18e9dc26d66cd"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

@@ -35,6 +35,24 @@ def test_a_point_turn_reaches_its_heading_within_the_tolerance_on_nominal_soil(
     assert abs(open_loop) < 0.7 * abs(commanded)
 
 
+@pytest.mark.parametrize("command", [Command(0.05, 0.0, math.radians(60)),
+                                     Command(0.05, 0.3 * math.radians(60), math.radians(60))],
+                         ids=["point turn", "arc with a trim"])
+def test_a_turn_on_the_spot_brings_its_wheels_to_rest_on_the_ramp(
+        rover: FmuRunner, command: Command) -> None:
+    # A turn on the spot (a point turn, or the trim after an arc) is done once the gyro heading
+    # is within the tolerance; the trapezoid must bring the wheels to rest there, at
+    # controller.wheel_acceleration (0.015 rad/s^2), not at zero error: stopped at the
+    # tolerance from the ramp's sqrt(2 a tol b / r) = 0.016 rad/s, the rates stepped to 0 in
+    # one sample (0.34 rad/s^2), and a rover on two wheels, pivoting about one, stopped its
+    # body in one step (the pebble field's trim-end acceleration breaches).
+    out = rover.run(GYRO, [command], 600.0, 0.05, hold_after_chain=False)
+    end = int(np.argmax(out["command"] < 0))
+    assert end > 0 and abs(out["yaw"][end] - command.delta_heading) <= TOLERANCE + 1e-4
+    tail = out["wheel.rate"][end - 40: end + 2]  # the last 2 s of the turn and the stop
+    assert np.abs(np.diff(tail, axis=0)).max() / 0.05 < 2 * 0.015
+
+
 def test_a_25_degree_arc_reaches_its_heading_and_bends_the_right_way(rover: FmuRunner) -> None:
     commanded = math.radians(25.0)
     out = rover.run(GYRO, [Command(0.05, 0.3, commanded)], 200.0, 0.1)

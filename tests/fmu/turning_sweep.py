@@ -61,7 +61,13 @@ def measure(rover: FmuRunner, radius: float, parameters: dict[str, float] | None
     active = np.flatnonzero(out["command"] == 0)
     finished = bool((out["command"] < 0).any())
     end = int(np.argmax(out["command"] < 0)) if finished else len(out["t"]) - 1
-    steady = active[len(active) // 4: 3 * len(active) // 4]
+    # an arc's steady part is the middle half of its drive, before a trim turns on the spot
+    # (the sides' rates then have opposite signs)
+    moving = active
+    if 0.0 < radius < math.inf:
+        rates = out["wheel.rate"][active]
+        moving = active[rates[:, 0] * rates[:, 1] > 0.0]
+    steady = moving[len(moving) // 4: 3 * len(moving) // 4]
     slip, rate = out["wheel.slip"][steady], out["wheel.rate"][steady]
     angle = np.abs(out["wheel.slip_angle"][active]).max(axis=1)
     # the rim (shear) force of each wheel from its current: |F| = k_T (I - I0) / r, driving

@@ -180,7 +180,11 @@ void controller_step(Instance *inst, double dt)
         double error = heading_error(c);
         /* the gyro says which way is left to turn: an overshoot turns back */
         double sign = error * c->commanded_yaw_rate >= 0.0 ? 1.0 : -1.0;
-        scale = sign * ramp(inst, fastest_rate, fabs(error) * b / radius, dt);
+        /* the turn is done once the error is within the tolerance: the ramp brings the wheels
+         * to rest there, not at zero error, or they stop from sqrt(2 a tol b / r) (0.016 rad/s
+         * with the defaults) in one step, a rate step the trapezoid exists to avoid */
+        double left = fabs(error) - inst->r[VR_CONTROLLER_HEADING_TOLERANCE];
+        scale = sign * ramp(inst, fastest_rate, (left > 0.0 ? left : 0.0) * b / radius, dt);
     } else {
         double fraction = c->travel / c->delta_position, reference;
         double speed = fabs(c->commanded_speed);
