@@ -36,8 +36,8 @@ from idefix_rules.fmu.build import source_hash
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "dd52bc2c0908c3c6fedf42ff195f9341f53dfd3f0a7d06e8524fc7b09c2ecfa1"
-ROVER_DIGEST = "e54331f7b43bc2432927853c87cb8df7ed13e8666d84af61c9d18e9dc26d66cd"
+ROVER_SOURCE_HASH = "cf986b0578d1a39a8cb9013ae45f0e23744595b6cc3b4ed9f890553b50ca5e93"
+ROVER_DIGEST = "91cdfba38b9b021a3c1d53e38eacd4b5fb1948adcb4f54e078d446c97b18206a"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

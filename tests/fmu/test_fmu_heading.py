@@ -35,22 +35,31 @@ def test_a_point_turn_reaches_its_heading_within_the_tolerance_on_nominal_soil(
     assert abs(open_loop) < 0.7 * abs(commanded)
 
 
-@pytest.mark.parametrize("command", [Command(0.05, 0.0, math.radians(60)),
-                                     Command(0.05, 0.3 * math.radians(60), math.radians(60))],
-                         ids=["point turn", "arc with a trim"])
+@pytest.mark.parametrize(("command", "bias"), [
+    (Command(0.05, 0.0, math.radians(60)), 0.0),
+    (Command(0.05, 0.3 * math.radians(60), math.radians(60)), 0.0),
+    (Command(0.05, 0.0, math.radians(45)), -1e-4),  # a poor MEMS gyro, against the turn
+    (Command(0.05, 0.0, math.radians(-45)), 1e-4)],
+    ids=["point turn", "arc with a trim", "against a gyro bias", "right, against a bias"])
 def test_a_turn_on_the_spot_brings_its_wheels_to_rest_on_the_ramp(
-        rover: FmuRunner, command: Command) -> None:
-    # A turn on the spot (a point turn, or the trim after an arc) is done once the gyro heading
-    # is within the tolerance; the trapezoid must bring the wheels to rest there, at
-    # controller.wheel_acceleration (0.015 rad/s^2), not at zero error: stopped at the
-    # tolerance from the ramp's sqrt(2 a tol b / r) = 0.016 rad/s, the rates stepped to 0 in
-    # one sample (0.34 rad/s^2), and a rover on two wheels, pivoting about one, stopped its
-    # body in one step (the pebble field's trim-end acceleration breaches).
-    out = rover.run(GYRO, [command], 600.0, 0.05, hold_after_chain=False)
+        rover: FmuRunner, command: Command, bias: float) -> None:
+    # A turn on the spot (a point turn, or the trim after an arc) is within its tolerance once
+    # the gyro heading is; from there the wheels ramp to rest at controller.wheel_acceleration
+    # (0.015 rad/s^2). Done at the tolerance itself, they stopped from the ramp's
+    # sqrt(2 a tol b / r) = 0.016 rad/s in one sample (0.34 rad/s^2), and a rover on two wheels,
+    # pivoting about one, stopped its body in one step (the pebble field's trim-end acceleration
+    # breaches); a ramp aimed at the tolerance's edge instead stalled there against a gyro bias
+    # until the command timed out. The command ends well before its timeout.
+    out = rover.run({**GYRO, "gyro.bias": bias}, [command], 600.0, 0.05, hold_after_chain=False)
     end = int(np.argmax(out["command"] < 0))
-    assert end > 0 and abs(out["yaw"][end] - command.delta_heading) <= TOLERANCE + 1e-4
+    assert end > 0
+    # the fastest wheel's path over its rate (command_kinematics), plus the ramps' 3.3 s
+    ideal = (abs(command.delta_position) + 0.26 * abs(command.delta_heading)) / (0.1 * 0.05)
+    assert out["t"][end] < 0.9 * 2.0 * (ideal + 0.05 / 0.015)  # controller.timeout_factor 2
+    measured = out["yaw"][end] + bias * out["t"][end]  # what the gyro saw (bias b: -b t)
+    assert abs(measured - command.delta_heading) <= TOLERANCE + 1e-4
     tail = out["wheel.rate"][end - 40: end + 2]  # the last 2 s of the turn and the stop
-    assert np.abs(np.diff(tail, axis=0)).max() / 0.05 < 2 * 0.015
+    assert np.abs(np.diff(tail, axis=0)).max() / 0.05 < 1.01 * 0.015
 
 
 def test_a_25_degree_arc_reaches_its_heading_and_bends_the_right_way(rover: FmuRunner) -> None:

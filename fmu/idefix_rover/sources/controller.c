@@ -68,6 +68,8 @@ static void begin_command(Instance *inst, int k)
     c->travel = 0.0;
     c->heading = 0.0;
     c->trimming = 0;
+    c->settling = 0;
+    c->settle_sign = 1.0;
     c->profile = 0.0;
     c->ramp_time = 0.0;
     c->window_progress = 0.0;
@@ -94,6 +96,8 @@ static void begin_trim(Instance *inst, double error)
 {
     Controller *c = &inst->ctrl;
     c->trimming = 1;
+    c->settling = 0;
+    c->settle_sign = 1.0;
     c->elapsed = 0.0;
     c->profile = 0.0;
     c->window_progress = 0.0;
@@ -176,15 +180,20 @@ void controller_step(Instance *inst, double dt)
         if (remaining < 0.0) remaining = 0.0;
         scale = ramp(inst, fastest_rate, remaining, dt);
         if (fastest_rate * scale * dt > remaining) scale = remaining / (fastest_rate * dt);
+    } else if (turning_on_the_spot(c) && c->settling) {
+        /* within the tolerance: the wheels come to rest on the ramp, at the acceleration limit,
+         * turning on the way they were (stopped in one step from the sqrt(2 a tol b / r) =
+         * 0.016 rad/s the ramp below still has at the tolerance, the rates would step) */
+        double accel = inst->r[VR_CONTROLLER_WHEEL_ACCELERATION];
+        double left = fastest_rate > 0.0 && accel > 0.0 ? c->profile - accel * dt / fastest_rate
+                                                         : 0.0;
+        scale = c->settle_sign * (left > 0.0 ? left : 0.0);
     } else if (turning_on_the_spot(c)) {
         double error = heading_error(c);
         /* the gyro says which way is left to turn: an overshoot turns back */
         double sign = error * c->commanded_yaw_rate >= 0.0 ? 1.0 : -1.0;
-        /* the turn is done once the error is within the tolerance: the ramp brings the wheels
-         * to rest there, not at zero error, or they stop from sqrt(2 a tol b / r) (0.016 rad/s
-         * with the defaults) in one step, a rate step the trapezoid exists to avoid */
-        double left = fabs(error) - inst->r[VR_CONTROLLER_HEADING_TOLERANCE];
-        scale = sign * ramp(inst, fastest_rate, (left > 0.0 ? left : 0.0) * b / radius, dt);
+        scale = sign * ramp(inst, fastest_rate, fabs(error) * b / radius, dt);
+        c->settle_sign = sign;
     } else {
         double fraction = c->travel / c->delta_position, reference;
         double speed = fabs(c->commanded_speed);
@@ -252,7 +261,9 @@ void controller_after_step(Instance *inst, double dt, double progress, double ya
     if (!closed_loop(inst)) {
         done = c->angle >= c->target_angle * (1.0 - 1e-12);
     } else if (turning_on_the_spot(c)) {
-        done = fabs(heading_error(c)) <= tolerance;
+        /* within the tolerance the wheels ramp to rest (controller_step); done once they are */
+        if (fabs(heading_error(c)) <= tolerance) c->settling = 1;
+        done = c->settling && c->profile <= 0.0;
     } else if (c->travel / c->delta_position >= 1.0 - 1e-12) {
         /* the distance is covered: turn on the spot by what the heading still lacks */
         done = fabs(heading_error(c)) <= tolerance;

@@ -139,6 +139,8 @@ typedef struct {
     double travel;           /* mean odometry of the left and right wheels in the command, m */
     double heading;          /* gyro yaw change in the command (bias and scale error), rad */
     int trimming;            /* closed loop: turning on the spot to the commanded heading */
+    int settling;            /* closed loop, on the spot: within the tolerance, ramping to rest */
+    double settle_sign;      /* the direction the wheels turned when settling began */
     double ramp_time;        /* extra time of the ramps over the ideal duration, s */
     int stalled[N_WHEELS];
     /* stuck observer: ring of progress samples */
