@@ -283,6 +283,14 @@ def rut_separation(side_radius: float) -> float:
     return 2 * math.atan2(HALF_WHEELBASE, abs(side_radius))
 
 
+def arc_rut_separations(rate_inner: float, rate_outer: float) -> tuple[float, float]:
+    """rut_separation of an arc's inner and outer side, on the circle the body turns on over
+    fresh soil at these wheel rates (radius u / omega of arc_balance, wider than the commanded
+    one by the skid)."""
+    u, omega = arc_balance(rate_inner, rate_outer)
+    return rut_separation(u / omega - HALF_TRACK), rut_separation(u / omega + HALF_TRACK)
+
+
 def open_loop_arc_efficiency(radius: float, turn: float) -> float:
     """Heading reached over heading commanded by an open-loop arc of `radius` turning `turn`
     left at kinematic rates: the body turns at the efficiency of the balance (omega over the
@@ -292,8 +300,7 @@ def open_loop_arc_efficiency(radius: float, turn: float) -> float:
     rut."""
     ratio = (radius - HALF_TRACK) / (radius + HALF_TRACK)
     kinematic = RADIUS * 0.05 * (1 - ratio) / (2 * HALF_TRACK)
-    u, omega = arc_balance(0.05 * ratio, 0.05)
-    inner, outer = (rut_separation(u / omega - HALF_TRACK), rut_separation(u / omega + HALF_TRACK))
+    inner, outer = arc_rut_separations(0.05 * ratio, 0.05)
     heading = commanded = 0.0
     for end in [*sorted({inner, outer}), math.inf]:
         ruts = (heading >= inner - 1e-12, heading >= outer - 1e-12)
@@ -354,9 +361,7 @@ def balance_path(rates: np.ndarray, yaw: np.ndarray, command: np.ndarray, turns:
         steady = rates[during[len(during) // 4: 3 * len(during) // 4], :2].mean(axis=0)
         left_turn = turn > 0
         inner_rate, outer_rate = (steady[0], steady[1]) if left_turn else (steady[1], steady[0])
-        u, omega = arc_balance(float(inner_rate), float(outer_rate))
-        inner = rut_separation(u / omega - HALF_TRACK)
-        outer = rut_separation(u / omega + HALF_TRACK)
+        inner, outer = arc_rut_separations(float(inner_rate), float(outer_rate))
         for j in during[::every]:
             left, right = float(rates[j, 0]), float(rates[j, 1])
             if left * right <= 0.0:  # the ramps' first instant and the trims on the spot

@@ -82,9 +82,7 @@ def _phases(row: Row) -> list[tuple[tuple[bool, bool], np.ndarray]]:
     loop's steady rates), a side's rear wheel reaches that rut once the body has turned by
     soil_model.rut_separation; samples within 2° of such a heading are left out (a wheel
     entering a rut overlaps it partly)."""
-    u, omega = soil_model.arc_balance(*row.steady_rates)
-    inner = soil_model.rut_separation(u / omega - 0.26)
-    outer = soil_model.rut_separation(u / omega + 0.26)
+    inner, outer = soil_model.arc_rut_separations(*row.steady_rates)
     turned = row.steady_turned
     clear = (np.abs(turned - inner) > math.radians(2)) & (np.abs(turned - outer) > math.radians(2))
     flags = np.stack([turned > inner, turned > outer], axis=1)
@@ -157,11 +155,12 @@ def test_open_loop_the_body_turns_at_the_skid_steering_efficiency_at_every_radiu
         expected = soil_model.open_loop_arc_efficiency(row.radius, turning_sweep.TURN)
         ratio = (row.radius - 0.26) / (row.radius + 0.26)
         kinematic = 0.1 * 0.05 * (1 - ratio) / (2 * 0.26)
-        u, omega = soil_model.arc_balance(0.05 * ratio, 0.05)
+        _, omega = soil_model.arc_balance(0.05 * ratio, 0.05)
         assert 0.5 < omega / kinematic < coulomb  # fresh soil
         # where the steady part begins on fresh soil (R = 0.3, 0.6 m: before the outer rear
         # wheel reaches its rut), the FMU turns there at that efficiency, below the bound
-        fresh = row.steady_turned < soil_model.rut_separation(u / omega + 0.26) - math.radians(2)
+        _, outer = soil_model.arc_rut_separations(0.05 * ratio, 0.05)
+        fresh = row.steady_turned < outer - math.radians(2)
         if fresh.sum() >= 30:
             turned = row.steady_turned[fresh]
             measured = (turned[-1] - turned[0]) / (0.1 * (len(turned) - 1)) / kinematic

@@ -34,16 +34,18 @@ class Row:
     end_offset: float        # end position against the commanded arc projected with the slip, m
     duration: float          # s
     finished: bool           # the command ended before the stop time
-    steady_rates: tuple[float, float]  # left, right wheel rates in the steady part, rad/s
     # per sample of the steady part: heading turned since the command began (rad), the left
     # and right wheel rates (rad/s) and the four wheels' slips: the phases before and after a
     # rear wheel reaches its front wheel's rut
-    steady_turned: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False,
-                                      compare=False)
-    steady_rate: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)), repr=False,
-                                    compare=False)
-    steady_slip: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)), repr=False,
-                                    compare=False)
+    steady_turned: np.ndarray = field(repr=False, compare=False)
+    steady_rate: np.ndarray = field(repr=False, compare=False)
+    steady_slip: np.ndarray = field(repr=False, compare=False)
+
+    @property
+    def steady_rates(self) -> tuple[float, float]:
+        """Left and right wheel rates over the steady part, rad/s."""
+        left, right = self.steady_rate.mean(axis=0)
+        return float(left), float(right)
 
 
 def command(radius: float) -> Command:
@@ -94,7 +96,6 @@ def measure(rover: FmuRunner, radius: float, parameters: dict[str, float] | None
         current=energy / float(out["t"][end]),
         charge_per_radian=energy / abs(yaw) if abs(yaw) > 1e-3 else math.nan,
         heading=yaw, end_offset=offset, duration=float(out["t"][end]), finished=finished,
-        steady_rates=(float(np.mean(rate[:, 0])), float(np.mean(rate[:, 1]))),
         steady_turned=np.abs(out["yaw"][steady] - out["yaw"][active[0]]),
         steady_rate=rate[:, :2].copy(), steady_slip=slip.copy())
 
