@@ -34,10 +34,11 @@ from idefix_rules.fmu.build import source_hash
 
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing, the
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
-# a wheel on a rock compared with the soil at its supporting depth; results format 2, default
+# a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
+# pressed fraction and mean depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "cf986b0578d1a39a8cb9013ae45f0e23744595b6cc3b4ed9f890553b50ca5e93"
-ROVER_DIGEST = "91cdfba38b9b021a3c1d53e38eacd4b5fb1948adcb4f54e078d446c97b18206a"
+ROVER_SOURCE_HASH = "91dd5197b94a9a7db40d90fc6a370a1c3fcdac945ed7e352b3f77405bc9e23d3"
+ROVER_DIGEST = "0cf109ee0799f2f81c89881d95b5a1537e7233c30e0c47f883297585ea4b1c01"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 
 

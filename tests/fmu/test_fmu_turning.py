@@ -125,7 +125,7 @@ def test_an_arc_ends_where_the_balance_of_its_wheel_rates_moves_the_body(
     # body frame at the measured heading, on fresh soil until a side's rear wheel reaches its
     # front wheel's rut (soil_model.rut_separation) and in the rut after: the end within 2 cm.
     # A rear wheel in a rut holds less, so the body side-slips (v) and the end leaves the
-    # commanded arc projected with the measured slip by 3.5-6.6 cm (the sweep's table).
+    # commanded arc projected with the measured slip by 3.1-6.2 cm (the sweep's table).
     with FmuRunner(rover_fmu) as runner:
         out = runner.run({}, [turning_sweep.command(radius)], 1500.0, 0.1)
     end = int(np.argmax(out["command"] < 0))

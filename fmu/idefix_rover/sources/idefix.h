@@ -41,11 +41,12 @@ double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx,
 typedef struct {
     double cell, x0, y0;
     long nx, ny;
-    float *sinkage;          /* plastic sinkage (rut depth), m */
+    float *sinkage;          /* plastic sinkage (rut depth) averaged over the cell, m */
+    float *coverage;         /* fraction of the cell the wheels' patches have run over */
     float *mark_travel;      /* distance its wheel had travelled when it last pressed it, m */
     unsigned char *owner;    /* wheel index + 1 that last ran over the cell, 0: undisturbed */
     float *prior_sinkage;    /* the cell as its last wheel found it: rut depth ... */
-    unsigned char *prior_disturbed;  /* ... and whether another wheel had run over it */
+    float *prior_coverage;   /* ... and the fraction other wheels had run over */
     long dirty_i0, dirty_i1, dirty_j0, dirty_j1;   /* touched cells, cleared on reset */
 } SoilGrid;
 

@@ -27,9 +27,11 @@ int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double
     g->sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->mark_travel = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->owner = (unsigned char *)calloc((size_t)(nx * ny), 1);
+    g->coverage = (float *)calloc((size_t)(nx * ny), sizeof(float));
     g->prior_sinkage = (float *)calloc((size_t)(nx * ny), sizeof(float));
-    g->prior_disturbed = (unsigned char *)calloc((size_t)(nx * ny), 1);
-    if (!g->sinkage || !g->mark_travel || !g->owner || !g->prior_sinkage || !g->prior_disturbed) {
+    g->prior_coverage = (float *)calloc((size_t)(nx * ny), sizeof(float));
+    if (!g->sinkage || !g->coverage || !g->mark_travel || !g->owner || !g->prior_sinkage ||
+        !g->prior_coverage) {
         soil_grid_free(g);
         return -1;
     }
@@ -45,8 +47,9 @@ void soil_grid_free(SoilGrid *g)
     free(g->sinkage);
     free(g->mark_travel);
     free(g->owner);
+    free(g->coverage);
     free(g->prior_sinkage);
-    free(g->prior_disturbed);
+    free(g->prior_coverage);
     memset(g, 0, sizeof(*g));
 }
 
@@ -60,8 +63,9 @@ void soil_grid_clear(SoilGrid *g)
         memset(g->sinkage + start, 0, (size_t)count * sizeof(float));
         memset(g->mark_travel + start, 0, (size_t)count * sizeof(float));
         memset(g->owner + start, 0, (size_t)count);
+        memset(g->coverage + start, 0, (size_t)count * sizeof(float));
         memset(g->prior_sinkage + start, 0, (size_t)count * sizeof(float));
-        memset(g->prior_disturbed + start, 0, (size_t)count);
+        memset(g->prior_coverage + start, 0, (size_t)count * sizeof(float));
     }
     g->dirty_i0 = g->nx;
     g->dirty_j0 = g->ny;
@@ -71,24 +75,26 @@ void soil_grid_clear(SoilGrid *g)
 
 #define MAX_PATCH_SAMPLES 64
 
-/* Cells under the contact patch: a rectangle of the given length along the heading (hx, hy)
- * and width across it, centred at (cx, cy), sampled at half-cell spacing (-1: off the grid).
- * Returns the number of samples written to cells. */
-static int patch_cells(const SoilGrid *g, double cx, double cy, double hx, double hy,
-                       double length, double width, long *cells)
+/* Sample points of the contact patch: a rectangle of the given length along the heading
+ * (hx, hy) and width across it, centred at (cx, cy), cut into equal parts no larger than half
+ * a cell each way; a point at the centre of each part (the midpoint rule: no point on the
+ * patch's edge, where a rut's edge may lie). Returns the number of points written to px, py. */
+static int patch_points(const SoilGrid *g, double cx, double cy, double hx, double hy,
+                        double length, double width, double *px, double *py)
 {
-    int na = (int)ceil(length / (0.5 * g->cell)) + 1, nw = (int)ceil(width / (0.5 * g->cell)) + 1;
+    int na = (int)ceil(length / (0.5 * g->cell)), nw = (int)ceil(width / (0.5 * g->cell));
     int ia, iw, count = 0;
+    if (na < 1) na = 1;
+    if (nw < 1) nw = 1;
     if (na > MAX_PATCH_SAMPLES) na = MAX_PATCH_SAMPLES;
     if (nw > MAX_PATCH_SAMPLES) nw = MAX_PATCH_SAMPLES;
-    if (nw < 2) nw = 2;
     for (ia = 0; ia < na; ia++) {
-        double d = na > 1 ? -0.5 * length + length * ia / (na - 1) : 0.0;
+        double d = length * ((ia + 0.5) / na - 0.5);
         for (iw = 0; iw < nw; iw++) {
-            double e = -0.5 * width + width * iw / (nw - 1);
-            double sx = cx + d * hx - e * hy, sy = cy + d * hy + e * hx;
-            long i = (long)floor((sx - g->x0) / g->cell), j = (long)floor((sy - g->y0) / g->cell);
-            cells[count++] = (i < 0 || j < 0 || i >= g->nx || j >= g->ny) ? -1 : j * g->nx + i;
+            double e = width * ((iw + 0.5) / nw - 0.5);
+            px[count] = cx + d * hx - e * hy;
+            py[count] = cy + d * hy + e * hx;
+            count++;
         }
     }
     return count;
@@ -103,25 +109,148 @@ static int own_patch(const SoilGrid *g, long k, int wheel, double travel, double
     return g->owner[k] == wheel + 1 && travel - (double)g->mark_travel[k] <= own_span;
 }
 
+/* What cell k holds for this wheel: its rut depth and whether it was disturbed. */
+static void cell_state(const SoilGrid *g, long k, int wheel, double travel, double own_span,
+                       double *depth, double *disturbed)
+{
+    if (own_patch(g, k, wheel, travel, own_span)) {
+        /* under this wheel's own moving patch: the soil as the wheel found it */
+        *depth = g->prior_sinkage[k];
+        *disturbed = g->prior_coverage[k];
+    } else if (g->owner[k]) {
+        *depth = g->sinkage[k];
+        *disturbed = g->coverage[k];
+    } else {
+        *depth = 0.0;
+        *disturbed = 0.0;
+    }
+}
+
+/* The state a reading wheel finds in cell (i, j); off the grid, fresh soil. */
+static void cell_at(const SoilGrid *g, long i, long j, int wheel, double travel, double own_span,
+                    double *depth, double *covered)
+{
+    if (i < 0 || j < 0 || i >= g->nx || j >= g->ny) {
+        *depth = 0.0;
+        *covered = 0.0;
+        return;
+    }
+    cell_state(g, j * g->nx + i, wheel, travel, own_span, depth, covered);
+}
+
+/* The edge of the pressed area across a partly pressed cell (i, j), covered the fraction f:
+ * a straight line normal to the gradient of the neighbours' covered fractions (Youngs'
+ * stencil), placed so that it cuts off the fraction f (the piecewise-linear interface
+ * reconstruction of volume-of-fluid methods: Youngs 1982; the line constant of Scardovelli &
+ * Zaleski 2000, J. Comput. Phys. 164). In the cell's frame [0, 1]^2, mirrored so that both
+ * components of the outward normal (m1, m2) are >= 0 (flip_u, flip_v) and ordered (swap), the
+ * covered part is m1 x + m2 y <= alpha. Without a gradient (a partly pressed cell among equal
+ * neighbours) the line is unknown (known = 0). */
+typedef struct {
+    double m1, m2, alpha;
+    int flip_u, flip_v, swap, known;
+} EdgeLine;
+
+#define EDGE_CACHE 16
+
+static void edge_line(const SoilGrid *g, long i, long j, double f, int wheel, double travel,
+                      double own_span, EdgeLine *line)
+{
+    double n[3][3], depth, mx, my, m1, m2, v1, sum;
+    int a, b;
+    for (b = 0; b < 3; b++)
+        for (a = 0; a < 3; a++)
+            cell_at(g, i + a - 1, j + b - 1, wheel, travel, own_span, &depth, &n[b][a]);
+    /* Youngs: the gradient of the fractions, corners weighted 1, edges 2; the covered side
+     * lies along it, so the outward normal is its opposite */
+    mx = (n[0][0] + 2.0 * n[1][0] + n[2][0]) - (n[0][2] + 2.0 * n[1][2] + n[2][2]);
+    my = (n[0][0] + 2.0 * n[0][1] + n[0][2]) - (n[2][0] + 2.0 * n[2][1] + n[2][2]);
+    sum = fabs(mx) + fabs(my);
+    line->known = sum >= 1e-9;
+    if (!line->known) return;
+    line->flip_u = mx < 0.0;
+    line->flip_v = my < 0.0;
+    m1 = fabs(mx) / sum;
+    m2 = fabs(my) / sum;
+    line->swap = m1 > m2;
+    if (line->swap) {  /* order the components: m1 <= m2 */
+        double t = m1;
+        m1 = m2;
+        m2 = t;
+    }
+    v1 = 0.5 * m1 / m2;
+    if (m1 <= 1e-12)
+        line->alpha = f * m2;
+    else if (f <= v1)
+        line->alpha = sqrt(2.0 * m1 * m2 * f);
+    else if (f <= 1.0 - v1)
+        line->alpha = f * m2 + 0.5 * m1;
+    else
+        line->alpha = 1.0 - sqrt(2.0 * m1 * m2 * (1.0 - f));
+    line->m1 = m1;
+    line->m2 = m2;
+}
+
+/* Is the point (u, v) of the cell's [0, 1]^2 on the covered side of its edge line? 1 yes,
+ * 0 no, -1 the line is unknown. */
+static int edge_side(const EdgeLine *line, double u, double v)
+{
+    double x, y;
+    if (!line->known) return -1;
+    x = line->flip_u ? 1.0 - u : u;
+    y = line->flip_v ? 1.0 - v : v;
+    if (line->swap) {
+        double t = x;
+        x = y;
+        y = t;
+    }
+    return line->m1 * x + line->m2 * y <= line->alpha;
+}
+
+/* The rut under the patch: the mean over its sample points of the cell each point is in. A
+ * cell holds the mean depth over its area and the fraction of it the wheels pressed; in a
+ * partly pressed cell a point reads the depth of the pressed part on that part and fresh soil
+ * beside it (on_covered_part), so that a rear wheel in its front wheel's rut finds the rut as
+ * deep and as wide as it was pressed, wherever the rut's edge lies in a cell
+ * (docs/rover-model.md, "The rut grid's resolution"). Off the grid is fresh soil. */
 RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
                     double width, int wheel, double travel, double own_span)
 {
     RutState state = {0.0, 0.0};
-    long cells[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
-    int n, s;
+    double px[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES], py[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
+    /* the edge lines of the partly pressed cells, reconstructed once per query: several
+     * sample points fall in each cell */
+    long seen[EDGE_CACHE];
+    EdgeLine lines[EDGE_CACHE];
+    int n, s, cached = 0;
     if (!g->sinkage) return state;
-    n = patch_cells(g, cx, cy, hx, hy, length, width, cells);
+    n = patch_points(g, cx, cy, hx, hy, length, width, px, py);
     for (s = 0; s < n; s++) {
-        long k = cells[s];
-        if (k < 0) continue;
-        if (own_patch(g, k, wheel, travel, own_span)) {
-            /* under this wheel's own moving patch: the soil as the wheel found it */
-            state.rut_depth += g->prior_sinkage[k];
-            state.disturbed += g->prior_disturbed[k];
-        } else if (g->owner[k]) {
-            state.rut_depth += g->sinkage[k];
-            state.disturbed += 1.0;
+        double u = (px[s] - g->x0) / g->cell, v = (py[s] - g->y0) / g->cell;
+        double fi = floor(u), fj = floor(v), depth, covered;
+        long i = (long)fi, j = (long)fj;
+        cell_at(g, i, j, wheel, travel, own_span, &depth, &covered);
+        if (covered > 1e-6 && covered < 1.0 - 1e-6) {
+            long key = j * g->nx + i;
+            int c, side;
+            for (c = 0; c < cached && seen[c] != key; c++) {}
+            if (c == cached) {
+                edge_line(g, i, j, covered, wheel, travel, own_span, &lines[c % EDGE_CACHE]);
+                seen[c % EDGE_CACHE] = key;
+                if (cached < EDGE_CACHE) cached++;
+                c = c % EDGE_CACHE;
+            }
+            side = edge_side(&lines[c], u - fi, v - fj);
+            if (side == 1) {
+                depth /= covered;
+                covered = 1.0;
+            } else if (side == 0) {
+                depth = 0.0;
+                covered = 0.0;
+            }
         }
+        state.rut_depth += depth;
+        state.disturbed += covered;
     }
     if (n > 0) {
         state.rut_depth /= (double)n;
@@ -130,30 +259,142 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
     return state;
 }
 
+/* Fraction of the unit square where n1 u + n2 v <= t (the area cut off by a straight line; the
+ * formula of Scardovelli & Zaleski 2000, J. Comput. Phys. 164, for the volume below a line). */
+static double square_below(double n1, double n2, double t)
+{
+    double m1, m2, sum, alpha;
+    if (n1 < 0.0) {  /* u -> 1 - u */
+        t -= n1;
+        n1 = -n1;
+    }
+    if (n2 < 0.0) {
+        t -= n2;
+        n2 = -n2;
+    }
+    sum = n1 + n2;
+    if (sum <= 0.0) return t >= 0.0 ? 1.0 : 0.0;
+    m1 = (n1 < n2 ? n1 : n2) / sum;
+    m2 = (n1 < n2 ? n2 : n1) / sum;
+    alpha = t / sum;
+    if (alpha <= 0.0) return 0.0;
+    if (alpha >= 1.0) return 1.0;
+    if (alpha < m1) return alpha * alpha / (2.0 * m1 * m2);
+    if (alpha <= m2) return (alpha - 0.5 * m1) / m2;
+    return 1.0 - (1.0 - alpha) * (1.0 - alpha) / (2.0 * m1 * m2);
+}
+
+/* Fraction of the square cell [x0, x0 + c] x [y0, y0 + c] inside the patch: the rectangle of
+ * the given length along the heading (hx, hy) and width across it, centred at (cx, cy). A cell
+ * crossed by one side of the patch is measured exactly by square_below; one crossed by two (at
+ * the patch's corners) is clipped by the four sides (Sutherland-Hodgman) and measured by the
+ * shoelace formula. So the covered fraction changes continuously as the patch moves. */
+static double cell_overlap(double x0, double y0, double c, double cx, double cy, double hx,
+                           double hy, double length, double width)
+{
+    /* side k: n_k . (p - centre) <= limit_k, n = +-heading (along), +-normal (across) */
+    const double nx[4] = {hx, -hx, -hy, hy}, ny[4] = {hy, -hy, hx, -hx};
+    const double limit[4] = {0.5 * length, 0.5 * length, 0.5 * width, 0.5 * width};
+    const double corners[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    double base[4], pd[12], pe[12], qd[12], qe[12], area = 0.0;
+    int side, k, crossing = 0, crossed = -1, n = 4;
+    for (side = 0; side < 4; side++) {
+        /* the cell's corners reach from base + c min(0, nx) + c min(0, ny) to the max */
+        double low, high;
+        base[side] = nx[side] * (x0 - cx) + ny[side] * (y0 - cy);
+        low = base[side] + c * (fmin(nx[side], 0.0) + fmin(ny[side], 0.0));
+        high = base[side] + c * (fmax(nx[side], 0.0) + fmax(ny[side], 0.0));
+        if (low > limit[side]) return 0.0;  /* every corner beyond this side */
+        if (high > limit[side]) {
+            crossing++;
+            crossed = side;
+        }
+    }
+    if (crossing == 0) return 1.0;
+    if (crossing == 1)
+        return square_below(nx[crossed], ny[crossed], (limit[crossed] - base[crossed]) / c);
+    for (k = 0; k < 4; k++) {
+        double x = x0 + corners[k][0] * c - cx, y = y0 + corners[k][1] * c - cy;
+        pd[k] = x * hx + y * hy;       /* along the heading */
+        pe[k] = -x * hy + y * hx;      /* across it */
+    }
+    for (side = 0; side < 4 && n > 0; side++) {
+        /* keep sign * coordinate <= limit */
+        int along = side < 2, m = 0;
+        double sign = (side % 2) ? -1.0 : 1.0;
+        for (k = 0; k < n; k++) {
+            int l = (k + 1) % n;
+            double a = sign * (along ? pd[k] : pe[k]) - limit[side];
+            double b = sign * (along ? pd[l] : pe[l]) - limit[side];
+            if (a <= 0.0) {
+                qd[m] = pd[k];
+                qe[m] = pe[k];
+                m++;
+            }
+            if ((a < 0.0 && b > 0.0) || (a > 0.0 && b < 0.0)) {
+                double t = a / (a - b);
+                qd[m] = pd[k] + t * (pd[l] - pd[k]);
+                qe[m] = pe[k] + t * (pe[l] - pe[k]);
+                m++;
+            }
+        }
+        n = m;
+        for (k = 0; k < n; k++) {
+            pd[k] = qd[k];
+            pe[k] = qe[k];
+        }
+    }
+    for (k = 0; k < n; k++) {
+        int l = (k + 1) % n;
+        area += pd[k] * pe[l] - pd[l] * pe[k];
+    }
+    return 0.5 * fabs(area) / (c * c);
+}
+
+/* The wheel presses the cells under its patch. Each cell keeps the mean over its area: a pass
+ * that covers the fraction f of it at sinkage z deepens it from the depth it had before the pass
+ * by f (z - that depth), and disturbs that fraction of what was undisturbed; within one pass the
+ * largest fraction counts, as the patch sweeps over the cell. */
 void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double length,
                double width, double sinkage, int wheel, double travel, double own_span)
 {
-    long cells[MAX_PATCH_SAMPLES * MAX_PATCH_SAMPLES];
-    int n, s;
-    if (!g->sinkage) return;
-    n = patch_cells(g, cx, cy, hx, hy, length, width, cells);
-    for (s = 0; s < n; s++) {
-        long k = cells[s], i, j;
-        if (k < 0) continue;
-        i = k % g->nx;
-        j = k / g->nx;
-        if (!own_patch(g, k, wheel, travel, own_span)) {
-            /* a new pass over this cell: remember the soil as this wheel finds it */
-            g->prior_sinkage[k] = g->sinkage[k];
-            g->prior_disturbed[k] = g->owner[k] != 0;
+    double ax = 0.5 * (fabs(length * hx) + fabs(width * hy));
+    double ay = 0.5 * (fabs(length * hy) + fabs(width * hx));
+    long i0, i1, j0, j1, i, j;
+    if (!g->sinkage || !(length > 0.0) || !(width > 0.0)) return;
+    i0 = (long)floor((cx - ax - g->x0) / g->cell);
+    i1 = (long)floor((cx + ax - g->x0) / g->cell);
+    j0 = (long)floor((cy - ay - g->y0) / g->cell);
+    j1 = (long)floor((cy + ay - g->y0) / g->cell);
+    if (i0 < 0) i0 = 0;
+    if (j0 < 0) j0 = 0;
+    if (i1 >= g->nx) i1 = g->nx - 1;
+    if (j1 >= g->ny) j1 = g->ny - 1;
+    for (j = j0; j <= j1; j++) {
+        for (i = i0; i <= i1; i++) {
+            long k = j * g->nx + i;
+            double f = cell_overlap(g->x0 + i * g->cell, g->y0 + j * g->cell, g->cell, cx, cy,
+                                    hx, hy, length, width);
+            double depth, covered;
+            if (f <= 0.0) continue;
+            if (f > 1.0) f = 1.0;
+            if (!own_patch(g, k, wheel, travel, own_span)) {
+                /* a new pass over this cell: remember the soil as this wheel finds it */
+                g->prior_sinkage[k] = g->sinkage[k];
+                g->prior_coverage[k] = g->coverage[k];
+            }
+            g->owner[k] = (unsigned char)(wheel + 1);
+            g->mark_travel[k] = (float)travel;
+            depth = g->prior_sinkage[k] + f * (sinkage > g->prior_sinkage[k] ?
+                                               sinkage - g->prior_sinkage[k] : 0.0);
+            covered = g->prior_coverage[k] + f * (1.0 - g->prior_coverage[k]);
+            if ((float)depth > g->sinkage[k]) g->sinkage[k] = (float)depth;
+            if ((float)covered > g->coverage[k]) g->coverage[k] = (float)covered;
+            if (i < g->dirty_i0) g->dirty_i0 = i;
+            if (i > g->dirty_i1) g->dirty_i1 = i;
+            if (j < g->dirty_j0) g->dirty_j0 = j;
+            if (j > g->dirty_j1) g->dirty_j1 = j;
         }
-        g->owner[k] = (unsigned char)(wheel + 1);
-        g->mark_travel[k] = (float)travel;
-        if ((float)sinkage > g->sinkage[k]) g->sinkage[k] = (float)sinkage;
-        if (i < g->dirty_i0) g->dirty_i0 = i;
-        if (i > g->dirty_i1) g->dirty_i1 = i;
-        if (j < g->dirty_j0) g->dirty_j0 = j;
-        if (j > g->dirty_j1) g->dirty_j1 = j;
     }
 }
 
