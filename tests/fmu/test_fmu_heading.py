@@ -136,7 +136,7 @@ def test_the_smooth_detour_on_flat_ground_ends_short_by_its_arcs_balance(
         rover: FmuRunner) -> None:
     # The example's three arcs (radius 0.5 m): the body moves at the velocity the four wheels'
     # balance gives for the loop's rates, with a side's rear wheel in its front wheel's rut
-    # once an arc has turned far enough (soil_model.balance_path): the end within 3 cm (2.1 cm;
+    # once an arc has turned far enough (soil_model.balance_path): the end within 3 cm (1.5 cm;
     # the S-bend's ruts, the ramps and the heading trims between arcs are approximated), while
     # the commanded target is 0.1 m further on. This checks the chained arcs' kinematics, not
     # the rut's law: with a rut's whole depth as contact the end is 0.7 cm from the same
