@@ -75,6 +75,14 @@ void soil_grid_clear(SoilGrid *g)
 
 #define MAX_PATCH_SAMPLES 64
 
+/* Cell index of the grid coordinate u (in cells), clamped to -1 ... n before the cast: a point
+ * far off the grid is off it, and no cast overflows. */
+static long cell_index(double u, long n)
+{
+    double f = floor(u);
+    return f < 0.0 ? -1 : (f >= (double)n ? n : (long)f);
+}
+
 /* Sample points of the contact patch: a rectangle of the given length along the heading
  * (hx, hy) and width across it, centred at (cx, cy), cut into equal parts no larger than half
  * a cell each way; a point at the centre of each part (the midpoint rule: no point on the
@@ -82,12 +90,11 @@ void soil_grid_clear(SoilGrid *g)
 static int patch_points(const SoilGrid *g, double cx, double cy, double hx, double hy,
                         double length, double width, double *px, double *py)
 {
-    int na = (int)ceil(length / (0.5 * g->cell)), nw = (int)ceil(width / (0.5 * g->cell));
-    int ia, iw, count = 0;
-    if (na < 1) na = 1;
-    if (nw < 1) nw = 1;
-    if (na > MAX_PATCH_SAMPLES) na = MAX_PATCH_SAMPLES;
-    if (nw > MAX_PATCH_SAMPLES) nw = MAX_PATCH_SAMPLES;
+    double parts_a = ceil(length / (0.5 * g->cell)), parts_w = ceil(width / (0.5 * g->cell));
+    int na, nw, ia, iw, count = 0;
+    /* clamped before the cast: a huge patch is sampled more coarsely, never overflows */
+    na = parts_a < 1.0 ? 1 : (parts_a > MAX_PATCH_SAMPLES ? MAX_PATCH_SAMPLES : (int)parts_a);
+    nw = parts_w < 1.0 ? 1 : (parts_w > MAX_PATCH_SAMPLES ? MAX_PATCH_SAMPLES : (int)parts_w);
     for (ia = 0; ia < na; ia++) {
         double d = length * ((ia + 0.5) / na - 0.5);
         for (iw = 0; iw < nw; iw++) {
@@ -223,12 +230,15 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
     long seen[EDGE_CACHE];
     EdgeLine lines[EDGE_CACHE];
     int n, s, cached = 0;
-    if (!g->sinkage) return state;
+    /* a pose or patch that is not a number reads fresh soil (and casts nothing undefined) */
+    if (!g->sinkage || !isfinite(cx) || !isfinite(cy) || !isfinite(hx) || !isfinite(hy) ||
+        !isfinite(length) || !isfinite(width))
+        return state;
     n = patch_points(g, cx, cy, hx, hy, length, width, px, py);
     for (s = 0; s < n; s++) {
         double u = (px[s] - g->x0) / g->cell, v = (py[s] - g->y0) / g->cell;
-        double fi = floor(u), fj = floor(v), depth, covered;
-        long i = (long)fi, j = (long)fj;
+        long i = cell_index(u, g->nx), j = cell_index(v, g->ny);
+        double fi = (double)i, fj = (double)j, depth, covered;
         cell_at(g, i, j, wheel, travel, own_span, &depth, &covered);
         if (covered > 1e-6 && covered < 1.0 - 1e-6) {
             long key = j * g->nx + i;
@@ -361,11 +371,13 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
     double ax = 0.5 * (fabs(length * hx) + fabs(width * hy));
     double ay = 0.5 * (fabs(length * hy) + fabs(width * hx));
     long i0, i1, j0, j1, i, j;
-    if (!g->sinkage || !(length > 0.0) || !(width > 0.0)) return;
-    i0 = (long)floor((cx - ax - g->x0) / g->cell);
-    i1 = (long)floor((cx + ax - g->x0) / g->cell);
-    j0 = (long)floor((cy - ay - g->y0) / g->cell);
-    j1 = (long)floor((cy + ay - g->y0) / g->cell);
+    if (!g->sinkage || !(length > 0.0) || !(width > 0.0) || !isfinite(length) ||
+        !isfinite(width) || !isfinite(cx) || !isfinite(cy) || !isfinite(hx) || !isfinite(hy))
+        return;  /* nothing to mark (and no undefined cast of a NaN to a cell index) */
+    i0 = cell_index((cx - ax - g->x0) / g->cell, g->nx);
+    i1 = cell_index((cx + ax - g->x0) / g->cell, g->nx);
+    j0 = cell_index((cy - ay - g->y0) / g->cell, g->ny);
+    j1 = cell_index((cy + ay - g->y0) / g->cell, g->ny);
     if (i0 < 0) i0 = 0;
     if (j0 < 0) j0 = 0;
     if (i1 >= g->nx) i1 = g->nx - 1;
