@@ -294,35 +294,43 @@ static double square_below(double n1, double n2, double t)
     return 1.0 - (1.0 - alpha) * (1.0 - alpha) / (2.0 * m1 * m2);
 }
 
-/* Fraction of the square cell [x0, x0 + c] x [y0, y0 + c] inside the patch: the rectangle of
- * the given length along the heading (hx, hy) and width across it, centred at (cx, cy). A cell
- * crossed by one side of the patch is measured exactly by square_below; one crossed by two (at
- * the patch's corners) is clipped by the four sides (Sutherland-Hodgman) and measured by the
- * shoelace formula. So the covered fraction changes continuously as the patch moves. */
-static double cell_overlap(double x0, double y0, double c, double cx, double cy, double hx,
-                           double hy, double length, double width)
+/* The patch's four sides as half-planes n_k . (p - centre) <= limit_k, n = +-heading (along),
+ * +-normal (across), with the reach of a cell's corners beyond its corner (x0, y0) along each
+ * normal, from low_k to high_k: worked out once per patch, not per cell. */
+typedef struct {
+    double nx[4], ny[4], limit[4], low[4], high[4];
+} PatchSides;
+
+static void patch_sides(PatchSides *p, double c, double hx, double hy, double length,
+                        double width)
 {
-    /* side k: n_k . (p - centre) <= limit_k, n = +-heading (along), +-normal (across) */
-    const double nx[4] = {hx, -hx, -hy, hy}, ny[4] = {hy, -hy, hx, -hx};
-    const double limit[4] = {0.5 * length, 0.5 * length, 0.5 * width, 0.5 * width};
-    const double corners[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    double base[4], pd[12], pe[12], qd[12], qe[12], area = 0.0;
-    int side, k, crossing = 0, crossed = -1, n = 4;
+    int side;
+    p->nx[0] = hx;
+    p->nx[1] = -hx;
+    p->nx[2] = -hy;
+    p->nx[3] = hy;
+    p->ny[0] = hy;
+    p->ny[1] = -hy;
+    p->ny[2] = hx;
+    p->ny[3] = -hx;
+    p->limit[0] = p->limit[1] = 0.5 * length;
+    p->limit[2] = p->limit[3] = 0.5 * width;
     for (side = 0; side < 4; side++) {
-        /* the cell's corners reach from base + c min(0, nx) + c min(0, ny) to the max */
-        double low, high;
-        base[side] = nx[side] * (x0 - cx) + ny[side] * (y0 - cy);
-        low = base[side] + c * (fmin(nx[side], 0.0) + fmin(ny[side], 0.0));
-        high = base[side] + c * (fmax(nx[side], 0.0) + fmax(ny[side], 0.0));
-        if (low > limit[side]) return 0.0;  /* every corner beyond this side */
-        if (high > limit[side]) {
-            crossing++;
-            crossed = side;
-        }
+        double nx = p->nx[side], ny = p->ny[side];
+        p->low[side] = c * ((nx < 0.0 ? nx : 0.0) + (ny < 0.0 ? ny : 0.0));
+        p->high[side] = c * ((nx > 0.0 ? nx : 0.0) + (ny > 0.0 ? ny : 0.0));
     }
-    if (crossing == 0) return 1.0;
-    if (crossing == 1)
-        return square_below(nx[crossed], ny[crossed], (limit[crossed] - base[crossed]) / c);
+}
+
+/* Area fraction of the square cell [x0, x0 + c] x [y0, y0 + c] inside the rectangle of the
+ * given length along the heading (hx, hy) and width across it, centred at (cx, cy), by
+ * clipping the cell with the four sides (Sutherland-Hodgman) and the shoelace formula. */
+static double clipped_overlap(double x0, double y0, double c, double cx, double cy, double hx,
+                              double hy, double length, double width)
+{
+    const double corners[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    double pd[12], pe[12], qd[12], qe[12], area = 0.0;
+    int side, k, n = 4;
     for (k = 0; k < 4; k++) {
         double x = x0 + corners[k][0] * c - cx, y = y0 + corners[k][1] * c - cy;
         pd[k] = x * hx + y * hy;       /* along the heading */
@@ -331,11 +339,11 @@ static double cell_overlap(double x0, double y0, double c, double cx, double cy,
     for (side = 0; side < 4 && n > 0; side++) {
         /* keep sign * coordinate <= limit */
         int along = side < 2, m = 0;
-        double sign = (side % 2) ? -1.0 : 1.0;
+        double sign = (side % 2) ? -1.0 : 1.0, limit = 0.5 * (along ? length : width);
         for (k = 0; k < n; k++) {
             int l = (k + 1) % n;
-            double a = sign * (along ? pd[k] : pe[k]) - limit[side];
-            double b = sign * (along ? pd[l] : pe[l]) - limit[side];
+            double a = sign * (along ? pd[k] : pe[k]) - limit;
+            double b = sign * (along ? pd[l] : pe[l]) - limit;
             if (a <= 0.0) {
                 qd[m] = pd[k];
                 qe[m] = pe[k];
@@ -361,6 +369,48 @@ static double cell_overlap(double x0, double y0, double c, double cx, double cy,
     return 0.5 * fabs(area) / (c * c);
 }
 
+/* Fraction of the cell [x0, x0 + c] x [y0, y0 + c] inside the patch, given its corner's
+ * distances along the sides' normals, base_k = n_k . ((x0, y0) - centre) (the caller's
+ * products nx_k (x0 - cx) and ny_k (y0 - cy), summed here). A cell crossed by one side of the
+ * patch is measured exactly by square_below; one crossed by two (at the patch's corners) is
+ * clipped. So the covered fraction changes continuously as the patch moves. */
+static double cell_overlap_at(const PatchSides *p, const double *x_term, const double *y_term,
+                              double x0, double y0, double c, double cx, double cy, double hx,
+                              double hy, double length, double width)
+{
+    double base[4];
+    int side, crossing = 0, crossed = -1;
+    for (side = 0; side < 4; side++) {
+        base[side] = x_term[side] + y_term[side];
+        if (base[side] + p->low[side] > p->limit[side]) return 0.0;  /* all corners beyond */
+        if (base[side] + p->high[side] > p->limit[side]) {
+            crossing++;
+            crossed = side;
+        }
+    }
+    if (crossing == 0) return 1.0;
+    if (crossing == 1)
+        return square_below(p->nx[crossed], p->ny[crossed],
+                            (p->limit[crossed] - base[crossed]) / c);
+    return clipped_overlap(x0, y0, c, cx, cy, hx, hy, length, width);
+}
+
+/* Fraction of the square cell [x0, x0 + c] x [y0, y0 + c] inside the patch (one cell; the
+ * marking works the sides out once for all its cells). */
+static double cell_overlap(double x0, double y0, double c, double cx, double cy, double hx,
+                           double hy, double length, double width)
+{
+    PatchSides p;
+    double x_term[4], y_term[4];
+    int side;
+    patch_sides(&p, c, hx, hy, length, width);
+    for (side = 0; side < 4; side++) {
+        x_term[side] = p.nx[side] * (x0 - cx);
+        y_term[side] = p.ny[side] * (y0 - cy);
+    }
+    return cell_overlap_at(&p, x_term, y_term, x0, y0, c, cx, cy, hx, hy, length, width);
+}
+
 /* The wheel presses the cells under its patch. Each cell keeps the mean over its area: a pass
  * that covers the fraction f of it at sinkage z deepens it from the depth it had before the pass
  * by f (z - that depth), and disturbs that fraction of what was undisturbed; within one pass the
@@ -371,6 +421,7 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
     double ax = 0.5 * (fabs(length * hx) + fabs(width * hy));
     double ay = 0.5 * (fabs(length * hy) + fabs(width * hx));
     long i0, i1, j0, j1, i, j;
+    PatchSides sides;
     if (!g->sinkage || !(length > 0.0) || !(width > 0.0) || !isfinite(length) ||
         !isfinite(width) || !isfinite(cx) || !isfinite(cy) || !isfinite(hx) || !isfinite(hy))
         return;  /* nothing to mark (and no undefined cast of a NaN to a cell index) */
@@ -382,12 +433,17 @@ void soil_mark(SoilGrid *g, double cx, double cy, double hx, double hy, double l
     if (j0 < 0) j0 = 0;
     if (i1 >= g->nx) i1 = g->nx - 1;
     if (j1 >= g->ny) j1 = g->ny - 1;
+    patch_sides(&sides, g->cell, hx, hy, length, width);
     for (j = j0; j <= j1; j++) {
+        double y0 = g->y0 + j * g->cell, y_term[4];
+        int side;
+        for (side = 0; side < 4; side++) y_term[side] = sides.ny[side] * (y0 - cy);
         for (i = i0; i <= i1; i++) {
             long k = j * g->nx + i;
-            double f = cell_overlap(g->x0 + i * g->cell, g->y0 + j * g->cell, g->cell, cx, cy,
-                                    hx, hy, length, width);
-            double depth, covered;
+            double x0 = g->x0 + i * g->cell, x_term[4], f, depth, covered;
+            for (side = 0; side < 4; side++) x_term[side] = sides.nx[side] * (x0 - cx);
+            f = cell_overlap_at(&sides, x_term, y_term, x0, y0, g->cell, cx, cy, hx, hy, length,
+                                width);
             if (f <= 0.0) continue;
             if (f > 1.0) f = 1.0;
             if (!own_patch(g, k, wheel, travel, own_span)) {
