@@ -116,7 +116,7 @@ static int own_patch(const SoilGrid *g, long k, int wheel, double travel, double
     return g->owner[k] == wheel + 1 && travel - (double)g->mark_travel[k] <= own_span;
 }
 
-/* What cell k holds for this wheel: its rut depth and whether it was disturbed. */
+/* What cell k holds for this wheel: its mean rut depth and the fraction of it pressed. */
 static void cell_state(const SoilGrid *g, long k, int wheel, double travel, double own_span,
                        double *depth, double *disturbed)
 {
