@@ -24,6 +24,7 @@ from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, evalua
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
+from idefix_rules.campaign.evaluation.spread import spread_warnings
 from idefix_rules.campaign.input import waivers
 from idefix_rules.campaign.input.environment import build_terrain, write_terrain
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
@@ -385,6 +386,7 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campai
                 Span(str(junit)), hint=f"the results are in {revision.path}")) from None
     slipped = slip_warning(evaluation.slip)
     warnings = [slipped] if slipped else []
+    warnings += spread_warnings([path.risk_spread for path in evaluation.paths])
     return CampaignResult(revision.path, evaluation, checks, data, code, warnings,
                           problems=problems)
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_path, ranked_paths
+from idefix_rules.campaign.evaluation.spread import risk_spread
 from idefix_rules.campaign.input.waivers import (
     STORED_ATTRIBUTE,
     WaivedRule,
@@ -90,6 +91,8 @@ class PathResult:
     runs_needed: dict[str, int | None] = field(default_factory=dict)
     # rule failures the campaign's waivers cover on this path (campaign/input/waivers.py)
     waivers: list[WaivedRule] = field(default_factory=list)
+    # the spread of the run risks, and their share at the limit (campaign/evaluation/spread.py)
+    risk_spread: Any = None
 
     @property
     def failed(self) -> int:
@@ -385,6 +388,9 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     counts = dict(getattr(stats, "dominant_counts", {}) or {})
     result.dominant_index = max(counts, key=lambda k: counts[k]) if any(counts.values()) \
         else dominant_index(evaluation)
+    i_max = getattr(evaluation, "i_max", None)
+    result.risk_spread = None if i_max is None else risk_spread(
+        result.name, np.asarray(i_max), dict(getattr(evaluation, "values", {}) or {}))
     result.passed = bool(verdict.passed)
     result.undecided = not bool(verdict.decided)
     # A decided failure is explained by the rules that fail decidedly; otherwise by the rules

@@ -146,6 +146,8 @@ SUMMARY_UNITS = {
     "stop_time_s": "s (0.01 s)",
     "statistics": "SI, 4 significant digits (risk and chances 1, time s, energy A·s)",
     "sensitivity": "rank correlations, -1 … 1 (3 decimals)",
+    "risk_spread": "fractions 0 … 1 (critical, at_limit: of the runs; quartiles, iqr, lowest, "
+                   "highest: run risk I_max), 4 decimals",
 }
 
 
@@ -188,6 +190,7 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "stop_time_s": _round(path.stop_time, 2),
         "unfinished_runs": path.unfinished,
         "dominant_index": path.dominant_index,
+        "risk_spread": (path.risk_spread.to_dict() if path.risk_spread is not None else None),
         "verdict": path.verdict_text,
         "undecided": path.undecided,
         "verdict_reasons": path.verdict_reasons,
