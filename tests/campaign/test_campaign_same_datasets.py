@@ -37,7 +37,7 @@ from idefix_rules.fmu.build import source_hash
 # a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
 # pressed fraction and mean depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "2df5af43b98137b2666a87b0391036a90e27ba3744e006bb3fb8968d14914782"
+ROVER_SOURCE_HASH = "5960cd35c1d90fe7b2c3ce37aaf7b8c88fb8d33833d0460659fe6b11f1eab953"
 ROVER_DIGEST = "0cf109ee0799f2f81c89881d95b5a1537e7233c30e0c47f883297585ea4b1c01"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 

@@ -7,6 +7,22 @@
 
 static unsigned state = 12345u;
 
+/* Fraction of one cell [x0, x0 + c] x [y0, y0 + c] inside the patch, as soil_mark works it out
+ * (the sides once per patch, then the cell) */
+static double cell_overlap(double x0, double y0, double c, double cx, double cy, double hx,
+                           double hy, double length, double width)
+{
+    PatchSides p;
+    double x_term[4], y_term[4];
+    int side;
+    patch_sides(&p, c, hx, hy, length, width);
+    for (side = 0; side < 4; side++) {
+        x_term[side] = p.nx[side] * (x0 - cx);
+        y_term[side] = p.ny[side] * (y0 - cy);
+    }
+    return cell_overlap_at(&p, x_term, y_term, x0, y0, c, cx, cy, hx, hy, length, width);
+}
+
 static double uniform(void)
 {
     state = state * 1103515245u + 12345u;

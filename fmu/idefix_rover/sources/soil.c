@@ -217,7 +217,7 @@ static int edge_side(const EdgeLine *line, double u, double v)
 /* The rut under the patch: the mean over its sample points of the cell each point is in. A
  * cell holds the mean depth over its area and the fraction of it the wheels pressed; in a
  * partly pressed cell a point reads the depth of the pressed part on that part and fresh soil
- * beside it (on_covered_part), so that a rear wheel in its front wheel's rut finds the rut as
+ * beside it (edge_line, edge_side), so that a rear wheel in its front wheel's rut finds the rut as
  * deep and as wide as it was pressed, wherever the rut's edge lies in a cell
  * (docs/rover-model.md, "The rut grid's resolution"). Off the grid is fresh soil. */
 RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double hy, double length,
@@ -229,7 +229,7 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
      * sample points fall in each cell */
     long seen[EDGE_CACHE];
     EdgeLine lines[EDGE_CACHE];
-    int n, s, cached = 0;
+    int n, s, cached = 0, replaced = 0;
     /* a pose or patch that is not a number reads fresh soil (and casts nothing undefined) */
     if (!g->sinkage || !isfinite(cx) || !isfinite(cy) || !isfinite(hx) || !isfinite(hy) ||
         !isfinite(length) || !isfinite(width))
@@ -244,11 +244,13 @@ RutState soil_query(const SoilGrid *g, double cx, double cy, double hx, double h
             long key = j * g->nx + i;
             int c, side;
             for (c = 0; c < cached && seen[c] != key; c++) {}
-            if (c == cached) {
-                edge_line(g, i, j, covered, wheel, travel, own_span, &lines[c % EDGE_CACHE]);
-                seen[c % EDGE_CACHE] = key;
-                if (cached < EDGE_CACHE) cached++;
-                c = c % EDGE_CACHE;
+            if (c == cached) {  /* not seen yet: a free slot, or the oldest one */
+                if (cached < EDGE_CACHE)
+                    cached++;
+                else
+                    c = replaced++ % EDGE_CACHE;
+                edge_line(g, i, j, covered, wheel, travel, own_span, &lines[c]);
+                seen[c] = key;
             }
             side = edge_side(&lines[c], u - fi, v - fj);
             if (side == 1) {
@@ -393,22 +395,6 @@ static double cell_overlap_at(const PatchSides *p, const double *x_term, const d
         return square_below(p->nx[crossed], p->ny[crossed],
                             (p->limit[crossed] - base[crossed]) / c);
     return clipped_overlap(x0, y0, c, cx, cy, hx, hy, length, width);
-}
-
-/* Fraction of the square cell [x0, x0 + c] x [y0, y0 + c] inside the patch (one cell; the
- * marking works the sides out once for all its cells). */
-static double cell_overlap(double x0, double y0, double c, double cx, double cy, double hx,
-                           double hy, double length, double width)
-{
-    PatchSides p;
-    double x_term[4], y_term[4];
-    int side;
-    patch_sides(&p, c, hx, hy, length, width);
-    for (side = 0; side < 4; side++) {
-        x_term[side] = p.nx[side] * (x0 - cx);
-        y_term[side] = p.ny[side] * (y0 - cy);
-    }
-    return cell_overlap_at(&p, x_term, y_term, x0, y0, c, cx, cy, hx, hy, length, width);
 }
 
 /* The wheel presses the cells under its patch. Each cell keeps the mean over its area: a pass

@@ -19,7 +19,7 @@ import numpy as np
 
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_path, ranked_paths
-from idefix_rules.campaign.evaluation.spread import risk_spread
+from idefix_rules.campaign.evaluation.spread import RiskSpread, risk_spread
 from idefix_rules.campaign.input.waivers import (
     STORED_ATTRIBUTE,
     WaivedRule,
@@ -92,7 +92,7 @@ class PathResult:
     # rule failures the campaign's waivers cover on this path (campaign/input/waivers.py)
     waivers: list[WaivedRule] = field(default_factory=list)
     # the spread of the run risks, and their share at the limit (campaign/evaluation/spread.py)
-    risk_spread: Any = None
+    risk_spread: RiskSpread | None = None
 
     @property
     def failed(self) -> int:
