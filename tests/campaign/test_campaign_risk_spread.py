@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from campaign_texts import RULEBOOK
 
-from idefix_rules.campaign.evaluation.spread import CRITICAL, MIN_RUNS, risk_spread
+from idefix_rules.campaign.evaluation.spread import CRITICAL, MIN_RUNS, SAME, risk_spread
 from idefix_rules.cli import main
 
 
@@ -40,14 +40,20 @@ def test_too_few_runs_say_nothing_about_a_spread(runs: int, warned: bool) -> Non
     assert (risk_spread("a", np.ones(runs), {}).warning is not None) is warned
 
 
-def test_runs_that_all_score_the_same_are_named_and_a_difference_of_1e_6_is_not() -> None:
-    same = risk_spread("flat", np.full(10, 0.04), {})
-    assert same.uniform and not same.saturated
-    assert same.warning == ("flat: every one of its 10 runs scores I_max 4.0 %; the uncertainty "
-                            "moves nothing the rulebook reads")
-    differing = np.full(10, 0.04)
-    differing[3] += 1e-6
-    assert risk_spread("flat", differing, {}).warning is None
+@pytest.mark.parametrize(("apart", "uniform"), [(0.0, True), (0.5 * SAME, True),
+                                               (0.99 * SAME, True), (1.01 * SAME, False)])
+def test_runs_that_all_score_the_same_are_named_down_to_rounding(apart: float,
+                                                                 uniform: bool) -> None:
+    # the flat control's straight chain: every run the same physics shifted, 4.7e-9 apart
+    risks = np.full(10, 0.04)
+    risks[3] += apart
+    spread = risk_spread("flat", risks, {})
+    assert spread.uniform is uniform and not spread.saturated
+    if uniform:
+        assert spread.warning == ("flat: every one of its 10 runs scores I_max 4.0 %; the "
+                                  "uncertainty moves nothing the rulebook reads")
+    else:
+        assert spread.warning is None
 
 
 def test_runs_that_did_not_complete_are_left_out() -> None:
