@@ -16,7 +16,9 @@ digest reproduced on the old sources before it was replaced; the rut window of a
 fixed after, left it unchanged: only the source hash was recorded again), and the rover's when
 a wheel on a rock was compared with the soil at the depth the soil would carry it there instead
 of at zero sinkage (a wheel at a rock's edge no longer alternates between the two every step;
-its 4 cm rock meets it). A change to either must
+its 4 cm rock meets it); where the balance search fails the rover now follows Newton's second
+law over the step instead of the search's last iterate (no run of the digest's campaign meets a
+failed search: the digest reproduced, the source hash recorded again). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression."""
 
@@ -37,7 +39,7 @@ from idefix_rules.fmu.build import source_hash
 # a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
 # pressed fraction and mean depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "5960cd35c1d90fe7b2c3ce37aaf7b8c88fb8d33833d0460659fe6b11f1eab953"
+ROVER_SOURCE_HASH = "0c43e8f447b8e51d8a8909ca75f96849e45fa896c0f5f571e90a5517651b35d0"
 ROVER_DIGEST = "0cf109ee0799f2f81c89881d95b5a1537e7233c30e0c47f883297585ea4b1c01"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 

@@ -300,6 +300,42 @@ def test_a_thin_tall_pebble_under_the_wheel_edge_lifts_the_wheel(
     assert out["roll"].min() < -0.9 * math.atan(0.05 / (2 * 0.26)) / 2
 
 
+PEBBLES = [Rock(0.35, -0.30, 0.01, 0.01, 0.01, embed=0.003),
+           Rock(0.60, 0.22, 0.01, 0.01, 0.01, embed=0.003),
+           Rock(0.75, -0.10, 0.012, 0.012, 0.012, embed=0.004),
+           Rock(0.55, 0.42, 0.04, 0.04, 0.04, embed=0.01, level="L2")]
+
+
+@pytest.mark.parametrize("cohesion", [136.0, 250.0])
+def test_a_command_starting_on_a_pebble_accelerates_the_body_with_the_wheel_ramp(
+        rover: FmuRunner, tmp_path: Path, cohesion: float) -> None:
+    # campaigns/pebble-field.yaml's two-legs chain in one of its drawn worlds: the second leg
+    # starts with the front left wheel on a pebble and the front right one lifted (the chassis
+    # on a diagonal), where the balance search fails on the first small wheel rates. The rover
+    # then moves as Newton's second law gives with the forces at play (docs/rover-model.md,
+    # "Quasi-static motion"), so the body follows its rims up the ramp:
+    # controller.wheel_acceleration 0.015 rad/s^2 is 1.5 mm/s^2 at the rim, plus the steady
+    # slip settling. Following the failed search's last iterate instead kicked the body to twice
+    # its rims' speed (slip -1) and 6.5 mm/s^2, above the default rulebook's 3 mm/s^2 limit.
+    terrain = write_terrain(tmp_path / "pebbles.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, slope=math.radians(1.0), slope_direction=math.radians(90.0),
+        roughness=0.002, seed=7, rocks=PEBBLES))
+    two_legs = [Command(0.05, 0.4, 0.0), Command(0.05, 0.4, 0.0)]
+    out = rover.run({"terrain.file": str(terrain), "soil.cohesion": cohesion,
+                     "soil.friction_angle": 0.5774, "initial.x": 0.0096,
+                     "initial.y": -0.01656, "initial.yaw": -0.00671}, two_legs, 200.0, 0.1)
+    t = out["t"]
+    speed = np.hypot(np.gradient(out["x"], t), np.gradient(out["y"], t))
+    second = int(np.argmax(out["command"] == 1))
+    start = slice(second - 10, second + 30)  # from 1 s before the second leg to 3 s into it
+    # on the pebble (no sinkage into soil) and lifted (no sinkage, no slip)
+    assert out["wheel.sinkage"][second, FL] == 0.0 and out["wheel.sinkage"][second, RR] > 0.0
+    assert out["wheel.sinkage"][second, FR] == 0.0 and out["wheel.slip"][second, FR] == 0.0
+    ramp = 0.015 * 0.1
+    assert np.abs(np.gradient(speed, t)[start]).max() < 1.25 * ramp
+    assert out["wheel.slip"][start].min() > -0.2  # the body never runs far ahead of its rims
+
+
 def test_every_rock_near_a_wheel_counts_however_many(rover: FmuRunner, tmp_path: Path) -> None:
     # 40 low pebbles around the right front wheel's path, then one 4 cm rock last in the file:
     # the last one lifts the wheel as if it were alone.

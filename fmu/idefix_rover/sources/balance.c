@@ -7,6 +7,7 @@
 
 #define SPEED_LIMIT 1.0        /* m/s, bound of the balance search (quasi-static speeds: mm/s) */
 #define BALANCE_TOLERANCE 1e-4 /* residual of a balance, as a fraction of the weight m g */
+#define DYNAMIC_SUBSTEPS 8     /* implicit sub-steps of a step the balance search failed on */
 
 void balance_residual(Instance *inst, const double q[3], double gx, double gy, double out[3])
 {
@@ -184,4 +185,44 @@ void balance_limit_acceleration(Instance *inst, const double previous[3], double
     }
     largest = inertia > 0.0 ? moment / inertia * dt : fabs(dw);
     if (fabs(dw) > largest) q[2] = previous[2] + (dw > 0.0 ? largest : -largest);
+}
+
+/* Where the search fails on a balance that exists (a stiff corner of the regularised laws, or a
+ * balance on a kink of them), the rover moves as Newton's second law says with the model's own
+ * forces: M dq/dt = R(q), M = diag(m, m, I_z), from the previous velocity over the step, in
+ * linearly implicit Euler sub-steps ((M/h - dR/dq) dq = R(q); the wheel and rock laws are stiff,
+ * relaxation times of milliseconds, so an explicit step would oscillate). Where a balance
+ * attracts the velocity this settles on it; where the net force stays (a wheel pressed against a
+ * rock with another lifted) the velocity changes by what that force gives, whatever path the
+ * failed search took. */
+void balance_integrate(Instance *inst, double gx, double gy, const double previous[3], double dt,
+                       double q[3])
+{
+    const double mass = inst->r[VR_ROVER_MASS], inertia = inst->r[VR_ROVER_YAW_INERTIA];
+    const double arm = inst->r[VR_ROVER_HALF_TRACK];
+    const double eps = inst->r[VR_SOLVER_VELOCITY_EPSILON];
+    const double step[3] = {1e-3 * eps, 1e-3 * eps, 1e-3 * eps / arm};
+    const double h = dt / DYNAMIC_SUBSTEPS;
+    double r[3], jac[3][3], dq[3];
+    int n, i, k;
+    memcpy(q, previous, 3 * sizeof(double));
+    for (n = 0; n < DYNAMIC_SUBSTEPS; n++) {
+        balance_residual(inst, q, gx, gy, r);
+        for (k = 0; k < 3; k++) {
+            double qp[3], rp[3];
+            memcpy(qp, q, sizeof(qp));
+            qp[k] += step[k];
+            balance_residual(inst, qp, gx, gy, rp);
+            for (i = 0; i < 3; i++) jac[i][k] = -(rp[i] - r[i]) / step[k];
+        }
+        jac[0][0] += mass / h;
+        jac[1][1] += mass / h;
+        jac[2][2] += inertia / h;
+        if (solve3(jac, r, dq) != 0) {  /* singular: the explicit step of the same law */
+            dq[0] = r[0] / mass * h;
+            dq[1] = r[1] / mass * h;
+            dq[2] = r[2] / inertia * h;
+        }
+        for (i = 0; i < 3; i++) q[i] += isfinite(dq[i]) ? dq[i] : 0.0;
+    }
 }

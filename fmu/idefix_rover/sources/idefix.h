@@ -195,6 +195,8 @@ void loads_update(Instance *inst, const double contact_angle[N_WHEELS]);
 void balance_residual(Instance *inst, const double q[3], double gx, double gy, double out[3]);
 int balance_can_hold(const Instance *inst);
 int balance_solve(Instance *inst, double gx, double gy, double q[3], int from_rest);
+void balance_integrate(Instance *inst, double gx, double gy, const double previous[3], double dt,
+                       double q[3]);
 void balance_limit_acceleration(Instance *inst, const double previous[3], double q[3], double dt);
 
 /* ---------------------------------------------------------------- parameters.c */

@@ -88,20 +88,10 @@ void rover_step(Instance *inst, double dt)
         }
         /* Without a balance the rover slides only where physics says none exists: the wheels'
          * full-skid strength cannot hold the in-plane gravity. Otherwise the search failed on a
-         * balance that exists (a stiff corner of the regularised laws): the velocity stays
-         * within the rim speeds as in the search and follows it as far as inertia allows. */
+         * balance that exists (a stiff corner or a kink of the regularised laws): the rover
+         * moves as Newton's second law gives with the forces at play, integrated implicitly
+         * over the step from the previous velocity. */
         inst->sliding = !found && !balance_can_hold(inst);
-        if (!found && !inst->sliding) {
-            double bound = 0.0;
-            for (i = 0; i < N_WHEELS; i++)
-                if (fabs(inst->wheels[i].rate) * radius > bound) bound = fabs(inst->wheels[i].rate) * radius;
-            bound = 2.0 * bound > 0.01 ? 2.0 * bound : 0.01;
-            for (i = 0; i < 3; i++) {
-                double limit = i == 2 ? bound / inst->r[VR_ROVER_HALF_TRACK] : bound;
-                if (!isfinite(q[i])) q[i] = 0.0;
-                q[i] = q[i] > limit ? limit : (q[i] < -limit ? -limit : q[i]);
-            }
-        }
         if (inst->sliding) {
             /* No quasi-static balance: the net force accelerates the rover (Newton's second
              * law with the wheel forces at the present velocity), an uncontrolled slide. */
@@ -111,6 +101,8 @@ void rover_step(Instance *inst, double dt)
             q[0] += r[0] / mass * dt;
             q[1] += r[1] / mass * dt;
             q[2] += r[2] / inertia * dt;
+        } else if (!found) {
+            balance_integrate(inst, gx, gy, previous, dt, q);
         } else {
             balance_limit_acceleration(inst, previous, q, dt);
         }
