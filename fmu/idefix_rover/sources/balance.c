@@ -192,9 +192,10 @@ void balance_limit_acceleration(Instance *inst, const double previous[3], double
  * forces: M dq/dt = R(q), M = diag(m, m, I_z), from the previous velocity over the step, in
  * linearly implicit Euler sub-steps ((M/h - dR/dq) dq = R(q); the wheel and rock laws are stiff,
  * relaxation times of milliseconds, so an explicit step would oscillate). Where a balance
- * attracts the velocity this settles on it; where the net force stays (a wheel pressed against a
- * rock with another lifted) the velocity changes by what that force gives, whatever path the
- * failed search took. */
+ * attracts the velocity this moves towards it (the residual about halves per sub-step); where the
+ * net force stays (a wheel pressed against a rock with another lifted) the velocity changes by
+ * what that force gives, whatever path the failed search took. In the body frame, without the
+ * transport terms m omega (v, -u), neglected as in the balance itself. */
 void balance_integrate(Instance *inst, double gx, double gy, const double previous[3], double dt,
                        double q[3])
 {
@@ -218,10 +219,18 @@ void balance_integrate(Instance *inst, double gx, double gy, const double previo
         jac[0][0] += mass / h;
         jac[1][1] += mass / h;
         jac[2][2] += inertia / h;
-        if (solve3(jac, r, dq) != 0) {  /* singular: the explicit step of the same law */
-            dq[0] = r[0] / mass * h;
-            dq[1] = r[1] / mass * h;
-            dq[2] = r[2] / inertia * h;
+        {
+            /* A damping law's implicit step is never larger, in the kinetic-energy norm, than
+             * its explicit one; a larger one means the one-sided differences across a kink of
+             * the laws made the linearisation push instead of damp: take the explicit step. */
+            double explicit_step[3] = {r[0] / mass * h, r[1] / mass * h, r[2] / inertia * h};
+            double implicit_energy, explicit_energy;
+            if (solve3(jac, r, dq) != 0) memcpy(dq, explicit_step, sizeof(dq));
+            implicit_energy = mass * (dq[0] * dq[0] + dq[1] * dq[1]) + inertia * dq[2] * dq[2];
+            explicit_energy = mass * (explicit_step[0] * explicit_step[0] +
+                                      explicit_step[1] * explicit_step[1]) +
+                              inertia * explicit_step[2] * explicit_step[2];
+            if (!(implicit_energy <= explicit_energy)) memcpy(dq, explicit_step, sizeof(dq));
         }
         for (i = 0; i < 3; i++) q[i] += isfinite(dq[i]) ? dq[i] : 0.0;
     }
