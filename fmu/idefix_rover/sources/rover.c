@@ -92,16 +92,9 @@ void rover_step(Instance *inst, double dt)
          * moves as Newton's second law gives with the forces at play, integrated implicitly
          * over the step from the previous velocity. */
         inst->sliding = !found && !balance_can_hold(inst);
-        if (inst->sliding) {
-            /* No quasi-static balance: the net force accelerates the rover (Newton's second
-             * law with the wheel forces at the present velocity), an uncontrolled slide. */
-            const double mass = inst->r[VR_ROVER_MASS], inertia = inst->r[VR_ROVER_YAW_INERTIA];
-            memcpy(q, previous, sizeof(previous));
-            balance_residual(inst, previous, gx, gy, r);
-            q[0] += r[0] / mass * dt;
-            q[1] += r[1] / mass * dt;
-            q[2] += r[2] / inertia * dt;
-        } else if (!found) {
+        if (!found) {
+            /* No balance found: the net force accelerates the rover (Newton's second law with
+             * the forces at play); where no balance exists, an uncontrolled slide. */
             balance_integrate(inst, gx, gy, previous, dt, q);
         } else {
             balance_limit_acceleration(inst, previous, q, dt);
