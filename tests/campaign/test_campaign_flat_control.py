@@ -69,7 +69,7 @@ def test_the_flat_control_is_not_critical_on_position(tmp_path: Path,
     assert f"warning: {spread['warning']}" in words
     assert spread["warning"].startswith("straight: every one of its 24 runs scores I_max 4.0 %")
     # the detours' turns cross their own ruts, which the 1 cm rut grid resolves a little
-    # differently from each shifted start (their runs 2e-4 to 1e-2 apart): no warning
+    # differently from each shifted start (64 runs: 6e-4 and 1e-2 apart): no warning
     for name in ("wide-detour", "smooth-detour"):
         assert paths[name]["risk_spread"]["warning"] is None, name
     assert f"warning: {' '.join(slip['warning'].split())}" in words  # its JSON form

@@ -56,6 +56,14 @@ def test_runs_that_all_score_the_same_are_named_down_to_rounding(apart: float,
         assert spread.warning is None
 
 
+def test_a_path_without_a_complete_run_has_a_strict_json_record() -> None:
+    # summary.json is written with allow_nan=False: NaN quartiles would fail the whole write
+    record = risk_spread("a", np.full(4, np.nan), {}).to_dict()
+    assert record["runs"] == 0 and record["warning"] is None
+    assert record["quartiles"] == [None, None, None] and record["iqr"] is None
+    json.dumps(record, allow_nan=False)
+
+
 def test_runs_that_did_not_complete_are_left_out() -> None:
     i_max = np.array([1.0, 1.0, np.nan, 0.2, np.nan, 0.3, 0.4, 0.5, 0.6, 0.7])
     index = np.array([1.0, 0.2, 1.0, 0.2, 1.0, 0.2, 0.2, 0.2, 0.2, 0.2])

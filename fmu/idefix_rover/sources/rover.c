@@ -86,15 +86,13 @@ void rover_step(Instance *inst, double dt)
             memcpy(q, previous, sizeof(previous));
             found = balance_solve(inst, gx, gy, q, 1);
         }
-        /* Without a balance the rover slides only where physics says none exists: the wheels'
-         * full-skid strength cannot hold the in-plane gravity. Otherwise the search failed on a
-         * balance that exists (a stiff corner or a kink of the regularised laws): the rover
-         * moves as Newton's second law gives with the forces at play, integrated implicitly
-         * over the step from the previous velocity. */
+        /* No balance found: the rover moves as Newton's second law gives with the forces at
+         * play, integrated implicitly over the step from the previous velocity. It slides
+         * (stuck) only where physics says no balance exists: the wheels' full-skid strength
+         * cannot hold the in-plane gravity; otherwise the search failed on a stiff corner or a
+         * kink of the regularised laws. */
         inst->sliding = !found && !balance_can_hold(inst);
         if (!found) {
-            /* No balance found: the net force accelerates the rover (Newton's second law with
-             * the forces at play); where no balance exists, an uncontrolled slide. */
             balance_integrate(inst, gx, gy, previous, dt, q);
         } else {
             balance_limit_acceleration(inst, previous, q, dt);

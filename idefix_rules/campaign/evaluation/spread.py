@@ -77,13 +77,18 @@ class RiskSpread:
         return None
 
     def to_dict(self) -> dict[str, Any]:
+        """The JSON record: a path without complete runs has null quartiles and extremes."""
         return {"runs": self.runs, "critical": round(self.critical, 4),
                 "critical_at": CRITICAL,
-                "quartiles": [round(q, 4) for q in self.quartiles],
-                "iqr": round(self.iqr, 4), "lowest": round(self.lowest, 4),
-                "highest": round(self.highest, 4),
+                "quartiles": [_rounded(q) for q in self.quartiles],
+                "iqr": _rounded(self.iqr), "lowest": _rounded(self.lowest),
+                "highest": _rounded(self.highest),
                 "at_limit": {name: round(share, 4) for name, share in self.at_limit.items()},
                 "saturated": self.saturated, "uniform": self.uniform, "warning": self.warning}
+
+
+def _rounded(value: float) -> float | None:
+    return round(value, 4) if np.isfinite(value) else None
 
 
 def risk_spread(path: str, i_max: np.ndarray, indices: Mapping[str, np.ndarray]) -> RiskSpread:
