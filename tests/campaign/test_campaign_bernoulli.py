@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
@@ -97,3 +97,35 @@ def test_the_sequential_bounds_only_tighten():
     uppers = [bernoulli.sequential_upper(draw[:n], ALPHA) for n in (50, 100, 200, 500)]
     lowers = [bernoulli.sequential_lower(draw[:n], ALPHA) for n in (50, 100, 200, 500)]
     assert uppers == sorted(uppers, reverse=True) and lowers == sorted(lowers)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 700), st.sampled_from([0.0, 0.002, 0.01, 0.05, 0.4, 0.97, 1.0]),
+       st.integers(0, 2**31), st.sampled_from([0.05, 0.0125, 0.003]),
+       st.sampled_from([0.999, 1.001]))
+def test_testing_a_limit_directly_agrees_with_the_bound_either_side_of_it(
+        runs, truth, seed, alpha, factor):
+    """The direct test at a limit (the runs-needed estimate's) says what comparing the
+    bisected bound with that limit says, with the limit just inside and just outside the
+    bound, on both sides."""
+    draw = (np.random.default_rng(seed).random(runs) < truth).astype(float)
+    upper = bernoulli.sequential_upper(draw, alpha)
+    lower = bernoulli.sequential_lower(draw, alpha)
+    high_limit, low_limit = upper * factor, lower * factor
+    event("the limit is above the upper bound" if high_limit > upper
+          else "the limit is below the upper bound")
+    assert bernoulli.sequential_upper_below(draw, high_limit, alpha) == (upper < high_limit)
+    assert bernoulli.sequential_lower_above(draw, low_limit, alpha) == (lower > low_limit)
+
+
+def test_a_boundary_looked_up_is_the_boundary_computed():
+    """The boundaries kept from one look to the next are the ones bisection gives, whatever
+    else was asked for with them."""
+    events = np.array([0.0, 0.0, 3.0, 7.0, 0.0])
+    runs = np.array([32.0, 544.0, 64.0, 100.0, 32.0])
+    bernoulli._BOUNDARIES.clear()
+    first = bernoulli._boundary(events, runs, ALPHA)
+    again = bernoulli._boundary(events[::-1], runs[::-1], ALPHA)
+    alone = [bernoulli._bisect(events[i:i + 1], runs[i:i + 1], ALPHA)[0] for i in range(5)]
+    assert first.tolist() == alone and again.tolist() == alone[::-1]
+    assert bernoulli._boundary(events, runs, 0.01)[0] > first[0]  # alpha is part of the key

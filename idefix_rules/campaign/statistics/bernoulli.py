@@ -105,9 +105,31 @@ def log_evidence_above(events: np.ndarray | float, runs: np.ndarray | float,
                               1.0 - np.asarray(limit, dtype=np.float64))
 
 
+# (events, runs, alpha) -> _bisect's boundary: an adaptive campaign asks again at every look for
+# the boundaries before each event it asked for at the look before, and its chances with no
+# event share one (0, n, alpha). Cleared when full; a value is the same computed or looked up.
+_BOUNDARIES: dict[tuple[float, float, float], float] = {}
+_BOUNDARIES_KEPT = 1 << 16
+
+
 def _boundary(events: np.ndarray, runs: np.ndarray, alpha: float) -> np.ndarray:
     """Per (events, runs): the smallest p₀ above the observed share whose null ``p ≥ p₀`` is
-    rejected (the upper bound after those runs), by bisection."""
+    rejected (the upper bound after those runs), by bisection; each pair bisected once."""
+    keys = [(float(s), float(n), float(alpha)) for s, n in zip(events, runs, strict=True)]
+    known = {key: _BOUNDARIES[key] for key in keys if key in _BOUNDARIES}
+    missing = sorted(set(keys) - known.keys())
+    if missing:
+        found = _bisect(np.array([key[0] for key in missing]),
+                        np.array([key[1] for key in missing]), alpha)
+        known.update(zip(missing, found.tolist(), strict=True))
+        if len(_BOUNDARIES) + len(missing) > _BOUNDARIES_KEPT:
+            _BOUNDARIES.clear()
+        _BOUNDARIES.update(zip(missing, found.tolist(), strict=True))
+    return np.array([known[key] for key in keys], dtype=np.float64)
+
+
+def _bisect(events: np.ndarray, runs: np.ndarray, alpha: float) -> np.ndarray:
+    """:func:`_boundary`'s values, computed."""
     target = math.log(1.0 / alpha)
     low = events / np.maximum(runs, 1.0)
     high = np.ones_like(low)
@@ -119,12 +141,9 @@ def _boundary(events: np.ndarray, runs: np.ndarray, alpha: float) -> np.ndarray:
     return np.asarray(high)
 
 
-def sequential_upper(events: np.ndarray, alpha: float) -> float:
-    """Anytime-valid upper bound of the proportion after the 0/1 ``events`` (run order):
-    the running intersection over every run count. 1 without runs."""
-    x = np.asarray(events, dtype=np.float64).ravel()
-    if x.size == 0:
-        return 1.0
+def _intersection_points(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(events, runs) at the run counts the running intersection of the 0/1 stream ``x``
+    (run order, not empty) looks at."""
     count = np.cumsum(x)
     runs = np.arange(1, x.size + 1, dtype=np.float64)
     # The bound falls with every run without the event and rises with each event: its
@@ -134,7 +153,36 @@ def sequential_upper(events: np.ndarray, alpha: float) -> float:
         wanted = np.geomspace(1.0, float(x.size), INTERSECTION_COUNTS)
         picked = np.searchsorted(at + 1, wanted)
         at = np.unique(np.concatenate((at[np.minimum(picked, at.size - 1)], at[-1:])))
-    return float(np.min(_boundary(count[at], runs[at], alpha)))
+    return count[at], runs[at]
+
+
+def sequential_upper(events: np.ndarray, alpha: float) -> float:
+    """Anytime-valid upper bound of the proportion after the 0/1 ``events`` (run order):
+    the running intersection over every run count. 1 without runs."""
+    x = np.asarray(events, dtype=np.float64).ravel()
+    if x.size == 0:
+        return 1.0
+    return float(np.min(_boundary(*_intersection_points(x), alpha)))
+
+
+def sequential_upper_below(events: np.ndarray, limit: float, alpha: float) -> bool:
+    """Whether :func:`sequential_upper` lies below ``limit`` (to its bisection's 2⁻⁴⁸), tested
+    at ``limit`` directly: the evidence grows with p₀ above the observed share, so the
+    bound is below ``limit`` where the evidence at ``limit`` reaches ``log(1/α)`` after one
+    of the run counts the intersection looks at. One evaluation instead of a bisection."""
+    x = np.asarray(events, dtype=np.float64).ravel()
+    if x.size == 0 or limit > 1.0:
+        return limit > 1.0  # the bound is at most 1
+    count, runs = _intersection_points(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        evidence = log_evidence_below(count, runs, limit)
+    return bool(np.any(evidence >= math.log(1.0 / alpha)))
+
+
+def sequential_lower_above(events: np.ndarray, limit: float, alpha: float) -> bool:
+    """Whether :func:`sequential_lower` lies above ``limit`` (the mirror image)."""
+    x = np.asarray(events, dtype=np.float64).ravel()
+    return sequential_upper_below(1.0 - x, 1.0 - limit, alpha)
 
 
 def sequential_lower(events: np.ndarray, alpha: float) -> float:

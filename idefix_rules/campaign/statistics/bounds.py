@@ -147,9 +147,8 @@ def rejects(kind: str, values: np.ndarray, candidate: float, alpha: float, side:
             bound = (bernoulli.fixed_lower(count, x.size, alpha) if side == "lower"
                      else bernoulli.fixed_upper(count, x.size, alpha))
             return bound > candidate if side == "lower" else bound < candidate
-        bound = (bernoulli.sequential_lower(x, alpha) if side == "lower"
-                 else bernoulli.sequential_upper(x, alpha))
-        return bound > candidate if side == "lower" else bound < candidate
+        return (bernoulli.sequential_lower_above(x, candidate, alpha) if side == "lower"
+                else bernoulli.sequential_upper_below(x, candidate, alpha))
     if kind == "bounded":
         if not 0.0 <= candidate <= 1.0:  # outside the range: the side facing it excludes it
             return (candidate > 1.0) == (side == "upper")
