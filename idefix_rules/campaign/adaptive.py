@@ -20,6 +20,7 @@ gives the same decisions, and simulates only what is missing.
 from __future__ import annotations
 
 import contextlib
+import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,6 +31,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
     concatenate,
     evaluate_path,
 )
+from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
@@ -47,6 +49,7 @@ from idefix_rules.campaign.simulation.simulate import (
     run_and_store,
     sampled_task,
 )
+from idefix_rules.campaign.simulation.worker import run_checks
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
 from idefix_rules.campaign.statistics.budget import alpha_budget
@@ -89,20 +92,25 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     sigma = initial_position_sigma(campaign)
-    # a look's new runs of a path are split over the local processes for their collision
-    # checks (the pool waits meanwhile; at most 64 runs a chunk); each chunk's checks depend on
-    # its poses alone, and the first pass of reductions over runs keeps chunks of 64 whatever
-    # the split (its sums depend on the chunking in the last bit)
+    # the workers check each run they simulate (local pool); a look's new runs not checked
+    # so (Dask, runs stored before a --resume) are split over the local processes for their
+    # collision checks (the pool waits meanwhile; at most 64 runs a chunk); each chunk's
+    # checks depend on its poses alone, and the first pass of reductions over runs keeps
+    # chunks of 64 whatever the split (its sums depend on the chunking in the last bit)
     checkers = local_workers(options, campaign)
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
+        remember = collisions if _checked_in_workers(collisions, evaluator, options) else None
+        check = stack.enter_context(run_checks(
+            functools.partial(run_collisions, remember.checker))) \
+            if remember is not None and running else None
         pool = stack.enter_context(contextlib.closing(
             monte_carlo_pool(campaign, running, store, options))) if running else None
         for look in settings.looks():
             if not running:
                 break
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
-                           progress, summary, pool)
+                           progress, summary, pool, check, remember)
             for name, plan in running.items():
                 new = look - done[name]  # rows; the complete ones among them are checked
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
@@ -145,15 +153,27 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                    running: Mapping[str, PathPlan], sampled: Mapping[str, dict[str, np.ndarray]],
                    done: Mapping[str, int], look: int, store: ResultStore,
                    options: SimulationOptions, progress: Progress,
-                   summary: SimulationSummary, pool: Any) -> None:
-    """Simulate and store every missing run below ``look`` of the running paths."""
+                   summary: SimulationSummary, pool: Any, check: str | None = None,
+                   remember: RememberedCollisions | None = None) -> None:
+    """Simulate and store every missing run below ``look`` of the running paths (each
+    checked for collisions by its worker too, when ``check`` names the workers' check)."""
     rows = {}
     for name in running:
         # stored before a --resume: skipped; lost to the infrastructure: simulated again
         missing = runs_to_simulate(store, name, reset=True)
         rows[name] = missing[(missing >= done[name]) & (missing < look)]
-    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled)),
-                  running, store, options, progress, summary, pool)
+    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled,
+                                                           check)),
+                  running, store, options, progress, summary, pool, remember)
+
+
+def _checked_in_workers(collisions: Any, evaluator: Any, options: SimulationOptions) -> bool:
+    """Whether the local workers check each run's collisions where they simulate it: the
+    looks then score their runs with the checks kept (no second pass over the poses, no
+    processes forked for it at every look). Only on the local pool, whose workers are
+    forked with the check; on Dask every look checks its runs."""
+    return (isinstance(collisions, RememberedCollisions) and collisions.usable_for(evaluator)
+            and not (options.scheduler or options.dask_local))
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

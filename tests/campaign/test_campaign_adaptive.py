@@ -4,7 +4,9 @@ user's mistakes (exit 2)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -17,12 +19,13 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_robustness import KILLER, assert_same_datasets
 
-from idefix_rules.campaign import runner
+from idefix_rules.campaign import adaptive, runner
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.input.environment import read_terrain
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
+from idefix_rules.campaign.simulation import worker
 from idefix_rules.campaign.simulation.simulate import (
     SimulationOptions,
     initial_position_sigma,
@@ -156,8 +159,9 @@ def rock_campaign(campaign_dir: Path) -> Path:
 
 def test_looks_checking_collisions_on_two_processes_stop_and_store_alike(
         campaign_dir: Path, tmp_path: Path) -> None:
-    # With two workers a look's new runs of a path are split into chunks whose collision
-    # checks run on forked processes; with one they are checked in the campaign's process.
+    # The workers check the runs they simulate (one or two of them); a look's evaluation
+    # splits its new runs into chunks checked on forked processes where they are not (Dask,
+    # a resumed campaign's earlier runs), below.
     path = rock_campaign(campaign_dir)
     assert_same_campaign(path, tmp_path, SimulationOptions(workers=1),
                          SimulationOptions(workers=2))
@@ -358,6 +362,60 @@ def test_remembered_collisions_written_by_a_campaign_equal_checking_again(
                  SimulationOptions(workers=2), report=False)
     assert_same_datasets(tmp_path / "remembered" / "results.h5",
                          tmp_path / "checked" / "results.h5")
+
+
+def test_the_workers_check_the_runs_they_simulate_and_the_looks_check_none(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # On the local pool every Monte Carlo run's collisions are checked by the worker that
+    # simulated it, on the poses as stored: the campaign's process checks only the paths'
+    # reference runs (one each, before the looks), at no look and not after the last, and
+    # stores what checking at the looks stores (the same results file).
+    path = rock_campaign(campaign_dir)
+    campaign = load_campaign(path)
+    in_parent: list[int] = []
+    parent = os.getpid()
+    checking = ObstacleCheck.__call__
+
+    def counted(self: ObstacleCheck, poses: Any, runs: Any = None) -> Any:
+        if os.getpid() == parent:
+            in_parent.append(len(poses["x"]))
+        return checking(self, poses, runs)
+
+    monkeypatch.setattr(ObstacleCheck, "__call__", counted)
+    for workers in (1, 2):
+        in_parent.clear()
+        result = run_campaign(campaign.with_overrides(output=tmp_path / f"workers{workers}"),
+                              SimulationOptions(workers=workers), report=False)
+        references = sum(p["status"] == "simulated" for p in result.summary["paths"])
+        assert references == 2 and in_parent == [1] * references, workers
+    in_parent.clear()
+    monkeypatch.setattr(adaptive, "_checked_in_workers", lambda *arguments: False)
+    run_campaign(campaign.with_overrides(output=tmp_path / "looks"),  # checked in-process
+                 SimulationOptions(workers=1), report=False)
+    with h5py.File(tmp_path / "looks" / "results.h5", "r") as results:
+        simulated = sum(int(results[f"paths/{name}"].attrs["runs_used"])
+                        for name in results["paths"]
+                        if "runs_used" in results[f"paths/{name}"].attrs)
+    assert sum(in_parent) == references + simulated  # every run checked once, at its look
+    assert simulated > 0
+    for workers in (1, 2):
+        assert_same_datasets(tmp_path / f"workers{workers}" / "results.h5",
+                             tmp_path / "looks" / "results.h5")
+
+
+def test_a_worker_checks_only_for_the_campaign_it_was_forked_for() -> None:
+    # A worker holds the check of the campaign whose pool forked it; a task of another
+    # campaign (another token), or one that asks for none, is not checked there.
+    def check(signals: Any, run: int) -> dict[str, Any]:
+        return {"run": run}
+
+    task = worker.RunTask("toy.fmu", None, None, (), (), 1.0, 0.1, 2, run=7)
+    signals = {"x": np.zeros(2)}
+    with worker.run_checks(check) as token:
+        assert worker._check_run(dataclasses.replace(task, check=token), signals) == {"run": 7}
+        assert worker._check_run(dataclasses.replace(task, check="another"), signals) is None
+        assert worker._check_run(task, signals) is None
+    assert worker._check_run(dataclasses.replace(task, check=token), signals) is None
 
 
 def test_remembered_rows_give_area_signals_only_to_a_rulebook_that_reads_them() -> None:

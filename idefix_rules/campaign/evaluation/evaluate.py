@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
-from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
+from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, collision_pieces
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_path, ranked_paths
 from idefix_rules.campaign.evaluation.spread import RiskSpread, risk_spread
 from idefix_rules.campaign.input.waivers import (
@@ -41,8 +41,6 @@ from idefix_rules.results.collisions import (
     CONTACT_COLUMNS,
     ChunkCollisions,
     CollisionFunction,
-    clearance_profile,
-    contact_intervals,
 )
 from idefix_rules.results.reader import StoredResults
 from idefix_rules.results.runs import ParallelRuns, complete_rows
@@ -213,16 +211,14 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
             finished.append(chain_finished(chunk.signals))
             collided = chunk.collisions[0]
             if collided is not None and known is None:
-                extra, chunk_details = collided
-                hits.append(extra.get("collision.hits"))
-                buffers.append(extra.get("collision.buffer"))
-                details.append((chunk.rows, detail_texts(chunk_details)))
-                # kept small: the contacts as intervals, the clearance as a profile
-                if "collision.contact" in extra:
-                    contacts.append(contact_intervals(extra["collision.contact"], chunk.rows))
-                if "collision.clearance" in extra and "t" in chunk.signals:
-                    profiles.append(clearance_profile(extra["collision.clearance"],
-                                                      chunk.signals["t"]))
+                pieces = collision_pieces(chunk.rows, *collided, chunk.signals.get("t"))
+                hits.append(pieces["hits"])
+                buffers.append(pieces["buffer"])
+                details.extend(pieces["details"])
+                if pieces["contact"] is not None:
+                    contacts.append(pieces["contact"])
+                if pieces["clearance_profile"] is not None:
+                    profiles.append(pieces["clearance_profile"])
             parts.append(without_samples(chunk.evaluations[0]))
     finally:
         runs.close()
@@ -244,16 +240,6 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
         if remembered is not None:
             remembered.record(name, complete, extra_store)
     return evaluation, extra_store
-
-
-def detail_texts(records: Sequence[Mapping[str, Any]]) -> np.ndarray:
-    """A chunk's per-run collision details as the JSON text the evaluation stores (UTF-8
-    bytes, one row per run): kept this way, not as nested dicts, until the path is written.
-
-    >>> detail_texts([{"run": 3, "hits": {"wheel": []}}])
-    array([b'{"run": 3, "hits": {"wheel": []}}'], dtype='|S33')
-    """
-    return np.array([json.dumps(record).encode("utf-8") for record in records], dtype=bytes)
 
 
 def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sigma: float,

@@ -6,10 +6,14 @@ look scores every run again, because a rule over the runs of a path (``mean over
 changes as runs are added; a run's collisions do not: they are a pure function of its poses
 and the obstacles. :class:`RememberedCollisions` keeps, per path and run, what the evaluation
 stores of them (hits, buffer, the contacts as intervals, the clearance profile, the details)
-and gives the evaluation stage those rows instead of checking the runs again, the way
+and gives the looks and the evaluation stage those rows instead of checking the runs (again),
+the way
 ``idefix-verify diff --results`` reuses the stored ones
 (:class:`~idefix_rules.results.collisions.StoredChunks`). It stands in for the checker
-wherever one is expected and checks, with it, what it does not hold.
+wherever one is expected and checks, with it, what it does not hold. On the local pool the
+workers check each run they simulate (:func:`run_collisions`, on the poses at their stored
+precision) and the campaign records their answer as the run is stored, so no look checks
+a run either.
 
 Only rulebooks whose collision reads are among the stored signals (``collision.hits``,
 ``collision.buffer``, ``collision.contact``) are given remembered rows; any other read
@@ -21,19 +25,24 @@ share; at most
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import json
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from idefix_rules.results.collisions import (
     CONTACT_COLUMNS,
+    POSE_SIGNALS,
     STORED_COLLISIONS,
     ObstacleCheck,
     StoredChunks,
     area_reads,
+    clearance_profile,
     collision_reads,
+    contact_intervals,
 )
+from idefix_rules.results.format import storage_dtype
 
 # What the kept rows of all paths may take (about 150,000 runs of the pebble field); a path
 # whose rows would pass it is given up (its kept rows freed) and checked again by the
@@ -144,6 +153,46 @@ class RememberedCollisions:
             "clearance_profile": np.stack([kept.profile[row] for row in order])
             if order and len(kept.profile) == len(kept.details) else None}
         return pieces
+
+
+def detail_texts(records: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """A chunk's per-run collision details as the JSON text the evaluation stores (UTF-8
+    bytes, one row per run): kept this way, not as nested dicts, until the path is written.
+
+    >>> detail_texts([{"run": 3, "hits": {"wheel": []}}])
+    array([b'{"run": 3, "hits": {"wheel": []}}'], dtype='|S33')
+    """
+    return np.array([json.dumps(record).encode("utf-8") for record in records], dtype=bytes)
+
+
+def collision_pieces(rows: np.ndarray, extra: Mapping[str, np.ndarray],
+                     details: Sequence[Mapping[str, Any]], t: np.ndarray | None
+                     ) -> dict[str, Any]:
+    """What the evaluation stores of a chunk's collision check (``extra``, ``details``: the
+    checker's answer for the runs ``rows``; ``t`` their time grid): kept small, the contacts
+    as intervals and the clearance as a profile. :meth:`RememberedCollisions.record` takes
+    it."""
+    contact = extra.get("collision.contact")
+    clearance = extra.get("collision.clearance")
+    return {
+        "hits": extra.get("collision.hits"),
+        "buffer": extra.get("collision.buffer"),
+        "details": [(rows, detail_texts(details))],
+        "contact": None if contact is None else contact_intervals(contact, rows),
+        "clearance_profile": None if clearance is None or t is None
+        else clearance_profile(clearance, t)}
+
+
+def run_collisions(checker: ObstacleCheck, signals: Mapping[str, np.ndarray], run: int
+                   ) -> dict[str, Any]:
+    """:func:`collision_pieces` of one run, checked where it was simulated: on its poses as
+    the results file stores them (each at its stored precision), so the answer is the one a
+    check of the stored run gives (a run's check depends on its own poses only)."""
+    poses = {key: np.asarray(signals[key], dtype=storage_dtype(key)).astype(np.float64)[None]
+             for key in POSE_SIGNALS}
+    rows = np.array([run], dtype=np.int64)
+    extra, details = checker(poses, rows)
+    return collision_pieces(rows, extra, details, poses["t"])
 
 
 def _no_areas(signals: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

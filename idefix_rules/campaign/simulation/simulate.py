@@ -16,7 +16,7 @@ from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -49,6 +49,9 @@ from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
 from idefix_rules.results.terrain import TerrainSource, file_sha256
 from idefix_rules.timestamps import now_iso
+
+if TYPE_CHECKING:
+    from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 
 RESULTS_FILE = "results.h5"
 
@@ -380,9 +383,12 @@ def _describe(item: Any) -> str:
 
 
 def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
-             parameters: Mapping[str, float | str], encode: bool = False) -> RunTask:
+             parameters: Mapping[str, float | str], encode: bool = False,
+             check: str | None = None, run: int = -1) -> RunTask:
     """The task simulating one run of ``plan``'s chain with ``parameters`` (SI, by the
-    campaign's names); ``encode``: the worker hands back the chunks the results file stores."""
+    campaign's names); ``encode``: the worker hands back the chunks the results file stores;
+    ``check``: the token of the collision check the worker runs on run ``run`` too
+    (:func:`~idefix_rules.campaign.simulation.worker.run_checks`)."""
     maps = campaign.model.fmu
     return RunTask(
         fmu_path=fmu.path,
@@ -401,6 +407,8 @@ def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
         done_at=maps.done_at,
         rover=rover_geometry(campaign) if maps.chain.delivery == "inputs" else None,
         encode=encode,
+        check=check,
+        run=run,
     )
 
 
@@ -543,13 +551,16 @@ class PlannedRuns:
 
 def sampled_task(campaign: Campaign, fmu: FmuSource, base: Mapping[str, float | str],
                  plans: Mapping[str, PathPlan],
-                 sampled: Mapping[str, Mapping[str, np.ndarray]]) -> TaskMaker:
+                 sampled: Mapping[str, Mapping[str, np.ndarray]],
+                 check: str | None = None) -> TaskMaker:
     """What makes the task of run ``run`` of a path: its chain with the run-independent
-    parameters ``base`` and the run's row of the path's ``sampled`` values."""
+    parameters ``base`` and the run's row of the path's ``sampled`` values (``check``: see
+    :func:`run_task`)."""
     def make(name: str, run: int) -> RunTask:
         parameters = dict(base)
         parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
-        return run_task(campaign, fmu, plans[name], parameters, encode=True)
+        return run_task(campaign, fmu, plans[name], parameters, encode=True, check=check,
+                        run=run)
 
     return make
 
@@ -573,11 +584,13 @@ def monte_carlo_pool(campaign: Campaign, plans: Mapping[str, PathPlan], store: R
 
 def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, PathPlan],
                   store: ResultStore, options: SimulationOptions, progress: Progress,
-                  summary: SimulationSummary, pool: Any = None) -> None:
+                  summary: SimulationSummary, pool: Any = None,
+                  remember: RememberedCollisions | None = None) -> None:
     """Simulate Monte Carlo runs and store each as it finishes (``plans`` by name give each
     run's default timeout). Tasks are made as the pool takes them, never listed: the parent's
     memory does not grow with the number of runs. ``pool``: a persistent pool
-    (:func:`monte_carlo_pool`) to run them on and leave open; else one for these runs."""
+    (:func:`monte_carlo_pool`) to run them on and leave open; else one for these runs.
+    ``remember``: keeps the collision checks the workers made of their runs."""
     remaining = Counter({name: count for name, count in tasks.counts().items() if count})
     if not remaining:
         return
@@ -605,6 +618,9 @@ def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, Pa
             started = time.perf_counter()
             if outcome.ok:
                 store.write_run(name, run, outcome.value.stored)
+                if remember is not None and outcome.value.collisions is not None:
+                    remember.record(name, np.array([run], dtype=np.int64),
+                                    outcome.value.collisions)
                 summary.fmu_seconds += outcome.value.seconds
                 summary.path_seconds[name] = (summary.path_seconds.get(name, 0.0)
                                               + outcome.value.seconds)

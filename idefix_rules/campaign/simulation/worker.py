@@ -10,8 +10,9 @@ workers on other machines cannot see the folder) makes each worker extract the F
 from __future__ import annotations
 
 import contextlib
+import os
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,10 @@ class RunTask:
     done_at: float = 1.0
     rover: RoverGeometry | None = None  # geometry of the set-points (delivery inputs)
     encode: bool = False  # hand back the stored chunks (compressed here), not the arrays
+    # the run's collisions are checked here too when this names the check the worker was
+    # forked with (:func:`run_checks`); ``run`` is the run's row, for the check's details
+    check: str | None = None
+    run: int = -1
 
 
 @dataclass(frozen=True)
@@ -85,6 +90,9 @@ class RunResult:
     signals: dict[str, np.ndarray]
     seconds: float
     encoded: dict[str, EncodedChunk] | None = None
+    # the run's collision check (:func:`~idefix_rules.campaign.evaluation.remembered.
+    # run_collisions`), when the task asked for it and the worker holds the check
+    collisions: dict[str, Any] | None = None
 
     @property
     def stored(self) -> Mapping[str, np.ndarray | EncodedChunk]:
@@ -112,9 +120,36 @@ def simulate(task: RunTask) -> RunResult | InputProblem:
         raise
     seconds = time.perf_counter() - started
     checked = check_outputs(signals, task.samples)
+    collisions = _check_run(task, checked)
     if task.encode:
-        return RunResult({}, seconds, encode_run(checked))
-    return RunResult(checked, seconds)
+        return RunResult({}, seconds, encode_run(checked), collisions)
+    return RunResult(checked, seconds, collisions=collisions)
+
+
+# The obstacle check a worker inherits when it is forked (local pool), named by a token that
+# the tasks of the same campaign carry: a worker forked for another campaign, or started
+# without it (spawn, Dask), checks nothing and the evaluation checks the run instead.
+_RUN_CHECK: tuple[str, Callable[[Mapping[str, np.ndarray], int], dict[str, Any]]] | None = None
+
+
+@contextlib.contextmanager
+def run_checks(check: Callable[[Mapping[str, np.ndarray], int], dict[str, Any]]
+               ) -> Iterator[str]:
+    """Within: workers forked now hold ``check`` (signals, run) → collision pieces, and
+    simulate the tasks that carry the token this yields with it."""
+    global _RUN_CHECK
+    token = f"{os.getpid()}-{time.monotonic_ns()}-{id(check)}"
+    previous, _RUN_CHECK = _RUN_CHECK, (token, check)
+    try:
+        yield token
+    finally:
+        _RUN_CHECK = previous
+
+
+def _check_run(task: RunTask, signals: Mapping[str, np.ndarray]) -> dict[str, Any] | None:
+    if task.check is None or _RUN_CHECK is None or _RUN_CHECK[0] != task.check:
+        return None
+    return _RUN_CHECK[1](signals, task.run)
 
 
 def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
