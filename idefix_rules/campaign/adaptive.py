@@ -162,8 +162,11 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
         # stored before a --resume: skipped; lost to the infrastructure: simulated again
         missing = runs_to_simulate(store, name, reset=True)
         rows[name] = missing[(missing >= done[name]) & (missing < look)]
+    # a path over the memory budget for kept checks is checked by its looks: not in the workers
+    checks = {name: None if remember is None or name in remember.given_up else check
+              for name in running}
     run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled,
-                                                           check)),
+                                                           checks)),
                   running, store, options, progress, summary, pool, remember)
 
 

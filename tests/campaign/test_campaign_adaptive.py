@@ -199,9 +199,14 @@ def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Pat
                                                                tmp_path: Path) -> None:
     killed = write_campaign(tmp_path / "killed", campaign_dir, ADAPTIVE)
     whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    assert_resumes_alike(killed, whole, tmp_path)
+
+
+def assert_resumes_alike(killed: Path, whole: Path, tmp_path: Path) -> None:
+    """Campaign ``killed``, killed in its second batch (after the first look) and resumed,
+    stops and stores as the same campaign ``whole`` run without a break."""
     script = tmp_path / "killer.py"
     script.write_text(KILLER)
-    # killed in the second batch, after the first look
     process = subprocess.run([sys.executable, str(script), str(killed), "30"],
                              capture_output=True, text=True, timeout=120)
     assert process.returncode == -9, process.stderr
@@ -211,6 +216,25 @@ def test_a_killed_adaptive_campaign_resumes_to_the_same_result(campaign_dir: Pat
     assert [p["stop_reason"] for p in resumed.summary["paths"]] == \
         [p["stop_reason"] for p in uninterrupted.summary["paths"]]
     assert_same_datasets(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
+
+
+def test_a_resumed_campaign_with_collisions_checks_its_earlier_runs_at_the_look(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    # Killed after its first look, the campaign's runs stored so far were checked by workers
+    # that are gone: the resumed campaign's looks check those, its workers the new ones, and
+    # the results file is the uninterrupted campaign's.
+    killed = rock_campaign(campaign_dir)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, killed.read_text())
+    assert_resumes_alike(killed, whole, tmp_path)
+
+
+def test_dask_checks_collisions_at_the_looks_to_the_same_datasets(campaign_dir: Path,
+                                                                  tmp_path: Path) -> None:
+    # On Dask the workers hold no check: every look checks its runs, to what the local
+    # workers' checks give.
+    path = rock_campaign(campaign_dir)
+    assert_same_campaign(path, tmp_path, SimulationOptions(workers=2),
+                         SimulationOptions(workers=2, dask_local=True))
 
 
 def test_resume_refuses_another_cap(campaign_dir: Path,

@@ -51,6 +51,10 @@ BUDGET_BYTES = 256 * 1024 * 1024
 # Python's share of a kept row besides its data (three small arrays, a bytes object, four dict
 # entries), counted against the budget: 590 B measured with tracemalloc over 1,000 rows.
 ROW_OVERHEAD_BYTES = 600
+# Python's share of each contact table kept, its array object (128 B, sys.getsizeof) and list
+# slot (8 B): a worker's check is recorded run by run, so a run with a contact keeps a table
+# of its own.
+TABLE_OVERHEAD_BYTES = 136
 
 
 class _PathRows:
@@ -113,7 +117,7 @@ class RememberedCollisions:
             table = np.asarray(contact).reshape(-1, len(CONTACT_COLUMNS))
             fresh = table[np.isin(table[:, 0], rows[new])]
             kept.contact.append(fresh)
-            kept.bytes += fresh.nbytes
+            kept.bytes += fresh.nbytes + TABLE_OVERHEAD_BYTES
         if sum(path.bytes for path in self.paths.values()) > self.budget:
             del self.paths[name]  # its rows freed: the evaluation stage checks them again
             self.given_up.add(name)

@@ -181,6 +181,8 @@ def sequential_upper_below(events: np.ndarray, limit: float, alpha: float) -> bo
 
 def sequential_lower_above(events: np.ndarray, limit: float, alpha: float) -> bool:
     """Whether :func:`sequential_lower` lies above ``limit`` (the mirror image)."""
+    if limit < 0.0:  # the bound is at least 0 (and 1 − limit may round to 1)
+        return True
     x = np.asarray(events, dtype=np.float64).ravel()
     return sequential_upper_below(1.0 - x, 1.0 - limit, alpha)
 
