@@ -42,7 +42,7 @@ def source_dir() -> Path:
 # No floating-point contraction (no fused multiply-add where the sources write a product and
 # a sum; GCC's default in ISO C mode, not Clang's, and it matters where the processor has an
 # FMA instruction, as on aarch64), so the optimisation level changes the speed, never a
-# result's bits: -O3 gives the example's results file bit for bit as -O2 did, about 5 %
+# result's bits: -O3 gives the example's results file bit for bit as -O2 did, 1 to 6 %
 # faster (docs/rover-model.md, "Build"). Part of the source hash: a new flag builds the FMU
 # again.
 CFLAGS = ("-std=c99", "-O3", "-ffp-contract=off")
