@@ -34,6 +34,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.simulation.pool import LocalPool
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.simulation.simulate import (
     FmuSource,
@@ -100,12 +101,13 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     checkers = local_workers(options, campaign)
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
-        remember = collisions if _checked_in_workers(collisions, evaluator, options) else None
-        check = stack.enter_context(run_checks(
-            functools.partial(run_collisions, remember.checker))) \
-            if remember is not None and running else None
         pool = stack.enter_context(contextlib.closing(
             monte_carlo_pool(campaign, running, store, options))) if running else None
+        # its workers are forked at its first map, after this: they hold the check
+        remember = collisions if _checked_in_workers(collisions, evaluator, pool) else None
+        check = stack.enter_context(run_checks(
+            functools.partial(run_collisions, remember.checker))) \
+            if remember is not None else None
         for look in settings.looks():
             if not running:
                 break
@@ -170,13 +172,13 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
                   running, store, options, progress, summary, pool, remember)
 
 
-def _checked_in_workers(collisions: Any, evaluator: Any, options: SimulationOptions) -> bool:
-    """Whether the local workers check each run's collisions where they simulate it: the
-    looks then score their runs with the checks kept (no second pass over the poses, no
-    processes forked for it at every look). Only on the local pool, whose workers are
-    forked with the check; on Dask every look checks its runs."""
+def _checked_in_workers(collisions: Any, evaluator: Any, pool: Any) -> bool:
+    """Whether the workers check each run's collisions where they simulate it: the looks
+    then score their runs with the checks kept (no second pass over the poses, no processes
+    forked for it at every look). Only on a local pool whose workers are forked, holding the
+    check; on Dask or spawned workers every look checks its runs."""
     return (isinstance(collisions, RememberedCollisions) and collisions.usable_for(evaluator)
-            and not (options.scheduler or options.dask_local))
+            and isinstance(pool, LocalPool) and pool.forks)
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

@@ -81,6 +81,11 @@ class LocalPool:
         self._context = multiprocessing.get_context(start_method)
         self._workers: list[_Worker] = []
 
+    @property
+    def forks(self) -> bool:
+        """Whether the workers are forked (and so hold the parent's module state)."""
+        return self._context.get_start_method() == "fork"
+
     def _spawn(self) -> _Worker:
         parent_end, child_end = self._context.Pipe()
         inherited = parent_end if self._context.get_start_method() == "fork" else None

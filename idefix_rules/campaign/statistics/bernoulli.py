@@ -119,12 +119,13 @@ def _boundary(events: np.ndarray, runs: np.ndarray, alpha: float) -> np.ndarray:
     known = {key: _BOUNDARIES[key] for key in keys if key in _BOUNDARIES}
     missing = sorted(set(keys) - known.keys())
     if missing:
-        found = _bisect(np.array([key[0] for key in missing]),
-                        np.array([key[1] for key in missing]), alpha)
-        known.update(zip(missing, found.tolist(), strict=True))
-        if len(_BOUNDARIES) + len(missing) > _BOUNDARIES_KEPT:
+        found = dict(zip(missing, _bisect(np.array([key[0] for key in missing]),
+                                          np.array([key[1] for key in missing]),
+                                          alpha).tolist(), strict=True))
+        known.update(found)
+        if len(_BOUNDARIES) + len(found) > _BOUNDARIES_KEPT:
             _BOUNDARIES.clear()
-        _BOUNDARIES.update(zip(missing, found.tolist(), strict=True))
+        _BOUNDARIES.update(found)
     return np.array([known[key] for key in keys], dtype=np.float64)
 
 
