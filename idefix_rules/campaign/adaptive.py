@@ -57,6 +57,7 @@ from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.campaign.statistics.stopping import settle, stop_reason
 from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
+from idefix_rules.results.scoring import FirstPassCache
 
 NO_COMPLETE_RUN = "stopped: no run of the path completed"
 
@@ -99,6 +100,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # checks depend on its poses alone, and the first pass of reductions over runs keeps
     # chunks of 64 whatever the split (its sums depend on the chunking in the last bit)
     checkers = local_workers(options, campaign)
+    # the path-level values' first pass over every run so far: each look folds its new
+    # whole chunks onto those of the looks before (the same sums, bit for bit)
+    across_cache = FirstPassCache()
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
         pool = stack.enter_context(contextlib.closing(
@@ -119,7 +123,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                                                   collisions, within=slice(done[name], look),
                                                   workers=checkers,
                                                   chunk_runs=min(DEFAULT_CHUNK_RUNS, max(
-                                                      8, -(-new // checkers))))
+                                                      8, -(-new // checkers))),
+                                                  across_cache=across_cache)
                 if evaluation is not None:
                     parts[name].append(evaluation)
                     rows[name].append(np.asarray(extra["rows"]))

@@ -24,7 +24,7 @@ import multiprocessing
 import threading
 import time
 from collections import deque
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -104,6 +104,32 @@ def _chunk_size(signals: Mapping[str, np.ndarray]) -> int:
     return sum(values.nbytes for values in signals.values())
 
 
+class FirstPassCache:
+    """The path-level accumulators of the whole chunks of each path's complete runs so far.
+
+    An adaptive campaign's look computes the path-level values over every run stored so far;
+    with this, it folds only the chunks past the last look's whole chunks onto their kept
+    accumulators. The fold is the same sequence of sums as reading every chunk again, so the
+    values are the same to the bit; an entry is used only while its rows are the first rows of
+    the path's complete runs."""
+
+    def __init__(self) -> None:
+        self._entries: dict[Hashable, tuple[np.ndarray, list[Any]]] = {}
+
+    def get(self, key: Hashable, rows: np.ndarray) -> tuple[int, list[Any] | None]:
+        """How many of ``rows`` the kept accumulators cover, and those (0, None: none)."""
+        entry = self._entries.get(key)
+        if entry is None:
+            return 0, None
+        covered, accumulators = entry
+        if covered.size > rows.size or not np.array_equal(rows[:covered.size], covered):
+            return 0, None
+        return int(covered.size), accumulators
+
+    def put(self, key: Hashable, rows: np.ndarray, accumulators: list[Any]) -> None:
+        self._entries[key] = (np.array(rows, copy=True), accumulators)
+
+
 class _FirstPass:
     """The path-level values of each rulebook, and the chunks read for them when kept."""
 
@@ -113,24 +139,36 @@ class _FirstPass:
         self.kept: dict[int, dict[str, np.ndarray]] | None = None  # by first row
 
     def run(self, reader: RunReader, name: str, context: Any, rows: np.ndarray,
-            chunk_runs: int, keep: bool) -> None:
+            chunk_runs: int, keep: bool, cache: FirstPassCache | None = None) -> None:
         from idefix_rules.rulebook.across import first_pass
 
         kept: dict[int, dict[str, np.ndarray]] = {}
         size = 0
 
-        def chunks(names: set[str]) -> Iterator[dict[str, np.ndarray]]:
-            nonlocal size
-            wanted = sorted(names)
-            for begin in range(0, len(rows), chunk_runs):
-                part = rows[begin:begin + chunk_runs]
-                signals = read_rows(reader, name, part, wanted)
-                if keep and size + _chunk_size(signals) <= FIRST_PASS_BYTES:
-                    size += _chunk_size(signals)
-                    kept[int(part[0])] = signals  # the chunks past the budget: read again
-                yield signals
+        def chunks_of(some: np.ndarray) -> Callable[[set[str]], Iterator[dict[str, np.ndarray]]]:
+            def chunks(names: set[str]) -> Iterator[dict[str, np.ndarray]]:
+                nonlocal size
+                wanted = sorted(names)
+                for begin in range(0, len(some), chunk_runs):
+                    part = some[begin:begin + chunk_runs]
+                    signals = read_rows(reader, name, part, wanted)
+                    if keep and size + _chunk_size(signals) <= FIRST_PASS_BYTES:
+                        size += _chunk_size(signals)
+                        kept[int(part[0])] = signals  # the chunks past the budget: read again
+                    yield signals
+            return chunks
 
-        self.across = first_pass(self.evaluators, chunks, context)
+        if cache is None:
+            self.across = first_pass(self.evaluators, chunks_of(rows), context)
+        else:
+            key = (name, chunk_runs, tuple(id(e) for e in self.evaluators))
+            covered, start = cache.get(key, rows)
+            whole = rows.size - rows.size % chunk_runs  # chunk boundaries as without a cache
+            if whole > covered:
+                start = first_pass(self.evaluators, chunks_of(rows[covered:whole]), context,
+                                   start)
+                cache.put(key, rows[:whole], start)
+            self.across = first_pass(self.evaluators, chunks_of(rows[whole:]), context, start)
         self.kept = kept if keep and kept else None
 
     def take(self, first_row: int) -> dict[str, np.ndarray]:
@@ -255,7 +293,8 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
                  keys: Iterable[str] = (), per_sample: bool = False, per_run: bool = True,
                  chunk_runs: int = DEFAULT_CHUNK_RUNS, within: slice | None = None,
                  workers: int = 1, threads: int = 1, across_chunk_runs: int | None = None,
-                 timings: dict[str, float] | None = None) -> Iterator[ScoredChunk]:
+                 timings: dict[str, float] | None = None,
+                 across_cache: FirstPassCache | None = None) -> Iterator[ScoredChunk]:
     """Score the complete runs of path ``name`` (those among the rows ``within``, when
     given) chunk by chunk under each of ``evaluators`` (None: skipped), in run order.
 
@@ -275,7 +314,8 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
     values of all runs so far). ``across_chunk_runs``: the chunk size of that first pass
     (default ``chunk_runs``); its sums over chunks depend on it in the last bit, so a caller
     whose ``chunk_runs`` varies (an adaptive campaign's looks, with the number of processes)
-    fixes it."""
+    fixes it. ``across_cache``: keeps the first pass's whole chunks for the next call on
+    more runs of the same path (:class:`FirstPassCache`)."""
     timings = timings if timings is not None else {}
     for key in ("read", "collisions", "evaluate"):
         timings.setdefault(key, 0.0)
@@ -292,7 +332,8 @@ def score_chunks(reader: RunReader, name: str, evaluators: Sequence[Any | None],
         every = complete_rows(status)
         across = across_chunk_runs or chunk_runs
         first.run(reader, name, context, every, across,
-                  keep=across == chunk_runs and (within is None or np.array_equal(every, rows)))
+                  keep=across == chunk_runs and (within is None or np.array_equal(every, rows)),
+                  cache=across_cache)
         timings["read"] += time.perf_counter() - mark
     needs_poses = any(not _is_stored(source) for source in checkers.values())
     wanted = signals_to_read(evaluators, keys, needs_poses, per_run)

@@ -113,6 +113,14 @@ class RunsAccumulator:
             return np.asarray(np.minimum(a, b))
         return np.asarray(np.add(*np.broadcast_arrays(a, b)))
 
+    def copy(self) -> RunsAccumulator:
+        """A copy to fold more chunks on (this one stays as it is)."""
+        twin = RunsAccumulator(self.node)
+        twin.runs = self.runs
+        twin.state = None if self.state is None else self.state.copy()
+        twin.values = list(self.values)  # arrays never changed in place
+        return twin
+
     def merge(self, other: RunsAccumulator) -> None:
         """Fold another partial of the same reduction (e.g. another worker's chunks) in."""
         self.runs += other.runs
@@ -164,6 +172,12 @@ class AcrossRuns:
     def runs(self) -> int:
         return next(iter(self.accumulators.values())).runs if self.accumulators else 0
 
+    def copy(self) -> AcrossRuns:
+        """A copy to fold more chunks on (this one stays as it is)."""
+        twin = AcrossRuns(())
+        twin.accumulators = {node: a.copy() for node, a in self.accumulators.items()}
+        return twin
+
     def merge(self, other: AcrossRuns) -> None:
         for node, accumulator in other.accumulators.items():
             self.accumulators[node].merge(accumulator)
@@ -173,17 +187,20 @@ class AcrossRuns:
 
 
 def first_pass(evaluators: Sequence[Any], chunks: Callable[[set[str]], Iterable[Any]],
-               context: Any) -> list[AcrossRuns | None]:
+               context: Any, start: Sequence[AcrossRuns | None] | None = None
+               ) -> list[AcrossRuns | None]:
     """The path-level values of each evaluator over every run of one path (None for an
     evaluator without reductions over runs).
 
     ``chunks(signal_names)`` yields the path's complete runs chunk by chunk (dicts of signals,
     axis 0 = run) with at least those signals; it is called only when some evaluator needs a
-    first pass, once for all of them.
+    first pass, once for all of them. ``start``: the accumulators of the runs before those
+    chunks (as an earlier call returned them; copied, never changed), to fold the chunks on.
     """
     wanted = [e if getattr(e, "runs_reductions", ()) else None for e in evaluators]
     accumulators: list[AcrossRuns | None] = [
-        None if e is None else AcrossRuns(e.runs_reductions) for e in wanted]
+        None if e is None else AcrossRuns(e.runs_reductions) for e in wanted] \
+        if start is None else [None if a is None else a.copy() for a in start]
     needed = [e for e in wanted if e is not None]
     if not needed:
         return accumulators

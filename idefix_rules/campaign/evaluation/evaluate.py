@@ -44,7 +44,7 @@ from idefix_rules.results.collisions import (
 )
 from idefix_rules.results.reader import StoredResults
 from idefix_rules.results.runs import ParallelRuns, complete_rows
-from idefix_rules.results.scoring import score_chunks
+from idefix_rules.results.scoring import FirstPassCache, score_chunks
 from idefix_rules.signals import AXIS_LABELS
 
 if TYPE_CHECKING:
@@ -184,12 +184,15 @@ def chain_finished(signals: Mapping[str, np.ndarray]) -> np.ndarray | None:
 def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverGeometry,
                   sigma: float, collisions: CollisionFunction | None,
                   chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
-                  within: slice | None = None) -> tuple[Any, dict[str, Any]]:
+                  within: slice | None = None,
+                  across_cache: FirstPassCache | None = None) -> tuple[Any, dict[str, Any]]:
     """Evaluate the complete runs of a path (among the rows ``within``, when given) chunk by
     chunk (:func:`idefix_rules.results.scoring.score_chunks`); returns (evaluation, stored):
     what is stored besides the evaluation (rows, whether each chain finished, collisions).
 
-    ``workers`` > 1 spreads the collision checks over that many processes."""
+    ``workers`` > 1 spreads the collision checks over that many processes; ``across_cache``
+    keeps the path-level values' first pass for the next call on more runs (an adaptive
+    campaign's looks)."""
     context = run_context(store.chain(name), rover, sigma, store.reference(name))
     complete = complete_rows(store.run_status(name), within)
     # an adaptive campaign's checker, keeping the looks' checks for a rulebook that can use them
@@ -207,7 +210,8 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
     try:
         for chunk in score_chunks(runs, name, [evaluator], context, [source],
                                   chunk_runs=chunk_runs, within=within, workers=workers,
-                                  across_chunk_runs=DEFAULT_CHUNK_RUNS):
+                                  across_chunk_runs=DEFAULT_CHUNK_RUNS,
+                                  across_cache=across_cache):
             finished.append(chain_finished(chunk.signals))
             collided = chunk.collisions[0]
             if collided is not None and known is None:

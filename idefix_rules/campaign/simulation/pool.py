@@ -106,37 +106,44 @@ class LocalPool:
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
         """Run every task; yields ``(key, Outcome)`` as each finishes. A task is taken from
         ``tasks`` when a worker is free for it: at most one per worker is held at a time
-        (and those a kill from outside sends round again)."""
+        (and those a kill from outside sends round again). A worker that finished gets its next
+        task before the finished runs are yielded: it simulates while the caller stores them."""
         pending = iter(tasks)
         exhausted = False
         again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside
         payloads: dict[Hashable, Any] = {}  # of the runs being executed
         kills: dict[Hashable, list[str]] = {}
         finished = False
+
+        def fill() -> None:
+            """Give every idle worker its next task (starting workers up to the size)."""
+            nonlocal exhausted
+            while (again or not exhausted) and len(self._workers) < self.size:
+                self._workers.append(self._spawn())
+            for worker in [w for w in self._workers if w.key is None]:
+                if again:
+                    key, payload = again.popleft()
+                else:
+                    try:
+                        key, payload = next(pending)
+                    except StopIteration:
+                        exhausted = True
+                        break
+                if not self._hand(worker, key, payload):
+                    again.appendleft((key, payload))  # the worker died idle: not the run's
+                    continue
+                payloads[key] = payload
+
         try:
             while True:
-                while (again or not exhausted) and len(self._workers) < self.size:
-                    self._workers.append(self._spawn())
-                idle = [w for w in self._workers if w.key is None]
-                for worker in idle:
-                    if again:
-                        key, payload = again.popleft()
-                    else:
-                        try:
-                            key, payload = next(pending)
-                        except StopIteration:
-                            exhausted = True
-                            break
-                    if not self._hand(worker, key, payload):
-                        again.appendleft((key, payload))  # the worker died idle: not the run's
-                        continue
-                    payloads[key] = payload
+                fill()
                 busy = [w for w in self._workers if w.key is not None]
                 if not busy:
                     if exhausted and not again:
                         finished = True
                         return
                     continue
+                ready = []
                 for key, outcome in self._collect(busy):
                     payload = payloads.pop(key)
                     if outcome.killed_by:
@@ -147,7 +154,10 @@ class LocalPool:
                             continue
                         outcome = Outcome(False, None, killed_reason(signals))
                     kills.pop(key, None)
-                    yield key, outcome
+                    ready.append((key, outcome))
+                # the freed workers start their next runs while the caller stores these
+                fill()
+                yield from ready
         finally:
             if not (self.persistent and finished):  # stopped early: busy workers end now
                 self.close()
