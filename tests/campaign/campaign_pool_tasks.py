@@ -94,3 +94,22 @@ def count_pools(monkeypatch):
 
     monkeypatch.setattr(simulate, "LocalPool", Counted)
     return made, maps
+
+
+def continued(payload):
+    """``(name, seconds, after)``: the value ``("ran", name)`` after ``seconds``, handed back
+    at once, then the work after it (``Continued``): ``("checked", name)`` after ``after``
+    seconds, or "segfault", "raise" or "hang" there."""
+    from idefix_rules.campaign.simulation.processes import Continued
+
+    name, seconds, after = payload
+    time.sleep(seconds)
+
+    def then():
+        if isinstance(after, str):
+            misbehave(after)
+        else:
+            time.sleep(after)
+        return ("checked", name)
+
+    return Continued(("ran", name), then)

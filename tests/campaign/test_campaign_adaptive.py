@@ -4,6 +4,7 @@ user's mistakes (exit 2)."""
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import json
 import os
@@ -427,6 +428,34 @@ def test_the_workers_check_the_runs_they_simulate_and_the_looks_check_none(
                              tmp_path / "looks" / "results.h5")
 
 
+def test_a_check_that_crashes_its_worker_leaves_the_run_to_the_look(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A worker checks its run after handing it back: a check that crashes the worker (here a
+    # segfault in every worker's check) loses the check, not the run. Every run is stored as
+    # simulated, checked again at its look, and the results file is the one of a campaign
+    # whose looks check every run.
+    path = rock_campaign(campaign_dir)
+    campaign = load_campaign(path)
+    checked: list[int] = []
+
+    def crashing(checker: Any, signals: Any, run: int) -> Any:
+        checked.append(run)  # in the worker: not seen here
+        ctypes.string_at(0)
+
+    monkeypatch.setattr(adaptive, "run_collisions", crashing)
+    result = run_campaign(campaign.with_overrides(output=tmp_path / "crashing"),
+                          SimulationOptions(workers=2), report=False)
+    simulated = [p for p in result.summary["paths"] if p["status"] == "simulated"]
+    assert simulated and all(p["failed_runs"] == 0 and p["completed_runs"] == p["runs_used"] > 0
+                             for p in simulated)
+    assert checked == []
+    monkeypatch.setattr(adaptive, "_checked_in_workers", lambda *arguments: False)
+    run_campaign(campaign.with_overrides(output=tmp_path / "looks"),
+                 SimulationOptions(workers=1), report=False)
+    assert_same_datasets(tmp_path / "crashing" / "results.h5",
+                         tmp_path / "looks" / "results.h5")
+
+
 def test_a_worker_checks_only_for_the_campaign_it_was_forked_for() -> None:
     # A worker holds the check of the campaign whose pool forked it; a task of another
     # campaign (another token), or one that asks for none, is not checked there.
@@ -436,17 +465,11 @@ def test_a_worker_checks_only_for_the_campaign_it_was_forked_for() -> None:
     task = worker.RunTask("toy.fmu", None, None, (), (), 1.0, 0.1, 2, run=7)
     signals = {"x": np.zeros(2)}
     with worker.run_checks(check) as token:
-        assert worker._check_run(dataclasses.replace(task, check=token), signals) == {"run": 7}
-        assert worker._check_run(dataclasses.replace(task, check="another"), signals) is None
-        assert worker._check_run(task, signals) is None
-    assert worker._check_run(dataclasses.replace(task, check=token), signals) is None
-
-    # a check that breaks leaves the run alone: the look checks it, and says what broke
-    def broken(signals: Any, run: int) -> dict[str, Any]:
-        raise KeyError("z")
-
-    with worker.run_checks(broken) as token:
-        assert worker._check_run(dataclasses.replace(task, check=token), signals) is None
+        held = worker.run_check(dataclasses.replace(task, check=token))
+        assert held is not None and held(signals, 7) == {"run": 7}
+        assert worker.run_check(dataclasses.replace(task, check="another")) is None
+        assert worker.run_check(task) is None
+    assert worker.run_check(dataclasses.replace(task, check=token)) is None
 
 
 def test_remembered_rows_give_area_signals_only_to_a_rulebook_that_reads_them() -> None:

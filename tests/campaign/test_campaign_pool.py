@@ -1,10 +1,12 @@
-"""The local pool: results by key whatever the order; crashes and hangs become failed runs."""
+"""The local pool: results by key whatever the order; crashes and hangs become failed runs;
+the work a task does after handing back its value (a run's collision check) is not the run's."""
 
 from __future__ import annotations
 
 import campaign_pool_tasks as tasks
 
-from idefix_rules.campaign.simulation.pool import LocalPool
+from idefix_rules.campaign.simulation.pool import LocalPool, Then
+from idefix_rules.campaign.simulation.processes import IsolatedRunner
 
 
 def test_every_task_comes_back_once_with_its_result() -> None:
@@ -67,3 +69,38 @@ def test_a_persistent_pool_stopped_early_still_ends_its_busy_workers() -> None:
     processes = [w.process for w in pool._workers]
     iterator.close()
     assert pool._workers == [] and not any(process.is_alive() for process in processes)
+
+
+def test_the_work_after_a_value_comes_second_and_is_not_the_runs() -> None:
+    # A worker's collision check of its run comes after the run (Continued): the run's outcome
+    # first, then the check's (Then). Each has the timeout on its own; a check that raises,
+    # crashes the worker or hangs fails only itself, and the pool goes on with a fresh worker.
+    payloads = {"both-slow": (1.2, 1.2), "raise": (0.0, "raise"), "segfault": (0.0, "segfault"),
+                "hang": (0.0, "hang"), "quick": (0.0, 0.0)}
+    pool = LocalPool(tasks.continued, workers=2, run_timeout=2.0)
+    seen = list(pool.map((key, (key, *value)) for key, value in payloads.items()))
+    assert sorted(key for key, _ in seen) == sorted(list(payloads) * 2)
+    for key in payloads:
+        run, after = [outcome for k, outcome in seen if k == key]
+        assert not isinstance(run, Then) and isinstance(after, Then), key
+        assert run.ok and run.value == ("ran", key), key
+    after = {key: outcome for key, outcome in seen if isinstance(outcome, Then)}
+    # 1.2 s + 1.2 s: past the 2 s timeout together, within it each
+    assert after["both-slow"].ok and after["both-slow"].value == ("checked", "both-slow")
+    assert after["quick"].ok
+    assert after["raise"].reason == "RuntimeError: model error"
+    assert "SIGSEGV" in after["segfault"].reason
+    assert "run timeout of 2 s" in after["hang"].reason
+
+
+def test_an_isolated_runner_leaves_the_work_after_a_value_for_the_next_task() -> None:
+    # Dask's children do not check runs; a Continued value there is handed back and its
+    # second answer not taken for the next task's.
+    runner = IsolatedRunner(tasks.continued)
+    try:
+        first = runner.run("a", ("a", 0.0, 0.2), timeout=10.0)
+        second = runner.run("b", ("b", 0.0, 0.0), timeout=10.0)
+    finally:
+        runner.close()
+    assert (first.ok, first.value) == (True, ("ran", "a"))
+    assert (second.ok, second.value) == (True, ("ran", "b"))

@@ -41,8 +41,10 @@ from typing import Any
 from idefix_rules.campaign.simulation.dask_pool import DaskPool
 from idefix_rules.campaign.simulation.processes import (
     MAX_KILLS,
+    Continued,
     Outcome,
     TaskFunction,
+    Then,
     Timeouts,
     death_outcome,
     killed_reason,
@@ -52,7 +54,8 @@ from idefix_rules.campaign.simulation.processes import (
     worker_main,
 )
 
-__all__ = ["DaskPool", "LocalPool", "Outcome", "TaskFunction", "Timeouts", "timeout_of"]
+__all__ = ["Continued", "DaskPool", "LocalPool", "Outcome", "TaskFunction", "Then", "Timeouts",
+           "timeout_of"]
 
 
 @dataclass
@@ -62,6 +65,7 @@ class _Worker:
     key: Hashable | None = None
     deadline: float | None = None  # monotonic time its task's timeout ends
     timeout: float | None = None
+    after: bool = False  # its task's value came: it does the work after it (Continued)
 
 
 class LocalPool:
@@ -143,8 +147,11 @@ class LocalPool:
                         finished = True
                         return
                     continue
-                ready = []
+                ready: list[tuple[Hashable, Outcome]] = []
                 for key, outcome in self._collect(busy):
+                    if isinstance(outcome, Then):  # after the task's outcome, given before
+                        ready.append((key, outcome))
+                        continue
                     payload = payloads.pop(key)
                     if outcome.killed_by:
                         signals = kills.setdefault(key, [])
@@ -191,12 +198,21 @@ class LocalPool:
             key = worker.key
             message = receive(worker.connection)
             if message is not None:
-                worker.key = worker.deadline = None
                 _, ok, value, reason = message
-                yield key, Outcome(ok, value, reason)
+                if isinstance(value, Continued):  # the task's value; the rest follows
+                    worker.after = True
+                    worker.deadline = None if worker.timeout is None \
+                        else time.monotonic() + worker.timeout
+                    yield key, Outcome(ok, value.value, reason)
+                    continue
+                worker.key = worker.deadline = None
+                worker.after = False
+                yield key, value if isinstance(value, Then) else Outcome(ok, value, reason)
             else:
                 worker.process.join(timeout=5)
                 outcome = death_outcome(worker.process.exitcode)
+                if worker.after:  # the task's outcome stands; what came after it is lost
+                    outcome = Then(False, None, outcome.reason)
                 self._retire(worker, kill=True)
                 yield key, outcome
         now = time.monotonic()
@@ -204,9 +220,10 @@ class LocalPool:
             if id(worker) in done or worker.key is None or worker.deadline is None:
                 continue
             if now >= worker.deadline:
-                key, seconds = worker.key, worker.timeout
+                key, seconds, after = worker.key, worker.timeout, worker.after
                 self._retire(worker, kill=True)
-                yield key, Outcome(False, None, timeout_reason(seconds or 0.0))
+                reason = timeout_reason(seconds or 0.0)
+                yield key, Then(False, None, reason) if after else Outcome(False, None, reason)
 
     def close(self) -> None:
         for worker in list(self._workers):

@@ -31,7 +31,6 @@ import signal
 import sys
 import threading
 import time
-import traceback
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -59,6 +58,24 @@ class Outcome:
     # the signal that ended the run's process from outside ("SIGKILL"): the run is no failure
     # of its own and is to run again; empty otherwise
     killed_by: str = ""
+
+
+@dataclass(frozen=True)
+class Then(Outcome):
+    """What became of a task's work after its value (:class:`Continued`): a second answer
+    for the same key, after its :class:`Outcome`. Its time, its failures and a crash of the
+    process during it are not the task's: the task's outcome stands."""
+
+
+@dataclass(frozen=True)
+class Continued:
+    """What a task function returns to send ``value`` to the parent at once and do ``then``
+    after it in the same process, its result or failure following as a :class:`Then` (the
+    local pool; elsewhere ``then`` is not run). The task's timeout ends with ``value``;
+    ``then`` has a timeout of the same length of its own."""
+
+    value: Any
+    then: Callable[[], Any] | None = None
 
 
 def is_infrastructure(reason: str) -> bool:
@@ -129,7 +146,9 @@ def _die_with_parent() -> None:
 
 def worker_main(connection: Connection, function: TaskFunction, parent: int,
                 inherited: Connection | None = None) -> None:
-    """The loop of a child: receive ``(key, payload)``, send ``(key, ok, value, reason)``."""
+    """The loop of a child: receive ``(key, payload)``, send ``(key, ok, value, reason)``;
+    a :class:`Continued` value is sent without its ``then``, and ``(key, True, Then, "")``
+    follows once ``then`` has run."""
     # Ctrl-C goes to the parent, which decides; children are ended by it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -151,15 +170,32 @@ def worker_main(connection: Connection, function: TaskFunction, parent: int,
         if message is None:
             return
         key, payload = message
+        then = None
         try:
-            result = (key, True, function(payload), "")
+            value = function(payload)
+            if isinstance(value, Continued):  # the value now, then the rest
+                value, then = Continued(value.value), value.then
+            result = (key, True, value, "")
         except Exception as failure:
-            reason = f"{type(failure).__name__}: {failure}"
-            result = (key, False, None, reason or traceback.format_exc(limit=2))
+            result = (key, False, None, _reason(failure))
         try:
             connection.send(result)
         except (OSError, ValueError):
             return
+        if then is None:
+            continue
+        try:
+            after = Then(True, then())
+        except Exception as failure:
+            after = Then(False, None, _reason(failure))
+        try:
+            connection.send((key, True, after, ""))
+        except (OSError, ValueError):
+            return
+
+
+def _reason(failure: Exception) -> str:
+    return f"{type(failure).__name__}: {failure}"
 
 
 def receive(connection: Connection) -> tuple[Any, bool, Any, str] | None:
@@ -293,6 +329,13 @@ class IsolatedRunner:
             self._end(kill=True)
             return outcome
         _, ok, value, reason = message
+        if isinstance(value, Continued):
+            # the work after the value (the local pool's): its answer is waited for and
+            # left, so that it is not taken for the next task's
+            if not wait([connection, child.sentinel], timeout=timeout) \
+                    or receive(connection) is None:
+                self._end(kill=True)
+            value = value.value
         return Outcome(ok, value, reason)
 
     def close(self) -> None:
@@ -311,7 +354,8 @@ def run_isolated(function: TaskFunction, key: Hashable, payload: Any,
     """
     if not hasattr(os, "fork"):  # pragma: no cover - Windows workers
         try:
-            return Outcome(True, function(payload))
+            value = function(payload)
+            return Outcome(True, value.value if isinstance(value, Continued) else value)
         except Exception as failure:
             return Outcome(False, None, f"{type(failure).__name__}: {failure}")
     ident = threading.get_ident()

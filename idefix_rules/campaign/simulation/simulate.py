@@ -33,7 +33,7 @@ from idefix_rules.campaign.input.load import (
 from idefix_rules.campaign.input.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts
-from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Timeouts
+from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Then, Timeouts
 from idefix_rules.campaign.simulation.prescreen import prescreen_reference
 from idefix_rules.campaign.simulation.worker import InputProblem, RunTask, simulate
 from idefix_rules.campaign.storage import diskspace
@@ -613,14 +613,15 @@ def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, Pa
     with diskspace.guard(store.folder, doing, needed=needed), \
             _map(pool, tasks, close=own) as results:
         for (name, run), outcome in results:
+            if isinstance(outcome, Then):  # a stored run's collision check, by its worker
+                if outcome.ok and remember is not None and outcome.value is not None:
+                    remember.record(name, np.array([run], dtype=np.int64), outcome.value)
+                continue  # failed or lost: the look checks the run
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
             started = time.perf_counter()
             if outcome.ok:
                 store.write_run(name, run, outcome.value.stored)
-                if remember is not None and outcome.value.collisions is not None:
-                    remember.record(name, np.array([run], dtype=np.int64),
-                                    outcome.value.collisions)
                 summary.fmu_seconds += outcome.value.seconds
                 summary.path_seconds[name] = (summary.path_seconds.get(name, 0.0)
                                               + outcome.value.seconds)

@@ -10,6 +10,7 @@ workers on other machines cannot see the folder) makes each worker extract the F
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import time
 from collections.abc import Callable, Iterator, Mapping
@@ -18,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.campaign.simulation.processes import Continued
 from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
@@ -90,9 +92,6 @@ class RunResult:
     signals: dict[str, np.ndarray]
     seconds: float
     encoded: dict[str, EncodedChunk] | None = None
-    # the run's collision check (:func:`~idefix_rules.campaign.evaluation.remembered.
-    # run_collisions`), when the task asked for it and the worker holds the check
-    collisions: dict[str, Any] | None = None
 
     @property
     def stored(self) -> Mapping[str, np.ndarray | EncodedChunk]:
@@ -100,8 +99,13 @@ class RunResult:
         return self.encoded if self.encoded is not None else self.signals
 
 
-def simulate(task: RunTask) -> RunResult | InputProblem:
-    """Simulate one run; raises on an FMU error or an output that breaks the contract."""
+def simulate(task: RunTask) -> RunResult | InputProblem | Continued:
+    """Simulate one run; raises on an FMU error or an output that breaks the contract.
+
+    When the task asks for the check this worker holds (:func:`run_checks`), the run is
+    handed back first and checked after it (:class:`~idefix_rules.campaign.simulation.
+    processes.Continued`): the check's time is not the run's (its timeout), and a check that
+    fails or crashes leaves the run as it is (the look checks it again)."""
     try:
         runner = _runner(task)
     except UserInputError as failure:
@@ -120,10 +124,12 @@ def simulate(task: RunTask) -> RunResult | InputProblem:
         raise
     seconds = time.perf_counter() - started
     checked = check_outputs(signals, task.samples)
-    collisions = _check_run(task, checked)
-    if task.encode:
-        return RunResult({}, seconds, encode_run(checked), collisions)
-    return RunResult(checked, seconds, collisions=collisions)
+    result = RunResult({}, seconds, encode_run(checked)) if task.encode \
+        else RunResult(checked, seconds)
+    check = run_check(task)
+    if check is None:
+        return result
+    return Continued(result, functools.partial(check, checked, task.run))
 
 
 # The obstacle check a worker inherits when it is forked (local pool), named by a token that
@@ -146,13 +152,11 @@ def run_checks(check: Callable[[Mapping[str, np.ndarray], int], dict[str, Any]]
         _RUN_CHECK = previous
 
 
-def _check_run(task: RunTask, signals: Mapping[str, np.ndarray]) -> dict[str, Any] | None:
+def run_check(task: RunTask) -> Callable[[Mapping[str, np.ndarray], int], dict[str, Any]] | None:
+    """The check this worker holds when ``task`` asks for it (carries its token), else None."""
     if task.check is None or _RUN_CHECK is None or _RUN_CHECK[0] != task.check:
         return None
-    try:
-        return _RUN_CHECK[1](signals, task.run)
-    except Exception:  # the run is fine: the look checks it again and says what broke
-        return None
+    return _RUN_CHECK[1]
 
 
 def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
