@@ -113,3 +113,10 @@ def continued(payload):
         return ("checked", name)
 
     return Continued(("ran", name), then)
+
+
+def continued_alone(payload):
+    """A ``Continued`` value without work after it: a plain answer."""
+    from idefix_rules.campaign.simulation.processes import Continued
+
+    return Continued(payload)

@@ -28,6 +28,7 @@ from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
 from idefix_rules.campaign.simulation import worker
 from idefix_rules.campaign.simulation.simulate import (
+    SilentProgress,
     SimulationOptions,
     initial_position_sigma,
     rover_geometry,
@@ -432,23 +433,35 @@ def test_a_check_that_crashes_its_worker_leaves_the_run_to_the_look(
         campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # A worker checks its run after handing it back: a check that crashes the worker (here a
     # segfault in every worker's check) loses the check, not the run. Every run is stored as
-    # simulated, checked again at its look, and the results file is the one of a campaign
-    # whose looks check every run.
+    # simulated; after the first failed check no worker is asked to check again, the looks
+    # check the runs, and the results file is the one of a campaign whose looks check every
+    # run.
     path = rock_campaign(campaign_dir)
     campaign = load_campaign(path)
-    checked: list[int] = []
+    attempts = tmp_path / "attempts"
 
     def crashing(checker: Any, signals: Any, run: int) -> Any:
-        checked.append(run)  # in the worker: not seen here
+        with attempts.open("a") as handle:  # in the worker, which then dies
+            handle.write(f"{run}\n")
         ctypes.string_at(0)
 
     monkeypatch.setattr(adaptive, "run_collisions", crashing)
+    messages: list[str] = []
+
+    class Said(SilentProgress):
+        def message(self, text: str) -> None:
+            messages.append(text)
+
     result = run_campaign(campaign.with_overrides(output=tmp_path / "crashing"),
-                          SimulationOptions(workers=2), report=False)
+                          SimulationOptions(workers=2), progress=Said(), report=False)
     simulated = [p for p in result.summary["paths"] if p["status"] == "simulated"]
     assert simulated and all(p["failed_runs"] == 0 and p["completed_runs"] == p["runs_used"] > 0
                              for p in simulated)
-    assert checked == []
+    tried = len(attempts.read_text().split())
+    # the tasks handed out before the first crash came back (two workers, each with one
+    # waiting): the first failure stops the checks in the workers
+    assert 1 <= tried <= 4 < sum(p["runs_used"] for p in simulated)
+    assert len([m for m in messages if "failed in its worker" in m and "SIGSEGV" in m]) == 1
     monkeypatch.setattr(adaptive, "_checked_in_workers", lambda *arguments: False)
     run_campaign(campaign.with_overrides(output=tmp_path / "looks"),
                  SimulationOptions(workers=1), report=False)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import campaign_pool_tasks as tasks
 
-from idefix_rules.campaign.simulation.pool import LocalPool, Then
+from idefix_rules.campaign.simulation.pool import LocalPool, Outcome, Then
 from idefix_rules.campaign.simulation.processes import IsolatedRunner
 
 
@@ -94,8 +94,8 @@ def test_the_work_after_a_value_comes_second_and_is_not_the_runs() -> None:
 
 
 def test_an_isolated_runner_leaves_the_work_after_a_value_for_the_next_task() -> None:
-    # Dask's children do not check runs; a Continued value there is handed back and its
-    # second answer not taken for the next task's.
+    # Dask's children run the work after a Continued value too (no campaign asks them to);
+    # its answer is left, not taken for the next task's.
     runner = IsolatedRunner(tasks.continued)
     try:
         first = runner.run("a", ("a", 0.0, 0.2), timeout=10.0)
@@ -104,3 +104,10 @@ def test_an_isolated_runner_leaves_the_work_after_a_value_for_the_next_task() ->
         runner.close()
     assert (first.ok, first.value) == (True, ("ran", "a"))
     assert (second.ok, second.value) == (True, ("ran", "b"))
+
+
+def test_a_continued_value_without_work_after_it_is_one_answer() -> None:
+    pool = LocalPool(tasks.continued_alone, workers=1, run_timeout=30.0)
+    seen = list(pool.map((i, i) for i in range(3)))
+    assert [(key, type(outcome), outcome.value) for key, outcome in seen] == \
+        [(i, Outcome, i) for i in range(3)]

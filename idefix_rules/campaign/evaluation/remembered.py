@@ -11,9 +11,10 @@ the way
 ``idefix-verify diff --results`` reuses the stored ones
 (:class:`~idefix_rules.results.collisions.StoredChunks`). It stands in for the checker
 wherever one is expected and checks, with it, what it does not hold. On the local pool the
-workers check each run they simulate (:func:`run_collisions`, on the poses at their stored
-precision) and the campaign records their answer as the run is stored, so no look checks
-a run either.
+workers check each run they simulate after handing it back (:func:`run_collisions`, on the
+poses at their stored precision) and the campaign records their answer when it comes, so no
+look checks a run either. After a check that failed in a worker (``worker_failure``) no
+worker checks again in that campaign, and the looks check the runs.
 
 Only rulebooks whose collision reads are among the stored signals (``collision.hits``,
 ``collision.buffer``, ``collision.contact``) are given remembered rows; any other read
@@ -77,6 +78,9 @@ class RememberedCollisions:
         self.budget = budget
         self.paths: dict[str, _PathRows] = {}
         self.given_up: set[str] = set()  # paths over the budget: checked again
+        # the first check that failed in a worker (timeout, error, crash): no worker checks
+        # after it, the looks check the runs
+        self.worker_failure: str | None = None
 
     def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
                  ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:

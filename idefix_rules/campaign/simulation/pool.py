@@ -109,9 +109,12 @@ class LocalPool:
 
     def map(self, tasks: Iterable[tuple[Hashable, Any]]) -> Iterator[tuple[Hashable, Outcome]]:
         """Run every task; yields ``(key, Outcome)`` as each finishes. A task is taken from
-        ``tasks`` when a worker is free for it: at most one per worker is held at a time
-        (and those a kill from outside sends round again). A worker that finished gets its next
-        task before the finished runs are yielded: it simulates while the caller stores them."""
+        ``tasks`` when a worker is free for it: a worker that finished gets its next task
+        before the finished runs are yielded (it simulates while the caller stores them), so
+        at most two per worker are held at a time, one running and one finished (and those a
+        kill from outside sends round again). A task whose value is :class:`Continued` yields
+        its ``Outcome`` and later a :class:`Then` for the work after it; its worker takes no
+        other task until then."""
         pending = iter(tasks)
         exhausted = False
         again: deque[tuple[Hashable, Any]] = deque()  # runs whose worker was killed from outside

@@ -70,9 +70,11 @@ class Then(Outcome):
 @dataclass(frozen=True)
 class Continued:
     """What a task function returns to send ``value`` to the parent at once and do ``then``
-    after it in the same process, its result or failure following as a :class:`Then` (the
-    local pool; elsewhere ``then`` is not run). The task's timeout ends with ``value``;
-    ``then`` has a timeout of the same length of its own."""
+    after it in the same process, its result or failure following as a :class:`Then`. The
+    task's timeout ends with ``value``; ``then`` has a timeout of the same length of its own.
+    Dask's children (:class:`IsolatedRunner`) run ``then`` too and leave its answer; off POSIX
+    it is not run. Sent to the parent without ``then`` (None): the marker that a second answer
+    follows."""
 
     value: Any
     then: Callable[[], Any] | None = None
@@ -173,8 +175,9 @@ def worker_main(connection: Connection, function: TaskFunction, parent: int,
         then = None
         try:
             value = function(payload)
-            if isinstance(value, Continued):  # the value now, then the rest
-                value, then = Continued(value.value), value.then
+            if isinstance(value, Continued):  # the value now, then the rest (if any)
+                value, then = (Continued(value.value), value.then) \
+                    if value.then is not None else (value.value, None)
             result = (key, True, value, "")
         except Exception as failure:
             result = (key, False, None, _reason(failure))

@@ -614,9 +614,17 @@ def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, Pa
             _map(pool, tasks, close=own) as results:
         for (name, run), outcome in results:
             if isinstance(outcome, Then):  # a stored run's collision check, by its worker
-                if outcome.ok and remember is not None and outcome.value is not None:
+                if remember is None:
+                    continue
+                if outcome.ok and outcome.value is not None:
                     remember.record(name, np.array([run], dtype=np.int64), outcome.value)
-                continue  # failed or lost: the look checks the run
+                elif not outcome.ok and remember.worker_failure is None:
+                    # the looks check the runs from now on; no worker is asked again
+                    remember.worker_failure = outcome.reason
+                    progress.message(f"{name}: the collision check of run {run} failed in "
+                                     f"its worker ({outcome.reason}); the looks check the "
+                                     "runs from now on")
+                continue
             _raise_input_problem(outcome)
             summary.simulated_runs += 1
             started = time.perf_counter()
