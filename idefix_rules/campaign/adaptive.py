@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -169,36 +169,18 @@ def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str
         # stored before a --resume: skipped; lost to the infrastructure: simulated again
         missing = runs_to_simulate(store, name, reset=True)
         rows[name] = missing[(missing >= done[name]) & (missing < look)]
-    # a path over the memory budget for kept checks is checked by its looks: not in the
-    # workers; nor is any run once a worker's check failed (read as each task is made)
-    checks = _WorkerChecks(check, remember, list(running))
-    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled,
-                                                           checks)),
-                  running, store, options, progress, summary, pool, remember)
 
-
-class _WorkerChecks(Mapping[str, str | None]):
-    """The check token each path's tasks carry, looked up as each task is made: none for a
-    path over the memory budget for kept checks, and none for any path once a check failed
-    in a worker (:attr:`RememberedCollisions.worker_failure`)."""
-
-    def __init__(self, token: str | None, remember: RememberedCollisions | None,
-                 names: list[str]) -> None:
-        self.token, self.remember, self.names = token, remember, names
-
-    def __getitem__(self, name: str) -> str | None:
-        if name not in self.names:
-            raise KeyError(name)
-        remember = self.remember
+    def check_of(name: str) -> str | None:
+        """The check token a task of path ``name`` carries, asked as each task is made: none
+        for a path over the memory budget for kept checks (its looks check it), and none for
+        any path once a check failed in a worker."""
         if remember is None or name in remember.given_up or remember.worker_failure:
             return None
-        return self.token
+        return check
 
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.names)
-
-    def __len__(self) -> int:
-        return len(self.names)
+    run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, running, sampled,
+                                                           check_of)),
+                  running, store, options, progress, summary, pool, remember)
 
 
 def _checked_in_workers(collisions: Any, evaluator: Any, pool: Any) -> bool:

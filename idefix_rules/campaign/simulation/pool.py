@@ -92,7 +92,7 @@ class LocalPool:
 
     def _spawn(self) -> _Worker:
         parent_end, child_end = self._context.Pipe()
-        inherited = parent_end if self._context.get_start_method() == "fork" else None
+        inherited = parent_end if self.forks else None
         process = self._context.Process(  # type: ignore[attr-defined]
             target=worker_main, args=(child_end, self.function, os.getpid(), inherited),
             daemon=True)

@@ -360,7 +360,7 @@ def run_isolated(function: TaskFunction, key: Hashable, payload: Any,
             value = function(payload)
             return Outcome(True, value.value if isinstance(value, Continued) else value)
         except Exception as failure:
-            return Outcome(False, None, f"{type(failure).__name__}: {failure}")
+            return Outcome(False, None, _reason(failure))
     ident = threading.get_ident()
     runner = _ISOLATED.get(ident)
     if runner is None or runner.function is not function:

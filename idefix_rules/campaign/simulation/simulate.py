@@ -552,15 +552,15 @@ class PlannedRuns:
 def sampled_task(campaign: Campaign, fmu: FmuSource, base: Mapping[str, float | str],
                  plans: Mapping[str, PathPlan],
                  sampled: Mapping[str, Mapping[str, np.ndarray]],
-                 checks: Mapping[str, str | None] | None = None) -> TaskMaker:
+                 check_of: Callable[[str], str | None] | None = None) -> TaskMaker:
     """What makes the task of run ``run`` of a path: its chain with the run-independent
-    parameters ``base`` and the run's row of the path's ``sampled`` values (``checks``: by
-    path, the ``check`` of :func:`run_task`)."""
+    parameters ``base`` and the run's row of the path's ``sampled`` values (``check_of``:
+    the ``check`` of :func:`run_task` by path name, asked as each task is made)."""
     def make(name: str, run: int) -> RunTask:
         parameters = dict(base)
         parameters.update({key: float(values[run]) for key, values in sampled[name].items()})
         return run_task(campaign, fmu, plans[name], parameters, encode=True,
-                        check=(checks or {}).get(name), run=run)
+                        check=check_of(name) if check_of is not None else None, run=run)
 
     return make
 
