@@ -285,6 +285,52 @@ def test_a_slope_steeper_than_the_soil_holds_is_an_accelerating_slide_flagged_st
     assert abs(held["x"][-1]) < 1e-6 and held["stuck"].max() == 0.0
 
 
+def _slide_acceleration(out: dict[str, np.ndarray], start: float, end: float) -> float:
+    """Acceleration along the path over [start, end] s: the second coefficient of a quadratic
+    least-squares fit of the distance slid (x and z of the body, the path's own length)."""
+    distance = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(out["x"]), np.diff(out["z"])))])
+    window = (out["t"] >= start) & (out["t"] <= end)
+    return float(2.0 * np.polyfit(out["t"][window], distance[window], 2)[0])
+
+
+def _newton_slide_acceleration(out: dict[str, np.ndarray], slope: float, sample: int) -> float:
+    """Newton's second law along the slope for held wheels on cohesionless soil: every wheel
+    skids fully (|s| = 1: its shear displacement is its whole patch, j = L) and ploughs its
+    compaction resistance, so m a = m g sin(slope) - sum (W_i tan(phi) f(L_i) + R_c,i), with
+    the loads W_i and sinkages z_i the run reports (the statics have their own tests) and the
+    soil's equations written again in `soil_model`."""
+    m, g = 25.0, 0.0057
+    k = soil_model.modulus(0.0)
+    resistance = 0.0
+    for i, wheel in enumerate(("FL", "FR", "RL", "RR")):
+        load, sinkage = out[f"wheel.{wheel}.load"][sample], out["wheel.sinkage"][sample][i]
+        shear = load * math.tan(soil_model.FRICTION) * _janosi(soil_model.shear_length(sinkage))
+        resistance += shear + soil_model.WIDTH * k * sinkage ** 2 / 2
+    return (m * g * math.sin(slope) - resistance) / m
+
+
+def test_the_slide_on_a_slope_the_soil_cannot_hold_accelerates_as_newtons_law_gives(
+        rover: FmuRunner, tmp_path: Path) -> None:
+    # Held wheels on cohesionless soil at 35°: the wheels' full-skid shear and compaction
+    # resistance carry 96 % of the downhill weight, so the slide's acceleration (about
+    # 0.14 mm/s²) is the small difference of two large forces, and 2 % of it is 0.08 % of the
+    # weight along the slope. The regularised shear displacement j = L v / (v + eps) is short
+    # of L while the speed is a few eps: with eps = 1 µm/s that is over within a second, with
+    # the default 10 µm/s the slide starts faster (5 % at 5 s) and reaches the same law later.
+    slope = math.radians(35)
+    terrain = write_terrain(tmp_path / "steep.terrain", synthetic_terrain(
+        size=6.0, cell=0.05, slope=slope, slope_direction=0.0))
+    soil = {"terrain.file": str(terrain), "soil.cohesion": 0.0}
+    fine = rover.run({**soil, "solver.velocity_epsilon": 1e-6}, [], 20.0, 0.1)
+    expected = _newton_slide_acceleration(fine, slope, 150)
+    assert 0.12e-3 < expected < 0.16e-3
+    assert _slide_acceleration(fine, 5.0, 20.0) == pytest.approx(expected, rel=0.02)
+    default = rover.run(soil, [], 60.0, 0.1)
+    assert _newton_slide_acceleration(default, slope, 500) == pytest.approx(expected, rel=1e-6)
+    assert _slide_acceleration(default, 2.0, 8.0) > 1.03 * expected
+    assert _slide_acceleration(default, 45.0, 60.0) == pytest.approx(expected, rel=0.02)
+
+
 def _flat_with(tmp_path: Path, rocks: list[Rock], name: str = "rocks.terrain") -> Path:
     return write_terrain(tmp_path / name, synthetic_terrain(size=4.0, cell=0.02, rocks=rocks))
 
