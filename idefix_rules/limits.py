@@ -28,6 +28,9 @@ MAX_CSV_DEM_BYTES = 64 * 1024 * 1024
 MAX_RUNS = 1_000_000
 # Seeds are stored as 64-bit unsigned integers (results.h5, docs/results-format.md).
 MAX_SEED = 2**64 - 1
+# Worker processes of one campaign: more than any machine has cores; a larger number is a
+# typing mistake (each worker is a process holding an FMU instance).
+MAX_WORKERS = 1024
 
 RULEBOOK_TOO_LARGE = "E900"
 RULEBOOK_LINE_TOO_LONG = "E901"

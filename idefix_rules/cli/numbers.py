@@ -7,13 +7,20 @@ import argparse
 import math
 import re
 
-from idefix_rules.limits import MAX_RUNS, MAX_SEED
+from idefix_rules.limits import MAX_RUNS, MAX_SEED, MAX_WORKERS
 
 
 def positive_int(text: str) -> int:
     value = integer(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}")
+    return value
+
+
+def worker_count(text: str) -> int:
+    value = positive_int(text)
+    if value > MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_WORKERS} worker processes, got {text}")
     return value
 
 

@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING
 
 from idefix_rules.cli.destinations import output_file, output_folder
 from idefix_rules.cli.numbers import (
-    positive_int,
     run_count,
     run_count_only,
     seconds,
     seed_number,
+    worker_count,
 )
 from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.limits import MAX_RUNS
+from idefix_rules.limits import MAX_RUNS, MAX_WORKERS
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -45,8 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=output_folder, help="output folder (overrides `output`)")
     parser.add_argument("--seed", type=seed_number, help="campaign seed, 0 … 2^64 - 1 (overrides "
                         "`uncertainty.seed`)")
-    parser.add_argument("--workers", type=positive_int,
-                        help="worker processes (default: the campaign's, else all cores)")
+    parser.add_argument("--workers", type=worker_count,
+                        help=f"worker processes, at most {MAX_WORKERS} (default: the campaign's, "
+                             "else all cores)")
     parser.add_argument("--run-timeout", type=seconds, metavar="SECONDS",
                         help="a run taking longer is killed and recorded as failed (default: "
                              "derived from the path's simulated duration and the measured "

@@ -14,7 +14,8 @@ import argparse
 from pathlib import Path
 
 from idefix_rules.cli.destinations import output_folder
-from idefix_rules.cli.numbers import integer, positive_int, seconds, seed_number
+from idefix_rules.cli.numbers import integer, positive_int, seconds, seed_number, worker_count
+from idefix_rules.limits import MAX_WORKERS
 
 NAME = "worst"
 HELP = ("Search each chain's uncertainty for the worlds of highest run risk (cross-entropy "
@@ -33,8 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"{DEFAULT_RUNS}: a quarter of a 1000-run campaign)")
     parser.add_argument("--seed", type=seed_number, help="seed of the search, 0 … 2^64 - 1 "
                         "(default: the campaign's `uncertainty.seed`)")
-    parser.add_argument("--workers", type=positive_int,
-                        help="worker processes (default: the campaign's, else all cores)")
+    parser.add_argument("--workers", type=worker_count,
+                        help=f"worker processes, at most {MAX_WORKERS} (default: the campaign's, "
+                             "else all cores)")
     parser.add_argument("--out", type=output_folder,
                         help="output folder (default: the campaign's output folder + /worst)")
     parser.add_argument("--critical", type=_level, default=1.0, metavar="LEVEL",

@@ -16,6 +16,19 @@ def test_every_task_comes_back_once_with_its_result() -> None:
     assert all(outcome.ok and outcome.value == i * i for i, outcome in results.items())
 
 
+def test_a_pool_starts_no_more_processes_than_it_has_tasks() -> None:
+    # A pool larger than the runs it is given (the --workers of a big machine on a short
+    # campaign) starts a process per task, not one per slot; a persistent pool given more
+    # tasks at the next map grows up to its size.
+    pool = LocalPool(tasks.pid, workers=64, persistent=True)
+    first = {outcome.value for _, outcome in pool.map((i, i) for i in range(3))}
+    assert 1 <= len(first) <= 3 and len(pool._workers) == 3
+    second = {outcome.value for _, outcome in pool.map((i, i) for i in range(5))}
+    assert len(pool._workers) == 5 and len(second) <= 5
+    pool.close()
+    assert pool._workers == []
+
+
 def test_a_segfault_an_exit_an_exception_and_a_hang_fail_only_their_own_run() -> None:
     payloads = ["a", "segfault", "b", "hang", "raise", "exit", "c", "d"]
     pool = LocalPool(tasks.misbehave, workers=2, run_timeout=1.0)

@@ -227,6 +227,11 @@ CASES = [
          ("campaign.yaml:6:7: error[C100]: runs:",)),
     Case("campaign-workers-zero", campaign(("workers: 1", "workers: 0")), RUN, 2,
          ("campaign.yaml:7:10: error[C201]",)),
+    Case("campaign-workers-too-many", campaign(("workers: 1", "workers: 1025")), RUN, 2,
+         ("campaign.yaml:7:10: error[C201]: workers: expected 'auto' or a number from 1 to "
+          "1024, got 1025",)),
+    Case("option-workers-too-many", campaign(), (*RUN, "--workers", "1025"), 2,
+         ("argument --workers: at most 1024 worker processes, got 1025",)),
     Case("campaign-seed-text", campaign(("seed: 5", "seed: abc")), RUN, 2,
          ("campaign.yaml:10:9: error[C100]: uncertainty.seed",)),
     Case("campaign-seed-negative", campaign(("seed: 5", "seed: -5")), RUN, 2,

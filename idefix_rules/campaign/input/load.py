@@ -29,7 +29,12 @@ from idefix_rules.campaign.input.yamlsource import SourceMap, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
-from idefix_rules.limits import CAMPAIGN_TOO_LARGE, MAX_CAMPAIGN_BYTES, check_file_size
+from idefix_rules.limits import (
+    CAMPAIGN_TOO_LARGE,
+    MAX_CAMPAIGN_BYTES,
+    MAX_WORKERS,
+    check_file_size,
+)
 
 BUILTIN_FMU = "builtin"
 
@@ -247,8 +252,9 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
     if model.environment.terrain.dem:
         need_file(model.environment.terrain.dem, ("environment", "terrain", "dem"), "DEM file")
         found.extend(_dem_grid_checks(model.environment.terrain, locations))
-    if model.workers != "auto" and model.workers < 1:
-        found.append(error("C201", "workers: expected 'auto' or a positive number",
+    if model.workers != "auto" and not 1 <= model.workers <= MAX_WORKERS:
+        found.append(error("C201", f"workers: expected 'auto' or a number from 1 to "
+                                   f"{MAX_WORKERS}, got {model.workers}",
                            locations.span(("workers",))))
     found.extend(_adaptive_checks(model, locations))
     for index, expectation in enumerate(model.expect):

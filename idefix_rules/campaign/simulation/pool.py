@@ -123,11 +123,13 @@ class LocalPool:
         finished = False
 
         def fill() -> None:
-            """Give every idle worker its next task (starting workers up to the size)."""
+            """Give every idle worker its next task, starting a worker (up to the size) only
+            for a task there is: never more processes than runs to simulate."""
             nonlocal exhausted
-            while (again or not exhausted) and len(self._workers) < self.size:
-                self._workers.append(self._spawn())
-            for worker in [w for w in self._workers if w.key is None]:
+            while True:
+                worker = next((w for w in self._workers if w.key is None), None)
+                if worker is None and len(self._workers) >= self.size:
+                    return
                 if again:
                     key, payload = again.popleft()
                 else:
@@ -135,7 +137,10 @@ class LocalPool:
                         key, payload = next(pending)
                     except StopIteration:
                         exhausted = True
-                        break
+                        return
+                if worker is None:
+                    worker = self._spawn()
+                    self._workers.append(worker)
                 if not self._hand(worker, key, payload):
                     again.appendleft((key, payload))  # the worker died idle: not the run's
                     continue
