@@ -56,7 +56,7 @@ DONE_SIGNAL = "done"
 CHAIN_DELIVERIES = ("parameters", "inputs", "none")
 _INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
 # How the rover FMU (and any FMU following its wording) names a parameter it rejects.
-_PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
+PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
 
 
 def extract_fmu(fmu_path: str | Path, folder: str | Path | None = None) -> Path:
@@ -239,7 +239,7 @@ class FmuRunner:
     def _initialisation_error(self, exc: Exception) -> Exception:
         """A parameter the FMU rejects is the user's mistake; anything else is not."""
         for message in reversed(self._log):
-            match = _PARAMETER_REJECTED.match(message)
+            match = PARAMETER_REJECTED.match(message)
             if match:
                 fmu_name = match["name"]
                 user_names = [k for k, v in self.parameter_map.items() if v == fmu_name]

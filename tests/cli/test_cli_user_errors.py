@@ -330,6 +330,10 @@ CASES = [
     Case("fmu-parameter-of-wrong-dimension", campaign(("low: 0.05, high: 0.25",
                                                        'low: "1 m", high: "2 m"')), RUN, 2,
          ("campaign.yaml:13:15: error[C402]: uncertainty.parameters.toy.slip: expected a ratio",)),
+    Case("regolith-value-of-wrong-dimension",
+         campaign(("paths:", 'environment:\n  regolith: {toy.slip: "5 cm"}\npaths:')), RUN, 2,
+         ("campaign.yaml:15:24: error[C402]: environment.regolith.toy.slip: expected a ratio "
+          "(FMU unit 1), got a length",)),
     # ----------------------------------------------------------------- terrain
     Case("dem-truncated", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                 "    dem: site.dem\npaths:")),
@@ -695,3 +699,32 @@ def test_building_the_fmu_without_a_compiler_is_exit_3_and_says_what_is_missing(
     output = " ".join("".join(capsys.readouterr()).split())
     assert "building the rover FMU needs a C compiler" in output
     assert "Traceback" not in output
+
+
+@pytest.mark.parametrize("where", ["regolith", "uncertainty"])
+def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
+        where: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # The built-in rover checks its parameters' ranges as it initialises (docs/rover-model.md,
+    # "Parameters"): soil.friction_angle at most 80°. 85° is refused in the reference run, and
+    # the message names the campaign line that set it, not the FMU file.
+    rulebook = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
+    text = (Path(__file__).parents[2] / "campaigns" / "flat-control.yaml").read_text()
+    text = text.replace("../rulebooks/idefix-ops.rules", str(rulebook))
+    setting = {"regolith": ('    n: 1.0\n', '    n: 1.0\n    friction_angle: "85 deg"\n'),
+               "uncertainty": ("  parameters:\n", "  parameters:\n    soil.friction_angle: "
+                               '{distribution: uniform, low: "84 deg", high: "86 deg"}\n')}
+    old, new = setting[where]
+    assert old in text
+    text = text.replace(old, new, 1)
+    (tmp_path / "campaign.yaml").write_text(text)
+    monkeypatch.chdir(tmp_path)
+    code = main(["run", "campaign.yaml", "--runs", "2", "--quiet", "--no-report", "--out", "o"])
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    line = text[:text.index("85 deg" if where == "regolith" else "{distribution: uniform, "
+                            "low: \"84")].count("\n") + 1
+    assert code == 2, output
+    assert f"campaign.yaml:{line}:" in output and "error[F110]: parameter soil.friction_angle" \
+        in output, output
+    assert "Traceback" not in output and ".fmu: error" not in output

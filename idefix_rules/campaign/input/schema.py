@@ -7,6 +7,7 @@ error. The format is documented in ``docs/campaign-format.md``.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 from datetime import date
@@ -223,6 +224,25 @@ class EnvironmentSection(Strict):
     keep_out: list[KeepOutArea] = []
     areas: dict[str, NamedAreaGeometry] = {}
     regolith: dict[str, AnyQuantity] = {}
+    # each regolith value's dimension as written (a bare number: dimensionless), checked
+    # against its FMU parameter's unit once the FMU is known
+    _regolith_dimensions: dict[str, Dimension] = PrivateAttr(default_factory=dict)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _written_dimensions(cls, data: Any, handler: Any) -> Any:
+        instance = handler(data)
+        regolith = data.get("regolith") if isinstance(data, dict) else None
+        if isinstance(regolith, dict):
+            for key, value in regolith.items():
+                with contextlib.suppress(UnitError, TypeError, ValueError):
+                    instance._regolith_dimensions[key] = parse_quantity(value).dimension
+        return instance
+
+    @property
+    def regolith_dimensions(self) -> dict[str, Dimension]:
+        """The dimension each regolith value was written with."""
+        return dict(self._regolith_dimensions)
 
 
 # --- uncertainty -----------------------------------------------------------------------------

@@ -46,8 +46,9 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     entries: list[tuple[tuple[str, ...], str, Dimension | None]] = [
         (("uncertainty", "parameters", name), name, spec.dimension)
         for name, spec in campaign.model.uncertainty.parameters.items()]
-    entries += [(("environment", "regolith", key), key if "." in key else f"soil.{key}", None)
-                for key in campaign.model.environment.regolith]
+    written = campaign.model.environment.regolith_dimensions
+    entries += [(("environment", "regolith", key), key if "." in key else f"soil.{key}",
+                 written.get(key)) for key in campaign.model.environment.regolith]
     for loc, name, dimension in entries:
         if name not in parameter_names:
             variable = variables.get(name)

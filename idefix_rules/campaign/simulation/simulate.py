@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import heapq
 import json
 import os
@@ -44,7 +45,8 @@ from idefix_rules.campaign.storage.store import (
     run_bytes,
 )
 from idefix_rules.commands import RoverGeometry
-from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
+from idefix_rules.fmu.runner import PARAMETER_REJECTED
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
 from idefix_rules.results.terrain import TerrainSource, file_sha256
@@ -441,7 +443,7 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
                        outcome: Outcome, collisions: Any, summary: SimulationSummary) -> None:
     """Store a reference run and apply the pre-screen to it."""
     name = plan.spec.name
-    _raise_input_problem(outcome)
+    _raise_input_problem(campaign, outcome)
     numeric = {k: float(v) for k, v in nominal.items() if not isinstance(v, str)}
     if not outcome.ok:
         plan.status, plan.reason = "reference_failed", outcome.reason
@@ -467,10 +469,30 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
     store.set_path_status(name, plan.status, plan.reason)
 
 
-def _raise_input_problem(outcome: Outcome) -> None:
+def _raise_input_problem(campaign: Campaign, outcome: Outcome) -> None:
     """A mistake in the campaign found inside a worker stops the campaign (exit 2)."""
     if outcome.ok and isinstance(outcome.value, InputProblem):
-        raise UserInputError(outcome.value.diagnostics)
+        raise UserInputError([_where_set(campaign, d) for d in outcome.value.diagnostics],
+                             sources={str(campaign.source): campaign.text})
+
+
+def _where_set(campaign: Campaign, diagnostic: Diagnostic) -> Diagnostic:
+    """A parameter the FMU refused (F110), pointed at the campaign line that set it (a
+    regolith value, or an uncertain parameter's distribution) instead of the FMU file."""
+    match = PARAMETER_REJECTED.match(diagnostic.message) if diagnostic.code == "F110" else None
+    if match is None:
+        return diagnostic
+    model = campaign.model
+    names = {match["name"]} | {ours for fmu_name, ours in (model.fmu.parameters or {}).items()
+                               if fmu_name == match["name"]}
+    places: list[tuple[str | int, ...]] = [
+        ("uncertainty", "parameters", name) for name in model.uncertainty.parameters
+        if name in names]
+    places += [("environment", "regolith", key) for key in model.environment.regolith
+               if (key if "." in key else f"soil.{key}") in names]
+    if not places:
+        return diagnostic
+    return dataclasses.replace(diagnostic, span=campaign.span(places[0]))
 
 
 def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, Any]]:
@@ -625,7 +647,7 @@ def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, Pa
                                      f"its worker ({outcome.reason}); the looks check the "
                                      "runs from now on")
                 continue
-            _raise_input_problem(outcome)
+            _raise_input_problem(campaign, outcome)
             summary.simulated_runs += 1
             started = time.perf_counter()
             if outcome.ok:
