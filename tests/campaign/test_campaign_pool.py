@@ -124,3 +124,18 @@ def test_a_continued_value_without_work_after_it_is_one_answer() -> None:
     seen = list(pool.map((i, i) for i in range(3)))
     assert [(key, type(outcome), outcome.value) for key, outcome in seen] == \
         [(i, Outcome, i) for i in range(3)]
+
+
+def test_a_timeout_longer_than_the_system_can_wait_for_is_kept() -> None:
+    # poll() takes milliseconds in a C int (about 24.8 days): a longer timeout (--run-timeout
+    # 3000000, or 1e10) is waited for in parts, and the runs come back as with none.
+    for timeout in (3e6, 1e10):
+        pool = LocalPool(tasks.square, workers=2, run_timeout=timeout)
+        results = dict(pool.map((i, i) for i in range(4)))
+        assert {i: o.value for i, o in results.items()} == {0: 0, 1: 1, 2: 4, 3: 9}
+        runner = IsolatedRunner(tasks.square)
+        try:
+            outcome = runner.run("k", 3, timeout)
+            assert outcome.ok and outcome.value == 9, outcome
+        finally:
+            runner.close()

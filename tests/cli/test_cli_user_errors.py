@@ -285,6 +285,11 @@ CASES = [
     Case("campaign-unknown-distribution", campaign(("uniform", "gaussian")), RUN, 2,
          ("campaign.yaml:13:30: error[C100]: uncertainty.parameters.toy.slip: unknown "
           "distribution 'gaussian'",)),
+    Case("campaign-terrain-size-overflows",
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "1e160 m", '
+                   'cell: "1 cm"}\npaths:')), RUN, 2,
+         ("error[C100]: environment.terrain.synthetic: size 1e+160 m with cell 0.01 m gives "
+          "1e+162 × 1e+162 grid nodes, more than 16000000",)),
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
          2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
     Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),

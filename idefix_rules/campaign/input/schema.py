@@ -153,12 +153,12 @@ class SyntheticTerrain(Strict):
         if self.cell >= self.size:
             raise PydanticCustomError("terrain", "cell {cell} m must be smaller than size {size} m",
                                       {"cell": f"{self.cell:g}", "size": f"{self.size:g}"})
-        nodes = (self.size / self.cell + 1.0) ** 2
-        if nodes > MAX_TERRAIN_NODES:
+        side = self.size / self.cell + 1.0  # nodes a side; side ** 2 overflows at 1e160 m
+        if side > MAX_TERRAIN_NODES or side * side > MAX_TERRAIN_NODES:
             raise PydanticCustomError(
-                "terrain", "size {size} m with cell {cell} m gives {nodes} grid nodes, more "
-                "than {limit}", {"size": f"{self.size:g}", "cell": f"{self.cell:g}",
-                                 "nodes": f"{nodes:.3g}", "limit": MAX_TERRAIN_NODES})
+                "terrain", "size {size} m with cell {cell} m gives {side} × {side} grid nodes, "
+                "more than {limit}", {"size": f"{self.size:g}", "cell": f"{self.cell:g}",
+                                      "side": f"{side:.3g}", "limit": MAX_TERRAIN_NODES})
         return self
 
 

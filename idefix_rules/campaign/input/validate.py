@@ -92,6 +92,20 @@ def check_simulation_size(campaign: Campaign) -> None:
     rover = rover_geometry(campaign)
     settings = campaign.model.simulation
     problems = []
+    # the stop time is rounded up to a whole interval: an interval longer than a run makes it
+    # one sample as long as the interval (1e9 s would be simulated to its end); said once, for
+    # the shortest run
+    wanted = {spec.name: stop_limit(campaign, spec.chain, rover)[2] * settings.duration_margin
+              + settings.extra_time for spec in campaign.paths}
+    shortest = min(wanted, key=lambda name: wanted[name]) if wanted else None
+    if shortest is not None and settings.output_interval > wanted[shortest]:
+        raise UserInputError([error(
+            "C404", f"simulation.output_interval: {settings.output_interval:.6g} s is longer "
+                    f"than a run of path {shortest} ({wanted[shortest]:.6g} s): a run would be "
+                    f"one sample, simulated for the whole interval",
+            campaign.locations.span(("simulation", "output_interval")),
+            hint="an output interval of a fraction of a second (the default 0.1 s)")],
+            sources={str(campaign.source): campaign.text})
     for spec in campaign.paths:
         samples = stop_limit(campaign, spec.chain, rover)[1]
         if samples > MAX_SAMPLES:

@@ -35,7 +35,7 @@ import time
 from collections import deque
 from collections.abc import Hashable, Iterable, Iterator
 from dataclasses import dataclass
-from multiprocessing.connection import Connection, wait
+from multiprocessing.connection import Connection
 from typing import Any
 
 from idefix_rules.campaign.simulation.dask_pool import DaskPool
@@ -51,6 +51,7 @@ from idefix_rules.campaign.simulation.processes import (
     receive,
     timeout_of,
     timeout_reason,
+    wait_until,
     worker_main,
 )
 
@@ -191,12 +192,11 @@ class LocalPool:
 
     def _collect(self, busy: list[_Worker]) -> Iterator[tuple[Hashable, Outcome]]:
         deadlines = [w.deadline for w in busy if w.deadline is not None]
-        timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
         handles: dict[Any, _Worker] = {}
         for worker in busy:
             handles[worker.connection] = worker
             handles[worker.process.sentinel] = worker
-        ready = wait(list(handles), timeout=timeout)
+        ready = wait_until(list(handles), min(deadlines) if deadlines else None)
         done: set[int] = set()
         for handle in ready:
             worker = handles[handle]

@@ -90,6 +90,24 @@ def is_infrastructure(reason: str) -> bool:
     return reason.startswith(INFRASTRUCTURE)
 
 
+# The longest a single wait on pipes and processes lasts: the system's poll takes milliseconds
+# in a C int (about 24.8 days), so a longer timeout (--run-timeout 3000000) is waited for in
+# parts of at most this, its deadline kept.
+MAX_WAIT = 86_400.0
+
+
+def wait_until(handles: list[Any], deadline: float | None) -> list[Any]:
+    """``multiprocessing.connection.wait`` until one of ``handles`` is ready or the monotonic
+    ``deadline`` (None: none) has passed, however far off it is; [] at the deadline."""
+    while True:
+        left = None if deadline is None else deadline - time.monotonic()
+        if left is not None and left <= 0.0:
+            return list(wait(handles, timeout=0.0))
+        ready = wait(handles, timeout=MAX_WAIT if left is None else min(left, MAX_WAIT))
+        if ready:
+            return list(ready)
+
+
 def timeout_of(timeouts: Timeouts, key: Hashable) -> float | None:
     """The timeout of task ``key`` in seconds (None: no limit)."""
     value = timeouts(key) if callable(timeouts) else timeouts
@@ -320,7 +338,8 @@ class IsolatedRunner:
             self._end(kill=True)
             child, connection = self._start()
             connection.send((key, payload))
-        ready = wait([connection, child.sentinel], timeout=timeout)
+        ready = wait_until([connection, child.sentinel], None if timeout is None
+                           else time.monotonic() + timeout)
         if not ready:
             self._end(kill=True)
             assert timeout is not None
@@ -335,7 +354,8 @@ class IsolatedRunner:
         if isinstance(value, Continued):
             # the work after the value (the local pool's): its answer is waited for and
             # left, so that it is not taken for the next task's
-            if not wait([connection, child.sentinel], timeout=timeout) \
+            if not wait_until([connection, child.sentinel], None if timeout is None
+                              else time.monotonic() + timeout) \
                     or receive(connection) is None:
                 self._end(kill=True)
             value = value.value
