@@ -27,7 +27,7 @@ from idefix_rules.campaign.input.load import (
 )
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.results.collisions import CollisionFunction, collision_function
-from idefix_rules.results.reader import StoredResults
+from idefix_rules.results.reader import StoredResults, damaged
 from idefix_rules.results.terrain import StoredTerrain, terrain_for_rescoring
 
 STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
@@ -73,6 +73,13 @@ class StoredCampaign:
             self.campaign = rebuilt_campaign(store)
         except Exception as failure:  # said by whoever needs the campaign
             self.problem = failure
+        if self.campaign is not None and store.attrs.get("state") == "complete":
+            # a finished campaign stored every path it names (its expectations name them too)
+            gone = [spec.name for spec in self.campaign.paths if not store.has_path(spec.name)]
+            if gone:
+                store.close()
+                raise damaged(self.path, f"/paths/{gone[0]}",
+                              "missing, though the campaign finished")
         self.rover = rover_geometry(self.campaign) if self.campaign is not None \
             else RoverGeometry()
         self.sigma = initial_position_sigma(self.campaign) if self.campaign is not None \
@@ -81,7 +88,8 @@ class StoredCampaign:
 
     @classmethod
     def open(cls, path: Path) -> StoredCampaign:
-        """Open ``path`` read only (``H001``-``H003`` when it is not a results file)."""
+        """Open ``path`` read only (``H001``-``H004`` when it is not a results file, or a
+        damaged one)."""
         return cls(StoredResults.open(Path(path)))
 
     def close(self) -> None:

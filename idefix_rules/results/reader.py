@@ -8,11 +8,15 @@ the reading half.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import zlib
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TypeGuard, cast
 
 import h5py
 import numpy as np
+from zlib_ng import zlib_ng
 
 from idefix_rules.commands import Command
 from idefix_rules.errors import Span, UserInputError, error
@@ -22,6 +26,105 @@ from idefix_rules.results.format import (
     STATUS_FAILED,
     decode_reason,
 )
+
+DAMAGED = "H004"
+# What reading a damaged file raises: HDF5's own errors (a chunk that no longer inflates, an
+# object that is gone) are OSError or KeyError; a dataset of the wrong kind or shape gives
+# ValueError or TypeError where its values are used; the runs' own decoding raises zlib's.
+READ_ERRORS: tuple[type[BaseException], ...] = (OSError, KeyError, ValueError, TypeError,
+                                                 zlib.error,
+                                                 cast(type[BaseException], zlib_ng.error))
+
+
+def damaged(path: Path, where: str, what: str) -> UserInputError:
+    """The exit-2 error of a results file that cannot be read back as written."""
+    return UserInputError(error(
+        DAMAGED, f"results file {path} is damaged: {where}: {what}", Span(str(path)),
+        hint="run the campaign again to write it anew (the file was changed or cut after it "
+             "was written: a copy that stopped, a disk error, an edit)"))
+
+
+@contextlib.contextmanager
+def reading(path: Path, where: str) -> Iterator[None]:
+    """Within: a failure to read ``where`` of the results file at ``path`` is :func:`damaged`
+    (the pure reads of this module and of the runs' decoding: no logic of the tool runs
+    inside, so such a failure is the file's)."""
+    try:
+        yield
+    except UserInputError:
+        raise
+    except READ_ERRORS as failure:
+        raise damaged(path, where, f"{type(failure).__name__}: {failure}") from None
+
+
+def structure_problems(file: h5py.File) -> list[str]:
+    """What a results file lacks of the layout ``docs/results-format.md`` gives (checked on
+    open, so that a deleted or replaced object is named instead of failing where it is used):
+    the provenance texts stored, each path's index, chain and, where stored, its reference run
+    and its runs (status, failure reasons and numeric signals, a row per planned run at most),
+    the terrain's heights."""
+    problems = []
+    provenance = file["provenance"]
+    for key in provenance:  # a text missing is named where it is read
+        item = provenance[key]
+        if not isinstance(item, h5py.Dataset) or item.shape != () or item.dtype.kind not in "OSU":
+            problems.append(f"/provenance/{key}: not a text")
+    paths = file["paths"]
+    for name in paths:
+        group, where = paths[name], f"/paths/{name}"
+        if not isinstance(group, h5py.Group):
+            problems.append(f"{where}: not a group")
+            continue
+        if "index" not in group.attrs:
+            problems.append(f"{where}: no index attribute")
+        chain = group.get("chain")
+        if not _numeric(chain) or chain.ndim != 2 or chain.shape[1] != 3:
+            problems.append(f"{where}/chain: missing, or not a table of commands (3 numbers "
+                            "a row)")
+        reference = group.get("reference")
+        finished = group.attrs.get("status") == "simulated" \
+            and file.attrs.get("state") == "complete"
+        if reference is None and finished:
+            problems.append(f"{where}/reference: missing, though the path was simulated")
+        elif reference is not None and reference.attrs.get("status") == STATUS_COMPLETE:
+            problems += _signal_problems(reference.get("signals"), f"{where}/reference", None)
+        runs = group.get("runs")
+        if runs is None:
+            if finished:
+                problems.append(f"{where}/runs: missing, though the campaign finished")
+            continue
+        status = runs.get("status")
+        if not _numeric(status) or status.ndim != 1 or status.dtype.kind not in "iu":
+            problems.append(f"{where}/runs/status: missing, or not a row of run states")
+            continue
+        failure = runs.get("failure")
+        if not isinstance(failure, h5py.Dataset) or failure.shape != status.shape:
+            problems.append(f"{where}/runs/failure: missing, or not one reason per run")
+        problems += _signal_problems(runs.get("signals"), f"{where}/runs", status.shape[0])
+    terrain = file.get("terrain")
+    if terrain is not None:
+        heights = terrain.get("heights") if isinstance(terrain, h5py.Group) else None
+        if not _numeric(heights) or heights.ndim != 2:
+            problems.append("/terrain/heights: missing, or not a grid of heights")
+    return problems
+
+
+def _numeric(item: object) -> TypeGuard[h5py.Dataset]:
+    return isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"
+
+
+def _signal_problems(signals: object, where: str, runs: int | None) -> list[str]:
+    if not isinstance(signals, h5py.Group):
+        return [f"{where}/signals: missing"]
+    problems = []
+    for key in signals:
+        dataset = signals[key]
+        if not _numeric(dataset) or dataset.ndim < (1 if runs is None else 2):
+            problems.append(f"{where}/signals/{key}: not numbers of the samples")
+        elif runs is not None and dataset.shape[0] > runs:
+            # rows are allocated in blocks as runs are simulated: at most one per planned run
+            problems.append(f"{where}/signals/{key}: {dataset.shape[0]} rows for {runs} runs")
+    return problems
 
 
 class StoredResults:
@@ -69,6 +172,18 @@ class StoredResults:
             raise UserInputError(error("H003", f"{path} is an incomplete idefix results file "
                                                f"(no {' or '.join(missing)} group)",
                                        Span(str(path)), hint="run the campaign again"))
+        try:
+            problems = structure_problems(file)
+            # a writer (--resume) mends what a cut-off write left (a block allocated without
+            # its states): only metadata that does not read at all stops it
+            problems = problems if mode == "r" else []
+        except READ_ERRORS as failure:  # the metadata itself does not read
+            problems = [f"its layout: {type(failure).__name__}: {failure}"]
+        if problems:
+            store.close()
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise damaged(path, problems[0].split(": ", 1)[0],
+                          problems[0].split(": ", 1)[-1] + more)
         return store
 
     def close(self) -> None:
@@ -92,8 +207,9 @@ class StoredResults:
 
     def text(self, key: str) -> str:
         """A provenance text (``campaign``, ``rulebook``); KeyError when not stored."""
-        value = self.file["provenance"][key][()]
-        return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+        with reading(self.path, f"/provenance/{key}"):
+            value = self.file["provenance"][key][()]
+            return value.decode("utf-8") if isinstance(value, bytes) else str(value)
 
     # --- paths ------------------------------------------------------------------------------
 
@@ -110,27 +226,32 @@ class StoredResults:
 
     def chain(self, name: str) -> tuple[Command, ...]:
         """The path's stored command chain."""
-        return tuple(Command(*map(float, row)) for row in self.path_group(name)["chain"][()])
+        with reading(self.path, f"/paths/{name}/chain"):
+            return tuple(Command(*map(float, row)) for row in self.path_group(name)["chain"][()])
 
     def reference(self, name: str) -> dict[str, np.ndarray] | None:
         """The path's reference run (None when it failed or is not stored)."""
         group = self.path_group(name).get("reference")
         if group is None or group.attrs.get("status") != STATUS_COMPLETE:
             return None
-        return {key: dataset[()] for key, dataset in group["signals"].items()}
+        with reading(self.path, f"/paths/{name}/reference"):
+            return {key: dataset[()] for key, dataset in group["signals"].items()}
 
     def has_runs(self, name: str) -> bool:
         group = self.path_group(name).get("runs")
         return group is not None and "status" in group
 
     def run_status(self, name: str) -> np.ndarray:
-        return np.asarray(self.path_group(name)["runs"]["status"][()])
+        with reading(self.path, f"/paths/{name}/runs/status"):
+            return np.asarray(self.path_group(name)["runs"]["status"][()])
 
     def failures(self, name: str) -> dict[int, str]:
-        group = self.path_group(name)["runs"]
-        status = group["status"][()]
-        reasons = group["failure"][()]
-        return {int(j): decode_reason(reasons[j]) for j in np.flatnonzero(status == STATUS_FAILED)}
+        with reading(self.path, f"/paths/{name}/runs/failure"):
+            group = self.path_group(name)["runs"]
+            status = group["status"][()]
+            reasons = group["failure"][()]
+            return {int(j): decode_reason(reasons[j])
+                    for j in np.flatnonzero(status == STATUS_FAILED)}
 
     def signal_names(self, name: str) -> list[str]:
         return list(self.path_group(name)["runs"]["signals"])
@@ -142,4 +263,5 @@ class StoredResults:
         datasets = self.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
         chosen = np.sort(selection) if isinstance(selection, np.ndarray) else selection
-        return {key: np.asarray(datasets[key][chosen], dtype=np.float64) for key in wanted}
+        with reading(self.path, f"/paths/{name}/runs/signals"):
+            return {key: np.asarray(datasets[key][chosen], dtype=np.float64) for key in wanted}

@@ -30,7 +30,7 @@ from zlib_ng import zlib_ng
 
 from idefix_rules.results.format import STATUS_COMPLETE
 from idefix_rules.results.mapped import MappedRuns
-from idefix_rules.results.reader import StoredResults
+from idefix_rules.results.reader import StoredResults, reading
 
 DEFAULT_CHUNK_RUNS = 64
 
@@ -213,7 +213,8 @@ class ParallelRuns:
                 continue
             out[key] = np.empty((rows.size, *layout.shape), dtype=np.float64)
             jobs.append((layout, rows, out[key]))
-        self._decode(jobs)
+        with reading(self.store.path, f"/paths/{name}/runs/signals"):
+            self._decode(jobs)
         return out
 
     def _decode(self, jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]]) -> None:
