@@ -32,6 +32,7 @@ from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, r
 from idefix_rules.campaign.input.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
+    check_start_on_terrain,
     prepare_output,
 )
 from idefix_rules.campaign.outcome import outputs
@@ -216,6 +217,8 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
+    if mapping.terrain_input:  # an FMU that is given the terrain drives on it
+        check_start_on_terrain(campaign, terrain.extent)
     source = TerrainSource.of(campaign.dem)
     if resume:  # the runs still missing are simulated on the terrain stored so far
         terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)

@@ -290,6 +290,11 @@ CASES = [
                    'cell: "1 cm"}\npaths:')), RUN, 2,
          ("error[C100]: environment.terrain.synthetic: size 1e+160 m with cell 0.01 m gives "
           "1e+162 × 1e+162 grid nodes, more than 16000000",)),
+    Case("campaign-rock-of-two-semi-axes",
+         campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                   'semi_axes: ["1 cm", "1 cm"]}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:41: error[C100]: environment.rocks[0].semi_axes: expected 3 "
+          "values, got 2",), absent=("missing required key",)),
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
          2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
     Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),

@@ -158,12 +158,24 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
                                  locations: SourceMap, text: str) -> list[Diagnostic]:
     diagnostics = []
     seen = set()
-    for item in failure.errors(include_url=False):
+    errors = failure.errors(include_url=False)
+    for item in errors:
         loc, found = _data_loc(data, item["loc"])
         kind = item["type"]
         if kind == "extra_forbidden":
             message = "unknown key"
             span = locations.span(loc, at_key=True)
+        elif kind == "missing" and item["loc"] and isinstance(item["loc"][-1], int) \
+                and isinstance(item.get("input"), list):
+            # a list too short for its tuple (semi_axes of two values): pydantic reports each
+            # item it lacks as a missing key
+            wanted = 1 + max(other["loc"][-1] for other in errors
+                             if other["type"] == "missing" and other["loc"][:-1] == item["loc"][:-1]
+                             and isinstance(other["loc"][-1], int))
+            got = len(item["input"])
+            message = f"expected {wanted} values, got {got}"
+            loc, _ = _data_loc(data, item["loc"][:-1])  # the list itself
+            span = locations.span(loc)
         elif kind == "missing":
             message = "missing required key"
             span = locations.span(loc[:-1] if not found else loc)

@@ -136,6 +136,28 @@ def check_rocks_on_terrain(campaign: Campaign, extent: tuple[float, float, float
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
 
+def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
+                           ) -> None:
+    """The rover's nominal start (``initial.x``, ``initial.y`` of the reference run) must lie
+    on the terrain grid ``(x_min, x_max, y_min, y_max)``: off it the rover model would drive on
+    the grid's edge heights carried on, a terrain no one gave it."""
+    from idefix_rules.campaign.input.load import nominal_parameters
+
+    x_min, x_max, y_min, y_max = extent
+    nominal = nominal_parameters(campaign)
+    x, y = float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0))
+    if x_min <= x <= x_max and y_min <= y <= y_max:
+        return
+    given = [name for name in ("initial.x", "initial.y")
+             if name in campaign.model.uncertainty.parameters]
+    where = ("uncertainty", "parameters", given[0]) if given else ("environment", "terrain")
+    raise UserInputError([error(
+        "C216", f"the rover starts at ({x:g} m, {y:g} m), outside the terrain (x {x_min:g} … "
+                f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
+        hint="initial.x and initial.y are world coordinates, in the terrain's frame")],
+        sources={str(campaign.source): campaign.text})
+
+
 def prepare_output(campaign: Campaign) -> None:
     """Create the output folder, or say why it cannot be (a file, no permission …)."""
     folder = campaign.output
