@@ -144,11 +144,11 @@ F109|bad simulation timing|The output interval must be above 0 and the stop time
 F110|FMU rejected a value|The FMU refused a parameter or failed during setup; the message carries its log.|initial.z far outside the terrain|Set the parameter within the allowed range the hint names.
 F201|terrain size invalid|A synthetic terrain needs a positive size larger than its cell.|size: "1 cm", cell: "2 cm"|`size: "4 m", cell: "2 cm"`.
 F202|too many rocks|The FMU's terrain holds a bounded number of rocks.|a list of 10 000 rocks|Keep the rocks near the paths.
-F203|terrain file unreadable|The terrain file named by the campaign exists but cannot be read (permissions, a broken disk, a folder).|dem: missing.terrain|Check the path and permissions.
+F203|terrain file unreadable|The terrain file named by the campaign exists but cannot be read (permissions, a broken disk, a folder, a `.npy` of Python objects: never loaded).|dem: missing.terrain|Check the path and permissions.
 F204|terrain file malformed|The terrain file's header or grid is malformed (the message names its line).|`nx 10` then 9 values per row|Write as many values per row as `nx` says.
 F205|DEM needs a cell size|A `.npy` or `.csv` DEM gives heights only; the cell size must be positive.|cell: "0 cm"|`cell: "2 cm"`.
 F206|DEM not a finite 2-D grid|A DEM must be a finite 2-D array of at least 2 × 2 heights.|a 1-D array, or one with NaN|Fill holes and give a 2-D grid.
-F207|not a number in a CSV DEM|A CSV DEM cell is not a number (line and column named).|0.1,0.2,abc|`0.1,0.2,0.3`.
+F207|not a number in a CSV DEM|A CSV DEM cell is not a number, or not a finite one (`nan`, `inf`; line and column named).|0.1,0.2,abc|`0.1,0.2,0.3`.
 F208|ragged CSV DEM|Every row of a CSV DEM needs as many values as the first.|row 2 has 9 values, row 1 has 10|Give every row the same number of values.
 H001|results file not found|The results file named on the command line does not exist (the campaign was not run, or wrote elsewhere).|idefix-verify report results/x/results.h5|Run the campaign first, or fix the path.
 H002|results path is a folder|A results file was expected but a folder was given.|idefix-verify report results/rock-detour|`idefix-verify report results/rock-detour/results.h5`.

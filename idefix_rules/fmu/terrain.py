@@ -278,7 +278,10 @@ def load_dem(path: str | Path, cell: float | None = None,
         try:
             heights = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:
-            raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) \
+            # numpy's words for a file of Python objects advise loading it unsafely: never
+            reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
+                      "which are never loaded") if "pickle" in str(exc) else str(exc)
+            raise UserInputError(error("F203", f"cannot read DEM: {reason}", Span(str(path)))) \
                 from None
     else:
         heights = _read_csv(path)
@@ -305,7 +308,10 @@ def _read_csv(path: Path) -> np.ndarray:
         row = []
         for column, cell_text in enumerate(cells):
             try:
-                row.append(float(cell_text))
+                value = float(cell_text)
+                if not math.isfinite(value):  # 'nan', 'inf': a height must be a number
+                    raise ValueError(cell_text)
+                row.append(value)
             except ValueError:
                 col = sum(len(c) + 1 for c in cells[:column]) + 1
                 if not rows:  # before any row of numbers it may be any file: quote none of it
@@ -314,7 +320,9 @@ def _read_csv(path: Path) -> np.ndarray:
                         Span(str(path), number, 1)), sources={str(path): ""}) from None
                 token = cell_text.strip()
                 shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
-                raise UserInputError(error("F207", f"not a number: {shown}",
+                what = "not a finite height" if token.lower().lstrip("+-") in (
+                    "nan", "inf", "infinity") else "not a number"
+                raise UserInputError(error("F207", f"{what}: {shown}",
                                            Span(str(path), number, col))) from None
         if rows and len(row) != len(rows[0]):
             raise UserInputError(error("F208", f"row has {len(row)} values, the first row has "

@@ -90,6 +90,16 @@ def with_files(files: Files, **more: object) -> Files:
     return {**files, **{name.replace("__", "."): value for name, value in more.items()}}
 
 
+def _npy_of_objects() -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.array([{"height": 1.0}], dtype=object), allow_pickle=True)
+    return buffer.getvalue()
+
+
+NPY_OBJECTS = _npy_of_objects()  # a .npy of pickled Python objects: never loaded
+
 TERRAIN_HEADER = "IDEFIX-TERRAIN 1\nnx 3\nny 3\norigin -1.0 -1.0\ncell 1.0\nrocks 0\nheights\n"
 
 
@@ -378,6 +388,16 @@ CASES = [
                                                     "paths:")),
                                          site__csv="0,0,0\n0,x,0\n0,0,0\n"), RUN, 2,
          ("site.csv:2:3: error[F207]: not a number: 'x'",)),
+    Case("dem-npy-of-python-objects",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              "    cell: \"1 m\"\npaths:")), site__npy=NPY_OBJECTS), RUN, 2,
+         ("site.npy: error[F203]: cannot read DEM: not an array of numbers: numpy reads it as "
+          "pickled Python objects, which are never loaded",), absent=("allow_pickle",)),
+    Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
+                                                    "    dem: site.csv\n    cell: \"1 m\"\n"
+                                                    "paths:")),
+                                         site__csv="0,0,0\n0,nan,0\n0,0,0\n"), RUN, 2,
+         ("site.csv:2:3: error[F207]: not a finite height: 'nan'",)),
     Case("rock-outside-the-terrain",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "100 m", y: "0 m", '
                              'radius: "4 cm"}\npaths:')), RUN, 2,
