@@ -217,7 +217,12 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
     check_rocks_on_terrain(campaign, terrain.extent)
-    if mapping.terrain_input:  # an FMU that is given the terrain drives on it
+    terrain_given = campaign.model.environment.terrain.dem is not None \
+        or campaign.model.environment.terrain.synthetic is not None
+    if campaign.fmu is None and terrain_given:
+        # the built-in rover starts at initial.x, initial.y on the terrain it is given (a
+        # foreign FMU may start from parameters of its own; without a terrain the ground is
+        # flat everywhere)
         check_start_on_terrain(campaign, terrain.extent)
     source = TerrainSource.of(campaign.dem)
     if resume:  # the runs still missing are simulated on the terrain stored so far

@@ -308,22 +308,23 @@ def _read_csv(path: Path) -> np.ndarray:
         row = []
         for column, cell_text in enumerate(cells):
             try:
-                value = float(cell_text)
-                if not math.isfinite(value):  # 'nan', 'inf': a height must be a number
-                    raise ValueError(cell_text)
-                row.append(value)
+                value: float | None = float(cell_text)
             except ValueError:
-                col = sum(len(c) + 1 for c in cells[:column]) + 1
-                if not rows:  # before any row of numbers it may be any file: quote none of it
-                    raise UserInputError(error(
-                        "F207", "not a CSV grid of heights: this line is not a row of numbers",
-                        Span(str(path), number, 1)), sources={str(path): ""}) from None
-                token = cell_text.strip()
-                shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
-                what = "not a finite height" if token.lower().lstrip("+-") in (
-                    "nan", "inf", "infinity") else "not a number"
-                raise UserInputError(error("F207", f"{what}: {shown}",
-                                           Span(str(path), number, col))) from None
+                value = None
+            if value is not None and math.isfinite(value):
+                row.append(value)
+                continue
+            col = sum(len(c) + 1 for c in cells[:column]) + 1
+            if value is None and not rows:
+                # before any row of numbers it may be any file: quote none of it
+                raise UserInputError(error(
+                    "F207", "not a CSV grid of heights: this line is not a row of numbers",
+                    Span(str(path), number, 1)), sources={str(path): ""}) from None
+            token = cell_text.strip()
+            shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
+            what = "not a number" if value is None else "not a finite height"  # nan, 1e400
+            raise UserInputError(error("F207", f"{what}: {shown}",
+                                       Span(str(path), number, col))) from None
         if rows and len(row) != len(rows[0]):
             raise UserInputError(error("F208", f"row has {len(row)} values, the first row has "
                                        f"{len(rows[0])}", Span(str(path), number, 1)))

@@ -20,7 +20,7 @@ import numpy as np
 from idefix_rules.campaign.input.waivers import recorded
 from idefix_rules.campaign.statistics.pairwise import PairComparison
 from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED
-from idefix_rules.results.reader import StoredResults
+from idefix_rules.results.reader import StoredResults, reading
 
 LEVELS = ("L1", "L2", "L3")
 # An index "came near its limit" in a campaign when some run reached this share of it.
@@ -447,7 +447,13 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
 
 
 def read_report_data(store: StoredResults) -> ReportData:
-    """Everything the report shows except the figures' derived data (maps, box plots)."""
+    """Everything the report shows except the figures' derived data (maps, box plots); H004
+    when the results file does not read back."""
+    with reading(store.path, "the stored evaluation"):
+        return _read_report_data(store)
+
+
+def _read_report_data(store: StoredResults) -> ReportData:
     file = store.file
     evaluation = file.get("evaluation")
     summary = _json(evaluation.attrs.get("summary"), {}) if evaluation is not None else {}

@@ -89,11 +89,11 @@ def structure_problems(file: h5py.File) -> list[str]:
         elif reference is not None and reference.attrs.get("status") == STATUS_COMPLETE:
             problems += _signal_problems(reference.get("signals"), f"{where}/reference", None)
         runs = group.get("runs")
-        if runs is None:
+        if runs is None or "status" not in runs:  # not allocated yet (or cut off doing it)
             if finished:
                 problems.append(f"{where}/runs: missing, though the campaign finished")
             continue
-        status = runs.get("status")
+        status = runs["status"]
         if not _numeric(status) or status.ndim != 1 or status.dtype.kind not in "iu":
             problems.append(f"{where}/runs/status: missing, or not a row of run states")
             continue
@@ -102,8 +102,8 @@ def structure_problems(file: h5py.File) -> list[str]:
             problems.append(f"{where}/runs/failure: missing, or not one reason per run")
         problems += _signal_problems(runs.get("signals"), f"{where}/runs", status.shape[0])
     terrain = file.get("terrain")
-    if terrain is not None:
-        heights = terrain.get("heights") if isinstance(terrain, h5py.Group) else None
+    if isinstance(terrain, h5py.Group) and "sha256" in terrain.attrs:  # written to its end
+        heights = terrain.get("heights")
         if not _numeric(heights) or heights.ndim != 2:
             problems.append("/terrain/heights: missing, or not a grid of heights")
     return problems
@@ -206,7 +206,7 @@ class StoredResults:
         return self.file.attrs
 
     def text(self, key: str) -> str:
-        """A provenance text (``campaign``, ``rulebook``); KeyError when not stored."""
+        """A provenance text (``campaign``, ``rulebook``); H004 when not stored."""
         with reading(self.path, f"/provenance/{key}"):
             value = self.file["provenance"][key][()]
             return value.decode("utf-8") if isinstance(value, bytes) else str(value)

@@ -195,6 +195,11 @@ class ParallelRuns:
     def read_runs(self, name: str, selection: slice | np.ndarray,
                   keys: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """Like :meth:`StoredResults.read_runs` (float64, axis 0 the selected rows)."""
+        with reading(self.store.path, f"/paths/{name}/runs/signals"):
+            return self._read_runs(name, selection, keys)
+
+    def _read_runs(self, name: str, selection: slice | np.ndarray,
+                   keys: Sequence[str] | None) -> dict[str, np.ndarray]:
         datasets = self.store.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
         out: dict[str, np.ndarray] = {}
@@ -213,8 +218,7 @@ class ParallelRuns:
                 continue
             out[key] = np.empty((rows.size, *layout.shape), dtype=np.float64)
             jobs.append((layout, rows, out[key]))
-        with reading(self.store.path, f"/paths/{name}/runs/signals"):
-            self._decode(jobs)
+        self._decode(jobs)
         return out
 
     def _decode(self, jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]]) -> None:

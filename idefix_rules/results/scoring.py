@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,6 +40,7 @@ from idefix_rules.results.collisions import (
     StoredChunks,
 )
 from idefix_rules.results.format import STATUS_COMPLETE
+from idefix_rules.results.reader import reading
 from idefix_rules.results.runs import (
     DEFAULT_CHUNK_RUNS,
     RunReader,
@@ -235,6 +238,9 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
         return
     global _WORKER_COLLISIONS
     pending: deque[tuple[np.ndarray, dict[str, np.ndarray], Future[Any]]] = deque()
+    # the checks are bound by the CPU: no more processes than cores, whatever `workers`
+    # (1024 would fork as many at once for a single chunk); the outcome is the same
+    workers = min(workers, os.cpu_count() or 1)
     with _FORK_LOCK:
         _WORKER_COLLISIONS = collisions
         try:
@@ -437,7 +443,8 @@ def stored_evaluation(store: Any, name: str, evaluator: Any, rulebook_sha256: st
         return None
     status = store.run_status(name)
     rows = np.flatnonzero(status == STATUS_COMPLETE)
-    i_max = np.asarray(group["i_max"][()], dtype=np.float64)
+    with reading(Path(store.path), f"/paths/{name}/evaluation/i_max"):
+        i_max = np.asarray(group["i_max"][()], dtype=np.float64)
     if i_max.shape[0] != status.shape[0] or not np.all(np.isfinite(i_max[rows])):
         return None
     needed = [f"indices/{n}" for n in names] + [f"raw/{n}" for n in names] + [

@@ -299,7 +299,7 @@ def _newton_slide_acceleration(out: dict[str, np.ndarray], slope: float, sample:
     compaction resistance, so m a = m g sin(slope) - sum (W_i tan(phi) f(L_i) + R_c,i), with
     the loads W_i and sinkages z_i the run reports (the statics have their own tests) and the
     soil's equations written again in `soil_model`."""
-    m, g = 25.0, 0.0057
+    m, g = soil_model.MASS, soil_model.GRAVITY
     k = soil_model.modulus(0.0)
     resistance = 0.0
     for i, wheel in enumerate(("FL", "FR", "RL", "RR")):

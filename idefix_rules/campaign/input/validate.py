@@ -102,7 +102,7 @@ def check_simulation_size(campaign: Campaign) -> None:
         raise UserInputError([error(
             "C404", f"simulation.output_interval: {settings.output_interval:.6g} s is longer "
                     f"than a run of path {shortest} ({wanted[shortest]:.6g} s): a run would be "
-                    f"one sample, simulated for the whole interval",
+                    f"a single output interval, simulated to its end",
             campaign.locations.span(("simulation", "output_interval")),
             hint="an output interval of a fraction of a second (the default 0.1 s)")],
             sources={str(campaign.source): campaign.text})
@@ -148,9 +148,11 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
     x, y = float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0))
     if x_min <= x <= x_max and y_min <= y <= y_max:
         return
-    given = [name for name in ("initial.x", "initial.y")
-             if name in campaign.model.uncertainty.parameters]
-    where = ("uncertainty", "parameters", given[0]) if given else ("environment", "terrain")
+    uncertain = [("uncertainty", "parameters", name) for name in ("initial.x", "initial.y")
+                 if name in campaign.model.uncertainty.parameters]
+    fixed = [("environment", "regolith", name) for name in ("initial.x", "initial.y")
+             if name in campaign.model.environment.regolith]
+    where = (uncertain + fixed + [("environment", "terrain")])[0]
     raise UserInputError([error(
         "C216", f"the rover starts at ({x:g} m, {y:g} m), outside the terrain (x {x_min:g} … "
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
