@@ -46,9 +46,9 @@ def damaged(path: Path, where: str, what: str) -> UserInputError:
 
 @contextlib.contextmanager
 def reading(path: Path, where: str) -> Iterator[None]:
-    """Within: a failure to read ``where`` of the results file at ``path`` is :func:`damaged`
-    (the pure reads of this module and of the runs' decoding: no logic of the tool runs
-    inside, so such a failure is the file's)."""
+    """Within: a failure to read ``where`` of the results file at ``path`` is :func:`damaged`.
+    Used around reads and the few lines that unpack what they read (the readers of this module,
+    the runs' decoding, the report's data), so that such a failure is the file's."""
     try:
         yield
     except UserInputError:
@@ -57,55 +57,55 @@ def reading(path: Path, where: str) -> Iterator[None]:
         raise damaged(path, where, f"{type(failure).__name__}: {failure}") from None
 
 
-def structure_problems(file: h5py.File) -> list[str]:
+def structure_problems(file: h5py.File) -> list[tuple[str, str]]:
     """What a results file lacks of the layout ``docs/results-format.md`` gives (checked on
     open, so that a deleted or replaced object is named instead of failing where it is used):
     the provenance texts stored, each path's index, chain and, where stored, its reference run
     and its runs (status, failure reasons and numeric signals, a row per planned run at most),
-    the terrain's heights."""
-    problems = []
+    the terrain's heights. Each as (object, what is wrong with it)."""
+    problems: list[tuple[str, str]] = []
     provenance = file["provenance"]
     for key in provenance:  # a text missing is named where it is read
         item = provenance[key]
         if not isinstance(item, h5py.Dataset) or item.shape != () or item.dtype.kind not in "OSU":
-            problems.append(f"/provenance/{key}: not a text")
+            problems.append((f"/provenance/{key}", "not a text"))
     paths = file["paths"]
     for name in paths:
         group, where = paths[name], f"/paths/{name}"
         if not isinstance(group, h5py.Group):
-            problems.append(f"{where}: not a group")
+            problems.append((where, "not a group"))
             continue
         if "index" not in group.attrs:
-            problems.append(f"{where}: no index attribute")
+            problems.append((where, "no index attribute"))
         chain = group.get("chain")
         if not _numeric(chain) or chain.ndim != 2 or chain.shape[1] != 3:
-            problems.append(f"{where}/chain: missing, or not a table of commands (3 numbers "
-                            "a row)")
+            problems.append((f"{where}/chain",
+                             "missing, or not a table of commands (3 numbers a row)"))
         reference = group.get("reference")
         finished = group.attrs.get("status") == "simulated" \
             and file.attrs.get("state") == "complete"
         if reference is None and finished:
-            problems.append(f"{where}/reference: missing, though the path was simulated")
+            problems.append((f"{where}/reference", "missing, though the path was simulated"))
         elif reference is not None and reference.attrs.get("status") == STATUS_COMPLETE:
             problems += _signal_problems(reference.get("signals"), f"{where}/reference", None)
         runs = group.get("runs")
         if runs is None or "status" not in runs:  # not allocated yet (or cut off doing it)
             if finished:
-                problems.append(f"{where}/runs: missing, though the campaign finished")
+                problems.append((f"{where}/runs", "missing, though the campaign finished"))
             continue
         status = runs["status"]
         if not _numeric(status) or status.ndim != 1 or status.dtype.kind not in "iu":
-            problems.append(f"{where}/runs/status: missing, or not a row of run states")
+            problems.append((f"{where}/runs/status", "missing, or not a row of run states"))
             continue
         failure = runs.get("failure")
         if not isinstance(failure, h5py.Dataset) or failure.shape != status.shape:
-            problems.append(f"{where}/runs/failure: missing, or not one reason per run")
+            problems.append((f"{where}/runs/failure", "missing, or not one reason per run"))
         problems += _signal_problems(runs.get("signals"), f"{where}/runs", status.shape[0])
     terrain = file.get("terrain")
     if isinstance(terrain, h5py.Group) and "sha256" in terrain.attrs:  # written to its end
         heights = terrain.get("heights")
         if not _numeric(heights) or heights.ndim != 2:
-            problems.append("/terrain/heights: missing, or not a grid of heights")
+            problems.append(("/terrain/heights", "missing, or not a grid of heights"))
     return problems
 
 
@@ -113,17 +113,19 @@ def _numeric(item: object) -> TypeGuard[h5py.Dataset]:
     return isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"
 
 
-def _signal_problems(signals: object, where: str, runs: int | None) -> list[str]:
+def _signal_problems(signals: object, where: str, runs: int | None
+                     ) -> list[tuple[str, str]]:
     if not isinstance(signals, h5py.Group):
-        return [f"{where}/signals: missing"]
-    problems = []
+        return [(f"{where}/signals", "missing")]
+    problems: list[tuple[str, str]] = []
     for key in signals:
         dataset = signals[key]
         if not _numeric(dataset) or dataset.ndim < (1 if runs is None else 2):
-            problems.append(f"{where}/signals/{key}: not numbers of the samples")
+            problems.append((f"{where}/signals/{key}", "not numbers of the samples"))
         elif runs is not None and dataset.shape[0] > runs:
             # rows are allocated in blocks as runs are simulated: at most one per planned run
-            problems.append(f"{where}/signals/{key}: {dataset.shape[0]} rows for {runs} runs")
+            problems.append((f"{where}/signals/{key}",
+                             f"{dataset.shape[0]} rows for {runs} runs"))
     return problems
 
 
@@ -178,12 +180,11 @@ class StoredResults:
             # its states): only metadata that does not read at all stops it
             problems = problems if mode == "r" else []
         except READ_ERRORS as failure:  # the metadata itself does not read
-            problems = [f"its layout: {type(failure).__name__}: {failure}"]
+            problems = [("its layout", f"{type(failure).__name__}: {failure}")]
         if problems:
             store.close()
-            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
-            raise damaged(path, problems[0].split(": ", 1)[0],
-                          problems[0].split(": ", 1)[-1] + more)
+            (where, what), *more = problems
+            raise damaged(path, where, what + (f" (and {len(more)} more)" if more else ""))
         return store
 
     def close(self) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -352,11 +352,30 @@ def rover_geometry(campaign: Campaign) -> RoverGeometry:
     return RoverGeometry(**overrides)
 
 
+def regolith_parameter(key: str) -> str:
+    """The FMU parameter a regolith key sets: ``cohesion`` → ``soil.cohesion``; a name with a
+    dot as given."""
+    return key if "." in key else REGOLITH_PREFIX + key
+
+
+def where_set(campaign: Campaign, names: Iterable[str]) -> list[tuple[str | int, ...]]:
+    """Where the campaign sets any of the FMU parameters ``names``: an uncertain parameter
+    (which overrides a fixed value per run) before a regolith value."""
+    wanted = set(names)
+    model = campaign.model
+    places: list[tuple[str | int, ...]] = [
+        ("uncertainty", "parameters", name) for name in model.uncertainty.parameters
+        if name in wanted]
+    places += [("environment", "regolith", key) for key in model.environment.regolith
+               if regolith_parameter(key) in wanted]
+    return places
+
+
 def nominal_parameters(campaign: Campaign) -> dict[str, float]:
     """Parameter values of the reference run: regolith values, then uncertainty nominals."""
     from idefix_rules.campaign.input.sampling import nominal_values  # scipy: only when needed
 
-    values = {REGOLITH_PREFIX + key if "." not in key else key: value
+    values = {regolith_parameter(key): value
               for key, value in campaign.model.environment.regolith.items()}
     values.update(nominal_values(campaign.model.uncertainty.parameters))
     return values

@@ -12,7 +12,7 @@ import difflib
 from collections.abc import Mapping
 from pathlib import Path
 
-from idefix_rules.campaign.input.load import Campaign, format_loc
+from idefix_rules.campaign.input.load import Campaign, format_loc, regolith_parameter
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
 from idefix_rules.units import Dimension, describe
@@ -47,8 +47,8 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
         (("uncertainty", "parameters", name), name, spec.dimension)
         for name, spec in campaign.model.uncertainty.parameters.items()]
     written = campaign.model.environment.regolith_dimensions
-    entries += [(("environment", "regolith", key), key if "." in key else f"soil.{key}",
-                 written.get(key)) for key in campaign.model.environment.regolith]
+    entries += [(("environment", "regolith", key), regolith_parameter(key), written.get(key))
+                for key in campaign.model.environment.regolith]
     for loc, name, dimension in entries:
         if name not in parameter_names:
             variable = variables.get(name)
@@ -95,8 +95,9 @@ def check_simulation_size(campaign: Campaign) -> None:
     # the stop time is rounded up to a whole interval: an interval longer than a run makes it
     # one sample as long as the interval (1e9 s would be simulated to its end); said once, for
     # the shortest run
-    wanted = {spec.name: stop_limit(campaign, spec.chain, rover)[2] * settings.duration_margin
-              + settings.extra_time for spec in campaign.paths}
+    limits = {spec.name: stop_limit(campaign, spec.chain, rover) for spec in campaign.paths}
+    wanted = {name: ideal * settings.duration_margin + settings.extra_time
+              for name, (_, _, ideal) in limits.items()}
     shortest = min(wanted, key=lambda name: wanted[name]) if wanted else None
     if shortest is not None and settings.output_interval > wanted[shortest]:
         raise UserInputError([error(
@@ -107,7 +108,7 @@ def check_simulation_size(campaign: Campaign) -> None:
             hint="an output interval of a fraction of a second (the default 0.1 s)")],
             sources={str(campaign.source): campaign.text})
     for spec in campaign.paths:
-        samples = stop_limit(campaign, spec.chain, rover)[1]
+        samples = limits[spec.name][1]
         if samples > MAX_SAMPLES:
             problems.append(error(
                 "C404", f"paths.{spec.name}: a run would last "
@@ -141,18 +142,14 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
     """The rover's nominal start (``initial.x``, ``initial.y`` of the reference run) must lie
     on the terrain grid ``(x_min, x_max, y_min, y_max)``: off it the rover model would drive on
     the grid's edge heights carried on, a terrain no one gave it."""
-    from idefix_rules.campaign.input.load import nominal_parameters
+    from idefix_rules.campaign.input.load import nominal_parameters, where_set
 
     x_min, x_max, y_min, y_max = extent
     nominal = nominal_parameters(campaign)
     x, y = float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0))
     if x_min <= x <= x_max and y_min <= y <= y_max:
         return
-    uncertain = [("uncertainty", "parameters", name) for name in ("initial.x", "initial.y")
-                 if name in campaign.model.uncertainty.parameters]
-    fixed = [("environment", "regolith", name) for name in ("initial.x", "initial.y")
-             if name in campaign.model.environment.regolith]
-    where = (uncertain + fixed + [("environment", "terrain")])[0]
+    where = [*where_set(campaign, ("initial.x", "initial.y")), ("environment", "terrain")][0]
     raise UserInputError([error(
         "C216", f"the rover starts at ({x:g} m, {y:g} m), outside the terrain (x {x_min:g} … "
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),

@@ -30,6 +30,7 @@ from idefix_rules.campaign.input.load import (
     nominal_parameters,
     rover_geometry,
     stop_limit,
+    where_set,
 )
 from idefix_rules.campaign.input.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.simulation import resume as resuming
@@ -482,14 +483,10 @@ def _where_set(campaign: Campaign, diagnostic: Diagnostic) -> Diagnostic:
     match = PARAMETER_REJECTED.match(diagnostic.message) if diagnostic.code == "F110" else None
     if match is None:
         return diagnostic
-    model = campaign.model
-    names = {match["name"]} | {ours for fmu_name, ours in (model.fmu.parameters or {}).items()
+    names = {match["name"]} | {ours for fmu_name, ours
+                               in (campaign.model.fmu.parameters or {}).items()
                                if fmu_name == match["name"]}
-    places: list[tuple[str | int, ...]] = [
-        ("uncertainty", "parameters", name) for name in model.uncertainty.parameters
-        if name in names]
-    places += [("environment", "regolith", key) for key in model.environment.regolith
-               if (key if "." in key else f"soil.{key}") in names]
+    places = where_set(campaign, names)
     if not places:
         return diagnostic
     return dataclasses.replace(diagnostic, span=campaign.span(places[0]))
