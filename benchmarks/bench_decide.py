@@ -11,9 +11,9 @@ For each campaign (the paper's example ``campaigns/rock-detour.yaml``, four chai
 and prints, per campaign and mode, the Monte Carlo runs simulated, the wall time (simulation
 and evaluation, no report), the decision, and whether the adaptive campaign reached the same
 decisions as the fixed one: every path's verdict (pass, fail, marginal, waived, rejected,
-excluded) and the ``Decision:`` (its kind and the chains it names). The order among chains
-that all fail is shown by every mode but decided by none (docs/campaign-format.md, "How α is
-spent"), so it is not compared.
+excluded, or open: not decided at its run count) and the ``Decision:`` (its kind and the
+chains it names). The order among chains that all fail is shown by every mode but decided by
+none (docs/campaign-format.md, "How α is spent"), so it is not compared.
 
     python benchmarks/bench_decide.py                  # N = 1000 (about 15 minutes on 2 cores)
     python benchmarks/bench_decide.py --runs 300       # a quicker look
@@ -64,7 +64,10 @@ def simulated_runs(result: Any) -> int:
 
 def decisions(result: Any) -> dict[str, Any]:
     decision = result.summary.get("decision") or {}
-    return {"verdicts": {p["name"]: p["verdict"] for p in result.summary["paths"]},
+    # a verdict not decided at the campaign's run count is no decision, whatever its point
+    # estimates say: "open" (a decided verdict against an open one is a different decision)
+    return {"verdicts": {p["name"]: "open" if p.get("undecided") else p["verdict"]
+                         for p in result.summary["paths"]},
             "decision": (decision.get("kind"),
                          tuple(sorted(decision.get("candidates") or [decision.get("path")])))}
 

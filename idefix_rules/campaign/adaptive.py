@@ -54,7 +54,7 @@ from idefix_rules.campaign.simulation.worker import run_checks
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
 from idefix_rules.campaign.statistics.budget import alpha_budget
-from idefix_rules.campaign.statistics.stopping import settle, stop_reason
+from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
 from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.results.scoring import FirstPassCache
@@ -94,6 +94,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     done = dict.fromkeys(running, 0)
     statistics: dict[str, Any] = {}
     sigma = initial_position_sigma(campaign)
+    # the paths the campaign's expectations name: their verdicts are decided, never left
+    # open as moot (statistics/stopping.py); None: the exit code reads every verdict
+    watched = expected_paths(campaign.model.expect) if campaign.model.expect else None
     # the workers check each run they simulate (local pool); a look's new runs not checked
     # so (Dask, runs stored before a --resume) are split over the local processes for their
     # collision checks (the pool waits meanwhile; at most 64 runs a chunk); each chunk's
@@ -144,7 +147,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                         np.asarray(concatenate(parts[name]).i_max)) for name in statistics},
                 list(statistics), budget.comparison_alpha,
                 evaluator.checked.indifference) if paired else []
-            settlements = settle(evaluator, statistics, pairs)
+            settlements = settle(evaluator, statistics, pairs, watched=watched,
+                                 waivers=campaign.model.waivers)
             for name in list(running):
                 settlement = settlements.get(name)
                 reason = NO_COMPLETE_RUN if settlement is None else \

@@ -12,13 +12,14 @@ from rich.console import Console
 
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
 from idefix_rules.campaign.evaluation.scoring import decision_pairs
+from idefix_rules.campaign.input.schema import Waiver
 from idefix_rules.campaign.outcome.decision import decide
 from idefix_rules.campaign.outcome.outputs import exit_code, junit_xml
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import judged_statistics
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.campaign.statistics.sequential import one_sided_bound
-from idefix_rules.campaign.statistics.stopping import settle
+from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
 from idefix_rules.cli.outcome import print_answer
 from idefix_rules.rulebook.check import check
 from idefix_rules.rulebook.compile import compile_rulebook
@@ -112,6 +113,58 @@ def test_only_the_leading_contender_against_the_others_is_waited_for():
     found = settle(rules, stats, lead_open)
     assert found["a"].unsettled_against == ("b",) and found["b"].unsettled_against == ("a",)
     assert found["c"].done and found["f"].done
+
+
+WAIVER = dict(reason="known", approved_by="ops", until="2099-01-01")
+
+
+@pytest.mark.parametrize(("leader_spread", "moot"), [(0.0099, True), (0.0101, False)])
+def test_an_open_verdict_behind_a_chain_that_passes_and_leads_decides_nothing(
+        leader_spread: float, moot: bool):
+    rules = evaluator()
+    # a's risk bounds end just below / just above the 70 % limit: decided pass, or open
+    stats = {"a": statistics(0.69, spread=leader_spread), "x": statistics(0.70, spread=0.05),
+             "f": statistics(0.9)}
+    pairs = [pair("a", "x", "first safer"), pair("a", "f", "first safer"),
+             pair("x", "f", "first safer")]
+    found = settle(rules, stats, pairs)
+    assert not found["x"].verdict_decided and found["x"].contender
+    assert found["x"].done is moot and found["x"].moot_under == ("a" if moot else "")
+    reason = stop_reason(found["x"], 96, 1000)
+    if moot:
+        assert reason == ("stopped after 96 runs: verdict not decided, and no decision depends "
+                          "on it (a passes and ranks above it whatever its verdict)")
+    else:
+        assert reason is None
+        # with a's verdict open too, which of them ranks first is open as well
+        assert stop_reason(found["x"], 1000, 1000) == \
+            "cap of 1000 runs reached: verdict not decided; rank against a not settled"
+
+
+def test_an_open_verdict_is_not_moot_when_the_decision_or_the_exit_code_reads_it():
+    rules = evaluator()
+    lead, open_, failing = statistics(0.3), statistics(0.70, spread=0.05), statistics(0.9)
+    ahead = [pair("a", "x", "first safer"), pair("a", "f", "first safer")]
+
+    def moot(stats, pairs=ahead, **given) -> bool:
+        return settle(rules, stats, pairs, **given)["x"].moot_under == "a"
+
+    assert moot({"a": lead, "x": open_, "f": failing})
+    # without a failing path, x's verdict decides the exit code (every path must pass)
+    assert not moot({"a": lead, "x": open_})
+    # an expectation naming x asks for its verdict; one naming only others does not
+    assert not moot({"a": lead, "x": open_, "f": failing}, watched={"x"})
+    assert moot({"a": lead, "x": open_}, watched={"a"})
+    # f fails only a waived rule: it counts as held, so the exit code waits for x
+    waived = [Waiver(rule="acceptable", path="f", **WAIVER)]
+    assert not moot({"a": lead, "x": open_, "f": failing}, waivers=waived)
+    assert moot({"a": lead, "x": open_, "f": failing},
+                waivers=[Waiver(rule="acceptable", path="a", **WAIVER)])
+    # the order against the leader open, or tied: x may be sent with (or instead of) a
+    for outcome in ("open", "tied", "second safer"):
+        assert not moot({"a": lead, "x": open_, "f": failing},
+                        [pair("a", "x", outcome), pair("a", "f", "first safer")])
+    assert expected_paths([P(path="x", verdict="pass"), P(rank_first="a")]) == {"x", "a"}
 
 
 def test_a_marginal_chain_is_not_sent_not_passed_and_said_so():

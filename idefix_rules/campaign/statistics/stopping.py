@@ -17,6 +17,12 @@ logic runs on them. A path stops when
    (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
    rulebook's indifference margin (a tie is a decision too),
 
+or when its verdict, still open, decides nothing: the leading contender passes decidedly and
+ranks above it whatever its verdict turns out to be (so the chain to send is that one either
+way), no ``expect:`` entry names it, and the exit code does not wait for it (the campaign has
+expectations, or another path is decidedly not passing, so it is 1 already); the path keeps its
+open verdict, with the runs that would decide it,
+
 or when it reaches ``max_runs``. Because the bounds hold at every run count at once, looking
 after every batch and stopping on what they say keeps their error rates; a fixed-count
 interval re-checked after every batch would not.
@@ -25,7 +31,7 @@ interval re-checked after every batch would not.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,6 +47,8 @@ class Settlement:
     unsettled_against: tuple[str, ...]  # paths whose order against this one is open
     contender: bool = True  # passes or may still pass: its rank may decide what to send
     outcome: str = ""  # pass, fail, marginal (within a margin of a limit), or "" when open
+    # an open verdict no decision depends on: the chain that passes and ranks above it
+    moot_under: str = ""
 
     @property
     def rank_settled(self) -> bool:
@@ -48,7 +56,7 @@ class Settlement:
 
     @property
     def done(self) -> bool:
-        return self.verdict_decided and self.rank_settled
+        return (self.verdict_decided or bool(self.moot_under)) and self.rank_settled
 
 
 # --- the look ----------------------------------------------------------------------------------
@@ -80,12 +88,19 @@ def _order(first: tuple[set[bool], tuple[float, float]],
 
 
 def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
-           pairs: Sequence[Any] = ()) -> dict[str, Settlement]:
+           pairs: Sequence[Any] = (), *, watched: Collection[str] | None = None,
+           waivers: Sequence[Any] = ()) -> dict[str, Settlement]:
     """Each ranked path's settlement from its judged statistics and, in a paired campaign, the
     paired comparisons (:class:`~idefix_rules.campaign.statistics.pairwise.PairComparison`) that
     decide the first rank key. Only the comparisons the decision depends on are asked for: the
     leading contender (a path that passes or may pass, first in the ranking) against each
-    other contender."""
+    other contender.
+
+    ``watched``: the paths the campaign's ``expect:`` entries name, whose verdicts are always
+    decided (or run to the cap); None when it has none: the exit code then reads every path's
+    verdict, so an open verdict is moot only once another path is decidedly not passing
+    (``waivers``, the campaign's, decide which failures count)."""
+    from idefix_rules.campaign.input.waivers import waive_verdict
     from idefix_rules.campaign.statistics.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
 
@@ -98,8 +113,12 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
 
     facts = {}
     outcomes = {}
+    not_held = set()  # decidedly not passing, waivers applied: the exit code is 1
     for name, stats in stats_by_path.items():
         verdict = evaluator.verdict(stats)
+        held, _ = waive_verdict(verdict, waivers, name)
+        if held.decided and not held.passed:
+            not_held.add(name)
         outcomes[name] = ("" if not verdict.decided else "pass" if verdict.passed
                           else "marginal" if verdict.marginal else "fail")
         groups = {bool(verdict.passed)} if verdict.decided else {True, False}
@@ -109,23 +128,45 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     ranking = contenders(evaluator, stats_by_path, facts)
     leader = ranking[0] if ranking else None
 
-    def open_between(name: str, other: str) -> bool:
+    def order(name: str, other: str) -> int | None:
         (_, _, groups, key), (_, _, other_groups, other_key) = facts[name], facts[other]
-        return _order((groups, key), (other_groups, other_key),
-                      paired_order(name, other)) is None
+        return _order((groups, key), (other_groups, other_key), paired_order(name, other))
+
+    def moot(name: str) -> bool:
+        """Whether the open verdict of ``name``, a contender behind the leader, decides
+        nothing: the leader passes decidedly and ranks above it either way, and neither an
+        expectation nor the exit code reads it."""
+        assert leader is not None
+        leader_decided, leader_passed, _, _ = facts[leader]
+        if not (leader_decided and leader_passed) or order(leader, name) != -1:
+            return False
+        if watched is not None:
+            return name not in watched
+        return bool(not_held - {name})
 
     settlements = {}
     for name, (decided, passed, _, _) in facts.items():
+        moot_under = ""
         if name not in ranking:
             open_against: tuple[str, ...] = ()
         elif name == leader:
-            open_against = tuple(other for other in ranking[1:] if open_between(name, other))
+            open_against = tuple(other for other in ranking[1:]
+                                 if order(name, other) is None)
         else:
             assert leader is not None
-            open_against = (leader,) if open_between(name, leader) else ()
+            open_against = (leader,) if order(name, leader) is None else ()
+            if not decided and moot(name):
+                moot_under = leader
         settlements[name] = Settlement(decided, passed, open_against, name in ranking,
-                                       outcomes[name])
+                                       outcomes[name], moot_under)
     return settlements
+
+
+def expected_paths(expectations: Sequence[Any]) -> frozenset[str]:
+    """The paths ``expect:`` entries name (``path:`` or ``rank_first:``)."""
+    return frozenset(name for e in expectations
+                     for name in (getattr(e, "path", None), getattr(e, "rank_first", None))
+                     if name)
 
 
 def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
@@ -137,6 +178,9 @@ def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
 
 def stop_reason(settlement: Settlement, runs: int, cap: int) -> str | None:
     """Why a path stops after ``runs`` runs, or None when it goes on."""
+    if settlement.done and not settlement.verdict_decided:
+        return (f"stopped after {runs} runs: verdict not decided, and no decision depends on "
+                f"it ({settlement.moot_under} passes and ranks above it whatever its verdict)")
     if settlement.done:
         outcome = settlement.outcome or ("pass" if settlement.passed else "fail")
         if not settlement.contender:
