@@ -115,3 +115,37 @@ def test_inverse_cdfs_stay_finite_and_inside_bounds(u: float, low: float, width:
     normal = float(sampling.inverse_cdf(Normal(distribution="normal", mean=low, std=width),
                                         np.array([u]))[0])
     assert math.isfinite(normal)
+
+
+def truncated(mean: float, std: float, low: float, high: float) -> TruncatedNormal:
+    return TruncatedNormal(distribution="truncated_normal", mean=mean, std=std, low=low,
+                           high=high)
+
+
+@pytest.mark.parametrize(("low", "high", "expected"), [
+    # half-normal: sqrt(1 − 2/π)
+    (0.0, 1e9, math.sqrt(1.0 - 2.0 / math.pi)),
+    (-1e9, 0.0, math.sqrt(1.0 - 2.0 / math.pi)),
+    # an interval 1e-5 σ wide: the density is flat across it, width / sqrt(12)
+    (0.5, 0.50001, 1e-5 / math.sqrt(12.0)),
+    # far in a tail the truncated normal is exponential with rate a: σ = (1 − 3/a² + …) / a
+    (1000.0, 1001.0, (1.0 - 3e-6) / 1000.0),
+    (-1001.0, -1000.0, (1.0 - 3e-6) / 1000.0),
+])
+def test_a_truncated_normal_on_one_side_of_its_mean_has_its_analytic_sigma(
+        low: float, high: float, expected: float) -> None:
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # scipy's moments warn and give NaN here
+        found = sampling.standard_deviation(truncated(0.0, 2.0, 2.0 * low, 2.0 * high))
+    assert found == pytest.approx(2.0 * expected, rel=1e-9)
+
+
+def test_a_truncated_normal_near_its_mean_has_scipy_s_sigma() -> None:
+    from scipy import stats
+
+    for low, high in ((3.0, 4.0), (0.1, 2.5), (-4.0, -3.0), (-1.0, 2.0)):
+        assert sampling.standard_deviation(truncated(1.0, 0.5, 1.0 + 0.5 * low,
+                                                     1.0 + 0.5 * high)) == pytest.approx(
+            0.5 * float(stats.truncnorm.std(low, high)), rel=1e-10)

@@ -42,6 +42,7 @@ AnyDistribution = Fixed | Normal | TruncatedNormal | Uniform | LogNormal
 
 # Keeps inverse CDFs finite at the ends of the unit interval.
 _EDGE = 1e-12
+_TAIL_NODES = 128  # Gauss–Legendre nodes of a one-sided truncated normal's variance
 
 
 def nominal(spec: AnyDistribution) -> float:
@@ -69,8 +70,34 @@ def standard_deviation(spec: AnyDistribution) -> float:
 
     if isinstance(spec, TruncatedNormal):
         low, high = (spec.low - spec.mean) / spec.std, (spec.high - spec.mean) / spec.std
-        return float(stats.truncnorm.std(low, high, loc=spec.mean, scale=spec.std))
+        if low < 0.0 < high:
+            return float(stats.truncnorm.std(low, high, loc=spec.mean, scale=spec.std))
+        return spec.std * _one_sided_truncated_std(low, high)
     return float(stats.lognorm.std(spec.sigma, scale=spec.median))
+
+
+def _one_sided_truncated_std(low: float, high: float) -> float:
+    """σ of a standard normal truncated to ``[low, high]`` on one side of its mean.
+
+    scipy's moments lose their digits there: ``truncnorm.std(500, 501)`` is 0.00071 against
+    0.0020, and from about 600 σ on, or for an interval of 1e-5 σ, they are NaN with
+    RuntimeWarnings. With ``y = x − low`` (``low ≥ 0``; the other side mirrored) the density is
+    proportional to ``exp(−low·y − y²/2)``, smooth and without the vanishing factor
+    ``exp(−low²/2)``; Gauss–Legendre quadrature over ``[0, min(high − low, 60 / low, 12)]``
+    (beyond, the weight is below ``e^-60``) gives its variance.
+
+    >>> round(_one_sided_truncated_std(500.0, 501.0), 8)  # about 1 / 500
+    0.00199998
+    """
+    if high <= 0.0:
+        low, high = -high, -low
+    width = min(high - low, 12.0, 60.0 / low if low > 0.0 else math.inf)
+    nodes, weights = np.polynomial.legendre.leggauss(_TAIL_NODES)
+    y = 0.5 * width * (nodes + 1.0)
+    density = 0.5 * width * weights * np.exp(-low * y - 0.5 * y * y)
+    total = float(np.sum(density))
+    mean = float(np.sum(density * y)) / total
+    return math.sqrt(float(np.sum(density * (y - mean) ** 2)) / total)
 
 
 def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
