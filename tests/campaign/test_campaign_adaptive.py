@@ -10,6 +10,7 @@ import json
 import os
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -130,7 +131,9 @@ def moot_campaign(folder: Path, *, expect: str = "", without: str = "") -> Path:
 def test_an_open_verdict_no_decision_depends_on_stops_with_the_chain_that_leads(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = moot_campaign(campaign_dir)
-    assert main([str(path), "--quiet"]) == 1  # straight fails (and arc is not shown to pass)
+    junit = campaign_dir / "junit.xml"
+    # straight fails (and arc is not shown to pass)
+    assert main([str(path), "--quiet", "--junit", str(junit)]) == 1
     out = capsys.readouterr().out
     summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
     paths = {p["name"]: p for p in summary["paths"]}
@@ -144,10 +147,27 @@ def test_an_open_verdict_no_decision_depends_on_stops_with_the_chain_that_leads(
     assert summary["decision"]["text"].startswith("send turny (passes every verdict")
     report = (campaign_dir / "out" / "report.html").read_text(encoding="utf-8")
     assert f"Runs: {reason}" in report
+    case = next(c for c in ET.parse(junit).iter("testcase") if c.get("name") == "arc")
+    failure = case.find("failure")
+    assert failure is not None and failure.get("message") == "path arc: fail (not decided)"
+    assert f"runs: {reason}" in (failure.text or "")
     with h5py.File(campaign_dir / "out" / "results.h5") as results:
         status = results["paths/arc/runs/status"][()]
         assert np.all(status[:arc["runs_used"]] == STATUS_COMPLETE)
         assert np.all(status[arc["runs_used"]:] == STATUS_NOT_NEEDED)
+
+
+def test_an_open_verdict_no_expectation_names_stops_and_the_expectations_set_the_exit_code(
+        campaign_dir: Path) -> None:
+    path = moot_campaign(campaign_dir, expect="expect:\n  - {path: turny, verdict: pass}\n",
+                         without="straight")
+    assert main([str(path), "--quiet", "--no-report"]) == 0
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    assert paths["arc"]["undecided"] and paths["arc"]["runs_used"] == \
+        paths["turny"]["runs_used"] < 200
+    assert paths["arc"]["stop_reason"].startswith(
+        f"stopped after {paths['arc']['runs_used']} runs: verdict not decided")
 
 
 @pytest.mark.parametrize("case", ["expected", "exit code"])

@@ -158,8 +158,16 @@ def test_an_open_verdict_is_not_moot_when_the_decision_or_the_exit_code_reads_it
     # f fails only a waived rule: it counts as held, so the exit code waits for x
     waived = [Waiver(rule="acceptable", path="f", **WAIVER)]
     assert not moot({"a": lead, "x": open_, "f": failing}, waivers=waived)
-    assert moot({"a": lead, "x": open_, "f": failing},
-                waivers=[Waiver(rule="acceptable", path="a", **WAIVER)])
+    # x's open rule waived on x: held, so x's verdict is not open (it runs as before)
+    assert not moot({"a": lead, "x": open_, "f": failing},
+                    waivers=[Waiver(rule="acceptable", path="x", **WAIVER)])
+    # the leader still runs, its order against b open: its pass could yet be lost (a failed
+    # run), and x would be needed then
+    b = statistics(0.35)
+    assert not moot({"a": lead, "b": b, "x": open_, "f": failing},
+                    [*ahead, pair("a", "b", "open")])
+    assert moot({"a": lead, "b": b, "x": open_, "f": failing},
+                [*ahead, pair("a", "b", "first safer")])
     # the order against the leader open, or tied: x may be sent with (or instead of) a
     for outcome in ("open", "tied", "second safer"):
         assert not moot({"a": lead, "x": open_, "f": failing},

@@ -32,6 +32,7 @@ from idefix_rules.campaign.input.wording import unfinished_text
 from idefix_rules.campaign.outcome.decision import campaign_decision, reasons_of
 from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED
 from idefix_rules.files import write_atomic
 from idefix_rules.plain import as_plain
 
@@ -357,9 +358,13 @@ def _path_detail(path: PathResult) -> str:
         ci = f" (95 % bounds {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
             if path.risk_ci else ""
         lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
-    # An undecided verdict is said by the reasons (each undecided rule's message says it).
+    # An undecided verdict is said by the reasons (each undecided rule's message says it);
+    # an adaptive campaign says why it stopped the path there (a verdict left open because no
+    # decision depends on it, or the cap)
     for reason in reasons_of(path):
         lines.append(f"verdict: {reason}")
+    if path.stop_reason and not path.stop_reason.startswith(STOP_FIXED):
+        lines.append(f"runs: {path.stop_reason}")
     for waived in path.waivers:
         lines.append(f"{waived.kind} {waived.rule}: {waived.text()}")
     if path.unfinished and path.stop_time is not None:

@@ -17,11 +17,12 @@ logic runs on them. A path stops when
    (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
    rulebook's indifference margin (a tie is a decision too),
 
-or when its verdict, still open, decides nothing: the leading contender passes decidedly and
-ranks above it whatever its verdict turns out to be (so the chain to send is that one either
-way), no ``expect:`` entry names it, and the exit code does not wait for it (the campaign has
-expectations, or another path is decidedly not passing, so it is 1 already); the path keeps its
-open verdict, with the runs that would decide it,
+or when its verdict, still open (its waivers applied), decides nothing: the leading contender
+passes decidedly, stops at this look or has stopped (its figures are final), and ranks above it
+whatever its verdict turns out to be (so the chain to send is that one either way), no
+``expect:`` entry names it, and the exit code does not wait for it (the campaign has
+expectations, or another simulated path is decidedly not passing, so it is 1 already); the path
+keeps its open verdict, with the runs that would decide it,
 
 or when it reaches ``max_runs``. Because the bounds hold at every run count at once, looking
 after every batch and stopping on what they say keeps their error rates; a fixed-count
@@ -114,11 +115,14 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     facts = {}
     outcomes = {}
     not_held = set()  # decidedly not passing, waivers applied: the exit code is 1
+    held_open = set()  # open with its waivers applied too (a waived open rule is held)
     for name, stats in stats_by_path.items():
         verdict = evaluator.verdict(stats)
         held, _ = waive_verdict(verdict, waivers, name)
         if held.decided and not held.passed:
             not_held.add(name)
+        if not held.decided:
+            held_open.add(name)
         outcomes[name] = ("" if not verdict.decided else "pass" if verdict.passed
                           else "marginal" if verdict.marginal else "fail")
         groups = {bool(verdict.passed)} if verdict.decided else {True, False}
@@ -132,17 +136,22 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         (_, _, groups, key), (_, _, other_groups, other_key) = facts[name], facts[other]
         return _order((groups, key), (other_groups, other_key), paired_order(name, other))
 
+    leader_open = tuple(other for other in ranking[1:]
+                        if order(leader, other) is None) if leader is not None else ()
+
     def moot(name: str) -> bool:
         """Whether the open verdict of ``name``, a contender behind the leader, decides
-        nothing: the leader passes decidedly and ranks above it either way, and neither an
-        expectation nor the exit code reads it."""
+        nothing: the leader passes decidedly, stops now (or has stopped: its figures are final,
+        so its pass and its lead cannot change after ``name`` stops) and ranks above ``name``
+        either way, and neither an expectation nor the exit code reads ``name``."""
         assert leader is not None
         leader_decided, leader_passed, _, _ = facts[leader]
-        if not (leader_decided and leader_passed) or order(leader, name) != -1:
+        if not (leader_decided and leader_passed) or leader_open \
+                or order(leader, name) != -1 or name not in held_open:
             return False
         if watched is not None:
             return name not in watched
-        return bool(not_held - {name})
+        return bool(not_held)  # never ``name`` itself: its verdict is open
 
     settlements = {}
     for name, (decided, passed, _, _) in facts.items():
@@ -150,8 +159,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         if name not in ranking:
             open_against: tuple[str, ...] = ()
         elif name == leader:
-            open_against = tuple(other for other in ranking[1:]
-                                 if order(name, other) is None)
+            open_against = leader_open
         else:
             assert leader is not None
             open_against = (leader,) if order(name, leader) is None else ()
