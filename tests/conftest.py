@@ -14,6 +14,13 @@ _CHECKOUT = str(Path(__file__).resolve().parents[1])
 os.environ["PYTHONPATH"] = os.pathsep.join(
     [_CHECKOUT, *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))])
 
+# pytest-xdist's workers inherit COLUMNS=80 and LINES=24 from execnet; the console (and every
+# CLI the tests start) would then wrap at 80 columns instead of a log's 150
+# (idefix_rules/cli/console.py). Tests that want a width set it themselves.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    for _inherited in ("COLUMNS", "LINES"):
+        os.environ.pop(_inherited, None)
+
 settings.register_profile("ci", derandomize=True, print_blob=True)
 # The second run of the property tests in CI (.ci/run): new examples drawn from the seed given
 # with --hypothesis-seed, which .ci/run prints; no example database, so that seed alone replays
