@@ -83,9 +83,11 @@ class DaskPool:
             # it was executing, not runs merely queued on it (which Dask would count as
             # suspects of its death too).
             with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                # its HTTP server (dashboard, health) on a free port: two local clusters would
+                # otherwise contend for 8787 and Dask warn about it
                 self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
                     n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                    processes=True)
+                    processes=True, dashboard_address=":0")
             self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
         else:
             try:
