@@ -26,7 +26,7 @@ from idefix_rules.campaign.outcome.outputs import ExpectationResult
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.pairwise import OPEN
-from idefix_rules.campaign.statistics.stopping import STOP_FIXED
+from idefix_rules.campaign.statistics.stopping import MOOT, STOP_FIXED
 
 LEVELS = ("L1", "L2", "L3")
 STYLES = {"pass": "green", "fail": "red", "waived": "magenta", "marginal": "yellow"}
@@ -172,7 +172,11 @@ def verdict_line(path: PathResult) -> str:
     if within:
         parts.append("within the margin: " + ", ".join(escape(n) for n in within))
     if open_:
-        parts.append("not decided: " + ", ".join(escape(n) for n in open_))
+        # left open on purpose (an adaptive campaign stopped it: nothing depends on it), not
+        # waiting for more runs
+        label = ("not decided (no decision depends on it)" if MOOT in path.stop_reason
+                 else "not decided")
+        parts.append(f"{label}: " + ", ".join(escape(n) for n in open_))
     parts.extend(f"{escape(w.rule)} {escape(w.text())}" for w in path.waivers)
     return "  " + " · ".join(parts)
 

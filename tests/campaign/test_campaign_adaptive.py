@@ -143,6 +143,9 @@ def test_an_open_verdict_no_decision_depends_on_stops_with_the_chain_that_leads(
     reason = (f"stopped after {arc['runs_used']} runs: verdict not decided, and no decision "
               "depends on it (turny passes and ranks above it whatever its verdict)")
     assert arc["stop_reason"] == reason and f"arc: runs: {reason}" in out
+    # the answer's line says the open verdict is left open on purpose, not waiting for runs
+    assert "arc: fail (not decided) · risk " in out
+    assert "· not decided (no decision depends on it): acceptable_risk" in out
     assert arc["runs_needed"]["acceptable_risk"] > 200  # more than the cap would give
     assert summary["decision"]["text"].startswith("send turny (passes every verdict")
     report = (campaign_dir / "out" / "report.html").read_text(encoding="utf-8")

@@ -37,6 +37,8 @@ from dataclasses import dataclass
 from typing import Any
 
 STOP_FIXED = "fixed run count"
+# a path stopped with its verdict open because no decision depends on it (its stop reason)
+MOOT = "verdict not decided, and no decision depends on it"
 
 
 @dataclass(frozen=True)
@@ -187,8 +189,8 @@ def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
 def stop_reason(settlement: Settlement, runs: int, cap: int) -> str | None:
     """Why a path stops after ``runs`` runs, or None when it goes on."""
     if settlement.done and not settlement.verdict_decided:
-        return (f"stopped after {runs} runs: verdict not decided, and no decision depends on "
-                f"it ({settlement.moot_under} passes and ranks above it whatever its verdict)")
+        return (f"stopped after {runs} runs: {MOOT} ({settlement.moot_under} passes and ranks "
+                "above it whatever its verdict)")
     if settlement.done:
         outcome = settlement.outcome or ("pass" if settlement.passed else "fail")
         if not settlement.contender:
