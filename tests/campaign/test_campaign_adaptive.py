@@ -103,25 +103,25 @@ def test_a_path_at_the_cap_says_so_and_how_many_runs_would_decide(
 
 # arc (risk about 37 %, against a 36 % limit) needs some 1,600 runs; turny (about 24 %) passes
 # and, in the same drawn worlds, is the safer of the two; straight fails
-MOOT_PATHS = """paths:
-  straight:
+MOOT_PATHS = {
+    "straight": """  straight:
     - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}
-  arc:
+""",
+    "arc": """  arc:
     - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "20 deg"}
     - {max_wheel_rate: "0.1 rad/s", delta_position: "0.05 m", delta_heading: "-20 deg"}
-  turny:
+""",
+    "turny": """  turny:
     - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "60 deg"}
     - {max_wheel_rate: "0.1 rad/s", delta_position: "0.05 m", delta_heading: "-60 deg"}
-simulation:"""
+""",
+}
 
 
 def moot_campaign(folder: Path, *, expect: str = "", without: str = "") -> Path:
     head, _, tail = ADAPTIVE.partition("paths:")
-    paths = MOOT_PATHS if not without else "\n".join(
-        line for line in MOOT_PATHS.splitlines()
-        if not line.startswith(f"  {without}:") and not (
-            line.startswith("    - ") and without == "straight" and '"0 deg"' in line))
-    text = head + expect + paths + tail.partition("simulation:")[2]
+    paths = "".join(text for name, text in MOOT_PATHS.items() if name != without)
+    text = head + expect + "paths:\n" + paths + "simulation:" + tail.partition("simulation:")[2]
     path = write_campaign(folder, folder, text)
     rules = (folder / "test.rules").read_text()
     (folder / "test.rules").write_text(rules.replace("risk <= 50 %", "risk <= 36 %"))

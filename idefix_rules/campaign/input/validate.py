@@ -12,7 +12,13 @@ import difflib
 from collections.abc import Mapping
 from pathlib import Path
 
-from idefix_rules.campaign.input.load import Campaign, format_loc, regolith_parameter
+from idefix_rules.campaign.input.load import (
+    Campaign,
+    format_loc,
+    nominal_parameters,
+    regolith_parameter,
+    where_set,
+)
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
 from idefix_rules.units import Dimension, describe
@@ -142,8 +148,6 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
     """The rover's nominal start (``initial.x``, ``initial.y`` of the reference run) must lie
     on the terrain grid ``(x_min, x_max, y_min, y_max)``: off it the rover model would drive on
     the grid's edge heights carried on, a terrain no one gave it."""
-    from idefix_rules.campaign.input.load import nominal_parameters, where_set
-
     x_min, x_max, y_min, y_max = extent
     nominal = nominal_parameters(campaign)
     x, y = float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0))
