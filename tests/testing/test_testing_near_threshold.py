@@ -26,8 +26,11 @@ index I_psi "roll deviation" {
 verdict acceptable_risk: require risk <= 70 %
 """
 OLD = compile_rulebook(check_text(RULEBOOK, "tilt.rules").checked)
-NEW = compile_rulebook(check_text(RULEBOOK.replace("= 10 deg", "= 9 deg"),
-                                  "tilt.rules").checked)  # stricter: limit × 0.9
+# stricter by 11 %, a little more than the near draws' 10 % margin: a draw at the margin's
+# very edge (d = 0.1, a bound hypothesis likes to draw) sits exactly on a 10 % stricter limit
+# and still passes it
+NEW = compile_rulebook(check_text(RULEBOOK.replace("= 10 deg", "= 8.9 deg"),
+                                  "tilt.rules").checked)
 RANGES = RunRanges(runs=(1, 1), stuck=False, hits=0)
 SETTINGS = settings(max_examples=40, derandomize=True, deadline=None, database=None,
                     suppress_health_check=list(HealthCheck))
@@ -50,12 +53,12 @@ def _flips(strategy) -> dict[str, int]:
 
 
 def test_a_stricter_limit_turns_passing_paths_into_failing_ones_near_the_threshold():
-    # risk just inside or outside the verdict's 70 %: a 10 % stricter limit flips about a
+    # risk just inside or outside the verdict's 70 %: an 11 % stricter limit flips about a
     # third of the draws; plain realistic runs (the same seed and count) almost never
     near = _flips(near_threshold_runs(OLD, "I_psi", level=0.7, ranges=RANGES))
     plain = _flips(realistic_runs(RANGES))
     assert near["draws"] == plain["draws"] == 40
-    # every passing near draw sits within 10 % below the limit, so a 10 % stricter limit fails
+    # every passing near draw sits within 10 % below the limit, so an 11 % stricter limit fails
     # each of them (how many of the 40 land inside is the seed's choice); plain draws mostly
     # pass farther from it and many of them stay passing (26 of 26 against 6 of 24 here)
     assert near["passed"] >= 3
