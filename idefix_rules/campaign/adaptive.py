@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,8 +32,10 @@ from idefix_rules.campaign.evaluation.evaluate import (
     evaluate_path,
 )
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
+from idefix_rules.campaign.evaluation.scoring import shown_to_fail
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.input.waivers import waive_verdict
 from idefix_rules.campaign.simulation.pool import LocalPool
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.simulation.simulate import (
@@ -53,7 +55,7 @@ from idefix_rules.campaign.simulation.simulate import (
 from idefix_rules.campaign.simulation.worker import run_checks
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
-from idefix_rules.campaign.statistics.budget import alpha_budget
+from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget
 from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
 from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
@@ -120,6 +122,7 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 break
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                            progress, summary, pool, check, remember)
+            judged: dict[str, tuple[Any, Any, float, np.ndarray]] = {}
             for name, plan in running.items():
                 new = look - done[name]  # rows; the complete ones among them are checked
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
@@ -139,14 +142,17 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                         run for run, reason in store.failures(name).items()
                         if run < look and not is_infrastructure(reason)), dtype=np.int64)
                     fixed = evaluator.path_statistics(whole, failed_runs=failed.size)
-                    statistics[name] = judged_statistics(
-                        whole, fixed, plan.stop_time, budget, sequential=True,
-                        failures=failure_sequence(np.concatenate(rows[name]), failed))
+                    judged[name] = (whole, fixed, plan.stop_time,
+                                    failure_sequence(np.concatenate(rows[name]), failed))
+                    statistics[name] = judged_statistics(*judged[name][:3], budget,
+                                                         sequential=True,
+                                                         failures=judged[name][3])
+            budget = _raised(budget, statistics, judged, evaluator, campaign.model.waivers)
             pairs = pairwise.compare_pairs(
                 {name: (np.concatenate(rows[name]),
                         np.asarray(concatenate(parts[name]).i_max)) for name in statistics},
                 list(statistics), budget.comparison_alpha,
-                evaluator.checked.indifference) if paired else []
+                evaluator.checked.indifference, tuned=budget.comparison_tuned) if paired else []
             settlements = settle(evaluator, statistics, pairs, watched=watched,
                                  waivers=campaign.model.waivers)
             for name in list(running):
@@ -158,6 +164,24 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 _stop(store, name, look, reason)
                 progress.message(f"{name}: {reason}")
                 del running[name]
+
+
+def _raised(budget: AlphaBudget, statistics: dict[str, Any],
+            judged: Mapping[str, tuple[Any, Any, float, np.ndarray]], evaluator: Any,
+            waivers: Sequence[Any]) -> AlphaBudget:
+    """The budget raised by the paths shown to fail so far (statistics/budget.py,
+    ``recycled``): the paths judged at this look (``judged``: their inputs) are judged again
+    at each raised level, in ``statistics``; the paths stopped before keep theirs."""
+    while True:
+        failing = [name for name, stats in statistics.items()
+                   if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]
+        raised = budget.recycle(failing)
+        if raised.shown_failing == budget.shown_failing:
+            return budget
+        budget = raised
+        for name, (whole, fixed, stop_time, failures) in judged.items():
+            statistics[name] = judged_statistics(whole, fixed, stop_time, budget,
+                                                 sequential=True, failures=failures)
 
 
 def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str],

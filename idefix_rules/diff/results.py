@@ -33,7 +33,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
     fill_result,
     stored_path_result,
 )
-from idefix_rules.campaign.evaluation.scoring import judge_path, ranked_paths
+from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
 from idefix_rules.campaign.outcome.decision import reasons_of
 from idefix_rules.campaign.simulation.prescreen import prescreen_reference
 from idefix_rules.campaign.statistics.budget import alpha_budget
@@ -300,6 +300,7 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
             pool.shutdown(cancel_futures=True)  # an error or Ctrl-C: no queued path is scored
             raise
         pool.shutdown()
+        _judge(stored, evaluators, path_sides)
         rankings = []
         for position, evaluator in enumerate(evaluators):
             stats = {name: sides[position].statistics for name, sides, _ in path_sides
@@ -362,22 +363,34 @@ def _score_path(stored: StoredCampaign, runs: ParallelRuns, name: str,
         for side, side_parts in zip(sides, parts, strict=True):
             if side_parts:
                 side.evaluation, side.rows = concatenate(side_parts), rows
-    adaptive = str(stored.store.attrs.get("runs_mode", "fixed")) == "auto"
-    stop_time = float(stored.store.path_group(name).attrs.get("stop_time", 0.0))
     active = [side for side in sides if side.evaluates and side.evaluation is not None]
-    paths, paired = ranked_paths(stored.store), bool(stored.store.attrs.get("paired", False))
-    for side in active:
-        result = side.result
-        rows = side.rows if side.rows is not None else np.zeros(0, dtype=np.int64)
-        # the bounds the evaluation of the campaign judges with (campaign/statistics/bounds.py)
-        side.statistics, _ = judge_path(side.evaluator, side.evaluation, result, rows,
-                                        stop_time, alpha_budget(side.evaluator, paths, paired),
-                                        adaptive)
-        fill_result(result, side.evaluation, side.statistics,
-                    side.evaluator.verdict(side.statistics))
     if len(active) == 2 and active[0].rows is not None and active[0].rows.size:
         return _top_moves(active[0].rows, sides[0].evaluation, sides[1].evaluation, top)
     return 0, 0, ()
+
+
+def _judge(stored: StoredCampaign, evaluators: Sequence[Any],
+           path_sides: Sequence[tuple[str, list[_Side], Any]]) -> None:
+    """Each rulebook's statistics and verdict of every path it evaluates, with the bounds and
+    levels the campaign's evaluation judges with (campaign/statistics/bounds.py): the paths
+    together, since a path shown to fail raises the others' levels (budget.py)."""
+    store = stored.store
+    adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
+    paths, paired = ranked_paths(store), bool(store.attrs.get("paired", False))
+    waivers = stored.campaign.model.waivers if stored.campaign is not None else ()
+    for position, evaluator in enumerate(evaluators):
+        active = {name: sides[position] for name, sides, _ in path_sides
+                  if sides[position].evaluates and sides[position].evaluation is not None}
+        inputs = {name: (side.evaluation, side.result,
+                         side.rows if side.rows is not None else np.zeros(0, dtype=np.int64),
+                         float(store.path_group(name).attrs.get("stop_time", 0.0)))
+                  for name, side in active.items()}
+        _, judged = judge_paths(evaluator, inputs, alpha_budget(evaluator, paths, paired),
+                                adaptive, waivers)
+        for name, side in active.items():
+            side.statistics = judged[name][0]
+            fill_result(side.result, side.evaluation, side.statistics,
+                        evaluator.verdict(side.statistics))
 
 
 def diff_results(paths: Sequence[Path], old: RulebookSource, new: RulebookSource,

@@ -34,6 +34,7 @@ from idefix_rules.campaign.simulation.simulate import (
     initial_position_sigma,
     rover_geometry,
 )
+from idefix_rules.campaign.statistics import bernoulli
 from idefix_rules.campaign.storage.store import (
     STATUS_COMPLETE,
     STATUS_NOT_NEEDED,
@@ -81,6 +82,36 @@ def test_paths_stop_when_decided_and_say_why(campaign_dir: Path,
         assert np.all(status[:used] == STATUS_COMPLETE)
         assert np.all(status[used:] == STATUS_NOT_NEEDED)
         assert results["paths/arc"].attrs["stop_reason"] == paths["arc"]["stop_reason"]
+
+
+def test_a_chain_shown_to_fail_lets_the_passing_chain_stop_sooner(
+        campaign_dir: Path) -> None:
+    """straight fails at an early look; its comparison's share of α goes to the verdicts
+    still open (statistics/budget.py): arc's zero-event `<= 3 %` rule passes at β = 5 % / 2
+    after 128 runs (the look at 138) instead of at 5 % / 3 after 142 (the look at 154)."""
+    text = ADAPTIVE.replace("""  too-fast:
+    - {max_wheel_rate: "0.5 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}
+""", "")
+    path = write_campaign(campaign_dir, campaign_dir, text)
+    rules = (campaign_dir / "test.rules").read_text()
+    (campaign_dir / "test.rules").write_text(rules.replace(
+        "rank by", """chance tipped = max over time (abs(pitch)) > 1 rad
+  because "never on flat ground"
+verdict never_tipped: require chance(tipped) <= 3 %
+  because "zero events pass after some hundred runs"
+
+rank by"""))
+    assert bernoulli.runs_to_pass(0.03, 0.05 / 3) == 142
+    assert bernoulli.runs_to_pass(0.03, 0.05 / 2) == 128
+    assert main([str(path), "--quiet", "--no-report"]) == 1
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    paths = {p["name"]: p for p in summary["paths"]}
+    assert paths["straight"]["verdict"] == "fail" and paths["straight"]["runs_used"] <= 58
+    assert paths["arc"]["verdict"] == "pass"
+    assert paths["arc"]["runs_used"] == 138
+    assert summary["alpha"]["shown_failing"] == ["straight"]
+    assert summary["alpha"]["pass_alpha"] == pytest.approx(0.05 / 2, rel=1e-3)
+    assert summary["alpha"]["first_pass_alpha"] == pytest.approx(0.05 / 3, rel=1e-3)
 
 
 def test_a_path_at_the_cap_says_so_and_how_many_runs_would_decide(

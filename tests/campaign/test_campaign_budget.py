@@ -4,14 +4,17 @@ what an adaptive campaign waits for, and how a marginal chain is reported."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from types import SimpleNamespace as P
 
 import numpy as np
 import pytest
+from hypothesis import event, given, settings
+from hypothesis import strategies as st
 from rich.console import Console
 
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
-from idefix_rules.campaign.evaluation.scoring import decision_pairs
+from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_paths
 from idefix_rules.campaign.input.schema import Waiver
 from idefix_rules.campaign.outcome.decision import decide
 from idefix_rules.campaign.outcome.outputs import exit_code, junit_xml
@@ -63,6 +66,89 @@ def test_alpha_is_spent_over_paths_and_the_comparisons_the_decision_depends_on()
     assert paired.levels("risk") == (paired.fail_alpha, paired.pass_alpha)
     assert alpha_budget(rules, paths=4, paired=False).comparisons == 4
     assert alpha_budget(rules, paths=1, paired=True).per_path == pytest.approx(0.05)
+
+
+def test_a_chain_shown_to_fail_gives_its_comparison_share_back():
+    rules = evaluator()
+    paired = alpha_budget(rules, paths=4, paired=True)  # 4 verdicts + 3 comparisons
+    assert paired.recycle(["a"]).pass_alpha == pytest.approx(0.05 / 6)
+    assert paired.recycle(["a", "b"]).recycle(["a"]).pass_alpha == pytest.approx(0.05 / 5)
+    # never below one share per verdict: four failing chains leave four verdicts
+    assert paired.recycle("abc").pass_alpha == pytest.approx(0.05 / 4)
+    assert paired.recycle("abcd").pass_alpha == pytest.approx(0.05 / 4)
+    assert paired.recycle("abc").fail_alpha == pytest.approx(0.05 / 4 / 2)
+    unpaired = alpha_budget(rules, paths=3, paired=False)  # 3 verdicts + 3 own intervals
+    assert [unpaired.recycle("abc"[:k]).comparison_alpha for k in range(4)] == \
+        pytest.approx([0.05 / 6, 0.05 / 5, 0.05 / 4, 0.05 / 3])
+    raised = paired.recycle(["b", "a"])
+    assert raised.shown_failing == ("a", "b")
+    # the bets stay tuned for the first levels, whatever is shown later
+    assert raised.tuned_levels("risk") == paired.levels("risk")
+    assert raised.comparison_tuned == paired.comparison_alpha
+    assert raised.to_dict()["shown_failing"] == ["a", "b"]
+    assert raised.to_dict()["first_pass_alpha"] == pytest.approx(0.05 / 7)
+    rng = np.random.default_rng(4)
+    evaluation = runs(rng.beta(3, 7, 300), rng.random(300) < 0.02)
+    stats = judged_statistics(evaluation, rules.path_statistics(evaluation), 0.0, raised,
+                              sequential=True)
+    risk = evaluation.i_max
+    assert stats.risk.high == one_sided_bound(risk, raised.pass_alpha, "upper",
+                                              bet_alpha=paired.pass_alpha)
+    assert stats.risk.high != one_sided_bound(risk, raised.pass_alpha, "upper")
+    assert stats.risk.high < one_sided_bound(risk, paired.pass_alpha, "upper")
+
+
+def test_the_paths_are_judged_at_the_levels_their_failures_raise():
+    """judge_paths: a path shown to fail raises the others' levels; a waived failure, which
+    a campaign may send, does not; the fixed point is reached whatever the path order."""
+    rules = evaluator()
+    rng = np.random.default_rng(5)
+    inputs = {}
+    for name, mean in (("ok", 0.3), ("bad", 0.9), ("worse", 0.95)):
+        evaluation = runs(np.clip(mean + 0.05 * rng.uniform(-1, 1, 200), 0, 1),
+                          np.zeros(200, dtype=bool))
+        result = PathResult(name=name, index=0, status="simulated", runs=200, completed=200)
+        inputs[name] = (evaluation, result, np.arange(200), 0.0)
+    first = alpha_budget(rules, paths=3, paired=True)
+    budget, judged = judge_paths(rules, inputs, first, True)
+    assert budget.shown_failing == ("bad", "worse")
+    assert budget.pass_alpha == pytest.approx(0.05 / 3)
+    ok = judged["ok"][0]
+    assert ok.risk.high == one_sided_bound(inputs["ok"][0].i_max, 0.05 / 3, "upper",
+                                           bet_alpha=0.05 / 5)
+    backwards = dict(reversed(list(inputs.items())))
+    assert judge_paths(rules, backwards, first, True)[0] == budget
+    waived = [Waiver(rule="acceptable", path="bad", **WAIVER)]
+    budget, _ = judge_paths(rules, inputs, first, True, waived)
+    assert budget.shown_failing == ("worse",)
+    assert budget.pass_alpha == pytest.approx(0.05 / 4)
+
+
+@settings(max_examples=60, deadline=None)
+@given(mean=st.floats(0.05, 0.95), spread=st.floats(0.0, 0.3), count=st.integers(2, 300),
+       shown=st.integers(1, 3), sequential=st.booleans(), seed=st.integers(0, 2**16))
+def test_raised_levels_give_bounds_inside_the_first_ones(mean: float, spread: float,
+                                                         count: int, shown: int,
+                                                         sequential: bool, seed: int):
+    """A chain judged again at a raised level gets bounds inside its first ones (the proof in
+    statistics/budget.py rests on it): the bets stay, only the threshold moves."""
+    rules = evaluator()
+    first = alpha_budget(rules, paths=4, paired=True)
+    raised = first.recycle("abc"[:shown])
+    rng = np.random.default_rng(seed)
+    risk = np.clip(mean + spread * rng.uniform(-1, 1, count), 0, 1)
+    evaluation = dataclasses.replace(runs(risk, rng.random(risk.size) < mean / 4),
+                                     energy=1.0 + 3.0 * risk)
+    stats = rules.path_statistics(evaluation)
+    before = judged_statistics(evaluation, stats, 0.0, first, sequential)
+    after = judged_statistics(evaluation, stats, 0.0, raised, sequential)
+    pairs = [(before.risk, after.risk), (before.energy, after.energy),
+             (before.chances["stuck_run"], after.chances["stuck_run"]),
+             (before.index_mean["I_a"], after.index_mean["I_a"])]
+    for wide, narrow in pairs:
+        assert wide.low <= narrow.low <= narrow.high <= wide.high or \
+            (math.isinf(wide.low) and math.isinf(narrow.low))
+    event(f"risk bounds moved: {after.risk.high < before.risk.high}")
 
 
 def test_each_statistic_gets_its_bounds_in_the_direction_it_is_judged():

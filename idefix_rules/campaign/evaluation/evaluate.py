@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, collision_pieces
-from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_path, ranked_paths
+from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_paths, ranked_paths
 from idefix_rules.campaign.evaluation.spread import RiskSpread, risk_spread
 from idefix_rules.campaign.input.waivers import (
     STORED_ATTRIBUTE,
@@ -264,7 +264,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     run_risks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     paired = bool(store.attrs.get("paired", False))
-    budget = alpha_budget(evaluator, ranked_paths(store), paired)
+    evaluated: dict[str, tuple[Any, PathResult, np.ndarray, float]] = {}
+    extras: dict[str, dict[str, Any]] = {}
     for name in store.path_names:
         result = stored_path_result(store, name)
         results.append(result)
@@ -279,8 +280,15 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             result.verdict_reasons = ["no complete run to evaluate"]
             continue
         stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
-        stats, failures = judge_path(evaluator, evaluation, result, extra["rows"], stop_time,
-                                     budget, sequential)
+        evaluated[name] = (evaluation, result, np.asarray(extra["rows"]), stop_time)
+        extras[name] = extra
+    # every path at the budget's levels, raised by the paths shown to fail (budget.py)
+    budget, judged = judge_paths(evaluator, evaluated,
+                                 alpha_budget(evaluator, ranked_paths(store), paired),
+                                 sequential, waivers)
+    for name, (evaluation, result, _, stop_time) in evaluated.items():
+        extra = extras[name]
+        stats, failures = judged[name]
         if not sequential and not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
         verdict, waived = waive_verdict(evaluator.verdict(stats), waivers, name)
@@ -338,7 +346,8 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: 
     """Roughly how many runs would settle each verdict rule that is not decided."""
     result.runs_needed = {
         rule.name: runs_needed(rule, evaluation, budget.levels(rule.statistic or ""),
-                               sequential, stop_time, failures)
+                               sequential, stop_time, failures,
+                               budget.tuned_levels(rule.statistic or ""))
         for rule in verdict.rules if not rule.decided}
     shown = {_reason_text(rule): rule.name for rule in verdict.rules if not rule.decided}
     result.verdict_reasons = [

@@ -16,7 +16,7 @@ import numpy as np
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
-from idefix_rules.campaign.statistics.budget import AlphaBudget
+from idefix_rules.campaign.statistics.budget import AlphaBudget, recycled
 from idefix_rules.campaign.statistics.runs_needed import pair_runs_needed
 
 if TYPE_CHECKING:
@@ -45,6 +45,35 @@ def judge_path(evaluator: Any, evaluation: Any, result: PathResult, rows: np.nda
         failures
 
 
+def shown_to_fail(verdict: Any) -> bool:
+    """Whether a verdict (waivers applied) shows its path to fail: decided, not passed and
+    not within a margin. Such a path can never be sent, so the α of its comparison is spent
+    again (:func:`idefix_rules.campaign.statistics.budget.recycled`)."""
+    return bool(verdict.decided and not verdict.passed and not verdict.marginal)
+
+
+def judge_paths(evaluator: Any, paths: Mapping[str, tuple[Any, PathResult, np.ndarray, float]],
+                budget: AlphaBudget, sequential: bool, waivers: Sequence[Any] = ()
+                ) -> tuple[AlphaBudget, dict[str, tuple[Any, np.ndarray]]]:
+    """Every path judged at the budget's levels, raised by the paths shown to fail
+    (:func:`~idefix_rules.campaign.statistics.budget.recycled`): the final budget, and each
+    path's (statistics, failure flags) at it. ``paths``: name → (evaluation, result, its
+    complete rows, stop time); ``waivers``: the campaign's (a waived failure is no failure)."""
+    from idefix_rules.campaign.input.waivers import waive_verdict
+
+    judged: dict[tuple[str, ...], dict[str, tuple[Any, np.ndarray]]] = {}
+
+    def failing(at: AlphaBudget) -> list[str]:
+        found = judged[at.shown_failing] = {
+            name: judge_path(evaluator, evaluation, result, rows, stop_time, at, sequential)
+            for name, (evaluation, result, rows, stop_time) in paths.items()}
+        return [name for name, (stats, _) in found.items()
+                if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]
+
+    final = recycled(budget, failing)
+    return final, judged[final.shown_failing]
+
+
 def contenders(ranking: Sequence[str], results: Sequence[PathResult]) -> list[str]:
     """The ranked paths that pass (or are waived) or may still pass, best first."""
     by_name = {result.name: result for result in results}
@@ -59,10 +88,11 @@ def decision_pairs(run_risks: Mapping[str, tuple[np.ndarray, np.ndarray]],
     marked with whether the decision depends on it; an open one it depends on says how many
     paired runs would settle it at the present spread."""
     pairs = pairwise.mark_needed(
-        pairwise.compare_pairs(run_risks, ranking, budget.comparison_alpha, margin, sequential),
+        pairwise.compare_pairs(run_risks, ranking, budget.comparison_alpha, margin, sequential,
+                               budget.comparison_tuned),
         contenders(ranking, results))
     return [dataclasses.replace(pair, runs_needed=pair_runs_needed(
                 pairwise.paired_differences(run_risks[pair.first], run_risks[pair.second]),
-                budget.comparison_alpha, margin, sequential))
+                budget.comparison_alpha, margin, sequential, budget.comparison_tuned))
             if pair.needed and pair.outcome == pairwise.OPEN else pair
             for pair in pairs]

@@ -41,16 +41,20 @@ Levels = Callable[[str], tuple[float, float]]
 
 
 def bounded_estimate(values: np.ndarray, alpha_low: float, alpha_high: float,
-                     sequential: bool, scale: float = 1.0) -> Estimate:
+                     sequential: bool, scale: float = 1.0,
+                     tuned: tuple[float, float] | None = None) -> Estimate:
     """Mean of ``values`` in [0, ``scale``] with a lower bound at ``alpha_low`` and an upper
-    bound at ``alpha_high``; (nan, 0, scale) without values."""
+    bound at ``alpha_high``; (nan, 0, scale) without values. ``tuned``: the levels (lower,
+    upper) the bets are tuned for, by default the bounds' own."""
     x = np.asarray(values, dtype=np.float64).ravel()
     if x.size == 0:
         return Estimate(math.nan, 0.0, scale)
     unit = x / scale
     fixed = None if sequential else int(x.size)
-    return Estimate(float(x.mean()), one_sided_bound(unit, alpha_low, "lower", fixed) * scale,
-                    one_sided_bound(unit, alpha_high, "upper", fixed) * scale)
+    bet_low, bet_high = tuned if tuned is not None else (alpha_low, alpha_high)
+    return Estimate(float(x.mean()),
+                    one_sided_bound(unit, alpha_low, "lower", fixed, bet_low) * scale,
+                    one_sided_bound(unit, alpha_high, "upper", fixed, bet_high) * scale)
 
 
 def chance_estimate(events: np.ndarray, alpha_low: float, alpha_high: float,
@@ -64,23 +68,27 @@ def chance_estimate(events: np.ndarray, alpha_low: float, alpha_high: float,
 
 
 def unbounded_estimate(values: np.ndarray, alpha_low: float, alpha_high: float,
-                       sequential: bool) -> Estimate:
+                       sequential: bool, tuned: tuple[float, float] | None = None) -> Estimate:
     """Mean without a known range: the asymptotic confidence sequence (adaptive) or
-    Student-t (fixed count), each side at its α; (-inf, inf) with fewer than two values."""
+    Student-t (fixed count), each side at its α; (-inf, inf) with fewer than two values.
+    ``tuned``: the levels (lower, upper) the sequence's boundary is tuned for, by default
+    the bounds' own."""
     x = np.asarray(values, dtype=np.float64).ravel()
     mean = float(x.mean()) if x.size else math.nan
     if x.size < 2:
         return Estimate(mean, -math.inf, math.inf)
     variance = float(x.var(ddof=1))
 
-    def half(alpha: float) -> float:
+    def half(alpha: float, tuned_alpha: float) -> float:
         if sequential:  # the sequence's half width at 2α puts α on each side
-            return asymptotic_half_width(x.size, variance, min(2.0 * alpha, 0.999))
+            return asymptotic_half_width(x.size, variance, min(2.0 * alpha, 0.999),
+                                         tuned_alpha=min(2.0 * tuned_alpha, 0.999))
         from scipy.special import stdtrit  # Student's t quantile (scipy.stats.t.ppf)
 
         return float(stdtrit(x.size - 1, 1.0 - alpha)) * math.sqrt(variance / x.size)
 
-    return Estimate(mean, mean - half(alpha_low), mean + half(alpha_high))
+    tuned_low, tuned_high = tuned if tuned is not None else (alpha_low, alpha_high)
+    return Estimate(mean, mean - half(alpha_low, tuned_low), mean + half(alpha_high, tuned_high))
 
 
 def failure_sequence(complete_rows: np.ndarray, failed_rows: np.ndarray,
@@ -108,13 +116,15 @@ def judged_statistics(evaluation: RunEvaluation, stats: PathStatistics, stop_tim
     levels = budget.levels
 
     def bounded(values: np.ndarray, statistic: str, scale: float = 1.0) -> Estimate:
-        return bounded_estimate(values, *levels(statistic), sequential, scale)
+        return bounded_estimate(values, *levels(statistic), sequential, scale,
+                                budget.tuned_levels(statistic))
 
     time = np.asarray(evaluation.time, dtype=np.float64)
     if stop_time > 0 and time.size and np.all((time >= 0) & (time <= stop_time)):
         time_estimate = bounded(time, "time", stop_time)
     else:
-        time_estimate = unbounded_estimate(time, *levels("time"), sequential)
+        time_estimate = unbounded_estimate(time, *levels("time"), sequential,
+                                           budget.tuned_levels("time"))
     if failures is None:
         failures = np.concatenate((np.zeros(stats.runs), np.ones(stats.failed_runs)))
     return dataclasses.replace(
@@ -126,7 +136,8 @@ def judged_statistics(evaluation: RunEvaluation, stats: PathStatistics, stop_tim
                                        sequential)
                  for name in evaluation.chance_names},
         time=time_estimate,
-        energy=unbounded_estimate(evaluation.energy, *levels("energy"), sequential),
+        energy=unbounded_estimate(evaluation.energy, *levels("energy"), sequential,
+                                  budget.tuned_levels("energy")),
         failed=chance_estimate(failures, *levels("failed"), sequential),
     )
 
@@ -134,10 +145,12 @@ def judged_statistics(evaluation: RunEvaluation, stats: PathStatistics, stop_tim
 # --- tests of one value, for estimates of the runs a decision needs ---------------------------
 
 def rejects(kind: str, values: np.ndarray, candidate: float, alpha: float, side: str,
-            sequential: bool) -> bool:
+            sequential: bool, tuned: float | None = None) -> bool:
     """Whether the ``side`` bound (``lower``/``upper``) at ``alpha`` of the mean of ``values``
     excludes ``candidate``: ``kind`` ``bernoulli`` (0/1), ``bounded`` (in [0, 1]) or
-    ``unbounded``. One test, no bisection: cheap on long streams."""
+    ``unbounded``; ``tuned``: the level its bets (boundary) are tuned for, by default
+    ``alpha``. One test, no bisection: cheap on long streams."""
+    tuned = alpha if tuned is None else tuned
     x = np.asarray(values, dtype=np.float64).ravel()
     if x.size == 0:
         return False
@@ -152,8 +165,8 @@ def rejects(kind: str, values: np.ndarray, candidate: float, alpha: float, side:
     if kind == "bounded":
         if not 0.0 <= candidate <= 1.0:  # outside the range: the side facing it excludes it
             return (candidate > 1.0) == (side == "upper")
-        bets = plugin_bets(x, alpha, two_sided=False,
+        bets = plugin_bets(x, tuned, two_sided=False,
                            fixed_runs=None if sequential else int(x.size))
         return bool(first_rejection(x, bets, np.array([candidate]), alpha, side)[0] <= x.size)
-    estimate = unbounded_estimate(x, alpha, alpha, sequential)
+    estimate = unbounded_estimate(x, alpha, alpha, sequential, (tuned, tuned))
     return estimate.low > candidate if side == "lower" else estimate.high < candidate

@@ -29,7 +29,7 @@ import numpy as np
 
 from idefix_rules.campaign.statistics import bernoulli
 from idefix_rules.campaign.statistics.budget import AlphaBudget
-from idefix_rules.campaign.statistics.sequential import rejections
+from idefix_rules.campaign.statistics.sequential import rejections, running_log_capital
 from idefix_rules.rulebook.judging import Judging
 
 ALPHA = 0.05
@@ -207,6 +207,72 @@ def _family(rng: np.random.Generator, count: int, paths: int, chances: int, cap:
     return Outcomes(np.where(wrong, FAIL, np.where(decided, PASS, OPEN)), used)
 
 
+def _running_evidence(draws: np.ndarray, limit: float, side: str) -> np.ndarray:
+    """The running maximum of the chance's log evidence against ``limit`` (the mixture
+    martingale of :mod:`~idefix_rules.campaign.statistics.bernoulli`: no bets to tune)."""
+    events = np.cumsum(draws, axis=1).astype(np.int64)
+    runs = np.arange(1, draws.shape[1] + 1)
+    counts = np.arange(int(events.max()) + 1)[:, None]
+    evidence = (bernoulli.log_evidence_below if side == "upper"
+                else bernoulli.log_evidence_above)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        table = evidence(np.minimum(counts, runs), runs, limit)
+    return np.asarray(np.maximum.accumulate(table[events, runs - 1], axis=1))
+
+
+def _recycled_family(rng: np.random.Generator, count: int, cap: int, failing: int = 2,
+                     passing: int = 3, chances: int = 1) -> Outcomes:
+    """A paired campaign of ``failing + passing`` paths, each with ``risk <= 70 %`` and
+    ``chances`` rules ``chance <= 5 %``: the failing ones at risk 85 %, the others with every
+    statistic exactly at its limit. At each look the levels are raised by the paths shown to
+    fail (the fixed point of :func:`~idefix_rules.campaign.statistics.budget.recycled`, bets
+    tuned for the first levels); a path stops once decided. Wrong when a path at its limits is
+    shown to fail or a failing one to pass."""
+    paths = failing + passing
+    units = 1 + chances
+    first = _budget(paths, paths - 1, units)
+    tuned = (first.fail_alpha, first.pass_alpha)
+    # per path, per rule: (fail-side, pass-side) running evidence, log scale
+    evidence = []
+    for position in range(paths):
+        mean = 0.85 if position < failing else 0.7
+        risk = risks(rng, (count, cap), mean)
+        rules = [(running_log_capital(risk, 0.7, "lower", tuned[0]),
+                  running_log_capital(risk, 0.7, "upper", tuned[1]))]
+        for _ in range(chances):
+            draws = (rng.random((count, cap)) < 0.05).astype(np.float64)
+            rules.append((_running_evidence(draws, 0.05, "lower"),
+                          _running_evidence(draws, 0.05, "upper")))
+        evidence.append(rules)
+    looks = looks_up_to(cap)
+    outcome = np.full((paths, count), OPEN, dtype=object)
+    stopped_at = np.full((paths, count), looks[-1])
+    for look in looks:
+        shown = np.zeros(count, dtype=int)
+        while True:  # the fixed point: more shown to fail, higher levels
+            budget = [first.recycle(map(str, range(k))) for k in range(paths + 1)]
+            fail_level = np.array([b.fail_alpha for b in budget])[shown]
+            pass_level = np.array([b.pass_alpha for b in budget])[shown]
+            failed = np.zeros((paths, count), dtype=bool)
+            passed = np.ones((paths, count), dtype=bool)
+            for position, rules in enumerate(evidence):
+                for fail_side, pass_side in rules:
+                    failed[position] |= fail_side[:, look - 1] >= np.log(1.0 / fail_level)
+                    passed[position] &= pass_side[:, look - 1] >= np.log(1.0 / pass_level)
+            now = np.where(outcome == OPEN, failed, outcome == FAIL)
+            more = now.sum(axis=0)
+            if np.array_equal(more, shown):
+                break
+            shown = more
+        decided_now = (outcome == OPEN) & (failed | passed)
+        outcome[decided_now] = np.where(failed, FAIL, PASS)[decided_now]
+        stopped_at[decided_now] = look
+    wrong = (outcome[failing:] == FAIL).any(axis=0) | (outcome[:failing] == PASS).any(axis=0)
+    decided = (outcome != OPEN).all(axis=0)
+    return Outcomes(np.where(wrong, FAIL, np.where(decided, PASS, OPEN)),
+                    stopped_at.mean(axis=0))
+
+
 def settings(cap: int = 1000) -> Iterator[tuple[str, str, tuple[str, ...],
                                                 Callable[[np.random.Generator, int], Outcomes]]]:
     """The settings of the table: (setting, truth, wrong outcomes, simulation)."""
@@ -244,6 +310,9 @@ def settings(cap: int = 1000) -> Iterator[tuple[str, str, tuple[str, ...],
     yield ("pair, no indifference", "equal risks", (FIRST, SECOND), pairs(0.0, 0.0))
     yield ("3 paths × (risk + 4 chances), no margins", "every statistic at its limit",
            (FAIL,), lambda rng, n: _family(rng, n, 3, 4, min(cap, 400)))
+    yield ("5 paths × (risk + 1 chance), levels raised by failures",
+           "2 paths at risk 85 %, 3 with every statistic at its limit", (FAIL,),
+           lambda rng, n: _recycled_family(rng, n, min(cap, 400)))
 
 
 def table(replications: int = 2000, cap: int = 1000, seed: int = 20261127) -> list[Row]:

@@ -156,15 +156,15 @@ def adjacent(ranking: Sequence[str], pairs: Sequence[PairComparison]
     return found
 
 
-def difference_interval(differences: np.ndarray, alpha: float, sequential: bool = True
-                        ) -> tuple[float, float]:
+def difference_interval(differences: np.ndarray, alpha: float, sequential: bool = True,
+                        tuned: float | None = None) -> tuple[float, float]:
     """The mean of ``differences`` (values in [−1, 1], run order) between a lower and an upper
     bound, each at ``alpha``: anytime-valid when ``sequential``, else with bets tuned for
-    their number."""
+    their number; ``tuned``: the level the bets are tuned for (by default ``alpha``)."""
     unit = (np.asarray(differences, dtype=np.float64) + 1.0) / 2.0
     fixed = None if sequential else int(unit.size)
-    low = one_sided_bound(unit, alpha, "lower", fixed)
-    high = one_sided_bound(unit, alpha, "upper", fixed)
+    low = one_sided_bound(unit, alpha, "lower", fixed, tuned)
+    high = one_sided_bound(unit, alpha, "upper", fixed, tuned)
     return 2.0 * low - 1.0, 2.0 * high - 1.0
 
 
@@ -181,15 +181,16 @@ def outcome(low: float, high: float, margin: float) -> str:
 
 
 def compare(first: str, second: str, first_risks: RunRisks, second_risks: RunRisks,
-            alpha: float, margin: float, sequential: bool = True) -> PairComparison:
+            alpha: float, margin: float, sequential: bool = True,
+            tuned: float | None = None) -> PairComparison:
     """One pair on the worlds both completed, in run order; each side of its interval at
-    ``alpha``."""
+    ``alpha`` (bets tuned for ``tuned``, by default ``alpha``)."""
     rows, first_at, second_at = np.intersect1d(first_risks[0], second_risks[0],
                                                assume_unique=True, return_indices=True)
     differences = (np.asarray(first_risks[1], dtype=np.float64)[first_at]
                    - np.asarray(second_risks[1], dtype=np.float64)[second_at])
     if rows.size:
-        low, high = difference_interval(differences, alpha, sequential)
+        low, high = difference_interval(differences, alpha, sequential, tuned)
         mean = float(differences.mean())
     else:
         low, high, mean = -1.0, 1.0, float("nan")
@@ -199,11 +200,12 @@ def compare(first: str, second: str, first_risks: RunRisks, second_risks: RunRis
 
 
 def compare_pairs(risks: Mapping[str, RunRisks], order: Sequence[str], alpha: float,
-                  margin: float, sequential: bool = True) -> list[PairComparison]:
+                  margin: float, sequential: bool = True,
+                  tuned: float | None = None) -> list[PairComparison]:
     """Every pair of the paths in ``order`` (first before second as listed), each side of its
-    interval at ``alpha``."""
+    interval at ``alpha`` (bets tuned for ``tuned``, by default ``alpha``)."""
     names = [name for name in order if name in risks]
-    return [compare(a, b, risks[a], risks[b], alpha, margin, sequential)
+    return [compare(a, b, risks[a], risks[b], alpha, margin, sequential, tuned)
             for a, b in combinations(names, 2)]
 
 

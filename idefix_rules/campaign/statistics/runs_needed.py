@@ -79,23 +79,29 @@ def typical_runs(kind: str, mean: float, spread: float, n: int) -> np.ndarray:
 
 
 def settles(kind: str, runs: np.ndarray, limit: float, margin: float,
-            levels: tuple[float, float], sequential: bool) -> bool:
-    """Whether bounds on ``runs`` (lower at ``levels[0]``, upper at ``levels[1]``) exclude
-    ``limit``, or lie within ``margin`` of it."""
+            levels: tuple[float, float], sequential: bool,
+            tuned: tuple[float, float] | None = None) -> bool:
+    """Whether bounds on ``runs`` (lower at ``levels[0]``, upper at ``levels[1]``; bets tuned
+    for ``tuned``, by default those levels) exclude ``limit``, or lie within ``margin`` of
+    it."""
     alpha_low, alpha_high = levels
-    if rejects(kind, runs, limit, alpha_high, "upper", sequential) \
-            or rejects(kind, runs, limit, alpha_low, "lower", sequential):
+    tuned_low, tuned_high = tuned if tuned is not None else levels
+    if rejects(kind, runs, limit, alpha_high, "upper", sequential, tuned_high) \
+            or rejects(kind, runs, limit, alpha_low, "lower", sequential, tuned_low):
         return True
-    return margin > 0 and rejects(kind, runs, limit - margin, alpha_low, "lower", sequential) \
-        and rejects(kind, runs, limit + margin, alpha_high, "upper", sequential)
+    return margin > 0 \
+        and rejects(kind, runs, limit - margin, alpha_low, "lower", sequential, tuned_low) \
+        and rejects(kind, runs, limit + margin, alpha_high, "upper", sequential, tuned_high)
 
 
 def runs_needed(rule: Any, evaluation: Any, levels: tuple[float, float], sequential: bool,
-                stop_time: float = 0.0, failures: np.ndarray | None = None) -> int | None:
+                stop_time: float = 0.0, failures: np.ndarray | None = None,
+                tuned: tuple[float, float] | None = None) -> int | None:
     """Roughly how many runs would settle ``rule`` (a rule result that is not decided) if its
     statistic kept its present value and spread; ``levels`` the α of its lower and upper
-    bound. None when no estimate can be given (a compound condition, a statistic sitting on
-    its limit without a margin, or more than 1,000,000 runs)."""
+    bound (``tuned``: the levels their bets are tuned for, by default the same). None when
+    no estimate can be given (a compound condition, a statistic sitting on its limit without
+    a margin, or more than 1,000,000 runs)."""
     if rule.statistic is None or rule.threshold is None or evaluation is None:
         return None
     found = _rule_values(rule.statistic, evaluation, failures)
@@ -114,14 +120,14 @@ def runs_needed(rule: Any, evaluation: Any, levels: tuple[float, float], sequent
     if not math.isfinite(gap) or (gap == 0 and margin == 0):
         return None
     return smallest(lambda n: settles(kind, typical_runs(kind, mean, spread, n), threshold,
-                                      margin, levels, sequential), values.size)
+                                      margin, levels, sequential, tuned), values.size)
 
 
 def pair_runs_needed(differences: np.ndarray, alpha: float, margin: float,
-                     sequential: bool) -> int | None:
+                     sequential: bool, tuned: float | None = None) -> int | None:
     """Roughly how many paired runs would order or tie two paths whose per-world risk
     differences are ``differences`` (in [−1, 1]), at their present mean and spread; each side
-    of the interval at ``alpha``."""
+    of the interval at ``alpha`` (bets tuned for ``tuned``, by default ``alpha``)."""
     d = np.asarray(differences, dtype=np.float64)
     if d.size < 2:
         return None
@@ -131,6 +137,7 @@ def pair_runs_needed(differences: np.ndarray, alpha: float, margin: float,
 
     def decides(n: int) -> bool:
         runs = (typical_runs("unbounded", mean, spread, n).clip(-1.0, 1.0) + 1.0) / 2.0
-        return settles("bounded", runs, 0.5, margin / 2.0, (alpha, alpha), sequential)
+        return settles("bounded", runs, 0.5, margin / 2.0, (alpha, alpha), sequential,
+                       None if tuned is None else (tuned, tuned))
 
     return smallest(decides, d.size)

@@ -100,27 +100,44 @@ def first_rejection(values: np.ndarray, bets: np.ndarray, candidates: np.ndarray
 
 
 def rejections(values: np.ndarray, candidate: float, alpha: float, side: str,
-               fixed_runs: int | None = None) -> np.ndarray:
+               fixed_runs: int | None = None, bet_alpha: float | None = None) -> np.ndarray:
     """For many streams at once (one per row, runs along the last axis): after each run count,
     whether the ``side`` bettor (``lower``/``upper``, as in :func:`first_rejection`) has
-    rejected ``candidate`` at level ``alpha`` by then. The simulations of
+    rejected ``candidate`` at level ``alpha`` by then (bets tuned for ``bet_alpha``, by
+    default ``alpha``: see :func:`one_sided_bound`). The simulations of
     :mod:`idefix_rules.campaign.statistics.error_rates` read it.
 
     >>> rows = np.vstack([np.ones(64), np.zeros(64)])
     >>> rejections(rows, 0.5, 0.05, "lower")[:, -1].tolist()
     [True, False]
     """
+    capital = running_log_capital(values, candidate, side,
+                                  alpha if bet_alpha is None else bet_alpha, fixed_runs)
+    return np.asarray(capital >= math.log(1.0 / alpha))
+
+
+def running_log_capital(values: np.ndarray, candidate: float, side: str, bet_alpha: float,
+                        fixed_runs: int | None = None) -> np.ndarray:
+    """For many streams at once (one per row): the running maximum of the ``side`` bettor's
+    log capital against ``candidate`` after each run count, bets tuned for ``bet_alpha``. It
+    rejects ``candidate`` at any level β once it reaches ``log(1/β)``."""
     x = np.clip(np.asarray(values, dtype=np.float64), 0.0, 1.0)
-    bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
+    bets = plugin_bets(x, bet_alpha, two_sided=False, fixed_runs=fixed_runs)
     capital = np.cumsum(_log_steps(x, bets, candidate, side), axis=-1)
-    return np.asarray(np.maximum.accumulate(capital >= math.log(1.0 / alpha), axis=-1))
+    return np.asarray(np.maximum.accumulate(capital, axis=-1))
 
 
 def one_sided_bound(values: np.ndarray, alpha: float, side: str,
-                    fixed_runs: int | None = None) -> float:
+                    fixed_runs: int | None = None, bet_alpha: float | None = None) -> float:
     """A one-sided bound at level ``alpha`` for the mean of ``values`` (in [0, 1], run order):
     ``lower`` or ``upper``; the running intersection over every run count, with bets tuned
     for ``fixed_runs`` when given. 0 (lower) or 1 (upper) without values.
+
+    ``bet_alpha``: the level the bets are tuned for (by default ``alpha``). Ville's inequality
+    holds for any predictable bets, so the bound is valid at ``alpha`` whatever they are
+    tuned for; with the bets fixed, the bounds at two levels are nested (the capital is the
+    same, only the threshold ``log(1/alpha)`` moves), which a campaign that raises its levels
+    as chains are shown to fail relies on (:mod:`idefix_rules.campaign.statistics.budget`).
 
     Each bettor's capital falls as the candidate moves towards the far side of the mean, so
     the rejected candidates form one interval from the near end ([0, L) for ``lower``) and
@@ -132,7 +149,8 @@ def one_sided_bound(values: np.ndarray, alpha: float, side: str,
     x = np.clip(np.asarray(values, dtype=np.float64).ravel(), 0.0, 1.0)
     if x.size == 0:
         return 0.0 if side == "lower" else 1.0
-    bets = plugin_bets(x, alpha, two_sided=False, fixed_runs=fixed_runs)
+    bets = plugin_bets(x, alpha if bet_alpha is None else bet_alpha, two_sided=False,
+                       fixed_runs=fixed_runs)
     inside, outside = (1.0, 0.0) if side == "lower" else (0.0, 1.0)
     if not candidate_rejected(x, bets, outside, alpha, side):
         return outside  # not even the far end is rejected
@@ -240,11 +258,14 @@ def threshold_rejected(values: np.ndarray, threshold: float, alpha: float) -> bo
 
 
 def asymptotic_half_width(n: int, variance: float, alpha: float,
-                          planned_runs: int = 500) -> float:
+                          planned_runs: int = 500, tuned_alpha: float | None = None) -> float:
     """Half width of the asymptotic confidence sequence after ``n`` runs of this variance
-    (each side at α/2; tightest near ``planned_runs``)."""
+    (each side at α/2; tightest near ``planned_runs``). ``tuned_alpha``: the level the
+    boundary's mixture is tuned for (by default ``alpha``); with it fixed, the half widths
+    at two levels are nested."""
     side = alpha / 2.0
-    rho2 = (-2.0 * math.log(side) + math.log(-2.0 * math.log(side) + 1.0)) / planned_runs
+    tuned = (alpha if tuned_alpha is None else tuned_alpha) / 2.0
+    rho2 = (-2.0 * math.log(tuned) + math.log(-2.0 * math.log(tuned) + 1.0)) / planned_runs
     spread = n * variance * rho2 + 1.0
     return math.sqrt(2.0 * spread / (n * n * rho2) * math.log(math.sqrt(spread) / side))
 
