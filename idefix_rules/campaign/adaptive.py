@@ -108,6 +108,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # the path-level values' first pass over every run so far: each look folds its new
     # whole chunks onto those of the looks before (the same sums, bit for bit)
     across_cache = FirstPassCache()
+    # what each path was last judged on (its runs up to its last look), to judge it again
+    # when the chains shown to fail raise the levels (statistics/budget.py), stopped or not
+    judged: dict[str, tuple[Any, Any, float, np.ndarray]] = {}
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
         pool = stack.enter_context(contextlib.closing(
@@ -122,7 +125,6 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 break
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                            progress, summary, pool, check, remember)
-            judged: dict[str, tuple[Any, Any, float, np.ndarray]] = {}
             for name, plan in running.items():
                 new = look - done[name]  # rows; the complete ones among them are checked
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
@@ -170,8 +172,9 @@ def _raised(budget: AlphaBudget, statistics: dict[str, Any],
             judged: Mapping[str, tuple[Any, Any, float, np.ndarray]], evaluator: Any,
             waivers: Sequence[Any]) -> AlphaBudget:
     """The budget raised by the paths shown to fail so far (statistics/budget.py,
-    ``recycled``): the paths judged at this look (``judged``: their inputs) are judged again
-    at each raised level, in ``statistics``; the paths stopped before keep theirs."""
+    ``recycled``): every path (``judged``: what each was last judged on, a stopped path's
+    runs up to its stop) is judged again at each raised level, in ``statistics``, as the
+    evaluation stage will judge it at the end."""
     while True:
         failing = [name for name, stats in statistics.items()
                    if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]

@@ -4,6 +4,8 @@ what an adaptive campaign waits for, and how a marginal chain is reported."""
 from __future__ import annotations
 
 import dataclasses
+import doctest
+import importlib
 import math
 from types import SimpleNamespace as P
 
@@ -305,3 +307,13 @@ def test_an_open_comparison_says_how_many_paired_runs_would_settle_it():
     assert f"about {marked.runs_needed:,} paired runs would settle it at the present spread" \
         in text
     assert marked.to_dict()["runs_needed"] == marked.runs_needed
+
+
+@pytest.mark.parametrize("name", ["budget", "stopping", "pairwise", "bernoulli", "sequential",
+                                  "runs_needed", "bounds"])
+def test_the_examples_in_the_statistics_modules_hold(name: str):
+    """The docstrings' examples (the budget's levels, a stop reason restated at the final
+    levels, a pair in words, …) are run, so they cannot drift from the code."""
+    module = importlib.import_module(f"idefix_rules.campaign.statistics.{name}")
+    failures, tried = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert tried > 0 and failures == 0

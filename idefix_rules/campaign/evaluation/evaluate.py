@@ -33,7 +33,7 @@ from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget
 from idefix_rules.campaign.statistics.runs_needed import runs_needed
-from idefix_rules.campaign.statistics.stopping import STOP_FIXED
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED, outcome_of, restated
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.plain import as_plain
@@ -289,9 +289,12 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     for name, (evaluation, result, _, stop_time) in evaluated.items():
         extra = extras[name]
         stats, failures = judged[name]
+        unwaived = evaluator.verdict(stats)
         if not sequential and not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
-        verdict, waived = waive_verdict(evaluator.verdict(stats), waivers, name)
+        elif sequential:
+            result.stop_reason = restated(result.stop_reason, outcome_of(unwaived))
+        verdict, waived = waive_verdict(unwaived, waivers, name)
         result.waivers.extend(waived)
         statistics[name] = stats
         run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))

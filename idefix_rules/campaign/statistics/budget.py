@@ -29,7 +29,8 @@ By the union bound, P(some verdict or some comparison the decision depends on is
 ≤ ``P·β + C·β = α``.
 
 *Chains shown to fail give their comparison's share back.* A chain that truly breaks a rule
-(waivers applied) can never be sent, so no comparison with it is needed: with ``F`` such chains,
+(waivers applied) is never sent while the bounds hold, so no comparison with it is needed (in
+an unpaired campaign: no interval of its own): with ``F`` such chains,
 a decision rests on ``P`` verdicts and at most ``C − |F|`` comparisons, and ``β_F = α / max(P,
 P + C − |F|)`` would do. ``F`` is unknown, but the chains *shown* to fail, ``D``, are a part of
 it unless a fail-side bound missed; so each bound is judged at ``β_D = α / max(P, P + C −
@@ -38,11 +39,12 @@ This keeps the guarantee, provided every bound is nested in its level — the be
 asymptotic sequence's boundary) stay tuned for the levels of ``D = ∅`` and only the threshold
 ``1/β`` moves; Clopper–Pearson, Student-t and the mixture martingale of chances are nested
 already. Proof: let ``G`` be the event that every bound the truth makes relevant holds at
-``β_F`` at every run count (the ``P`` verdicts' true sides and the comparisons of the safest
-passing chain with the other passing ones); ``P(not G) ≤ α`` by Ville's inequality and the
-union bound. On ``G``, while every decision so far is right, ``D ⊆ F``, so ``β_D ≤ β_F``: each
-bound at ``β_D`` contains its ``β_F`` bound, which holds, so the next decision is right too. By
-induction over the looks (and the steps of the fixed point) no decision is wrong on ``G``.
+``β_F`` (at every run count when sequential): the ``P`` verdicts' true sides and the
+comparisons among passing chains (paired: the safest one's differences with the others;
+unpaired: each passing chain's own interval); ``P(not G) ≤ α`` by the union bound. On ``G``,
+while every decision so far is right, ``D ⊆ F``, so ``β_D ≤ β_F``: each bound at ``β_D``
+contains its ``β_F`` bound, which holds, so the next decision is right too. By induction over
+the looks (and the steps of the fixed point) no decision is wrong on ``G``.
 This is the sequentially rejective idea of Holm (1979) and of the graphical procedures of
 Bretz, Maurer, Brannath & Posch (Stat. Med. 2009), with the logical restriction that a chain
 shown to fail has no comparison to spend on.

@@ -17,9 +17,9 @@ A pair is decided when its interval says so:
 
 Each side of the interval is a one-sided bound at the campaign's comparison α
 (:class:`~idefix_rules.campaign.statistics.budget.AlphaBudget`): the decision depends only on the
-chain to send against each other chain (:func:`needed`), so only those ``P − 1`` comparisons spend
-α; pairs among the other chains are shown but decide nothing (``docs/campaign-format.md``, "How
-α is spent").
+chain to send against each other chain that may pass (:func:`needed`), so only those comparisons
+spend α (``P − 1`` at first, fewer as chains are shown to fail); pairs among the other chains
+are shown but decide nothing (``docs/campaign-format.md``, "How α is spent").
 
 >>> import numpy as np
 >>> rows = np.arange(200)

@@ -125,8 +125,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
             not_held.add(name)
         if not held.decided:
             held_open.add(name)
-        outcomes[name] = ("" if not verdict.decided else "pass" if verdict.passed
-                          else "marginal" if verdict.marginal else "fail")
+        outcomes[name] = outcome_of(verdict)
         groups = {bool(verdict.passed)} if verdict.decided else {True, False}
         keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
         first_key = keys[0] if keys else (math.nan, math.nan)
@@ -184,6 +183,30 @@ def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
     """The paths that pass or may still pass, in the rulebook's ranking (best first)."""
     order = evaluator.rank(stats_by_path)
     return [name for name in order if True in facts[name][2]]
+
+
+def outcome_of(verdict: Any) -> str:
+    """pass, fail, marginal (within a margin of a limit), or "" when not decided."""
+    return ("" if not verdict.decided else "pass" if verdict.passed
+            else "marginal" if verdict.marginal else "fail")
+
+
+def restated(reason: str, outcome: str) -> str:
+    """A stop reason with the final verdict added when it says otherwise: a path stopped at
+    one look is judged again at the campaign's final levels, which the chains shown to fail
+    after it stopped may have raised (statistics/budget.py), so a verdict open or marginal
+    then can be decided at the end. ``outcome``: pass, fail, marginal, or "" (open).
+
+    >>> restated("cap of 96 runs reached: verdict not decided", "fail")
+    'cap of 96 runs reached: verdict not decided; verdict fail at the final levels'
+    >>> restated("decided after 64 runs: verdict fail (no decision depends on its rank)", "fail")
+    'decided after 64 runs: verdict fail (no decision depends on its rank)'
+    """
+    said = "" if "verdict not decided" in reason else next(
+        (word for word in ("pass", "fail", "marginal") if f"verdict {word}" in reason), None)
+    if said is None or said == outcome:
+        return reason
+    return f"{reason}; verdict {outcome or 'not decided'} at the final levels"
 
 
 def stop_reason(settlement: Settlement, runs: int, cap: int) -> str | None:

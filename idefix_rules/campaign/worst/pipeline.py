@@ -184,7 +184,8 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
         with evaluation_revision(store, then) as revision:
             evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
                                         initial_position_sigma(campaign), prepared.collisions,
-                                        info, workers=workers, into=revision.store)
+                                        info, workers=workers, into=revision.store,
+                                        waivers=campaign.model.waivers)
             data = outputs.summary(evaluation, [], outputs.EXIT_OK,
                                    store_sensitivity(revision.store.file), str(results))
             revision.store.file.require_group("evaluation").attrs["summary"] = \
