@@ -227,3 +227,25 @@ def test_a_search_into_a_campaigns_folder_is_refused_and_leaves_its_results(
     assert code == 0, output
     assert results.stat().st_mtime_ns == before
     assert (campaign_dir / "out" / "worst" / "worst.json").is_file()
+
+
+def test_the_searched_runs_are_judged_with_the_campaigns_waivers(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A waived failure is no failure for the stored evaluation of a search either (and raises
+    no other chain's confidence level: campaign/statistics/budget.py)."""
+    campaign = campaign_dir / "campaign.yaml"
+    campaign.write_text(campaign.read_text() + """waivers:
+  - rule: acceptable_risk
+    path: all
+    reason: "a test of the searched runs' evaluation"
+    approved_by: "ops"
+    until: 2099-01-01
+""")
+    out = campaign_dir / "search"
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
+    assert code == 0, output
+    with h5py.File(out / "results.h5", "r") as file:
+        summary = json.loads(file["evaluation"].attrs["summary"])
+    waived = {path["name"]: [w["rule"] for w in path.get("waivers", [])]
+              for path in summary["paths"]}
+    assert any("acceptable_risk" in rules for rules in waived.values()), waived
