@@ -229,6 +229,27 @@ def test_an_open_verdict_behind_a_chain_that_passes_and_leads_decides_nothing(
             "cap of 1000 runs reached: verdict not decided; rank against a not settled"
 
 
+def test_chains_that_pass_only_under_waivers_are_compared_when_no_chain_passes():
+    """The decision sends a chain that passes only under a waiver when no chain passes
+    (campaign/outcome/decision.py): their order is then what it rests on, so a look waits
+    for it; with a chain that passes, it does not."""
+    rules = evaluator()
+    both = [Waiver(rule="acceptable", path=name, **WAIVER) for name in ("w", "v")]
+    stats = {"w": statistics(0.8), "v": statistics(0.85), "f": statistics(0.9)}
+    found = settle(rules, stats, [pair("w", "v", "open"), pair("w", "f", "first safer"),
+                                  pair("v", "f", "first safer")], waivers=both)
+    assert found["w"].contender and found["v"].contender and not found["f"].contender
+    assert found["w"].unsettled_against == ("v",) and found["v"].unsettled_against == ("w",)
+    assert not found["w"].done and not found["v"].done
+    settled = settle(rules, stats, [pair("w", "v", "first safer"),
+                                    pair("w", "f", "first safer")], waivers=both)
+    assert settled["w"].done and settled["v"].done
+    # a chain that passes is sent first whatever the risks: the waived ones decide nothing
+    stats["a"] = statistics(0.3)
+    found = settle(rules, stats, [pair("w", "v", "open")], waivers=both)
+    assert found["a"].done and found["w"].done and found["v"].done
+
+
 def test_an_open_verdict_is_not_moot_when_the_decision_or_the_exit_code_reads_it():
     rules = evaluator()
     lead, open_, failing = statistics(0.3), statistics(0.70, spread=0.05), statistics(0.9)

@@ -9,6 +9,7 @@ though the interval is looked at after every run.
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -26,7 +27,7 @@ from idefix_rules.campaign.statistics.sequential import (
     plugin_bets,
     threshold_rejected,
 )
-from idefix_rules.campaign.statistics.stopping import _order
+from idefix_rules.campaign.statistics.stopping import NOT_SENT, PASSES, PASSES_WAIVED, _order, tiers
 from idefix_rules.rulebook.results import RuleResult
 from idefix_rules.rulebook.statistics import student_interval, wilson_interval
 
@@ -149,8 +150,28 @@ def test_runs_needed_for_a_rare_event_matches_the_bound_it_estimates() -> None:
     assert near is not None and 200 < near < 2000
 
 
+def test_a_chain_that_passes_only_under_a_waiver_ranks_between_passing_and_failing() -> None:
+    def verdict(passed: bool, decided: bool = True) -> SimpleNamespace:
+        return SimpleNamespace(passed=passed, decided=decided)
+
+    passing, failing, open_ = verdict(True), verdict(False), verdict(False, decided=False)
+    assert tiers(passing, passing) == {PASSES}
+    assert tiers(failing, failing) == {NOT_SENT}
+    assert tiers(failing, passing) == {PASSES_WAIVED}  # its failures are waived
+    assert tiers(open_, open_) == {PASSES, PASSES_WAIVED, NOT_SENT}
+    assert tiers(open_, passing) == {PASSES, PASSES_WAIVED}  # its open rule is waived
+    waived = {PASSES_WAIVED}
+    # a chain that passes is sent before one that passes only under a waiver, whatever
+    # their risks; two of them are ordered by risk, like two passing chains
+    assert _order(({PASSES}, (0.5, 0.6)), (waived, (0.1, 0.2))) == -1
+    assert _order((waived, (0.5, 0.6)), ({NOT_SENT}, (0.1, 0.2))) == -1
+    assert _order((waived, (0.1, 0.2)), (waived, (0.3, 0.4))) == -1
+    assert _order((waived, (0.1, 0.35)), (waived, (0.3, 0.4))) is None
+    assert _order(({PASSES, NOT_SENT}, (0.5, 0.6)), (waived, (0.1, 0.2))) is None
+
+
 def test_order_is_settled_only_when_every_open_outcome_agrees() -> None:
-    passes, fails, open_ = {True}, {False}, {True, False}
+    passes, fails, open_ = {PASSES}, {NOT_SENT}, {PASSES, NOT_SENT}
     assert _order((passes, (0.1, 0.2)), (fails, (0.0, 0.05))) == -1  # passing first
     assert _order((fails, (0.1, 0.2)), (fails, (0.3, 0.4))) == -1  # apart: lower first
     assert _order((fails, (0.1, 0.35)), (fails, (0.3, 0.4))) is None  # overlapping

@@ -10,10 +10,11 @@ logic runs on them. A path stops when
    whatever the open rules say), and
 2. the comparisons the decision depends on are settled: a path that does not pass needs none
    (the order among chains that fail decides nothing); the chain that leads, of those that
-   pass or may still pass, must be settled against each of them, and each of them against it
-   — passing paths rank first, and within a group the first rank key's intervals do not
-   overlap; in a paired campaign ranking first by risk, the confidence sequence of the two
-   paths' per-world risk differences decides instead
+   pass (or pass under a waiver) or may still, must be settled against each of them, and each
+   of them against it — passing paths rank first, then those that pass only under a waiver
+   (the decision sends one of them only when no chain passes), and within a group the first
+   rank key's intervals do not overlap; in a paired campaign ranking first by risk, the
+   confidence sequence of the two paths' per-world risk differences decides instead
    (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
    rulebook's indifference margin (a tie is a decision too),
 
@@ -66,19 +67,40 @@ class Settlement:
 
 _UNPAIRED = 2  # no paired comparison: the two intervals decide
 
+# What a verdict may end as, best first, as the decision prefers them
+# (campaign/outcome/decision.py): a chain that passes is sent before one that passes only
+# under a waiver, and one that does not pass is never sent.
+PASSES, PASSES_WAIVED, NOT_SENT = 0, 1, 2
 
-def _order(first: tuple[set[bool], tuple[float, float]],
-           second: tuple[set[bool], tuple[float, float]],
+
+def tiers(verdict: Any, held: Any) -> set[int]:
+    """The tiers a path may still end in, from its verdict and its verdict with the
+    campaign's waivers applied (``held``; the same verdict when nothing is waived)."""
+    found = set()
+    if verdict.passed or not verdict.decided:
+        found.add(PASSES)
+    if not verdict.passed or not verdict.decided:
+        if held.passed or not held.decided:
+            found.add(PASSES_WAIVED)
+        if not held.passed or not held.decided:
+            found.add(NOT_SENT)
+    return found
+
+
+def _order(first: tuple[set[int], tuple[float, float]],
+           second: tuple[set[int], tuple[float, float]],
            paired: int | None = _UNPAIRED) -> int | None:
     """-1 when the first path ranks above the second whatever the open verdicts turn out to
-    be, 1 when below, 0 when tied, None when it is not settled. ``paired`` is the paired
-    comparison's order (-1, 1, 0 tied, None open) when there is one."""
+    be, 1 when below, 0 when tied, None when it is not settled. Each path comes with the
+    tiers it may end in (:func:`tiers`: a lower tier ranks above) and its first rank key's
+    interval; ``paired`` is the paired comparison's order (-1, 1, 0 tied, None open) when
+    there is one."""
     outcomes: set[int | None] = set()
-    (groups_a, (a_low, a_high)), (groups_b, (b_low, b_high)) = first, second
-    for passes_a in groups_a:
-        for passes_b in groups_b:
-            if passes_a != passes_b:
-                outcomes.add(-1 if passes_a else 1)
+    (tiers_a, (a_low, a_high)), (tiers_b, (b_low, b_high)) = first, second
+    for tier_a in tiers_a:
+        for tier_b in tiers_b:
+            if tier_a != tier_b:
+                outcomes.add(-1 if tier_a < tier_b else 1)
             elif paired != _UNPAIRED:
                 outcomes.add(paired)
             elif a_high < b_low:
@@ -126,7 +148,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         if not held.decided:
             held_open.add(name)
         outcomes[name] = outcome_of(verdict)
-        groups = {bool(verdict.passed)} if verdict.decided else {True, False}
+        groups = tiers(verdict, held)
         keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
         first_key = keys[0] if keys else (math.nan, math.nan)
         facts[name] = (bool(verdict.decided), bool(verdict.passed), groups, first_key)
@@ -146,8 +168,9 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         so its pass and its lead cannot change after ``name`` stops) and ranks above ``name``
         either way, and neither an expectation nor the exit code reads ``name``."""
         assert leader is not None
-        leader_decided, leader_passed, _, _ = facts[leader]
-        if not (leader_decided and leader_passed) or leader_open \
+        # the leader is sent (it passes, or passes under a waiver) whatever more runs say
+        leader_sent = len(facts[leader][2]) == 1 and facts[leader][2] < {PASSES, PASSES_WAIVED}
+        if not leader_sent or leader_open \
                 or order(leader, name) != -1 or name not in held_open:
             return False
         if watched is not None:
@@ -179,10 +202,11 @@ def expected_paths(expectations: Sequence[Any]) -> frozenset[str]:
 
 
 def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
-               facts: Mapping[str, tuple[bool, bool, set[bool], Any]]) -> list[str]:
-    """The paths that pass or may still pass, in the rulebook's ranking (best first)."""
+               facts: Mapping[str, tuple[bool, bool, set[int], Any]]) -> list[str]:
+    """The paths that pass (or pass under a waiver) or may still, in the rulebook's ranking
+    (best first)."""
     order = evaluator.rank(stats_by_path)
-    return [name for name in order if True in facts[name][2]]
+    return [name for name in order if facts[name][2] & {PASSES, PASSES_WAIVED}]
 
 
 def outcome_of(verdict: Any) -> str:
