@@ -32,10 +32,9 @@ from idefix_rules.campaign.evaluation.evaluate import (
     evaluate_path,
 )
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
-from idefix_rules.campaign.evaluation.scoring import shown_to_fail
+from idefix_rules.campaign.evaluation.scoring import failing_paths
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.input.waivers import waive_verdict
 from idefix_rules.campaign.simulation.pool import LocalPool
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
 from idefix_rules.campaign.simulation.simulate import (
@@ -55,7 +54,7 @@ from idefix_rules.campaign.simulation.simulate import (
 from idefix_rules.campaign.simulation.worker import run_checks
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
-from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget
+from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget, recycled
 from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
 from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
@@ -172,19 +171,21 @@ def _raised(budget: AlphaBudget, statistics: dict[str, Any],
             judged: Mapping[str, tuple[Any, Any, float, np.ndarray]], evaluator: Any,
             waivers: Sequence[Any]) -> AlphaBudget:
     """The budget raised by the paths shown to fail so far (statistics/budget.py,
-    ``recycled``): every path (``judged``: what each was last judged on, a stopped path's
-    runs up to its stop) is judged again at each raised level, in ``statistics``, as the
-    evaluation stage will judge it at the end."""
-    while True:
-        failing = [name for name, stats in statistics.items()
-                   if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]
-        raised = budget.recycle(failing)
-        if raised.shown_failing == budget.shown_failing:
-            return budget
-        budget = raised
-        for name, (whole, fixed, stop_time, failures) in judged.items():
-            statistics[name] = judged_statistics(whole, fixed, stop_time, budget,
-                                                 sequential=True, failures=failures)
+    ``recycled``; ``statistics`` are judged at ``budget`` already): every path (``judged``:
+    what each was last judged on, a stopped path's runs up to its stop) is judged again at
+    each raised level, in ``statistics``, as the evaluation stage will judge it at the end."""
+    current = budget
+
+    def failing(at: AlphaBudget) -> list[str]:
+        nonlocal current
+        if at.shown_failing != current.shown_failing:
+            current = at
+            for name, (whole, fixed, stop_time, failures) in judged.items():
+                statistics[name] = judged_statistics(whole, fixed, stop_time, at,
+                                                     sequential=True, failures=failures)
+        return failing_paths(evaluator, statistics, waivers)
+
+    return recycled(budget, failing)
 
 
 def _simulate_rows(campaign: Any, fmu: FmuSource, base: Mapping[str, float | str],

@@ -52,6 +52,15 @@ def shown_to_fail(verdict: Any) -> bool:
     return bool(verdict.decided and not verdict.passed and not verdict.marginal)
 
 
+def failing_paths(evaluator: Any, statistics: Mapping[str, Any],
+                  waivers: Sequence[Any] = ()) -> list[str]:
+    """The paths whose statistics show them to fail, the campaign's ``waivers`` applied."""
+    from idefix_rules.campaign.input.waivers import waive_verdict
+
+    return [name for name, stats in statistics.items()
+            if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]
+
+
 def judge_paths(evaluator: Any, paths: Mapping[str, tuple[Any, PathResult, np.ndarray, float]],
                 budget: AlphaBudget, sequential: bool, waivers: Sequence[Any] = ()
                 ) -> tuple[AlphaBudget, dict[str, tuple[Any, np.ndarray]]]:
@@ -59,16 +68,14 @@ def judge_paths(evaluator: Any, paths: Mapping[str, tuple[Any, PathResult, np.nd
     (:func:`~idefix_rules.campaign.statistics.budget.recycled`): the final budget, and each
     path's (statistics, failure flags) at it. ``paths``: name → (evaluation, result, its
     complete rows, stop time); ``waivers``: the campaign's (a waived failure is no failure)."""
-    from idefix_rules.campaign.input.waivers import waive_verdict
-
     judged: dict[tuple[str, ...], dict[str, tuple[Any, np.ndarray]]] = {}
 
     def failing(at: AlphaBudget) -> list[str]:
         found = judged[at.shown_failing] = {
             name: judge_path(evaluator, evaluation, result, rows, stop_time, at, sequential)
             for name, (evaluation, result, rows, stop_time) in paths.items()}
-        return [name for name, (stats, _) in found.items()
-                if shown_to_fail(waive_verdict(evaluator.verdict(stats), waivers, name)[0])]
+        return failing_paths(evaluator, {name: stats for name, (stats, _) in found.items()},
+                             waivers)
 
     final = recycled(budget, failing)
     return final, judged[final.shown_failing]

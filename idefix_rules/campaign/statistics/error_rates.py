@@ -229,8 +229,7 @@ def _recycled_family(rng: np.random.Generator, count: int, cap: int, failing: in
     tuned for the first levels); a path stops once decided. Wrong when a path at its limits is
     shown to fail or a failing one to pass."""
     paths = failing + passing
-    units = 1 + chances
-    first = _budget(paths, paths - 1, units)
+    first = _budget(paths, paths - 1, 1 + chances)
     tuned = (first.fail_alpha, first.pass_alpha)
     # per path, per rule: (fail-side, pass-side) running evidence, log scale
     evidence = []
@@ -244,15 +243,17 @@ def _recycled_family(rng: np.random.Generator, count: int, cap: int, failing: in
             rules.append((_running_evidence(draws, 0.05, "lower"),
                           _running_evidence(draws, 0.05, "upper")))
         evidence.append(rules)
+    # the levels with k paths shown to fail, k = 0 … paths
+    raised = [first.recycle(map(str, range(k))) for k in range(paths + 1)]
+    fail_levels = np.array([b.fail_alpha for b in raised])
+    pass_levels = np.array([b.pass_alpha for b in raised])
     looks = looks_up_to(cap)
     outcome = np.full((paths, count), OPEN, dtype=object)
     stopped_at = np.full((paths, count), looks[-1])
     for look in looks:
         shown = np.zeros(count, dtype=int)
         while True:  # the fixed point: more shown to fail, higher levels
-            budget = [first.recycle(map(str, range(k))) for k in range(paths + 1)]
-            fail_level = np.array([b.fail_alpha for b in budget])[shown]
-            pass_level = np.array([b.pass_alpha for b in budget])[shown]
+            fail_level, pass_level = fail_levels[shown], pass_levels[shown]
             failed = np.zeros((paths, count), dtype=bool)
             passed = np.ones((paths, count), dtype=bool)
             for position, rules in enumerate(evidence):
