@@ -170,11 +170,12 @@ def _number(value: float | None, digits: int = 3) -> str:
 
 
 def _risk(side: SideResult) -> str:
-    """Risk in percent, as `run` shows it, its interval below: ``73.5 %`` / ``72.9–74.0``."""
+    """Risk in percent, as `run` shows it, its family-wise bounds below: ``73.5 %`` /
+    ``72.9–74.0 at 95 %``."""
     if side.mean_risk is None:
         return "—"
-    interval = (f"\n{100 * side.risk_ci[0]:.1f}–{100 * side.risk_ci[1]:.1f}"
-                if side.risk_ci else "")
+    interval = (f"\n{100 * side.risk_ci[0]:.1f}–{100 * side.risk_ci[1]:.1f} at "
+                f"{100 * side.confidence:.3g} %" if side.risk_ci else "")
     return f"{100 * side.mean_risk:.1f} %{interval}"
 
 
@@ -243,7 +244,7 @@ def print_results(console: Console, file: ResultsFileDiff) -> None:
     table = Table(show_lines=True)
     table.add_column("path", no_wrap=True)
     table.add_column("verdict", overflow="fold")
-    table.add_column("risk (95 % bounds)", min_width=10, overflow="fold")
+    table.add_column("risk (family-wise bounds)", min_width=10, overflow="fold")
     for column in ("rank", "chances that changed", "dominant index (runs)", "runs moved"):
         table.add_column(column, overflow="fold")
     for path in file.paths:

@@ -20,8 +20,14 @@ from rich.measure import Measurement
 from rich.table import Table
 
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
-from idefix_rules.campaign.input.wording import percent, unfinished_text
-from idefix_rules.campaign.outcome.decision import Decision, campaign_decision, reason_items
+from idefix_rules.campaign.input.wording import bounds_label, percent, unfinished_text
+from idefix_rules.campaign.outcome.decision import (
+    Decision,
+    campaign_confidence,
+    campaign_decision,
+    path_confidence,
+    reason_items,
+)
 from idefix_rules.campaign.outcome.outputs import ExpectationResult
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
@@ -66,7 +72,9 @@ def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> 
     table = Table(title="Path evaluation", title_justify="left")
     table.add_column("path", no_wrap=True)
     table.add_column("risk %", justify="right")
-    table.add_column("95 % bounds", justify="right")
+    # two lines, so the column stays as narrow as its numbers
+    table.add_column(bounds_label(campaign_confidence(evaluation.paths)).replace(
+        " family-wise bounds", " bounds\n(family-wise)"), justify="right")
     for level in LEVELS:
         table.add_column(f"hit {level} %", justify="right")
     table.add_column("energy mAs", justify="right")
@@ -93,7 +101,8 @@ def path_lines(path: PathResult, titles: Mapping[str, str]) -> list[str]:
     rank = f"#{path.rank} " if path.rank is not None else ""
     lines = [f"[bold]{rank}{escape(path.name)}[/bold]  {_verdict(path)}"]
     if path.mean_risk is not None:
-        ci = (f" (95 % bounds {_pct(path.risk_ci[0])}–{_pct(path.risk_ci[1])})"
+        ci = (f" ({bounds_label(path_confidence(path))} {_pct(path.risk_ci[0])}–"
+              f"{_pct(path.risk_ci[1])})"
               if path.risk_ci else "")
         lines.append(f"  risk {percent(path.mean_risk)}{ci}")
         hits = "  ".join(f"{level} {_pct(path.collision_chance.get(level))}"
@@ -142,7 +151,8 @@ UNDECIDED_MARK = "?"
 NEAR_MARK = "≈"
 LEGEND = (f"{FAILED_MARK} rule failed · {UNDECIDED_MARK} rule not decided yet (its limit is "
           f"inside the bounds: run more) · {NEAR_MARK} within the rule's margin of its limit "
-          "(neither passed nor failed)")
+          "(neither passed nor failed) · family-wise: every bound shown holds at once with the "
+          "rulebook's confidence, so each alone is wider than a plain interval")
 
 
 def _rule_name(text: str) -> str:

@@ -34,7 +34,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
     stored_path_result,
 )
 from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
-from idefix_rules.campaign.outcome.decision import reasons_of
+from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
 from idefix_rules.campaign.simulation.prescreen import prescreen_reference
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.commands import Command
@@ -75,11 +75,13 @@ class SideResult:
     chances: dict[str, float] = field(default_factory=dict)
     dominant_counts: dict[str, int] = field(default_factory=dict)
     runs: int = 0
+    confidence: float = 0.95  # the family-wise confidence of risk_ci (the rulebook's)
 
     def to_dict(self) -> dict[str, Any]:
         return {"verdict": self.verdict, "undecided": self.undecided,
                 "reasons": list(self.reasons), "mean_risk": self.mean_risk,
                 "risk_ci": list(self.risk_ci) if self.risk_ci is not None else None,
+                "confidence": self.confidence,
                 "rank": self.rank, "chances": dict(self.chances),
                 "dominant_counts": dict(self.dominant_counts), "runs": self.runs}
 
@@ -222,7 +224,8 @@ def _side_result(side: _Side) -> SideResult:
     counts = dict(getattr(side.statistics, "dominant_counts", {}) or {})
     return SideResult(verdict, bool(result.undecided), reasons, result.mean_risk,
                       result.risk_ci, result.rank, dict(result.chances), counts,
-                      result.completed if side.evaluation is not None else 0)
+                      result.completed if side.evaluation is not None else 0,
+                      path_confidence(result))
 
 
 # ----------------------------------------------------------------------------- one file

@@ -208,6 +208,7 @@ class ReportData:
     decision: dict[str, Any] | None = None  # summary.json's decision (None: older files)
     exit_code: int | None = None
     pairs: list[PairComparison] = field(default_factory=list)  # summary.json's, paired runs
+    confidence: float = 0.95  # the bounds' family-wise confidence (1 - summary's alpha.alpha)
 
     @property
     def evaluated_paths(self) -> list[PathReport]:
@@ -463,9 +464,11 @@ def _read_report_data(store: StoredResults) -> ReportData:
     ranking = summary.get("ranking") or (_json(evaluation.attrs.get("ranking"), [])
                                          if evaluation is not None else [])
     code = summary.get("exit_code")
+    alpha = (summary.get("alpha") or {}).get("alpha")
     return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
                       expectations=list(summary.get("expectations", [])),
                       decision=summary.get("decision"),
                       exit_code=int(code) if isinstance(code, int) else None,
                       pairs=[PairComparison.from_dict(pair) for pair in summary.get("pairs", [])
-                             if isinstance(pair, Mapping)])
+                             if isinstance(pair, Mapping)],
+                      confidence=1.0 - float(alpha) if isinstance(alpha, (int, float)) else 0.95)

@@ -13,7 +13,12 @@ from html import escape
 
 import numpy as np
 
-from idefix_rules.campaign.input.wording import DisplayUnits, parameter_text, unfinished_text
+from idefix_rules.campaign.input.wording import (
+    DisplayUnits,
+    bounds_label,
+    parameter_text,
+    unfinished_text,
+)
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.report.data import (
     LEVELS,
@@ -197,7 +202,8 @@ def _titled(name: str | None, titles: Mapping[str, str]) -> str:
 def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
                    reasons: Mapping[str, list[str]] | None = None) -> str:
     titles = titles or {}
-    head = ("Rank", "Path", "Risk [%]", "95 % bounds [%]", "L1 hit [%]", "L2 hit [%]",
+    label = bounds_label(data.confidence)
+    head = ("Rank", "Path", "Risk [%]", f"{label} [%]", "L1 hit [%]", "L2 hit [%]",
             "L3 hit [%]", "Final local error [m]", "Final heading error [deg]",
             "Energy [mAs]", "Time [s]", "Verdict", "Runs (failed)", "Dominant index")
     rows = []
@@ -240,7 +246,9 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
     ranking = " → ".join(escape(name) for name in data.ranking) or "–"
     return (f"<section><h2>Table 1: path evaluation</h2>{table}"
             f"<p>Rows in rank order, best first: {ranking}. Risk is the mean run risk I_max "
-            f"(eq. 2) with its 95 % confidence interval; hit chances are the share of runs "
+            f"(eq. 2) with its {label}: the rulebook's confidence holds for every bound of "
+            f"every path and comparison at once, so each bound alone is at a higher level; "
+            f"hit chances are the share of runs "
             f"that hit an obstacle of that level; final errors are means of the absolute "
             f"values at the end of the runs (distributions in the box plots below).</p>"
             f"{pairs_html(data)}{''.join(explained)}</section>")

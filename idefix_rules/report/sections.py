@@ -18,7 +18,8 @@ from idefix_rules.report.html import Image
 
 def path_reasons(data: ReportData) -> dict[str, list[str]]:
     """Each path's failing (or undecided) verdict rules in percent, from the stored verdict."""
-    return {path.name: verdict_reasons(path.verdict) for path in data.paths if path.verdict}
+    return {path.name: verdict_reasons(path.verdict, data.confidence) for path in data.paths
+            if path.verdict}
 
 
 def report_decision(data: ReportData) -> Decision:

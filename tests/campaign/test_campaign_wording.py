@@ -76,7 +76,7 @@ def _rule(passed: bool, decided: bool, value: float, threshold: float,
 
 def test_verdict_rules_in_percent_just_inside_and_outside() -> None:
     assert rule_text(_rule(False, True, 0.7001, 0.7)) == \
-        "r: risk 70 % (95 % bounds 68–72 %) is above the limit 70 %"
+        "r: risk 70 % (95 % family-wise bounds 68–72 %) is above the limit 70 %"
     assert rule_text(_rule(True, True, 0.6999, 0.7)).endswith("within the limit 70 %")
     assert "not decided: the limit 70 % lies inside the interval" in rule_text(
         _rule(True, False, 0.69, 0.7))

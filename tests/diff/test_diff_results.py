@@ -199,12 +199,17 @@ def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
         stored_results: Path, ops_text: str, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
-    strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %")
+    strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %",
+                     replace=(("confidence = 95 %", "confidence = 90 %"),))
     capsys.readouterr()
     code = main(["diff", str(lenient), str(strict), "--results", str(stored_results),
                  str(stored_results)])
     out = capsys.readouterr().out
     assert code == 1
+    # each side's risk bounds at its own rulebook's family-wise confidence
+    flat = " ".join(out.split())
+    assert re.search(r"[\d.]+–[\d.]+ at 95 %", flat) and re.search(r"[\d.]+–[\d.]+ at 90 %",
+                                                                   flat), flat
     assert out.count("results: ") == 2  # two results files, one section each
     assert "pass → fail" in out
     changed = 2 * len(evaluated(stored_results))  # every simulated path, in both files
@@ -309,8 +314,9 @@ def test_at_80_columns_path_names_are_whole_and_risk_is_in_percent(
     assert max(len(line) for line in out.splitlines()) <= 80
     for name in ("straight", "wide-detour", "smooth-detour"):  # whole, a block each
         assert re.search(rf"^{re.escape(name)}: pass → fail · rank \d", out, re.M), name
-    # risk as `run` shows it: percent with its interval, never a bare 0–1 fraction
-    assert re.search(r"^  risk \d+\.\d % \(\d+\.\d–\d+\.\d\) → \d+\.\d %", out, re.M)
+    # risk as `run` shows it: percent with its family-wise bounds, never a bare 0–1 fraction
+    assert re.search(r"^  risk \d+\.\d % \(\d+\.\d–\d+\.\d at 95 %\) → \d+\.\d %", out,
+                     re.M)
     assert not re.search(r"(?<![\d.])0\.\d{3}(?!\d)", out)
 
 

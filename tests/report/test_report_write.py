@@ -36,7 +36,7 @@ def test_report_files_and_header(written: Path) -> None:
     assert "report-test 0.1.0" in text
     assert "r" * 64 in text and "c" * 64 in text and "f" * 64 in text
     # Table 1: risk of 'straight' with its CI, the L2 chance, energy and time columns.
-    assert "95 % bounds [%]" in text and "Energy [mAs]" in text and "Time [s]" in text
+    assert "95 % family-wise bounds [%]" in text and "Energy [mAs]" in text and "Time [s]" in text
     assert "not decided at this number of runs" in text
     # A path rejected by the command rules is listed with its reason, without figures.
     assert "too-sharp" in text and "max_turn_angle: command 1 turns 120 deg" in text

@@ -205,13 +205,24 @@ def _is_shown(statistic: str | None) -> bool:
                                       or statistic.startswith("chance("))
 
 
+def bounds_label(confidence: float) -> str:
+    """How the console, JUnit and the report name a verdict's bounds: the rulebook's
+    ``confidence`` is family-wise (every bound of every path and comparison holds at once),
+    so each bound alone sits at a higher level (docs/campaign-format.md, "How α is spent").
+
+    >>> bounds_label(0.95), bounds_label(0.9)
+    ('95 % family-wise bounds', '90 % family-wise bounds')
+    """
+    return f"{100.0 * confidence:.3g} % family-wise bounds"
+
+
 def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
     """One verdict rule's result in words and percent, from its stored (plain) form.
 
     >>> rule_text({"name": "acceptable_risk", "passed": False, "decided": True,
     ...            "statistic": "risk", "value": 0.9439, "interval": [0.921, 0.9667],
     ...            "threshold": 0.7, "message": "…"})
-    'acceptable_risk: risk 94.4 % (95 % bounds 92.1–96.7 %) is above the limit 70 %'
+    'acceptable_risk: risk 94.4 % (95 % family-wise bounds 92.1–96.7 %) is above the limit 70 %'
     """
     name = str(rule.get("name", ""))
     statistic = rule.get("statistic")
@@ -223,7 +234,7 @@ def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
     ci = ""
     if interval and None not in interval[:2]:
         low = _statistic_value(stat, float(interval[0])).rsplit(" ", 1)[0]
-        ci = (f" ({confidence * 100:.0f} % bounds {low}–"
+        ci = (f" ({bounds_label(confidence)} {low}–"
               f"{_statistic_value(stat, float(interval[1]))})")
     limit = _statistic_value(stat, float(threshold))
     passed, decided = bool(rule.get("passed", True)), bool(rule.get("decided", True))

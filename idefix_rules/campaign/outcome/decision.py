@@ -185,10 +185,21 @@ def reasons_of(path: PathResult) -> list[str]:
     return [text for _, text in reason_items(path)]
 
 
+def path_confidence(path: PathResult) -> float:
+    """The family-wise confidence a path's bounds were judged at (the rulebook's)."""
+    return float(getattr(path.statistics, "confidence", 0.95) or 0.95)
+
+
+def campaign_confidence(paths: Sequence[PathResult]) -> float:
+    """The family-wise confidence of a campaign's bounds (the rulebook's: the same for every
+    path judged; 95 % when none was)."""
+    return next((path_confidence(p) for p in paths if p.statistics is not None), 0.95)
+
+
 def reason_items(path: PathResult) -> list[tuple[bool, str]]:
     """:func:`reasons_of` with whether each is decided (``False``: a rule not decided yet at
     this number of runs, which is not a failure)."""
-    confidence = float(getattr(path.statistics, "confidence", 0.95) or 0.95)
+    confidence = path_confidence(path)
     if path.verdict is not None:
         shown = verdict_reason_items(as_plain(path.verdict), confidence, path.runs_needed)
         extra = [(True, r) for r in path.verdict_reasons if "run(s) failed or missing" in r]

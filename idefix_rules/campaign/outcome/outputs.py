@@ -28,8 +28,12 @@ from idefix_rules.campaign.input.schema import (
     PathVerdictExpectation,
     RankFirstExpectation,
 )
-from idefix_rules.campaign.input.wording import unfinished_text
-from idefix_rules.campaign.outcome.decision import campaign_decision, reasons_of
+from idefix_rules.campaign.input.wording import bounds_label, unfinished_text
+from idefix_rules.campaign.outcome.decision import (
+    campaign_decision,
+    path_confidence,
+    reasons_of,
+)
 from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.stopping import STOP_FIXED
@@ -137,7 +141,8 @@ SUMMARY_UNITS = {
     # Fractions here; the console, `diff` and the report show them in percent (× 100).
     "mean_risk": "fraction 0 … 1, shown in % (run risk I_max, 0 safe … 1 critical; "
                  "4 decimals)",
-    "risk_ci95": "fraction 0 … 1, shown in % (4 decimals)",
+    "risk_ci95": "fraction 0 … 1, shown in % (4 decimals): the mean risk's bounds at the "
+                 "rulebook's family-wise confidence, 1 - alpha.alpha (95 % by default)",
     "chances": "fraction 0 … 1 of the runs, shown in % (4 decimals)",
     "collision_chance": "fraction 0 … 1 of the runs per obstacle level, shown in % "
                         "(4 decimals)",
@@ -355,8 +360,8 @@ def _path_detail(path: PathResult) -> str:
     if path.reason:
         lines.append(f"reason: {path.reason}")
     if path.mean_risk is not None:
-        ci = f" (95 % bounds {_percent(path.risk_ci[0])}–{_percent(path.risk_ci[1])})" \
-            if path.risk_ci else ""
+        ci = (f" ({bounds_label(path_confidence(path))} {_percent(path.risk_ci[0])}–"
+              f"{_percent(path.risk_ci[1])})" if path.risk_ci else "")
         lines.append(f"mean risk: {_percent(path.mean_risk)}{ci}")
     # An undecided verdict is said by the reasons (each undecided rule's message says it);
     # an adaptive campaign says why it stopped the path there (a verdict left open because no
