@@ -72,9 +72,9 @@ def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> 
     table = Table(title="Path evaluation", title_justify="left")
     table.add_column("path", no_wrap=True)
     table.add_column("risk %", justify="right")
-    # two lines, so the column stays as narrow as its numbers
-    table.add_column(bounds_label(campaign_confidence(evaluation.paths)).replace(
-        " family-wise bounds", " bounds\n(family-wise)"), justify="right")
+    # "family-wise 95 % bounds" on two lines, so the column stays as narrow as its numbers
+    confidence = bounds_label(campaign_confidence(evaluation.paths)).split(" family-wise")[0]
+    table.add_column(f"family-wise\n{confidence} bounds", justify="right")
     for level in LEVELS:
         table.add_column(f"hit {level} %", justify="right")
     table.add_column("energy mAs", justify="right")

@@ -40,7 +40,7 @@ def test_the_bounds_are_named_by_the_rulebook_s_family_wise_confidence(
     assert summary["alpha"]["alpha"] == pytest.approx(1 - float(label[:2]) / 100)
     other = "90 %" if label == "95 %" else "95 %"
     # the risk's bounds, in the table or the narrow layout, and every rule's bounds
-    assert f"{label} bounds (family-wise)" in out or f"{label} family-wise bounds" in out
+    assert f"{label} family-wise bounds" in out
     assert re.search(rf"\({label} family-wise bounds [\d.]+–[\d.]+ %\)", out), out
     assert f"{other} bounds" not in out and f"{other} family-wise" not in out
     assert "family-wise: every bound shown holds at once" in out
