@@ -33,7 +33,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
 )
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
 from idefix_rules.campaign.evaluation.scoring import failing_paths
-from idefix_rules.campaign.input import sampling
+from idefix_rules.campaign.input import sampling, waivers
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.simulation.pool import LocalPool
 from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
@@ -98,6 +98,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # the paths the campaign's expectations name: their verdicts are decided, never left
     # open as moot (statistics/stopping.py); None: the exit code reads every verdict
     watched = expected_paths(campaign.model.expect) if campaign.model.expect else None
+    # the paths simulated under a waived command or prescreen rule: `waived` whatever their
+    # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
+    waived_before = {name for name in running
+                     if waivers.stored(str(store.path_group(name).attrs.get(
+                         waivers.STORED_ATTRIBUTE, "")))}
     # the workers check each run they simulate (local pool); a look's new runs not checked
     # so (Dask, runs stored before a --resume) are split over the local processes for their
     # collision checks (the pool waits meanwhile; at most 64 runs a chunk); each chunk's
@@ -155,7 +160,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 list(statistics), budget.comparison_alpha,
                 evaluator.checked.indifference, tuned=budget.comparison_tuned) if paired else []
             settlements = settle(evaluator, statistics, pairs, watched=watched,
-                                 waivers=campaign.model.waivers)
+                                 waivers=campaign.model.waivers, waived_before=waived_before,
+                                 levels_final=budget.at_floor)
             for name in list(running):
                 settlement = settlements.get(name)
                 reason = NO_COMPLETE_RUN if settlement is None else \

@@ -338,3 +338,83 @@ def test_the_examples_in_the_statistics_modules_hold(name: str):
     module = importlib.import_module(f"idefix_rules.campaign.statistics.{name}")
     failures, tried = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert tried > 0 and failures == 0
+
+
+def test_a_waived_failure_beside_an_open_rule_leaves_the_verdict_open():
+    """b fails `acceptable` decidedly, which is waived on b, and `rarely_stuck` is open: the
+    chain may or may not be sent, so its verdict is not decided. Alone it runs on; behind a
+    chain that passes, it stops only where an open verdict may (moot)."""
+    rules = evaluator()
+    b = statistics(0.9, stuck=0.05, spread=0.04)  # stuck 1–9 %: beyond the 2 % margin
+    waived = [Waiver(rule="acceptable", path="b", **WAIVER)]
+    alone = settle(rules, {"b": b, "f": statistics(0.95)}, waivers=waived)["b"]
+    assert alone.contender and not alone.verdict_decided and not alone.done
+    assert alone.outcome == ""  # the rulebook's fail is not what the look names
+    assert stop_reason(alone, 1000, 1000) == "cap of 1000 runs reached: verdict not decided"
+    assert settle(rules, {"b": b, "f": statistics(0.95)})["b"].done  # unwaived: it fails
+    lead = {"a": statistics(0.3), "b": b}
+    # a passes and ranks above b whatever b ends as; without a failing chain the exit code
+    # reads b, and an expectation naming b asks for its verdict
+    assert not settle(rules, lead, waivers=waived)["b"].done
+    assert not settle(rules, lead, waivers=waived, watched={"b"})["b"].done
+    found = settle(rules, lead, waivers=waived, watched={"a"})["b"]
+    assert found.done and found.moot_under == "a"
+
+
+def test_a_chain_simulated_under_a_waived_command_rule_ranks_below_the_clean_ones():
+    """a leads by risk but was simulated under a waived command rule (`waived` whatever its
+    verdict): the decision sends b or c, so their order is what the looks wait for."""
+    rules = evaluator()
+    stats = {"a": statistics(0.10), "b": statistics(0.30), "c": statistics(0.305)}
+    pairs = [pair("a", "b", "first safer"), pair("a", "c", "first safer"),
+             pair("b", "c", "open")]
+    blind = settle(rules, stats, pairs)
+    assert all(s.done for s in blind.values())  # as if a were sent
+    found = settle(rules, stats, pairs, waived_before={"a"})
+    assert found["b"].unsettled_against == ("c",) and found["c"].unsettled_against == ("b",)
+    assert found["a"].done and not found["b"].done and not found["c"].done
+
+
+@pytest.mark.parametrize(("levels_final", "waits"), [(False, True), (True, False)])
+def test_a_marginal_chain_that_may_pass_at_the_final_levels_is_compared(
+        levels_final: bool, waits: bool):
+    """m's stuck chance lies within the rule's margin (3.55–5.05 % against 5 % ± 2 %): at
+    this look marginal, never sent. Until the levels are as high as they go, the final,
+    narrower bounds may clear the limit and m pass, ranking above `lead` on risk: the look
+    waits for their order."""
+    rules = evaluator()
+    m = statistics(0.20, stuck=0.043, spread=0.0075)
+    assert rules.verdict(m).marginal
+    stats = {"lead": statistics(0.25, spread=0.03), "m": m}
+    found = settle(rules, stats, [pair("lead", "m", "open")], levels_final=levels_final)
+    assert found["m"].verdict_decided and found["m"].outcome == "marginal"
+    assert found["m"].contender is waits
+    assert found["lead"].unsettled_against == (("m",) if waits else ())
+    assert found["m"].done is not waits
+    # settled against the leader, a marginal chain stops whatever its final verdict
+    ahead = settle(rules, stats, [pair("lead", "m", "first safer")], levels_final=False)
+    assert ahead["m"].done and ahead["lead"].done
+
+
+def test_failed_runs_are_the_rulebook_s_to_judge_and_a_missing_run_fails_the_path():
+    """A rulebook that tolerates failed runs (`failed <= 20 %`) passes a path with one; a run
+    neither complete nor failed (missing from the results) fails it."""
+    from idefix_rules.campaign.evaluation.evaluate import fill_result
+
+    tolerant = check(parse_rulebook(
+        'rulebook "t" version "1.0.0"\npurpose "test"\n'
+        "index I_a { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }\n"
+        "verdict acceptable: require risk <= 70 % and failed <= 20 %\n", "t.rules"))
+    assert tolerant.checked is not None
+    book = compile_rulebook(tolerant.checked)
+    evaluation = runs(np.full(99, 0.3), np.zeros(99, dtype=bool))
+    stats = book.path_statistics(evaluation, failed_runs=1)
+    verdict = book.verdict(stats)
+    assert verdict.passed and verdict.decided
+    one_failed = PathResult(name="a", index=0, status="simulated", runs=100, completed=99,
+                            failures={5: "solver diverged"})
+    fill_result(one_failed, evaluation, stats, verdict)
+    assert one_failed.passed and one_failed.verdict_text == "pass"
+    missing = PathResult(name="a", index=0, status="simulated", runs=100, completed=99)
+    fill_result(missing, evaluation, stats, verdict)
+    assert not missing.passed and missing.verdict_reasons[-1] == "1 of 100 run(s) missing"

@@ -357,3 +357,31 @@ def test_a_prescreen_waiver_is_known_and_matches_nothing_when_the_prescreen_hold
     line = CAMPAIGN.count("\n") + 2
     assert f"campaign.yaml:{line}:5: error[C215]" in err
     assert "rule 'reference_not_critical' did not fail on path 'arc'" in err
+
+
+def test_an_adaptive_campaign_s_looks_know_the_chains_simulated_under_a_waived_command_rule(
+        campaign_dir: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """too-fast breaks a waived command rule: it is `waived` whatever its verdict, so every
+    look ranks it below the chains that may pass clean (statistics/stopping.py)."""
+    from idefix_rules.campaign import adaptive
+
+    seen: list[frozenset[str]] = []
+    real = adaptive.settle
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        seen.append(frozenset(kwargs["waived_before"]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(adaptive, "settle", spy)
+    auto = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 32\nmin_runs: 8\nbatch_runs: 8")
+    assert auto != CAMPAIGN
+    path = with_waivers(campaign_dir, waiver("wheel_rate_limit", path="too-fast",
+                                             extra="    command_rules: true\n"),
+                        campaign=auto)
+    main([str(path), "--quiet", "--no-report"])
+    capsys.readouterr()
+    assert seen and all(names == {"too-fast"} for names in seen)
+    summary = json.loads((campaign_dir / "out" / "summary.json").read_text())
+    too_fast = next(p for p in summary["paths"] if p["name"] == "too-fast")
+    assert [w["kind"] for w in too_fast["waivers"]] == ["command"]

@@ -33,7 +33,7 @@ from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget
 from idefix_rules.campaign.statistics.runs_needed import runs_needed
-from idefix_rules.campaign.statistics.stopping import STOP_FIXED, outcome_of, restated
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED, restated, settled_outcome
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_NOT_NEEDED, ResultStore
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.plain import as_plain
@@ -290,11 +290,11 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         extra = extras[name]
         stats, failures = judged[name]
         unwaived = evaluator.verdict(stats)
+        verdict, waived = waive_verdict(unwaived, waivers, name)
         if not sequential and not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
-        elif sequential:
-            result.stop_reason = restated(result.stop_reason, outcome_of(unwaived))
-        verdict, waived = waive_verdict(unwaived, waivers, name)
+        elif sequential:  # in the looks' words (statistics/stopping.py)
+            result.stop_reason = restated(result.stop_reason, settled_outcome(unwaived, verdict))
         result.waivers.extend(waived)
         statistics[name] = stats
         run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))
@@ -401,11 +401,14 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     shown = failed_for_sure or [rule for rule in verdict.rules
                                 if not rule.passed or not rule.decided]
     result.verdict_reasons = [_reason_text(rule) for rule in shown]
-    if (result.failed or result.completed + result.lost < result.runs) and result.passed:
-        # The rulebook already counts failed runs; this is the last guard.
+    # Failed runs are the rulebook's to judge (a verdict that reads `failed`, else the
+    # `no_failed_runs` rule it gets: docs/rulebook-language.md); a run neither complete nor
+    # failed (nor lost to the infrastructure) is missing from the results, and a path with one
+    # never passes: this is the last guard.
+    missing = result.runs - result.completed - len(result.failures)
+    if missing > 0 and result.passed:
         result.passed = False
-        result.verdict_reasons.append(
-            f"{result.runs - result.completed} of {result.runs} run(s) failed or missing")
+        result.verdict_reasons.append(f"{missing} of {result.runs} run(s) missing")
 
 
 def _reason_text(rule: Any) -> str:

@@ -202,7 +202,7 @@ def reason_items(path: PathResult) -> list[tuple[bool, str]]:
     confidence = path_confidence(path)
     if path.verdict is not None:
         shown = verdict_reason_items(as_plain(path.verdict), confidence, path.runs_needed)
-        extra = [(True, r) for r in path.verdict_reasons if "run(s) failed or missing" in r]
+        extra = [(True, r) for r in path.verdict_reasons if r.endswith(" run(s) missing")]
         return shown + extra
     return [(True, r) for r in path.verdict_reasons]
 

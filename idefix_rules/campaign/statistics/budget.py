@@ -87,6 +87,12 @@ class AlphaBudget:
         return self.alpha / spent_on
 
     @property
+    def at_floor(self) -> bool:
+        """Whether the levels are as high as they go (α over the paths alone): no chain shown
+        to fail can raise them any more."""
+        return len(self.shown_failing) >= self.comparisons
+
+    @property
     def first(self) -> AlphaBudget:
         """The budget before any chain was shown to fail: the levels bets are tuned for."""
         return dataclasses.replace(self, shown_failing=())

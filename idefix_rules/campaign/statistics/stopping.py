@@ -7,12 +7,14 @@ logic runs on them. A path stops when
 
 1. its verdict is decided: every verdict rule passes, fails or lies within its margin of the
    limit, or one fails decidedly or lies within its margin (then the path does not pass,
-   whatever the open rules say), and
+   whatever the open rules say), its verdict with the campaign's waivers applied too, and
 2. the comparisons the decision depends on are settled: a path that does not pass needs none
    (the order among chains that fail decides nothing); the chain that leads, of those that
    pass (or pass under a waiver) or may still, must be settled against each of them, and each
    of them against it — passing paths rank first, then those that pass only under a waiver
-   (the decision sends one of them only when no chain passes), and within a group the first
+   (a verdict rule waived, or simulated under a waived command or prescreen rule; the
+   decision sends one of them only when no chain passes), a marginal path counts as one that
+   may still pass while the levels can rise (:func:`tiers`), and within a group the first
    rank key's intervals do not overlap; in a paired campaign ranking first by risk, the
    confidence sequence of the two paths' per-world risk differences decides instead
    (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
@@ -73,9 +75,25 @@ _UNPAIRED = 2  # no paired comparison: the two intervals decide
 PASSES, PASSES_WAIVED, NOT_SENT = 0, 1, 2
 
 
-def tiers(verdict: Any, held: Any) -> set[int]:
+def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
+          levels_final: bool = True) -> set[int]:
     """The tiers a path may still end in, from its verdict and its verdict with the
-    campaign's waivers applied (``held``; the same verdict when nothing is waived)."""
+    campaign's waivers applied (``held``; the same verdict when nothing is waived).
+
+    ``waived_before``: the path was simulated under a waived command or prescreen rule, so it
+    is ``waived`` whatever its verdict (campaign/evaluation/evaluate.py) and never ranks with
+    the chains that pass clean. ``levels_final``: the levels cannot rise any more (budget.py:
+    as many chains shown to fail as there are comparisons); until then a verdict within a
+    rule's margin may still pass at the final levels, whose bounds are narrower.
+
+    >>> from types import SimpleNamespace as V
+    >>> marginal = V(passed=False, decided=True, marginal=True)
+    >>> sorted(tiers(marginal, marginal)), sorted(tiers(marginal, marginal, levels_final=False))
+    ([2], [0, 2])
+    >>> clean = V(passed=True, decided=True, marginal=False)
+    >>> sorted(tiers(clean, clean)), sorted(tiers(clean, clean, waived_before=True))
+    ([0], [1])
+    """
     found = set()
     if verdict.passed or not verdict.decided:
         found.add(PASSES)
@@ -84,7 +102,18 @@ def tiers(verdict: Any, held: Any) -> set[int]:
             found.add(PASSES_WAIVED)
         if not held.passed or not held.decided:
             found.add(NOT_SENT)
+    if not levels_final and getattr(verdict, "marginal", False) and not verdict.passed:
+        found.add(PASSES)
+    if waived_before and PASSES in found:
+        found = (found - {PASSES}) | {PASSES_WAIVED}
     return found
+
+
+def settled_outcome(verdict: Any, held: Any) -> str:
+    """The outcome a stop reason names: the rulebook's verdict (:func:`outcome_of`) once the
+    verdict with the campaign's waivers applied (``held``) is decided too, else "" (open: a
+    waived rule's failure may still be joined by an open rule's)."""
+    return outcome_of(verdict) if held.decided else ""
 
 
 def _order(first: tuple[set[int], tuple[float, float]],
@@ -114,7 +143,8 @@ def _order(first: tuple[set[int], tuple[float, float]],
 
 def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
            pairs: Sequence[Any] = (), *, watched: Collection[str] | None = None,
-           waivers: Sequence[Any] = ()) -> dict[str, Settlement]:
+           waivers: Sequence[Any] = (), waived_before: Collection[str] = (),
+           levels_final: bool = True) -> dict[str, Settlement]:
     """Each ranked path's settlement from its judged statistics and, in a paired campaign, the
     paired comparisons (:class:`~idefix_rules.campaign.statistics.pairwise.PairComparison`) that
     decide the first rank key. Only the comparisons the decision depends on are asked for: the
@@ -124,7 +154,12 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     ``watched``: the paths the campaign's ``expect:`` entries name, whose verdicts are always
     decided (or run to the cap); None when it has none: the exit code then reads every path's
     verdict, so an open verdict is moot only once another path is decidedly not passing
-    (``waivers``, the campaign's, decide which failures count)."""
+    (``waivers``, the campaign's, decide which failures count). ``waived_before``: the paths
+    simulated under a waived command or prescreen rule; ``levels_final``: see :func:`tiers`.
+
+    A path's verdict counts as decided only when its verdict with the waivers applied is
+    decided too: a waived rule that fails decidedly beside an open rule leaves open whether
+    the chain may be sent."""
     from idefix_rules.campaign.input.waivers import waive_verdict
     from idefix_rules.campaign.statistics.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
@@ -147,11 +182,13 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
             not_held.add(name)
         if not held.decided:
             held_open.add(name)
-        outcomes[name] = outcome_of(verdict)
-        groups = tiers(verdict, held)
+        outcomes[name] = settled_outcome(verdict, held)
+        groups = tiers(verdict, held, waived_before=name in waived_before,
+                       levels_final=levels_final)
         keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
         first_key = keys[0] if keys else (math.nan, math.nan)
-        facts[name] = (bool(verdict.decided), bool(verdict.passed), groups, first_key)
+        facts[name] = (bool(verdict.decided and held.decided), bool(verdict.passed), groups,
+                       first_key)
     ranking = contenders(evaluator, stats_by_path, facts)
     leader = ranking[0] if ranking else None
 
@@ -204,9 +241,11 @@ def expected_paths(expectations: Sequence[Any]) -> frozenset[str]:
 def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
                facts: Mapping[str, tuple[bool, bool, set[int], Any]]) -> list[str]:
     """The paths that pass (or pass under a waiver) or may still, in the rulebook's ranking
-    (best first)."""
+    (best first), a path that can pass clean before one that can only pass waived (the
+    rulebook's ranking does not know a waived command or prescreen rule)."""
     order = evaluator.rank(stats_by_path)
-    return [name for name in order if facts[name][2] & {PASSES, PASSES_WAIVED}]
+    return sorted((name for name in order if facts[name][2] & {PASSES, PASSES_WAIVED}),
+                  key=lambda name: min(facts[name][2]))
 
 
 def outcome_of(verdict: Any) -> str:
