@@ -100,6 +100,9 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     watched = expected_paths(campaign.model.expect) if campaign.model.expect else None
     # the paths simulated under a waived command or prescreen rule: `waived` whatever their
     # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
+    # a path not simulated (rejected, excluded, its reference run failed) is no pass: without
+    # expectations the exit code is 1 whatever the open verdicts say
+    exit_failing = any(plan.status != "simulated" or plan.reference is None for plan in plans)
     waived_before = {name for name in running
                      if waivers.stored(str(store.path_group(name).attrs.get(
                          waivers.STORED_ATTRIBUTE, "")))}
@@ -161,7 +164,7 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 evaluator.checked.indifference, tuned=budget.comparison_tuned) if paired else []
             settlements = settle(evaluator, statistics, pairs, watched=watched,
                                  waivers=campaign.model.waivers, waived_before=waived_before,
-                                 levels_final=budget.at_floor)
+                                 levels_final=budget.at_floor, exit_failing=exit_failing)
             for name in list(running):
                 settlement = settlements.get(name)
                 reason = NO_COMPLETE_RUN if settlement is None else \

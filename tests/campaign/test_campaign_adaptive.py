@@ -627,3 +627,29 @@ def test_remembered_rows_give_area_signals_only_to_a_rulebook_that_reads_them() 
     reading = remembered.source("p", rows, Reads(frozenset({"area.scarp.inside"})))
     with pytest.raises(KeyError):  # it computes the areas' signals from the poses
         reading(chunk, rows)
+
+
+@pytest.mark.parametrize("rejected", [True, False], ids=["too-fast rejected", "no rejection"])
+def test_the_looks_know_a_rejected_path_makes_the_exit_code_1_already(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        rejected: bool) -> None:
+    """too-fast is rejected by the command rules: without expectations the exit code is 1
+    whatever the open verdicts say, so an open verdict behind a leader that passes may be
+    moot (statistics/stopping.py)."""
+    seen: list[bool] = []
+    real = adaptive.settle
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        seen.append(kwargs["exit_failing"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(adaptive, "settle", spy)
+    text = ADAPTIVE.replace("max_runs: 200", "max_runs: 26")
+    if not rejected:
+        text = text.split("  too-fast:")[0] + "simulation:" + text.split("simulation:")[1]
+    path = write_campaign(tmp_path / "run", campaign_dir, text)
+    campaign = load_campaign(path)
+    result = run_campaign(campaign, SimulationOptions(workers=1), report=False)
+    statuses = {p["name"]: p["status"] for p in result.summary["paths"]}
+    assert (statuses.get("too-fast") == "rejected") is rejected
+    assert seen and set(seen) == {rejected}

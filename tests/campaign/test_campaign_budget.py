@@ -261,6 +261,8 @@ def test_an_open_verdict_is_not_moot_when_the_decision_or_the_exit_code_reads_it
     assert moot({"a": lead, "x": open_, "f": failing})
     # without a failing path, x's verdict decides the exit code (every path must pass)
     assert not moot({"a": lead, "x": open_})
+    # unless a path the looks do not judge (rejected, excluded) makes it 1 already
+    assert moot({"a": lead, "x": open_}, exit_failing=True)
     # an expectation naming x asks for its verdict; one naming only others does not
     assert not moot({"a": lead, "x": open_, "f": failing}, watched={"x"})
     assert moot({"a": lead, "x": open_}, watched={"a"})

@@ -24,8 +24,8 @@ or when its verdict, still open (its waivers applied), decides nothing: the lead
 passes decidedly, stops at this look or has stopped (its figures are final), and ranks above it
 whatever its verdict turns out to be (so the chain to send is that one either way), no
 ``expect:`` entry names it, and the exit code does not wait for it (the campaign has
-expectations, or another simulated path is decidedly not passing, so it is 1 already); the path
-keeps its open verdict, with the runs that would decide it,
+expectations, or another path is decidedly not passing, rejected or excluded, so it is 1
+already); the path keeps its open verdict, with the runs that would decide it,
 
 or when it reaches ``max_runs``. Because the bounds hold at every run count at once, looking
 after every batch and stopping on what they say keeps their error rates; a fixed-count
@@ -144,7 +144,7 @@ def _order(first: tuple[set[int], tuple[float, float]],
 def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
            pairs: Sequence[Any] = (), *, watched: Collection[str] | None = None,
            waivers: Sequence[Any] = (), waived_before: Collection[str] = (),
-           levels_final: bool = True) -> dict[str, Settlement]:
+           levels_final: bool = True, exit_failing: bool = False) -> dict[str, Settlement]:
     """Each ranked path's settlement from its judged statistics and, in a paired campaign, the
     paired comparisons (:class:`~idefix_rules.campaign.statistics.pairwise.PairComparison`) that
     decide the first rank key. Only the comparisons the decision depends on are asked for: the
@@ -155,7 +155,9 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     decided (or run to the cap); None when it has none: the exit code then reads every path's
     verdict, so an open verdict is moot only once another path is decidedly not passing
     (``waivers``, the campaign's, decide which failures count). ``waived_before``: the paths
-    simulated under a waived command or prescreen rule; ``levels_final``: see :func:`tiers`.
+    simulated under a waived command or prescreen rule; ``levels_final``: see :func:`tiers`;
+    ``exit_failing``: a path the looks do not judge (rejected, excluded, its reference run
+    failed) makes the exit code 1 already.
 
     A path's verdict counts as decided only when its verdict with the waivers applied is
     decided too: a waived rule that fails decidedly beside an open rule leaves open whether
@@ -212,7 +214,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
             return False
         if watched is not None:
             return name not in watched
-        return bool(not_held)  # never ``name`` itself: its verdict is open
+        return bool(not_held) or exit_failing  # never ``name`` itself: its verdict is open
 
     settlements = {}
     for name, (decided, passed, _, _) in facts.items():
