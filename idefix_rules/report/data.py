@@ -79,6 +79,9 @@ class TableRow:
     # the campaign's waivers that covered a failure of the path (rule, kind, reason,
     # approved_by, until), as summary.json lists them
     waivers: tuple[dict[str, str], ...] = ()
+    # the failing or undecided verdict rules in words, as the console says them (an
+    # undecided one with the runs that would decide it): summary.json's `reasons`
+    reasons: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -333,6 +336,7 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
         stop_time_s=_float_or_none(entry.get("stop_time_s")),
         waivers=tuple({str(k): str(v) for k, v in item.items()}
                       for item in entry.get("waivers") or () if isinstance(item, Mapping)),
+        reasons=tuple(str(r) for r in entry.get("reasons") or ()),
     )
 
 

@@ -17,9 +17,11 @@ from idefix_rules.report.html import Image
 
 
 def path_reasons(data: ReportData) -> dict[str, list[str]]:
-    """Each path's failing (or undecided) verdict rules in percent, from the stored verdict."""
-    return {path.name: verdict_reasons(path.verdict, data.confidence) for path in data.paths
-            if path.verdict}
+    """Each path's failing (or undecided) verdict rules in percent: as the console said them
+    (summary.json's `reasons`, an undecided rule with the runs that would decide it), else
+    from the stored verdict."""
+    return {path.name: list(path.row.reasons) or verdict_reasons(path.verdict, data.confidence)
+            for path in data.paths if path.verdict}
 
 
 def report_decision(data: ReportData) -> Decision:

@@ -5,6 +5,7 @@ holds at once, so each alone is wider than a plain interval at that confidence).
 from __future__ import annotations
 
 import doctest
+import html
 import json
 import re
 import xml.etree.ElementTree as ET
@@ -50,3 +51,7 @@ def test_the_bounds_are_named_by_the_rulebook_s_family_wise_confidence(
     assert f"{other} family-wise" not in texts
     page = (folder / "out" / "report.html").read_text(encoding="utf-8")
     assert f"{label} family-wise bounds [%]" in page and f"{other} family-wise" not in page
+    # the report's rule lines are the console's: an undecided rule with the runs that would
+    # decide it
+    said = [r for p in summary["paths"] for r in p["reasons"] if "runs would decide it" in r]
+    assert said and all(html.escape(line) in page for line in said)
