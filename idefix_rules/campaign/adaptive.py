@@ -98,11 +98,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # the paths the campaign's expectations name: their verdicts are decided, never left
     # open as moot (statistics/stopping.py); None: the exit code reads every verdict
     watched = expected_paths(campaign.model.expect) if campaign.model.expect else None
-    # the paths simulated under a waived command or prescreen rule: `waived` whatever their
-    # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
     # a path not simulated (rejected, excluded, its reference run failed) is no pass: without
     # expectations the exit code is 1 whatever the open verdicts say
     exit_failing = any(plan.status != "simulated" or plan.reference is None for plan in plans)
+    # the paths simulated under a waived command or prescreen rule: `waived` whatever their
+    # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
     waived_before = {name for name in running
                      if waivers.stored(str(store.path_group(name).attrs.get(
                          waivers.STORED_ATTRIBUTE, "")))}
@@ -187,7 +187,7 @@ def _raised(budget: AlphaBudget, statistics: dict[str, Any],
 
     def failing(at: AlphaBudget) -> list[str]:
         nonlocal current
-        if at.shown_failing != current.shown_failing:
+        if at.per_path != current.per_path:  # the levels moved (not once at their floor)
             current = at
             for name, (whole, fixed, stop_time, failures) in judged.items():
                 statistics[name] = judged_statistics(whole, fixed, stop_time, at,

@@ -172,10 +172,12 @@ def _number(value: float | None, digits: int = 3) -> str:
 def _risk(side: SideResult) -> str:
     """Risk in percent, as `run` shows it, its family-wise bounds below: ``73.5 %`` /
     ``72.9–74.0 at 95 %``."""
+    from idefix_rules.campaign.input.wording import confidence_text
+
     if side.mean_risk is None:
         return "—"
     interval = (f"\n{100 * side.risk_ci[0]:.1f}–{100 * side.risk_ci[1]:.1f} at "
-                f"{100 * side.confidence:.3g} %" if side.risk_ci else "")
+                f"{confidence_text(side.confidence)}" if side.risk_ci else "")
     return f"{100 * side.mean_risk:.1f} %{interval}"
 
 

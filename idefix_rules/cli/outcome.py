@@ -20,7 +20,12 @@ from rich.measure import Measurement
 from rich.table import Table
 
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
-from idefix_rules.campaign.input.wording import bounds_label, percent, unfinished_text
+from idefix_rules.campaign.input.wording import (
+    bounds_label,
+    confidence_text,
+    percent,
+    unfinished_text,
+)
 from idefix_rules.campaign.outcome.decision import (
     Decision,
     campaign_confidence,
@@ -73,7 +78,7 @@ def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> 
     table.add_column("path", no_wrap=True)
     table.add_column("risk %", justify="right")
     # "family-wise 95 % bounds" on two lines, so the column stays as narrow as its numbers
-    confidence = bounds_label(campaign_confidence(evaluation.paths)).split(" family-wise")[0]
+    confidence = confidence_text(campaign_confidence(evaluation.paths))
     table.add_column(f"family-wise\n{confidence} bounds", justify="right")
     for level in LEVELS:
         table.add_column(f"hit {level} %", justify="right")

@@ -68,17 +68,21 @@ def judge_paths(evaluator: Any, paths: Mapping[str, tuple[Any, PathResult, np.nd
     (:func:`~idefix_rules.campaign.statistics.budget.recycled`): the final budget, and each
     path's (statistics, failure flags) at it. ``paths``: name → (evaluation, result, its
     complete rows, stop time); ``waivers``: the campaign's (a waived failure is no failure)."""
-    judged: dict[tuple[str, ...], dict[str, tuple[Any, np.ndarray]]] = {}
+    # per level: every level follows from the budget's share per path (budget.py), so a
+    # failure past the floor judges nothing again
+    judged: dict[float, dict[str, tuple[Any, np.ndarray]]] = {}
 
     def failing(at: AlphaBudget) -> list[str]:
-        found = judged[at.shown_failing] = {
-            name: judge_path(evaluator, evaluation, result, rows, stop_time, at, sequential)
-            for name, (evaluation, result, rows, stop_time) in paths.items()}
+        found = judged.get(at.per_path)
+        if found is None:
+            found = judged[at.per_path] = {
+                name: judge_path(evaluator, evaluation, result, rows, stop_time, at, sequential)
+                for name, (evaluation, result, rows, stop_time) in paths.items()}
         return failing_paths(evaluator, {name: stats for name, (stats, _) in found.items()},
                              waivers)
 
     final = recycled(budget, failing)
-    return final, judged[final.shown_failing]
+    return final, judged[final.per_path]
 
 
 def contenders(ranking: Sequence[str], results: Sequence[PathResult]) -> list[str]:

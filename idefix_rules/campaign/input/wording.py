@@ -205,6 +205,11 @@ def _is_shown(statistic: str | None) -> bool:
                                       or statistic.startswith("chance("))
 
 
+def confidence_text(confidence: float) -> str:
+    """A confidence in percent: ``95 %``, ``98.8 %``."""
+    return f"{100.0 * confidence:.3g} %"
+
+
 def bounds_label(confidence: float) -> str:
     """How the console, JUnit and the report name a verdict's bounds: the rulebook's
     ``confidence`` is family-wise (every bound of every path and comparison holds at once),
@@ -213,7 +218,7 @@ def bounds_label(confidence: float) -> str:
     >>> bounds_label(0.95), bounds_label(0.9)
     ('95 % family-wise bounds', '90 % family-wise bounds')
     """
-    return f"{100.0 * confidence:.3g} % family-wise bounds"
+    return f"{confidence_text(confidence)} family-wise bounds"
 
 
 def rule_text(rule: Mapping[str, Any], confidence: float = 0.95) -> str:
