@@ -11,7 +11,7 @@ import pytest
 
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics
 from idefix_rules.errors import UserInputError
-from idefix_rules.fmu import FmuRunner, extract_fmu, synthetic_terrain, write_terrain
+from idefix_rules.fmu import FmuRunner, Rock, extract_fmu, synthetic_terrain, write_terrain
 from idefix_rules.signals import FMU_SIGNALS
 
 
@@ -119,6 +119,30 @@ def test_a_rewritten_terrain_file_is_read_again(rover: FmuRunner, tmp_path: Path
     assert results[0] == pytest.approx(0.0, abs=1e-9)
     # the front wheels, unloaded by the slope, sink less than the rear ones: 0.3 rad within 3 mrad
     assert results[1] == pytest.approx(0.3, abs=3e-3)
+
+
+def test_rock_contacts_follow_the_rocks_of_the_terrain_read(rover: FmuRunner, rover_fmu: Path,
+                                                            tmp_path: Path) -> None:
+    # The model keeps its recent wheel-on-rock answers (terrain.c). A runner that stood with its
+    # front right wheel on a rock, or drove over it, and then reads a file with the rock 6 mm
+    # higher must meet the new rock, as a runner that never saw the first one does, bit for
+    # bit; and a second run the same again.
+    path = tmp_path / "rock.terrain"
+    runs = {"stand": ([], 3.0, (0.2, -0.26, 0.04, 0.04)),
+            "drive": ([Command(0.05, 0.35, 0.0)], 60.0, (0.25, -0.26, 0.05, 0.05))}
+    for chain, stop, (x, y, a, b) in runs.values():
+        outs = []
+        for height in (0.015, 0.021):
+            write_terrain(path, synthetic_terrain(size=2.0, cell=0.02, rocks=[
+                Rock(x, y, a, b, height)]))
+            outs.append(rover.run({"terrain.file": str(path)}, chain, stop, 0.1))
+        again = rover.run({"terrain.file": str(path)}, chain, stop, 0.1)
+        with FmuRunner(rover_fmu) as fresh:
+            alone = fresh.run({"terrain.file": str(path)}, chain, stop, 0.1)
+        assert outs[0]["z"].max() < outs[1]["z"].max()  # the wheel is on each rock
+        for name in ("x", "y", "z", "yaw", "pitch", "roll", "wheel.slip", "energy"):
+            np.testing.assert_array_equal(outs[1][name], alone[name], err_msg=name)
+            np.testing.assert_array_equal(again[name], alone[name], err_msg=name)
 
 
 @pytest.mark.parametrize(("name", "value"), [

@@ -24,6 +24,7 @@ typedef struct {
     double *height;    /* ny rows of nx heights, row j at y0 + j*cell */
     int n_rocks;
     Rock *rocks;
+    struct RockContact *contacts;  /* recent rock_wheel_centre answers (terrain.c), or NULL */
 } Terrain;
 
 int terrain_load(Terrain *t, const char *path, char *message, size_t message_size);

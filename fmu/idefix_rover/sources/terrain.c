@@ -1,5 +1,6 @@
 /* Terrain: DEM heightmap and rigid rocks read from a terrain file (docs/terrain-format.md). */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,10 +10,26 @@
 
 #define NO_ROCK (-1e300)
 
+/* A wheel's contact with a rock is asked for several times at the same place: a step checks
+ * the wheels' new places for rock faces (contact.c) and then sets the wheels on them, with the
+ * same arguments to the bit. rock_wheel_centre is a pure function of the rock and its
+ * arguments, so it keeps its recent answers, found by the arguments' bits (a direct-mapped
+ * table: a newer answer replaces an older one in its slot). An answer is returned only for
+ * arguments equal to those it was computed for, so the cache never changes a result's bits;
+ * it lives with the rocks (a new terrain starts empty). */
+#define ROCK_CONTACTS 256
+
+typedef struct RockContact {
+    double x, y, hx, hy, r, w;   /* the arguments */
+    double centre, d, z;         /* the answer */
+    int k;                       /* the rock, -1 for an empty slot */
+} RockContact;
+
 void terrain_free(Terrain *t)
 {
     free(t->height);
     free(t->rocks);
+    free(t->contacts);
     free(t->path);
     memset(t, 0, sizeof(*t));
 }
@@ -135,6 +152,11 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
     terrain_free(t);
     *t = fresh;
     t->loaded = 1;
+    if (n_rocks > 0) {
+        t->contacts = (RockContact *)malloc(ROCK_CONTACTS * sizeof(RockContact));
+        if (t->contacts)
+            for (i = 0; i < ROCK_CONTACTS; i++) t->contacts[i].k = -1;
+    }
     t->nx = nx;
     t->ny = ny;
     t->x0 = x0;
@@ -299,6 +321,18 @@ static double rock_envelope(const Rock *rk, double x, double y, double hx, doubl
     return best;
 }
 
+/* The table slot of a rock and a wheel place: a multiplicative hash of the bits. */
+static size_t contact_slot(int k, double x, double y, double hx)
+{
+    uint64_t bx, by, bh, h;
+    memcpy(&bx, &x, sizeof(bx));
+    memcpy(&by, &y, sizeof(by));
+    memcpy(&bh, &hx, sizeof(bh));
+    h = ((bx * 0x9E3779B97F4A7C15ULL) ^ (by * 0xC2B2AE3D27D4EB4FULL) ^ bh ^ (uint64_t)k) *
+        0x9E3779B97F4A7C15ULL;
+    return (size_t)(h >> 56);  /* 8 bits: ROCK_CONTACTS slots */
+}
+
 double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx, double hy,
                          double r, double w, double *contact_d, double *contact_z)
 {
@@ -308,6 +342,25 @@ double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx,
     *contact_d = 0.0;
     *contact_z = NO_ROCK;
     /* rocks are found by a bounding-circle test: every rock within reach counts */
+    RockContact *slot;
     if (dx * dx + dy * dy >= (big + reach) * (big + reach)) return NO_ROCK;
-    return rock_envelope(rk, x, y, hx, hy, r, w, contact_d, contact_z);
+    if (!t->contacts) return rock_envelope(rk, x, y, hx, hy, r, w, contact_d, contact_z);
+    slot = &t->contacts[contact_slot(k, x, y, hx)];
+    if (slot->k == k && slot->x == x && slot->y == y && slot->hx == hx && slot->hy == hy &&
+        slot->r == r && slot->w == w) {
+        *contact_d = slot->d;
+        *contact_z = slot->z;
+        return slot->centre;
+    }
+    slot->centre = rock_envelope(rk, x, y, hx, hy, r, w, &slot->d, &slot->z);
+    slot->k = k;
+    slot->x = x;
+    slot->y = y;
+    slot->hx = hx;
+    slot->hy = hy;
+    slot->r = r;
+    slot->w = w;
+    *contact_d = slot->d;
+    *contact_z = slot->z;
+    return slot->centre;
 }
