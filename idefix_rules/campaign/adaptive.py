@@ -98,9 +98,10 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # the paths the campaign's expectations name: their verdicts are decided, never left
     # open as moot (statistics/stopping.py); None: the exit code reads every verdict
     watched = expected_paths(campaign.model.expect) if campaign.model.expect else None
-    # a path not simulated (rejected, excluded, its reference run failed) is no pass: without
-    # expectations the exit code is 1 whatever the open verdicts say
-    exit_failing = any(plan.status != "simulated" or plan.reference is None for plan in plans)
+    # a path not simulated (rejected, excluded, its reference run failed for a reason of its
+    # own) is no pass: without expectations the exit code is 1 whatever the open verdicts say;
+    # a reference run lost to the infrastructure is not (exit code 3, and --resume runs it)
+    exit_failing = any(makes_exit_failing(plan.status, plan.reason) for plan in plans)
     # the paths simulated under a waived command or prescreen rule: `waived` whatever their
     # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
     waived_before = {name for name in running
@@ -174,6 +175,21 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 _stop(store, name, look, reason)
                 progress.message(f"{name}: {reason}")
                 del running[name]
+
+
+def makes_exit_failing(status: str, reason: str) -> bool:
+    """Whether a path the looks do not judge makes the exit code 1 already: rejected,
+    excluded, or its reference run failed for a reason of its own; not one whose reference run
+    was lost to the infrastructure (exit code 3; ``--resume`` runs it again).
+
+    >>> [makes_exit_failing(*s) for s in (("simulated", ""), ("rejected", "prescreen"),
+    ...  ("reference_failed", "the simulation process crashed (SIGSEGV)"),
+    ...  ("reference_failed", "infrastructure: killed by SIGKILL 3 times"))]
+    [False, True, True, False]
+    """
+    if status in ("rejected", "excluded"):
+        return True
+    return status == "reference_failed" and not is_infrastructure(reason)
 
 
 def _raised(budget: AlphaBudget, statistics: dict[str, Any],

@@ -451,6 +451,17 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
     return path
 
 
+def _stored_alpha(store: StoredResults) -> float | None:
+    """1 − the rulebook's confidence as a path's stored statistics hold it, or None."""
+    for name in store.path_names:
+        evaluation = store.path_group(name).get("evaluation")
+        stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
+        confidence = stats.get("confidence") if isinstance(stats, Mapping) else None
+        if isinstance(confidence, (int, float)):
+            return 1.0 - float(confidence)
+    return None
+
+
 def read_report_data(store: StoredResults) -> ReportData:
     """Everything the report shows except the figures' derived data (maps, box plots); H004
     when the results file does not read back."""
@@ -469,6 +480,8 @@ def _read_report_data(store: StoredResults) -> ReportData:
                                          if evaluation is not None else [])
     code = summary.get("exit_code")
     alpha = (summary.get("alpha") or {}).get("alpha")
+    if not isinstance(alpha, (int, float)):  # no summary: the paths' stored statistics say
+        alpha = _stored_alpha(store)
     return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
                       expectations=list(summary.get("expectations", [])),
                       decision=summary.get("decision"),

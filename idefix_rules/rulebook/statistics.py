@@ -345,6 +345,7 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
         passed = passed and not near
         name, value, interval, threshold = _explain(rule.condition, stats, constants)
         state = "is within the margin of its limit" if near else \
+            f"is not decided at {stats.runs} runs" if not decided else \
             "passes" if passed else "fails"
         message = f"verdict '{rule.name}' {state}"
         if name is not None and value is not None:
@@ -354,9 +355,9 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
             message += f", threshold {threshold:.4g}"
             if near:
                 message += f" ± {margin:.4g}"
-        if not decided:
-            message += f" (not decided at {stats.runs} runs: the threshold lies inside the " \
-                       f"{stats.confidence:.0%} confidence interval)"
+        if not decided:  # the bounds at the rulebook's confidence, family-wise (budget.py)
+            message += f" (the threshold lies between the {100.0 * stats.confidence:.3g} % " \
+                       "family-wise bounds)"
         results.append(RuleResult(rule.name, passed, decided, name, value, interval, threshold,
                                   rule.rationale, message, rule.condition.span, near, margin))
     reads_failed = any("failed" in names_in(rule.condition) for rule in rulebook.verdicts)

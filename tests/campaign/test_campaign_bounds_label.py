@@ -15,7 +15,9 @@ import pytest
 from test_campaign_robustness import copy_campaign
 
 from idefix_rules.campaign.input import wording
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
+from idefix_rules.report.data import read_report_data
 
 NINETY = "\ncombine {\n  confidence = 90 %\n}\n"
 
@@ -55,3 +57,12 @@ def test_the_bounds_are_named_by_the_rulebook_s_family_wise_confidence(
     # decide it
     said = [r for p in summary["paths"] for r in p["reasons"] if "runs would decide it" in r]
     assert said and all(html.escape(line) in page for line in said)
+    # a results file without the stored summary: the paths' statistics name the confidence
+    results = folder / "out" / "results.h5"
+    store = ResultStore.open(results, writable=True)
+    try:
+        assert read_report_data(store).confidence == pytest.approx(float(label[:2]) / 100)
+        del store.file["evaluation"].attrs["summary"]
+        assert read_report_data(store).confidence == pytest.approx(float(label[:2]) / 100)
+    finally:
+        store.close()

@@ -377,24 +377,33 @@ def test_a_chain_simulated_under_a_waived_command_rule_ranks_below_the_clean_one
     assert found["a"].done and not found["b"].done and not found["c"].done
 
 
-@pytest.mark.parametrize(("levels_final", "waits"), [(False, True), (True, False)])
+@pytest.mark.parametrize(("open_other", "levels_final", "waits"),
+                         [(True, False, True), (False, False, False), (True, True, False)])
 def test_a_marginal_chain_that_may_pass_at_the_final_levels_is_compared(
-        levels_final: bool, waits: bool):
+        open_other: bool, levels_final: bool, waits: bool):
     """m's stuck chance lies within the rule's margin (3.55–5.05 % against 5 % ± 2 %): at
-    this look marginal, never sent. Until the levels are as high as they go, the final,
-    narrower bounds may clear the limit and m pass, ranking above `lead` on risk: the look
-    waits for their order."""
+    this look marginal, never sent. While the levels can still rise (not at their floor, and
+    another chain, o, whose verdict is open, may still be shown to fail) the final, narrower
+    bounds may clear the limit and m pass, ranking above `lead` on risk: the look waits for
+    their order. When no other chain can be shown to fail (lead passes decidedly), the
+    levels m is judged at are final already: m stops, never sent."""
     rules = evaluator()
     m = statistics(0.20, stuck=0.043, spread=0.0075)
     assert rules.verdict(m).marginal
     stats = {"lead": statistics(0.25, spread=0.03), "m": m}
-    found = settle(rules, stats, [pair("lead", "m", "open")], levels_final=levels_final)
+    pairs = [pair("lead", "m", "open")]
+    if open_other:
+        stats["o"] = statistics(0.70, spread=0.05)
+        assert not rules.verdict(stats["o"]).decided
+        pairs += [pair("lead", "o", "first safer"), pair("m", "o", "first safer")]
+    found = settle(rules, stats, pairs, levels_final=levels_final)
     assert found["m"].verdict_decided and found["m"].outcome == "marginal"
     assert found["m"].contender is waits
     assert found["lead"].unsettled_against == (("m",) if waits else ())
     assert found["m"].done is not waits
     # settled against the leader, a marginal chain stops whatever its final verdict
-    ahead = settle(rules, stats, [pair("lead", "m", "first safer")], levels_final=False)
+    pairs[0] = pair("lead", "m", "first safer")
+    ahead = settle(rules, stats, pairs, levels_final=False)
     assert ahead["m"].done and ahead["lead"].done
 
 
@@ -420,3 +429,47 @@ def test_failed_runs_are_the_rulebook_s_to_judge_and_a_missing_run_fails_the_pat
     missing = PathResult(name="a", index=0, status="simulated", runs=100, completed=99)
     fill_result(missing, evaluation, stats, verdict)
     assert not missing.passed and missing.verdict_reasons[-1] == "1 of 100 run(s) missing"
+
+
+def test_an_open_rule_that_is_waived_leaves_the_verdict_decided():
+    """x's stuck chance (1–9 %) is open against its 5 % limit, and the campaign waives that
+    rule on x: the decision reads x as `waived` (it passes under the waiver) whatever more
+    runs say, so the look stops it as decided, ranked below the clean leader, instead of
+    running it to the cap with an open verdict."""
+    rules = evaluator()
+    x = statistics(0.50, stuck=0.05, spread=0.04)
+    assert not rules.verdict(x).decided
+    stats = {"a": statistics(0.30), "x": x, "f": statistics(0.95)}
+    pairs = [pair("a", "x", "first safer"), pair("a", "f", "first safer"),
+             pair("x", "f", "first safer")]
+    waived = [Waiver(rule="rarely_stuck", path="x", **WAIVER)]
+    found = settle(rules, stats, pairs, waivers=waived)
+    assert found["x"].done and found["x"].verdict_decided and found["x"].outcome == "waived"
+    assert stop_reason(found["x"], 64, 1000) == (
+        "decided after 64 runs: verdict waived and rank settled against every path the "
+        "decision compares it with")
+    # its rank against the clean leader matters (x may still pass clean): open, it waits
+    unsettled = settle(rules, stats, [pair("a", "x", "open"), *pairs[1:]], waivers=waived)
+    assert not unsettled["x"].done and unsettled["x"].unsettled_against == ("a",)
+    # without the waiver the same open verdict is moot behind the leader (f fails: exit 1)
+    assert settle(rules, stats, pairs)["x"].moot_under == "a"
+
+
+def test_a_marginal_verdict_under_a_waiver_may_still_pass_waived():
+    """w fails `acceptable` decidedly (waived) and is marginal on `rarely_stuck`: while the
+    levels can rise (o may still be shown to fail) w may end passing under its waiver, so it
+    is a contender ranked against the leader, and its marginal verdict does not make the exit
+    code 1 yet; at the final levels it is never sent."""
+    rules = evaluator()
+    w = statistics(0.90, stuck=0.043, spread=0.0075)
+    stats = {"lead": statistics(0.25, spread=0.03), "w": w, "o": statistics(0.70, spread=0.05),
+             "q": statistics(0.50, stuck=0.05, spread=0.04)}  # q: open behind the leader
+    pairs = [pair("lead", "w", "first safer"), pair("lead", "o", "first safer"),
+             pair("lead", "q", "first safer")]
+    waived = [Waiver(rule="acceptable", path="w", **WAIVER)]
+    rising = settle(rules, stats, pairs, waivers=waived, levels_final=False)
+    assert rising["w"].contender and rising["w"].outcome == "fail"
+    assert rising["q"].moot_under == ""  # nothing makes the exit code 1 for sure yet
+    final = settle(rules, stats, pairs, waivers=waived, levels_final=True)
+    assert not final["w"].contender and final["w"].done
+    assert final["q"].moot_under == "lead"  # w fails under its waiver: exit code 1 already

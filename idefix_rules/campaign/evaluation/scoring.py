@@ -16,7 +16,7 @@ import numpy as np
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
-from idefix_rules.campaign.statistics.budget import AlphaBudget, recycled
+from idefix_rules.campaign.statistics.budget import AlphaBudget, recycled, shown_to_fail
 from idefix_rules.campaign.statistics.runs_needed import pair_runs_needed
 
 if TYPE_CHECKING:
@@ -43,13 +43,6 @@ def judge_path(evaluator: Any, evaluation: Any, result: PathResult, rows: np.nda
     failures = failure_sequence(np.asarray(rows), failed_rows, missing)
     return judged_statistics(evaluation, stats, stop_time, budget, sequential, failures), \
         failures
-
-
-def shown_to_fail(verdict: Any) -> bool:
-    """Whether a verdict (waivers applied) shows its path to fail: decided, not passed and
-    not within a margin. Such a path can never be sent, so the α of its comparison is spent
-    again (:func:`idefix_rules.campaign.statistics.budget.recycled`)."""
-    return bool(verdict.decided and not verdict.passed and not verdict.marginal)
 
 
 def failing_paths(evaluator: Any, statistics: Mapping[str, Any],

@@ -140,6 +140,13 @@ class AlphaBudget:
                 "directions": dict(self.judging.directions)}
 
 
+def shown_to_fail(verdict: Any) -> bool:
+    """Whether a verdict (waivers applied) shows its path to fail: decided, not passed and
+    not within a margin. Such a path can never be sent, so the α of its comparison is spent
+    again (:func:`recycled`)."""
+    return bool(verdict.decided and not verdict.passed and not verdict.marginal)
+
+
 def recycled(budget: AlphaBudget, shown_failing: Callable[[AlphaBudget], Iterable[str]]
              ) -> AlphaBudget:
     """The fixed point of raising ``budget``'s levels by the paths shown to fail at them:

@@ -5,16 +5,18 @@ on (:mod:`idefix_rules.campaign.statistics.bounds`, at the levels of the campaig
 :class:`~idefix_rules.campaign.statistics.budget.AlphaBudget`), and the rulebook's own verdict
 logic runs on them. A path stops when
 
-1. its verdict is decided: every verdict rule passes, fails or lies within its margin of the
-   limit, or one fails decidedly or lies within its margin (then the path does not pass,
-   whatever the open rules say), its verdict with the campaign's waivers applied too, and
+1. its verdict is decided as the decision reads it, with the campaign's waivers applied:
+   every verdict rule passes, fails or lies within its margin of the limit, or one fails
+   decidedly or lies within its margin (then the path does not pass, whatever the open rules
+   say); a waived rule, open or failing, leaves nothing open, and
 2. the comparisons the decision depends on are settled: a path that does not pass needs none
    (the order among chains that fail decides nothing); the chain that leads, of those that
    pass (or pass under a waiver) or may still, must be settled against each of them, and each
    of them against it — passing paths rank first, then those that pass only under a waiver
    (a verdict rule waived, or simulated under a waived command or prescreen rule; the
    decision sends one of them only when no chain passes), a marginal path counts as one that
-   may still pass while the levels can rise (:func:`tiers`), and within a group the first
+   may still pass while the levels can rise (:func:`tiers`: some other chain can still be
+   shown to fail), and within a group the first
    rank key's intervals do not overlap; in a paired campaign ranking first by risk, the
    confidence sequence of the two paths' per-world risk differences decides instead
    (:mod:`idefix_rules.campaign.statistics.pairwise`): one is safer, or they are tied within the
@@ -82,14 +84,20 @@ def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
 
     ``waived_before``: the path was simulated under a waived command or prescreen rule, so it
     is ``waived`` whatever its verdict (campaign/evaluation/evaluate.py) and never ranks with
-    the chains that pass clean. ``levels_final``: the levels cannot rise any more (budget.py:
-    as many chains shown to fail as there are comparisons); until then a verdict within a
-    rule's margin may still pass at the final levels, whose bounds are narrower.
+    the chains that pass clean. ``levels_final``: the levels cannot rise any more before the
+    end (budget.py: as many chains shown to fail as there are comparisons, or no other chain
+    can still be shown to fail, :func:`settle`); until then a verdict within a rule's margin
+    may still pass at the final levels, whose bounds are narrower: clean, or under the
+    waivers when only the verdict with them applied is within a margin.
 
     >>> from types import SimpleNamespace as V
     >>> marginal = V(passed=False, decided=True, marginal=True)
     >>> sorted(tiers(marginal, marginal)), sorted(tiers(marginal, marginal, levels_final=False))
     ([2], [0, 2])
+    >>> failing = V(passed=False, decided=True, marginal=False, rules=("a", "b"))
+    >>> within = V(passed=False, decided=True, marginal=True, rules=("b",))  # "a" waived
+    >>> sorted(tiers(failing, within, levels_final=False)), sorted(tiers(failing, within))
+    ([1, 2], [2])
     >>> clean = V(passed=True, decided=True, marginal=False)
     >>> sorted(tiers(clean, clean)), sorted(tiers(clean, clean, waived_before=True))
     ([0], [1])
@@ -102,18 +110,32 @@ def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
             found.add(PASSES_WAIVED)
         if not held.passed or not held.decided:
             found.add(NOT_SENT)
-    if not levels_final and getattr(verdict, "marginal", False) and not verdict.passed:
-        found.add(PASSES)
+    if not levels_final:
+        if getattr(verdict, "marginal", False) and not verdict.passed:
+            found.add(PASSES)
+        # a rule waived (the waivers take their rules out of ``held``)
+        waived = len(getattr(held, "rules", ())) != len(getattr(verdict, "rules", ()))
+        if waived and getattr(held, "marginal", False) and not held.passed:
+            found.add(PASSES_WAIVED)
     if waived_before and PASSES in found:
         found = (found - {PASSES}) | {PASSES_WAIVED}
     return found
 
 
 def settled_outcome(verdict: Any, held: Any) -> str:
-    """The outcome a stop reason names: the rulebook's verdict (:func:`outcome_of`) once the
-    verdict with the campaign's waivers applied (``held``) is decided too, else "" (open: a
-    waived rule's failure may still be joined by an open rule's)."""
-    return outcome_of(verdict) if held.decided else ""
+    """The outcome a stop reason names once the verdict with the campaign's waivers applied
+    (``held``) is decided, as the decision reads it: the rulebook's verdict
+    (:func:`outcome_of`), or "waived" when only a waived rule is open; else "" (open: a
+    waived rule's failure may still be joined by an open rule's).
+
+    >>> from types import SimpleNamespace as V
+    >>> open_, passes = V(decided=False, passed=True), V(decided=True, passed=True)
+    >>> settled_outcome(open_, passes), settled_outcome(open_, open_)
+    ('waived', '')
+    """
+    if not held.decided:
+        return ""
+    return outcome_of(verdict) if verdict.decided else "waived"
 
 
 def _order(first: tuple[set[int], tuple[float, float]],
@@ -155,14 +177,18 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     decided (or run to the cap); None when it has none: the exit code then reads every path's
     verdict, so an open verdict is moot only once another path is decidedly not passing
     (``waivers``, the campaign's, decide which failures count). ``waived_before``: the paths
-    simulated under a waived command or prescreen rule; ``levels_final``: see :func:`tiers`;
-    ``exit_failing``: a path the looks do not judge (rejected, excluded, its reference run
-    failed) makes the exit code 1 already.
+    simulated under a waived command or prescreen rule; ``levels_final``: the levels are at
+    their floor (budget.py); otherwise they are final for a path when no other path can still
+    be shown to fail (each is shown to fail, or passes decidedly, waivers applied), see
+    :func:`tiers`; ``exit_failing``: a path the looks do not judge (rejected, excluded, its
+    reference run failed for a reason of its own) makes the exit code 1 already.
 
-    A path's verdict counts as decided only when its verdict with the waivers applied is
-    decided too: a waived rule that fails decidedly beside an open rule leaves open whether
-    the chain may be sent."""
+    A path's verdict is decided as the decision reads it: with the waivers applied. A waived
+    rule that fails decidedly beside an open rule leaves open whether the chain may be sent;
+    an open rule that is waived leaves nothing open (the chain is ``waived``, or passes clean
+    if more runs decided the rule: its tiers, and so its rank, say whether that matters)."""
     from idefix_rules.campaign.input.waivers import waive_verdict
+    from idefix_rules.campaign.statistics.budget import shown_to_fail
     from idefix_rules.campaign.statistics.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
 
@@ -173,24 +199,31 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         order = pair.order()
         return order if order is None or pair.first == name else -order
 
+    verdicts = {}
+    for name, stats in stats_by_path.items():
+        verdict = evaluator.verdict(stats)
+        verdicts[name] = (verdict, waive_verdict(verdict, waivers, name)[0])
+    # the paths that may still be shown to fail and so raise the levels (budget.py): not
+    # shown to fail yet, and not passing decidedly (waivers applied)
+    may_fail = {name for name, (_, held) in verdicts.items()
+                if not shown_to_fail(held) and not (held.decided and held.passed)}
+
     facts = {}
     outcomes = {}
     not_held = set()  # decidedly not passing, waivers applied: the exit code is 1
     held_open = set()  # open with its waivers applied too (a waived open rule is held)
     for name, stats in stats_by_path.items():
-        verdict = evaluator.verdict(stats)
-        held, _ = waive_verdict(verdict, waivers, name)
-        if held.decided and not held.passed:
+        verdict, held = verdicts[name]
+        final = levels_final or not may_fail - {name}
+        if held.decided and not held.passed and (final or not held.marginal):
             not_held.add(name)
         if not held.decided:
             held_open.add(name)
         outcomes[name] = settled_outcome(verdict, held)
-        groups = tiers(verdict, held, waived_before=name in waived_before,
-                       levels_final=levels_final)
+        groups = tiers(verdict, held, waived_before=name in waived_before, levels_final=final)
         keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
         first_key = keys[0] if keys else (math.nan, math.nan)
-        facts[name] = (bool(verdict.decided and held.decided), bool(verdict.passed), groups,
-                       first_key)
+        facts[name] = (bool(held.decided), bool(verdict.passed), groups, first_key)
     ranking = contenders(evaluator, stats_by_path, facts)
     leader = ranking[0] if ranking else None
 
@@ -268,7 +301,8 @@ def restated(reason: str, outcome: str) -> str:
     'decided after 64 runs: verdict fail (no decision depends on its rank)'
     """
     said = "" if "verdict not decided" in reason else next(
-        (word for word in ("pass", "fail", "marginal") if f"verdict {word}" in reason), None)
+        (word for word in ("pass", "fail", "marginal", "waived") if f"verdict {word}" in reason),
+        None)
     if said is None or said == outcome:
         return reason
     return f"{reason}; verdict {outcome or 'not decided'} at the final levels"
