@@ -319,3 +319,18 @@ def convert(value: float, from_unit: str, to_unit: str) -> float:
         raise UnitError(f"cannot convert {from_unit} ({describe(source.dimension)}) "
                         f"to {to_unit} ({describe(target.dimension)})")
     return float(Fraction(value) * source.exact_scale / target.exact_scale)
+
+
+def percent_text(fraction: float) -> str:
+    """A fraction in percent with as few decimals as say it exactly to 1e-6 %, never rounded
+    up to 100 % from below (a confidence of 99.95 % is not "100 %").
+
+    >>> [percent_text(f) for f in (0.95, 0.9875, 0.999, 0.9995, 0.99999, 1 / 3)]
+    ['95 %', '98.75 %', '99.9 %', '99.95 %', '99.999 %', '33.333333 %']
+    """
+    value = 100.0 * fraction
+    for decimals in range(6):
+        text = f"{value:.{decimals}f}"
+        if abs(float(text) - value) <= 1e-8 * max(1.0, abs(value)):
+            return f"{text} %"
+    return f"{value:.6f} %"

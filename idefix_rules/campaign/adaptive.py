@@ -165,7 +165,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 evaluator.checked.indifference, tuned=budget.comparison_tuned) if paired else []
             settlements = settle(evaluator, statistics, pairs, watched=watched,
                                  waivers=campaign.model.waivers, waived_before=waived_before,
-                                 levels_final=budget.at_floor, exit_failing=exit_failing)
+                                 levels_final=budget.at_floor, exit_failing=exit_failing,
+                                 running=running)
             for name in list(running):
                 settlement = settlements.get(name)
                 reason = NO_COMPLETE_RUN if settlement is None else \

@@ -28,6 +28,7 @@ from idefix_rules.report.data import (
     ReportData,
     TableRow,
 )
+from idefix_rules.units import percent_text
 
 CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
@@ -271,7 +272,7 @@ def pairs_html(data: ReportData) -> str:
             pair.outcome, "safer" if high < 0 else "riskier")
         rows.append((f"{above} vs {below}", f"{safer} of {pair.shared}",
                      f"{100 * difference:+.1f}",
-                     f"{100 * low:+.1f} … {100 * high:+.1f} ({100 * pair.confidence:.3g} %)",
+                     f"{100 * low:+.1f} … {100 * high:+.1f} ({percent_text(pair.confidence)})",
                      outcome))
     sentences = "".join(f"<li>{escape(pairwise.describe(pair, above))}</li>"
                         for above, pair in neighbours)

@@ -211,7 +211,11 @@ def _whole_percentile(x: np.ndarray, size: int, axis: int,
     parted = np.partition(x, sorted({low, high}), axis=axis)
     below = np.take(parted, [low], axis=axis)
     above = np.take(parted, [high], axis=axis)
-    return np.asarray(np.where(fraction == 0, below, below + (above - below) * fraction))
+    # two equal infinities interpolate to NaN, as in the windowed form and the interpreter:
+    # a non-finite value makes the index critical (docs/rulebook-language.md, the table of
+    # normalised values)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.where(fraction == 0, below, below + (above - below) * fraction))
 
 
 def _percentile(x: np.ndarray, count: np.ndarray, axis: int,

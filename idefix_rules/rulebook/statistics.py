@@ -45,6 +45,7 @@ from idefix_rules.rulebook.results import (
     Verdict,
 )
 from idefix_rules.rulebook.semantics import names_in
+from idefix_rules.units import percent_text
 
 Interval = tuple[float, float]
 
@@ -356,7 +357,7 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
             if near:
                 message += f" ± {margin:.4g}"
         if not decided:  # the bounds at the rulebook's confidence, family-wise (budget.py)
-            message += f" (the threshold lies between the {100.0 * stats.confidence:.3g} % " \
+            message += f" (the threshold lies between the {percent_text(stats.confidence)} " \
                        "family-wise bounds)"
         results.append(RuleResult(rule.name, passed, decided, name, value, interval, threshold,
                                   rule.rationale, message, rule.condition.span, near, margin))

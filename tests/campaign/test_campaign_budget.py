@@ -383,10 +383,11 @@ def test_a_marginal_chain_that_may_pass_at_the_final_levels_is_compared(
         open_other: bool, levels_final: bool, waits: bool):
     """m's stuck chance lies within the rule's margin (3.55–5.05 % against 5 % ± 2 %): at
     this look marginal, never sent. While the levels can still rise (not at their floor, and
-    another chain, o, whose verdict is open, may still be shown to fail) the final, narrower
-    bounds may clear the limit and m pass, ranking above `lead` on risk: the look waits for
-    their order. When no other chain can be shown to fail (lead passes decidedly), the
-    levels m is judged at are final already: m stops, never sent."""
+    another chain, o, goes on with its verdict open: an expectation names it, so it is never
+    stopped as moot; its failure would raise the levels) the final, narrower bounds may clear
+    the limit and m pass, ranking above `lead` on risk: the look waits for their order. When
+    nothing else goes on (lead passes decidedly and stops), the levels m is judged at are
+    final already: m stops, never sent."""
     rules = evaluator()
     m = statistics(0.20, stuck=0.043, spread=0.0075)
     assert rules.verdict(m).marginal
@@ -396,15 +397,19 @@ def test_a_marginal_chain_that_may_pass_at_the_final_levels_is_compared(
         stats["o"] = statistics(0.70, spread=0.05)
         assert not rules.verdict(stats["o"]).decided
         pairs += [pair("lead", "o", "first safer"), pair("m", "o", "first safer")]
-    found = settle(rules, stats, pairs, levels_final=levels_final)
+    watched = {"o"} if open_other else None
+    found = settle(rules, stats, pairs, levels_final=levels_final, watched=watched)
     assert found["m"].verdict_decided and found["m"].outcome == "marginal"
     assert found["m"].contender is waits
     assert found["lead"].unsettled_against == (("m",) if waits else ())
     assert found["m"].done is not waits
     # settled against the leader, a marginal chain stops whatever its final verdict
     pairs[0] = pair("lead", "m", "first safer")
-    ahead = settle(rules, stats, pairs, levels_final=False)
+    ahead = settle(rules, stats, pairs, levels_final=False, watched=watched)
     assert ahead["m"].done and ahead["lead"].done
+    if open_other and not levels_final:  # unwatched, o stops as moot: nothing goes on
+        assert settle(rules, stats, [*pairs[1:], pair("lead", "m", "open")],
+                      levels_final=False)["o"].moot_under == "lead"
 
 
 def test_failed_runs_are_the_rulebook_s_to_judge_and_a_missing_run_fails_the_path():
@@ -457,19 +462,38 @@ def test_an_open_rule_that_is_waived_leaves_the_verdict_decided():
 
 def test_a_marginal_verdict_under_a_waiver_may_still_pass_waived():
     """w fails `acceptable` decidedly (waived) and is marginal on `rarely_stuck`: while the
-    levels can rise (o may still be shown to fail) w may end passing under its waiver, so it
-    is a contender ranked against the leader, and its marginal verdict does not make the exit
-    code 1 yet; at the final levels it is never sent."""
+    levels can rise (lead and q, both passing, go on: their order is open, and a later failed
+    run could still show one to fail) w may end passing under its waiver, a contender (ranked
+    below the clean leader whatever happens, so it stops); once nothing goes on, never sent."""
     rules = evaluator()
     w = statistics(0.90, stuck=0.043, spread=0.0075)
-    stats = {"lead": statistics(0.25, spread=0.03), "w": w, "o": statistics(0.70, spread=0.05),
-             "q": statistics(0.50, stuck=0.05, spread=0.04)}  # q: open behind the leader
-    pairs = [pair("lead", "w", "first safer"), pair("lead", "o", "first safer"),
-             pair("lead", "q", "first safer")]
+    stats = {"lead": statistics(0.25, spread=0.03), "q": statistics(0.27, spread=0.03), "w": w}
+    pairs = [pair("lead", "w", "first safer"), pair("q", "w", "first safer")]
     waived = [Waiver(rule="acceptable", path="w", **WAIVER)]
-    rising = settle(rules, stats, pairs, waivers=waived, levels_final=False)
-    assert rising["w"].contender and rising["w"].outcome == "fail"
-    assert rising["q"].moot_under == ""  # nothing makes the exit code 1 for sure yet
-    final = settle(rules, stats, pairs, waivers=waived, levels_final=True)
-    assert not final["w"].contender and final["w"].done
-    assert final["q"].moot_under == "lead"  # w fails under its waiver: exit code 1 already
+    rising = settle(rules, stats, [pair("lead", "q", "open"), *pairs], waivers=waived,
+                    levels_final=False)
+    assert rising["w"].contender and rising["w"].done and rising["w"].outcome == "marginal"
+    assert not rising["lead"].done and not rising["q"].done
+    settled = settle(rules, stats, [pair("lead", "q", "first safer"), *pairs], waivers=waived,
+                     levels_final=False)
+    assert not settled["w"].contender and all(s.done for s in settled.values())
+
+
+def test_a_marginal_chain_waits_while_a_passing_chain_goes_on():
+    """lead and q pass decidedly but their order is open, so both go on; one failed run of
+    either would show it to fail (`no_failed_runs`) and raise the levels, at which m, within
+    its margin now, may pass and rank first: m waits for its order against the leader. With
+    the leaders' order settled nothing goes on, and m stops, never sent."""
+    rules = evaluator()
+    m = statistics(0.20, stuck=0.043, spread=0.0075)
+    stats = {"lead": statistics(0.25, spread=0.03), "q": statistics(0.27, spread=0.03), "m": m}
+    others = [pair("lead", "m", "open"), pair("q", "m", "open")]
+    going = settle(rules, stats, [pair("lead", "q", "open"), *others], levels_final=False)
+    assert going["m"].contender and not going["m"].done
+    assert going["lead"].unsettled_against == ("q", "m")
+    stopped = settle(rules, stats, [pair("lead", "q", "first safer"), *others],
+                     levels_final=False)
+    assert not stopped["m"].contender and all(s.done for s in stopped.values())
+    # a path no longer simulated goes on no more: q stopped earlier, lead's rank is settled
+    assert settle(rules, stats, [pair("lead", "q", "open"), *others], levels_final=False,
+                  running={"lead", "m"})["m"].contender

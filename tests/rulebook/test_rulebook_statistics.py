@@ -110,8 +110,8 @@ def test_threshold_inside_the_interval_is_not_decided():
     assert verdict.rules[0].message.startswith(
         "verdict 'acceptable' is not decided at 4 runs: risk = ")
     assert "between the 95 % family-wise bounds" in verdict.rules[0].message
-    strict = evaluator("combine { confidence = 99.9 % }\nverdict acceptable: require risk <= 50 %")
-    assert "99.9 % family-wise bounds" in strict.verdict(strict.path_statistics(
+    strict = evaluator("combine { confidence = 99.95 % }\nverdict acceptable: require risk <= 50 %")
+    assert "99.95 % family-wise bounds" in strict.verdict(strict.path_statistics(
         evaluation([0.2, 0.7, 0.4, 0.6]))).rules[0].message
     many = rules.path_statistics(evaluation([0.2, 0.7, 0.4, 0.6] * 500 + [0.3] * 100))
     assert rules.verdict(many).decided

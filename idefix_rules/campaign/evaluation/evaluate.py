@@ -294,7 +294,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         if not sequential and not result.stop_reason:
             result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
         elif sequential:  # in the looks' words (statistics/stopping.py)
-            result.stop_reason = restated(result.stop_reason, settled_outcome(unwaived, verdict))
+            # the path's own (prescreen, command) waivers are the result's before the verdict's
+            result.stop_reason = restated(result.stop_reason, settled_outcome(
+                unwaived, verdict, waived_before=bool(result.waivers)))
         result.waivers.extend(waived)
         statistics[name] = stats
         run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))

@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from idefix_rules.units import UnitError, convert, parse_unit
+from idefix_rules.units import UnitError, convert, parse_unit, percent_text
 
 # Units people read when a name's own unit is not known (rules' derived command quantities).
 DEFAULT_UNITS: dict[str, str] = {
@@ -206,8 +206,9 @@ def _is_shown(statistic: str | None) -> bool:
 
 
 def confidence_text(confidence: float) -> str:
-    """A confidence in percent: ``95 %``, ``98.8 %``."""
-    return f"{100.0 * confidence:.3g} %"
+    """A confidence in percent: ``95 %``, ``98.75 %``, ``99.95 %`` (never rounded up to
+    100 %)."""
+    return percent_text(confidence)
 
 
 def bounds_label(confidence: float) -> str:

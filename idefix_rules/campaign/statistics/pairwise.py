@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign.statistics.sequential import one_sided_bound
+from idefix_rules.units import percent_text
 
 TIED = "tied"
 FIRST_SAFER = "first safer"
@@ -129,7 +130,7 @@ def describe(pair: PairComparison, subject: str) -> str:
     other, safer, difference, low, high = seen_from(pair, subject)
     share = (f"{100.0 * safer / pair.shared:.0f} % of the same worlds ({safer} of {pair.shared})"
              if pair.shared else "none of the same worlds (no world both completed)")
-    numbers = (f"risk {_points(difference)} ({100.0 * pair.confidence:.3g} % CI "
+    numbers = (f"risk {_points(difference)} ({percent_text(pair.confidence)} CI "
                f"{_points(low)} … {_points(high)})")
     if pair.outcome == TIED:
         return (f"{subject} and {other} are tied (risk difference within "

@@ -122,20 +122,30 @@ def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
     return found
 
 
-def settled_outcome(verdict: Any, held: Any) -> str:
+def settled_outcome(verdict: Any, held: Any, *, waived_before: bool = False) -> str:
     """The outcome a stop reason names once the verdict with the campaign's waivers applied
-    (``held``) is decided, as the decision reads it: the rulebook's verdict
-    (:func:`outcome_of`), or "waived" when only a waived rule is open; else "" (open: a
-    waived rule's failure may still be joined by an open rule's).
+    (``held``) is decided, as the evaluation reports it (``PathResult.verdict_text``):
+    ``waived`` when it passes with a rule waived (or the path was simulated under a waived
+    command or prescreen rule, ``waived_before``), else the outcome of ``held``
+    (:func:`outcome_of`); "" while it is open (a waived rule's failure may still be joined by
+    an open rule's).
 
     >>> from types import SimpleNamespace as V
-    >>> open_, passes = V(decided=False, passed=True), V(decided=True, passed=True)
-    >>> settled_outcome(open_, passes), settled_outcome(open_, open_)
-    ('waived', '')
+    >>> open_ = V(decided=False, passed=True, rules=("a", "b"))
+    >>> fails = V(decided=True, passed=False, marginal=False, rules=("a", "b"))
+    >>> passes = V(decided=True, passed=True, rules=("b",))  # "a" waived
+    >>> [settled_outcome(*pair) for pair in ((open_, passes), (fails, passes), (open_, open_))]
+    ['waived', 'waived', '']
+    >>> settled_outcome(fails, fails), settled_outcome(passes, passes, waived_before=True)
+    ('fail', 'waived')
     """
     if not held.decided:
         return ""
-    return outcome_of(verdict) if verdict.decided else "waived"
+    waived = waived_before or len(getattr(held, "rules", ())) != len(getattr(verdict, "rules",
+                                                                              ()))
+    if held.passed:
+        return "waived" if waived else "pass"
+    return outcome_of(held)
 
 
 def _order(first: tuple[set[int], tuple[float, float]],
@@ -166,7 +176,8 @@ def _order(first: tuple[set[int], tuple[float, float]],
 def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
            pairs: Sequence[Any] = (), *, watched: Collection[str] | None = None,
            waivers: Sequence[Any] = (), waived_before: Collection[str] = (),
-           levels_final: bool = True, exit_failing: bool = False) -> dict[str, Settlement]:
+           levels_final: bool = True, exit_failing: bool = False,
+           running: Collection[str] | None = None) -> dict[str, Settlement]:
     """Each ranked path's settlement from its judged statistics and, in a paired campaign, the
     paired comparisons (:class:`~idefix_rules.campaign.statistics.pairwise.PairComparison`) that
     decide the first rank key. Only the comparisons the decision depends on are asked for: the
@@ -177,11 +188,17 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     decided (or run to the cap); None when it has none: the exit code then reads every path's
     verdict, so an open verdict is moot only once another path is decidedly not passing
     (``waivers``, the campaign's, decide which failures count). ``waived_before``: the paths
-    simulated under a waived command or prescreen rule; ``levels_final``: the levels are at
-    their floor (budget.py); otherwise they are final for a path when no other path can still
-    be shown to fail (each is shown to fail, or passes decidedly, waivers applied), see
-    :func:`tiers`; ``exit_failing``: a path the looks do not judge (rejected, excluded, its
-    reference run failed for a reason of its own) makes the exit code 1 already.
+    simulated under a waived command or prescreen rule; ``exit_failing``: a path the looks do
+    not judge (rejected, excluded, its reference run failed for a reason of its own) makes the
+    exit code 1 already; ``running``: the paths still simulated (None: every path).
+
+    ``levels_final``: the levels are at their floor (budget.py). Otherwise they rise only when
+    a chain is shown to fail, and only a chain that goes on running can newly be (a stopped
+    chain's runs are final; it can be shown to fail only after another one raised the levels;
+    a running chain, even one passing decidedly now, may be, if a later run fails): for a
+    path the levels are final when no other chain goes on after this look (:func:`tiers`).
+    Which chains go on depends on which are contenders, so the paths are settled again with
+    those that go on until that set holds (it only grows: at most one pass per path).
 
     A path's verdict is decided as the decision reads it: with the waivers applied. A waived
     rule that fails decidedly beside an open rule leaves open whether the chain may be sent;
@@ -189,6 +206,29 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     if more runs decided the rule: its tiers, and so its rank, say whether that matters)."""
     from idefix_rules.campaign.input.waivers import waive_verdict
     from idefix_rules.campaign.statistics.budget import shown_to_fail
+
+    verdicts = {}
+    for name, stats in stats_by_path.items():
+        verdict = evaluator.verdict(stats)
+        verdicts[name] = (verdict, waive_verdict(verdict, waivers, name)[0])
+    simulated = set(stats_by_path) if running is None else set(running)
+    going_on: set[str] = set()
+    while True:
+        found = _settle_once(evaluator, stats_by_path, pairs, verdicts, going_on, watched,
+                             waived_before, levels_final, exit_failing, simulated)
+        more = going_on | {name for name in simulated & set(found)
+                           if not found[name].done and not shown_to_fail(verdicts[name][1])}
+        if more == going_on:
+            return found
+        going_on = more
+
+
+def _settle_once(evaluator: Any, stats_by_path: Mapping[str, Any], pairs: Sequence[Any],
+                 verdicts: Mapping[str, tuple[Any, Any]], going_on: set[str],
+                 watched: Collection[str] | None, waived_before: Collection[str],
+                 levels_final: bool, exit_failing: bool, simulated: set[str]
+                 ) -> dict[str, Settlement]:
+    """:func:`settle` with ``going_on`` the chains that go on after this look."""
     from idefix_rules.campaign.statistics.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
 
@@ -199,28 +239,18 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         order = pair.order()
         return order if order is None or pair.first == name else -order
 
-    verdicts = {}
-    for name, stats in stats_by_path.items():
-        verdict = evaluator.verdict(stats)
-        verdicts[name] = (verdict, waive_verdict(verdict, waivers, name)[0])
-    # the paths that may still be shown to fail and so raise the levels (budget.py): not
-    # shown to fail yet, and not passing decidedly (waivers applied)
-    may_fail = {name for name, (_, held) in verdicts.items()
-                if not shown_to_fail(held) and not (held.decided and held.passed)}
-
     facts = {}
     outcomes = {}
-    not_held = set()  # decidedly not passing, waivers applied: the exit code is 1
+    final = {}
     held_open = set()  # open with its waivers applied too (a waived open rule is held)
     for name, stats in stats_by_path.items():
         verdict, held = verdicts[name]
-        final = levels_final or not may_fail - {name}
-        if held.decided and not held.passed and (final or not held.marginal):
-            not_held.add(name)
+        final[name] = levels_final or not going_on - {name}
         if not held.decided:
             held_open.add(name)
-        outcomes[name] = settled_outcome(verdict, held)
-        groups = tiers(verdict, held, waived_before=name in waived_before, levels_final=final)
+        outcomes[name] = settled_outcome(verdict, held, waived_before=name in waived_before)
+        groups = tiers(verdict, held, waived_before=name in waived_before,
+                       levels_final=final[name])
         keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
         first_key = keys[0] if keys else (math.nan, math.nan)
         facts[name] = (bool(held.decided), bool(verdict.passed), groups, first_key)
@@ -233,6 +263,22 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
 
     leader_open = tuple(other for other in ranking[1:]
                         if order(leader, other) is None) if leader is not None else ()
+    open_against: dict[str, tuple[str, ...]] = {}
+    for name in facts:
+        if name not in ranking:
+            open_against[name] = ()
+        elif name == leader:
+            open_against[name] = leader_open
+        else:
+            assert leader is not None
+            open_against[name] = (leader,) if order(name, leader) is None else ()
+    # decidedly not passing, waivers applied: the exit code is 1. A marginal verdict counts
+    # once it cannot pass any more: the levels are final for it, or it stops (its runs final:
+    # it passes only if another chain, shown to fail, raises the levels: exit code 1 then too)
+    not_held = {name for name, (verdict, held) in verdicts.items()
+                if held.decided and not held.passed
+                and (final[name] or not held.marginal
+                     or name not in simulated or not open_against[name])}
 
     def moot(name: str) -> bool:
         """Whether the open verdict of ``name``, a contender behind the leader, decides
@@ -252,16 +298,9 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     settlements = {}
     for name, (decided, passed, _, _) in facts.items():
         moot_under = ""
-        if name not in ranking:
-            open_against: tuple[str, ...] = ()
-        elif name == leader:
-            open_against = leader_open
-        else:
-            assert leader is not None
-            open_against = (leader,) if order(name, leader) is None else ()
-            if not decided and moot(name):
-                moot_under = leader
-        settlements[name] = Settlement(decided, passed, open_against, name in ranking,
+        if name in ranking and name != leader and not decided and moot(name):
+            moot_under = str(leader)
+        settlements[name] = Settlement(decided, passed, open_against[name], name in ranking,
                                        outcomes[name], moot_under)
     return settlements
 
