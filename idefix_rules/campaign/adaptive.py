@@ -166,7 +166,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
             settlements = settle(evaluator, statistics, pairs, watched=watched,
                                  waivers=campaign.model.waivers, waived_before=waived_before,
                                  levels_final=budget.at_floor, exit_failing=exit_failing,
-                                 running=running)
+                                 # at the cap nothing goes on: no level can rise after it
+                                 running=running if look < settings.max_runs else ())
             for name in list(running):
                 settlement = settlements.get(name)
                 reason = NO_COMPLETE_RUN if settlement is None else \

@@ -494,6 +494,10 @@ def test_a_marginal_chain_waits_while_a_passing_chain_goes_on():
     stopped = settle(rules, stats, [pair("lead", "q", "first safer"), *others],
                      levels_final=False)
     assert not stopped["m"].contender and all(s.done for s in stopped.values())
-    # a path no longer simulated goes on no more: q stopped earlier, lead's rank is settled
+    # only a chain still simulated goes on: with lead and q stopped earlier (or at the cap,
+    # where nothing goes on) m's levels are final, whatever their open order
+    for running in ({"m"}, ()):
+        assert not settle(rules, stats, [pair("lead", "q", "open"), *others],
+                          levels_final=False, running=running)["m"].contender
     assert settle(rules, stats, [pair("lead", "q", "open"), *others], levels_final=False,
                   running={"lead", "m"})["m"].contender

@@ -190,7 +190,8 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     (``waivers``, the campaign's, decide which failures count). ``waived_before``: the paths
     simulated under a waived command or prescreen rule; ``exit_failing``: a path the looks do
     not judge (rejected, excluded, its reference run failed for a reason of its own) makes the
-    exit code 1 already; ``running``: the paths still simulated (None: every path).
+    exit code 1 already; ``running``: the paths that may be simulated after this look (None:
+    every path; none at the campaign's cap).
 
     ``levels_final``: the levels are at their floor (budget.py). Otherwise they rise only when
     a chain is shown to fail, and only a chain that goes on running can newly be (a stopped
@@ -215,7 +216,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     going_on: set[str] = set()
     while True:
         found = _settle_once(evaluator, stats_by_path, pairs, verdicts, going_on, watched,
-                             waived_before, levels_final, exit_failing, simulated)
+                             waived_before, levels_final, exit_failing)
         more = going_on | {name for name in simulated & set(found)
                            if not found[name].done and not shown_to_fail(verdicts[name][1])}
         if more == going_on:
@@ -226,8 +227,7 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
 def _settle_once(evaluator: Any, stats_by_path: Mapping[str, Any], pairs: Sequence[Any],
                  verdicts: Mapping[str, tuple[Any, Any]], going_on: set[str],
                  watched: Collection[str] | None, waived_before: Collection[str],
-                 levels_final: bool, exit_failing: bool, simulated: set[str]
-                 ) -> dict[str, Settlement]:
+                 levels_final: bool, exit_failing: bool) -> dict[str, Settlement]:
     """:func:`settle` with ``going_on`` the chains that go on after this look."""
     from idefix_rules.campaign.statistics.pairwise import find
     from idefix_rules.rulebook.statistics import rank_key_intervals
@@ -272,13 +272,10 @@ def _settle_once(evaluator: Any, stats_by_path: Mapping[str, Any], pairs: Sequen
         else:
             assert leader is not None
             open_against[name] = (leader,) if order(name, leader) is None else ()
-    # decidedly not passing, waivers applied: the exit code is 1. A marginal verdict counts
-    # once it cannot pass any more: the levels are final for it, or it stops (its runs final:
-    # it passes only if another chain, shown to fail, raises the levels: exit code 1 then too)
-    not_held = {name for name, (verdict, held) in verdicts.items()
-                if held.decided and not held.passed
-                and (final[name] or not held.marginal
-                     or name not in simulated or not open_against[name])}
+    # decidedly not passing, waivers applied: the exit code is 1 (a marginal verdict once it
+    # cannot pass any more: the levels are final for it)
+    not_held = {name for name, (_, held) in verdicts.items()
+                if held.decided and not held.passed and (final[name] or not held.marginal)}
 
     def moot(name: str) -> bool:
         """Whether the open verdict of ``name``, a contender behind the leader, decides
