@@ -322,15 +322,15 @@ def convert(value: float, from_unit: str, to_unit: str) -> float:
 
 
 def percent_text(fraction: float) -> str:
-    """A fraction in percent with as few decimals as say it exactly to 1e-6 %, never rounded
-    up to 100 % from below (a confidence of 99.95 % is not "100 %").
+    """A fraction in percent to three significant digits, with more where three would round
+    a value below 100 % up to "100 %" (a confidence of 99.95 % is not "100 %").
 
-    >>> [percent_text(f) for f in (0.95, 0.9875, 0.999, 0.9995, 0.99999, 1 / 3)]
-    ['95 %', '98.75 %', '99.9 %', '99.95 %', '99.999 %', '33.333333 %']
+    >>> [percent_text(f) for f in (0.95, 0.9875, 0.999, 0.9995, 0.99999, 1 - 0.05 / 3)]
+    ['95 %', '98.8 %', '99.9 %', '99.95 %', '99.999 %', '98.3 %']
     """
     value = 100.0 * fraction
-    for decimals in range(6):
-        text = f"{value:.{decimals}f}"
-        if abs(float(text) - value) <= 1e-8 * max(1.0, abs(value)):
-            return f"{text} %"
-    return f"{value:.6f} %"
+    for digits in range(3, 10):
+        text = f"{value:.{digits}g}"
+        if not (value < 100.0 <= float(text)):
+            break
+    return f"{text} %"

@@ -206,7 +206,7 @@ def _is_shown(statistic: str | None) -> bool:
 
 
 def confidence_text(confidence: float) -> str:
-    """A confidence in percent: ``95 %``, ``98.75 %``, ``99.95 %`` (never rounded up to
+    """A confidence in percent: ``95 %``, ``98.8 %``, ``99.95 %`` (never rounded up to
     100 %)."""
     return percent_text(confidence)
 
