@@ -451,14 +451,14 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
     return path
 
 
-def _stored_alpha(store: StoredResults) -> float | None:
-    """1 − the rulebook's confidence as a path's stored statistics hold it, or None."""
+def _stored_confidence(store: StoredResults) -> float | None:
+    """The rulebook's confidence as a path's stored statistics hold it, or None."""
     for name in store.path_names:
         evaluation = store.path_group(name).get("evaluation")
         stats = _json(evaluation.attrs.get("statistics"), {}) if evaluation is not None else {}
         confidence = stats.get("confidence") if isinstance(stats, Mapping) else None
         if isinstance(confidence, (int, float)):
-            return 1.0 - float(confidence)
+            return float(confidence)
     return None
 
 
@@ -480,12 +480,13 @@ def _read_report_data(store: StoredResults) -> ReportData:
                                          if evaluation is not None else [])
     code = summary.get("exit_code")
     alpha = (summary.get("alpha") or {}).get("alpha")
-    if not isinstance(alpha, (int, float)):  # no summary: the paths' stored statistics say
-        alpha = _stored_alpha(store)
+    # no summary: the paths' stored statistics say
+    confidence = 1.0 - float(alpha) if isinstance(alpha, (int, float)) \
+        else _stored_confidence(store)
     return ReportData(header=read_header(file), paths=paths, ranking=list(ranking),
                       expectations=list(summary.get("expectations", [])),
                       decision=summary.get("decision"),
                       exit_code=int(code) if isinstance(code, int) else None,
                       pairs=[PairComparison.from_dict(pair) for pair in summary.get("pairs", [])
                              if isinstance(pair, Mapping)],
-                      confidence=1.0 - float(alpha) if isinstance(alpha, (int, float)) else 0.95)
+                      confidence=0.95 if confidence is None else confidence)

@@ -39,7 +39,7 @@ from idefix_rules.fmu.build import source_hash
 # a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
 # pressed fraction and mean depth; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "57b54447805a441cf60a4dfe199bde127369b878103e3fb5f5c358934bc8d2b8"
+ROVER_SOURCE_HASH = "15ca84b3c43e68c01b18b0e5c9ab7c34797cdcc20c29f5f83ca8935ebb49dbed"
 ROVER_DIGEST = "0cf109ee0799f2f81c89881d95b5a1537e7233c30e0c47f883297585ea4b1c01"
 TOY_DIGEST = "a76457555f8c6fe8ca7944853c9a6bc903110ba177e555eedd5115caecc6dc31"
 

@@ -339,27 +339,18 @@ double rock_wheel_centre(const Terrain *t, int k, double x, double y, double hx,
     const Rock *rk = &t->rocks[k];
     double reach = sqrt(r * r + 0.25 * w * w), dx = x - rk->x, dy = y - rk->y;
     double big = rk->a > rk->b ? rk->a : rk->b;
+    RockContact *slot;
     *contact_d = 0.0;
     *contact_z = NO_ROCK;
     /* rocks are found by a bounding-circle test: every rock within reach counts */
-    RockContact *slot;
     if (dx * dx + dy * dy >= (big + reach) * (big + reach)) return NO_ROCK;
     if (!t->contacts) return rock_envelope(rk, x, y, hx, hy, r, w, contact_d, contact_z);
     slot = &t->contacts[contact_slot(k, x, y, hx)];
-    if (slot->k == k && slot->x == x && slot->y == y && slot->hx == hx && slot->hy == hy &&
-        slot->r == r && slot->w == w) {
-        *contact_d = slot->d;
-        *contact_z = slot->z;
-        return slot->centre;
+    if (!(slot->k == k && slot->x == x && slot->y == y && slot->hx == hx && slot->hy == hy &&
+          slot->r == r && slot->w == w)) {
+        double d, z, centre = rock_envelope(rk, x, y, hx, hy, r, w, &d, &z);
+        *slot = (RockContact){x, y, hx, hy, r, w, centre, d, z, k};
     }
-    slot->centre = rock_envelope(rk, x, y, hx, hy, r, w, &slot->d, &slot->z);
-    slot->k = k;
-    slot->x = x;
-    slot->y = y;
-    slot->hx = hx;
-    slot->hy = hy;
-    slot->r = r;
-    slot->w = w;
     *contact_d = slot->d;
     *contact_z = slot->z;
     return slot->centre;

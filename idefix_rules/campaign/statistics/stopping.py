@@ -77,6 +77,11 @@ _UNPAIRED = 2  # no paired comparison: the two intervals decide
 PASSES, PASSES_WAIVED, NOT_SENT = 0, 1, 2
 
 
+def _rule_waived(verdict: Any, held: Any) -> bool:
+    """Whether a verdict rule is waived: the waivers take their rules out of ``held``."""
+    return len(getattr(held, "rules", ())) != len(getattr(verdict, "rules", ()))
+
+
 def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
           levels_final: bool = True) -> set[int]:
     """The tiers a path may still end in, from its verdict and its verdict with the
@@ -113,9 +118,7 @@ def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
     if not levels_final:
         if getattr(verdict, "marginal", False) and not verdict.passed:
             found.add(PASSES)
-        # a rule waived (the waivers take their rules out of ``held``)
-        waived = len(getattr(held, "rules", ())) != len(getattr(verdict, "rules", ()))
-        if waived and getattr(held, "marginal", False) and not held.passed:
+        if _rule_waived(verdict, held) and getattr(held, "marginal", False) and not held.passed:
             found.add(PASSES_WAIVED)
     if waived_before and PASSES in found:
         found = (found - {PASSES}) | {PASSES_WAIVED}
@@ -141,10 +144,8 @@ def settled_outcome(verdict: Any, held: Any, *, waived_before: bool = False) -> 
     """
     if not held.decided:
         return ""
-    waived = waived_before or len(getattr(held, "rules", ())) != len(getattr(verdict, "rules",
-                                                                              ()))
     if held.passed:
-        return "waived" if waived else "pass"
+        return "waived" if waived_before or _rule_waived(verdict, held) else "pass"
     return outcome_of(held)
 
 
@@ -207,15 +208,21 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
     if more runs decided the rule: its tiers, and so its rank, say whether that matters)."""
     from idefix_rules.campaign.input.waivers import waive_verdict
     from idefix_rules.campaign.statistics.budget import shown_to_fail
+    from idefix_rules.rulebook.statistics import rank_key_intervals
 
+    # what each pass reads and no pass changes: the verdicts, first rank keys and ranking
     verdicts = {}
+    first_keys = {}
     for name, stats in stats_by_path.items():
         verdict = evaluator.verdict(stats)
         verdicts[name] = (verdict, waive_verdict(verdict, waivers, name)[0])
+        keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
+        first_keys[name] = keys[0] if keys else (math.nan, math.nan)
+    ranked = list(evaluator.rank(stats_by_path))
     simulated = set(stats_by_path) if running is None else set(running)
     going_on: set[str] = set()
     while True:
-        found = _settle_once(evaluator, stats_by_path, pairs, verdicts, going_on, watched,
+        found = _settle_once(ranked, first_keys, pairs, verdicts, going_on, watched,
                              waived_before, levels_final, exit_failing)
         more = going_on | {name for name in simulated & set(found)
                            if not found[name].done and not shown_to_fail(verdicts[name][1])}
@@ -224,13 +231,14 @@ def settle(evaluator: Any, stats_by_path: Mapping[str, Any],
         going_on = more
 
 
-def _settle_once(evaluator: Any, stats_by_path: Mapping[str, Any], pairs: Sequence[Any],
-                 verdicts: Mapping[str, tuple[Any, Any]], going_on: set[str],
+def _settle_once(ranked: Sequence[str], first_keys: Mapping[str, tuple[float, float]],
+                 pairs: Sequence[Any], verdicts: Mapping[str, tuple[Any, Any]],
+                 going_on: set[str],
                  watched: Collection[str] | None, waived_before: Collection[str],
                  levels_final: bool, exit_failing: bool) -> dict[str, Settlement]:
-    """:func:`settle` with ``going_on`` the chains that go on after this look."""
+    """:func:`settle` with ``going_on`` the chains that go on after this look (``ranked``:
+    the rulebook's ranking, best first)."""
     from idefix_rules.campaign.statistics.pairwise import find
-    from idefix_rules.rulebook.statistics import rank_key_intervals
 
     def paired_order(name: str, other: str) -> int | None:
         pair = find(pairs, name, other)
@@ -243,18 +251,15 @@ def _settle_once(evaluator: Any, stats_by_path: Mapping[str, Any], pairs: Sequen
     outcomes = {}
     final = {}
     held_open = set()  # open with its waivers applied too (a waived open rule is held)
-    for name, stats in stats_by_path.items():
-        verdict, held = verdicts[name]
+    for name, (verdict, held) in verdicts.items():
         final[name] = levels_final or not going_on - {name}
         if not held.decided:
             held_open.add(name)
         outcomes[name] = settled_outcome(verdict, held, waived_before=name in waived_before)
         groups = tiers(verdict, held, waived_before=name in waived_before,
                        levels_final=final[name])
-        keys = rank_key_intervals(evaluator.rulebook, evaluator.checked.constants, stats)
-        first_key = keys[0] if keys else (math.nan, math.nan)
-        facts[name] = (bool(held.decided), bool(verdict.passed), groups, first_key)
-    ranking = contenders(evaluator, stats_by_path, facts)
+        facts[name] = (bool(held.decided), bool(verdict.passed), groups, first_keys[name])
+    ranking = contenders(ranked, facts)
     leader = ranking[0] if ranking else None
 
     def order(name: str, other: str) -> int | None:
@@ -309,13 +314,12 @@ def expected_paths(expectations: Sequence[Any]) -> frozenset[str]:
                      if name)
 
 
-def contenders(evaluator: Any, stats_by_path: Mapping[str, Any],
+def contenders(ranked: Sequence[str],
                facts: Mapping[str, tuple[bool, bool, set[int], Any]]) -> list[str]:
     """The paths that pass (or pass under a waiver) or may still, in the rulebook's ranking
     (best first), a path that can pass clean before one that can only pass waived (the
     rulebook's ranking does not know a waived command or prescreen rule)."""
-    order = evaluator.rank(stats_by_path)
-    return sorted((name for name in order if facts[name][2] & {PASSES, PASSES_WAIVED}),
+    return sorted((name for name in ranked if facts[name][2] & {PASSES, PASSES_WAIVED}),
                   key=lambda name: min(facts[name][2]))
 
 
