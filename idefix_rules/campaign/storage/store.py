@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +32,7 @@ from typing import Any
 
 import h5py
 import numpy as np
+from zlib_ng import zlib_ng
 
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.journal import JournaledFile, repair_end, roll_back, undo_path
@@ -144,18 +144,25 @@ class EncodedChunk:
     data: bytes
 
 
+# The deflate level of the chunks the workers encode (zlib-ng's): on the example's runs its
+# level 4 deflates 1.6x faster than zlib's level 1, into 0.5 % fewer bytes (docs/results-format.md,
+# "Storage"). Any deflate stream is a valid chunk of HDF5's gzip filter, whatever its level.
+CHUNK_DEFLATE_LEVEL = 4
+
+
 def encode_chunk(name: str, values: np.ndarray) -> EncodedChunk:
-    """The chunk of one run of signal ``name`` (HDF5 shuffle, then deflate at
-    :data:`COMPRESSION_LEVEL`), readable by any HDF5 tool like a chunk HDF5 wrote itself."""
+    """The chunk of one run of signal ``name`` (HDF5 shuffle, then deflate by zlib-ng at
+    :data:`CHUNK_DEFLATE_LEVEL`), readable by any HDF5 tool like a chunk HDF5 wrote itself."""
     array = np.ascontiguousarray(values, dtype=storage_dtype(name))
     shuffled = array.view(np.uint8).reshape(-1, array.itemsize).T.tobytes()
-    return EncodedChunk(array.shape, array.dtype.str, zlib.compress(shuffled, COMPRESSION_LEVEL))
+    return EncodedChunk(array.shape, array.dtype.str,
+                        zlib_ng.compress(shuffled, CHUNK_DEFLATE_LEVEL))
 
 
 def decode_chunk(chunk: EncodedChunk) -> np.ndarray:
     """The values of an encoded chunk (:func:`encode_chunk` undone)."""
     dtype = np.dtype(chunk.dtype)
-    raw = np.frombuffer(zlib.decompress(chunk.data), dtype=np.uint8)
+    raw = np.frombuffer(zlib_ng.decompress(chunk.data), dtype=np.uint8)
     return raw.reshape(dtype.itemsize, -1).T.copy().view(dtype).reshape(chunk.shape)
 
 
