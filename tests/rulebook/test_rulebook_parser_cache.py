@@ -1,0 +1,83 @@
+"""The parser's tables kept between processes (lark's cache, in this user's cache folder)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from idefix_rules.rulebook.format import formatted_text
+from idefix_rules.rulebook.grammar import parser_cache, rulebook_parser
+
+SOURCE = """# a rulebook with comments: the cached parser must hand them to the formatter too
+rulebook "cached" version "1.0.0"
+purpose "A rulebook read through the parser's cache"
+
+const critical_slip = 70 %  # the limit
+  because "Slip above 70 % is critical"
+
+index I_s "wheel slip ratio" {
+  value  = max over time (max over wheels (abs(wheel.slip)))  # worst wheel
+  limit  = critical_slip
+  weight = 1
+  because "Worst slip of any wheel"
+}
+
+verdict acceptable_risk: require risk <= 70 %
+  because "Mean risk at most 0.7"
+"""
+
+
+@pytest.fixture
+def cache_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """A fresh cache folder; every test builds the process's parser again, and the parser
+    is built again afterwards under the usual cache."""
+    monkeypatch.setenv("IDEFIX_CACHE", str(tmp_path / "cache"))
+    rulebook_parser.cache_clear()
+    yield tmp_path / "cache"
+    rulebook_parser.cache_clear()
+
+
+def _formatted() -> str:
+    rulebook_parser.cache_clear()  # as a new process would
+    return formatted_text(SOURCE, "cached.rules")
+
+
+def test_the_tables_are_written_once_and_read_back_with_the_comments(cache_folder: Path) -> None:
+    path = parser_cache()
+    assert isinstance(path, str) and Path(path).parent == cache_folder / "grammar"
+    assert not Path(path).exists()
+    fresh = _formatted()  # built, then written
+    written = Path(path).stat().st_mtime_ns, Path(path).read_bytes()
+    assert "# the limit" in fresh and "# worst wheel" in fresh
+    assert _formatted() == fresh  # read from the file
+    # read, not built and written again
+    assert (Path(path).stat().st_mtime_ns, Path(path).read_bytes()) == written
+
+
+def test_a_damaged_or_stale_cache_file_is_built_again(cache_folder: Path) -> None:
+    path = Path(str(parser_cache()))
+    fresh = _formatted()
+    good = path.read_bytes()
+    # garbage, half a file (another process still writing it), another grammar's hash
+    for damaged in (b"not a cache\n", good[: len(good) // 2], b"0" * 64 + good[64:]):
+        path.write_bytes(damaged)
+        assert _formatted() == fresh
+        rewritten = path.stat().st_mtime_ns, path.read_bytes()
+        assert rewritten[1] != damaged and rewritten[1][:64] == good[:64]  # written anew
+        assert _formatted() == fresh
+        assert (path.stat().st_mtime_ns, path.read_bytes()) == rewritten  # and read from now
+
+
+def test_without_a_usable_cache_folder_the_parser_is_built_each_time(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("IDEFIX_CACHE", str(blocker))
+    try:
+        assert parser_cache() is False
+        rulebook_parser.cache_clear()
+        assert "# the limit" in formatted_text(SOURCE, "cached.rules")
+    finally:
+        rulebook_parser.cache_clear()
