@@ -81,21 +81,47 @@ def parser_cache() -> str | bool:
                         f"{sys.version_info[1]}.cache")
 
 
+@contextlib.contextmanager
+def _held(cache: str | bool) -> Iterator[str | bool]:
+    """The cache file, locked against the other processes for as long as lark reads or
+    writes it (lark writes it in place: two processes building at once could otherwise
+    interleave their writes into one file that still unpickles); False (no cache) where no
+    lock can be taken."""
+    if not cache:
+        yield False
+        return
+    try:
+        import fcntl
+
+        handle = open(f"{cache}.lock", "a")  # noqa: SIM115 - closed below, after the yield
+    except (ImportError, OSError):  # no flock (Windows), or no lock file
+        yield False
+        return
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:
+            yield False
+            return
+        yield cache  # the lock goes with the handle
+
+
 @functools.cache
 def rulebook_parser() -> lark.Lark:
     """The LALR parser (contextual lexer, positions on every tree node), built once per
     process; its tables are read from lark's cache (:func:`parser_cache`) when they were built
     before: 0.03 s instead of 0.3 s, what ``check`` on a rulebook spends first."""
-    return lark.Lark(
-        grammar_text(),
-        parser="lalr",
-        lexer="contextual",
-        propagate_positions=True,
-        maybe_placeholders=True,
-        start="start",
-        lexer_callbacks={"COMMENT": _keep_comment},
-        cache=parser_cache(),
-    )
+    with _held(parser_cache()) as cache:
+        return lark.Lark(
+            grammar_text(),
+            parser="lalr",
+            lexer="contextual",
+            propagate_positions=True,
+            maybe_placeholders=True,
+            start="start",
+            lexer_callbacks={"COMMENT": _keep_comment},
+            cache=cache,
+        )
 
 
 @functools.cache

@@ -81,3 +81,32 @@ def test_without_a_usable_cache_folder_the_parser_is_built_each_time(
         assert "# the limit" in formatted_text(SOURCE, "cached.rules")
     finally:
         rulebook_parser.cache_clear()
+
+
+def test_the_cache_file_is_locked_while_lark_reads_or_writes_it(
+        cache_folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two processes building at once never write into the same file together: the lark
+    call runs under an exclusive lock that another open file cannot take meanwhile."""
+    fcntl = pytest.importorskip("fcntl")
+    from idefix_rules.rulebook import grammar
+
+    lock = f"{parser_cache()}.lock"
+    real = grammar.lark.Lark
+    seen: list[bool] = []
+
+    def building(*args: object, **kwargs: object) -> object:
+        with open(lock, "a") as other:
+            try:
+                fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                seen.append(True)  # held by the build
+            else:
+                seen.append(False)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(grammar.lark, "Lark", building)
+    for _ in range(2):  # built and written, then read
+        assert "# the limit" in _formatted()
+    assert seen == [True, True]
+    with open(lock, "a") as other:  # released afterwards
+        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
