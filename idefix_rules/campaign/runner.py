@@ -12,7 +12,7 @@ import contextlib
 import json
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,7 +26,7 @@ from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
 from idefix_rules.campaign.evaluation.spread import spread_warnings
 from idefix_rules.campaign.input import waivers
-from idefix_rules.campaign.input.environment import build_terrain, write_terrain
+from idefix_rules.campaign.input.environment import TERRAIN_FILE, build_terrain, write_terrain
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.validate import (
@@ -52,7 +52,7 @@ from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
 from idefix_rules.campaign.storage.revision import Revision
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
-from idefix_rules.files import set_aside, write_atomic
+from idefix_rules.files import previous_path, set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import StoredCampaign
 from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, collision_function
@@ -150,6 +150,7 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
     ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
     become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
+    check_junit_destination(junit, *campaign_files(campaign))
     existed = campaign.output.exists()
     prepare_output(campaign)
     sources = {str(campaign.source): campaign.text}
@@ -163,6 +164,61 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
         if not existed:  # a campaign refused before writing anything leaves no folder behind
             with contextlib.suppress(OSError):
                 campaign.output.rmdir()  # only when empty
+
+
+JUNIT_CODE = "C703"
+
+
+def check_junit_destination(junit: Path | None, inputs: Iterable[Path | None],
+                            outputs: Iterable[Path]) -> None:
+    """Refuse (``C703``, exit 2) a JUnit destination that names an input of the command (the
+    campaign, its rulebook, FMU, terrain file; a results file re-scored), one of the files it
+    writes (``results.h5``, ``summary.json``, the report …), or any existing file that is not
+    a JUnit report: the file given is set aside as ``*.previous.*`` and replaced by XML, so a
+    slip of the argument would put XML where the campaign or its results were."""
+    if junit is None:
+        return
+    target = junit.resolve()
+    for path in [*inputs, *outputs]:
+        if path is not None and path.resolve() == target:
+            raise UserInputError(error(
+                JUNIT_CODE, f"--junit {junit} is a file this command reads or writes "
+                            f"({path}); it would be replaced by the JUnit report",
+                Span(str(junit)), hint="give the JUnit report a file of its own, e.g. "
+                                       "--junit junit.xml"))
+    if target.is_file() and not _is_junit_report(target):
+        raise UserInputError(error(
+            JUNIT_CODE, f"--junit {junit} is an existing file that is not a JUnit report; "
+                        "it would be replaced (set aside as "
+                        f"{previous_path(junit).name})", Span(str(junit)),
+            hint="give a new file name, or delete the file first if it is meant to go"))
+
+
+def _is_junit_report(path: Path) -> bool:
+    """Whether an existing file is a JUnit XML report (ours or another tool's): an XML
+    document whose first element is ``testsuites`` or ``testsuite``."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(4096)
+    except OSError:
+        return False
+    text = head.decode("utf-8", errors="replace").lstrip("\ufeff \t\r\n")
+    if text.startswith("<?xml"):
+        text = text[text.find("?>") + 2:].lstrip() if "?>" in text else ""
+    while text.startswith("<!--"):  # comments before the first element
+        end = text.find("-->")
+        text = text[end + 3:].lstrip() if end >= 0 else ""
+    return text.startswith(("<testsuites", "<testsuite"))
+
+
+def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:
+    """What a campaign run reads (its files) and writes (its output folder's files and what
+    they are set aside as)."""
+    inputs: list[Path | None] = [campaign.source, campaign.rulebook, campaign.fmu, campaign.dem]
+    written = [RESULTS_FILE, SUMMARY_FILE, REPORT_FILE, TERRAIN_FILE]
+    outputs = [campaign.output / name for name in written]
+    outputs += [previous_path(path) for path in outputs]
+    return inputs, outputs
 
 
 def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
@@ -442,6 +498,11 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
     The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
     writes there); the ``summary.json`` and JUnit file this rewrites are set aside first."""
     output = out or results.parent
+    check_junit_destination(junit, [results, rulebook],
+                            [output / name for name in (SUMMARY_FILE, REPORT_FILE)]
+                            + [previous_path(output / name)
+                               for name in (SUMMARY_FILE, REPORT_FILE)]
+                            + [previous_path(results)])
     with contextlib.ExitStack() as owned:
         notes = []
         if results.parent.is_dir() and os.access(results.parent, os.W_OK):
