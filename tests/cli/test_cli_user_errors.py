@@ -417,6 +417,21 @@ CASES = [
          campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {cell: "0 cm"}\n'
                              'paths:')), RUN, 2,
          ("campaign.yaml:16:23: error[C100]: environment.terrain.synthetic.cell",)),
+    # ----------------------------------------------------------------- YAML values
+    # a scalar the safe constructor cannot read as what its form or tag says
+    *(Case(f"yaml-{name}", campaign(("name: cli", f"name: {value}")), RUN, 2,
+           (f"campaign.yaml:1:7: error[C000]: invalid YAML: {shown} is not a valid {kind}",
+            "hint: quote it to keep it as text"))
+      for name, value, shown, kind in (
+          ("no-such-day", "2024-02-30", "'2024-02-30'", "timestamp"),
+          ("no-such-hour", "2024-01-01 25:00:00", "'2024-01-01 25:00:00'", "timestamp"),
+          ("int-tag", '!!int "abc"', "'abc'", "int"),
+          ("int-tag-hex", "!!int 0x", "'0x'", "int"),
+          ("float-tag", '!!float "abc"', "'abc'", "float"),
+          ("bool-tag", '!!bool "maybe"', "'maybe'", "bool"),
+          ("timestamp-tag", '!!timestamp "nope"', "'nope'", "timestamp"))),
+    Case("yaml-bad-date-as-a-key", campaign(append="2024-02-30: x\n"), RUN, 2,
+         ("error[C000]: invalid YAML: '2024-02-30' is not a valid timestamp",)),
     # ----------------------------------------------------------------- output folder
     Case("output-is-a-file", campaign(("output: out", "output: test.rules")), RUN, 2,
          ("campaign.yaml:5:9: error[C205]: output folder", "test.rules cannot be used: it is a "

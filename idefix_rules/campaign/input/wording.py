@@ -105,8 +105,9 @@ class DisplayUnits:
         """The units a campaign's author wrote: command fields and uncertain parameters."""
         try:
             data = yaml.safe_load(text) or {}
-        except yaml.YAMLError:
-            return cls()
+        except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
+                AttributeError):
+            return cls()  # (load_yaml said what is wrong where it read the campaign)
         found: dict[str, str] = {}
         if not isinstance(data, Mapping):
             return cls()

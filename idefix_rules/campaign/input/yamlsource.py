@@ -84,7 +84,7 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
             self.flatten_mapping(node)
             result: dict[Any, Any] = {}
             for key_node, value_node in node.value:
-                key = (self.construct_object(key_node, deep=True)
+                key = (self._scalar(key_node, source_map)
                        if isinstance(key_node, yaml.ScalarNode) else None)
                 if not isinstance(key, str | int):
                     raise UserInputError(error(
@@ -104,7 +104,7 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
         if isinstance(node, yaml.SequenceNode):
             return [self.construct_with_locations(item, source_map, (*loc, index))
                     for index, item in enumerate(node.value)]
-        value = self.construct_object(node, deep=True)
+        value = self._scalar(node, source_map)
         if isinstance(value, float) and underflows(str(node.value).replace("_", ""), value):
             # YAML reads `1.0e-400` as 0.0: refused here, where what was written is known
             where = "".join(f"[{part}]" if isinstance(part, int) else f".{part}"
@@ -116,6 +116,25 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
                      node.end_mark.line + 1, node.end_mark.column + 1),
                 hint="write 0 if zero is meant"))
         return value
+
+
+    def _scalar(self, node: yaml.Node, source_map: SourceMap) -> Any:
+        """A scalar's value, or a diagnostic at it where the safe constructor refuses what the
+        scalar's form or tag promises: a date that is no date (``2024-02-30``, resolved as a
+        timestamp), ``!!int "abc"``, ``!!float "x"``, ``!!bool "maybe"``."""
+        try:
+            return self.construct_object(node, deep=True)
+        except (ValueError, TypeError, ArithmeticError, LookupError, AttributeError) as failure:
+            # (PyYAML's constructors raise these for a scalar they cannot read, a KeyError for
+            # `!!bool maybe`, an AttributeError for `!!timestamp nope`)
+            kind = str(node.tag).rsplit(":", 1)[-1]
+            why = f" ({failure})" if isinstance(failure, ValueError | ArithmeticError) else ""
+            raise UserInputError(error(
+                "C000", f"invalid YAML: {node.value!r} is not a valid {kind}{why}",
+                Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1,
+                     node.end_mark.line + 1, node.end_mark.column + 1),
+                hint=f"quote it to keep it as text (\"{node.value}\"), or write a valid "
+                     f"{kind}")) from None
 
 
 def load_yaml(text: str, path: str) -> YamlDocument:
