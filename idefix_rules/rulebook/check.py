@@ -23,6 +23,7 @@ from idefix_rules.rulebook.judging import MARGIN_RANGE, verdict_margins
 from idefix_rules.rulebook.model import (
     Expr,
     Index,
+    Reduce,
     Rulebook,
 )
 from idefix_rules.rulebook.types import (
@@ -32,7 +33,7 @@ from idefix_rules.rulebook.types import (
     ExprType,
     Scope,
 )
-from idefix_rules.rulebook.walk import names_in, rulebook_expressions
+from idefix_rules.rulebook.walk import names_in, nodes, rulebook_expressions
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, describe
 
 _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
@@ -542,6 +543,36 @@ def warn_zero_weights(env: CheckEnv) -> list[Diagnostic]:
             for i in env.rulebook.indices if env.weights.get(i.name) == 0.0]
 
 
+def check_command_windows(env: CheckEnv) -> list[Diagnostic]:
+    """``during command K`` selects the samples of the K-th command (1-based, ``command ==
+    K - 1``): K must be a whole number from 1. ``during command 0`` would select the samples
+    after the chain (``command == -1``) and 1.5 the second command, both silently."""
+    problems: list[Diagnostic] = []
+    for top in rulebook_expressions(env.rulebook):
+        for node in nodes(top):
+            if not (isinstance(node, Reduce) and node.window is not None
+                    and node.window.kind == "command"):
+                continue
+            found = infer_type(node.window.value, scope_of("constant", env.rulebook,
+                                                          env.constant_types), [])
+            if found is None or found.dimension != DIMENSIONLESS or found.axes:
+                continue  # not a number: E204 says so
+            try:
+                value = fold(node.window.value, env.constants)
+            except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
+                continue  # its type check (or its constant's) says what is wrong
+            if isinstance(value, dict):
+                continue
+            number = float(value)
+            if not (math.isfinite(number) and number >= 1 and number == math.floor(number)):
+                shown = f"{number:g}"
+                problems.append(error(
+                    "E310", f"'during command {shown}': commands are counted from 1, by whole "
+                            "numbers", node.window.span,
+                    "the first command is 'during command 1'"))
+    return problems
+
+
 CHECKS: tuple[Check, ...] = (
     check_header,
     check_names,
@@ -551,6 +582,7 @@ CHECKS: tuple[Check, ...] = (
     check_command_rules,
     check_indices,
     check_chances,
+    check_command_windows,
     check_combine,
     check_prescreens,
     check_verdicts,

@@ -164,6 +164,22 @@ def test_window_needs_a_duration_and_only_applies_to_time():
     assert codes(book) == ["E305"]
 
 
+@pytest.mark.parametrize(("command", "expected"), [
+    (Number(1), []), (Number(3), []), (Name("second"), []),
+    (Number(0), ["E310"]),  # the samples after the chain (command == -1)
+    (Number(1.5), ["E310"]), (Number(0.999), ["E310"]), (Number(1.001), ["E310"]),
+    (Binary("-", Name("second"), Number(2)), ["E310"]),  # a constant expression: 0
+    (Number(2, "s"), ["E204"]),  # not a number at all: said once
+])
+def test_a_command_window_counts_whole_commands_from_one(command, expected):
+    windowed = Reduce("max", "time", Reduce("max", "wheels", Call("abs", (Name("wheel.slip"),))),
+                      window=Window("command", command))
+    book = rulebook(constants=(Constant("critical_slip", Number(70, "%")),
+                               Constant("second", Number(2))),
+                    indices=(Index("I_s", windowed, Name("critical_slip"), Number(1)),))
+    assert codes(book) == expected
+
+
 def test_obstacle_levels_resolve_and_classify():
     levels = (
         ObstacleLevel("L1", Number(3, "cm"), Number(2, "cm")),
