@@ -16,6 +16,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -283,6 +284,12 @@ def load_dem(path: str | Path, cell: float | None = None,
                       "which are never loaded") if "pickle" in str(exc) else str(exc)
             raise UserInputError(error("F203", f"cannot read DEM: {reason}", Span(str(path)))) \
                 from None
+        # numbers only: text, bytes, records, dates, times or complex values are no heights
+        # (a cast would fail, or take a date for its day count, or drop an imaginary part)
+        if heights.dtype.kind not in "biuf":
+            raise UserInputError(error(
+                "F203", f"cannot read DEM: the array holds {_dtype_words(heights.dtype)}, "
+                        "not numbers (heights in metres)", Span(str(path))))
     else:
         heights = _read_csv(path)
     heights = np.asarray(heights, dtype=float)
@@ -293,6 +300,13 @@ def load_dem(path: str | Path, cell: float | None = None,
     if origin is None:
         origin = (-(nx - 1) * cell / 2, -(ny - 1) * cell / 2)
     return Terrain(heights, origin, cell, tuple(rocks))
+
+
+def _dtype_words(dtype: np.dtype[Any]) -> str:
+    """What an array of ``dtype`` holds, in words (``text (<U1)``)."""
+    words = {"U": "text", "S": "bytes", "V": "records", "M": "dates", "m": "time spans",
+             "c": "complex numbers", "O": "Python objects"}
+    return f"{words.get(dtype.kind, 'values')} ({dtype.str})"
 
 
 def _read_csv(path: Path) -> np.ndarray:

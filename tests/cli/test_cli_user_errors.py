@@ -100,6 +100,14 @@ def _npy_of_objects() -> bytes:
 
 NPY_OBJECTS = _npy_of_objects()  # a .npy of pickled Python objects: never loaded
 
+
+def _npy(array: np.ndarray) -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()
+
 TERRAIN_HEADER = "IDEFIX-TERRAIN 1\nnx 3\nny 3\norigin -1.0 -1.0\ncell 1.0\nrocks 0\nheights\n"
 
 
@@ -393,6 +401,19 @@ CASES = [
                               "    cell: \"1 m\"\npaths:")), site__npy=NPY_OBJECTS), RUN, 2,
          ("site.npy: error[F203]: cannot read DEM: not an array of numbers: numpy reads it as "
           "pickled Python objects, which are never loaded",), absent=("allow_pickle",)),
+    # arrays of something else than numbers: a cast fails, takes a date for its day count or
+    # drops an imaginary part
+    *(Case(f"dem-npy-of-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                                "    cell: \"1 m\"\npaths:")), site__npy=_npy(array)), RUN, 2,
+           (f"site.npy: error[F203]: cannot read DEM: the array holds {words}, not numbers",))
+      for name, array, words in (
+          ("text", np.array([["a", "b"], ["c", "d"]]), "text (<U1)"),
+          ("bytes", np.array([[b"a", b"b"], [b"c", b"d"]]), "bytes (|S1)"),
+          ("records", np.zeros((2, 2), dtype=[("h", "<f8")]), "records (|V8)"),
+          ("dates", np.array([["2024-01-01"] * 2] * 2, dtype="datetime64[D]"),
+           "dates (<M8[D])"),
+          ("complex", np.ones((2, 2), dtype=complex), "complex numbers (<c16)"))),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),

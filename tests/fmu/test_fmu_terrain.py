@@ -88,6 +88,15 @@ def test_npy_and_csv_dems_load_with_their_cell(tmp_path: Path) -> None:
         load_dem(tmp_path / "dem.npy")
 
 
+@pytest.mark.parametrize("dtype", [np.int16, np.uint8, np.float32, np.bool_])
+def test_an_npy_dem_of_whole_or_single_precision_numbers_loads(tmp_path: Path, dtype) -> None:
+    grid = (np.arange(12).reshape(3, 4) % 2).astype(dtype)
+    np.save(tmp_path / "dem.npy", grid)
+    terrain = load_dem(tmp_path / "dem.npy", cell=0.5)
+    assert terrain.heights.dtype == np.float64
+    np.testing.assert_array_equal(terrain.heights, grid.astype(float))
+
+
 def test_height_at_interpolates_bilinearly() -> None:
     terrain = Terrain(np.array([[0.0, 1.0], [2.0, 3.0]]), (0.0, 0.0), 1.0)
     assert float(terrain.height_at(0.5, 0.5)) == pytest.approx(1.5)
