@@ -282,6 +282,13 @@ CASES = [
           "most 8",)),
     Case("campaign-path-name-with-a-slash", campaign(("  arc:", "  arc/left:")), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.arc/left: path name 'arc/left' is not usable",)),
+    Case("campaign-path-name-too-long", campaign(("  arc:", f"  {'p' * 101}:")), RUN, 2,
+         ("campaign.yaml:17:3: error[C100]:", "is not usable: give a non-empty name of at "
+          "most 100 characters",)),
+    Case("campaign-path-name-with-a-nul", campaign(("  arc:", '  "a\\0b":')), RUN, 2,
+         ("campaign.yaml:17:3: error[C100]:", "path name 'a\\x00b' is not usable",)),
+    Case("campaign-path-name-with-a-tab", campaign(("  arc:", '  "a\\tb":')), RUN, 2,
+         ("campaign.yaml:17:3: error[C100]:", "path name 'a\\tb' is not usable",)),
     Case("campaign-empty-path-name", campaign(("  arc:", '  "":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.: path name '' is not usable",)),
     Case("campaign-a-billion-runs", campaign(("runs: 6", "runs: 1000000000")), RUN, 2,

@@ -122,3 +122,14 @@ def test_maps_use_the_per_sample_risk_of_the_stored_rulebook(synthetic_results: 
     # Box plots: final local error of every complete run, finite and non-negative.
     assert straight.final_local_error is not None and straight.final_local_error.size == 4
     assert (straight.final_local_error >= 0).all()
+
+
+def test_no_two_paths_share_a_figure_file_whatever_their_names() -> None:
+    from idefix_rules.report import _safe
+
+    names = ["straight", "arc left", "arc_left", "arc?left", "all", "p" * 100, "p" * 99 + "q",
+             "détour", "detour"]
+    files = [f"risk_map_{_safe(name)}.png" for name in names]
+    assert len(set(files)) == len(files) and "risk_map_all.png" not in files
+    assert files[0] == "risk_map_straight.png" and files[2] == "risk_map_arc_left.png"
+    assert all(len(file) <= 100 and re.fullmatch(r"[A-Za-z0-9._-]+", file) for file in files)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import unicodedata
 from dataclasses import dataclass
 from datetime import date
 from typing import Annotated, Any, Literal
@@ -442,11 +443,20 @@ class SimulationSection(Strict):
     extra_time: Duration = Field(default=5.0, ge=0)
 
 
+MAX_PATH_NAME = 100  # characters: a name for people, and a part of figure file names
+
+
 def _path_name(value: Any) -> Any:
     # Path names become HDF5 group names, file names of figures and JUnit test names.
-    if isinstance(value, str) and (not value.strip() or "/" in value or value in (".", "..")):
+    if isinstance(value, str) and (
+            not value.strip() or "/" in value or value in (".", "..")
+            or len(value) > MAX_PATH_NAME
+            or any(unicodedata.category(c) in ("Cc", "Cs") for c in value)):
+        shown = repr(value if len(value) <= 40 else value[:37] + "...")
         raise PydanticCustomError("path_name", "path name {name} is not usable: give a "
-                                  "non-empty name without '/'", {"name": repr(value)})
+                                  "non-empty name of at most {most} characters, without '/' "
+                                  "or control characters", {"name": shown,
+                                                            "most": MAX_PATH_NAME})
     return value
 
 
