@@ -365,6 +365,21 @@ CASES = [
     Case("fmu-parameter-of-wrong-dimension", campaign(("low: 0.05, high: 0.25",
                                                        'low: "1 m", high: "2 m"')), RUN, 2,
          ("campaign.yaml:13:15: error[C402]: uncertainty.parameters.toy.slip: expected a ratio",)),
+    # the chain delivery sets these from each path's commands: a value here never counts
+    Case("regolith-sets-a-chain-parameter",
+         campaign(("paths:", 'environment:\n  regolith:\n    chain.max_wheel_rate[0]: '
+                             '"0.5 rad/s"\npaths:')), RUN, 2,
+         ("campaign.yaml:16:5: error[C515]: environment.regolith.chain.max_wheel_rate[0]: "
+          "'chain.max_wheel_rate[0]' is set by each run's command chain",)),
+    Case("regolith-sets-the-chain-count",
+         campaign(("paths:", "environment:\n  regolith: {chain.count: 0}\npaths:")), RUN, 2,
+         ("error[C515]: environment.regolith.chain.count: 'chain.count' is set by each run's "
+          "command chain",)),
+    Case("uncertainty-draws-a-chain-parameter",
+         campaign(("    toy.slip:", '    chain.delta_position[0]: {distribution: uniform, '
+                                     'low: "1 m", high: "2 m"}\n    toy.slip:')), RUN, 2,
+         ("error[C515]: uncertainty.parameters.chain.delta_position[0]: "
+          "'chain.delta_position[0]' is set by each run's command chain",)),
     Case("regolith-value-of-wrong-dimension",
          campaign(("paths:", 'environment:\n  regolith: {toy.slip: "5 cm"}\npaths:')), RUN, 2,
          ("campaign.yaml:15:24: error[C402]: environment.regolith.toy.slip: expected a ratio "

@@ -9,6 +9,7 @@ rest of the FMU mapping is checked by :mod:`idefix_rules.campaign.input.fmu_chec
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from idefix_rules.campaign.input.load import (
 )
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
+from idefix_rules.fmu.runner import CHAIN_ARRAYS, CHAIN_COUNT
 from idefix_rules.units import Dimension, describe
 
 # Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
@@ -55,7 +57,16 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     written = campaign.model.environment.regolith_dimensions
     entries += [(("environment", "regolith", key), regolith_parameter(key), written.get(key))
                 for key in campaign.model.environment.regolith]
+    chain_set = fmu.chain.delivery == "parameters"
     for loc, name, dimension in entries:
+        if chain_set and is_chain_parameter(name):
+            problems.append(error(
+                "C515", f"{format_loc(loc)}: {name!r} is set by each run's command chain (the "
+                        "chain delivery 'parameters'); a value given here would be overwritten",
+                campaign.locations.span(loc, at_key=True),
+                hint="give the commands in the campaign's paths; an FMU that takes its chain "
+                     "otherwise says so with fmu.chain.delivery: inputs or none"))
+            continue
         if name not in parameter_names:
             variable = variables.get(name)
             problems.append(_not_settable(campaign, loc, variable) if variable is not None
@@ -79,6 +90,18 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
                         f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
     return problems
+
+
+def is_chain_parameter(name: str) -> bool:
+    """Whether a campaign parameter is one the chain delivery ``parameters`` sets itself.
+
+    >>> [is_chain_parameter(n) for n in ("chain.count", "chain.delta_heading[3]",
+    ...                                  "chain.delta_heading", "soil.n")]
+    [True, True, False, False]
+    """
+    return name == CHAIN_COUNT or re.fullmatch(
+        r"(" + "|".join(re.escape(array) for array in CHAIN_ARRAYS) + r")\[\d+\]",
+        name) is not None
 
 
 def _not_settable(campaign: Campaign, loc: tuple[str, ...], variable: FmuVariable
