@@ -196,3 +196,17 @@ def test_the_largest_seed_is_accepted(tmp_path: Path) -> None:
     text = GOOD.replace("seed: 3", f"seed: {2**64 - 1}").replace("seed: 4}", f"seed: {2**64 - 1}}}")
     campaign = load_campaign(write(tmp_path, text))
     assert campaign.seed == 2**64 - 1
+
+
+@pytest.mark.parametrize(("slope", "ok"), [("0 deg", True), ("89.99 deg", True),
+                                           ("90 deg", False), ("-0.01 deg", False)])
+def test_a_synthetic_slope_is_an_inclination_from_0_to_under_90_degrees(slope, ok):
+    from pydantic import ValidationError
+
+    from idefix_rules.campaign.input.schema import SyntheticTerrain
+
+    if ok:
+        assert SyntheticTerrain.model_validate({"slope": slope}).slope >= 0.0
+    else:
+        with pytest.raises(ValidationError, match="inclination from 0 deg to under 90 deg"):
+            SyntheticTerrain.model_validate({"slope": slope})

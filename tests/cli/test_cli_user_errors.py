@@ -451,6 +451,20 @@ CASES = [
                              'radius: "-4 cm"}\npaths:')), RUN, 2,
          ("campaign.yaml:16:36: error[C100]: environment.rocks[0].radius: Input should be "
           "greater than 0",)),
+    *(Case(f"synthetic-terrain-slope-{name}",
+           campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
+                               f'      slope: "{value}"\npaths:')), RUN, 2,
+           ("campaign.yaml:17:14: error[C100]: environment.terrain.synthetic.slope: expected an "
+            f"inclination from 0 deg to under 90 deg (slope_direction gives the way it falls), "
+            f"got {shown} deg",))
+      for name, value, shown in (("a-wall", "90 deg", "90"), ("past-a-wall", "100 deg", "100"),
+                                 ("negative", "-2 deg", "-2"),
+                                 ("in-radians", "1.6 rad", "91.6732"))),
+    Case("synthetic-terrain-negative-roughness",
+         campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
+                             '      roughness: "-3 mm"\npaths:')), RUN, 2,
+         ("campaign.yaml:17:18: error[C100]: environment.terrain.synthetic.roughness: Input "
+          "should be greater than or equal to 0",)),
     Case("synthetic-terrain-too-large",
          campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 km", '
                              'cell: "1 mm"}\npaths:')), RUN, 2,

@@ -141,12 +141,22 @@ class FmuSection(Strict):
 MAX_TERRAIN_NODES = 16_000_000
 
 
+def _inclination(value: float) -> float:
+    """A plane's inclination: from 0 to under 90 deg (``slope_direction`` says which way it
+    falls; at 90 deg the plane is a wall, its heights infinite)."""
+    if not 0.0 <= value < math.pi / 2:
+        raise PydanticCustomError("slope", "expected an inclination from 0 deg to under 90 "
+                                  "deg (slope_direction gives the way it falls), got {got} deg",
+                                  {"got": f"{math.degrees(value):g}"})
+    return value
+
+
 class SyntheticTerrain(Strict):
     size: Length = Field(default=4.0, gt=0)
     cell: Length = Field(default=0.02, gt=0)
-    slope: Angle = 0.0
+    slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
     slope_direction: Angle = 0.0
-    roughness: Length = 0.0
+    roughness: Length = Field(default=0.0, ge=0.0)  # the height's standard deviation
     seed: Seed = 0
 
     @model_validator(mode="after")
