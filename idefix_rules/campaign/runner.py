@@ -26,6 +26,7 @@ from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
 from idefix_rules.campaign.evaluation.spread import spread_warnings
 from idefix_rules.campaign.input import waivers
+from idefix_rules.campaign.input.areas import unplaced_area_warnings
 from idefix_rules.campaign.input.environment import TERRAIN_FILE, build_terrain, write_terrain
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
@@ -566,6 +567,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                            store.attrs.get("min_runs") if adaptive else None)
     _warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
+    result.warnings.extend(unplaced_area_warnings(stub, evaluator))
     if state != "complete":  # its missing runs count as failed: say why
         result.warnings.append(
             f"{results} holds a campaign that is {state}: runs never simulated count as "

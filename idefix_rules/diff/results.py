@@ -318,12 +318,23 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         timings["total"] = time.perf_counter() - started
         return ResultsFileDiff(str(path), str(store.attrs.get("campaign_name", "")), paths,
                                rankings[0], rankings[1], collisions.describe(), timings,
-                               tuple(collisions.warnings),
+                               (*collisions.warnings, *_unplaced_areas(stored, evaluators)),
                                tuple(label for i, label in enumerate(("old", "new"))
                                      if i in reused))
     finally:
         runs.close()
         stored.close()
+
+
+def _unplaced_areas(stored: StoredCampaign, evaluators: Sequence[Any]) -> list[str]:
+    """C210 for each side: an area its rulebook declares that the stored campaign gives no
+    polygons (its signals are 0 in every run: a rule reading them holds vacuously)."""
+    from idefix_rules.campaign.input.areas import unplaced_area_warnings
+
+    campaign = stored.require_campaign()
+    return [f"{label} rulebook: {text}" for label, evaluator in zip(("old", "new"), evaluators,
+                                                                     strict=True)
+            for text in unplaced_area_warnings(campaign, evaluator)]
 
 
 def _stored_side(stored: StoredCampaign, name: str, side: _Side, digest: str) -> bool:

@@ -156,3 +156,33 @@ def test_a_declared_area_without_polygons_is_a_warning(areas_dir: Path, capsys,
     captured = capsys.readouterr()
     assert "C210" in captured.out + captured.err
     assert "'dark'" in captured.out + captured.err
+
+
+def test_scoring_stored_runs_with_a_rulebook_of_areas_the_campaign_never_placed_warns(
+        areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """evaluate --rulebook and diff --results say C210 as a run does: the new rulebook's
+    keep-out rule holds in every run only because the campaign gave its area no polygons."""
+    text = CAMPAIGN.replace(
+        '    dark:\n      polygons: [[["0.55 m", "0.5 m"], ["1 m", "0.5 m"], ["1 m", "1 m"]]]\n',
+        "")
+    (areas_dir / "campaign.yaml").write_text(text)
+    (areas_dir / "placed.rules").write_text(RULEBOOK.replace(
+        '  area dark unknown level L2 buffer 30 cm because "Not seen by the navigation cameras"\n',
+        "").replace("chance near_dark = any over time (area.dark.buffer > 0)\n", "").replace(
+        "chance entered_dark = any over time (area.dark.inside > 0)\n", ""))
+    (areas_dir / "campaign.yaml").write_text(text.replace("rulebook: areas.rules",
+                                                          "rulebook: placed.rules"))
+    assert run(areas_dir, monkeypatch) == 1
+    assert "C210" not in "".join(capsys.readouterr())  # every area of its rulebook placed
+    results = str(areas_dir / "out" / "results.h5")
+    rulebooks = [str(areas_dir / "placed.rules"), str(areas_dir / "areas.rules")]
+    # crater_kept fails under either rulebook: evaluate exits 1, diff 0 (no verdict changes)
+    for argv, code in ((["evaluate", results, "--rulebook", rulebooks[1]], 1),
+                       (["diff", *rulebooks, "--results", results], 0)):
+        assert main(argv) == code
+        output = "".join(capsys.readouterr())
+        flat = " ".join(output.split())
+        assert "[C210] the rulebook declares the unknown area 'dark', which this campaign " \
+               "gives no polygons" in flat, output
+        assert ("new rulebook: " in flat) == (argv[0] == "diff")
+        assert "area 'crater'" not in flat
