@@ -85,9 +85,13 @@ def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
             or not np.all(np.isfinite(points)):
         raise UserInputError(error("E622", f"area {name}: a polygon needs at least 3 finite "
                                            "(x, y) vertices"))
+    if _edges_cross(points):
+        raise UserInputError(error("E622", f"area {name}: polygon is not simple (its edges "
+                                           "cross)"))
     area2 = _signed_area2(points)
     if abs(area2) < 1e-12:
-        raise UserInputError(error("E622", f"area {name}: polygon has no area"))
+        raise UserInputError(error("E622", f"area {name}: polygon has no area (its vertices "
+                                           "lie on a line)"))
     if area2 < 0:
         points = points[::-1]
     pieces = tuple(_prism(points[list(tri)], ground_z) for tri in _ear_clip(points, name))
@@ -147,6 +151,31 @@ def _runs(row: np.ndarray) -> list[tuple[int, int]]:
     padded = np.concatenate([[False], row, [False]]).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _edges_cross(points: np.ndarray) -> bool:
+    """Whether two edges of the closed polygon that share no vertex cross each other (a
+    bow-tie); edges that only touch along a line (vertices on one line) are left to the area.
+
+    >>> _edges_cross(np.array([(0, 0), (1, 1), (1, 0), (0, 1)], float))
+    True
+    >>> _edges_cross(np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float))
+    False
+    """
+    count = len(points)
+
+    def side(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+        return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+    for i in range(count):
+        a, b = points[i], points[(i + 1) % count]
+        for j in range(i + 2, count):
+            if i == 0 and j == count - 1:
+                continue  # the closing edge shares vertex 0 with edge 0
+            c, d = points[j], points[(j + 1) % count]
+            if side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0:
+                return True
+    return False
 
 
 def _signed_area2(points: np.ndarray) -> float:

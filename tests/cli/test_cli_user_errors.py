@@ -465,6 +465,30 @@ CASES = [
                              '      roughness: "-3 mm"\npaths:')), RUN, 2,
          ("campaign.yaml:17:18: error[C100]: environment.terrain.synthetic.roughness: Input "
           "should be greater than or equal to 0",)),
+    # environment mistakes at the line that says them
+    Case("keep-out-bow-tie", campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
+                                                 '      polygon: [["0 m", "0 m"], ["1 m", "1 m"], '
+                                                 '["1 m", "0 m"], ["0 m", "1 m"]]\npaths:')),
+         RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
+                  "polygon is not simple (its edges cross)",)),
+    Case("keep-out-on-a-line", campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
+                                                   '      polygon: [["0 m", "0 m"], ["1 m", "1 m"],'
+                                                   ' ["2 m", "2 m"]]\npaths:')),
+         RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
+                  "polygon has no area",)),
+    Case("keep-out-names-twice",
+         campaign(("paths:", "environment:\n  keep_out:\n"
+                             '    - {name: k, polygon: [["0 m", "0 m"], ["1 m", "0 m"], '
+                             '["1 m", "1 m"]]}\n'
+                             '    - {name: k, polygon: [["2 m", "0 m"], ["3 m", "0 m"], '
+                             '["3 m", "1 m"]]}\npaths:')),
+         RUN, 2, ("campaign.yaml:17:14: error[E613]: environment.keep_out[1]: the name 'k' is "
+                  "taken by keep_out[0]",)),
+    Case("rock-levels-reversed",
+         campaign(("paths:", 'environment:\n  rock_levels: {l1_max_size: "10 cm", '
+                             'l2_max_size: "3 cm"}\npaths:')),
+         RUN, 2, ("campaign.yaml:15:16: error[E611]: environment.rock_levels: need 0 < "
+                  "l1_max_size <= l2_max_size, got 0.1 m and 0.03 m",)),
     Case("synthetic-terrain-too-large",
          campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 km", '
                              'cell: "1 mm"}\npaths:')), RUN, 2,

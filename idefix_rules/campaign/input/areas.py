@@ -52,6 +52,7 @@ def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
                     "C209", f"environment.areas.{name}.polygons[{number}]: "
                     f"{failure.diagnostics[0].message}",
                     campaign.locations.span((*loc, "polygons", number))))
+    problems += _keep_out_problems(campaign) + _rock_level_problems(campaign)
     for name, spec in declared.items():
         if spec.kind != "steep" and name not in given:
             problems.append(warning(
@@ -73,3 +74,39 @@ def unplaced_area_warnings(campaign: Campaign, evaluator: Any) -> list[str]:
 
     return describe_warnings([problem for problem in area_problems(campaign, evaluator)
                               if problem.code == "C210"], {str(campaign.source): campaign.text})
+
+
+def _keep_out_problems(campaign: Campaign) -> list[Diagnostic]:
+    """``environment.keep_out``: each polygon simple and with area, each name once (E622,
+    E613), at the line that says it."""
+    from idefix_rules.obstacles.areas import polygon_area
+
+    problems: list[Diagnostic] = []
+    seen: dict[str, int] = {}
+    for number, area in enumerate(campaign.model.environment.keep_out):
+        loc: tuple[str | int, ...] = ("environment", "keep_out", number)
+        if area.name in seen:
+            problems.append(error(
+                "E613", f"environment.keep_out[{number}]: the name {area.name!r} is taken by "
+                        f"keep_out[{seen[area.name]}]; obstacle names must be unique",
+                campaign.locations.span((*loc, "name"))))
+        seen.setdefault(area.name, number)
+        try:
+            polygon_area([tuple(point) for point in area.polygon], area.level, area.name)
+        except UserInputError as failure:
+            problems.append(error(
+                "E622", f"environment.keep_out[{number}].polygon: "
+                        f"{failure.diagnostics[0].message}",
+                campaign.locations.span((*loc, "polygon"))))
+    return problems
+
+
+def _rock_level_problems(campaign: Campaign) -> list[Diagnostic]:
+    """``environment.rock_levels``: 0 < l1_max_size <= l2_max_size (E611) at its line."""
+    levels = campaign.model.environment.rock_levels
+    if levels is None or 0 < levels.l1_max_size <= levels.l2_max_size:
+        return []
+    return [error("E611", f"environment.rock_levels: need 0 < l1_max_size <= l2_max_size, got "
+                          f"{levels.l1_max_size:g} m and {levels.l2_max_size:g} m",
+                  campaign.locations.span(("environment", "rock_levels")),
+                  "a level-1 rock is a small one: its largest size is the smaller")]
