@@ -320,6 +320,12 @@ def check_obstacle_levels(env: CheckEnv) -> list[Diagnostic]:
         if level.below is None and not last:
             problems.append(error("E405", f"level {level.level} needs a size threshold "
                                   "('below …'): only the highest level may omit it", level.span))
+        if level.below is not None and last and level.level == LEVELS[-1]:
+            problems.append(error(
+                "E405", f"level {level.level} holds every rock the levels below it do not: a "
+                        "size threshold ('below …') would never be used", level.below.span,
+                f"remove it: 'level {level.level} buffer …'"))
+            continue
         if below is not None:
             if below <= previous:
                 problems.append(error(
@@ -507,8 +513,18 @@ def check_verdict_margins(env: CheckEnv) -> list[Diagnostic]:
 
 
 def check_ranking(env: CheckEnv) -> list[Diagnostic]:
+    from idefix_rules.rulebook.format import format_expr
+
     problems: list[Diagnostic] = []
+    seen: dict[str, Any] = {}
     for key in env.rulebook.ranking.keys:
+        written = format_expr(key.expr)
+        if written in seen:  # a later key on the same statistic never decides anything
+            problems.append(error("E413", f"rank key '{written}' is given twice: the second "
+                                  "never orders what the first leaves tied", key.expr.span,
+                                  "give each statistic once, in the order that breaks ties"))
+            continue
+        seen[written] = key
         found = infer_type(key.expr, env.scope("path"), problems)
         if found is not None and (found.boolean or found.axes):
             problems.append(error("E304", "a rank key must be a path statistic (a number)",

@@ -234,5 +234,12 @@ def verdict_margins(rulebook: Rulebook, path_scope: Scope, constant_scope: Scope
             problems.append(error(MARGIN_RANGE, f"the indifference of verdict '{rule.name}' "
                                   "must be a finite margin of 0 or more", margin.span))
             continue
+        if found.dimension == DIMENSIONLESS and not float(value) < 0.5:
+            # as combine's verdict_indifference: a ratio verdict with a margin of half the
+            # scale or more could never be shown to pass (or to fail) across most of it
+            problems.append(error(MARGIN_RANGE, f"the indifference of verdict '{rule.name}' "
+                                  "must lie in [0 %, 50 %), as verdict_indifference",
+                                  margin.span, "e.g. indifference 1 % for a chance"))
+            continue
         margins[rule.name] = float(value)
     return margins

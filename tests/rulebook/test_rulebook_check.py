@@ -18,6 +18,8 @@ from idefix_rules.rulebook.model import (
     Name,
     Number,
     ObstacleLevel,
+    RankKey,
+    Ranking,
     Reduce,
     Rulebook,
     Select,
@@ -202,6 +204,19 @@ def test_obstacle_thresholds_must_increase():
     assert codes(rulebook(obstacle_levels=levels)) == ["E405"]
 
 
+def test_the_highest_level_takes_no_size_threshold():
+    """Every rock above L2's threshold is L3: a 'below' on L3 would be read as a limit that
+    is never applied (rocks above it stayed L3)."""
+    levels = (
+        ObstacleLevel("L1", Number(3, "cm"), Number(2, "cm")),
+        ObstacleLevel("L2", Number(10, "cm"), Number(5, "cm")),
+        ObstacleLevel("L3", Number(20, "cm"), Number(10, "cm")),
+    )
+    result = check(rulebook(obstacle_levels=levels))
+    assert [d.code for d in result.diagnostics] == ["E405"]
+    assert "would never be used" in result.diagnostics[0].message
+
+
 def test_settings_are_checked_and_defaulted():
     result = check(rulebook(settings=(Setting("tolerance_growth",
                                               Binary("/", Number(5, "cm"), Number(1, "rad"))),)))
@@ -262,3 +277,27 @@ def test_the_indifference_margin_is_a_ratio_below_half(margin, expected):
     (Number(50, "%"), "E410"), (Number(-1, "%"), "E410"), (Number(2, "cm"), "E204")])
 def test_an_indifference_margin_outside_its_range_or_not_a_ratio_is_an_error(margin, code):
     assert codes(rulebook(combine=Combine(indifference=margin))) == [code]
+
+
+@pytest.mark.parametrize(("keys", "expected"), [
+    ((RankKey(Name("risk")), RankKey(Name("time"))), []),
+    ((RankKey(Name("risk")), RankKey(Name("time")), RankKey(Name("risk"), True)), ["E413"]),
+    ((RankKey(Name("risk")), RankKey(Name("risk"))), ["E413"]),
+])
+def test_a_rank_key_is_given_once(keys, expected):
+    assert codes(rulebook(ranking=Ranking(keys))) == expected
+
+
+@pytest.mark.parametrize(("margin", "expected"), [
+    (Number(49.9, "%"), []), (Number(50, "%"), ["E412"]), (Number(80, "%"), ["E412"]),
+    (Number(0, "%"), []),
+])
+def test_a_ratio_verdicts_own_indifference_lies_below_half_the_scale(margin, expected):
+    verdict = VerdictRule("ok", Binary("<=", Name("risk"), Number(70, "%")), indifference=margin)
+    assert codes(rulebook(verdicts=(verdict,))) == expected
+
+
+def test_a_time_verdicts_indifference_may_be_any_duration():
+    verdict = VerdictRule("quick", Binary("<=", Name("time"), Number(10, "min")),
+                          indifference=Number(20, "min"))
+    assert codes(rulebook(verdicts=(VERDICT, verdict))) == []
