@@ -489,6 +489,16 @@ CASES = [
                              'l2_max_size: "3 cm"}\npaths:')),
          RUN, 2, ("campaign.yaml:15:16: error[E611]: environment.rock_levels: need 0 < "
                   "l1_max_size <= l2_max_size, got 0.1 m and 0.03 m",)),
+    # expectations that no path could break: a risk or chance above 100 %
+    *(Case(f"expect-{name}", campaign(append=f"expect:\n  - {{path: straight, {text}}}\n"),
+           RUN, 2, (f"campaign.yaml:{line}: error[C100]: expect[0].{where}: expected a risk or "
+                    f"chance from 0 to 100 %, got {shown} (a bare number is a fraction",))
+      for name, text, where, line, shown in (
+          ("mean-risk-bare-30", "max_mean_risk: 30", "max_mean_risk", "23:37", "3000 %"),
+          ("mean-risk-150-percent", 'max_mean_risk: "150 %"', "max_mean_risk", "23:37",
+           "150 %"),
+          ("collision-chance-150-percent", 'max_collision_chance: {L1: "150 %"}',
+           "max_collision_chance.L1", "23:49", "150 %"))),
     Case("synthetic-terrain-too-large",
          campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 km", '
                              'cell: "1 mm"}\npaths:')), RUN, 2,

@@ -369,14 +369,27 @@ class RankFirstExpectation(Strict):
     rank_first: str
 
 
+def _fraction(value: float) -> float:
+    """A risk or a chance: from 0 to 100 % (a bare number is the fraction itself: 0.3 is
+    30 %, 30 is 3000 %, which no path could exceed)."""
+    if not 0.0 <= value <= 1.0:
+        raise PydanticCustomError(
+            "fraction", "expected a risk or chance from 0 to 100 %, got {got} (a bare number "
+            "is a fraction: write \"30 %\" or 0.3)", {"got": f"{value * 100:g} %"})
+    return value
+
+
+Fraction = Annotated[Ratio, AfterValidator(_fraction)]
+
+
 class MeanRiskExpectation(Strict):
     path: str
-    max_mean_risk: Ratio = Field(ge=0)
+    max_mean_risk: Fraction
 
 
 class CollisionExpectation(Strict):
     path: str
-    max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Ratio]
+    max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Fraction]
 
 
 _EXPECTATION_KEYS = {
