@@ -194,6 +194,8 @@ def parse_case_file(text: str, path: str) -> CaseFile:
                                    "'cases'", Span(path, 1, 1)), {path: text})
     reader.unknown_keys(data, (), _TOP_KEYS)
     checked, rulebook_path = _rulebook(reader, data, path)
+    if checked is not None:
+        reader.areas = tuple(area.name for area in checked.areas)
     tolerance = DEFAULT_TOLERANCE
     if "tolerance" in data:
         given = reader.number(data["tolerance"], ("tolerance",), minimum=0.0)
@@ -250,6 +252,8 @@ class _Reader:
     def __init__(self, locations: SourceMap) -> None:
         self.locations = locations
         self.problems: list[Diagnostic] = []
+        # the rulebook's named areas (None: its rulebook could not be read)
+        self.areas: tuple[str, ...] | None = None
 
     def span(self, loc: Loc, at_key: bool = False) -> Span:
         return self.locations.span(loc, at_key)
@@ -465,6 +469,15 @@ def _signal_key(reader: _Reader, key: str, loc: Loc) -> tuple[str, str | None] |
         reader.fail("T004", f"{name!r} cannot be shaped by a case: it {why}", loc,
                     did_you_mean(name, list(SHAPEABLE)) or f"signals: {', '.join(SHAPEABLE)}",
                     at_key=True)
+        return None
+    area = signals.area_signal(name)
+    if area is not None and reader.areas is not None and area[0] not in reader.areas:
+        # a typo, or an area of another rulebook: its keyframes would be read by no rule
+        reader.fail("T004", f"{name!r} cannot be shaped by a case: the rulebook declares no "
+                    f"area {area[0]!r}" + (f" (it declares {', '.join(map(repr, reader.areas))})"
+                                           if reader.areas else ""), loc,
+                    did_you_mean(area[0], list(reader.areas)) if reader.areas else
+                    "declare it in the rulebook's obstacles block", at_key=True)
         return None
     if label is not None:
         axis = next((a for a in spec.axes if a != "time"), None)

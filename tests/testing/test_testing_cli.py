@@ -72,6 +72,10 @@ def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
     expect: {verdict: pass}
 """, "T004", ":7:15:", "did you mean 'wheel.slip'"),
     ("""  c:
+    signals: {"area.highly_inclned.inside": 1}
+    expect: {chances: {on_steep: false}}
+""", "T004", ":7:15:", "the rulebook declares no area 'highly_inclned'"),
+    ("""  c:
     signals: {roll: {0 s: 0 deg, 20 s: 20}}
     expect: {verdict: pass}
 """, "T005", ":7:", "must be an angle"),
