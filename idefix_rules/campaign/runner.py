@@ -567,7 +567,8 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                            store.attrs.get("min_runs") if adaptive else None)
     _warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
-    result.warnings.extend(unplaced_area_warnings(stub, evaluator))
+    result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),
+                                             {str(stub.source): stub.text}))
     if state != "complete":  # its missing runs count as failed: say why
         result.warnings.append(
             f"{results} holds a campaign that is {state}: runs never simulated count as "

@@ -330,11 +330,13 @@ def _unplaced_areas(stored: StoredCampaign, evaluators: Sequence[Any]) -> list[s
     """C210 for each side: an area its rulebook declares that the stored campaign gives no
     polygons (its signals are 0 in every run: a rule reading them holds vacuously)."""
     from idefix_rules.campaign.input.areas import unplaced_area_warnings
+    from idefix_rules.campaign.input.fmu_checks import describe_warnings
 
     campaign = stored.require_campaign()
     return [f"{label} rulebook: {text}" for label, evaluator in zip(("old", "new"), evaluators,
                                                                      strict=True)
-            for text in unplaced_area_warnings(campaign, evaluator)]
+            for text in describe_warnings(unplaced_area_warnings(campaign, evaluator),
+                                          {str(campaign.source): campaign.text})]
 
 
 def _stored_side(stored: StoredCampaign, name: str, side: _Side, digest: str) -> bool:

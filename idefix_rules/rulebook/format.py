@@ -19,7 +19,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from idefix_rules.errors import InfrastructureError
+from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
+from idefix_rules.limits import check_rulebook_text
 from idefix_rules.rulebook import model
 from idefix_rules.rulebook.parser import parse_rulebook
 
@@ -380,6 +381,15 @@ def formatted_text(source: str, path: str) -> str:
     """The canonical text of a rulebook; raises ``UserInputError`` on syntax errors."""
     rulebook = parse_rulebook(source, path)
     text = format_rulebook(rulebook)
+    try:
+        check_rulebook_text(text, path)
+    except UserInputError as failure:  # the file itself was within the limits
+        problem = failure.diagnostics[0]
+        raise UserInputError(error(
+            problem.code, f"formatted, {path} would be over a rulebook's limits "
+                          f"({problem.message}); the file is left as it is", Span(path),
+            hint="split long expressions into named constants, or the rulebook into two"),
+            failure.sources) from None
     if parse_rulebook(text, path) != rulebook:  # never write a file that means something else
         raise InfrastructureError(f"{path}: the formatter changed the rule model; "
                                   "file left untouched (please report)")

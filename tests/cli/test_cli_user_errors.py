@@ -320,6 +320,32 @@ CASES = [
                    'semi_axes: ["1 cm", "1 cm"]}\npaths:')), RUN, 2,
          ("campaign.yaml:16:41: error[C100]: environment.rocks[0].semi_axes: expected 3 "
           "values, got 2",), absent=("missing required key",)),
+    *(Case(f"campaign-rock-{name}",
+           campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                     f'radius: "5 cm", embed: "{embed}"}}\npaths:')), RUN, 2,
+           ("campaign.yaml:16:7: error[C100]: environment.rocks[0]: embed "
+            f"{shown} m: a rock sits from 0 m (on the ground) to under its height 0.1 m deep",))
+      for name, embed, shown in (("floating", "-1 m", "-1"), ("buried", "10 cm", "0.1"),
+                                 ("far-below", "1 m", "1"))),
+    Case("campaign-waiver-until-a-number",
+         campaign(append="waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
+                         "until: 20990101}\n"), RUN, 2,
+         ("error[C100]: waivers[0].until: expected a date written YYYY-MM-DD (e.g. 2027-03-31), "
+          "got the number 20990101",)),
+    Case("campaign-is-a-rulebook", {"test.rules": RULEBOOK},
+         ("test.rules", "--runs", "2", "--quiet", "--no-report"), 2,
+         ("test.rules:1:1: error[C101]: test.rules is a rulebook (it starts with 'rulebook "
+          "\"…\"'), not a campaign", "hint: check it with `idefix-verify check test.rules`"),
+         unchanged=("test.rules",)),
+    # a rulebook within the limits whose formatted text would not be: one long constant name
+    # aligns every other constant's value to its column
+    Case("fmt-would-grow-past-the-limit",
+         {"big.rules": RULEBOOK.replace(
+             "const critical_slip", f"const c_{'x' * 60} = 1\n"
+             + "".join(f"const c{i} = 1\n" for i in range(3000)) + "const critical_slip")},
+         ("fmt", "big.rules"), 2,
+         ("big.rules: error[E900]: formatted, big.rules would be over a rulebook's limits",
+          "the file is left as it is"), unchanged=("big.rules",)),
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
          2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
     Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),

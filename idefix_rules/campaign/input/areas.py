@@ -64,16 +64,13 @@ def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
     return problems
 
 
-def unplaced_area_warnings(campaign: Campaign, evaluator: Any) -> list[str]:
+def unplaced_area_warnings(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
     """C210 as a run says it, for stored results scored again (``evaluate``, ``diff
     --results``): a keep-out or unknown area of the rulebook that the stored campaign gives no
     polygons (its signals are 0 in every run, so a rule reading them holds in every run). The
     stored campaign's areas the rulebook does not declare (C209 when it runs) are not read
     and change nothing here."""
-    from idefix_rules.campaign.input.fmu_checks import describe_warnings
-
-    return describe_warnings([problem for problem in area_problems(campaign, evaluator)
-                              if problem.code == "C210"], {str(campaign.source): campaign.text})
+    return [problem for problem in area_problems(campaign, evaluator) if problem.code == "C210"]
 
 
 def _keep_out_problems(campaign: Campaign) -> list[Diagnostic]:

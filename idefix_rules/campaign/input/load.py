@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -202,12 +203,33 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
     return diagnostics
 
 
+def _looks_like_a_rulebook(text: str) -> bool:
+    """Whether the first line that is neither blank nor a comment opens a rulebook.
+
+    >>> _looks_like_a_rulebook('# ops\\nrulebook "ops" version "1.0.0"\\n')
+    True
+    >>> _looks_like_a_rulebook("name: c\\nrulebook: ops.rules\\n")
+    False
+    """
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            return re.match(r'rulebook\s+"', stripped) is not None
+    return False
+
+
 def load_campaign(path: str | Path) -> Campaign:
     """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
     source = Path(path)
     shown = str(path)
     check_file_size(source, MAX_CAMPAIGN_BYTES, CAMPAIGN_TOO_LARGE, "campaign file")
     text = read_user_text(source, "C010", "campaign file")
+    if _looks_like_a_rulebook(text):
+        raise UserInputError(error(
+            "C101", f"{shown} is a rulebook (it starts with 'rulebook \"…\"'), not a campaign",
+            Span(shown, 1, 1), hint=f"check it with `idefix-verify check {shown}`; a campaign "
+                                    "(YAML) names its rulebook with 'rulebook: PATH'"),
+            sources={shown: ""})
     document = load_yaml(text, shown)
     if not isinstance(document.data, dict):  # maybe no campaign at all: quote none of it
         raise UserInputError(error("C101", "a campaign file is a mapping (key: value lines)",

@@ -201,6 +201,12 @@ class RockSpec(Strict):
     def _one_size(self) -> RockSpec:
         if (self.radius is None) == (self.semi_axes is None):
             raise PydanticCustomError("rock", "give exactly one of 'radius' or 'semi_axes'")
+        height = 2.0 * self.axes[2]
+        if not 0.0 <= self.embed < height:
+            raise PydanticCustomError(
+                "rock", "embed {embed} m: a rock sits from 0 m (on the ground) to under its "
+                "height {height} m deep (fully buried); a negative depth would float it",
+                {"embed": f"{self.embed:g}", "height": f"{height:g}"})
         return self
 
     @property
@@ -435,6 +441,15 @@ def _plain_text(value: Any) -> Any:
 Text = Annotated[str, BeforeValidator(_plain_text)]
 
 
+def _written_date(value: Any) -> Any:
+    """A date as YAML writes one (2027-03-31) or as text; a bare number is no date (pydantic
+    would read 20990101 as seconds since 1970)."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        raise PydanticCustomError("date", "expected a date written YYYY-MM-DD (e.g. "
+                                  "2027-03-31), got the number {got}", {"got": repr(value)})
+    return value
+
+
 class Waiver(Strict):
     """A known, accepted failure of one rule on one path (or ``all``) of this plan, signed and
     dated (docs/campaign-format.md, "waivers"). ``command_rules: true`` lets it waive a
@@ -444,7 +459,7 @@ class Waiver(Strict):
     path: str = "all"
     reason: Text
     approved_by: Text
-    until: date
+    until: Annotated[date, BeforeValidator(_written_date)]
     command_rules: StrictBool = False
 
     def covers(self, path: str) -> bool:
