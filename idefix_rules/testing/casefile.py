@@ -424,6 +424,10 @@ def _chain(reader: _Reader, data: Any, loc: Loc) -> tuple[Command, ...]:
                 values.append(None)
                 continue
             values.append(reader.quantity(item[key], (*cloc, key), dimension, key))
+        if values[0] is not None and not values[0] > 0.0:
+            reader.fail("T007", f"command {number + 1}: max_wheel_rate must be above 0 rad/s "
+                        "(a campaign's commands are)", (*cloc, "max_wheel_rate"))
+            values[0] = None
         if all(v is not None for v in values):
             chain.append(Command(*(float(v) for v in values if v is not None)))
     return tuple(chain)
@@ -497,12 +501,24 @@ def _keyframe_block(reader: _Reader, data: Any, loc: Loc, offset: bool
                     "(e.g. 'wheel.slip[FL]: {0 s: 10 %, 20 s: 80 %}')", loc)
         return ()
     out = []
+    shaped: dict[tuple[str, str | None], str] = {}  # (signal, label) -> the key that shaped it
     for key, frames in data.items():
         kloc = (*loc, key)
         found = _signal_key(reader, str(key), kloc)
         if found is None:
             continue
         name, label = found
+        # the whole signal and one of its labels, or one label written twice ('[FL]', '[ FL ]')
+        clash = shaped.get((name, label)) or (
+            shaped.get((name, None)) if label is not None else
+            next((k for (n, _), k in shaped.items() if n == name), None))
+        if clash is not None:
+            reader.fail("T006", f"{key!r} shapes what {clash!r} already shapes; each signal "
+                        "(or each of its labels) is given once", kloc,
+                        "give each label its own keyframes, or the whole signal once",
+                        at_key=True)
+            continue
+        shaped[(name, label)] = str(key)
         spec = signals.lookup(name)
         assert spec is not None
         if not isinstance(frames, dict) or not frames:
@@ -548,6 +564,13 @@ def _collision(reader: _Reader, data: Any, loc: Loc) -> Collision | None:
         reader.fail("T010", f"level must be one of {', '.join(levels)}, got {level!r}",
                     (*loc, "level"))
         ok = False
+    if "at" in data and ("from" in data or "to" in data):
+        reader.fail("T010", "a collision is 'at' one time or 'from' (and 'to') a span, not both",
+                    loc)
+        return None
+    if "to" in data and "from" not in data:
+        reader.fail("T010", "'to' needs 'from'", (*loc, "to"), at_key=True)
+        return None
     if "at" in data:
         start = end = reader.quantity(data["at"], (*loc, "at"), TIME, "at")
     elif "from" in data:
@@ -603,6 +626,14 @@ def _range(reader: _Reader, value: Any, loc: Loc, tolerance: float
     ``{at_most: …}`` → ``((low, high), text)``."""
     if isinstance(value, dict):
         reader.unknown_keys(value, loc, ("value", "tolerance", "at_least", "at_most"))
+        if "value" in value and ("at_least" in value or "at_most" in value):
+            reader.fail("T009", "give 'value' (and 'tolerance') or 'at_least'/'at_most', not "
+                        "both", loc)
+            return None
+        if "tolerance" in value and "value" not in value:
+            reader.fail("T009", "'tolerance' goes with 'value'", (*loc, "tolerance"),
+                        at_key=True)
+            return None
         if "value" in value:
             centre = reader.number(value["value"], (*loc, "value"))
             spread = tolerance

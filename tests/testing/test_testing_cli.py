@@ -76,6 +76,26 @@ def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
     expect: {chances: {on_steep: false}}
 """, "T004", ":7:15:", "the rulebook declares no area 'highly_inclned'"),
     ("""  c:
+    signals: {"wheel.slip[FL]": 35 %, "wheel.slip[ FL ]": 5 %}
+    expect: {verdict: pass}
+""", "T006", ":7:39:", "'wheel.slip[ FL ]' shapes what 'wheel.slip[FL]' already shapes"),
+    ("""  c:
+    signals: {"wheel.slip[FL]": 35 %, "wheel.slip": 5 %}
+    expect: {verdict: pass}
+""", "T006", ":7:39:", "'wheel.slip' shapes what 'wheel.slip[FL]' already shapes"),
+    ("""  c:
+    collisions: [{part: wheel, level: L2, at: 3 s, from: 2 s, to: 4 s}]
+    expect: {verdict: pass}
+""", "T010", ":7:", "not both"),
+    ("""  c:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {indices: {I_s: {value: 0.5, at_least: 0.4}}}
+""", "T009", ":8:", "not both"),
+    ("""  c:
+    chain: [{max_wheel_rate: 0 rad/s, delta_position: 20 cm, delta_heading: 0 deg}]
+    expect: {verdict: pass}
+""", "T007", ":7:", "max_wheel_rate must be above 0 rad/s"),
+    ("""  c:
     signals: {roll: {0 s: 0 deg, 20 s: 20}}
     expect: {verdict: pass}
 """, "T005", ":7:", "must be an angle"),
