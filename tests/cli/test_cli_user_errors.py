@@ -921,3 +921,35 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     assert f"campaign.yaml:{line}:" in output and "error[F110]: parameter soil.friction_angle" \
         in output, output
     assert "Traceback" not in output and ".fmu: error" not in output
+
+
+def test_results_stored_before_a_stricter_check_are_scored_again_as_they_were(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A check added to the campaign schema later (an expectation above 100 %, a rock's
+    embed, a negative roughness, a waiver's date as a number …) refuses a new run, never a
+    stored one: the results file's campaign ran, and evaluate and report read it back."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    capsys.readouterr()
+    stored = tmp_path / "out" / "results.h5"
+    older = CAMPAIGN + (
+        "environment:\n  rocks:\n    - {x: \"3 m\", y: \"3 m\", radius: \"2 cm\", "
+        "embed: \"-1 cm\"}\n  terrain:\n    synthetic: {roughness: \"-1 mm\"}\n"
+        "expect:\n  - {path: straight, max_mean_risk: 30}\n"
+        "waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
+        "until: 4102444800}\n")
+    (tmp_path / "older.yaml").write_text(older)
+    assert main(["older.yaml", "--runs", "2", "--quiet", "--no-report"]) == 2  # a new run
+    capsys.readouterr()
+    with h5py.File(stored, "r+") as results:
+        del results["provenance/campaign"]
+        results["provenance/campaign"] = older
+    # the expectation (3000 %) holds; the waiver, read as seconds since 1970 as it was then,
+    # waives acceptable_risk until 2100: exit 0
+    for argv in (["evaluate", str(stored)], ["report", str(stored), "-o", "site"]):
+        code = main(argv)
+        output = "".join(capsys.readouterr())
+        assert "Traceback" not in output and code == 0, output
+    assert (tmp_path / "site" / "report.html").is_file()

@@ -25,6 +25,7 @@ from pydantic import (
     StrictBool,
     StrictInt,
     Tag,
+    ValidationInfo,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
@@ -141,13 +142,31 @@ class FmuSection(Strict):
 MAX_TERRAIN_NODES = 16_000_000
 
 
-def _inclination(value: float) -> float:
+# Validation context of a campaign read back from a results file: it was valid when it ran,
+# so the checks added since (marked with _new_run) do not refuse it (its results stand).
+STORED_CAMPAIGN = {"stored": True}
+
+
+def _new_run(info: ValidationInfo) -> bool:
+    """Whether a check added to the schema later applies: to a campaign about to run, not to
+    one stored with results (:data:`STORED_CAMPAIGN`)."""
+    return not (isinstance(info.context, dict) and info.context.get("stored"))
+
+
+def _inclination(value: float, info: ValidationInfo) -> float:
     """A plane's inclination: from 0 to under 90 deg (``slope_direction`` says which way it
     falls; at 90 deg the plane is a wall, its heights infinite)."""
-    if not 0.0 <= value < math.pi / 2:
+    if _new_run(info) and not 0.0 <= value < math.pi / 2:
         raise PydanticCustomError("slope", "expected an inclination from 0 deg to under 90 "
                                   "deg (slope_direction gives the way it falls), got {got} deg",
                                   {"got": f"{math.degrees(value):g}"})
+    return value
+
+
+def _not_negative(value: float, info: ValidationInfo) -> float:
+    if _new_run(info) and not value >= 0.0:
+        raise PydanticCustomError("not_negative", "expected 0 or more, got {got}",
+                                  {"got": f"{value:g}"})
     return value
 
 
@@ -156,7 +175,8 @@ class SyntheticTerrain(Strict):
     cell: Length = Field(default=0.02, gt=0)
     slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
     slope_direction: Angle = 0.0
-    roughness: Length = Field(default=0.0, ge=0.0)  # the height's standard deviation
+    # the height's standard deviation
+    roughness: Annotated[Length, AfterValidator(_not_negative)] = 0.0
     seed: Seed = 0
 
     @model_validator(mode="after")
@@ -198,11 +218,11 @@ class RockSpec(Strict):
     level: Literal["L1", "L2", "L3"] | None = None
 
     @model_validator(mode="after")
-    def _one_size(self) -> RockSpec:
+    def _one_size(self, info: ValidationInfo) -> RockSpec:
         if (self.radius is None) == (self.semi_axes is None):
             raise PydanticCustomError("rock", "give exactly one of 'radius' or 'semi_axes'")
         height = 2.0 * self.axes[2]
-        if not 0.0 <= self.embed < height:
+        if _new_run(info) and not 0.0 <= self.embed < height:
             raise PydanticCustomError(
                 "rock", "embed {embed} m: a rock sits from 0 m (on the ground) to under its "
                 "height {height} m deep (fully buried); a negative depth would float it",
@@ -375,10 +395,10 @@ class RankFirstExpectation(Strict):
     rank_first: str
 
 
-def _fraction(value: float) -> float:
+def _fraction(value: float, info: ValidationInfo) -> float:
     """A risk or a chance: from 0 to 100 % (a bare number is the fraction itself: 0.3 is
     30 %, 30 is 3000 %, which no path could exceed)."""
-    if not 0.0 <= value <= 1.0:
+    if _new_run(info) and not 0.0 <= value <= 1.0:
         raise PydanticCustomError(
             "fraction", "expected a risk or chance from 0 to 100 %, got {got} (a bare number "
             "is a fraction: write \"30 %\" or 0.3)", {"got": f"{value * 100:g} %"})
@@ -441,10 +461,10 @@ def _plain_text(value: Any) -> Any:
 Text = Annotated[str, BeforeValidator(_plain_text)]
 
 
-def _written_date(value: Any) -> Any:
+def _written_date(value: Any, info: ValidationInfo) -> Any:
     """A date as YAML writes one (2027-03-31) or as text; a bare number is no date (pydantic
     would read 20990101 as seconds since 1970)."""
-    if isinstance(value, int | float) and not isinstance(value, bool):
+    if _new_run(info) and isinstance(value, int | float) and not isinstance(value, bool):
         raise PydanticCustomError("date", "expected a date written YYYY-MM-DD (e.g. "
                                   "2027-03-31), got the number {got}", {"got": repr(value)})
     return value
@@ -484,12 +504,12 @@ class SimulationSection(Strict):
 MAX_PATH_NAME = 100  # characters: a name for people, and a part of figure file names
 
 
-def _path_name(value: Any) -> Any:
+def _path_name(value: Any, info: ValidationInfo) -> Any:
     # Path names become HDF5 group names, file names of figures and JUnit test names.
     if isinstance(value, str) and (
             not value.strip() or "/" in value or value in (".", "..")
-            or len(value) > MAX_PATH_NAME
-            or any(unicodedata.category(c) in ("Cc", "Cs") for c in value)):
+            or (_new_run(info) and (len(value) > MAX_PATH_NAME or any(
+                unicodedata.category(c) in ("Cc", "Cs") for c in value)))):
         shown = repr(value if len(value) <= 40 else value[:37] + "...")
         raise PydanticCustomError("path_name", "path name {name} is not usable: give a "
                                   "non-empty name of at most {most} characters, without '/' "
