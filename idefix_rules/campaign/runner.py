@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -196,20 +197,23 @@ def check_junit_destination(junit: Path | None, inputs: Iterable[Path | None],
 
 
 def _is_junit_report(path: Path) -> bool:
-    """Whether an existing file is a JUnit XML report (ours or another tool's): an XML
-    document whose first element is ``testsuites`` or ``testsuite``."""
+    """Whether an existing file may be replaced by a JUnit report: an empty file (``touch``,
+    ``mktemp``), or an XML document (UTF-8 or UTF-16 with its byte order mark) whose first
+    element is ``testsuites`` or ``testsuite`` (ours or another tool's, after any
+    declaration, stylesheet instruction, comment or document type)."""
     try:
         with path.open("rb") as handle:
-            head = handle.read(4096)
+            head = handle.read(8192)
     except OSError:
         return False
-    text = head.decode("utf-8", errors="replace").lstrip("\ufeff \t\r\n")
-    if text.startswith("<?xml"):
-        text = text[text.find("?>") + 2:].lstrip() if "?>" in text else ""
-    while text.startswith("<!--"):  # comments before the first element
-        end = text.find("-->")
-        text = text[end + 3:].lstrip() if end >= 0 else ""
-    return text.startswith(("<testsuites", "<testsuite"))
+    if not head.strip():
+        return True
+    encoding = "utf-16" if head[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8"
+    text = head.decode(encoding, errors="replace").lstrip("\ufeff")
+    prolog = re.compile(r"\s*(<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>)", re.DOTALL)
+    while (found := prolog.match(text)) is not None:
+        text = text[found.end():]
+    return re.match(r"\s*<testsuites?[\s/>]", text) is not None
 
 
 def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:
