@@ -33,6 +33,11 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.cli.console import StdoutConsole
 
     out = args.out if args.out is not None else args.results.resolve().parent
+    # a report already there (of this campaign or any other) is kept, as a run keeps it
+    from idefix_rules.files import set_aside
+    from idefix_rules.report import REPORT_FILE
+
+    set_aside(out / REPORT_FILE)
     console = Console(stderr=True)
     with console.status("writing the report"):
         page = write_report(args.results, out, "free space, then run this command again")

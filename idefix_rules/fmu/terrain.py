@@ -284,6 +284,9 @@ def load_dem(path: str | Path, cell: float | None = None,
                       "which are never loaded") if "pickle" in str(exc) else str(exc)
             raise UserInputError(error("F203", f"cannot read DEM: {reason}", Span(str(path)))) \
                 from None
+        if not isinstance(heights, np.ndarray):  # an .npz archive under an .npy name
+            raise UserInputError(error("F203", "cannot read DEM: the file is an .npz archive "
+                                       "of arrays, not one .npy array", Span(str(path))))
         # numbers only: text, bytes, records, dates, times or complex values are no heights
         # (a cast would fail, or take a date for its day count, or drop an imaginary part)
         if heights.dtype.kind not in "biuf":

@@ -73,3 +73,23 @@ def test_a_resumed_older_file_keeps_the_precision_its_datasets_were_made_with(
             np.testing.assert_array_equal(read, values.astype(np.float32).astype(np.float64))
     finally:
         store.close()
+
+
+def test_the_free_space_estimate_of_an_unwritten_row_covers_what_hdf5_writes(
+        tmp_path: Path) -> None:
+    """Rows are allocated with HDF5's own NaN fill chunks (zlib at the format's level, not
+    the workers' zlib-ng): the estimate the free-space check uses must not fall short."""
+    from idefix_rules.campaign.storage.store import INDEX_BYTES_PER_CHUNK, fill_chunk_bytes
+
+    shapes = {"x": (3000,), "wheel.slip": (30000, 4)}
+    store = ResultStore.create(tmp_path / "r.h5", {"runs": 2}, {"campaign": "name: e\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        store.allocate_runs("p", 2, shapes, {}, {})
+        signals = store.path_group("p")["runs"]["signals"]
+        for key, shape in shapes.items():
+            written = signals[key].id.get_chunk_info(0).size
+            estimate = fill_chunk_bytes(key, shape) - INDEX_BYTES_PER_CHUNK
+            assert written <= estimate <= 1.2 * written, (key, written, estimate)
+    finally:
+        store.close()

@@ -101,6 +101,14 @@ def _npy_of_objects() -> bytes:
 NPY_OBJECTS = _npy_of_objects()  # a .npy of pickled Python objects: never loaded
 
 
+def _npz() -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.savez(buffer, heights=np.zeros((3, 3)))
+    return buffer.getvalue()
+
+
 def _npy(array: np.ndarray) -> bytes:
     import io
 
@@ -462,6 +470,10 @@ CASES = [
           ("dates", np.array([["2024-01-01"] * 2] * 2, dtype="datetime64[D]"),
            "dates (<M8[D])"),
           ("complex", np.ones((2, 2), dtype=complex), "complex numbers (<c16)"))),
+    Case("dem-npy-is-an-npz-archive",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              "    cell: \"1 m\"\npaths:")), site__npy=_npz()), RUN, 2,
+         ("site.npy: error[F203]: cannot read DEM: the file is an .npz archive of arrays",)),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -953,3 +965,20 @@ def test_results_stored_before_a_stricter_check_are_scored_again_as_they_were(
         output = "".join(capsys.readouterr())
         assert "Traceback" not in output and code == 0, output
     assert (tmp_path / "site" / "report.html").is_file()
+
+
+def test_report_into_a_folder_keeps_the_report_already_there(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """report -o DIR sets an existing report.html aside as report.previous.html, as a run does:
+    a folder of one's own reports never loses one to another campaign's."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "report.html").write_text("<html>my own report</html>")
+    assert main(["report", str(tmp_path / "out" / "results.h5"), "-o", str(site)]) == 0
+    assert "Traceback" not in "".join(capsys.readouterr())
+    assert (site / "report.previous.html").read_text() == "<html>my own report</html>"
+    assert "my own report" not in (site / "report.html").read_text()

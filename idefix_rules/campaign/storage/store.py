@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,7 +125,10 @@ def fill_chunk_bytes(name: str, shape: tuple[int, ...]) -> int:
     """Bytes one allocated but unwritten run of signal ``name`` takes (its compressed NaN
     chunk and its chunk index entry)."""
     fill = np.full(shape, np.nan, dtype=storage_dtype(name))
-    return len(encode_chunk(name, fill).data) + INDEX_BYTES_PER_CHUNK
+    # HDF5 writes the fill chunks itself, with zlib at COMPRESSION_LEVEL (not the workers'
+    # zlib-ng, whose level 4 packs a NaN chunk 2.5 to 4 times tighter)
+    shuffled = fill.view(np.uint8).reshape(-1, fill.itemsize).T.tobytes()
+    return len(zlib.compress(shuffled, COMPRESSION_LEVEL)) + INDEX_BYTES_PER_CHUNK
 
 
 def run_bytes(signals: Mapping[str, np.ndarray]) -> int:
