@@ -153,6 +153,7 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
     become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
     check_junit_destination(junit, *campaign_files(campaign))
+    _check_terrain_source(campaign)
     existed = campaign.output.exists()
     prepare_output(campaign)
     sources = {str(campaign.source): campaign.text}
@@ -214,6 +215,22 @@ def _is_junit_report(path: Path) -> bool:
     while (found := prolog.match(text)) is not None:
         text = text[found.end():]
     return re.match(r"\s*<testsuites?[\s/>]", text) is not None
+
+
+def _check_terrain_source(campaign: Campaign) -> None:
+    """A DEM the campaign reads is never the terrain file it writes into its output folder
+    (C217): the run would replace it with itself plus the campaign's rocks, and every run
+    after would add the rocks again."""
+    if campaign.dem is None:
+        return
+    written = campaign.output / TERRAIN_FILE
+    if campaign.dem.resolve() in (written.resolve(), previous_path(written).resolve()):
+        raise UserInputError(error(
+            "C217", f"environment.terrain.dem: the DEM is the terrain file this campaign "
+                    f"writes into its output folder ({TERRAIN_FILE}); the run would replace it",
+            campaign.span(("environment", "terrain", "dem")),
+            hint="keep the DEM beside the campaign, or write the campaign's output elsewhere"),
+            sources={str(campaign.source): campaign.text})
 
 
 def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:

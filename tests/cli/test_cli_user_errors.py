@@ -474,6 +474,12 @@ CASES = [
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
                               "    cell: \"1 m\"\npaths:")), site__npy=_npz()), RUN, 2,
          ("site.npy: error[F203]: cannot read DEM: the file is an .npz archive of arrays",)),
+    Case("dem-is-the-terrain-file-the-run-writes",
+         {**campaign(("paths:", "environment:\n  terrain:\n    dem: out/terrain.dem\n"
+                      "paths:")), "out": FOLDER, "out/terrain.dem": terrain_file()}, RUN, 2,
+         ("campaign.yaml:16:10: error[C217]: environment.terrain.dem: the DEM is the terrain "
+          "file this campaign writes into its output folder (terrain.dem)",),
+         unchanged=("out/terrain.dem",)),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
