@@ -50,6 +50,7 @@ from idefix_rules.rulebook.model import (
     VerdictRule,
 )
 from idefix_rules.rulebook.types import Scope
+from idefix_rules.rulebook.walk import names_in
 from idefix_rules.units import DIMENSIONLESS, describe
 
 Direction = Literal["upper", "lower", "both"]
@@ -234,9 +235,11 @@ def verdict_margins(rulebook: Rulebook, path_scope: Scope, constant_scope: Scope
             problems.append(error(MARGIN_RANGE, f"the indifference of verdict '{rule.name}' "
                                   "must be a finite margin of 0 or more", margin.span))
             continue
-        if found.dimension == DIMENSIONLESS and not float(value) < 0.5:
+        counts = any(node.name == "runs" for node in names_in(rule.condition))
+        if found.dimension == DIMENSIONLESS and not counts and not float(value) < 0.5:
             # as combine's verdict_indifference: a ratio verdict with a margin of half the
-            # scale or more could never be shown to pass (or to fail) across most of it
+            # scale or more could never be shown to pass (or to fail) across most of it (a
+            # run count is no ratio: 'runs >= 100 indifference 5' is a margin of 5 runs)
             problems.append(error(MARGIN_RANGE, f"the indifference of verdict '{rule.name}' "
                                   "must lie in [0 %, 50 %), as verdict_indifference",
                                   margin.span, "e.g. indifference 1 % for a chance"))

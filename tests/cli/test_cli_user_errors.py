@@ -414,6 +414,12 @@ CASES = [
                                      'low: "1 m", high: "2 m"}\n    toy.slip:')), RUN, 2,
          ("error[C515]: uncertainty.parameters.chain.delta_position[0]: "
           "'chain.delta_position[0]' is set by each run's command chain",)),
+    # an FMU's own name for a chain parameter (fmu.parameters maps it), set directly
+    Case("regolith-sets-a-renamed-chain-parameter",
+         campaign(("  path: toy.fmu", "  path: toy.fmu\n  parameters: {toy.slip: chain.count}"),
+                  ("paths:", "environment:\n  regolith: {toy.slip: 0.1}\npaths:")), RUN, 2,
+         ("error[C515]: environment.regolith.toy.slip: 'toy.slip' is set by each run's command "
+          "chain",)),
     Case("regolith-value-of-wrong-dimension",
          campaign(("paths:", 'environment:\n  regolith: {toy.slip: "5 cm"}\npaths:')), RUN, 2,
          ("campaign.yaml:15:24: error[C402]: environment.regolith.toy.slip: expected a ratio "

@@ -297,6 +297,12 @@ def test_a_ratio_verdicts_own_indifference_lies_below_half_the_scale(margin, exp
     assert codes(rulebook(verdicts=(verdict,))) == expected
 
 
+def test_a_run_count_verdicts_indifference_is_a_number_of_runs():
+    verdict = VerdictRule("enough", Binary(">=", Name("runs"), Number(100)),
+                          indifference=Number(5))
+    assert codes(rulebook(verdicts=(VERDICT, verdict))) == []
+
+
 def test_a_time_verdicts_indifference_may_be_any_duration():
     verdict = VerdictRule("quick", Binary("<=", Name("time"), Number(10, "min")),
                           indifference=Number(20, "min"))

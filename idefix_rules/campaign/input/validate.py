@@ -58,8 +58,12 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     entries += [(("environment", "regolith", key), regolith_parameter(key), written.get(key))
                 for key in campaign.model.environment.regolith]
     chain_set = fmu.chain.delivery == "parameters"
+    # the FMU variables the chain delivery writes: those fmu.parameters maps to a chain
+    # parameter's name (an FMU's own name for chain.count), the others by their own name
+    renamed = {fmu_name for fmu_name, ours in (fmu.parameters or {}).items()
+               if is_chain_parameter(ours)}
     for loc, name, dimension in entries:
-        if chain_set and is_chain_parameter(name):
+        if chain_set and (is_chain_parameter(name) or parameter_names.get(name) in renamed):
             problems.append(error(
                 "C515", f"{format_loc(loc)}: {name!r} is set by each run's command chain (the "
                         "chain delivery 'parameters'); a value given here would be overwritten",
