@@ -33,15 +33,16 @@ REPORT_FILE = "report.html"
 
 def _safe(name: str) -> str:
     """A path's name as part of a figure's file name: letters, digits, '-', '_' and '.'
-    as they are; a name with anything else (or longer than 60 characters, or ``all``, the
-    map of all paths) keeps its first characters, with others as '_', and a digest of the
+    as they are; a name with anything else (upper case, or longer than 60 characters, or
+    ``all``, the map of all paths) keeps its first characters, with others as '_', and a digest of the
     whole name, so two paths never share a figure's file (``arc left`` and ``arc_left``).
 
     >>> _safe("smooth-detour"), _safe("arc left"), _safe("arc_left")
     ('smooth-detour', 'arc_left-b447339e', 'arc_left')
     """
     kept = "".join(c if c.isascii() and (c.isalnum() or c in "-_.") else "_" for c in name)
-    if kept == name and len(name) <= 60 and name != "all":
+    # upper case too: 'Detour' and 'detour' are one file on macOS's and Windows' file systems
+    if kept == name and len(name) <= 60 and name != "all" and name == name.lower():
         return name
     return f"{kept[:60]}-{hashlib.sha256(name.encode('utf-8')).hexdigest()[:8]}"
 

@@ -210,3 +210,36 @@ def test_a_synthetic_slope_is_an_inclination_from_0_to_under_90_degrees(slope, o
     else:
         with pytest.raises(ValidationError, match="inclination from 0 deg to under 90 deg"):
             SyntheticTerrain.model_validate({"slope": slope})
+
+
+def test_the_limits_added_for_new_runs_accept_what_lies_just_inside():
+    """Each check refusing a value has its accepted side pinned (the refused side is in
+    tests/cli/test_cli_user_errors.py), and a stored campaign is read whatever they say."""
+    from pydantic import TypeAdapter, ValidationError
+
+    from idefix_rules.campaign.input.schema import (
+        STORED_CAMPAIGN,
+        MeanRiskExpectation,
+        PathName,
+        RockSpec,
+    )
+
+    names = TypeAdapter(PathName)
+    assert names.validate_python("p" * 100) == "p" * 100
+    with pytest.raises(ValidationError, match="at most 100 characters"):
+        names.validate_python("p" * 101)
+    assert names.validate_python("p" * 101, context=STORED_CAMPAIGN) == "p" * 101
+    for risk, ok in (("100 %", True), ("0 %", True), ("100.001 %", False), (1, True),
+                     (1.00001, False)):
+        if ok:
+            assert MeanRiskExpectation.model_validate(
+                {"path": "p", "max_mean_risk": risk}).max_mean_risk <= 1.0
+        else:
+            with pytest.raises(ValidationError, match="from 0 to 100 %"):
+                MeanRiskExpectation.model_validate({"path": "p", "max_mean_risk": risk})
+    rock = {"x": "0 m", "y": "0 m", "radius": "5 cm"}
+    assert RockSpec.model_validate({**rock, "embed": "9.99 cm"}).embed == pytest.approx(0.0999)
+    assert RockSpec.model_validate({**rock, "embed": "0 m"}).embed == 0.0
+    with pytest.raises(ValidationError, match=r"embed 0\.1 m"):
+        RockSpec.model_validate({**rock, "embed": "10 cm"})
+    assert RockSpec.model_validate({**rock, "embed": "10 cm"}, context=STORED_CAMPAIGN)

@@ -128,8 +128,10 @@ def test_no_two_paths_share_a_figure_file_whatever_their_names() -> None:
     from idefix_rules.report import _safe
 
     names = ["straight", "arc left", "arc_left", "arc?left", "all", "p" * 100, "p" * 99 + "q",
-             "détour", "detour"]
+             "détour", "detour", "Detour", "DETOUR"]
     files = [f"risk_map_{_safe(name)}.png" for name in names]
-    assert len(set(files)) == len(files) and "risk_map_all.png" not in files
+    # distinct even where the file system ignores case (macOS, Windows)
+    assert len({file.lower() for file in files}) == len(files)
+    assert "risk_map_all.png" not in files
     assert files[0] == "risk_map_straight.png" and files[2] == "risk_map_arc_left.png"
     assert all(len(file) <= 100 and re.fullmatch(r"[A-Za-z0-9._-]+", file) for file in files)
