@@ -32,10 +32,11 @@ REPORT_FILE = "report.html"
 
 
 def _safe(name: str) -> str:
-    """A path's name as part of a figure's file name: letters, digits, '-', '_' and '.'
-    as they are; a name with anything else (upper case, or longer than 60 characters, or
-    ``all``, the map of all paths) keeps its first characters, with others as '_', and a digest of the
-    whole name, so two paths never share a figure's file (``arc left`` and ``arc_left``).
+    """A path's name as part of a figure's file name: lower-case letters, digits, '-', '_'
+    and '.' as they are; a name with anything else (upper case, or longer than 60
+    characters, or ``all``, the map of all paths) keeps its first characters, with others as
+    '_', and a digest of the whole name, so two paths never share a figure's file (``arc
+    left`` and ``arc_left``, ``Detour`` and ``detour`` where case is ignored).
 
     >>> _safe("smooth-detour"), _safe("arc left"), _safe("arc_left")
     ('smooth-detour', 'arc_left-b447339e', 'arc_left')
