@@ -85,6 +85,12 @@ def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
             or not np.all(np.isfinite(points)):
         raise UserInputError(error("E622", f"area {name}: a polygon needs at least 3 finite "
                                            "(x, y) vertices"))
+    repeated = np.all(points == np.roll(points, -1, axis=0), axis=1)
+    if repeated.any():
+        closing = bool(repeated[-1])
+        raise UserInputError(error("E622", f"area {name}: " + (
+            "the last vertex repeats the first; the polygon closes itself, leave it out"
+            if closing else f"vertex {int(np.argmax(repeated)) + 2} repeats the one before it")))
     if _edges_cross(points):
         raise UserInputError(error("E622", f"area {name}: polygon is not simple (its edges "
                                            "cross)"))

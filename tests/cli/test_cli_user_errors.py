@@ -526,6 +526,12 @@ CASES = [
                                                    ' ["2 m", "2 m"]]\npaths:')),
          RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
                   "polygon has no area",)),
+    Case("keep-out-closed-ring",
+         campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
+                             '      polygon: [["0 m", "0 m"], ["1 m", "0 m"], ["1 m", "1 m"], '
+                             '["0 m", "0 m"]]\npaths:')),
+         RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
+                  "the last vertex repeats the first",)),
     Case("keep-out-names-twice",
          campaign(("paths:", "environment:\n  keep_out:\n"
                              '    - {name: k, polygon: [["0 m", "0 m"], ["1 m", "0 m"], '
