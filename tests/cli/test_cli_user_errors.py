@@ -513,8 +513,8 @@ CASES = [
     Case("synthetic-terrain-negative-roughness",
          campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
                              '      roughness: "-3 mm"\npaths:')), RUN, 2,
-         ("campaign.yaml:17:18: error[C100]: environment.terrain.synthetic.roughness: Input "
-          "should be greater than or equal to 0",)),
+         ("campaign.yaml:17:18: error[C100]: environment.terrain.synthetic.roughness: expected "
+          "a length of 0 m or more, got -0.003 m",)),
     # environment mistakes at the line that says them
     Case("keep-out-bow-tie", campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
                                                  '      polygon: [["0 m", "0 m"], ["1 m", "1 m"], '

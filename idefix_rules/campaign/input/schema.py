@@ -163,10 +163,10 @@ def _inclination(value: float, info: ValidationInfo) -> float:
     return value
 
 
-def _not_negative(value: float, info: ValidationInfo) -> float:
+def _not_negative_length(value: float, info: ValidationInfo) -> float:
     if _new_run(info) and not value >= 0.0:
-        raise PydanticCustomError("not_negative", "expected 0 or more, got {got}",
-                                  {"got": f"{value:g}"})
+        raise PydanticCustomError("not_negative", "expected a length of 0 m or more, got "
+                                  "{got} m", {"got": f"{value:g}"})
     return value
 
 
@@ -176,7 +176,7 @@ class SyntheticTerrain(Strict):
     slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
     slope_direction: Angle = 0.0
     # the height's standard deviation
-    roughness: Annotated[Length, AfterValidator(_not_negative)] = 0.0
+    roughness: Annotated[Length, AfterValidator(_not_negative_length)] = 0.0
     seed: Seed = 0
 
     @model_validator(mode="after")
