@@ -510,6 +510,12 @@ CASES = [
       for name, value, shown in (("a-wall", "90 deg", "90"), ("past-a-wall", "100 deg", "100"),
                                  ("negative", "-2 deg", "-2"),
                                  ("in-radians", "1.6 rad", "91.6732"))),
+    *(Case(f"synthetic-terrain-with-a-dem-{key}",
+           campaign(("paths:", f"environment:\n  terrain:\n    {key}: {value}\n    synthetic:\n"
+                               '      size: "2 m"\npaths:')), RUN, 2,
+           (f"campaign.yaml:16:{column}: error[C204]: environment.terrain.{key}: only a .npy or "
+            f".csv DEM takes a {key}",))
+      for key, value, column in (("cell", '"5 cm"', 11), ("origin", '["0 m", "0 m"]', 13))),
     Case("synthetic-terrain-negative-roughness",
          campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
                              '      roughness: "-3 mm"\npaths:')), RUN, 2,

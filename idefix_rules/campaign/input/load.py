@@ -286,6 +286,13 @@ def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list
     if model.environment.terrain.dem:
         need_file(model.environment.terrain.dem, ("environment", "terrain", "dem"), "DEM file")
         found.extend(_dem_grid_checks(model.environment.terrain, locations))
+    else:  # a synthetic terrain (or the default one) has its own grid settings
+        terrain = model.environment.terrain
+        found.extend(error(
+            "C204", f"environment.terrain.{key}: only a .npy or .csv DEM takes a {key}; a "
+                    "synthetic terrain's grid is set by its own settings (synthetic: {size, "
+                    "cell})", locations.span(("environment", "terrain", key)))
+            for key in ("cell", "origin") if getattr(terrain, key) is not None)
     if model.workers != "auto" and not 1 <= model.workers <= MAX_WORKERS:
         found.append(error("C201", f"workers: expected 'auto' or a number from 1 to "
                                    f"{MAX_WORKERS}, got {model.workers}",
