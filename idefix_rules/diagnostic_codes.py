@@ -218,6 +218,7 @@ E901|rulebook line too long|A rulebook line longer than 20 000 characters is ref
 E902|not a rulebook|The file named as a rulebook does not start like one (a `rulebook` header, a comment or a declaration); only its first word is shown, never its content.|idefix-verify check /etc/passwd|Name the `.rules` file.
 W613|number is a denormal or 0 in SI|(`--strict`) A literal is so small that in SI, once its unit's scale is applied, it is a denormal (below about 2.2e-308, precision lost) or 0 (`5e-324 mm`). A literal a double cannot hold at all (`1e-400`) is an error (E003).|const tiny = 1e-320|Write `0` if zero is meant, or a realistic value.
 W614|nominal nearly at 0 or at the limit|(`--strict`) An index's `nominal` lies within 10 % of its limit from 0 or from the limit. The index climbs from 0 to 0.5 up to the nominal and from 0.5 to 1 between the nominal and the limit, so half of its range is crossed within a tenth of the value's: the index is nearly a step and no longer grades the runs.|index I_s {\n  value   = max over time (max over wheels (abs(wheel.slip)))\n  nominal = 68 %\n  limit   = 70 %\n  weight  = 1\n}|Put the nominal where the value is expected: `nominal = 20 %`; or leave `nominal` out for `value / limit`.
+W615|window before the start|(`--strict`) `before Q` with Q at or below 0 s holds no sample (a run's time starts at 0 s): the reduction reads its empty-window value, the same in every run.|value = max over time before 0 s (abs(roll))|Give a time after the start: `before 30 s`.
 """
 
 

@@ -366,6 +366,29 @@ def lint_step_nominal(env: CheckEnv) -> list[Diagnostic]:
     return found
 
 
+# ----------------------------------------------------------------------------- W615
+
+def lint_empty_windows(env: CheckEnv) -> list[Diagnostic]:
+    """``before Q`` with Q at or below 0 s holds no sample (a run's time starts at 0): its
+    reduction reads its empty-window value (0) in every run."""
+    found: list[Diagnostic] = []
+    for expr in _every_expression(env.rulebook):
+        for node in nodes(expr):
+            if not (isinstance(node, Reduce) and node.window is not None
+                    and node.window.kind == "before"):
+                continue
+            try:
+                bound = fold(node.window.value, env.constants)
+            except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
+                continue
+            if not isinstance(bound, dict) and float(bound) <= 0.0:
+                found.append(warning(
+                    "W615", f"'before {float(bound):g} s' holds no sample (a run's time starts "
+                    "at 0 s): the reduction gives its empty-window value in every run",
+                    node.window.span, "give a time after the start, e.g. 'before 30 s'"))
+    return found
+
+
 LINTS: tuple[Callable[[CheckEnv], list[Diagnostic]], ...] = (
     lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow,
-    lint_step_nominal)
+    lint_step_nominal, lint_empty_windows)
