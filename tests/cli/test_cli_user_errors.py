@@ -340,6 +340,11 @@ CASES = [
                          "until: 20990101}\n"), RUN, 2,
          ("error[C100]: waivers[0].until: expected a date written YYYY-MM-DD (e.g. 2027-03-31), "
           "got the number 20990101",)),
+    Case("campaign-waiver-until-a-quoted-number",
+         campaign(append="waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
+                         "until: \"4102444800\"}\n"), RUN, 2,
+         ("error[C100]: waivers[0].until: expected a date written YYYY-MM-DD (e.g. 2027-03-31), "
+          "got the number '4102444800'",)),
     Case("campaign-is-a-rulebook", {"test.rules": RULEBOOK},
          ("test.rules", "--runs", "2", "--quiet", "--no-report"), 2,
          ("test.rules:1:1: error[C101]: test.rules is a rulebook (it starts with 'rulebook "

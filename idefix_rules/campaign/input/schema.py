@@ -464,7 +464,10 @@ Text = Annotated[str, BeforeValidator(_plain_text)]
 def _written_date(value: Any, info: ValidationInfo) -> Any:
     """A date as YAML writes one (2027-03-31) or as text; a bare number is no date (pydantic
     would read 20990101 as seconds since 1970)."""
-    if _new_run(info) and isinstance(value, int | float) and not isinstance(value, bool):
+    quoted_number = isinstance(value, str) and value.strip().lstrip("+-").replace(
+        ".", "", 1).isdigit()  # "4102444800": seconds since 1970 to pydantic, too
+    if _new_run(info) and (quoted_number or (isinstance(value, int | float)
+                           and not isinstance(value, bool))):
         raise PydanticCustomError("date", "expected a date written YYYY-MM-DD (e.g. "
                                   "2027-03-31), got the number {got}", {"got": repr(value)})
     return value
