@@ -306,15 +306,28 @@ def test_the_compiler_normalises_as_the_reference(data, shape):
 
 # ----------------------------------------------------------------------------- evaluators
 
-def _assert_same(compiled, slow):
+def _assert_same(compiled, slow) -> int:
+    """Assert the two evaluations agree; returns the runs whose dominant index is a tie."""
     for name in compiled.index_names:
         for field in ("values", "raw", "per_sample", "weighted"):
             np.testing.assert_allclose(getattr(compiled, field)[name],
                                        getattr(slow, field)[name], rtol=1e-9, atol=1e-12,
                                        err_msg=f"{field}[{name}]")
-    np.testing.assert_allclose(compiled.i_max, slow.i_max)
-    np.testing.assert_array_equal(compiled.dominant, slow.dominant)
-    np.testing.assert_array_equal(compiled.dominant_sample, slow.dominant_sample)
+    np.testing.assert_allclose(compiled.i_max, slow.i_max, rtol=1e-9, atol=1e-12)
+    # the dominant index is the evaluators' to agree on where the largest weighted value
+    # stands out by more than that tolerance: a mean of deviations from a mean (0 exactly, or
+    # 2e-18 summed in another order) leaves a tie that neither order decides
+    weighted = np.sort(np.stack([np.asarray(slow.weighted[name], dtype=float)
+                                 for name in slow.index_names]), axis=0)
+    if weighted.shape[0] > 1:
+        top, second = weighted[-1], weighted[-2]
+        decided = ~(np.abs(top - second) <= 1e-9 * np.abs(top) + 1e-12)
+    else:
+        decided = np.ones(weighted.shape[1:], dtype=bool)
+    np.testing.assert_array_equal(compiled.dominant[decided], slow.dominant[decided])
+    np.testing.assert_array_equal(compiled.dominant_sample[decided],
+                                  slow.dominant_sample[decided])
+    return int((~decided).sum())
 
 
 GRADED = """rulebook "graded" version "1.0.0"
@@ -368,7 +381,9 @@ def test_compiler_equals_interpreter_on_generated_rulebooks_with_nominals(model,
     assert result.checked is not None, [d.format() for d in result.errors]
     rules = result.checked
     event(f"indices with a nominal: {len(rules.nominals)} of {len(model.indices)}")
-    _assert_same(compile_rulebook(rules).evaluate(*batch), interpret(rules, *batch))
+    ties = _assert_same(compile_rulebook(rules).evaluate(*batch), interpret(rules, *batch))
+    event(f"runs whose dominant index is a tie within the tolerance: {min(ties, 2)}+"
+          if ties >= 2 else f"runs whose dominant index is a tie within the tolerance: {ties}")
 
 
 def _slip_batch(slips):
