@@ -17,13 +17,12 @@ from typing import Any
 from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, Severity, error, warning
 from idefix_rules.rulebook.environment import AreaSpec, CheckEnv, ObstacleLevelSpec, scope_of
-from idefix_rules.rulebook.fold import NotConstant, Value, fold
+from idefix_rules.rulebook.fold import NotConstant, Value, fold, folded_number
 from idefix_rules.rulebook.infer import did_you_mean, infer_type
 from idefix_rules.rulebook.judging import MARGIN_RANGE, verdict_margins
 from idefix_rules.rulebook.model import (
     Expr,
     Index,
-    Reduce,
     Rulebook,
 )
 from idefix_rules.rulebook.types import (
@@ -33,7 +32,7 @@ from idefix_rules.rulebook.types import (
     ExprType,
     Scope,
 )
-from idefix_rules.rulebook.walk import names_in, nodes, rulebook_expressions
+from idefix_rules.rulebook.walk import names_in, rulebook_expressions, windowed
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, describe
 
 _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
@@ -564,28 +563,18 @@ def check_command_windows(env: CheckEnv) -> list[Diagnostic]:
     K - 1``): K must be a whole number from 1. ``during command 0`` would select the samples
     after the chain (``command == -1``) and 1.5 the second command, both silently."""
     problems: list[Diagnostic] = []
-    for top in rulebook_expressions(env.rulebook):
-        for node in nodes(top):
-            if not (isinstance(node, Reduce) and node.window is not None
-                    and node.window.kind == "command"):
-                continue
-            found = infer_type(node.window.value, scope_of("constant", env.rulebook,
-                                                          env.constant_types), [])
-            if found is None or found.dimension != DIMENSIONLESS or found.axes:
-                continue  # not a number: E204 says so
-            try:
-                value = fold(node.window.value, env.constants)
-            except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
-                continue  # its type check (or its constant's) says what is wrong
-            if isinstance(value, dict):
-                continue
-            number = float(value)
-            if not (math.isfinite(number) and number >= 1 and number == math.floor(number)):
-                shown = f"{number:g}"
-                problems.append(error(
-                    "E310", f"'during command {shown}': commands are counted from 1, by whole "
-                            "numbers", node.window.span,
-                    "the first command is 'during command 1'"))
+    scope = scope_of("constant", env.rulebook, env.constant_types)
+    for node in windowed(env.rulebook, "command"):
+        assert node.window is not None
+        found = infer_type(node.window.value, scope, [])
+        if found is None or found.dimension != DIMENSIONLESS or found.axes:
+            continue  # not a number: E204 says so
+        number = folded_number(node.window.value, env.constants)
+        if number is not None and not (math.isfinite(number) and number >= 1
+                                       and number == math.floor(number)):
+            problems.append(error(
+                "E310", f"'during command {number:g}': commands are counted from 1, by whole "
+                        "numbers", node.window.span, "the first command is 'during command 1'"))
     return problems
 
 

@@ -63,6 +63,16 @@ def fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
     raise NotConstant(type(expr).__name__)
 
 
+def folded_number(expr: Expr, constants: Mapping[str, Value]) -> float | None:
+    """The SI number a constant expression folds to; None when it is not constant, cannot be
+    computed or is a table (its own checks say why)."""
+    try:
+        value = fold(expr, constants)
+    except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
+        return None
+    return None if isinstance(value, dict) else float(value)
+
+
 def _map(function: Callable[[float], float], value: Value) -> Value:
     if isinstance(value, dict):
         return {k: function(v) for k, v in value.items()}

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 from idefix_rules.errors import Diagnostic, Span, warning
-from idefix_rules.rulebook.fold import NotConstant, fold, number_si
+from idefix_rules.rulebook.fold import NotConstant, fold, folded_number, number_si
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -34,7 +34,7 @@ from idefix_rules.rulebook.model import (
     Rulebook,
     Select,
 )
-from idefix_rules.rulebook.walk import nodes, rulebook_expressions
+from idefix_rules.rulebook.walk import nodes, rulebook_expressions, windowed
 from idefix_rules.units import DIMENSIONLESS, Dimension, UnitError, parse_quantity, parse_unit
 
 if TYPE_CHECKING:
@@ -372,20 +372,14 @@ def lint_empty_windows(env: CheckEnv) -> list[Diagnostic]:
     """``before Q`` with Q at or below 0 s holds no sample (a run's time starts at 0): its
     reduction reads its empty-window value (0) in every run."""
     found: list[Diagnostic] = []
-    for expr in _every_expression(env.rulebook):
-        for node in nodes(expr):
-            if not (isinstance(node, Reduce) and node.window is not None
-                    and node.window.kind == "before"):
-                continue
-            try:
-                bound = fold(node.window.value, env.constants)
-            except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
-                continue
-            if not isinstance(bound, dict) and float(bound) <= 0.0:
-                found.append(warning(
-                    "W615", f"'before {float(bound):g} s' holds no sample (a run's time starts "
-                    "at 0 s): the reduction gives its empty-window value in every run",
-                    node.window.span, "give a time after the start, e.g. 'before 30 s'"))
+    for node in windowed(env.rulebook, "before"):
+        assert node.window is not None
+        bound = folded_number(node.window.value, env.constants)
+        if bound is not None and bound <= 0.0:
+            found.append(warning(
+                "W615", f"'before {bound:g} s' holds no sample (a run's time starts at 0 s): "
+                "the reduction gives its empty-window value in every run", node.window.span,
+                "give a time after the start, e.g. 'before 30 s'"))
     return found
 
 

@@ -52,6 +52,16 @@ def names_in(expr: Expr) -> Iterator[Name]:
     return (node for node in nodes(expr) if isinstance(node, Name))
 
 
+def windowed(rulebook: Rulebook, kind: str) -> Iterator[Reduce]:
+    """Every reduction of the rulebook with a ``kind`` window (``command``, ``after``,
+    ``before``), in source order."""
+    for top in rulebook_expressions(rulebook):
+        for node in nodes(top):
+            if isinstance(node, Reduce) and node.window is not None \
+                    and node.window.kind == kind:
+                yield node
+
+
 def rulebook_expressions(rulebook: Rulebook) -> Iterator[Expr]:
     """Every expression written in a rulebook, section by section."""
     for c in rulebook.constants:

@@ -126,7 +126,8 @@ def fill_chunk_bytes(name: str, shape: tuple[int, ...]) -> int:
     chunk and its chunk index entry)."""
     fill = np.full(shape, np.nan, dtype=storage_dtype(name))
     # HDF5 writes the fill chunks itself, with zlib at COMPRESSION_LEVEL (not the workers'
-    # zlib-ng, whose level 4 packs a NaN chunk 2.5 to 4 times tighter)
+    # zlib-ng, whose level 4 packs a NaN chunk 2.5 to 4.4 times tighter: 3000 and 30000 x 4
+    # samples)
     shuffled = fill.view(np.uint8).reshape(-1, fill.itemsize).T.tobytes()
     return len(zlib.compress(shuffled, COMPRESSION_LEVEL)) + INDEX_BYTES_PER_CHUNK
 
