@@ -32,6 +32,7 @@ from idefix_rules.campaign.input.environment import TERRAIN_FILE, build_terrain,
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.validate import (
+    check_paths_on_terrain,
     check_rocks_on_terrain,
     check_simulation_size,
     check_start_on_terrain,
@@ -302,6 +303,7 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
         # foreign FMU may start from parameters of its own; without a terrain the ground is
         # flat everywhere)
         check_start_on_terrain(campaign, terrain.extent)
+        check_paths_on_terrain(campaign, terrain.extent)
     source = TerrainSource.of(campaign.dem)
     if resume:  # the runs still missing are simulated on the terrain stored so far
         terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)

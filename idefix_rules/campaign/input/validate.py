@@ -9,6 +9,7 @@ rest of the FMU mapping is checked by :mod:`idefix_rules.campaign.input.fmu_chec
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -18,6 +19,7 @@ from idefix_rules.campaign.input.load import (
     format_loc,
     nominal_parameters,
     regolith_parameter,
+    rover_geometry,
     where_set,
 )
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
@@ -186,6 +188,56 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
         hint="initial.x and initial.y are world coordinates, in the terrain's frame")],
         sources={str(campaign.source): campaign.text})
+
+
+def check_paths_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
+                           ) -> None:
+    """Every chain executed ideally (no slip) from the nominal start pose must keep the rover's
+    wheels on the terrain grid ``(x_min, x_max, y_min, y_max)``: where a wheel leaves it the
+    model drives on the grid's edge heights carried on, a terrain no one gave it (C218, at the
+    path, naming the command and the point)."""
+    import numpy as np
+
+    from idefix_rules.commands import command_kinematics, ideal_poses
+
+    x_min, x_max, y_min, y_max = extent
+    nominal = nominal_parameters(campaign)
+    start = (float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0)),
+             float(nominal.get("initial.yaw", 0.0)))
+    rover = rover_geometry(campaign)
+    # the wheels' contact points about the body centre, in the body frame
+    corners = [(sx * rover.half_wheelbase, sy * rover.half_track)
+               for sx in (1.0, -1.0) for sy in (1.0, -1.0)]
+    problems = []
+    for spec in campaign.paths:
+        durations = [command_kinematics(c, rover).duration for c in spec.chain]
+        total = sum(durations)
+        if not math.isfinite(total) or total <= 0.0:
+            continue
+        # a sample every centimetre of the longest command's travel or every 0.1 rad turned
+        reach = sum(abs(c.delta_position) + abs(c.delta_heading) * 0.1 for c in spec.chain)
+        times = np.linspace(0.0, total, int(min(20_000, max(2, reach / 0.01 + 2))))
+        poses = ideal_poses(spec.chain, rover, times, start=start)
+        cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        for along, across in corners:
+            wx = poses[:, 0] + along * cos - across * sin
+            wy = poses[:, 1] + along * sin + across * cos
+            off = (wx < x_min) | (wx > x_max) | (wy < y_min) | (wy > y_max)
+            if not off.any():
+                continue
+            first = int(np.argmax(off))
+            command = int(np.searchsorted(np.cumsum(durations), times[first], side="left")) + 1
+            problems.append(error(
+                "C218", f"paths.{spec.name}: driven as commanded from the nominal start, the "
+                        f"rover's wheels leave the terrain (x {x_min:g} … {x_max:g} m, y "
+                        f"{y_min:g} … {y_max:g} m) during command {min(command, len(spec.chain))}"
+                        f", at ({wx[first]:.3g} m, {wy[first]:.3g} m)",
+                campaign.locations.span(("paths", spec.name), at_key=True),
+                hint="give a terrain that holds the whole drive (a larger synthetic size, or a "
+                     "larger DEM), or a shorter chain"))
+            break
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
 
 def prepare_output(campaign: Campaign) -> None:
