@@ -961,6 +961,9 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     assert code == 2, output
     assert f"campaign.yaml:{line}:" in output and "error[F110]: parameter soil.friction_angle" \
         in output, output
+    # in the unit the campaign wrote it in, not the FMU's radians (the reference run's value:
+    # the given one, or the uniform distribution's median)
+    assert "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]" in output, output
     assert "Traceback" not in output and ".fmu: error" not in output
 
 

@@ -94,6 +94,26 @@ def _written_unit(text: Any) -> str | None:
     return match.group(1)
 
 
+def written_unit_at(text: str, place: tuple[str | int, ...]) -> str | None:
+    """The unit of the value a campaign's text writes at ``place`` (``("environment",
+    "regolith", "k_c")``), or None (no unit written, no such place, or text that is no YAML).
+
+    >>> written_unit_at("environment: {regolith: {k_c: 1400 N/m^2}}",
+    ...                 ("environment", "regolith", "k_c"))
+    'N/m^2'
+    """
+    try:
+        node: Any = yaml.safe_load(text)
+    except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
+            AttributeError):
+        return None
+    for key in place:
+        if not isinstance(node, Mapping) or key not in node:
+            return None
+        node = node[key]
+    return _written_unit(node)
+
+
 @dataclass
 class DisplayUnits:
     """Unit to show per quantity name (``delta_heading``, ``soil.cohesion`` …)."""
@@ -172,6 +192,33 @@ def parameter_text(name: str, si_value: float, stored_unit: str, units: DisplayU
         except UnitError:
             pass
     return number(si_value) + (f" {stored_unit}" if stored_unit and stored_unit != "1" else "")
+
+
+_FMU_RANGE = re.compile(r"^parameter (?P<name>\S+) = (?P<value>\S+) out of range: allowed "
+                        r"(?P<open>[\[(])(?P<low>\S+), (?P<high>\S+)(?P<close>[\])])$")
+
+
+def range_text(message: str, unit: str) -> str:
+    """An FMU's "parameter N = V out of range: allowed [lo, hi]" (SI) in ``unit``, the unit
+    the campaign wrote the parameter in; the message as it is when it has another shape or the
+    unit is not one of the value's dimension.
+
+    >>> range_text("parameter soil.friction_angle = 1.5271630954950384 out of range: "
+    ...            "allowed [0, 1.39626]", "deg")
+    'parameter soil.friction_angle = 87.5 deg out of range: allowed [0, 80 deg]'
+    """
+    match = _FMU_RANGE.match(message)
+    if match is None or not unit or unit == "1":
+        return message
+    try:
+        source = si_unit_for(unit)
+        # the FMU prints its limits with 6 significant digits (%g): 5 of them survive a unit
+        value, low, high = (number(convert(float(match[key]), source, unit), digits)
+                            for key, digits in (("value", 6), ("low", 5), ("high", 5)))
+    except (UnitError, ValueError):
+        return message
+    return (f"parameter {match['name']} = {value} {unit} out of range: allowed "
+            f"{match['open']}{low}, {high} {unit}{match['close']}")
 
 
 def _si_spelling(unit: str) -> str:

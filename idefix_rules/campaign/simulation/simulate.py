@@ -32,7 +32,12 @@ from idefix_rules.campaign.input.load import (
     stop_limit,
     where_set,
 )
-from idefix_rules.campaign.input.wording import DisplayUnits, violation_text
+from idefix_rules.campaign.input.wording import (
+    DisplayUnits,
+    range_text,
+    violation_text,
+    written_unit_at,
+)
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts
 from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Then, Timeouts
@@ -489,7 +494,13 @@ def _where_set(campaign: Campaign, diagnostic: Diagnostic) -> Diagnostic:
     places = where_set(campaign, names)
     if not places:
         return diagnostic
-    return dataclasses.replace(diagnostic, span=campaign.span(places[0]))
+    place = places[0]
+    if place[0] == "uncertainty":  # the unit its distribution is written in
+        unit = DisplayUnits.from_campaign_text(campaign.text).unit_of(str(place[-1]))
+    else:  # a regolith value as written
+        unit = written_unit_at(campaign.text, place) or ""
+    return dataclasses.replace(diagnostic, span=campaign.span(place),
+                               message=range_text(diagnostic.message, unit))
 
 
 def parameter_info(campaign: Campaign, names: list[str]) -> dict[str, dict[str, Any]]:
