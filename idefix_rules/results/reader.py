@@ -236,7 +236,13 @@ class StoredResults:
         if group is None or group.attrs.get("status") != STATUS_COMPLETE:
             return None
         with reading(self.path, f"/paths/{name}/reference"):
-            return {key: dataset[()] for key, dataset in group["signals"].items()}
+            signals = {key: dataset[()] for key, dataset in group["signals"].items()}
+        for key, values in signals.items():
+            # a run is stored only when every output of it is finite (worker.check_outputs)
+            if np.asarray(values).dtype.kind in "fc" and not np.all(np.isfinite(values)):
+                raise damaged(self.path, f"/paths/{name}/reference/signals/{key}",
+                              "holds values that are not finite, which no stored run does")
+        return signals
 
     def has_runs(self, name: str) -> bool:
         group = self.path_group(name).get("runs")

@@ -30,7 +30,7 @@ from zlib_ng import zlib_ng
 
 from idefix_rules.results.format import STATUS_COMPLETE
 from idefix_rules.results.mapped import MappedRuns
-from idefix_rules.results.reader import StoredResults, reading
+from idefix_rules.results.reader import StoredResults, damaged, reading
 
 DEFAULT_CHUNK_RUNS = 64
 
@@ -126,7 +126,8 @@ def chunk_layout(dataset: h5py.Dataset) -> ChunkLayout | None:
                        _DEFLATE in filters, offsets, sizes, masks)
 
 
-def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray) -> None:
+def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray,
+                finite: bool = False) -> None:
     """Inflate and unshuffle stored chunks, one run each, into ``into`` (runs, …) float64.
 
     Run by run: a chunk is inflated, its byte planes joined into a buffer of one run (float64
@@ -136,7 +137,11 @@ def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray) 
 
     A chunk whose stored bytes equal the one before it (the shared time grid, a flag no run
     raised) is the same run again: its row is copied, not inflated. Comparing two chunks of
-    different lengths costs nothing, so runs that differ pay nothing for it."""
+    different lengths costs nothing, so runs that differ pay nothing for it.
+
+    ``finite``: a row holding a value that is not finite, unless it is all NaN, raises
+    :class:`NotFinite` (a stored run's outputs are finite; a row all NaN is the fill of a run
+    not stored)."""
     size = layout.dtype.itemsize
     count = int(np.prod(layout.shape, dtype=np.int64))
     joined = np.empty((count, size), dtype=np.uint8)
@@ -163,15 +168,30 @@ def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray) 
             target[:, byte] = planes[byte]
         if not direct:
             row[...] = joined.view(layout.dtype).reshape(layout.shape)
+        # a run is stored only when every output of it is finite (worker.check_outputs): one
+        # that is not was changed after it was written (checked while the row is in cache); a
+        # row all NaN is the fill of a run not stored (failed, or not simulated yet)
+        if finite and not np.isfinite(row).all() and not np.isnan(row).all():
+            raise NotFinite(position)
+
+
+class NotFinite(ValueError):
+    """A decoded run holds values that are not finite: ``position`` in the chunks given."""
+
+    def __init__(self, position: int) -> None:
+        super().__init__(f"run at position {position} holds values that are not finite")
+        self.position = position
 
 
 class ParallelRuns:
     """The run reading of a results file, its chunks decoded on ``threads`` threads (see the
     module docstring). Stands in for :class:`StoredResults` wherever runs are read."""
 
-    def __init__(self, store: StoredResults, threads: int = 2) -> None:
+    def __init__(self, store: StoredResults, threads: int = 2, finite: bool = True) -> None:
         self.store = store
         self.threads = max(1, threads)
+        # a run holding a value that is not finite is damage (H004), see decode_rows
+        self.finite = finite
         self._layouts: dict[tuple[str, str], ChunkLayout | None] = {}
         self._mapped = MappedRuns(store)  # contiguous datasets (format 1): mapped
         self._file: int | None = None
@@ -203,7 +223,7 @@ class ParallelRuns:
         datasets = self.store.path_group(name)["runs"]["signals"]
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
         out: dict[str, np.ndarray] = {}
-        jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]] = []
+        jobs: list[tuple[str, ChunkLayout, np.ndarray, np.ndarray]] = []
         for key in wanted:
             dataset = datasets[key]
             if isinstance(selection, slice):
@@ -217,21 +237,28 @@ class ParallelRuns:
                 out[key] = self._mapped.read_runs(name, selection, [key])[key]
                 continue
             out[key] = np.empty((rows.size, *layout.shape), dtype=np.float64)
-            jobs.append((layout, rows, out[key]))
-        self._decode(jobs)
+            jobs.append((key, layout, rows, out[key]))
+        self._decode(name, jobs)
         return out
 
-    def _decode(self, jobs: list[tuple[ChunkLayout, np.ndarray, np.ndarray]]) -> None:
+    def _decode(self, name: str,
+                jobs: list[tuple[str, ChunkLayout, np.ndarray, np.ndarray]]) -> None:
         """Read and decode every (layout, rows, output) job, split over the threads."""
         descriptor = self._descriptor()
-        parts = [(layout, rows[i::self.threads], target[i::self.threads])
-                 for layout, rows, target in jobs for i in range(self.threads)
+        parts = [(key, layout, rows[i::self.threads], target[i::self.threads])
+                 for key, layout, rows, target in jobs for i in range(self.threads)
                  if rows[i::self.threads].size]
 
-        def run(part: tuple[ChunkLayout, np.ndarray, np.ndarray]) -> None:
-            layout, rows, target = part
-            decode_rows([os.pread(descriptor, int(layout.sizes[row]), int(layout.offsets[row]))
-                         for row in rows], layout, target)
+        def run(part: tuple[str, ChunkLayout, np.ndarray, np.ndarray]) -> None:
+            key, layout, rows, target = part
+            try:
+                decode_rows([os.pread(descriptor, int(layout.sizes[row]),
+                                      int(layout.offsets[row])) for row in rows], layout, target,
+                            self.finite)
+            except NotFinite as bad:
+                raise damaged(self.store.path, f"/paths/{name}/runs/signals/{key}",
+                              f"run {int(rows[bad.position])} holds values that are not "
+                              "finite, which no stored run does") from None
 
         if self.threads == 1 or len(parts) <= 1:
             for part in parts:

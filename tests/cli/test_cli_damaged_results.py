@@ -45,6 +45,21 @@ def _overwrite_stored_chunk(path: Path) -> None:
     path.write_bytes(bytes(data))
 
 
+def _not_finite(name: str, row: int | None) -> Damage:
+    # one value of a stored run (or of the reference run) set to NaN, as an edit leaves it:
+    # no run is stored unless every output of it is finite
+    def damage(path: Path) -> None:
+        with h5py.File(path, "a") as file:
+            dataset = file[name]
+            values = dataset[()] if row is None else dataset[row]
+            values.reshape(-1)[1] = np.nan
+            if row is None:
+                dataset[()] = values
+            else:
+                dataset[row] = values
+    return damage
+
+
 DAMAGES: dict[str, tuple[Damage, str]] = {
     "chain-deleted": (_delete("paths/straight/chain"), "/paths/straight/chain: missing"),
     "rulebook-text-deleted": (_delete("provenance/rulebook"), "/provenance/rulebook: KeyError"),
@@ -62,6 +77,12 @@ DAMAGES: dict[str, tuple[Damage, str]] = {
     "signal-of-more-rows": (_replace("paths/straight/runs/signals/x", np.zeros((3, 4))),
                             "/paths/straight/runs/signals/x: 3 rows for 2 runs"),
     "chunk-overwritten": (_overwrite_stored_chunk, "/paths/straight/runs/signals"),
+    "run-not-finite": (_not_finite("paths/straight/runs/signals/wheel.slip", 1),
+                       "/paths/straight/runs/signals/wheel.slip: run 1 holds values that are "
+                       "not finite"),
+    "reference-not-finite": (_not_finite("paths/straight/reference/signals/y", None),
+                             "/paths/straight/reference/signals/y: holds values that are not "
+                             "finite"),
 }
 
 

@@ -12,6 +12,7 @@ import pytest
 
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import Command
+from idefix_rules.errors import UserInputError
 from idefix_rules.results.runs import ParallelRuns, chunk_layout, decode_rows
 
 RUNS, SAMPLES = 9, 37
@@ -68,7 +69,8 @@ def test_decoded_chunks_equal_h5py_bit_for_bit(tmp_path: Path, threads: int) -> 
         signals = store.path_group("p")["runs"]["signals"]
         keys = [key for key in signals if key != "x"]
         assert all(chunk_layout(signals[key]) is not None for key in keys)
-        with ParallelRuns(store, threads) as runs:
+        # the decoding itself, of values no campaign stores (NaN payloads, infinities)
+        with ParallelRuns(store, threads, finite=False) as runs:
             for selection in (slice(0, 4), slice(5, RUNS), slice(0, RUNS, 2),
                               np.array([8, 0, 3, 5])):
                 got = runs.read_runs("p", selection, [*keys, "missing"])
@@ -169,5 +171,31 @@ def test_runs_stored_alike_are_copied_and_still_equal_h5py(tmp_path: Path, threa
                 assert same_bits(got, expected), selection
                 assert same_bits(got, data[selection if isinstance(selection, slice)
                                            else np.sort(selection)])
+    finally:
+        store.close()
+
+
+def test_a_stored_run_holding_a_value_that_is_not_finite_is_damage(tmp_path: Path) -> None:
+    """No run is stored unless every output of it is finite: one that holds NaN or an
+    infinity was changed after it was written (H004, naming the dataset and the run); a row
+    all NaN is the fill of a run not stored, read as it is."""
+    store = ResultStore.create(tmp_path / "results.h5", {"runs": 4}, {"campaign": "name: t\n"})
+    try:
+        store.create_path("p", 0, [Command(0.1, 0.2, 0.0)], {"status": "simulated"})
+        store.allocate_runs("p", 4, {"x": (50,)}, {}, {})
+        for run, spoilt in ((0, None), (1, np.inf), (2, np.nan)):
+            values = np.linspace(0.0, 1.0, 50)
+            if spoilt is not None:
+                values[7] = spoilt
+            store.write_run("p", run, {"x": values})
+        with ParallelRuns(store, 2) as runs:
+            np.testing.assert_array_equal(runs.read_runs("p", slice(0, 1))["x"][0],
+                                          np.linspace(0.0, 1.0, 50))
+            assert np.isnan(runs.read_runs("p", slice(3, 4))["x"]).all()  # never written
+            for run in (1, 2):
+                with pytest.raises(UserInputError) as damaged:
+                    runs.read_runs("p", np.array([0, run]))
+                assert f"/paths/p/runs/signals/x: run {run} holds values that are not " \
+                    "finite" in damaged.value.diagnostics[0].message
     finally:
         store.close()
