@@ -91,9 +91,9 @@ def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
         raise UserInputError(error("E622", f"area {name}: " + (
             "the last vertex repeats the first; the polygon closes itself, leave it out"
             if closing else f"vertex {int(np.argmax(repeated)) + 2} repeats the one before it")))
-    if _edges_cross(points):
-        raise UserInputError(error("E622", f"area {name}: polygon is not simple (its edges "
-                                           "cross)"))
+    why = _not_simple(points)
+    if why is not None:
+        raise UserInputError(error("E622", f"area {name}: polygon is not simple ({why})"))
     area2 = _signed_area2(points)
     if abs(area2) < 1e-12:
         raise UserInputError(error("E622", f"area {name}: polygon has no area (its vertices "
@@ -159,29 +159,53 @@ def _runs(row: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
-def _edges_cross(points: np.ndarray) -> bool:
-    """Whether two edges of the closed polygon that share no vertex cross each other (a
-    bow-tie); edges that only touch along a line (vertices on one line) are left to the area.
+def _not_simple(points: np.ndarray) -> str | None:
+    """Why the closed polygon is not simple, or None: two edges that share no vertex meet
+    (cross, touch, or overlap along a line: a bow-tie, a vertex on another edge), or an edge
+    turns back along the one before it (a spike). Vertices all on one line are left to the
+    area.
 
-    >>> _edges_cross(np.array([(0, 0), (1, 1), (1, 0), (0, 1)], float))
-    True
-    >>> _edges_cross(np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float))
-    False
+    >>> _not_simple(np.array([(0, 0), (1, 1), (1, 0), (0, 1)], float))
+    'its edges cross'
+    >>> _not_simple(np.array([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (1, 1.5), (0, 1)], float))
+    'edge 5 turns back along edge 4, a spike'
+    >>> _not_simple(np.array([(0, 0), (2, 0), (2, 2), (1, 0), (0, 2)], float))
+    'vertex 4 lies on edge 1'
+    >>> print(_not_simple(np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float)))
+    None
     """
     count = len(points)
 
     def side(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
         return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 
+    def within(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
+        """c, on the line through a and b, lies on the segment from a to b."""
+        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) \
+            and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+
+    span = points - points[0]
+    if np.all(np.abs(span[:, 0] * span[:, 1][:, None] - span[:, 1] * span[:, 0][:, None])
+              <= 1e-12):
+        return None  # every vertex on one line: "has no area" says it better
     for i in range(count):
         a, b = points[i], points[(i + 1) % count]
+        after = points[(i + 2) % count]
+        # the next edge folds back onto this one: collinear, pointing back
+        if side(a, b, after) == 0.0 and float(np.dot(b - a, after - b)) < 0.0:
+            return f"edge {(i + 1) % count + 1} turns back along edge {i + 1}, a spike"
         for j in range(i + 2, count):
             if i == 0 and j == count - 1:
                 continue  # the closing edge shares vertex 0 with edge 0
             c, d = points[j], points[(j + 1) % count]
-            if side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0:
-                return True
-    return False
+            sides = side(a, b, c), side(a, b, d), side(c, d, a), side(c, d, b)
+            if sides[0] * sides[1] < 0 and sides[2] * sides[3] < 0:
+                return "its edges cross"
+            for point, number, on, ends in ((c, j, i, (a, b)), (d, (j + 1) % count, i, (a, b)),
+                                            (a, i, j, (c, d)), (b, (i + 1) % count, j, (c, d))):
+                if side(*ends, point) == 0.0 and within(*ends, point):
+                    return f"vertex {number + 1} lies on edge {on + 1}"
+    return None
 
 
 def _signed_area2(points: np.ndarray) -> float:

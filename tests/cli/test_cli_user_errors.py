@@ -532,6 +532,21 @@ CASES = [
                                                  '["1 m", "0 m"], ["0 m", "1 m"]]\npaths:')),
          RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
                   "polygon is not simple (its edges cross)",)),
+    # a spike out and back along one line, a vertex on another edge: no simple polygon, so
+    # the area cut into triangles would not be the one drawn
+    Case("keep-out-spike",
+         campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
+                             '      polygon: [["0 m", "0 m"], ["2 m", "0 m"], ["2 m", "1 m"], '
+                             '["1 m", "1 m"], ["1 m", "2 m"], ["1 m", "1.5 m"], ["0 m", "1 m"]]'
+                             "\npaths:")),
+         RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
+                  "polygon is not simple (edge 5 turns back along edge 4, a spike)",)),
+    Case("keep-out-vertex-on-an-edge",
+         campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
+                             '      polygon: [["0 m", "0 m"], ["2 m", "0 m"], ["2 m", "2 m"], '
+                             '["1 m", "0 m"], ["0 m", "2 m"]]\npaths:')),
+         RUN, 2, ("campaign.yaml:17:16: error[E622]: environment.keep_out[0].polygon: area k: "
+                  "polygon is not simple (vertex 4 lies on edge 1)",)),
     Case("keep-out-on-a-line", campaign(("paths:", "environment:\n  keep_out:\n    - name: k\n"
                                                    '      polygon: [["0 m", "0 m"], ["1 m", "1 m"],'
                                                    ' ["2 m", "2 m"]]\npaths:')),
