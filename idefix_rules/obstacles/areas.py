@@ -181,8 +181,8 @@ def _not_simple(points: np.ndarray) -> str | None:
 
     def within(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
         """c, on the line through a and b, lies on the segment from a to b."""
-        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) \
-            and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+        return bool(min(a[0], b[0]) <= c[0] <= max(a[0], b[0])
+                    and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]))
 
     span = points - points[0]
     if np.all(np.abs(span[:, 0] * span[:, 1][:, None] - span[:, 1] * span[:, 0][:, None])
