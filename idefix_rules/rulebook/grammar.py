@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import functools
+import hashlib
 import importlib.resources
 import sys
 from collections.abc import Iterator
@@ -69,15 +70,18 @@ def parser_cache() -> str | bool:
     """Where lark keeps the parser's tables between processes: a file in this user's cache
     folder (:func:`idefix_rules.files.cache_root`, beside the built rover FMU; never a shared
     temporary folder, since lark unpickles it), or False (no cache) when the folder cannot be
-    made. Lark stores a hash of the grammar, its options and the lark and Python versions in
-    the file and builds the tables again when it differs (and when the file cannot be read:
-    half written by another process, say), then writes the file anew."""
+    made. The file's name holds a digest of the grammar, so that checkouts of different
+    grammars keep a file each instead of building it in turn. Lark stores a hash of the
+    grammar, its options and the lark and Python versions in the file and builds the tables
+    again when it differs (and when the file cannot be read: half written by another process,
+    say), then writes the file anew."""
     folder = cache_root() / "grammar"
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError:
         return False
-    return str(folder / f"rulebook-lark{lark.__version__}-py{sys.version_info[0]}"
+    digest = hashlib.sha256(grammar_text().encode()).hexdigest()[:12]
+    return str(folder / f"rulebook-{digest}-lark{lark.__version__}-py{sys.version_info[0]}"
                         f"{sys.version_info[1]}.cache")
 
 
@@ -86,20 +90,30 @@ def _held(cache: str | bool) -> Iterator[str | bool]:
     """The cache file, locked against the other processes for as long as lark reads or
     writes it (lark writes it in place: two processes building at once could otherwise
     interleave their writes into one file that still unpickles); False (no cache) where no
-    lock can be taken."""
+    lock can be taken. In a folder this user cannot write (a cache prepared for a read-only
+    image), a lock file there is opened to read and held shared: the tables are read, and
+    lark's attempt to write stale ones fails quietly."""
     if not cache:
         yield False
         return
     try:
         import fcntl
-
-        handle = open(f"{cache}.lock", "a")  # noqa: SIM115 - closed below, after the yield
-    except (ImportError, OSError):  # no flock (Windows), or no lock file
+    except ImportError:  # no flock (Windows)
         yield False
         return
+    mode = fcntl.LOCK_EX
+    try:
+        handle = open(f"{cache}.lock", "a")  # noqa: SIM115 - closed below, after the yield
+    except OSError:
+        try:
+            handle = open(f"{cache}.lock")  # noqa: SIM115 - closed below, after the yield
+            mode = fcntl.LOCK_SH
+        except OSError:  # no lock file, and none can be made
+            yield False
+            return
     with handle:
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX)
+            fcntl.flock(handle, mode)
         except OSError:
             yield False
             return

@@ -110,3 +110,52 @@ def test_the_cache_file_is_locked_while_lark_reads_or_writes_it(
     assert seen == [True, True]
     with open(lock, "a") as other:  # released afterwards
         fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def test_the_file_name_holds_a_digest_of_the_grammar(
+        cache_folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two checkouts of different grammars keep a file each instead of building it in turn."""
+    from idefix_rules.rulebook import grammar
+
+    ours = parser_cache()
+    monkeypatch.setattr(grammar, "grammar_text", lambda: grammar_text_of_another_checkout)
+    theirs = parser_cache()
+    assert isinstance(ours, str) and isinstance(theirs, str) and ours != theirs
+    assert Path(ours).parent == Path(theirs).parent
+
+
+grammar_text_of_another_checkout = "start: \"x\"\n"
+
+
+def test_a_cache_in_a_folder_this_user_cannot_write_is_read(
+        cache_folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A cache prepared for a read-only image: the lock file cannot be opened to append, so it
+    is opened to read and held shared, and the tables are read, not built."""
+    import builtins
+
+    path = Path(str(parser_cache()))
+    fresh = _formatted()  # built and written, with its lock file
+    written = path.stat().st_mtime_ns, path.read_bytes()
+    real_open = builtins.open
+    refused: list[str] = []
+
+    def read_only(file: object, mode: str = "r", *args: object, **kwargs: object) -> object:
+        if str(file).startswith(str(cache_folder)) and any(m in mode for m in "aw+"):
+            refused.append(str(file))
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, mode, *args, **kwargs)  # type: ignore[call-overload]
+
+    monkeypatch.setattr(builtins, "open", read_only)
+    from idefix_rules.rulebook import grammar
+
+    built: list[bool] = []
+    real_lark = grammar.lark.Lark
+
+    def lark(*args: object, **kwargs: object) -> object:
+        built.append(bool(kwargs.get("cache")))  # the cache file handed to lark, not False
+        return real_lark(*args, **kwargs)
+
+    monkeypatch.setattr(grammar.lark, "Lark", lark)
+    assert _formatted() == fresh
+    assert built == [True] and refused == [f"{path}.lock"]
+    assert (path.stat().st_mtime_ns, path.read_bytes()) == written
