@@ -21,7 +21,12 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign.adaptive import adaptive_monte_carlo
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, evaluate_store
+from idefix_rules.campaign.evaluation.evaluate import (
+    CampaignEvaluation,
+    PathResult,
+    evaluate_store,
+)
+from idefix_rules.campaign.evaluation.gate import gate_again
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
@@ -38,6 +43,7 @@ from idefix_rules.campaign.input.validate import (
     check_start_on_terrain,
     prepare_output,
 )
+from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome import outputs
 from idefix_rules.campaign.simulation.dask_pool import ClusterError
 from idefix_rules.campaign.simulation.resume import resume_command
@@ -569,11 +575,19 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     collisions = stored.collision_function(evaluator)
     clock = PathClock()
     then = f"{results} is unchanged; free space, then evaluate again"
+    gate = None
+    if rulebook is not None:  # its command rules and prescreen, as a campaign would apply them
+        units = DisplayUnits.from_campaign_text(stub.text)
+
+        def gate(result: PathResult) -> None:
+            gate_again(result, evaluator, store.chain(result.name), stored.rover, stored.sigma,
+                       store.reference(result.name), collisions, model.waivers, units)
+
     with evaluation_revision(store, then) as revision:
         evaluation = evaluate_store(store, evaluator, stored.rover, stored.sigma, collisions,
                                     rulebook_info(evaluator, rulebook_path),
                                     on_path=clock.start, into=revision.store,
-                                    waivers=model.waivers)
+                                    waivers=model.waivers, gate=gate)
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then)

@@ -33,9 +33,10 @@ from idefix_rules.campaign.evaluation.evaluate import (
     fill_result,
     stored_path_result,
 )
+from idefix_rules.campaign.evaluation.gate import NOT_SIMULATED, gate_again
 from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
+from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
-from idefix_rules.campaign.simulation.prescreen import prescreen_reference
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.commands import Command
 from idefix_rules.diff.evaluators import values_only
@@ -59,7 +60,6 @@ MOVE_TOLERANCE = 1e-9
 
 FailOn = Literal["verdict", "rank", "never"]
 FAIL_ON: tuple[str, ...] = ("verdict", "rank", "never")
-NOT_SIMULATED = "not simulated"
 
 
 @dataclass(frozen=True)
@@ -198,22 +198,11 @@ class _Side:
 
 def _gate(side: _Side, chain: tuple[Command, ...], context: dict[str, Any],
           reference: dict[str, np.ndarray] | None, collisions: Any) -> None:
-    """Command rules and prescreen of this side's rulebook, as a campaign would apply them."""
-    result = side.result
-    violations = side.evaluator.check_chain(chain, context["rover"])
-    if violations:
-        result.status, result.reason = "rejected", violations[0].message
-        return
-    if reference is None:
-        return  # the stored status says why (reference failed, pending)
-    findings = prescreen_reference(side.evaluator, chain, context["rover"], context["sigma"],
-                                   reference, collisions)
-    if findings:
-        result.status, result.reason = "excluded", findings[0].message
-    elif result.status in ("rejected", "excluded"):
-        result.status = NOT_SIMULATED
-        result.reason = ("the stored campaign did not simulate this path; this rulebook "
-                         "would: run the campaign to compare")
+    """Command rules and prescreen of this side's rulebook, as a campaign would apply them
+    (without the campaign's waivers: a diff shows the rules; ``--waivers`` the waivers they
+    touch)."""
+    gate_again(side.result, side.evaluator, chain, context["rover"], context["sigma"],
+               reference, collisions, (), context["units"])
 
 
 def _side_result(side: _Side) -> SideResult:
@@ -269,7 +258,9 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
                             f"{stored.problem}")) from None
             stored.require_campaign()
         store = stored.store
-        context = {"rover": stored.rover, "sigma": stored.sigma}
+        campaign = stored.require_campaign()
+        context = {"rover": stored.rover, "sigma": stored.sigma,
+                   "units": DisplayUnits.from_campaign_text(campaign.text)}
         evaluators = [values_only(old.checked), values_only(new.checked)]
         digests = [source_sha256(old.checked), source_sha256(new.checked)]
         collisions = CollisionSources(stored, evaluators, (old.checked, new.checked))

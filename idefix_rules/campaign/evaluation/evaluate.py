@@ -252,12 +252,16 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
                    chunk_runs: int = DEFAULT_CHUNK_RUNS, workers: int = 1,
                    on_path: Callable[[str, int], None] | None = None,
                    into: ResultStore | None = None,
-                   waivers: Sequence[Waiver] = ()) -> CampaignEvaluation:
+                   waivers: Sequence[Waiver] = (),
+                   gate: Callable[[PathResult], None] | None = None) -> CampaignEvaluation:
     """Score every path of a results file; writes the evaluation groups when ``write``, into
     ``into`` when given (a :class:`~idefix_rules.campaign.storage.revision.Revision`'s store, so the
     file read is never written), else into ``store``. ``workers`` processes share the
     collision checks; ``on_path(name, runs)`` is called as each simulated path's evaluation
-    starts (progress). ``waivers``: the campaign's; a waived verdict rule counts as held."""
+    starts (progress). ``waivers``: the campaign's; a waived verdict rule counts as held.
+    ``gate(result)``: sets a path's status as the campaign would under this rulebook before it
+    is scored (:func:`~idefix_rules.campaign.evaluation.gate.gate_again`, for a rulebook other
+    than the one the campaign ran with)."""
     target = into if into is not None else store
     results: list[PathResult] = []
     statistics: dict[str, Any] = {}
@@ -268,6 +272,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     extras: dict[str, dict[str, Any]] = {}
     for name in store.path_names:
         result = stored_path_result(store, name)
+        if gate is not None:
+            gate(result)
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue

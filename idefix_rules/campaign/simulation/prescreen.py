@@ -30,3 +30,18 @@ def prescreen_reference(evaluator: Any, chain: Sequence[Command], rover: RoverGe
         signals.update(extra)
     evaluation = evaluator.evaluate(signals, run_context(chain, rover, sigma, reference))
     return list(evaluator.prescreen(evaluation))
+
+
+def finding_text(item: Any) -> str:
+    """One line for a rule finding (command violation or pre-screen finding)."""
+    for method in ("describe", "message"):
+        value = getattr(item, method, None)
+        if callable(value):
+            return str(value())
+        if isinstance(value, str):
+            return value
+    rule = getattr(item, "rule", None)
+    reason = getattr(item, "reason", None)
+    if rule is not None:
+        return f"{rule}: {reason}" if reason else str(rule)
+    return str(item)

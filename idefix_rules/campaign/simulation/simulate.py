@@ -41,7 +41,7 @@ from idefix_rules.campaign.input.wording import (
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts
 from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Then, Timeouts
-from idefix_rules.campaign.simulation.prescreen import prescreen_reference
+from idefix_rules.campaign.simulation.prescreen import finding_text, prescreen_reference
 from idefix_rules.campaign.simulation.worker import InputProblem, RunTask, simulate
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import (
@@ -375,21 +375,6 @@ def _record_waived(store: ResultStore, name: str, waived: list[waivers.WaivedRul
             str(attrs.get(waivers.STORED_ATTRIBUTE, "")), waived)
 
 
-def _describe(item: Any) -> str:
-    """One line for a rule finding (command violation or pre-screen finding)."""
-    for method in ("describe", "message"):
-        value = getattr(item, method, None)
-        if callable(value):
-            return str(value())
-        if isinstance(value, str):
-            return value
-    rule = getattr(item, "rule", None)
-    reason = getattr(item, "reason", None)
-    if rule is not None:
-        return f"{rule}: {reason}" if reason else str(rule)
-    return str(item)
-
-
 def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
              parameters: Mapping[str, float | str], encode: bool = False,
              check: str | None = None, run: int = -1) -> RunTask:
@@ -469,7 +454,7 @@ def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
     _record_waived(store, name, waived)
     if findings:
         plan.status = "excluded"
-        plan.reason = "; ".join(_describe(f) for f in findings)
+        plan.reason = "; ".join(finding_text(f) for f in findings)
     else:
         plan.status = "simulated"
     store.set_path_status(name, plan.status, plan.reason)

@@ -1,0 +1,94 @@
+"""`evaluate --rulebook R` gates the stored paths as a campaign would under R before it scores
+them: R's command rules on each stored chain (`rejected`), its prescreen on the stored
+reference run (`excluded`), with the campaign's waivers. A chain R would never send is not
+passed on runs R would never have simulated; a path the stored campaign rejected that R would
+simulate has no runs to score (`error`, said why)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+from test_cli_user_errors import RULEBOOK, campaign, materialise
+
+from idefix_rules.cli import main
+
+SHORT_ONLY = ('command short_only: require abs(delta_position) <= 5 cm\n'
+              '  because "Short steps only"\n')
+TINY_RISK = 'prescreen tiny_risk: require risk < 0.1 %\n  because "Nothing risky"\n'
+WAIVER = ("waivers:\n  - {rule: short_only, path: straight, reason: \"requalified\", "
+          "approved_by: \"J. Doe\", until: 2099-12-31, command_rules: true}\n")
+
+
+def _stored(folder: Path, toy: Path, rulebook: str, append: str = "") -> Path:
+    files = campaign(append=append)
+    files["test.rules"] = rulebook
+    folder.mkdir(exist_ok=True)
+    materialise(folder, files, toy)
+    here = Path.cwd()
+    try:
+        os.chdir(folder)
+        code = main(["campaign.yaml", "--runs", "4", "--quiet", "--no-report"])
+    finally:
+        os.chdir(here)
+    assert code in (0, 1), code  # the stored verdicts are read back below
+    return folder / "out" / "results.h5"
+
+
+def _evaluate(results: Path, rulebook: Path, capsys: pytest.CaptureFixture[str]
+              ) -> tuple[int, dict[str, dict[str, object]], str]:
+    code = main(["evaluate", str(results), "--rulebook", str(rulebook)])
+    captured = capsys.readouterr()
+    summary = json.loads((results.parent / "summary.json").read_text())
+    return code, {path["name"]: path for path in summary["paths"]}, \
+        " ".join((captured.out + captured.err).split())
+
+
+def test_a_chain_the_new_rulebook_rejects_or_excludes_is_not_passed(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path / "stored", cli_toy_fmu, RULEBOOK)
+    before = json.loads((results.parent / "summary.json").read_text())
+    assert {p["verdict"] for p in before["paths"]} <= {"pass", "fail"}
+    rejecting = tmp_path / "rejecting.rules"
+    rejecting.write_text(RULEBOOK + SHORT_ONLY)
+    code, paths, output = _evaluate(results, rejecting, capsys)
+    assert code == 1, output
+    assert paths["straight"]["verdict"] == paths["arc"]["verdict"] == "rejected", output
+    assert "straight rejected: command 1 breaks rule 'short_only' (delta_position = 0.1 m)" \
+        in output
+    excluding = tmp_path / "excluding.rules"
+    excluding.write_text(RULEBOOK + TINY_RISK)
+    code, paths, output = _evaluate(results, excluding, capsys)
+    assert code == 1, output
+    assert paths["straight"]["verdict"] == paths["arc"]["verdict"] == "excluded", output
+    assert "the reference run fails prescreen 'tiny_risk'" in output
+
+
+def test_the_campaigns_waivers_let_a_waived_command_rule_through(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path, cli_toy_fmu, RULEBOOK + SHORT_ONLY, append=WAIVER)
+    stored = {p["name"]: p for p in json.loads(
+        (results.parent / "summary.json").read_text())["paths"]}
+    assert stored["arc"]["verdict"] == "rejected"
+    assert stored["straight"]["verdict"] == "waived", stored["straight"]["verdict"]
+    code, paths, output = _evaluate(results, tmp_path / "test.rules", capsys)
+    assert code == 1, output  # arc stays rejected
+    assert paths["arc"]["verdict"] == "rejected", output
+    assert paths["straight"]["verdict"] == stored["straight"]["verdict"], output
+    assert [w["rule"] for w in paths["straight"]["waivers"]] == ["short_only"], output
+
+
+def test_a_path_the_stored_campaign_rejected_that_the_new_rulebook_would_run_has_no_score(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path, cli_toy_fmu, RULEBOOK + SHORT_ONLY)
+    accepting = tmp_path / "accepting.rules"
+    accepting.write_text(RULEBOOK)
+    code, paths, output = _evaluate(results, accepting, capsys)
+    assert code == 1, output
+    for name in ("straight", "arc"):
+        assert paths[name]["verdict"] == "error", output
+    assert "straight not simulated: the stored campaign did not simulate this path (rejected: " \
+        "command 1 breaks rule 'short_only'" in output
+    assert "this rulebook would: run the campaign to score it" in output
