@@ -305,7 +305,13 @@ def parse_quantity(text: str | float | int, default_unit: str | None = None) -> 
             return Quantity(number, DIMENSIONLESS)
         unit_text = default_unit
     unit = parse_unit(unit_text)
-    value = unit.to_si(number)
+    try:
+        value = unit.to_si(number)
+    except OverflowError:
+        value = math.inf
+    if not math.isfinite(value):
+        raise UnitError(f"{text!r} is too large: in SI ({unit.dimension}) it is beyond a "
+                        "double", 0)
     if value == 0 and number != 0:
         raise UnitError(f"{text!r} is too small for a double in SI: it would be read as 0 "
                         "(write 0 if zero is meant)", 0)

@@ -15,6 +15,7 @@ type, and its parents then stay quiet (one mistake, one message).
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Callable
 
 from idefix_rules import signals
@@ -53,11 +54,21 @@ def unit_dimension(number: Number, problems: Problems) -> Dimension | None:
     if number.unit is None:
         return DIMENSIONLESS
     try:
-        return parse_unit(number.unit).dimension
+        unit = parse_unit(number.unit)
     except UnitError as failure:
         problems.append(error("E205", str(failure), number.span,
                               "units are listed in docs/rulebook-language.md"))
         return None
+    try:
+        si = unit.to_si(number.value)
+    except OverflowError:
+        si = math.inf
+    if not math.isfinite(si):  # the number fits a double, its value in SI does not
+        problems.append(error("E003", f"number {number.value:g} {number.unit} is too large: "
+                                      f"in SI ({unit.dimension}) it is beyond a double",
+                              number.span, "write a realistic value"))
+        return None
+    return unit.dimension
 
 
 def did_you_mean(name: str, candidates: list[str]) -> str | None:

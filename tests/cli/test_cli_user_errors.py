@@ -521,6 +521,11 @@ CASES = [
            (f"campaign.yaml:16:{column}: error[C204]: environment.terrain.{key}: only a .npy or "
             f".csv DEM takes a {key}",))
       for key, value, column in (("cell", '"5 cm"', 11), ("origin", '["0 m", "0 m"]', 13))),
+    # a number that fits a double, its unit taking it past one in SI: no traceback
+    Case("uncertainty-beyond-a-double-in-si",
+         campaign(('std: "1 cm"}', 'std: "1e306 km"}')), RUN, 2,
+         ("campaign.yaml:12:58: error[C100]: uncertainty.parameters.initial.x.std: '1e306 km' "
+          "is too large: in SI (m) it is beyond a double",)),
     Case("synthetic-terrain-negative-roughness",
          campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
                              '      roughness: "-3 mm"\npaths:')), RUN, 2,
