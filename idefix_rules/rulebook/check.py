@@ -180,7 +180,13 @@ def check_names(env: CheckEnv) -> list[Diagnostic]:
     problems = []
     seen: dict[str, tuple[str, object]] = {}
     reserved = set(COMMAND_NAMES) | set(PATH_NAMES)
-    for kind, name, node in _declarations(env.rulebook):
+
+    def place(declaration: tuple[str, str, object]) -> tuple[int, int]:
+        span = getattr(declaration[2], "span", None)
+        return (span.line, span.column) if span is not None else (1 << 62, 0)
+
+    # in the order of the text: the later of two declarations is the one said to repeat
+    for kind, name, node in sorted(_declarations(env.rulebook), key=place):
         span = getattr(node, "span", None)
         if name in seen:
             first_kind, first = seen[name]
