@@ -109,6 +109,24 @@ def test_version_warnings():
     assert diff_rules(old, old).warnings == ()
 
 
+@pytest.mark.parametrize(("before", "after", "backwards"), [
+    ("1.3.0-rc.2", "1.3.0-rc.10", False),  # numeric identifiers compare as numbers
+    ("1.3.0-rc.10", "1.3.0-rc.2", True),
+    ("1.3.0-rc.9", "1.3.0", False),  # a release after its pre-releases
+    ("1.3.0", "1.3.0-rc.9", True),
+    ("1.3.0-alpha", "1.3.0-alpha.1", False),  # more identifiers, the ones before equal
+    ("1.3.0-9", "1.3.0-alpha", False),  # numeric below alphanumeric
+    ("1.3.0-beta", "1.3.0-alpha.9", True),
+])
+def test_pre_release_versions_go_up_in_semver_precedence(
+        before: str, after: str, backwards: bool) -> None:
+    changed = edited("require risk <= 70 %", "require risk <= 60 %")
+    old = check_text(DEFAULT.replace('version "1.1.0"', f'version "{before}"'), "o.rules")
+    new = check_text(changed.replace('version "1.1.0"', f'version "{after}"'), "n.rules")
+    assert diff_rules(old.checked, new.checked).warnings == (
+        (f"the version went backwards: {before} → {after}",) if backwards else ())
+
+
 def test_cli_table_json_and_markdown_carry_the_labels(capsys):
     assert main(["diff", str(HISTORY), str(FROZEN), "--format", "json"]) == 0
     rules = json.loads(capsys.readouterr().out)["rules"]
