@@ -110,7 +110,9 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
                         token.end_line or token.line or 1,
                         token.end_column or (token.column or 1) + 1)
         message = f"unexpected {_describe_token(token)}; expected {describe_expected(expected)}"
-        return error(SYNTAX_ERROR, message, span, _hint(token, expected))
+        end = token.end_pos if isinstance(token.end_pos, int) else None
+        following = text[end] if end is not None and end < len(text) else ""
+        return error(SYNTAX_ERROR, message, span, _hint(token, expected, following))
     line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
 
@@ -152,8 +154,11 @@ def acceptable(state: object, candidates: set[str]) -> set[str]:
     return accepted or candidates
 
 
-def _hint(token: lark.Token, expected: set[str]) -> str | None:
+def _hint(token: lark.Token, expected: set[str], following: str = "") -> str | None:
+    """``following``: the character right after the token in the text."""
     if token.type == "EQUAL" and "COMPARE" in expected:
+        if following in "<>":  # `=>`, `=<`: the comparison written back to front
+            return f"did you mean '{following}='?"
         return "use '==' to compare"
     if token.type in _DECLARATION_START and token.column == 1 \
             and len(expected & _DECLARATION_START) < 4:
