@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -425,19 +426,31 @@ def _warn_lost_runs(result: CampaignResult, again: str) -> None:
                                f"their own (exit code 3); run them again with `{again}`")
 
 
+def _not_writable(path: Path, failure: OSError | str) -> UserInputError:
+    reason = failure if isinstance(failure, str) else (failure.strerror or str(failure))
+    return UserInputError(error(
+        "H002", f"cannot write the evaluation of {path}: {reason}", Span(str(path)),
+        hint="the evaluation writes a new version of the results file beside it: its "
+             "folder must be writable (copy the results elsewhere to evaluate them)"))
+
+
+def _check_writable_results_folder(results: Path) -> None:
+    """Before anything is set aside: the evaluation writes beside ``results``."""
+    folder = results.parent
+    if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+        raise _not_writable(results, f"its folder {folder} is not writable")
+
+
 def evaluation_revision(store: ResultStore, then: str) -> Revision:
     """The new version of ``store``'s results file the evaluation writes into
     (:mod:`idefix_rules.campaign.storage.revision`), once the disk has room for it and for the
     evaluation (``DiskFull`` otherwise, ``then`` saying what to do next)."""
     try:
         revision = Revision(store.path)
-    except PermissionError as failure:
-        raise UserInputError(error(
-            "H002", f"cannot write the evaluation of {store.path}: "
-                    f"{failure.strerror or failure}", Span(str(store.path)),
-            hint="the evaluation writes a new version of the results file beside it: its "
-                 "folder must be writable (copy the results elsewhere to evaluate them)")
-        ) from None
+    except OSError as failure:
+        if failure.errno not in (errno.EACCES, errno.EPERM, errno.EROFS):
+            raise
+        raise _not_writable(store.path, failure) from None
     try:
         diskspace.require(store.folder, revision.needed(evaluation_bytes(store)),
                           f"write the evaluation into {store.path.name}", then)
@@ -528,6 +541,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
     The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
     writes there); the ``summary.json`` and JUnit file this rewrites are set aside first."""
     output = out or results.parent
+    _check_writable_results_folder(results)
     check_junit_destination(junit, [results, rulebook],
                             [output / name for name in (SUMMARY_FILE, REPORT_FILE)]
                             + [previous_path(output / name)

@@ -10,8 +10,15 @@ import os
 from pathlib import Path
 
 
+def _named(text: str) -> None:
+    """An empty name (``--out "$UNSET"``) would mean the current folder: refused."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty name (is the variable that gives it unset?)")
+
+
 def output_folder(text: str) -> Path:
     """A folder to write into: an existing writable folder, or one that can be created."""
+    _named(text)
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
@@ -21,11 +28,21 @@ def output_folder(text: str) -> Path:
 
 def output_file(text: str) -> Path:
     """A file to (over)write: not a folder, inside a folder that exists or can be created."""
+    _named(text)
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a folder; give a file name")
     _creatable(path.parent, text)
     return path
+
+
+def writable_folder(folder: Path) -> str | None:
+    """Why this user cannot write into ``folder`` (or create it), or None."""
+    try:
+        _creatable(folder, str(folder))
+    except argparse.ArgumentTypeError as failure:
+        return str(failure)
+    return None
 
 
 def _creatable(folder: Path, text: str) -> None:

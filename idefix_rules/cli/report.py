@@ -33,6 +33,16 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.cli.console import StdoutConsole
 
     out = args.out if args.out is not None else args.results.resolve().parent
+    if args.out is None:  # -o was checked as it was read; the results' folder is checked here
+        from idefix_rules.cli.destinations import writable_folder
+        from idefix_rules.errors import Span, UserInputError, error
+
+        problem = writable_folder(out)
+        if problem is not None:
+            raise UserInputError(error(
+                "C205", f"output folder {out} cannot be used: {problem}", Span(str(args.results)),
+                hint="the report goes beside the results file by default: give a folder this "
+                     "user can write with -o DIR"))
     # a report already there (of this campaign or any other) is kept, as a run keeps it
     from idefix_rules.files import set_aside
     from idefix_rules.report import REPORT_FILE
