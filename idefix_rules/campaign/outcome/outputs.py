@@ -157,8 +157,8 @@ SUMMARY_UNITS = {
 }
 
 
-def _round(value: float | None, decimals: int) -> float | None:
-    return None if value is None else round(float(value), decimals)
+def _plain(value: float | None) -> float | None:
+    return None if value is None else float(value)
 
 
 def significant(obj: Any, digits: int = 4) -> Any:
@@ -187,13 +187,15 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "failed_runs": path.failed,
         "failures": [{"run": run, "reason": reason} for run, reason in
                      sorted(path.failures.items())],
-        "mean_risk": _round(path.mean_risk, 4),
-        "risk_ci95": [round(v, 4) for v in path.risk_ci] if path.risk_ci else None,
-        "chances": {k: round(v, 4) for k, v in path.chances.items()},
-        "collision_chance": {k: round(v, 4) for k, v in path.collision_chance.items()},
-        "energy_mAs": None if path.energy is None else round(path.energy * 1000.0, 1),
-        "time_s": _round(path.time, 2),
-        "stop_time_s": _round(path.stop_time, 2),
+        # unrounded: the report prints these again, and a value rounded twice can differ
+        # from the console's in its last digit (0.067464 → 0.0675 → 6.8 % against 6.7 %)
+        "mean_risk": _plain(path.mean_risk),
+        "risk_ci95": [float(v) for v in path.risk_ci] if path.risk_ci else None,
+        "chances": {k: float(v) for k, v in path.chances.items()},
+        "collision_chance": {k: float(v) for k, v in path.collision_chance.items()},
+        "energy_mAs": None if path.energy is None else float(path.energy) * 1000.0,
+        "time_s": _plain(path.time),
+        "stop_time_s": _plain(path.stop_time),
         "unfinished_runs": path.unfinished,
         "dominant_index": path.dominant_index,
         "risk_spread": (path.risk_spread.to_dict() if path.risk_spread is not None else None),
@@ -235,7 +237,7 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "paired": evaluation.paired,
         "indifference": evaluation.indifference,
         "ties": [list(tie) for tie in evaluation.ties],
-        "pairs": [significant(pair.to_dict()) for pair in evaluation.pairs],
+        "pairs": [as_plain(pair.to_dict()) for pair in evaluation.pairs],  # printed again
         "alpha": (significant(evaluation.budget.to_dict())
                   if evaluation.budget is not None else None),
         "sensitivity": sensitivity or {},
