@@ -30,6 +30,15 @@ def report_decision(data: ReportData) -> Decision:
     if isinstance(stored, Mapping) and stored.get("kind") in ("send", "none", "unsettled"):
         return Decision(stored["kind"], stored.get("path"), str(stored.get("text", "")),
                         tuple(str(r) for r in stored.get("reasons", ())))
+    if not data.evaluated_paths and data.paths:
+        # nothing scored: say why instead of deciding on verdicts no path has
+        state = data.header.state or "complete"
+        text = (f"none yet: the campaign is {state} and its runs so far were never evaluated; "
+                "continue it with `--resume` (the command its interruption printed), or score "
+                "what is stored with `idefix-verify evaluate`" if state != "complete" else
+                "none yet: the campaign's runs were never evaluated; score them with "
+                "`idefix-verify evaluate`")
+        return Decision("unsettled", None, text)
     reasons = path_reasons(data)
     return decide([PathFacts(p.name, p.row.verdict or p.status, p.row.undecided, p.row.rank,
                              reasons.get(p.name, []),
@@ -44,8 +53,10 @@ def decision_html(data: ReportData) -> str:
     if data.expectations:
         held = sum(1 for e in data.expectations if e.get("held"))
         ci = f"CI expectations: {held} of {len(data.expectations)} held"
+    elif data.exit_code is not None:
+        ci = "CI verdicts (no expectations: every path must pass)"
     if data.exit_code is not None:
-        ci += f"{' ' if ci else 'CI '}(exit {data.exit_code})"
+        ci += f" (exit {data.exit_code})"
     return (f'<div class="banner {decision.kind}" id="decision"><b>Decision:</b> '
             f"{escape(decision.text)}" + (f'<div class="ci">{escape(ci)}</div>' if ci else "")
             + "</div>")
