@@ -175,7 +175,7 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 if reason is None:
                     continue
                 _stop(store, name, look, reason)
-                progress.message(f"{name}: {reason}")
+                progress.note(f"{name}: {reason}")
                 del running[name]
 
 

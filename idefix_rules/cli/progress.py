@@ -100,6 +100,15 @@ class RichProgress:
         self.spinner_task = self.spinner.add_task(escape(text), total=None)
         self.spinner.start()
 
+    def note(self, text: str) -> None:
+        """A line above the bars while the runs go on (the bars stay)."""
+        if self.quiet:
+            return
+        if self.bars is None:
+            self.message(text)
+            return
+        self.bars.console.print(escape(text))
+
     def advance(self, fraction: float, detail: str = "") -> None:
         """How far the current phase is (0 … 1), and what it is at."""
         if self.quiet or self.spinner is None or self.step is None:
@@ -198,6 +207,13 @@ class PlainProgress:
             self.timer = threading.Timer(self.long_phase, self._announce, (phase,))
             self.timer.daemon = True
             self.timer.start()
+
+    def note(self, text: str) -> None:
+        """A line while the runs go on: the runs' count and their lines go on after it."""
+        if self.runs_began is None:
+            self.message(text)
+            return
+        self._say(text)
 
     def advance(self, fraction: float, detail: str = "") -> None:
         if self.phase is None:

@@ -571,6 +571,9 @@ def test_a_check_that_crashes_its_worker_leaves_the_run_to_the_look(
         def message(self, text: str) -> None:
             messages.append(text)
 
+        def note(self, text: str) -> None:
+            messages.append(text)
+
     result = run_campaign(campaign.with_overrides(output=tmp_path / "crashing"),
                           SimulationOptions(workers=2), progress=Said(), report=False)
     simulated = [p for p in result.summary["paths"] if p["status"] == "simulated"]

@@ -74,6 +74,7 @@ KILLER = textwrap.dedent("""\
     class KillAfter:
         seen = 0
         def message(self, text): pass
+        def note(self, text): pass
         def start_path(self, name, total, done): pass
         def run_finished(self, name, ok):
             self.seen += 1
@@ -225,6 +226,9 @@ class InterruptAfter:
         self.seen = 0
 
     def message(self, text: str) -> None:
+        pass
+
+    def note(self, text: str) -> None:
         pass
 
     def start_path(self, name: str, total: int, done: int) -> None:

@@ -52,6 +52,33 @@ def test_runs_say_each_tenth_with_elapsed_time_and_eta() -> None:
     assert lines[-1] == "Monte Carlo runs of 1 path(s): 100 runs, 1 failed (50.0 s)"
 
 
+def test_a_note_while_runs_go_on_ends_nothing() -> None:
+    """An adaptive campaign stops a path between looks: the line says so, and the other paths'
+    runs go on being counted and said (they were dropped after the first look)."""
+    progress, clock, out = _plain()
+    progress.start_path("a", total=10, done=0)
+    progress.start_path("b", total=10, done=0)
+    for _ in range(2):
+        clock.now += 1.0
+        progress.run_finished("a", ok=True)
+        progress.run_finished("b", ok=True)
+    progress.note("a: decided after 2 runs: verdict fail")
+    for _ in range(3):
+        clock.now += 1.0
+        progress.run_finished("b", ok=True)
+    progress.message("evaluating")
+    lines = out.getvalue().splitlines()
+    assert lines[4] == "a: decided after 2 runs: verdict fail"
+    assert lines[5:] == ["b: 3/10 runs (30 %), 0:03, ETA 0:07",
+                         "b: 4/10 runs (40 %), 0:04, ETA 0:06",
+                         "b: 5/10 runs (50 %), 0:05, ETA 0:05",
+                         "Monte Carlo runs of 2 path(s): 7 runs (5.0 s)"]
+    progress, _, out = _plain()
+    progress.note("said before any run")  # no runs: a phase, as message
+    progress.stop()
+    assert out.getvalue().splitlines() == ["said before any run (0.0 s)"]
+
+
 def test_resumed_runs_are_said_and_the_eta_counts_only_new_runs() -> None:
     progress, clock, out = _plain()
     progress.start_path("p", total=10, done=5)
@@ -114,3 +141,18 @@ def test_a_terminal_phase_shows_an_eta_once_it_lasts() -> None:
     progress.stop()
     assert remaining(1.0, 0.5) is None  # too early to guess
     assert remaining(4.0, 0.5) == 4.0
+
+
+def test_on_a_terminal_a_note_prints_above_the_bars_and_keeps_them() -> None:
+    out = io.StringIO()
+    console = Console(file=out, width=100, force_terminal=True, color_system=None)
+    progress = RichProgress(console, quiet=False)
+    progress.start_path("a", total=4, done=0)
+    progress.start_path("b", total=4, done=0)
+    progress.note("a: decided after 1 runs: verdict fail")
+    bars = progress.bars
+    assert bars is not None
+    progress.run_finished("b", ok=True)
+    assert progress.bars is bars and bars.tasks[1].completed == 1
+    progress.stop()
+    assert "a: decided after 1 runs: verdict fail" in out.getvalue()

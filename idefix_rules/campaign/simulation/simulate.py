@@ -71,6 +71,11 @@ class Progress(Protocol):
 
     def message(self, text: str) -> None: ...
 
+    def note(self, text: str) -> None:
+        """A line said while runs go on (a path stopped, a check given up): it ends nothing,
+        unlike :meth:`message`, which starts a new phase."""
+        ...
+
     def start_path(self, name: str, total: int, done: int) -> None: ...
 
     def run_finished(self, name: str, ok: bool) -> None: ...
@@ -78,6 +83,9 @@ class Progress(Protocol):
 
 class SilentProgress:
     def message(self, text: str) -> None:
+        pass
+
+    def note(self, text: str) -> None:
         pass
 
     def start_path(self, name: str, total: int, done: int) -> None:
@@ -636,7 +644,7 @@ def run_and_store(campaign: Campaign, tasks: PlannedRuns, plans: Mapping[str, Pa
                 elif not outcome.ok and remember.worker_failure is None:
                     # the looks check the runs from now on; no worker is asked again
                     remember.worker_failure = outcome.reason
-                    progress.message(f"{name}: the collision check of run {run} failed in "
+                    progress.note(f"{name}: the collision check of run {run} failed in "
                                      f"its worker ({outcome.reason}); the looks check the "
                                      "runs from now on")
                 continue
