@@ -9,6 +9,7 @@ the reading half.
 from __future__ import annotations
 
 import contextlib
+import re
 import zlib
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -42,6 +43,12 @@ def damaged(path: Path, where: str, what: str) -> UserInputError:
         DAMAGED, f"results file {path} is damaged: {where}: {what}", Span(str(path)),
         hint="run the campaign again to write it anew (the file was changed or cut after it "
              "was written: a copy that stopped, a disk error, an edit)"))
+
+
+def _stored_eof(message: str) -> str | None:
+    """The length HDF5 says a truncated file had ("stored_eof = 15020173")."""
+    found = re.search(r"stored_eof = (\d+)", message)
+    return found.group(1) if found else None
 
 
 @contextlib.contextmanager
@@ -160,6 +167,11 @@ class StoredResults:
                 raise UserInputError(error(
                     "H002", f"cannot open results file {path}: not an HDF5 file", Span(str(path)),
                     hint="give the results.h5 a campaign run wrote")) from None
+            if "truncated file" in str(failure):  # HDF5: "truncated file: eof = …"
+                # shorter than HDF5 wrote it: a copy that stopped, a disk that filled
+                size = path.stat().st_size
+                raise damaged(path, "the whole file", f"it is cut short ({size} bytes of the "
+                              f"{_stored_eof(str(failure)) or 'more'} HDF5 wrote)") from None
             raise UserInputError(error(
                 "H002", f"cannot open results file {path}: {failure}", Span(str(path)),
                 hint=damaged_hint)) from None

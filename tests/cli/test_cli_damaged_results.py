@@ -60,6 +60,12 @@ def _not_finite(name: str, row: int | None) -> Damage:
     return damage
 
 
+def _cut_short(path: Path) -> None:
+    # the first half of the file, as a copy that stopped leaves it
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
 DAMAGES: dict[str, tuple[Damage, str]] = {
     "chain-deleted": (_delete("paths/straight/chain"), "/paths/straight/chain: missing"),
     "rulebook-text-deleted": (_delete("provenance/rulebook"), "/provenance/rulebook: KeyError"),
@@ -77,6 +83,7 @@ DAMAGES: dict[str, tuple[Damage, str]] = {
     "signal-of-more-rows": (_replace("paths/straight/runs/signals/x", np.zeros((3, 4))),
                             "/paths/straight/runs/signals/x: 3 rows for 2 runs"),
     "chunk-overwritten": (_overwrite_stored_chunk, "/paths/straight/runs/signals"),
+    "cut-short": (_cut_short, "the whole file: it is cut short"),
     "run-not-finite": (_not_finite("paths/straight/runs/signals/wheel.slip", 1),
                        "/paths/straight/runs/signals/wheel.slip: run 1 holds values that are "
                        "not finite"),
