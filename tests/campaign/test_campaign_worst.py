@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -220,6 +221,14 @@ def test_a_search_into_a_campaigns_folder_is_refused_and_leaves_its_results(
     code, output = worst(campaign_dir, capsys, "--runs", "66", "--out",
                          str(campaign_dir / "out"))
     assert code == 2 and "error[C713]" in output and "holds a campaign's results" in output
+    # the hint names the folder the search writes into without --out, not one in --out's
+    other = campaign_dir / "other"
+    other.mkdir()
+    shutil.copy(results, other / "results.h5")
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(other))
+    default = (campaign_dir / "out" / "worst").resolve()
+    assert code == 2 and f"leave out --out (the search writes into {default})" in " ".join(
+        output.split()), output
     assert results.stat().st_mtime_ns == before
     assert not (campaign_dir / "out" / "results.previous.h5").exists()
     # the default folder is inside the campaign's: it leaves the campaign's results alone

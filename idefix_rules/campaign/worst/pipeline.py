@@ -113,8 +113,14 @@ def check_folder(campaign: Campaign) -> None:
         raise UserInputError(error(
             "C713", f"{campaign.output} holds a campaign's results ({RESULTS_FILE}): a search "
                     "there would set them aside", Span(str(results)),
-            hint=f"leave out --out (the search writes into {default_output(campaign)}) or "
-                 "give a folder of its own"))
+            hint=f"leave out --out (the search writes into {_unmoved_default(campaign)}) "
+                 "or give a folder of its own"))
+
+
+def _unmoved_default(campaign: Campaign) -> Path:
+    """Where the search writes without --out: the campaign file's own output, not the one
+    --out gave ``campaign`` (``campaign.output`` is the search's folder here)."""
+    return (campaign.source.parent / campaign.model.output).resolve() / FOLDER
 
 
 def _check_threshold(campaign: Campaign, evaluator: Any, settings: SearchSettings) -> None:
