@@ -98,6 +98,12 @@ class PathResult:
         return len(self.failures) - self.lost
 
     @property
+    def missing(self) -> int:
+        """Runs planned but neither complete nor failed: never simulated (the campaign was
+        interrupted before them). The rulebook's ``failed`` statistic counts them as failed."""
+        return max(0, self.runs - self.completed - len(self.failures))
+
+    @property
     def lost(self) -> int:
         """Runs lost to the infrastructure (``infrastructure: …``): no verdict on the path,
         ``--resume`` runs them again."""
@@ -413,7 +419,7 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
     # `no_failed_runs` rule it gets: docs/rulebook-language.md); a run neither complete nor
     # failed (nor lost to the infrastructure) is missing from the results, and a path with one
     # never passes: this is the last guard.
-    missing = result.runs - result.completed - len(result.failures)
+    missing = result.missing
     if missing > 0 and result.passed:
         result.passed = False
         result.verdict_reasons.append(f"{missing} of {result.runs} run(s) missing")

@@ -36,7 +36,7 @@ def judge_path(evaluator: Any, evaluation: Any, result: PathResult, rows: np.nda
                ) -> tuple[Any, np.ndarray]:
     """A path's statistics with the bounds its verdict is judged on, and its runs' failure
     flags in run order (runs lost to the infrastructure are none of the path's)."""
-    missing = result.runs - result.completed - len(result.failures)
+    missing = result.missing
     stats = evaluator.path_statistics(evaluation, failed_runs=result.failed + missing)
     failed_rows = np.array(sorted(run for run, reason in result.failures.items()
                                   if not is_infrastructure(reason)), dtype=np.int64)

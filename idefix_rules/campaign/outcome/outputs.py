@@ -184,7 +184,9 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "reason": path.reason,
         "runs": path.runs,
         "completed_runs": path.completed,
-        "failed_runs": path.failed,
+        # as the rulebook's `failed` statistic counts them: runs never simulated too
+        "failed_runs": path.failed + path.missing,
+        "missing_runs": path.missing,
         "failures": [{"run": run, "reason": reason} for run, reason in
                      sorted(path.failures.items())],
         # unrounded: the report prints these again, and a value rounded twice can differ
