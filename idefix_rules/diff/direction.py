@@ -47,6 +47,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any, Literal
 
 from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.derived import SETTING_SIGNALS
 from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.lints import NON_NEGATIVE
 from idefix_rules.rulebook.model import (
@@ -343,6 +344,9 @@ def constant_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) ->
     labels += [level_direction(old, new, lv.level) for lv in new.rulebook.obstacle_levels
                if name in set().union(*(names_in(e) for e in (lv.below, lv.buffer)
                                         if e is not None))]
+    labels += [area_direction(old, new, area.name) for area in new.rulebook.areas
+               if name in set().union(*(names_in(e) for e in (area.buffer, area.above)
+                                        if e is not None))]
     return merge(labels)
 
 
@@ -494,8 +498,7 @@ def setting_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> 
     if name == "tolerance_growth":
         return _label(new, {"signal:tolerance_radius": 1}, moved)
     reads = set().union(*(names_in(e) for e in _expressions(new.rulebook)))
-    if moved == 0 or not reads & {"theory.x", "theory.y", "theory.yaw", "local_error",
-                                  "tolerance_radius"}:
+    if moved == 0 or not reads & set(SETTING_SIGNALS["theoretical_slip"]):
         return "neutral"
     return "unknown"
 
@@ -534,7 +537,10 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
     if section == "constant":
         return constant_direction(old, new, name)
     if section == "index":
-        return index_direction(old, new, name, fields)
+        own = index_direction(old, new, name, fields)
+        if kind != "affected":
+            return own
+        return merge([own, _affected_index(old, new, name, upstream)])
     if section == "verdict" and set(fields) == {"indifference"}:
         return "neutral"  # a margin only turns an open verdict into one within the margin
     if section in ("command", "chance", "prescreen", "verdict"):
@@ -602,6 +608,17 @@ def _moves(old: CheckedRulebook, new: CheckedRulebook, name: str) -> list[Move]:
     chances = ({c.name: c for c in old.rulebook.chances}, {c.name: c for c in new.rulebook.chances})
     if name in chances[0] and name in chances[1]:
         return _number_moves(new, chances[0][name].condition, chances[1][name].condition)
+    if name == "tolerance_growth":  # a wider tolerance radius
+        return [(new, {"signal:tolerance_radius": 1},
+                 _sign(old.settings.get(name, 0.0), new.settings.get(name, 0.0)))]
+    levels = ({v.level: v for v in old.obstacle_levels}, {v.level: v for v in new.obstacle_levels})
+    if name in levels[0] and name in levels[1]:
+        before_level, after_level = levels[0][name], levels[1][name]
+        level_moves: list[Move] = [(new, {"signal:collision.buffer": 1},
+                                    _sign(before_level.buffer, after_level.buffer))]
+        if before_level.below != after_level.below:  # rocks move between levels
+            level_moves.append((new, {}, None))
+        return level_moves
     return [(new, {}, None)]
 
 
@@ -618,6 +635,28 @@ def _number_moves(new: CheckedRulebook, before: Expr, after: Expr) -> list[Move]
             moved = None
         moves.append((new, {f"id:{id(new_number)}": 1}, moved))
     return moves
+
+
+def _affected_index(old: CheckedRulebook, new: CheckedRulebook, name: str,
+                    upstream: Iterable[str]) -> Direction:
+    """Same text, but a setting or an obstacle level it reads through a signal moved (the
+    tolerance radius, the collision buffers): the index's own polarity to the signal, then
+    the rules' polarity to the index. Constants are :func:`index_direction`'s."""
+    labels: list[Direction] = []
+    value = _index(new, name).value
+    through = Polarities(new.rulebook, new.constants, {f"index:{name}": 1}).passes()
+    for changed in sorted(set(upstream) - set(new.constants)):
+        for checked, seed, moved in _moves(old, new, changed):
+            if not any(key.startswith("signal:") for key in seed):
+                labels.append("unknown" if moved is None else "neutral")
+                continue
+            if moved is None:
+                labels.append("unknown")
+                continue
+            own = Polarities(checked.rulebook, checked.constants, seed).of(value)
+            labels.append("unknown" if own is None else
+                          direction_of(through, moved * own) if own and moved else "neutral")
+    return merge(labels)
 
 
 def _affected_condition(old: CheckedRulebook, new: CheckedRulebook, section: str,

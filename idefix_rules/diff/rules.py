@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.derived import SETTING_SIGNALS
 from idefix_rules.rulebook.format import format_expr, format_number, format_string
 from idefix_rules.rulebook.model import (
     Chance,
@@ -37,7 +38,7 @@ from idefix_rules.rulebook.model import (
 )
 from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.rulebook.types import SETTINGS
-from idefix_rules.signals import AREA_PREFIX, AREA_SIGNAL_PARTS
+from idefix_rules.signals import AREA_PREFIX, AREA_SIGNAL_PARTS, SIGNALS
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, Dimension
 
 ChangeKind = Literal["added", "removed", "changed", "affected"]
@@ -295,6 +296,14 @@ def _reads(declaration: _Declaration) -> set[str]:
     return names
 
 
+# What a changed obstacle level moves: its buffer the buffer signal; its size threshold which
+# rocks are of it, so every signal per level (the clearance is per part, of every obstacle).
+LEVEL_SIGNALS: dict[str, tuple[str, ...]] = {
+    "buffer": ("collision.buffer",),
+    "below": tuple(name for name, spec in SIGNALS.items()
+                   if name.startswith("collision.") and "level" in spec.axes),
+}
+
 _RULE_SECTIONS = frozenset({"command", "index", "chance", "prescreen", "verdict"})
 
 # Items whose change moves what a declaration evaluates to (a weight moves the risk only; a
@@ -402,6 +411,21 @@ def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old
         parts = ("buffer",) if fields == {"buffer"} else AREA_SIGNAL_PARTS
         for part in parts:
             seeds[f"{AREA_PREFIX}{change.name}.{part}"] = roots
+    # a changed setting or obstacle level moves the derived or collision signals it shapes
+    for section, signals_of in (("setting", SETTING_SIGNALS), ("obstacle level", None)):
+        for change in _section_changes(section, old, new, only_constants):
+            if change.kind == "changed" and not change.fields:
+                continue  # its rationale alone
+            roots = {change.name} if change.kind != "affected" else set(change.upstream)
+            if signals_of is not None:
+                moved = signals_of.get(change.name, ())
+            else:  # a level added or removed, or its constants moved: any of its signals
+                fields = {f.field for f in change.fields} if change.kind == "changed" \
+                    else set(LEVEL_SIGNALS)
+                moved = tuple(dict.fromkeys(signal for field in sorted(fields)
+                                            for signal in LEVEL_SIGNALS.get(field, ())))
+            for signal in moved:
+                seeds[signal] = seeds.get(signal, set()) | roots
     upstream = _upstream(old, new, changed_constants, seeds)
     changes: list[RuleChange] = []
     for section in SECTIONS:

@@ -83,6 +83,13 @@ class DerivedSettings:
     tolerance_growth: float = 0.0
 
 
+# The derived signals each rulebook setting shapes (what a change of it moves).
+SETTING_SIGNALS: dict[str, tuple[str, ...]] = {
+    "theoretical_slip": ("theory.x", "theory.y", "theory.yaw", "local_error",
+                         "tolerance_radius"),
+    "tolerance_growth": ("tolerance_radius",),
+}
+
 # Contract names each derived signal reads (for ``required_signals``); ``ref.*`` read the
 # reference run's signals of the same name.
 DERIVED_INPUTS: dict[str, frozenset[str]] = {

@@ -5,8 +5,8 @@
 * **W611** a comparison that is always true or always false over the declared range of what it
   compares: ``risk <= 150 %`` (risk lies in [0, 1]), ``abs(delta_heading) >= 0 deg``,
   ``I_obs <= 1`` in a prescreen.
-* **W612** a number in a ``because`` that disagrees with the value it explains:
-  ``const critical_slip = 65 % because "Slip above 70 % is critical"``.
+* **W612** a number in a ``because`` that disagrees with the value it explains, rounded to the
+  digits it writes: ``const critical_slip = 65 % because "Slip above 70 % is critical"``.
 * **W613** a literal that is a denormal or 0 in SI once its unit's scale is applied: ``1e-320``,
   ``5e-324 mm`` (one a double cannot hold at all, ``1e-400 %``, is refused by the parser: E003).
 * **W614** an index's nominal within 10 % of the limit from 0 or from the limit: half of the
@@ -35,6 +35,7 @@ from idefix_rules.rulebook.model import (
     Select,
 )
 from idefix_rules.rulebook.walk import nodes, rulebook_expressions, windowed
+from idefix_rules.signals import area_signal
 from idefix_rules.units import DIMENSIONLESS, Dimension, UnitError, parse_quantity, parse_unit
 
 if TYPE_CHECKING:
@@ -49,6 +50,10 @@ NON_NEGATIVE = frozenset({
     "stuck", "t", "duration", "wheel_speed", "lateral_acceleration", "forward_acceleration",
     "command_number",
     "time", "runs", "failed", "risk"})
+# Flags: 0 or 1 in every sample (stuck, a chain done, inside a named area or its buffer).
+FLAG_SIGNALS = frozenset({"stuck", "chain_done", "done"})
+# Counted from 1: the number of a command in its chain.
+FROM_ONE = frozenset({"command_number"})
 # Non-negative in runs only: the planar speed of a run (a command's speed is signed).
 RUN_NON_NEGATIVE = frozenset({"speed"})
 _COMPARISONS = {"<", "<=", ">", ">="}
@@ -82,8 +87,10 @@ def _is_ratio(expr: Expr, rulebook: Rulebook) -> bool:
         return expr.function == "abs" and _is_ratio(expr.args[0], rulebook)
     if isinstance(expr, Select):
         return _is_ratio(expr.operand, rulebook)
+    if isinstance(expr, Reduce) and expr.reducer == "fraction":  # of the samples, runs …
+        return True
     if isinstance(expr, Reduce) and expr.reducer not in ("count", "integral", "time_above",
-                                                         "sum", "rate"):
+                                                         "sum", "rate", "any", "all"):
         return _is_ratio(expr.operand, rulebook)
     return False
 
@@ -158,6 +165,12 @@ def _range(expr: Expr, rulebook: Rulebook, run: bool = True) -> Range | None:
             isinstance(expr, Name) and expr.name in RATIO_SIGNALS) and not (
             isinstance(expr, Call) and expr.function == "abs"):
         return (0.0, 1.0)
+    if isinstance(expr, Reduce) and expr.reducer == "fraction":
+        return (0.0, 1.0)
+    if isinstance(expr, Name) and (expr.name in FLAG_SIGNALS or area_signal(expr.name)):
+        return (0.0, 1.0)
+    if isinstance(expr, Name) and expr.name in FROM_ONE:
+        return (1.0, math.inf)
     if isinstance(expr, Call) and expr.function in ("abs", "sqrt"):
         return (0.0, math.inf)
     if isinstance(expr, Name) and (expr.name in NON_NEGATIVE
@@ -229,10 +242,14 @@ def lint_constant_comparisons(env: CheckEnv) -> list[Diagnostic]:
 
 # ----------------------------------------------------------------------------- W612
 
-def _quantities(text: str) -> Iterator[tuple[float, Dimension, str]]:
-    """Numbers after a comparison word in a rationale: (SI value, dimension, as written)."""
+def _quantities(text: str) -> Iterator[tuple[float, Dimension, str, float]]:
+    """Numbers after a comparison word in a rationale: (SI value, dimension, as written, half
+    the place of its last digit in SI: how far a value rounded to the digits written may lie
+    from it). A fraction (``2/3``) is no number of a unit and is left out."""
     for match in _TRIGGER.finditer(text):
         number, unit = match.group(1), match.group(2)
+        if re.match(r"\s*/\s*\d", text[match.end(1):]):
+            continue  # "above 2/3": a fraction, not 2
         candidates = [f"{number} {unit}"] if unit else []
         candidates.append(number)
         for candidate in candidates:
@@ -240,10 +257,20 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str]]:
                 if candidate != number:
                     parse_unit(str(unit))
                 found = parse_quantity(candidate)
-            except UnitError:
+                half = abs(found.value / float(number)) * 0.5 * _place(number) \
+                    if float(number) != 0.0 else 0.0
+            except (UnitError, ValueError, ZeroDivisionError):
                 continue
-            yield found.value, found.dimension, candidate
+            yield found.value, found.dimension, candidate, half
             break
+
+
+def _place(number: str) -> float:
+    """The place of a written number's last digit: ``0.2618`` → 1e-4, ``70`` → 1, ``2.5e3``
+    → 100."""
+    mantissa, _, exponent = number.lower().partition("e")
+    decimals = len(mantissa.partition(".")[2])
+    return 10.0 ** (int(exponent or 0) - decimals)
 
 
 def lint_rationale_numbers(env: CheckEnv) -> list[Diagnostic]:
@@ -257,12 +284,14 @@ def lint_rationale_numbers(env: CheckEnv) -> list[Diagnostic]:
         """``also``: a second value the rationale may name instead (an index's nominal)."""
         if rationale is None or value is None or dimension is None or isinstance(value, dict):
             return
-        mentioned = [(v, text) for v, found_dimension, text in _quantities(rationale)
-                     if found_dimension == dimension]
+        mentioned = [(v, text, half) for v, found_dimension, text, half
+                     in _quantities(rationale) if found_dimension == dimension]
         explained = [float(value)] + ([also] if also is not None else [])
+        # a rationale rounds: 0.2618 rad says 15 deg (0.261799 rad), 33.3 % says 1 / 3
         if mentioned and not any(math.isclose(v, e, rel_tol=1e-6, abs_tol=1e-15)
-                                 for v, _ in mentioned for e in explained):
-            said = ", ".join(text for _, text in mentioned)
+                                 or abs(v - e) < half * (1.0 - 1e-9)
+                                 for v, _, half in mentioned for e in explained):
+            said = ", ".join(text for _, text, _ in mentioned)
             shown = format_expr(written)
             si = f"{float(value):g}"
             found.append(warning(

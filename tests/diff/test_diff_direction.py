@@ -180,3 +180,63 @@ def test_a_stricter_change_never_turns_a_fail_into_a_pass(data):
     before, after = check_direction(compile_rulebook(MODEL), compile_rulebook(checked),
                                     direction, signals, context)
     event(f"{direction}: {'pass' if before else 'fail'} → {'pass' if after else 'fail'}")
+
+
+STEEP = """
+const critical_inclination = 20 deg
+  because "Terrain inclined more than 20 deg is highly inclined"
+chance on_steep = any over time (area.highly_inclined.inside > 0)
+verdict steep_avoided: require chance(on_steep) <= 1 %
+"""
+L3 = "  level L3             buffer 10 cm\n"
+
+
+def test_a_constant_read_by_an_area_moves_the_area_and_the_rules_that_read_it() -> None:
+    """A lower steep threshold makes the area larger: stricter, not neutral."""
+    old = edited(L3, L3 + "  area highly_inclined steep above critical_inclination level L3 "
+                 "buffer 5 cm\n") + STEEP
+    new = old.replace("critical_inclination = 20 deg", "critical_inclination = 15 deg")
+    found = labels(old, new)
+    assert found[("constant", "critical_inclination")] == "stricter"
+    assert found[("area", "highly_inclined")] == "stricter"
+    assert found[("chance", "on_steep")] == found[("verdict", "steep_avoided")] == "stricter"
+    looser = labels(old, old.replace("critical_inclination = 20 deg",
+                                     "critical_inclination = 25 deg"))
+    assert looser[("constant", "critical_inclination")] == "looser"
+
+
+NEAR_L3 = """
+chance near_l3 = any over parts (collision.buffer[L3] > 0)
+verdict l3_kept_at_a_distance: require chance(near_l3) <= 5 %
+index I_far "off course" {
+  value  = final over time (drift / tolerance_radius)
+  limit  = 1
+  weight = 0.5
+}
+"""
+
+
+@pytest.mark.parametrize(("old", "new", "setting", "affected", "expected"), [
+    # a wider L3 buffer flags more samples in collision.buffer[L3]: stricter
+    ("level L3             buffer 10 cm", "level L3             buffer 20 cm",
+     ("obstacle level", "L3"), [("chance", "near_l3"), ("verdict", "l3_kept_at_a_distance")],
+     "stricter"),
+    ("level L3             buffer 10 cm", "level L3             buffer 5 cm",
+     ("obstacle level", "L3"), [("chance", "near_l3")], "looser"),
+    # a faster-growing tolerance radius lowers drift / tolerance_radius: looser
+    ("tolerance_growth = 5 cm/rad", "tolerance_growth = 10 cm/rad",
+     ("setting", "tolerance_growth"), [("index", "I_far"), ("verdict", "acceptable_risk")],
+     "looser"),
+    # which rocks are of a level moves every signal per level: unknown, and said
+    ("level L1 below 3 cm", "level L1 below 5 cm", ("obstacle level", "L1"),
+     [("chance", "near_l3"), ("index", "I_obs")], "unknown"),
+])
+def test_a_setting_or_obstacle_level_lists_the_rules_it_moves_with_their_direction(
+        old: str, new: str, setting: tuple[str, str], affected: list[tuple[str, str]],
+        expected: str) -> None:
+    before = DEFAULT + NEAR_L3
+    assert before.count(old) == 1, old
+    found = labels(before, before.replace(old, new))
+    assert found[setting] == expected
+    for where in affected:
+        assert found.get(where) == expected, (where, found)

@@ -59,10 +59,20 @@ def test_bare_ratio_limits(limit, expected):
     ('const c = 5 cm because "Assumption: half the 10 cm wheel radius"', []),
     ('const c = 5 cm because "Sinkage above 6 cm digs in"', ["W612"]),
     ('const c = 5 cm because "Speeds above 6 % of the limit"', []),  # another dimension
+    # a rationale rounds: to the digits it writes, in the unit it writes
+    ('const c = 15 deg because "Tilt above 0.2618 rad is critical"', []),
+    ('const c = 15 deg because "Tilt above 0.2617 rad is critical"', ["W612"]),  # just outside
+    ('const c = 1 / 3 because "Slip above 33.3 % is critical"', []),
+    ('const c = 1 / 3 because "Slip above 33.4 % is critical"', ["W612"]),
+    ('const c = 0.6749 because "Slip above 67.5 % is critical"', []),
+    ('const c = 75 % because "Risk above 0.7 is too high"', ["W612"]),  # 0.75 rounds to 0.8
+    ('const c = 0.6744 because "Slip above 67.5 % is critical"', ["W612"]),
+    ('const c = 2 / 3 because "Slip above 2/3 is critical"', []),  # a fraction, not 2
 ])
 def test_rationale_numbers(constant, expected):
     uses = "\nchance deep = max over time (max over wheels (wheel.sinkage)) > c\n" \
-        if "cm" in constant else "\nchance slips = max over time (wheel.slip[FL]) > c\n"
+        if "cm" in constant else "\nchance tilted = max over time (abs(roll)) > c\n" \
+        if "deg" in constant else "\nchance slips = max over time (wheel.slip[FL]) > c\n"
     found = codes(extra=constant + uses)
     assert [c for c in found if c != "W601"] == expected
 
@@ -116,3 +126,30 @@ def test_a_commands_speed_is_signed_but_a_runs_is_not():
     never = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + \
         "chance backwards = min over time (speed) < 0 mm/s\n"
     assert [d.code for d in check_text(never, "t.rules", strict=True).diagnostics] == ["W611"]
+
+
+@pytest.mark.parametrize(("chance", "expected"), [
+    ("fraction over time (stuck > 0) > 5 %", []),
+    ("fraction over time (stuck > 0) > 5", ["W610", "W611"]),  # 500 %: never
+    ("fraction over time (stuck > 0) >= 100 %", []),           # can hold: stuck throughout
+    ("fraction over time (stuck > 0) > 100 %", ["W611"]),
+    ("any over time (stuck > 0)", []),
+    ("any over time (stuck > 1)", ["W611"]),                  # a flag is 0 or 1
+    ("any over time (stuck >= 1)", []),
+    ("any over time (chain_done > 1)", ["W611"]),
+])
+def test_flags_and_fractions_of_samples_have_their_ranges(chance: str, expected: list[str]
+                                                         ) -> None:
+    found = codes(extra=f"chance c = {chance}\nverdict cv: require chance(c) <= 5 %\n")
+    assert sorted(found) == expected
+
+
+@pytest.mark.parametrize(("condition", "expected"), [
+    ("command_number >= 1", ["W611"]),   # commands are counted from 1
+    ("command_number < 1", ["W611"]),
+    ("command_number >= 2", []),
+    ("command_number <= 3", []),
+])
+def test_a_command_number_is_counted_from_one(condition: str, expected: list[str]) -> None:
+    found = codes(extra=f"command c: require {condition} or abs(delta_heading) <= 90 deg\n")
+    assert sorted(found) == expected
