@@ -8,16 +8,22 @@ diagnostic names what was found and what was expected, in words.
 
 from __future__ import annotations
 
+import difflib
+import re
 from collections.abc import Iterable
+from typing import get_args
 
 import lark
 
 from idefix_rules.errors import Diagnostic, Span, error
 from idefix_rules.rulebook.grammar import terminal_words
 from idefix_rules.rulebook.infer import did_you_mean
+from idefix_rules.rulebook.model import Reducer
 from idefix_rules.units import ascii_digits, foreign_digit, foreign_digit_message
 
 SYNTAX_ERROR = "E001"  # an unexpected token or character
+REDUCERS_IN_ORDER: tuple[str, ...] = get_args(Reducer)
+REDUCER_WORDS = frozenset(REDUCERS_IN_ORDER)
 FOREIGN_DIGIT = "E011"  # a digit of another script than 0-9 (`７0 %`)
 
 # Words that start a top-level declaration; a line starting with one starts a new chunk.
@@ -101,6 +107,9 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         return error(SYNTAX_ERROR, message, span, hint)
     if isinstance(failure, lark.exceptions.UnexpectedToken):
         token = failure.token
+        reduction = _reduction_mistake(token, text, path)
+        if reduction is not None:
+            return reduction
         expected = acceptable(failure.state, set(failure.expected or ()))
         if token.type == "$END":
             line, column = _end_position(text)
@@ -115,6 +124,40 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         return error(SYNTAX_ERROR, message, span, _hint(token, expected, following))
     line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
+
+
+def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | None:
+    """A reduction written wrong before the token: a parametric reducer without its parameter
+    (``percentile over time (x)``: E106), or a word that is no reducer before ``over``
+    (``mx over time (x)``: E001 naming the reducers)."""
+    start = token.start_pos if isinstance(token.start_pos, int) else None
+    if start is None or token.type == "$END":
+        return None
+    before = text[:start]
+    missing = re.search(r"\b(percentile|time_above)\s+over\s+$", before)
+    if missing is not None:
+        word = missing.group(1)
+        example = "percentile 95" if word == "percentile" else "time_above 30 deg"
+        return error("E106", f"'{word}' needs a parameter before 'over'",
+                     _span_of(text, path, missing.start(1), missing.end(1)),
+                     hint=f"write `{example} over time (…)`")
+    if str(token) != "over":
+        return None
+    word = re.search(r"([A-Za-z_][A-Za-z0-9_]*)\s+$", before)
+    if word is None or word.group(1) in REDUCER_WORDS:
+        return None
+    close = difflib.get_close_matches(word.group(1), sorted(REDUCER_WORDS), n=1, cutoff=0.5)
+    return error(SYNTAX_ERROR, f"'{word.group(1)}' is not a reducer: a reduction is written "
+                               "`REDUCER over AXIS (…)`",
+                 _span_of(text, path, word.start(1), word.end(1)),
+                 hint=(f"did you mean '{close[0]}'? " if close else "") + "reducers: "
+                 + ", ".join(REDUCERS_IN_ORDER))
+
+
+def _span_of(text: str, path: str, start: int, end: int) -> Span:
+    line = text.count("\n", 0, start) + 1
+    column = start - (text.rfind("\n", 0, start) + 1) + 1
+    return Span(path, line, column, line, column + (end - start))
 
 
 def _foreign_digit(text: str, position: int, span: Span) -> Diagnostic:
