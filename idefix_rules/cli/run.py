@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
 
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import claimed_output
-    from idefix_rules.campaign.simulation.resume import interrupted_runs
+    from idefix_rules.campaign.simulation.resume import interrupted_runs, stored_campaign
     from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, SimulationOptions
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.progress import make_progress
@@ -121,6 +121,12 @@ def run(args: argparse.Namespace) -> int:
     progress = make_progress(console, args.quiet)
     results = campaign.output / RESULTS_FILE
     interrupted = None if args.resume else interrupted_runs(results)
+    # another campaign's results there (and in the copy kept before them) are set aside or
+    # replaced: said, so that no finished campaign goes without a word
+    had_results = results.is_file()
+    others = {} if args.resume else {
+        path: held for path in (results, previous_path(results))
+        if (held := stored_campaign(path)) is not None and held[0] != campaign.name}
     # Owned, and the last run's outputs set aside, before anything slow happens.
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
@@ -133,6 +139,15 @@ def run(args: argparse.Namespace) -> int:
                 f"{escape(previous_path(results).name)} and this run starts from zero; to "
                 f"continue it instead, stop now (Ctrl-C) and run "
                 f"`{escape(_again(args))}`")
+        for path, (name, _) in others.items():
+            if path == results and not (interrupted is not None and interrupted[0] > 0):
+                console.print(f"[yellow]note:[/yellow] {escape(str(results))} held the results "
+                              f"of another campaign ({escape(name)}): they are kept as "
+                              f"{escape(previous_path(results).name)}")
+            elif path != results and had_results:
+                console.print(f"[yellow]note:[/yellow] {escape(str(path))}, the results of "
+                              f"another campaign ({escape(name)}), is replaced by the ones "
+                              f"{escape(results.name)} held")
         if args.resume and not (campaign.output / RESULTS_FILE).exists():
             console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
                           "simulating every run")
