@@ -243,3 +243,16 @@ def test_the_limits_added_for_new_runs_accept_what_lies_just_inside():
     with pytest.raises(ValidationError, match=r"embed 0\.1 m"):
         RockSpec.model_validate({**rock, "embed": "10 cm"})
     assert RockSpec.model_validate({**rock, "embed": "10 cm"}, context=STORED_CAMPAIGN)
+
+
+@pytest.mark.parametrize("written", ["auto", "AUTO", "Auto", " auto "])
+def test_runs_auto_is_read_in_any_case_as_the_command_line_reads_it(
+        tmp_path: Path, written: str) -> None:
+    campaign = load_campaign(write(tmp_path, GOOD.replace("runs: 8", f"runs: '{written}'")))
+    assert campaign.model.runs == "auto"
+
+
+def test_a_word_other_than_auto_is_still_refused(tmp_path: Path) -> None:
+    found = messages(write(tmp_path, GOOD.replace("runs: 8", "runs: automatic")))
+    assert any("expected a whole number of runs from 1 to" in m and "'auto', got" in m
+               for m in found), found

@@ -526,8 +526,11 @@ PathName = Annotated[str, BeforeValidator(_path_name)]
 RunCount = Annotated[StrictInt, Field(ge=1, le=MAX_RUNS)]
 
 def _runs(value: Any) -> Any:
-    """A whole run count in range, or ``auto``; one message for either mistake."""
-    if value == "auto" or (isinstance(value, int) and not isinstance(value, bool)
+    """A whole run count in range, or ``auto`` (any case, as ``--runs`` takes it); one
+    message for either mistake."""
+    if isinstance(value, str) and value.strip().lower() == "auto":
+        return "auto"
+    if (isinstance(value, int) and not isinstance(value, bool)
                            and 1 <= value <= MAX_RUNS):
         return value
     got = str(value).lower() if isinstance(value, bool) else _show(value)  # as YAML wrote it
