@@ -133,8 +133,10 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
                 "C000", f"invalid YAML: {node.value!r} is not a valid {kind}{why}",
                 Span(source_map.path, node.start_mark.line + 1, node.start_mark.column + 1,
                      node.end_mark.line + 1, node.end_mark.column + 1),
+                # where a date is meant (a waiver's until) quoting keeps it invalid
                 hint=f"quote it to keep it as text (\"{node.value}\"), or write a valid "
-                     f"{kind}")) from None
+                     + ("date or time if one is meant: a day and an hour that exist"
+                        if kind == "timestamp" else kind))) from None
 
 
 def load_yaml(text: str, path: str) -> YamlDocument:
