@@ -44,33 +44,35 @@ def split_spec(spec: str) -> tuple[str, str | None]:
 def git_text(path: Path, revision: str) -> str:
     """The text of ``path`` at git ``revision`` (:class:`UserInputError` when git cannot)."""
     label = f"{path}@{revision}"
+    where = Span(str(path))  # the file named, not "<input>"
     if not revision or revision.startswith("-") or any(c.isspace() for c in revision):
         raise UserInputError(error("D001", f"{label}: {revision!r} is not a git revision",
+                                   where,
                                    hint="write PATH@REV, e.g. rulebooks/idefix-ops.rules@HEAD~1"))
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
-        raise UserInputError(error("D002", f"{label}: folder {folder} not found",
+        raise UserInputError(error("D002", f"{label}: folder {folder} not found", where,
                                    hint="the folder of PATH must exist in the working tree"))
     try:
         done = subprocess.run(["git", "-C", str(folder), "show", f"{revision}:./{path.name}"],
                               capture_output=True, timeout=GIT_TIMEOUT_S, check=False)
     except FileNotFoundError:
-        raise UserInputError(error("D003", f"{label}: git is not installed")) from None
+        raise UserInputError(error("D003", f"{label}: git is not installed", where)) from None
     except subprocess.TimeoutExpired:
         raise UserInputError(error("D003", f"{label}: git show took more than "
-                                           f"{GIT_TIMEOUT_S:g} s")) from None
+                                           f"{GIT_TIMEOUT_S:g} s", where)) from None
     if done.returncode != 0:
         message = done.stderr.decode("utf-8", errors="replace").strip().splitlines()
         reason = message[-1] if message else f"git exited with {done.returncode}"
         raise UserInputError(error("D004", f"{label}: cannot read the file at revision "
-                                           f"{revision!r}: {reason}",
+                                           f"{revision!r}: {reason}", where,
                                    hint="check the revision (git log -- PATH) and that PATH "
                                         "is inside a git repository"))
     try:
         return done.stdout.decode("utf-8")
     except UnicodeDecodeError as failure:
         raise UserInputError(error("E002", f"{label}: not UTF-8 text ({failure.reason} at "
-                                           f"byte {failure.start})")) from None
+                                           f"byte {failure.start})", where)) from None
 
 
 def load_source(spec: str) -> RulebookSource:

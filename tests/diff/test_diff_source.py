@@ -95,6 +95,8 @@ def test_a_bad_revision_is_a_user_error_naming_it(repo: Path,
     assert diagnostic.code == "D004"
     assert "rules/ops.rules@no-such-rev" in diagnostic.message
     assert "'no-such-rev'" in diagnostic.message
+    # located at the file named, not "<input>"
+    assert diagnostic.span is not None and diagnostic.span.path == "rules/ops.rules"
 
 
 @needs_git
