@@ -302,15 +302,7 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     fixed: dict[str, float | str] = {}
     say("preparing the terrain")
     terrain = build_terrain(campaign.model.environment, campaign.dem)
-    check_rocks_on_terrain(campaign, terrain.extent)
-    terrain_given = campaign.model.environment.terrain.dem is not None \
-        or campaign.model.environment.terrain.synthetic is not None
-    if campaign.fmu is None and terrain_given:
-        # the built-in rover starts at initial.x, initial.y on the terrain it is given (a
-        # foreign FMU may start from parameters of its own; without a terrain the ground is
-        # flat everywhere)
-        check_start_on_terrain(campaign, terrain.extent)
-        check_paths_on_terrain(campaign, terrain.extent)
+    _check_on_terrain(campaign, terrain.extent)
     source = TerrainSource.of(campaign.dem)
     if resume:  # the runs still missing are simulated on the terrain stored so far
         terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)
@@ -439,6 +431,31 @@ def _check_writable_results_folder(results: Path) -> None:
     folder = results.parent
     if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
         raise _not_writable(results, f"its folder {folder} is not writable")
+
+
+def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]) -> None:
+    """Rocks, the rover's start and its chains on the terrain, every mistake said at once (a
+    chain is checked only from a start on the terrain: from one off it, every chain is off)."""
+    problems: list[Diagnostic] = []
+
+    def gather(check: Callable[[Campaign, tuple[float, float, float, float]], None]) -> bool:
+        try:
+            check(campaign, extent)
+        except UserInputError as failure:
+            problems.extend(failure.diagnostics)
+            return False
+        return True
+
+    gather(check_rocks_on_terrain)
+    terrain_given = campaign.model.environment.terrain.dem is not None \
+        or campaign.model.environment.terrain.synthetic is not None
+    # the built-in rover starts at initial.x, initial.y on the terrain it is given (a foreign
+    # FMU may start from parameters of its own; without a terrain the ground is flat
+    # everywhere)
+    if campaign.fmu is None and terrain_given and gather(check_start_on_terrain):
+        gather(check_paths_on_terrain)
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
 
 def evaluation_revision(store: ResultStore, then: str) -> Revision:

@@ -96,3 +96,19 @@ def test_a_chain_off_the_terrain_is_exit_2_before_any_run(
     assert "error[C218]: paths.straight: driven as commanded from the nominal start" in output
     assert "error[C218]: paths.wide-detour:" in output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+def test_a_rock_and_the_start_off_the_terrain_are_said_at_once(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _campaign(tmp_path, 2.5)
+    text = path.read_text().replace(
+        "  terrain:\n", '  rocks:\n    - {x: "5 m", y: "0 m", radius: "4 cm", level: L2}\n'
+                        "  terrain:\n", 1)
+    path.write_text(text)
+    code = main(["run", str(path), "--runs", "2", "--quiet", "--no-report",
+                 "--out", str(tmp_path / "out")])
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert code == 2, output
+    assert "error[C206]" in output and "error[C216]" in output
+    assert "error[C218]" not in output  # from a start off the terrain every chain is off
