@@ -256,3 +256,21 @@ def test_a_word_other_than_auto_is_still_refused(tmp_path: Path) -> None:
     found = messages(write(tmp_path, GOOD.replace("runs: 8", "runs: automatic")))
     assert any("expected a whole number of runs from 1 to" in m and "'auto', got" in m
                for m in found), found
+
+
+def test_a_misspelt_key_gets_the_key_meant_and_every_mistake_is_said_at_once(
+        tmp_path: Path) -> None:
+    assert "expect:" in GOOD
+    text = GOOD.replace("runs: 8", "runz: 8").replace("path: straight", "path: nowhere", 1)
+    with pytest.raises(UserInputError) as caught:
+        load_campaign(write(tmp_path, text))
+    found = {d.code: d for d in caught.value.diagnostics}
+    assert found["C100"].message == "runz: unknown key"
+    assert found["C100"].hint == "did you mean 'runs'?"
+    # the expectation's unknown path, said with the schema's mistake (it waited for a fix)
+    assert found["C202"].message.startswith("expect[2].path: unknown path 'nowhere'")
+    nested = GOOD + "simulation: {output_intervall: 0.1 s}\n"
+    with pytest.raises(UserInputError) as caught:
+        load_campaign(write(tmp_path, nested))
+    (diagnostic,) = caught.value.diagnostics
+    assert diagnostic.hint == "did you mean 'output_interval'?"

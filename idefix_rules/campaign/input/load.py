@@ -7,15 +7,16 @@ Every mistake of a file is reported in one :class:`UserInputError`, each diagnos
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from idefix_rules.campaign.input.schema import (
     AdaptiveRuns,
@@ -163,9 +164,13 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
     for item in errors:
         loc, found = _data_loc(data, item["loc"])
         kind = item["type"]
+        hint = None
         if kind == "extra_forbidden":
             message = "unknown key"
             span = locations.span(loc, at_key=True)
+            close = difflib.get_close_matches(str(loc[-1]), _known_keys(loc), n=1) \
+                if loc else []
+            hint = f"did you mean '{close[0]}'?" if close else None
         elif kind == "missing" and item["loc"] and isinstance(item["loc"][-1], int) \
                 and isinstance(item.get("input"), list):
             # a list too short for its tuple (semi_axes of two values): pydantic reports each
@@ -198,9 +203,22 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         if (text, str(span)) in seen:
             continue
         seen.add((text, str(span)))
-        diagnostics.append(error("C100", text, span))
+        diagnostics.append(error("C100", text, span, hint))
     diagnostics.sort(key=lambda d: (d.span.line, d.span.column) if d.span else (0, 0))
     return diagnostics
+
+
+def _known_keys(loc: Sequence[str | int]) -> list[str]:
+    """The keys the campaign schema knows where ``loc``'s last key stands (a section that is
+    a model of its own; none where the schema says less)."""
+    model: Any = CampaignFile
+    for part in loc[:-1]:
+        field = model.model_fields.get(part) if isinstance(part, str) else None
+        annotation = getattr(field, "annotation", None)
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            return []
+        model = annotation
+    return [field.alias or name for name, field in model.model_fields.items()]
 
 
 def _looks_like_a_rulebook(text: str) -> bool:
@@ -238,7 +256,8 @@ def load_campaign(path: str | Path) -> Campaign:
         model = CampaignFile.model_validate(document.data)
     except ValidationError as failure:
         raise UserInputError(_diagnostics_from_validation(failure, document.data,
-                                                          document.locations, text),
+                                                          document.locations, text)
+                             + _raw_expectation_paths(document.data, document.locations),
                              sources={shown: text}) from None
     base = source.resolve().parent
     diagnostics = _cross_checks(model, document.locations, base)
@@ -265,6 +284,27 @@ def load_campaign(path: str | Path) -> Campaign:
         locations=document.locations,
         adaptive=model.adaptive,
     )
+
+
+def _raw_expectation_paths(data: Mapping[str, Any], locations: SourceMap
+                           ) -> list[Diagnostic]:
+    """C202 on the data as written, when the schema refused something else in the file:
+    every mistake of a file is said at once (a path an expectation names that ``paths:``
+    does not have was said only once the rest was right)."""
+    paths, expect = data.get("paths"), data.get("expect")
+    if not isinstance(paths, Mapping) or not isinstance(expect, list):
+        return []
+    found = []
+    for index, item in enumerate(expect):
+        if not isinstance(item, Mapping):
+            continue
+        for key in ("path", "rank_first"):
+            name = item.get(key)
+            if isinstance(name, str) and name not in paths:
+                found.append(error("C202", f"expect[{index}].{key}: unknown path {name!r} "
+                                           f"(paths: {', '.join(map(str, paths))})",
+                                   locations.span(("expect", index, key))))
+    return found
 
 
 def _cross_checks(model: CampaignFile, locations: SourceMap, base: Path) -> list[Diagnostic]:
