@@ -104,7 +104,22 @@ def _caret(span: Span | None, source: str | None) -> list[str]:
     if span.end_line == span.line and span.end_column > col:
         width = span.end_column - col
     src, col, width = _clip(src, col, width)
-    return [f"    {src}", "    " + " " * (col - 1) + "^" * width]
+    # columns on the terminal: a wide character (CJK) takes two, a combining mark none
+    pad = _display_width(src[:col - 1])
+    carets = max(1, _display_width(src[col - 1:col - 1 + width]))
+    return [f"    {src}", "    " + " " * pad + "^" * carets]
+
+
+def _display_width(text: str) -> int:
+    """Terminal columns ``text`` takes.
+
+    >>> _display_width("abc"), _display_width("滑り"), _display_width("e\u0301")
+    (3, 4, 1)
+    """
+    import unicodedata
+
+    return sum(0 if unicodedata.combining(char) else
+               2 if unicodedata.east_asian_width(char) in ("W", "F") else 1 for char in text)
 
 
 # Source lines longer than this are shown as a window around the caret (a generated or
