@@ -54,7 +54,7 @@ def test_a_drive_whose_front_wheels_end_on_the_edge_passes_and_a_millimetre_beyo
     assert diagnostic.code == "C218"
     # the wheels leave during the second command, at the edge
     assert "paths.ahead:" in diagnostic.message and "during command 2" in diagnostic.message
-    assert "at (2 m," in diagnostic.message
+    assert "at (2.001 m, 0.26 m)" in diagnostic.message  # the front right wheel, beyond
     assert diagnostic.span is not None and diagnostic.span.line == \
         beyond.text[:beyond.text.index("  ahead:")].count("\n") + 1
 
@@ -112,3 +112,33 @@ def test_a_rock_and_the_start_off_the_terrain_are_said_at_once(
     assert code == 2, output
     assert "error[C206]" in output and "error[C216]" in output
     assert "error[C218]" not in output  # from a start off the terrain every chain is off
+
+
+def test_a_fast_turn_after_a_slow_short_command_is_sampled_too(tmp_path: Path) -> None:
+    """Each command is sampled on its own: a 0.01 m step at a crawl (about 1000 s) before a
+    full turn on the spot (327 s) left the turn between two samples of the whole chain."""
+    chain = """paths:
+  crawl-then-spin:
+    - {max_wheel_rate: "0.00001 rad/s", delta_position: "0.01 m", delta_heading: "0 deg"}
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "0 m", delta_heading: "360 deg"}
+"""
+    campaign = load_campaign(_campaign(tmp_path, 1.75, chain))
+    with pytest.raises(UserInputError) as refused:
+        check_paths_on_terrain(campaign, build_terrain(campaign.model.environment,
+                                                       campaign.dem).extent)
+    assert "during command 2" in refused.value.diagnostics[0].message
+
+
+def test_wheels_off_the_terrain_before_any_command_are_said_so(tmp_path: Path) -> None:
+    """The start (the body centre) is on the terrain, a wheel is not: C218 says it is off at
+    the start, not during the first command."""
+    reverse = """paths:
+  back:
+    - {max_wheel_rate: "0.05 rad/s", delta_position: "-0.5 m", delta_heading: "0 deg"}
+"""
+    campaign = load_campaign(_campaign(tmp_path, 1.9, reverse))
+    with pytest.raises(UserInputError) as refused:
+        check_paths_on_terrain(campaign, build_terrain(campaign.model.environment,
+                                                       campaign.dem).extent)
+    message = refused.value.diagnostics[0].message
+    assert "at the start, before any command, at (2.1 m, " in message, message

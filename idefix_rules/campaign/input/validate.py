@@ -202,8 +202,8 @@ def check_paths_on_terrain(campaign: Campaign, extent: tuple[float, float, float
 
     x_min, x_max, y_min, y_max = extent
     nominal = nominal_parameters(campaign)
-    start = (float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0)),
-             float(nominal.get("initial.yaw", 0.0)))
+    pose = (float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0)),
+            float(nominal.get("initial.yaw", 0.0)))
     rover = rover_geometry(campaign)
     # the wheels' contact points about the body centre, in the body frame
     corners = [(sx * rover.half_wheelbase, sy * rover.half_track)
@@ -211,31 +211,44 @@ def check_paths_on_terrain(campaign: Campaign, extent: tuple[float, float, float
     problems = []
     for spec in campaign.paths:
         durations = [command_kinematics(c, rover).duration for c in spec.chain]
-        total = sum(durations)
-        if not math.isfinite(total) or total <= 0.0:
+        if not all(math.isfinite(d) for d in durations) or sum(durations) <= 0.0:
             continue
-        # a sample every centimetre of the longest command's travel or every 0.1 rad turned
-        reach = sum(abs(c.delta_position) + abs(c.delta_heading) * 0.1 for c in spec.chain)
-        times = np.linspace(0.0, total, int(min(20_000, max(2, reach / 0.01 + 2))))
-        poses = ideal_poses(spec.chain, rover, times, start=start)
+        # each command sampled on its own, every centimetre of travel and every 0.02 rad turned
+        # (a wheel moves 7 mm), whatever its duration: a slow short command before a fast
+        # turn must not take the turn's samples
+        times, numbers, start = [np.zeros(1)], [np.zeros(1, dtype=np.int64)], 0.0
+        for number, (command, duration) in enumerate(zip(spec.chain, durations, strict=True)):
+            if duration <= 0.0:
+                continue
+            count = int(min(20_000, 2 + abs(command.delta_position) / 0.01
+                            + abs(command.delta_heading) / 0.02))
+            times.append(np.linspace(start, start + duration, count)[1:])
+            numbers.append(np.full(count - 1, number + 1))
+            start += duration
+        t, commanded = np.concatenate(times), np.concatenate(numbers)
+        poses = ideal_poses(spec.chain, rover, t, start=pose)
         cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        off = np.zeros(t.size, dtype=bool)
+        where = np.zeros((t.size, 2))
         for along, across in corners:
             wx = poses[:, 0] + along * cos - across * sin
             wy = poses[:, 1] + along * sin + across * cos
-            off = (wx < x_min) | (wx > x_max) | (wy < y_min) | (wy > y_max)
-            if not off.any():
-                continue
-            first = int(np.argmax(off))
-            command = int(np.searchsorted(np.cumsum(durations), times[first], side="left")) + 1
-            problems.append(error(
-                "C218", f"paths.{spec.name}: driven as commanded from the nominal start, the "
-                        f"rover's wheels leave the terrain (x {x_min:g} … {x_max:g} m, y "
-                        f"{y_min:g} … {y_max:g} m) during command {min(command, len(spec.chain))}"
-                        f", at ({wx[first]:.3g} m, {wy[first]:.3g} m)",
-                campaign.locations.span(("paths", spec.name), at_key=True),
-                hint="give a terrain that holds the whole drive (a larger synthetic size, or a "
-                     "larger DEM), or a shorter chain"))
-            break
+            out = ((wx < x_min) | (wx > x_max) | (wy < y_min) | (wy > y_max)) & ~off
+            where[out] = np.column_stack((wx, wy))[out]
+            off |= out
+        if not off.any():
+            continue
+        first = int(np.argmax(off))
+        when = "at the start, before any command" if commanded[first] == 0 \
+            else f"during command {commanded[first]}"
+        problems.append(error(
+            "C218", f"paths.{spec.name}: driven as commanded from the nominal start, the "
+                    f"rover's wheels leave the terrain (x {x_min:g} … {x_max:g} m, y "
+                    f"{y_min:g} … {y_max:g} m) {when}, at ({where[first, 0]:g} m, "
+                    f"{where[first, 1]:g} m)",
+            campaign.locations.span(("paths", spec.name), at_key=True),
+            hint="give a terrain that holds the whole drive (a larger synthetic size, or a "
+                 "larger DEM), or a shorter chain"))
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
