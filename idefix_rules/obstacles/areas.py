@@ -171,6 +171,8 @@ def _not_simple(points: np.ndarray) -> str | None:
     'edge 5 turns back along edge 4, a spike'
     >>> _not_simple(np.array([(0, 0), (2, 0), (2, 2), (1, 0), (0, 2)], float))
     'vertex 4 lies on edge 1'
+    >>> _not_simple(np.array([(3.1, 4.2), (8.3, 4.1), (8.4, 9.1), (5.7, 4.15), (3.2, 9.2)]))
+    'vertex 4 lies on edge 1'
     >>> print(_not_simple(np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float)))
     None
     """
@@ -179,10 +181,18 @@ def _not_simple(points: np.ndarray) -> str | None:
     def side(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
         return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 
+    # "on a line" to the coordinates' precision: decimal coordinates are not exact in binary
+    # ((5.7, 4.15) on the edge from (3.1, 4.2) to (8.3, 4.1) is 2e-15 off it)
+    tolerance = 1e-9 * max(1.0, float(np.max(np.abs(points))))
+
+    def on_line(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
+        """c lies on the line through a and b, within the tolerance (a distance)."""
+        return abs(side(a, b, c)) <= tolerance * float(np.hypot(*(b - a)))
+
     def within(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
         """c, on the line through a and b, lies on the segment from a to b."""
-        return bool(min(a[0], b[0]) <= c[0] <= max(a[0], b[0])
-                    and min(a[1], b[1]) <= c[1] <= max(a[1], b[1]))
+        return bool(min(a[0], b[0]) - tolerance <= c[0] <= max(a[0], b[0]) + tolerance
+                    and min(a[1], b[1]) - tolerance <= c[1] <= max(a[1], b[1]) + tolerance)
 
     span = points - points[0]
     if np.all(np.abs(span[:, 0] * span[:, 1][:, None] - span[:, 1] * span[:, 0][:, None])
@@ -192,7 +202,7 @@ def _not_simple(points: np.ndarray) -> str | None:
         a, b = points[i], points[(i + 1) % count]
         after = points[(i + 2) % count]
         # the next edge folds back onto this one: collinear, pointing back
-        if side(a, b, after) == 0.0 and float(np.dot(b - a, after - b)) < 0.0:
+        if on_line(a, b, after) and float(np.dot(b - a, after - b)) < 0.0:
             return f"edge {(i + 1) % count + 1} turns back along edge {i + 1}, a spike"
         for j in range(i + 2, count):
             if i == 0 and j == count - 1:
@@ -203,7 +213,7 @@ def _not_simple(points: np.ndarray) -> str | None:
                 return "its edges cross"
             for point, number, on, ends in ((c, j, i, (a, b)), (d, (j + 1) % count, i, (a, b)),
                                             (a, i, j, (c, d)), (b, (i + 1) % count, j, (c, d))):
-                if side(*ends, point) == 0.0 and within(*ends, point):
+                if on_line(*ends, point) and within(*ends, point):
                     return f"vertex {number + 1} lies on edge {on + 1}"
     return None
 
