@@ -133,8 +133,14 @@ def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | 
     start = token.start_pos if isinstance(token.start_pos, int) else None
     if start is None or token.type == "$END":
         return None
+    # the token's own line up to it, outside a comment (a comment may say anything)
+    line_start = text.rfind("\n", 0, start) + 1
+    if "#" in text[line_start:start]:
+        return None
     before = text[:start]
-    missing = re.search(r"\b(percentile|time_above)\s+over\s+$", before)
+    missing = re.search(r"\b(percentile|time_above)\s+over\s+$", text[line_start:start])
+    if missing is not None:
+        missing = re.search(r"\b(percentile|time_above)\s+over\s+$", before)
     if missing is not None:
         word = missing.group(1)
         example = "percentile 95" if word == "percentile" else "time_above 30 deg"
@@ -143,8 +149,14 @@ def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | 
                      hint=f"write `{example} over time (…)`")
     if str(token) != "over":
         return None
-    word = re.search(r"([A-Za-z_][A-Za-z0-9_]*)\s+$", before)
+    # a word where an expression starts: after '=', '(', ',', an operator or a keyword of
+    # logic (not an axis after 'over', nor a unit after its number)
+    word = re.search(r"(?:^|[=(,+\-*/<>!]|\b(?:require|and|or|not))\s*"
+                     r"([A-Za-z_][A-Za-z0-9_]*)\s+$", text[line_start:start])
     if word is None or word.group(1) in REDUCER_WORDS:
+        return None
+    word = re.search(r"([A-Za-z_][A-Za-z0-9_]*)\s+$", before)
+    if word is None:
         return None
     close = difflib.get_close_matches(word.group(1), sorted(REDUCER_WORDS), n=1, cutoff=0.5)
     return error(SYNTAX_ERROR, f"'{word.group(1)}' is not a reducer: a reduction is written "
@@ -200,7 +212,7 @@ def acceptable(state: object, candidates: set[str]) -> set[str]:
 def _hint(token: lark.Token, expected: set[str], following: str = "") -> str | None:
     """``following``: the character right after the token in the text."""
     if token.type == "EQUAL" and "COMPARE" in expected:
-        if following in "<>":  # `=>`, `=<`: the comparison written back to front
+        if following and following in "<>":  # `=>`, `=<`: written back to front
             return f"did you mean '{following}='?"
         return "use '==' to compare"
     if token.type in _DECLARATION_START and token.column == 1 \

@@ -363,3 +363,31 @@ def test_an_installed_wheel_contains_the_grammar(tmp_path):
     [wheel] = (tmp_path / "dist").glob("*.whl")
     with zipfile.ZipFile(wheel) as archive:
         assert "idefix_rules/grammar/rulebook.lark" in archive.namelist()
+
+
+@pytest.mark.parametrize(("line", "code", "says"), [
+    ("chance a = mx over time (abs(roll)) > 5 deg", "E001", "'mx' is not a reducer"),
+    ("chance a = 1 + maximum over time (abs(roll)) > 5 deg", "E001",
+     "'maximum' is not a reducer"),
+    ("chance a = percentile over time (speed) > 1 mm/s", "E106",
+     "'percentile' needs a parameter before 'over'"),
+    # an axis or a unit before a stray 'over' is no reducer written wrong
+    ("chance a = mean over runs over time (x) > 1", "E001", "unexpected 'over'"),
+    ("chance a = max over time (abs(roll)) > 5 deg over", "E001", "unexpected name 'over'"),
+    # nor are the words of a comment
+    ("# a percentile over\n}", "E001", "unexpected '}'"),
+])
+def test_a_reduction_written_wrong_is_named_where_it_is_and_only_there(
+        line: str, code: str, says: str) -> None:
+    text = 'rulebook "t" version "1.0.0"\npurpose "t"\n' + line + "\n"
+    with pytest.raises(UserInputError) as refused:
+        parse_rulebook(text, "t.rules")
+    first = refused.value.diagnostics[0]
+    assert (first.code, says in first.message) == (code, True), first.message
+
+
+def test_an_equals_at_the_end_of_the_file_gets_the_comparison_hint() -> None:
+    with pytest.raises(UserInputError) as refused:
+        parse_rulebook('rulebook "t" version "1.0.0"\npurpose "t"\nverdict v: require risk =',
+                       "t.rules")
+    assert refused.value.diagnostics[0].hint == "use '==' to compare"
