@@ -248,8 +248,12 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str, float]]:
     from it). A fraction (``2/3``) is no number of a unit and is left out."""
     for match in _TRIGGER.finditer(text):
         number, unit = match.group(1), match.group(2)
-        if re.match(r"\s*/\s*\d", text[match.end(1):]):
-            continue  # "above 2/3": a fraction, not 2
+        fraction = re.match(r"\s*/\s*(\d+)\b", text[match.end(1):])
+        if fraction is not None:  # "above 2/3": the ratio, exactly
+            if float(fraction.group(1)) != 0.0:
+                yield (float(number) / float(fraction.group(1)), DIMENSIONLESS,
+                       f"{number}/{fraction.group(1)}", 0.0)
+            continue
         candidates = [f"{number} {unit}"] if unit else []
         candidates.append(number)
         for candidate in candidates:
@@ -266,11 +270,21 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str, float]]:
 
 
 def _place(number: str) -> float:
-    """The place of a written number's last digit: ``0.2618`` → 1e-4, ``70`` → 1, ``2.5e3``
-    → 100."""
-    mantissa, _, exponent = number.lower().partition("e")
+    """Half the rounding a written number may carry: the place of its last digit when it
+    writes three significant digits or more (``0.2618`` → 1e-4, ``33.3`` → 0.1), else 0 (a
+    round number, ``70``, ``2``, ``0.7``, ``1e3``, says its value exactly).
+
+    >>> _place("0.2618"), _place("33.3"), _place("70"), _place("0.7"), _place("1e3")
+    (0.0001, 0.1, 0.0, 0.0, 0.0)
+    """
+    mantissa, _, exponent = number.lower().lstrip("+-").partition("e")
+    digits = mantissa.replace(".", "").lstrip("0")
+    if "." not in mantissa:
+        digits = digits.rstrip("0")  # 100: one significant digit
+    if len(digits) < 3:
+        return 0.0
     decimals = len(mantissa.partition(".")[2])
-    return 10.0 ** (int(exponent or 0) - decimals)
+    return float(f"1e{int(exponent or 0) - decimals}")
 
 
 def lint_rationale_numbers(env: CheckEnv) -> list[Diagnostic]:

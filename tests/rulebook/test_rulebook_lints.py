@@ -68,6 +68,11 @@ def test_bare_ratio_limits(limit, expected):
     ('const c = 75 % because "Risk above 0.7 is too high"', ["W612"]),  # 0.75 rounds to 0.8
     ('const c = 0.6744 because "Slip above 67.5 % is critical"', ["W612"]),
     ('const c = 2 / 3 because "Slip above 2/3 is critical"', []),  # a fraction, not 2
+    ('const c = 60 % because "Slip above 2/3 is critical"', ["W612"]),
+    # a round number says its value exactly: 2 cm is no rounding of 2.4 cm
+    ('const c = 2.4 cm because "Sinkage above 2 cm digs in"', ["W612"]),
+    ('const c = 70.4 % because "Slip above 70 % is critical"', ["W612"]),
+    ('const c = 30.4 deg because "Tilt above 30 deg is critical"', ["W612"]),
 ])
 def test_rationale_numbers(constant, expected):
     uses = "\nchance deep = max over time (max over wheels (wheel.sinkage)) > c\n" \
