@@ -10,6 +10,7 @@ import json
 import os
 from pathlib import Path
 
+import h5py
 import pytest
 from test_cli_user_errors import RULEBOOK, campaign, materialise
 
@@ -58,12 +59,22 @@ def test_a_chain_the_new_rulebook_rejects_or_excludes_is_not_passed(
     assert paths["straight"]["verdict"] == paths["arc"]["verdict"] == "rejected", output
     assert "straight rejected: command 1 breaks rule 'short_only' (delta_position = 0.1 m)" \
         in output
+    # no evaluation of the old rulebook left in the results file for the report to show as
+    # current; the status stays the campaign's, so the next evaluate gates from there
+    with h5py.File(results, "r") as file:
+        for name in ("straight", "arc"):
+            group = file["paths"][name]
+            assert group.attrs["status"] == "simulated" and "evaluation" not in group
     excluding = tmp_path / "excluding.rules"
     excluding.write_text(RULEBOOK + TINY_RISK)
     code, paths, output = _evaluate(results, excluding, capsys)
     assert code == 1, output
     assert paths["straight"]["verdict"] == paths["arc"]["verdict"] == "excluded", output
     assert "the reference run fails prescreen 'tiny_risk'" in output
+    # and under the campaign's own rulebook again: scored as before
+    code, paths, output = _evaluate(results, tmp_path / "stored" / "test.rules", capsys)
+    assert [paths[name]["verdict"] for name in ("straight", "arc")] == \
+        [path["verdict"] for path in before["paths"]], output
 
 
 def test_the_campaigns_waivers_let_a_waived_command_rule_through(
@@ -92,3 +103,7 @@ def test_a_path_the_stored_campaign_rejected_that_the_new_rulebook_would_run_has
     assert "straight not simulated: the stored campaign did not simulate this path (rejected: " \
         "command 1 breaks rule 'short_only'" in output
     assert "this rulebook would: run the campaign to score it" in output
+    assert "Decision: no chain is acceptable (none was scored: every chain was rejected or " \
+        "excluded before Monte Carlo, or needs a run under this rulebook)" in output
+    with h5py.File(results, "r") as file:
+        assert file["paths"]["straight"].attrs["status"] == "rejected"  # the campaign's

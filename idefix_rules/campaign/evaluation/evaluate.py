@@ -279,7 +279,10 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     for name in store.path_names:
         result = stored_path_result(store, name)
         if gate is not None:
+            was = (result.status, result.reason, list(result.waivers))
             gate(result)
+            if write and (result.status, result.reason, result.waivers) != was:
+                _write_gated(target, result)
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue
@@ -370,6 +373,16 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: 
     result.verdict_reasons = [
         f"{text}; {runs_needed_text(result.runs_needed[shown[text]])}" if text in shown else text
         for text in result.verdict_reasons]
+
+
+def _write_gated(target: ResultStore, result: PathResult) -> None:
+    """A path the rulebook scoring it would not simulate (rejected, excluded) keeps no
+    evaluation of the rulebook before: the report and readers would show it as current. Its
+    status stays the campaign's (what was simulated, so that the next ``evaluate`` gates it
+    again from there); what this rulebook says of it is in the summary."""
+    group = target.path_group(result.name)
+    if result.status != "simulated" and "evaluation" in group:
+        del group["evaluation"]
 
 
 def stored_path_result(store: StoredResults, name: str) -> PathResult:

@@ -157,8 +157,10 @@ of 1)'
                         f"of a limit ({near.name}: {rules}); not sent: accepting such a chain "
                         "is a person's call", tuple(near.reasons))
     if not ranked:
-        return Decision("none", None, "no chain is acceptable (none was simulated: every "
-                        "chain was rejected or excluded before Monte Carlo)")
+        rerun = any("this rulebook would" in reason for p in paths for reason in p.reasons)
+        return Decision("none", None, "no chain is acceptable (none was scored: every chain "
+                        "was rejected or excluded before Monte Carlo" + (
+                            ", or needs a run under this rulebook)" if rerun else ")"))
     least = sorted(ranked, key=_rank)[0]
     reasons = tuple(least.reasons)
     why = f": it fails {'; '.join(reasons)}" if reasons else ""
@@ -209,6 +211,7 @@ def reason_items(path: PathResult) -> list[tuple[bool, str]]:
 
 def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
     """The decision of an evaluated campaign."""
-    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank, reasons_of(p),
+    return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank,
+                             reasons_of(p) or ([p.reason] if p.reason else []),
                              tuple(w.rule for w in p.waivers)) for p in evaluation.paths],
                   evaluation.pairs)
