@@ -140,16 +140,16 @@ def exit_code(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
 SUMMARY_UNITS = {
     # Fractions here; the console, `diff` and the report show them in percent (× 100).
     "mean_risk": "fraction 0 … 1, shown in % (run risk I_max, 0 safe … 1 critical; "
-                 "4 decimals)",
-    "risk_ci95": "fraction 0 … 1, shown in % (4 decimals): the mean risk's bounds at the "
+                 "unrounded)",
+    "risk_ci95": "fraction 0 … 1, shown in % (unrounded): the mean risk's bounds at the "
                  "rulebook's family-wise confidence, 1 - alpha.alpha (95 % by default)",
-    "chances": "fraction 0 … 1 of the runs, shown in % (4 decimals)",
+    "chances": "fraction 0 … 1 of the runs, shown in % (unrounded)",
     "collision_chance": "fraction 0 … 1 of the runs per obstacle level, shown in % "
-                        "(4 decimals)",
+                        "(unrounded)",
     "slip": "fraction 0 … 1 (assumed, measured, wheel_slip, margin), shown in %",
-    "energy_mAs": "mAs (0.1 mAs)",
-    "time_s": "s (0.01 s)",
-    "stop_time_s": "s (0.01 s)",
+    "energy_mAs": "mAs (unrounded)",
+    "time_s": "s (unrounded)",
+    "stop_time_s": "s (unrounded)",
     "statistics": "SI, 4 significant digits (risk and chances 1, time s, energy A·s)",
     "sensitivity": "rank correlations, -1 … 1 (3 decimals)",
     "risk_spread": "fractions 0 … 1 (critical, at_limit: of the runs; quartiles, iqr, lowest, "
@@ -184,8 +184,8 @@ def path_record(path: PathResult) -> dict[str, Any]:
         "reason": path.reason,
         "runs": path.runs,
         "completed_runs": path.completed,
-        # as the rulebook's `failed` statistic counts them: runs never simulated too
-        "failed_runs": path.failed + path.missing,
+        # the rulebook's `failed` statistic counts both: failed_runs + missing_runs
+        "failed_runs": path.failed,
         "missing_runs": path.missing,
         "failures": [{"run": run, "reason": reason} for run, reason in
                      sorted(path.failures.items())],
