@@ -33,7 +33,9 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.cli.console import StdoutConsole
 
     out = args.out if args.out is not None else args.results.resolve().parent
-    if args.out is None:  # -o was checked as it was read; the results' folder is checked here
+    # -o was checked as it was read; the results' folder is checked here (a missing results
+    # file is said first, H001, when it is read)
+    if args.out is None and args.results.is_file():
         from idefix_rules.cli.destinations import writable_folder
         from idefix_rules.errors import Span, UserInputError, error
 

@@ -30,7 +30,7 @@ def report_decision(data: ReportData) -> Decision:
     if isinstance(stored, Mapping) and stored.get("kind") in ("send", "none", "unsettled"):
         return Decision(stored["kind"], stored.get("path"), str(stored.get("text", "")),
                         tuple(str(r) for r in stored.get("reasons", ())))
-    if not data.evaluated_paths and data.paths:
+    if not data.evaluated_paths and any(p.status == "simulated" for p in data.paths):
         # nothing scored: say why instead of deciding on verdicts no path has
         state = data.header.state or "complete"
         text = (f"none yet: the campaign is {state} and its runs so far were never evaluated; "
