@@ -52,3 +52,34 @@ def test_the_banner_of_a_campaign_without_expectations_says_what_ci_checked(
     page = (tmp_path / "report.html").read_text()
     assert re.search(r'<div class="ci">CI verdicts \(no expectations: every path must pass\) '
                      r'\(exit [0-9]\)</div>', page), page[page.find('id="decision"'):][:400]
+
+
+def test_a_file_whose_chains_were_all_rejected_is_not_called_unevaluated(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """No path simulated: nothing to evaluate, so "never evaluated" would be false; an older
+    file without a stored decision gets it worked out from the verdicts (every chain
+    rejected)."""
+    from test_cli_evaluate_gate import SHORT_ONLY
+    from test_cli_user_errors import RULEBOOK, campaign, materialise
+
+    files = campaign()
+    files["test.rules"] = RULEBOOK + SHORT_ONLY
+    materialise(tmp_path, files, cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(["campaign.yaml", "--runs", "2", "--quiet", "--no-report"]) == 1
+    results = tmp_path / "out" / "results.h5"
+    with h5py.File(results, "a") as file:  # as an older file: no stored summary
+        if "summary" in file["evaluation"].attrs:
+            del file["evaluation"].attrs["summary"]
+    assert main(["report", str(results), "-o", str(tmp_path / "report")]) == 0
+    capsys.readouterr()
+    decision = _decision(tmp_path / "report" / "report.html")
+    assert decision.startswith("no chain is acceptable (none was scored: every chain was "
+                               "rejected or excluded before Monte Carlo)"), decision
+
+
+def test_a_report_of_a_missing_results_file_is_h001(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["report", str(tmp_path / "nowhere" / "results.h5")]) == 2
+    assert "error[H001]" in capsys.readouterr().err
