@@ -23,6 +23,7 @@ from idefix_rules.campaign.simulation.processes import Continued
 from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
+from idefix_rules.results.format import storage_dtype
 
 
 @dataclass(frozen=True)
@@ -170,5 +171,10 @@ def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, 
         if not np.all(np.isfinite(array)):
             first = int(np.flatnonzero(~np.isfinite(array.reshape(samples, -1)).any(axis=1))[0])
             raise ValueError(f"signal {name!r} is not finite from sample {first}")
+        stored = storage_dtype(name)
+        if stored != np.float64 and np.any(np.abs(array) > np.finfo(stored).max):
+            # stored as float32 it would read back as infinite: no finite run is stored so
+            raise ValueError(f"signal {name!r} exceeds the range of the {stored} it is "
+                             f"stored in (|x| up to {float(np.max(np.abs(array))):g})")
         checked[name] = array
     return checked

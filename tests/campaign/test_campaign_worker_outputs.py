@@ -1,0 +1,30 @@
+"""What a worker accepts of a run's outputs before it is stored: every value finite, and
+finite in the precision it is stored in (a float32 signal beyond float32's range would read
+back as infinite, and a file holding it would be refused as damaged, H004)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from idefix_rules.campaign.simulation.worker import check_outputs
+
+LIMIT = float(np.finfo(np.float32).max)
+
+
+def test_finite_outputs_in_range_are_kept_as_float64() -> None:
+    checked = check_outputs({"x": np.arange(3.0), "wheel.slip": np.full((3, 4), LIMIT)}, 3)
+    assert checked["wheel.slip"].dtype == np.float64 and checked["x"].tolist() == [0, 1, 2]
+    # a float64 signal may hold what float32 cannot
+    assert check_outputs({"x": np.full(3, 1e300)}, 3)["x"][0] == 1e300
+
+
+@pytest.mark.parametrize(("values", "says"), [
+    (np.array([0.0, np.nan, 1.0]), "signal 'wheel.slip' is not finite from sample 1"),
+    (np.array([0.0, 1.0, LIMIT * 1.01]), "signal 'wheel.slip' exceeds the range of the float32"),
+    (np.array([0.0, -LIMIT * 1.01, 1.0]), "signal 'wheel.slip' exceeds the range of the float32"),
+])
+def test_a_run_a_stored_file_could_not_hold_finite_is_refused(values: np.ndarray,
+                                                              says: str) -> None:
+    with pytest.raises(ValueError, match=says):
+        check_outputs({"wheel.slip": np.repeat(values[:, None], 4, axis=1)}, 3)
