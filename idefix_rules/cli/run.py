@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     had_results = results.is_file()
     others = {} if args.resume else {
         path: held for path in (results, previous_path(results))
-        if (held := stored_campaign(path)) is not None and held[0] != campaign.name}
+        if (held := stored_campaign(path)) is not None and held != campaign.name}
     # Owned, and the last run's outputs set aside, before anything slow happens.
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
@@ -139,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{escape(previous_path(results).name)} and this run starts from zero; to "
                 f"continue it instead, stop now (Ctrl-C) and run "
                 f"`{escape(_again(args))}`")
-        for path, (name, _) in others.items():
+        for path, name in others.items():
             if path == results and not (interrupted is not None and interrupted[0] > 0):
                 console.print(f"[yellow]note:[/yellow] {escape(str(results))} held the results "
                               f"of another campaign ({escape(name)}): they are kept as "

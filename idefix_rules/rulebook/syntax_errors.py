@@ -135,41 +135,33 @@ def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | 
         return None
     # the token's own line up to it, outside a comment (a comment may say anything)
     line_start = text.rfind("\n", 0, start) + 1
-    if "#" in text[line_start:start]:
+    line = text[line_start:start]
+    if "#" in line:
         return None
-    before = text[:start]
-    missing = re.search(r"\b(percentile|time_above)\s+over\s+$", text[line_start:start])
-    if missing is not None:
-        missing = re.search(r"\b(percentile|time_above)\s+over\s+$", before)
+
+    def span(match: re.Match[str]) -> Span:
+        number = text.count("\n", 0, start) + 1
+        return Span(path, number, match.start(1) + 1, number, match.end(1) + 1)
+
+    missing = re.search(r"\b(percentile|time_above)\s+over\s+$", line)
     if missing is not None:
         word = missing.group(1)
         example = "percentile 95" if word == "percentile" else "time_above 30 deg"
-        return error("E106", f"'{word}' needs a parameter before 'over'",
-                     _span_of(text, path, missing.start(1), missing.end(1)),
+        return error("E106", f"'{word}' needs a parameter before 'over'", span(missing),
                      hint=f"write `{example} over time (…)`")
     if str(token) != "over":
         return None
     # a word where an expression starts: after '=', '(', ',', an operator or a keyword of
     # logic (not an axis after 'over', nor a unit after its number)
-    word = re.search(r"(?:^|[=(,+\-*/<>!]|\b(?:require|and|or|not))\s*"
-                     r"([A-Za-z_][A-Za-z0-9_]*)\s+$", text[line_start:start])
-    if word is None or word.group(1) in REDUCER_WORDS:
+    found = re.search(r"(?:^|[=(,+\-*/<>!]|\b(?:require|and|or|not))\s*"
+                      r"([A-Za-z_][A-Za-z0-9_]*)\s+$", line)
+    if found is None or found.group(1) in REDUCER_WORDS:
         return None
-    word = re.search(r"([A-Za-z_][A-Za-z0-9_]*)\s+$", before)
-    if word is None:
-        return None
-    close = difflib.get_close_matches(word.group(1), sorted(REDUCER_WORDS), n=1, cutoff=0.5)
-    return error(SYNTAX_ERROR, f"'{word.group(1)}' is not a reducer: a reduction is written "
-                               "`REDUCER over AXIS (…)`",
-                 _span_of(text, path, word.start(1), word.end(1)),
+    close = difflib.get_close_matches(found.group(1), sorted(REDUCER_WORDS), n=1, cutoff=0.5)
+    return error(SYNTAX_ERROR, f"'{found.group(1)}' is not a reducer: a reduction is written "
+                               "`REDUCER over AXIS (…)`", span(found),
                  hint=(f"did you mean '{close[0]}'? " if close else "") + "reducers: "
                  + ", ".join(REDUCERS_IN_ORDER))
-
-
-def _span_of(text: str, path: str, start: int, end: int) -> Span:
-    line = text.count("\n", 0, start) + 1
-    column = start - (text.rfind("\n", 0, start) + 1) + 1
-    return Span(path, line, column, line, column + (end - start))
 
 
 def _foreign_digit(text: str, position: int, span: Span) -> Diagnostic:

@@ -279,10 +279,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     for name in store.path_names:
         result = stored_path_result(store, name)
         if gate is not None:
-            was = (result.status, result.reason, list(result.waivers))
             gate(result)
-            if write and (result.status, result.reason, result.waivers) != was:
-                _write_gated(target, result)
+            if write and result.status != "simulated":
+                _drop_evaluation(target, name)
         results.append(result)
         if result.status != "simulated" or not store.has_runs(name):
             continue
@@ -375,13 +374,13 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: 
         for text in result.verdict_reasons]
 
 
-def _write_gated(target: ResultStore, result: PathResult) -> None:
+def _drop_evaluation(target: ResultStore, name: str) -> None:
     """A path the rulebook scoring it would not simulate (rejected, excluded) keeps no
     evaluation of the rulebook before: the report and readers would show it as current. Its
     status stays the campaign's (what was simulated, so that the next ``evaluate`` gates it
     again from there); what this rulebook says of it is in the summary."""
-    group = target.path_group(result.name)
-    if result.status != "simulated" and "evaluation" in group:
+    group = target.path_group(name)
+    if "evaluation" in group:
         del group["evaluation"]
 
 

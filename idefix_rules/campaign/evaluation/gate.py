@@ -21,8 +21,8 @@ from idefix_rules.commands import Command, RoverGeometry
 # A path the stored campaign did not simulate (rejected or excluded under the rulebook it
 # ran with) that the rulebook scoring it now would simulate.
 NOT_SIMULATED = "not simulated"
-NOT_SIMULATED_REASON = ("the stored campaign did not simulate this path ({was}); this rulebook "
-                        "would: run the campaign to score it")
+NEEDS_RUN = "this rulebook would: run the campaign to score it"
+NOT_SIMULATED_REASON = "the stored campaign did not simulate this path ({was}); " + NEEDS_RUN
 
 
 def gate_again(result: Any, evaluator: Any, chain: Sequence[Command], rover: RoverGeometry,

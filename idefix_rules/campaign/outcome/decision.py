@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.gate import NEEDS_RUN
 from idefix_rules.campaign.input.wording import verdict_reason_items
 from idefix_rules.campaign.statistics.pairwise import OPEN, TIED, find
 from idefix_rules.plain import as_plain
@@ -157,7 +158,7 @@ of 1)'
                         f"of a limit ({near.name}: {rules}); not sent: accepting such a chain "
                         "is a person's call", tuple(near.reasons))
     if not ranked:
-        rerun = any("this rulebook would" in reason for p in paths for reason in p.reasons)
+        rerun = any(reason.endswith(NEEDS_RUN) for p in paths for reason in p.reasons)
         return Decision("none", None, "no chain is acceptable (none was scored: every chain "
                         "was rejected or excluded before Monte Carlo" + (
                             ", or needs a run under this rulebook)" if rerun else ")"))

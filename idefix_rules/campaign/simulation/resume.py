@@ -78,23 +78,21 @@ def interrupted_runs(results: Path) -> tuple[int, int] | None:
         store.close()
 
 
-def stored_campaign(results: Path) -> tuple[str, str] | None:
-    """``(campaign name, campaign sha256)`` of the campaign a results file holds; None when
-    there is no such file or it cannot be read (what a run sets aside is named by it)."""
+def stored_campaign(results: Path) -> str | None:
+    """The name of the campaign a results file holds; None when there is no such file or it
+    cannot be read (what a run sets aside is named by it)."""
     import h5py
 
     if not Path(results).is_file():
         return None
     try:
         with h5py.File(results, "r") as file:
-            name, digest = file.attrs.get("campaign_name"), file.attrs.get("campaign_sha256")
+            name = file.attrs.get("campaign_name")
     except Exception:  # unreadable: nothing to name
         return None
     if name is None:
         return None
-    text = name.decode() if isinstance(name, bytes) else str(name)
-    sha = digest.decode() if isinstance(digest, bytes) else str(digest or "")
-    return text, sha
+    return name.decode() if isinstance(name, bytes) else str(name)
 
 
 def reference_lost(store: Any, name: str) -> bool:
