@@ -1,7 +1,7 @@
 """``idefix-verify check RULEBOOK…``: parse and check rulebooks, print every diagnostic.
 
 Exit 0 when every file is valid, 2 when any file has a diagnostic (with ``--strict``, the
-warnings W601–W615 count too: unused constants, zero-weight indices and the lints of
+warnings W601–W616 count too: unused constants, zero-weight indices and the lints of
 :mod:`idefix_rules.rulebook.lints`). ``--format json`` prints the diagnostics' ``to_dict()``
 records instead of text (start and end of each span; the end column is exclusive). The language
 server (``idefix-verify lsp``) publishes the same diagnostics through
@@ -35,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "ratios written as bare numbers above 1, comparisons that are "
                              "always true or false, rationales that disagree with their value, "
                              "numbers too small for a double's precision, a nominal nearly "
-                             "at 0 or at its limit and windows that hold no sample (W601-W615); "
+                             "at 0 or at its limit, windows that hold no sample and "
+                             "percentiles written as fractions (W601-W616); "
                              "warnings then fail the check (exit 2)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or json: a list of diagnostics (code, severity, "

@@ -11,6 +11,10 @@
   ``5e-324 mm`` (one a double cannot hold at all, ``1e-400 %``, is refused by the parser: E003).
 * **W614** an index's nominal within 10 % of the limit from 0 or from the limit: half of the
   index's range is crossed in a tenth of the value's, so the index is nearly a step.
+* **W615** ``before Q`` with Q at or below 0 s: a window that holds no sample.
+* **W616** ``percentile P`` with P strictly between 0 and 1: a percentile near the minimum,
+  almost certainly a fraction written where the percent number was meant (``percentile 0.95``
+  for ``percentile 95``).
 
 Each lint is a pass of the checker (same shape as :data:`~.check.STRICT_CHECKS`).
 """
@@ -426,6 +430,27 @@ def lint_empty_windows(env: CheckEnv) -> list[Diagnostic]:
     return found
 
 
+# ----------------------------------------------------------------------------- W616
+
+def lint_fraction_percentiles(env: CheckEnv) -> list[Diagnostic]:
+    """``percentile P`` with 0 < P < 1: the parameter counts in percent (0 to 100), so
+    ``percentile 0.95`` is a value just above the minimum, not the 95th percentile."""
+    found: list[Diagnostic] = []
+    for top in rulebook_expressions(env.rulebook):
+        for node in nodes(top):
+            if not (isinstance(node, Reduce) and node.reducer == "percentile"
+                    and isinstance(node.parameter, Number) and node.parameter.unit is None):
+                continue
+            value = node.parameter.value
+            if 0.0 < value < 1.0:
+                found.append(warning(
+                    "W616", f"'percentile {value:g}' is the {value:g}th "
+                    "percentile, a value just above the smallest: the parameter counts in "
+                    "percent, from 0 to 100", node.parameter.span,
+                    f"did you mean 'percentile {value * 100:g}'?"))
+    return found
+
+
 LINTS: tuple[Callable[[CheckEnv], list[Diagnostic]], ...] = (
     lint_bare_ratios, lint_constant_comparisons, lint_rationale_numbers, lint_underflow,
-    lint_step_nominal, lint_empty_windows)
+    lint_step_nominal, lint_empty_windows, lint_fraction_percentiles)

@@ -158,3 +158,27 @@ def test_flags_and_fractions_of_samples_have_their_ranges(chance: str, expected:
 def test_a_command_number_is_counted_from_one(condition: str, expected: list[str]) -> None:
     found = codes(extra=f"command c: require {condition} or abs(delta_heading) <= 90 deg\n")
     assert sorted(found) == expected
+
+
+@pytest.mark.parametrize(("parameter", "expected"), [
+    ("0.95", ["W616"]),    # a fraction where 95 was meant
+    ("0.001", ["W616"]),   # just above 0
+    ("0.999", ["W616"]),   # just below 1
+    ("1", []),             # the 1st percentile: written as meant
+    ("0", []),             # the minimum
+    ("95", []),
+    ("99.5", []),
+])
+def test_a_percentile_written_as_a_fraction(parameter: str, expected: list[str]) -> None:
+    found = codes(extra=f"chance c = percentile {parameter} over time (speed) > 8 mm/s\n"
+                        "verdict cv: require chance(c) <= 5 %\n")
+    assert sorted(found) == expected
+
+
+def test_a_fraction_percentile_over_runs_is_linted_too() -> None:
+    found = check_text(HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %")
+                       + "chance c = percentile 0.5 over runs "
+                         "(final over time (x - ref.x)) > 1 cm\n"
+                       "verdict cv: require chance(c) <= 5 %\n", "t.rules", strict=True)
+    warnings = [d for d in found.diagnostics if d.code == "W616"]
+    assert len(warnings) == 1 and "did you mean 'percentile 50'" in (warnings[0].hint or "")
