@@ -265,6 +265,16 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
         return result
 
 
+class ReportInterrupted(KeyboardInterrupt):
+    """Ctrl-C while the report was written: the campaign itself is complete (``result``:
+    its results file, evaluation, ``summary.json`` and JUnit are written; the report is
+    not, and an earlier ``report.html`` is left as it was)."""
+
+    def __init__(self, result: CampaignResult) -> None:
+        super().__init__("interrupted while writing the report")
+        self.result = result
+
+
 @dataclass
 class PreparedSimulation:
     """What simulating a campaign needs once its inputs are checked: the compiled rulebook,
@@ -379,10 +389,13 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     _warn_lost_runs(result, again)
     if report:
         say("writing the report (per-sample risk maps, figures)")
-        result.report = write_report(result.results, campaign.output,
-                                     "the results and summary.json are written; free space, "
-                                     f"then `idefix-verify report {result.results}`",
-                                     advance)
+        try:
+            result.report = write_report(result.results, campaign.output,
+                                         "the results and summary.json are written; free space, "
+                                         f"then `idefix-verify report {result.results}`",
+                                         advance)
+        except KeyboardInterrupt as stop:  # the results and summary.json are complete
+            raise ReportInterrupted(result) from stop
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,
                       "report": time.perf_counter() - evaluated,

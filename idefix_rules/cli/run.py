@@ -168,12 +168,23 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
                progress: RichProgress | PlainProgress, console: Console) -> int:
     from rich.markup import escape
 
-    from idefix_rules.campaign.runner import run_campaign
+    from idefix_rules.campaign.runner import ReportInterrupted, run_campaign
     from idefix_rules.cli.outcome import print_outcome
 
     try:
         result = run_campaign(campaign, options, progress, junit=args.junit,
                               report=not args.no_report)
+    except ReportInterrupted as stop:
+        # the campaign is complete: its answer is said, then what the interrupt left undone
+        progress.stop()
+        done = stop.result
+        print_outcome(console, done.evaluation, done.expectations, done.exit_code,
+                      done.warnings, stored_titles(done.results), [("results", done.results)])
+        console.print(f"[yellow]interrupted[/yellow] while writing the report: the results "
+                      f"and summary.json are complete (exit code {done.exit_code} without "
+                      f"the interrupt); write the report with "
+                      f"`idefix-verify report {escape(str(done.results))}`")
+        return 130  # as the dispatcher would, without saying "interrupted" twice
     except KeyboardInterrupt:
         progress.stop()
         console.print(f"[yellow]interrupted[/yellow]: continue with `{escape(_again(args))}`")

@@ -8,6 +8,7 @@ and checks the exit code and message fragments. Campaign cases fail before any s
 from __future__ import annotations
 
 import importlib
+import json
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -942,6 +943,32 @@ def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
     output = "".join(capsys.readouterr())
     assert output.count("interrupted") == 1 and "Traceback" not in output
     assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
+
+
+def test_ctrl_c_while_the_report_is_written_says_the_answer_and_how_to_write_the_report(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The campaign is complete when the report starts: its answer is said, summary.json
+    holds it, and the way on is `report`, not a --resume that would evaluate everything
+    again."""
+    from idefix_rules.campaign import runner
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(runner, "write_report", interrupted)
+    assert main(["campaign.yaml", "--runs", "2", "--quiet"]) == 130
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert "Traceback" not in output and "--resume" not in output
+    assert "Decision:" in output  # the answer, first
+    results = tmp_path / "out" / "results.h5"
+    assert ("interrupted while writing the report: the results and summary.json are complete "
+            "(exit code 1 without the interrupt); write the report with "
+            f"`idefix-verify report {results}`") in output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["exit_code"] == 1 and not (tmp_path / "out" / "report.html").exists()
 
 
 def test_building_the_fmu_without_a_compiler_is_exit_3_and_says_what_is_missing(
