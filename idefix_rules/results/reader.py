@@ -98,7 +98,10 @@ def structure_problems(file: h5py.File) -> list[tuple[str, str]]:
         runs = group.get("runs")
         if runs is None or "status" not in runs:  # not allocated yet (or cut off doing it)
             if finished:
-                problems.append((f"{where}/runs", "missing, though the campaign finished"))
+                # the object that is gone: the runs' group, or its status beside the rest
+                gone = f"{where}/runs" if runs is None or not len(runs) \
+                    else f"{where}/runs/status"
+                problems.append((gone, "missing, though the campaign finished"))
             continue
         status = runs["status"]
         if not _numeric(status) or status.ndim != 1 or status.dtype.kind not in "iu":

@@ -75,6 +75,8 @@ DAMAGES: dict[str, tuple[Damage, str]] = {
                      "finished"),
     "runs-deleted": (_delete("paths/straight/runs"),
                      "/paths/straight/runs: missing, though the campaign finished"),
+    "run-status-deleted": (_delete("paths/straight/runs/status"),
+                           "/paths/straight/runs/status: missing, though the campaign finished"),
     "chain-of-two-columns": (_replace("paths/straight/chain", np.zeros((1, 2))),
                              "/paths/straight/chain: missing, or not a table of commands"),
     "signal-of-strings": (_replace("paths/straight/runs/signals/x",
