@@ -127,7 +127,7 @@ def chunk_layout(dataset: h5py.Dataset) -> ChunkLayout | None:
 
 
 def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray,
-                finite: bool = False) -> None:
+                finite: bool = False, complete: np.ndarray | None = None) -> None:
     """Inflate and unshuffle stored chunks, one run each, into ``into`` (runs, …) float64.
 
     Run by run: a chunk is inflated, its byte planes joined into a buffer of one run (float64
@@ -141,7 +141,8 @@ def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray,
 
     ``finite``: a row holding a value that is not finite, unless it is all NaN, raises
     :class:`NotFinite` (a stored run's outputs are finite; a row all NaN is the fill of a run
-    not stored)."""
+    not stored). ``complete`` (one flag per chunk): the rows of runs stored complete, which
+    raise when all NaN too."""
     size = layout.dtype.itemsize
     count = int(np.prod(layout.shape, dtype=np.int64))
     joined = np.empty((count, size), dtype=np.uint8)
@@ -171,7 +172,8 @@ def decode_rows(chunks: Sequence[bytes], layout: ChunkLayout, into: np.ndarray,
         # a run is stored only when every output of it is finite (worker.check_outputs): one
         # that is not was changed after it was written (checked while the row is in cache); a
         # row all NaN is the fill of a run not stored (failed, or not simulated yet)
-        if finite and not np.isfinite(row).all() and not np.isnan(row).all():
+        if finite and not np.isfinite(row).all() and (
+                not np.isnan(row).all() or (complete is not None and complete[position])):
             raise NotFinite(position)
 
 
@@ -224,6 +226,8 @@ class ParallelRuns:
         wanted = list(datasets) if keys is None else [k for k in keys if k in datasets]
         out: dict[str, np.ndarray] = {}
         jobs: list[tuple[str, ChunkLayout, np.ndarray, np.ndarray]] = []
+        # the runs stored complete: their rows are finite, even where all of one is NaN
+        status = self.store.run_status(name) if self.finite else None
         for key in wanted:
             dataset = datasets[key]
             if isinstance(selection, slice):
@@ -235,15 +239,33 @@ class ParallelRuns:
                 and bool(np.all(layout.offsets[rows] >= 0)) and not layout.masks[rows].any()
             if not usable or layout is None:
                 out[key] = self._mapped.read_runs(name, selection, [key])[key]
+                if status is not None:  # mapped (format 1) or read by HDF5: checked here
+                    self._check_finite(name, key, out[key], rows, status)
                 continue
             out[key] = np.empty((rows.size, *layout.shape), dtype=np.float64)
             jobs.append((key, layout, rows, out[key]))
-        self._decode(name, jobs)
+        self._decode(name, jobs, status)
         return out
 
+    def _check_finite(self, name: str, key: str, values: np.ndarray, rows: np.ndarray,
+                      status: np.ndarray) -> None:
+        """H004 when a row of a run stored complete holds a value that is not finite (as
+        :func:`decode_rows` checks the rows it decodes)."""
+        complete = status[rows] == STATUS_COMPLETE if rows.size else np.zeros(0, dtype=bool)
+        if not complete.any():
+            return
+        flat = np.asarray(values).reshape(len(rows), -1)
+        bad = np.flatnonzero(complete & ~np.isfinite(flat).all(axis=1))
+        if bad.size:
+            raise damaged(self.store.path, f"/paths/{name}/runs/signals/{key}",
+                          f"run {int(rows[bad[0]])} holds values that are not finite, which "
+                          "no stored run does")
+
     def _decode(self, name: str,
-                jobs: list[tuple[str, ChunkLayout, np.ndarray, np.ndarray]]) -> None:
-        """Read and decode every (layout, rows, output) job, split over the threads."""
+                jobs: list[tuple[str, ChunkLayout, np.ndarray, np.ndarray]],
+                status: np.ndarray | None = None) -> None:
+        """Read and decode every (layout, rows, output) job, split over the threads
+        (``status``: the path's run states, to check the complete runs' rows)."""
         descriptor = self._descriptor()
         parts = [(key, layout, rows[i::self.threads], target[i::self.threads])
                  for key, layout, rows, target in jobs for i in range(self.threads)
@@ -254,7 +276,8 @@ class ParallelRuns:
             try:
                 decode_rows([os.pread(descriptor, int(layout.sizes[row]),
                                       int(layout.offsets[row])) for row in rows], layout, target,
-                            self.finite)
+                            self.finite, None if status is None
+                            else status[rows] == STATUS_COMPLETE)
             except NotFinite as bad:
                 raise damaged(self.store.path, f"/paths/{name}/runs/signals/{key}",
                               f"run {int(rows[bad.position])} holds values that are not "

@@ -45,14 +45,14 @@ def _overwrite_stored_chunk(path: Path) -> None:
     path.write_bytes(bytes(data))
 
 
-def _not_finite(name: str, row: int | None) -> Damage:
+def _not_finite(name: str, row: int | None, whole: bool = False) -> Damage:
     # one value of a stored run (or of the reference run) set to NaN, as an edit leaves it:
-    # no run is stored unless every output of it is finite
+    # no run is stored unless every output of it is finite; ``whole``: every value of it
     def damage(path: Path) -> None:
         with h5py.File(path, "a") as file:
             dataset = file[name]
             values = dataset[()] if row is None else dataset[row]
-            values.reshape(-1)[1] = np.nan
+            values.reshape(-1)[slice(None) if whole else 1] = np.nan
             if row is None:
                 dataset[()] = values
             else:
@@ -89,6 +89,10 @@ DAMAGES: dict[str, tuple[Damage, str]] = {
     "run-not-finite": (_not_finite("paths/straight/runs/signals/wheel.slip", 1),
                        "/paths/straight/runs/signals/wheel.slip: run 1 holds values that are "
                        "not finite"),
+    # a complete run's row all NaN: not the fill of a run never stored
+    "run-all-nan": (_not_finite("paths/straight/runs/signals/wheel.slip", 1, whole=True),
+                    "/paths/straight/runs/signals/wheel.slip: run 1 holds values that are "
+                    "not finite"),
     "reference-not-finite": (_not_finite("paths/straight/reference/signals/y", None),
                              "/paths/straight/reference/signals/y: holds values that are not "
                              "finite"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import Command
@@ -77,5 +78,35 @@ def test_chunked_datasets_are_read_through_h5py(tmp_path: Path) -> None:
         got = MappedRuns(store).read_runs("p", slice(1, 3), ["y"])["y"]
         assert not isinstance(got, np.memmap)
         np.testing.assert_array_equal(got, np.arange(35.0).reshape(5, 7)[1:3])
+    finally:
+        store.close()
+
+
+def test_a_complete_run_not_finite_in_a_mapped_dataset_is_damage(tmp_path: Path) -> None:
+    """Format 1 (mapped) and rows read through HDF5 are checked as decoded chunks are: a run
+    stored complete holds only finite values, all NaN included; run 2, never written, is the
+    fill and no damage."""
+    from idefix_rules.errors import UserInputError
+    from idefix_rules.results.runs import ParallelRuns
+
+    store = small_store(tmp_path / "results.h5", contiguous=True)
+    try:
+        with ParallelRuns(store) as runs:  # untouched: the fill of run 2 is no damage
+            assert np.isnan(runs.read_runs("p", slice(0, 5), ["x"])["x"][2]).all()
+        signals = store.path_group("p")["runs"]["signals"]
+        for values in (np.full(7, np.nan), np.r_[np.zeros(6), np.inf]):
+            signals["x"][3] = values
+            with ParallelRuns(store) as runs:
+                with pytest.raises(UserInputError) as caught:
+                    runs.read_runs("p", slice(0, 5), ["x"])
+                assert "/paths/p/runs/signals/x" in str(caught.value.diagnostics[0].message)
+                assert "run 3 holds values that are not finite" in \
+                    caught.value.diagnostics[0].message
+                # rows of runs not stored complete are not checked: run 2 alone reads
+                np.testing.assert_array_equal(
+                    np.isnan(runs.read_runs("p", np.array([2]), ["x"])["x"]), True)
+        with ParallelRuns(store, finite=False) as runs:  # asked not to check
+            assert np.isnan(runs.read_runs("p", slice(3, 4), ["x"])["x"][0, -1]) or \
+                np.isinf(runs.read_runs("p", slice(3, 4), ["x"])["x"][0, -1])
     finally:
         store.close()
