@@ -92,7 +92,9 @@ def _held(cache: str | bool) -> Iterator[str | bool]:
     interleave their writes into one file that still unpickles); False (no cache) where no
     lock can be taken. In a folder this user cannot write (a cache prepared for a read-only
     image), a lock file there is opened to read and held shared: the tables are read, and
-    lark's attempt to write stale ones fails quietly."""
+    lark's attempt to write stale ones fails quietly; were the cache file itself writable
+    (a lock file this user cannot write beside it), lark is given no cache at all, since
+    under a shared lock it could write into a file other processes read."""
     if not cache:
         yield False
         return
@@ -117,7 +119,21 @@ def _held(cache: str | bool) -> Iterator[str | bool]:
         except OSError:
             yield False
             return
+        if mode == fcntl.LOCK_SH and _writable(str(cache)):
+            # lark could write stale tables into a file other readers hold: not under a
+            # shared lock (a lock file this user cannot write beside a cache file it can)
+            yield False
+            return
         yield cache  # the lock goes with the handle
+
+
+def _writable(path: str) -> bool:
+    """Whether this process can open an existing ``path`` to write (nothing is written)."""
+    try:
+        with open(path, "r+b"):
+            return True
+    except OSError:  # absent, or not writable
+        return False
 
 
 @functools.cache

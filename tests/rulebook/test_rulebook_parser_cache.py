@@ -157,5 +157,40 @@ def test_a_cache_in_a_folder_this_user_cannot_write_is_read(
 
     monkeypatch.setattr(grammar.lark, "Lark", lark)
     assert _formatted() == fresh
-    assert built == [True] and refused == [f"{path}.lock"]
+    # the lock file, and the cache file tried for writing (refused: read-only)
+    assert built == [True] and refused == [f"{path}.lock", str(path)]
+    assert (path.stat().st_mtime_ns, path.read_bytes()) == written
+
+
+def test_a_writable_cache_file_beside_a_lock_held_shared_is_not_handed_to_lark(
+        cache_folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The lock file cannot be opened to append but the cache file can be written: under a
+    shared lock lark could write stale tables into a file other processes read, so it gets
+    no cache (the parser is built in this process) and the file is left as it was."""
+    import builtins
+
+    path = Path(str(parser_cache()))
+    fresh = _formatted()  # built and written, with its lock file
+    written = path.stat().st_mtime_ns, path.read_bytes()
+    real_open = builtins.open
+
+    def lock_read_only(file: object, mode: str = "r", *args: object, **kwargs: object
+                       ) -> object:
+        if str(file) == f"{path}.lock" and any(m in mode for m in "aw+"):
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, mode, *args, **kwargs)  # type: ignore[call-overload]
+
+    monkeypatch.setattr(builtins, "open", lock_read_only)
+    from idefix_rules.rulebook import grammar
+
+    built: list[object] = []
+    real_lark = grammar.lark.Lark
+
+    def lark(*args: object, **kwargs: object) -> object:
+        built.append(kwargs.get("cache"))
+        return real_lark(*args, **kwargs)
+
+    monkeypatch.setattr(grammar.lark, "Lark", lark)
+    assert _formatted() == fresh
+    assert built == [False]
     assert (path.stat().st_mtime_ns, path.read_bytes()) == written
