@@ -444,10 +444,9 @@ def lint_fraction_percentiles(env: CheckEnv) -> list[Diagnostic]:
             value = node.parameter.value
             if 0.0 < value < 1.0:
                 found.append(warning(
-                    "W616", f"'percentile {value:g}' is the {value:g}th "
-                    "percentile, a value just above the smallest: the parameter counts in "
-                    "percent, from 0 to 100", node.parameter.span,
-                    f"did you mean 'percentile {value * 100:g}'?"))
+                    "W616", f"percentile '{value:g}' is the {value:g}th percentile, a value "
+                    "just above the smallest: the parameter counts in percent, from 0 to 100",
+                    node.parameter.span, f"did you mean '{value * 100:g}'?"))
     return found
 
 

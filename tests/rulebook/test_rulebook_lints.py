@@ -181,4 +181,16 @@ def test_a_fraction_percentile_over_runs_is_linted_too() -> None:
                          "(final over time (x - ref.x)) > 1 cm\n"
                        "verdict cv: require chance(c) <= 5 %\n", "t.rules", strict=True)
     warnings = [d for d in found.diagnostics if d.code == "W616"]
-    assert len(warnings) == 1 and "did you mean 'percentile 50'" in (warnings[0].hint or "")
+    assert len(warnings) == 1 and warnings[0].hint == "did you mean '50'?"
+
+
+def test_the_editor_offers_the_percent_number_as_a_quick_fix() -> None:
+    from idefix_rules.lsp.analysis import analyse
+    from idefix_rules.lsp.fixes import quick_fixes
+
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") + (
+        "chance c = percentile 0.95 over time (speed) > 8 mm/s\n"
+        "verdict cv: require chance(c) <= 5 %\n")
+    fixes = [(f.title, f.new_text) for f in quick_fixes(analyse(text, "t.rules"))
+             if f.diagnostic.code == "W616"]
+    assert fixes == [("replace '0.95' with '95'", "95")]
