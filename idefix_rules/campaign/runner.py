@@ -322,7 +322,8 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
         diskspace.require(campaign.output, terrain.heights.size * 8, doing, then)
         with diskspace.guard(campaign.output, doing, then):
             fixed[TERRAIN_PARAMETER] = str(write_terrain(terrain, campaign.output))
-    collisions = collision_function(campaign.model.environment, evaluator, terrain)
+    collisions = collision_function(campaign.model.environment, evaluator, terrain,
+                                    rover_geometry(campaign))
     return PreparedSimulation(evaluator, fmu_path, fixed, collisions, warnings, terrain,
                               source)
 

@@ -151,7 +151,7 @@ class StoredCampaign:
         if not getattr(evaluator, "needs_collisions", False):
             return None
         return collision_function(self.require_campaign().model.environment, evaluator,
-                                  self.ground().terrain)
+                                  self.ground().terrain, self.rover)
 
     def named_areas(self, checked: Any) -> dict[str, Any]:
         """The named areas of a rulebook on the stored terrain, by name."""

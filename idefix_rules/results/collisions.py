@@ -43,7 +43,9 @@ class CollisionFunction(Protocol):
 def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
                        rover: RoverGeometry | None = None) -> ObstacleCheck | None:
     """The obstacle checker for a campaign environment, or None if the rulebook needs none;
-    it gives the collision signals and the signals of the rulebook's named areas."""
+    it gives the collision signals and the signals of the rulebook's named areas, for a rover of
+    ``rover``'s geometry (the campaign's: :func:`~idefix_rules.campaign.input.load.
+    rover_geometry`; the defaults when None)."""
     if not getattr(evaluator, "needs_collisions", False):
         return None
     from idefix_rules.campaign.input.environment import named_areas, obstacle_set
@@ -57,15 +59,21 @@ class ObstacleCheck:
     signals of runs of poses against its obstacles, with the signals of its named areas."""
 
     def __init__(self, obstacles: Any, areas: Mapping[str, Any], rover: RoverGeometry) -> None:
+        from idefix_rules.obstacles import RoverBodies
+
         self.obstacles = obstacles
         self.areas = areas
         self.rover = rover
+        # the collision bodies' wheels where the campaign's geometry puts them (its half
+        # track, half wheelbase and wheel radius), as the rover model drives them
+        self.bodies = RoverBodies.from_geometry(rover)
 
     def __call__(self, poses: Mapping[str, np.ndarray], runs: np.ndarray | None = None
                  ) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
         from idefix_rules.obstacles import collision_signals
 
-        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, self.obstacles)
+        result = collision_signals({k: poses[k] for k in POSE_SIGNALS}, self.obstacles,
+                                   self.bodies)
         details = [as_plain(d) for d in result.details]
         if runs is not None:
             # The checker numbers the rows it was given from 0; a chunk of complete runs is

@@ -4,6 +4,8 @@ several runs), whatever the precision the FMU gave them with."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from idefix_rules.campaign.evaluation.remembered import collision_pieces, run_collisions
@@ -51,3 +53,43 @@ def test_a_worker_checks_its_run_as_the_evaluation_checks_the_stored_chunk() -> 
     raw = collision_pieces(rows[:1], *checker({k: v[None] for k, v in runs[0].items()},
                                               rows[:1]), runs[0]["t"][None])
     assert not np.array_equal(raw["clearance_profile"][0], chunk["clearance_profile"][0])
+
+
+def test_the_wheels_are_checked_where_the_campaigns_geometry_puts_them() -> None:
+    """A campaign that sets `rover.half_track` drives its wheels there: a rock in their track
+    is hit, one in the default track (0.26 m) passes between them; the defaults the other way
+    round."""
+    def wheel_hits(half_track: float | None, rock_y: float) -> int:
+        rock = {"name": "rock", "x": 0.8, "y": rock_y, "z": 0.0, "radius": 0.04, "level": "L2"}
+        geometry = RoverGeometry() if half_track is None else RoverGeometry(
+            half_track=half_track)
+        checker = ObstacleCheck(ObstacleSet.from_rocks([rock]), {}, geometry)
+        run = {key: value[None] for key, value in wobbly_drive(0.0, 1).items()}
+        for key in ("roll", "pitch", "yaw"):
+            run[key] = np.zeros_like(run[key])
+        run["z"] = np.full_like(run["z"], RoverBodies().body_centre_height)
+        signals, _ = checker(run)
+        return int(np.asarray(signals["collision.hits"])[0, 0].sum())  # the wheels, any level
+
+    assert wheel_hits(0.4, -0.4) > 0 and wheel_hits(0.4, -0.26) == 0
+    assert wheel_hits(None, -0.4) == 0 and wheel_hits(None, -0.26) > 0
+
+
+def test_a_campaign_checks_collisions_with_its_own_geometry(tmp_path: Path) -> None:
+    """The checker a campaign simulates with takes `rover.half_track` from its regolith (the
+    one `evaluate` rebuilds from the stored campaign takes the stored campaign's geometry,
+    `StoredCampaign.rover`, the same way)."""
+    from idefix_rules.campaign.input.load import load_campaign
+    from idefix_rules.campaign.runner import prepare_simulation
+
+    root = Path(__file__).parents[2]
+    text = (root / "campaigns" / "rock-detour.yaml").read_text().replace(
+        "../rulebooks/", f"{root / 'rulebooks'}/").replace(
+        '  regolith:\n', '  regolith:\n    rover.half_track: "0.3 m"\n', 1)
+    assert 'rover.half_track: "0.3 m"' in text
+    source = tmp_path / "wide.yaml"
+    source.write_text(text.replace("../", f"{root}/"))
+    campaign = load_campaign(source).with_overrides(output=tmp_path / "out")
+    prepared = prepare_simulation(campaign, lambda said: None, "again")
+    assert isinstance(prepared.collisions, ObstacleCheck)
+    assert prepared.collisions.bodies.half_track == 0.3
