@@ -82,3 +82,102 @@ def results_digest(results: Path) -> str:
                 value = float(group["reference/parameters"].attrs[key])
                 digest.update(f"{path}/ref.{key}={value!r}".encode())
     return digest.hexdigest()
+
+
+# --- a fingerprint that holds across platforms ------------------------------------------------
+#
+# The digest above is bit-exact, and so only holds on one platform: glibc picks its libm
+# functions by processor (FMA, AVX, SSE2 variants) and numpy its SIMD math by processor too, and
+# they differ in the last bits. Measured on the rover campaign below between glibc's FMA and AVX
+# variants on one machine: at most 6e-14 on the reference run's float64 signals and one float32
+# ulp on the stored Monte Carlo signals (the model is not chaotic there: no contact decision
+# flips). The fingerprint keeps every dataset's dtype and shape exactly and its values at a
+# tolerance far above that and far below any change of the physics: its sum, extremes and
+# values at 32 evenly spaced places.
+
+RTOL = 1e-6
+ATOL = 1e-9
+PLACES = 32
+
+
+def results_fingerprint(results: Path) -> dict[str, object]:
+    """Per simulated dataset (as :func:`results_digest` selects them): dtype, shape, and the
+    sum, minimum, maximum and 32 values of it (NaN kept as None); per reference parameter its
+    value."""
+    found: dict[str, object] = {}
+    with h5py.File(results, "r") as file:
+        for path in sorted(file["paths"]):
+            group = file["paths"][path]
+            names: list[str] = []
+            group.visit(names.append)
+            for name in sorted(names):
+                item = group[name]
+                if not isinstance(item, h5py.Dataset) or name.startswith("evaluation") \
+                        or name == "runs/failure":
+                    continue
+                data = np.asarray(item[()])
+                entry: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
+                if data.dtype.kind in "fiub" and data.size:
+                    flat = data.astype(np.float64).reshape(-1)
+                    places = np.unique(np.linspace(0, flat.size - 1, PLACES).astype(int))
+                    entry["values"] = [_plain(v) for v in (
+                        np.nansum(flat) if np.isfinite(flat).any() else np.nan,
+                        np.nanmin(flat) if np.isfinite(flat).any() else np.nan,
+                        np.nanmax(flat) if np.isfinite(flat).any() else np.nan,
+                        *flat[places])]
+                found[f"{path}/{name}"] = entry
+            for key in sorted(group["reference/parameters"].attrs) \
+                    if "reference/parameters" in group else ():
+                value = float(group["reference/parameters"].attrs[key])
+                found[f"{path}/ref.{key}"] = {"values": [_plain(value)]}
+    return found
+
+
+def _plain(value: float) -> float | None:
+    return None if not np.isfinite(value) else float(value)
+
+
+def fingerprint_differences(found: dict[str, object], expected: dict[str, object]
+                            ) -> list[str]:
+    """What differs, dataset by dataset: a dataset added or gone, another dtype or shape, or a
+    value beyond ``RTOL`` / ``ATOL`` (a NaN against a number included)."""
+    problems = [f"{name}: {'added' if name in found else 'gone'}"
+                for name in sorted(set(found) ^ set(expected))]
+    for name in sorted(set(found) & set(expected)):
+        mine, theirs = found[name], expected[name]
+        assert isinstance(mine, dict) and isinstance(theirs, dict)
+        for key in ("dtype", "shape"):
+            if mine.get(key) != theirs.get(key):
+                problems.append(f"{name}: {key} {mine.get(key)} against {theirs.get(key)}")
+        a, b = mine.get("values", []), theirs.get("values", [])
+        assert isinstance(a, list) and isinstance(b, list)
+        if len(a) != len(b):
+            problems.append(f"{name}: {len(a)} values against {len(b)}")
+            continue
+        for index, (x, y) in enumerate(zip(a, b, strict=True)):
+            if (x is None) != (y is None) or (x is not None and y is not None and not
+                                              np.isclose(x, y, rtol=RTOL, atol=ATOL)):
+                problems.append(f"{name}: value {index}: {x!r} against {y!r}")
+                break
+    return problems
+
+
+FINGERPRINTS = Path(__file__).parent / "fingerprints"
+
+
+def record(name: str, results: Path) -> Path:
+    """Write the fingerprint of ``results`` as the expected one of ``name`` (on purpose only:
+    ``IDEFIX_RECORD_FINGERPRINTS=1 pytest tests/campaign/test_campaign_same_datasets.py``)."""
+    import json
+
+    FINGERPRINTS.mkdir(exist_ok=True)
+    target = FINGERPRINTS / f"{name}.json"
+    target.write_text(json.dumps(results_fingerprint(results), indent=1, sort_keys=True) + "\n")
+    return target
+
+
+def expected_fingerprint(name: str) -> dict[str, object]:
+    import json
+
+    loaded: dict[str, object] = json.loads((FINGERPRINTS / f"{name}.json").read_text())
+    return loaded
