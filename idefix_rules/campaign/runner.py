@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -42,6 +42,7 @@ from idefix_rules.campaign.input.validate import (
     check_rocks_on_terrain,
     check_simulation_size,
     check_start_on_terrain,
+    check_tolerance_start,
     prepare_output,
 )
 from idefix_rules.campaign.input.wording import DisplayUnits
@@ -69,6 +70,7 @@ from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, co
 from idefix_rules.results.format import SEARCHED_RUNS
 from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
 
+_T = TypeVar("_T")
 SUMMARY_FILE = "summary.json"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
 # energy, chances, collision counts and details, the clearance profile), for the free-space
@@ -299,20 +301,37 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     is the one the missing runs are simulated on."""
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
-    mistakes = waivers.waiver_problems(campaign, evaluator.rulebook)
-    if mistakes:
-        raise UserInputError(mistakes, sources={str(campaign.source): campaign.text})
+    # the campaign's mistakes, every one found before any is said (a check that needs what a
+    # failed one would give is skipped: the terrain's checks without a terrain)
+    problems: list[Diagnostic] = list(waivers.waiver_problems(campaign, evaluator.rulebook))
+    # the texts each failure quotes from (a DEM's own text is never quoted: it is given empty)
+    sources: dict[str, str] = {str(campaign.source): campaign.text}
+
+    def gather(check: Callable[[], _T]) -> _T | None:
+        try:
+            return check()
+        except UserInputError as failure:
+            problems.extend(failure.diagnostics)
+            sources.update(failure.sources)
+            return None
+
+    gather(lambda: check_tolerance_start(campaign, evaluator))
     if campaign.fmu is None and not _fmu_cached():
         say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
-    mapping = check_fmu(campaign, fmu_path, evaluator)
+    mapping = gather(lambda: check_fmu(campaign, fmu_path, evaluator))
+    gather(lambda: check_simulation_size(campaign))
+    say("preparing the terrain")
+    terrain = gather(lambda: build_terrain(campaign.model.environment, campaign.dem))
+    if terrain is not None:
+        extent = terrain.extent
+        gather(lambda: _check_on_terrain(campaign, extent))
+    if problems:
+        raise UserInputError(problems, sources=sources)
+    assert mapping is not None and terrain is not None
     # said once, with the outcome
     warnings = describe_warnings(mapping.warnings, {str(campaign.source): campaign.text})
-    check_simulation_size(campaign)
     fixed: dict[str, float | str] = {}
-    say("preparing the terrain")
-    terrain = build_terrain(campaign.model.environment, campaign.dem)
-    _check_on_terrain(campaign, terrain.extent)
     source = TerrainSource.of(campaign.dem)
     if resume:  # the runs still missing are simulated on the terrain stored so far
         terrain, notes = _resumed_terrain(campaign.output / RESULTS_FILE, terrain, source)
@@ -611,6 +630,10 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     # The stored campaign's waivers against this rulebook and today's date, as a run checks
     # them: a waiver that expired since the campaign ran no longer covers its failure.
     mistakes = waivers.waiver_problems(stub, evaluator.rulebook, stored=True)
+    try:
+        check_tolerance_start(stub, evaluator, stored=True)
+    except UserInputError as failure:
+        mistakes += failure.diagnostics
     if mistakes:
         raise UserInputError(mistakes, sources={str(stub.source): stub.text})
     _check_stored_signals(store, evaluator, results)

@@ -180,6 +180,8 @@ class CompiledRulebook:
 
         read = set().union(*(set(i.reads) for i in self._indices),
                            *(set(c.reads) for c in self._chances))
+        # every signal the indices and chances name (given, derived, ref.*, area signals)
+        self.signals_read: frozenset[str] = frozenset(read)
         provided = set().union(*(inputs_of(name) for name in read)) if read else set()
         # 'command' (run time) and 'energy' are used when present, not required (a foreign
         # FMU may lack them): see DerivedSignals.provides.

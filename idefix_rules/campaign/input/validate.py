@@ -13,10 +13,13 @@ import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from idefix_rules.campaign.input.load import (
+    INITIAL_POSITION,
     Campaign,
     format_loc,
+    initial_position_sigma,
     nominal_parameters,
     regolith_parameter,
     rover_geometry,
@@ -187,6 +190,35 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
         "C216", f"the rover starts at ({x:g} m, {y:g} m), outside the terrain (x {x_min:g} … "
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
         hint="initial.x and initial.y are world coordinates, in the terrain's frame")],
+        sources={str(campaign.source): campaign.text})
+
+
+def check_tolerance_start(campaign: Campaign, evaluator: Any, stored: bool = False) -> None:
+    """A rulebook that reads the tolerance radius needs an uncertain start position: the radius
+    starts at the start position's σ (``docs/derived-signals.md``), so with σ = 0 a chain that
+    does not turn divides every run's drift by 0 and every run is critical, for no reason of
+    its own (C219, at the campaign's ``uncertainty``). ``stored``: the campaign of a results
+    file (the hint then says to run it again)."""
+    if "tolerance_radius" not in getattr(evaluator, "signals_read", ()):
+        return
+    if initial_position_sigma(campaign) > 0.0:
+        return
+    given = [name for name in INITIAL_POSITION
+             if name in campaign.model.uncertainty.parameters]
+    where = ("uncertainty", "parameters", given[0]) if given else ("uncertainty",)
+    name = evaluator.name
+    certain = f"{' and '.join(given)} fixed" if given else \
+        "initial.x and initial.y are not uncertain"
+    raise UserInputError([error(
+        "C219", f"rulebook {name} reads the tolerance radius, which starts at the start "
+                "position's standard deviation, and this campaign's start position is certain "
+                f"({certain}): the radius is 0 until a chain turns, so a run's drift over it "
+                "is infinite and every run critical",
+        campaign.locations.span(where, at_key=True),
+        hint=("give the start position its uncertainty, e.g. `initial.x: {distribution: "
+              "normal, mean: \"0 m\", std: \"1 cm\"}` and the same for initial.y"
+              + (", and run the campaign again" if stored else "")
+              + ", or judge with a rulebook whose indices do not read tolerance_radius"))],
         sources={str(campaign.source): campaign.text})
 
 
