@@ -314,18 +314,26 @@ def _dtype_words(dtype: np.dtype[Any]) -> str:
 
 def _read_csv(path: Path) -> np.ndarray:
     try:
-        text = path.read_text(encoding="utf-8")
+        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is no part of the first height
+        text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) from None
+    # Cells are separated by commas, or by semicolons in a file that holds one: there (as the
+    # CSV of locales that write a decimal comma gives it) a comma is the decimal sign, read as
+    # a point; splitting on both read '0,01;0,02' as four heights 0, 1, 0, 2.
+    separator = ";" if ";" in text else ","
     rows: list[list[float]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
-        cells = line.replace(";", ",").split(",")
+        cells = line.rstrip().split(separator)
+        if len(cells) > 1 and not cells[-1].strip():
+            cells = cells[:-1]  # a separator ending the row (some tools write one)
         row = []
         for column, cell_text in enumerate(cells):
             try:
-                value: float | None = float(cell_text)
+                value: float | None = float(cell_text.replace(",", ".") if separator == ";"
+                                            else cell_text)
             except ValueError:
                 value = None
             if value is not None and math.isfinite(value):

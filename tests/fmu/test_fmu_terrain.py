@@ -75,6 +75,36 @@ def test_csv_dem_error_points_at_line_and_column(tmp_path: Path) -> None:
     assert span is not None and (span.line, span.column) == (2, 5)
 
 
+@pytest.mark.parametrize(("text", "expected"), [
+    ("0.01,0.02,0.03\n0.04,0.05,0.06\n", [[0.01, 0.02, 0.03], [0.04, 0.05, 0.06]]),
+    # semicolons and decimal commas (the CSV of locales that write 0,01): 3 heights a row,
+    # never 0, 1, 0, 2, 0, 3
+    ("0,01;0,02;0,03\r\n0,04;0,05;0,06\r\n", [[0.01, 0.02, 0.03], [0.04, 0.05, 0.06]]),
+    ("1.5;2.5\n3.5;4.5\n", [[1.5, 2.5], [3.5, 4.5]]),  # semicolons, decimal points
+    ("\ufeff1.0,2.0\n3.0,4.0\n", [[1.0, 2.0], [3.0, 4.0]]),  # Excel's byte-order mark
+    ("1.0,2.0,\n3.0,4.0,\n", [[1.0, 2.0], [3.0, 4.0]]),  # a separator ending each row
+])
+def test_csv_dialects_are_read_as_the_grid_they_write(
+        tmp_path: Path, text: str, expected: list[list[float]]) -> None:
+    path = tmp_path / "dem.csv"
+    path.write_bytes(text.encode("utf-8"))
+    np.testing.assert_array_equal(load_dem(path, cell=0.1).heights, expected)
+
+
+@pytest.mark.parametrize(("text", "where"), [
+    ("1,000.5;2\n3;4\n", (1, 1)),        # a thousands separator is not a number
+    ("1.0,2.0,\n3.0,4.0,,\n", (2, 9)),  # one separator ends a row, two leave a cell empty
+])
+def test_csv_cells_that_are_no_number_are_named(tmp_path: Path, text: str,
+                                                where: tuple[int, int]) -> None:
+    path = tmp_path / "dem.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(UserInputError) as caught:
+        load_dem(path, cell=0.1)
+    span = caught.value.diagnostics[0].span
+    assert span is not None and (span.line, span.column) == where
+
+
 def test_npy_and_csv_dems_load_with_their_cell(tmp_path: Path) -> None:
     grid = np.arange(12, dtype=float).reshape(3, 4) * 0.01
     np.save(tmp_path / "dem.npy", grid)
