@@ -68,10 +68,51 @@ def test_rank_and_collision_expectations() -> None:
     results = evaluation()
     assert check_expectation(RankFirstExpectation(rank_first="good"), results).held
     assert not check_expectation(RankFirstExpectation(rank_first="close"), results).held
+    # 1 hit in 10 runs: 10 % is within 20 %, but its bounds (0.5–39.4 %) do not show it
     within = CollisionExpectation(path="good", max_collision_chance={"L2": "10 %", "any": "20 %"})
-    assert check_expectation(within, results).held
+    found = check_expectation(within, results)
+    assert not found.held and "not decided at this number of runs" in found.message
     over = CollisionExpectation(path="good", max_collision_chance={"L2": "5 %"})
     assert not check_expectation(over, results).held
+
+
+def test_expectations_hold_only_where_the_bounds_show_them() -> None:
+    """3 hits in 300 runs: bounds 0.27–2.6 % (Clopper-Pearson, one-sided 5 % each); a mean
+    risk of 0.30 with bounds 0.25–0.35. A limit above the upper bound holds, one between the
+    bounds is not decided, one below the lower bound fails outright."""
+    results = evaluation()
+    results.paths[0].completed = results.paths[0].runs = 300
+    results.paths[0].collision_chance = {"L2": 0.01}
+
+    def chance(limit: str) -> tuple[bool, bool]:
+        found = check_expectation(CollisionExpectation(
+            path="good", max_collision_chance={"L2": limit}), results)
+        return found.held, "not decided" in found.message
+
+    assert chance("2.7 %") == (True, False)   # just above the upper bound, 2.61 %
+    assert chance("2.5 %") == (False, True)   # just below it
+    assert chance("0.3 %") == (False, True)   # just above the lower bound, 0.27 %
+    assert chance("0.25 %") == (False, False)  # below it: shown above the limit
+
+    def risk(limit: str) -> tuple[bool, bool]:
+        found = check_expectation(MeanRiskExpectation(path="good", max_mean_risk=limit),
+                                  results)
+        return found.held, "not decided" in found.message
+
+    assert risk("35.1 %") == (True, False) and risk("34.9 %") == (False, True)
+    assert risk("25.1 %") == (False, True) and risk("24.9 %") == (False, False)
+
+
+def test_rank_first_needs_a_settled_lead() -> None:
+    """Unpaired: the lead over a passing chain whose risk bounds overlap is open; over a
+    chain shown to fail it is settled whatever the risks (passing chains rank first)."""
+    results = evaluation()
+    results.paths[1].undecided = False
+    results.paths[1].risk_ci = (0.34, 0.6)  # overlaps good's 0.25-0.35
+    found = check_expectation(RankFirstExpectation(rank_first="good"), results)
+    assert not found.held and "its lead over close is not settled" in found.message
+    results.paths[1].risk_ci = (0.36, 0.6)
+    assert check_expectation(RankFirstExpectation(rank_first="good"), results).held
 
 
 def test_exit_code_without_expectations_needs_every_path_to_pass() -> None:
@@ -218,3 +259,22 @@ def test_runs_never_simulated_are_counted_in_the_summary_beside_the_failed_ones(
     assert [failure["run"] for failure in record["failures"]] == [2, 9]
     complete = PathResult("q", 1, "simulated", runs=16, completed=15, failures={3: "timeout"})
     assert (path_record(complete)["failed_runs"], path_record(complete)["missing_runs"]) == (1, 0)
+
+
+def test_rank_first_in_a_paired_campaign_reads_the_paired_comparison() -> None:
+    from idefix_rules.campaign.statistics.pairwise import PairComparison
+
+    results = evaluation()
+    results.paths[1].undecided = False
+    results.paths[1].risk_ci = (0.0, 1.0)  # the separate bounds do not matter when paired
+
+    def pair(outcome: str, first: str = "close", second: str = "good") -> PairComparison:
+        return PairComparison(first, second, 10, 1, 9, 0, 0.1, 0.05, 0.15, 0.99, 0.02,
+                              outcome)
+
+    for outcome, held in (("second safer", True), ("open", False), ("tied", True),
+                          ("first safer", False)):
+        results.pairs = [pair(outcome)]
+        found = check_expectation(RankFirstExpectation(rank_first="good"), results)
+        assert found.held is held, outcome
+        assert ("tied with close" in found.message) is (outcome == "tied")

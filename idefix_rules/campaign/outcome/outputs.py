@@ -36,6 +36,7 @@ from idefix_rules.campaign.outcome.decision import (
 )
 from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.bernoulli import fixed_lower, fixed_upper
 from idefix_rules.campaign.statistics.stopping import STOP_FIXED
 from idefix_rules.files import write_atomic
 from idefix_rules.plain import as_plain
@@ -59,12 +60,15 @@ def _percent(value: float | None) -> str:
 
 
 def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> ExpectationResult:
-    """Whether one ``expect:`` entry holds, with a message saying what was found."""
+    """Whether one ``expect:`` entry holds, with a message saying what was found.
+
+    An expectation holds only where the campaign's statistics show it, as a verdict does: a
+    mean risk whose upper bound is within the limit, collision chances whose upper bounds
+    are, a first rank settled against every other ranked chain. Where the bounds straddle the
+    limit (or the rank is open) it does not hold and says it is not decided at this number of
+    runs: a campaign of two runs proves nothing (docs/ci.md, "Expectations")."""
     if isinstance(expectation, RankFirstExpectation):
-        first = evaluation.ranking[0] if evaluation.ranking else None
-        return ExpectationResult(f"{expectation.rank_first} ranks first",
-                                 first == expectation.rank_first,
-                                 f"ranking: {', '.join(evaluation.ranking) or '(none)'}")
+        return _rank_first(expectation.rank_first, evaluation)
     path = evaluation.path(expectation.path)
     if isinstance(expectation, PathVerdictExpectation):
         wanted = expectation.verdict
@@ -73,7 +77,7 @@ def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> Expec
             or (wanted == "pass" and got == "waived")  # a waived failure counts as held
         message = f"verdict {got}"
         if path.undecided:
-            message += " (not decided at this number of runs)"
+            message += UNDECIDED
             held = False
         if path.failed:
             message += f"; {path.failed} failed run(s)"
@@ -82,23 +86,82 @@ def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> Expec
     if isinstance(expectation, MeanRiskExpectation):
         bound = expectation.max_mean_risk
         risk = path.mean_risk
-        held = risk is not None and risk <= bound and not path.failed
+        low, high = path.risk_ci if path.risk_ci is not None else (risk, risk)
+        held = risk is not None and high is not None and high <= bound and not path.failed
+        message = f"mean risk {_percent(risk)}"
+        if low is not None and high is not None and path.risk_ci is not None:
+            message += f" (bounds {_percent(low)}–{_percent(high)})"
+        if risk is not None and not held and low is not None and high is not None \
+                and low <= bound < high:
+            message += UNDECIDED
         return ExpectationResult(f"{path.name} mean risk <= {_percent(bound)}", held,
-                                 f"mean risk {_percent(risk)}"
-                                 + (f"; {path.failed} failed run(s)" if path.failed else ""))
+                                 message + (f"; {path.failed} failed run(s)" if path.failed
+                                            else ""))
     assert isinstance(expectation, CollisionExpectation)
     problems = []
     found = []
+    open_levels = []
+    alpha = evaluation.budget.alpha if evaluation.budget is not None else DEFAULT_ALPHA
     for level, bound in expectation.max_collision_chance.items():
         chance = _any_collision(path) if level == "any" else path.collision_chance.get(level)
-        found.append(f"{level} {_percent(chance)}")
-        if chance is None or chance > bound:
+        if chance is None:
+            found.append(f"{level} {_percent(chance)}")
             problems.append(level)
+            continue
+        events, runs = round(chance * path.completed), path.completed
+        low, high = fixed_lower(events, runs, alpha), fixed_upper(events, runs, alpha)
+        found.append(f"{level} {_percent(chance)} (bounds {_percent(low)}–{_percent(high)})")
+        if high > bound:
+            problems.append(level)
+            if low <= bound:
+                open_levels.append(level)
     held = not problems and not path.failed and path.status == "simulated"
     bounds = ", ".join(f"{lvl} <= {_percent(b)}"
                        for lvl, b in expectation.max_collision_chance.items())
     return ExpectationResult(f"{path.name} collision chance {bounds}", held,
-                             "collision chance " + ", ".join(found))
+                             "collision chance " + ", ".join(found)
+                             + (UNDECIDED if open_levels and held is False else ""))
+
+
+UNDECIDED = " (not decided at this number of runs)"
+DEFAULT_ALPHA = 0.05
+
+
+def _rank_first(name: str, evaluation: CampaignEvaluation) -> ExpectationResult:
+    """``rank_first``: ranked first, and settled so against every other ranked chain: a
+    chain shown to pass ranks above one shown not to; else by the risk, compared in the same
+    worlds on a paired campaign, by the risks' bounds apart on an unpaired one. A tie with the
+    chain ranked first shares the first rank and holds, saying so."""
+    description = f"{name} ranks first"
+    ranking = ", ".join(evaluation.ranking) or "(none)"
+    if not evaluation.ranking or evaluation.ranking[0] != name:
+        return ExpectationResult(description, False, f"ranking: {ranking}")
+    me = evaluation.path(name)
+    ties: list[str] = []
+    open_with: list[str] = []
+    shown_to_pass = bool(me.passed) and not me.undecided
+    for other in evaluation.paths:
+        if other.name == name or other.rank is None:
+            continue
+        if shown_to_pass and other.passed is False and not other.undecided:
+            continue  # passing chains rank first, and these two verdicts are decided
+        pair = pairwise.find(evaluation.pairs, name, other.name) if evaluation.pairs else None
+        if pair is not None:
+            order = pair.order()
+            ahead = order if pair.first == name else (None if order is None else -order)
+            if ahead == 0:
+                ties.append(other.name)
+            elif ahead != -1:
+                open_with.append(other.name)
+        elif me.risk_ci is None or other.risk_ci is None or not me.risk_ci[1] < other.risk_ci[0]:
+            open_with.append(other.name)
+    message = f"ranking: {ranking}"
+    if ties:
+        message += f"; tied with {', '.join(ties)} within the indifference margin"
+    if open_with:
+        message += (f"; its lead over {', '.join(open_with)} is not settled"
+                    f"{UNDECIDED}")
+    return ExpectationResult(description, not open_with, message)
 
 
 def _any_collision(path: PathResult) -> float | None:
