@@ -14,7 +14,7 @@ import os
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -201,8 +201,10 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
         plans = [plan_path(campaign, spec, rover) for spec in campaign.paths]
         summary.plans = plans
         _command_rules(campaign, evaluator, rover, plans, store)
+        # a worst-case search (``stage``) draws its own worlds: no planned draws to check
         _reference_runs(campaign, evaluator, rover, fmu, fmu_parameters, plans, store,
-                        options, progress, collisions, summary)
+                        options, progress, collisions, summary, draws=stage is None
+                        or campaign.adaptive is not None)
         if stage is not None:
             stage(campaign, evaluator, rover, fmu, fmu_parameters, plans, store, options,
                   progress, summary, collisions)
@@ -413,23 +415,95 @@ def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
     )
 
 
+@dataclass(frozen=True)
+class DrawCheck:
+    """An extreme draw of an uncertain parameter, set up in the FMU before any Monte Carlo
+    run: ``run`` of path ``path`` draws ``value`` (SI) for ``parameter``."""
+
+    parameter: str
+    value: float
+    path: str
+    run: int
+    planned: int  # the runs planned per path (an adaptive campaign's cap)
+
+
+def _draw_checks(campaign: Campaign, fmu: FmuSource, plans: Sequence[PathPlan],
+                 nominal: Mapping[str, float | str]) -> list[tuple[DrawCheck, RunTask]]:
+    """For each uncertain parameter, its smallest and largest draw over every planned run of
+    ``plans`` (an interval of the FMU's holds the draws when it holds these two), each with
+    the other parameters nominal, as tasks that only set the FMU up (stop time 0)."""
+    parameters = campaign.model.uncertainty.parameters
+    if not parameters:
+        return []
+    if campaign.adaptive is not None:
+        planned, method = campaign.adaptive.max_runs, sampling.ADAPTIVE_SAMPLING
+    else:
+        planned, method = campaign.runs, campaign.model.uncertainty.method
+    found: dict[tuple[str, float], DrawCheck] = {}
+    for plan in plans:
+        drawn = sampling.sample_path(parameters, method, campaign.seed,
+                                     path_stream(campaign, plan.spec.name), planned)
+        for key, values in drawn.items():
+            values = np.asarray(values, dtype=float)
+            if not values.size:
+                continue
+            for run in (int(np.argmin(values)), int(np.argmax(values))):
+                value = float(values[run])
+                found.setdefault((key, value), DrawCheck(key, value, plan.spec.name, run,
+                                                         planned))
+    by_name = {plan.spec.name: plan for plan in plans}
+    return [(check, dataclasses.replace(
+        run_task(campaign, fmu, by_name[check.path], {**nominal, check.parameter: check.value}),
+        stop_time=0.0, samples=1)) for check in found.values()]
+
+
+def _refused_draw(campaign: Campaign, check: DrawCheck, outcome: Outcome) -> list[Diagnostic]:
+    """The mistake an extreme draw the FMU refused is (F110 at the distribution's line,
+    naming the run that draws it); nothing when the FMU took it, or failed for another
+    reason (the runs report that as theirs)."""
+    if not (outcome.ok and isinstance(outcome.value, InputProblem)):
+        return []
+    refused = []
+    for diagnostic in outcome.value.diagnostics:
+        placed = _where_set(campaign, diagnostic)
+        if placed.code != "F110":
+            continue
+        refused.append(dataclasses.replace(
+            placed, message=f"{placed.message}: run {check.run} of path {check.path} draws it "
+                            f"(of {check.planned} planned), before any run was simulated",
+            hint="bound the distribution inside the range the FMU allows (a truncated_normal "
+                 "with low and high, a uniform), or narrow it"))
+    return refused
+
+
 def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
                     fmu_parameters: Mapping[str, float | str], plans: list[PathPlan],
                     store: ResultStore, options: SimulationOptions, progress: Progress,
-                    collisions: Any, summary: SimulationSummary) -> None:
+                    collisions: Any, summary: SimulationSummary, draws: bool = True) -> None:
     todo = [p for p in plans if p.status == "pending"]
     if not todo:
         return
     nominal = {**fmu_parameters, **nominal_parameters(campaign)}
     progress.message(f"reference runs of {len(todo)} path(s)")
-    tasks = [(plan.spec.name, run_task(campaign, fmu, plan, nominal)) for plan in todo]
+    tasks: list[tuple[Any, RunTask]] = [(plan.spec.name, run_task(campaign, fmu, plan, nominal))
+                                        for plan in todo]
+    # the extreme draws of every uncertain parameter, each set up in the FMU beside the
+    # reference runs (no step simulated): a value the FMU refuses stops the campaign now
+    checks = _draw_checks(campaign, fmu, todo, nominal) if draws else []
     by_name = {plan.spec.name: plan for plan in todo}
+    timeouts = run_timeouts.reference_timeouts(by_name, options.run_timeout)
     pool = open_pool(simulate, options, campaign,
-                     run_timeouts.reference_timeouts(by_name, options.run_timeout))
-    with _map(pool, tasks) as results:
+                     lambda key: timeouts(key.path if isinstance(key, DrawCheck) else key))
+    refused: list[Diagnostic] = []
+    with _map(pool, tasks + [(check, task) for check, task in checks]) as results:
         for name, outcome in results:
+            if isinstance(name, DrawCheck):
+                refused += _refused_draw(campaign, name, outcome)
+                continue
             _reference_outcome(campaign, evaluator, rover, store, by_name[name], nominal,
                                outcome, collisions, summary)
+    if refused:
+        raise UserInputError(refused[:1], sources={str(campaign.source): campaign.text})
     if all(plan.status == "reference_failed" for plan in todo):
         # Nothing could be simulated at all: the FMU or its set-up is broken, not a chain.
         reasons = sorted({plan.reason for plan in todo})
