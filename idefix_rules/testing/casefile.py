@@ -30,6 +30,7 @@ from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_us
 from idefix_rules.rulebook import check_text, read_source
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.infer import did_you_mean
+from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.units import (
     ANGLE,
     DIMENSIONLESS,
@@ -43,7 +44,9 @@ from idefix_rules.units import (
 
 # Signals a case may shape. ``command`` follows the chain and derived/collision signals are
 # computed (collisions have their own entry), so they are not keyframed.
-SHAPEABLE = (*(name for name in signals.FMU_SIGNALS if name not in ("t", "command")),
+# ('done' is read only where a run has no 'command', and a case's runs always have one: a run
+# whose chain does not finish is `unfinished: true`)
+SHAPEABLE = (*(name for name in signals.FMU_SIGNALS if name not in ("t", "command", "done")),
              "collision.clearance")
 # Flags hold their value until the next keyframe instead of ramping.
 STEP_SIGNALS = frozenset({"stuck"})
@@ -387,10 +390,14 @@ def _case(reader: _Reader, name: str, data: Any, defaults: Mapping[str, Any],
         reader.fail("T002", f"case {name!r} expects nothing: add 'expect:'", loc, at_key=True)
     elif checked is not None:
         expectations = _expectations(reader, data["expect"], (*loc, "expect"), checked,
-                                     tolerance)
+                                     tolerance, len(chain))
     last = max([f.times[-1] for g in groups for f in g.keyframes]
                + [c.end for g in groups for c in g.collisions]
                + [f.times[-1] for f in reference], default=0.0)
+    if duration is not None and last > duration:
+        # the run ends at `duration`: a keyframe or collision after it shapes nothing
+        reader.fail("T005", f"a keyframe or collision at {last:g} s lies after the run's end "
+                    f"(duration {duration:g} s)", where("duration"))
     length = duration if duration is not None else max(
         chain_duration(chain, RoverGeometry()) + DEFAULT_SETTLE, last)
     if length / step > MAX_SAMPLES:
@@ -468,6 +475,8 @@ def _signal_key(reader: _Reader, key: str, loc: Loc) -> tuple[str, str | None] |
     if spec is None or (name not in SHAPEABLE and signals.area_signal(name) is None):
         why = ("is computed from the others" if spec is not None and spec.kind == "derived"
                else "follows the chain" if name == "command"
+               else "follows the chain's commands (a run whose chain does not finish: "
+                    "'unfinished: true')" if name == "done"
                else "is given by 'collisions'" if name.startswith("collision.")
                else "is not a signal")
         reader.fail("T004", f"{name!r} cannot be shaped by a case: it {why}", loc,
@@ -605,7 +614,10 @@ def _names(checked: CheckedRulebook, kind: str) -> list[str]:
 def _named(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook,
            kind: str) -> Iterator[tuple[str, Any, Loc]]:
     known = _names(checked, kind)
-    if kind == "verdict":
+    if kind == "verdict" and not any("failed" in names_in(rule.condition)
+                                     for rule in checked.rulebook.verdicts):
+        # the verdict's own rule for failed runs, where no verdict rule reads `failed`
+        # (rulebook/statistics.py)
         known = [*known, "no_failed_runs"]
     if not isinstance(data, dict):
         reader.fail("T009", f"expected a mapping of {kind} names to expected values", loc)
@@ -671,7 +683,7 @@ def _outcome(reader: _Reader, value: Any, loc: Loc, words: tuple[str, str]) -> b
 
 
 def _expectations(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook,
-                  tolerance: float) -> tuple[Expectation, ...]:
+                  tolerance: float, commands: int) -> tuple[Expectation, ...]:
     if not isinstance(data, dict) or not data:
         reader.fail("T009", "'expect' must be a mapping of expected outcomes", loc)
         return ()
@@ -712,7 +724,7 @@ def _expectations(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook
             if passed is not None:
                 add("prescreen", name, passed, "pass" if passed else "fail", at)
     if "rejected" in data:
-        rejected = _rejected(reader, data["rejected"], (*loc, "rejected"), checked)
+        rejected = _rejected(reader, data["rejected"], (*loc, "rejected"), checked, commands)
         if rejected is not None:
             text = ", ".join(f"{rule} (command {', '.join(map(str, numbers))})" if numbers
                              else rule for rule, numbers in rejected.items()) or "none"
@@ -737,9 +749,10 @@ def _expectations(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook
     return tuple(out)
 
 
-def _rejected(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook
+def _rejected(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook, commands: int
               ) -> dict[str, tuple[int, ...]] | None:
-    """``[rule, …]`` (any command) or ``{rule: [command numbers]}``; ``[]`` = none."""
+    """``[rule, …]`` (any command) or ``{rule: [command numbers]}``; ``[]`` = none. A number
+    beyond the case's ``commands`` names no command of its chain (T009)."""
     known = _names(checked, "command")
     if isinstance(data, list):
         data = {name: [] for name in data} if all(isinstance(n, str) for n in data) else None
@@ -759,6 +772,11 @@ def _rejected(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook
                 isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in numbers):
             reader.fail("T009", f"command numbers of {name!r} must be a list of whole numbers "
                         "≥ 1", (*loc, name))
+            continue
+        beyond = [n for n in numbers if n > commands]
+        if beyond:
+            reader.fail("T009", f"command {beyond[0]} of {name!r}: the case's chain has "
+                        f"{commands} command{'s' if commands != 1 else ''}", (*loc, name))
             continue
         out[str(name)] = tuple(numbers)
     return out

@@ -127,6 +127,30 @@ def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
     ("""  c:
     signals: {"wheel.slip[FL]": 35 %}
 """, "T002", ":6:3:", "expects nothing"),
+    # 'done' is read only where a run has no 'command', and a case's runs have one
+    ("""  c:
+    signals: {done: 0}
+    expect: {verdict: pass}
+""", "T004", ":7:15:", "follows the chain's commands (a run whose chain does not finish: "
+        "'unfinished: true')"),
+    # a keyframe after the run's end shaped nothing (a slip ramp dropped, a hit moved to the end)
+    ("""  c:
+    duration: 10 s
+    signals: {"wheel.slip[FL]": {0 s: 0 %, 10.5 s: 90 %}}
+    expect: {verdict: pass}
+""", "T005", ":7:", "a keyframe or collision at 10.5 s lies after the run's end (duration 10 s)"),
+    ("""  c:
+    duration: 10 s
+    collisions: [{part: wheel, level: L3, at: 30 s}]
+    expect: {verdict: fail}
+""", "T005", ":7:", "at 30 s lies after the run's end"),
+    # this rulebook reads `failed` (runs_complete): it gets no no_failed_runs rule
+    ("""  c:
+    expect: {verdicts: {no_failed_runs: pass}}
+""", "T008", ":7:25:", "the rulebook has no verdict 'no_failed_runs'"),
+    ("""  c:
+    expect: {rejected: {min_motion: [2]}}
+""", "T009", ":7:", "command 2 of 'min_motion': the case's chain has 1 command"),
 ])
 def test_a_broken_case_file_exits_2_naming_line_and_column(tmp_path, capsys, body, code,
                                                               where, words):
@@ -288,3 +312,13 @@ cases:
     assert "Traceback" not in captured.out + captured.err
     states = {item["name"]: item["state"] for item in json.loads(captured.out)["coverage"]}
     assert states["off_course"] == "across"  # 6 and 14 mm: both sides of 1 cm
+
+
+def test_a_keyframe_at_the_runs_end_shapes_its_last_sample(tmp_path, capsys):
+    """Just inside: a keyframe at the duration itself is the run's last sample."""
+    path = write(tmp_path, """  at_the_end:
+    duration: 10 s
+    signals: {"wheel.slip[FL]": {0 s: 0 %, 10 s: 90 %}}
+    expect: {verdict: fail}
+""")
+    assert main(["test", str(path)]) == 0, capsys.readouterr().out
