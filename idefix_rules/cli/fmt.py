@@ -2,7 +2,7 @@
 
 The formatter keeps comments; the formatted text parses to the same rule model (checked before
 anything is written). ``--check`` writes nothing and exits 1 when a file would change (for CI);
-``--diff`` prints what would change.
+``--diff`` prints what would change and writes nothing either (as black's and ruff's do).
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from idefix_rules.errors import Span, UserInputError, error
 NAME = "fmt"
 HELP = ("Format rulebooks in place (canonical order and layout, comments kept). With --check, "
         "write nothing: list the files that would change and exit 1 if any would "
-        "(0 if all are formatted). Exit 2 when a file cannot be parsed.")
+        "(0 if all are formatted); with --diff, write nothing: print the changes. Exit 2 when "
+        "a file cannot be parsed.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,8 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--check", action="store_true",
                         help="do not write; exit 1 and name the files that would be reformatted")
     parser.add_argument("--diff", action="store_true",
-                        help="print a unified diff of the changes (with --check: nothing is "
-                             "written)")
+                        help="do not write; print a unified diff of the changes (exit 0, or 1 "
+                             "with --check when a file would change)")
 
 
 def formatted_text(source: str, path: str) -> str:
@@ -81,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
                                         text.splitlines(keepends=True),
                                         fromfile=name, tofile=f"{name} (formatted)")
             console.print("".join(diff), markup=False, end="")
-        if args.check:
+        if args.check or args.diff:
             console.print(f"would reformat {name}", markup=False)
         else:
             try:
@@ -97,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     if invalid:
         return 2
     unchanged = len(args.rulebooks) - len(changed)
-    verb = "would be reformatted" if args.check else "reformatted"
+    verb = "would be reformatted" if args.check or args.diff else "reformatted"
     console.print(f"{len(changed)} file(s) {verb}, {unchanged} unchanged", markup=False,
                   style="yellow" if changed else "green")
     return 1 if args.check and changed else 0

@@ -114,6 +114,15 @@ def test_fmt_diff_shows_the_change(write, capsys):
     assert "-const   critical_slip=70 %" in out and "+const critical_slip = 70 %" in out
 
 
+def test_fmt_diff_alone_writes_nothing_as_black_and_ruff(write, capsys):
+    path = write("f.rules", UNFORMATTED)
+    assert main(["fmt", "--diff", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "+const critical_slip = 70 %" in out and f"would reformat {path}" in out
+    assert "1 file(s) would be reformatted" in out
+    assert path.read_text() == UNFORMATTED
+
+
 def test_fmt_of_an_invalid_file_is_exit_2_and_leaves_it_alone(write, capsys):
     text = VALID + "verdict broken require\n"
     path = write("b.rules", text)
