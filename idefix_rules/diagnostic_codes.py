@@ -173,7 +173,7 @@ T009|bad expected value|Index and risk expectations are numbers or `{value, tole
 T010|bad collision|A collision names a `part` (wheel, solar_panel, chassis), a `level` (L1–L3) and `at` or `from`/`to` times; `buffer: true` for a buffer zone entry.|collisions: [{part: wing, level: L2, at: 3 s}]|`collisions: [{part: solar_panel, level: L2, at: 3 s}]`.
 T011|unknown key|A key of the case file is not part of the format (a typo?).|expectt: {verdict: pass}|`expect: {verdict: pass}`.
 T012|bad run count|`runs`, `failed_runs` and each variant's `count` are whole numbers (runs ≥ 1); give either `runs` or `variants`.|runs: 0|`runs: 20`.
-T013|no case files found|`idefix-verify test` found no `*.yaml` in the given folders (default `rulebooks/tests`).|idefix-verify test rulebooks/|Put case files in `rulebooks/tests/` or name them.
+T013|no case files found|`idefix-verify test` found no case file (a `*.yaml` with a top-level `cases:`) in the given folders (default `rulebooks/tests`); campaign files are no case files.|idefix-verify test campaigns/|Put case files in `rulebooks/tests/` or name them.
 T014|--min-coverage out of range|`--min-coverage` is a percentage from 0 to 100.|--min-coverage 150|`--min-coverage 100`.
 T015|mutation option out of range|`--min-mutation-score` is a percentage from 0 to 100; `--nudge` (how far a threshold, limit or factor is moved by a mutant) a percentage above 0 and below 100.|--mutate --nudge 0|`--mutate --nudge 10` (the default).
 W601|constant never used|(`--strict`) A constant no rule reads: a leftover, or a rule that forgot it.|const forgotten = 3 cm|Use it (`limit = forgotten`) or delete it.

@@ -77,7 +77,15 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.nudge < 100:
         raise UserInputError(error("T015", "--nudge is a percentage above 0 and below 100"))
     started = time.perf_counter()
-    files = discover_case_files(args.paths)
+    try:
+        files = discover_case_files(args.paths)
+    except UserInputError as nothing:  # T013: with --format json, said as JSON too
+        if args.format != "json":
+            raise
+        print(json.dumps({"files": [], "broken": [d.to_dict() for d in nothing.diagnostics],
+                          "passed": 0, "failed": 0, "exit_code": 2}, indent=2,
+                         ensure_ascii=False))
+        return 2
     console = StdoutConsole(highlight=False, soft_wrap=True)
     broken: list[UserInputError] = []
     outcomes: list[FileOutcome] = []

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -161,19 +162,40 @@ class CaseFile:
 
 # ----------------------------------------------------------------------------- loading
 
+# A case file has a top-level `cases:` (a campaign file, also YAML and also naming a
+# `rulebook:`, has none)
+_CASES_KEY = re.compile(r"^cases\s*:", re.MULTILINE)
+
+
+def _holds_cases(path: Path) -> bool:
+    try:
+        return bool(_CASES_KEY.search(path.read_text(encoding="utf-8")))
+    except (OSError, UnicodeDecodeError):
+        return True  # said as T001 when it is read
+
+
 def discover_case_files(paths: Sequence[str | Path]) -> list[Path]:
     """Case files named by ``paths``: files as given, folders searched for ``*.yaml``/``*.yml``
-    (recursively, sorted). No path: ``rulebooks/tests`` under the working folder."""
+    holding a top-level ``cases:`` (recursively, sorted: a project folder's campaign files
+    are no case files), each file once however often it is named. No path:
+    ``rulebooks/tests`` under the working folder."""
     found: list[Path] = []
+    seen: set[Path] = set()
     for path in (paths or [Path("rulebooks/tests")]):
         path = Path(path)
         if path.is_dir():
-            found += sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml"))
+            named = sorted(p for p in path.rglob("*") if p.suffix in (".yaml", ".yml")
+                           and p.is_file() and _holds_cases(p))
         else:
-            found.append(path)
+            named = [path]
+        for file in named:
+            key = file.resolve()
+            if key not in seen:
+                seen.add(key)
+                found.append(file)
     if not found:
         where = ", ".join(map(str, paths)) or "rulebooks/tests"
-        raise UserInputError(error("T013", f"no case files (*.yaml) found in {where}",
+        raise UserInputError(error("T013", f"no case files (*.yaml with cases:) found in {where}",
                                    Span(where)))
     return found
 

@@ -322,3 +322,24 @@ def test_a_keyframe_at_the_runs_end_shapes_its_last_sample(tmp_path, capsys):
     expect: {verdict: fail}
 """)
     assert main(["test", str(path)]) == 0, capsys.readouterr().out
+
+
+def test_a_folder_is_searched_for_case_files_only_and_each_file_counts_once(tmp_path, capsys):
+    """A project folder holds campaign files too (YAML naming a rulebook, but no `cases:`):
+    they are no case files. A case file named twice (itself and its folder) runs once."""
+    cases = write(tmp_path, """  slip:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {verdict: pass}
+""")
+    campaigns = tmp_path / "campaigns"
+    campaigns.mkdir()
+    (campaigns / "site.yaml").write_text(f"name: site\nrulebook: {RULEBOOK}\npaths: {{}}\n")
+    assert main(["test", str(tmp_path), str(cases)]) == 0
+    out = capsys.readouterr().out
+    assert "1 passed" in out and "site.yaml" not in out
+
+
+def test_no_case_files_with_json_output_is_json(tmp_path, capsys):
+    assert main(["test", "--format", "json", str(tmp_path)]) == 2
+    data = json.loads(capsys.readouterr().out)
+    assert data["exit_code"] == 2 and data["broken"][0]["code"] == "T013"
