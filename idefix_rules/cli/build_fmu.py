@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import zipfile
+from pathlib import Path
 
 from idefix_rules.cli.destinations import output_file
 
@@ -14,11 +16,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cached", action="store_true",
                         help="reuse the cached FMU when one was built from these sources "
                              "(default: always rebuild)")
-    parser.add_argument("--output", "-o", type=output_file, default=None,
+    parser.add_argument("--output", "-o", type=fmu_file, default=None,
                         help="write the .fmu here instead of the cache "
-                             "($IDEFIX_CACHE or ~/.cache/idefix-rules)")
+                             "($IDEFIX_CACHE or ~/.cache/idefix-rules); an existing file is "
+                             "replaced only when it is an FMU")
     parser.add_argument("--validate", action="store_true",
                         help="also run fmpy's validation on the built FMU")
+
+
+def fmu_file(text: str) -> Path:
+    """Where the FMU goes (:func:`output_file`): a file there already is replaced only when
+    it is an FMU (a zip holding ``modelDescription.xml``), never a rulebook or campaign named
+    by mistake."""
+    path = output_file(text)
+    if path.exists() and not _is_fmu(path):
+        raise argparse.ArgumentTypeError(f"{text} exists and is not an FMU: building would "
+                                         "replace it; name another file or remove it first")
+    return path
+
+
+def _is_fmu(path: Path) -> bool:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return "modelDescription.xml" in archive.namelist()
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def run(args: argparse.Namespace) -> int:

@@ -135,11 +135,21 @@ def build_fmu(force: bool = False, output: Path | None = None) -> Path:
                 for path in sorted(unzipdir.rglob("*")):
                     if path.is_file():
                         archive.write(path, path.relative_to(unzipdir).as_posix())
+            # mkstemp's file is this user's alone (0600); the FMU is read by whoever the
+            # umask lets read a new file (CI runners, Dask workers of another account)
+            os.chmod(partial, 0o666 & ~_umask())
             os.replace(partial, target)
         finally:
             if os.path.exists(partial):
                 os.unlink(partial)
     return target
+
+
+def _umask() -> int:
+    """This process's umask (read by setting it and back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def default_fmu_path() -> Path:

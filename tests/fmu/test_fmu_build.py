@@ -36,3 +36,24 @@ def test_cli_build_fmu_prints_the_path_as_last_line(
     assert main(["build-fmu", "--cached"]) == 0
     assert Path(capsys.readouterr().out.strip().splitlines()[-1]) == last
     assert last.stat().st_mtime_ns == stamp
+
+
+def test_the_built_fmu_is_readable_as_the_umask_lets_and_only_an_fmu_is_replaced(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import os
+
+    target = tmp_path / "rover.fmu"
+    previous = os.umask(0o022)
+    try:
+        assert main(["build-fmu", "-o", str(target)]) == 0
+        assert target.stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600
+        os.umask(0o027)
+        assert main(["build-fmu", "-o", str(target)]) == 0  # an FMU: replaced
+        assert target.stat().st_mode & 0o777 == 0o640
+    finally:
+        os.umask(previous)
+    rulebook = tmp_path / "ops.rules"
+    rulebook.write_text('rulebook "x" version "1.0.0"\n')
+    assert main(["build-fmu", "-o", str(rulebook)]) == 2  # a usage error
+    assert rulebook.read_text() == 'rulebook "x" version "1.0.0"\n'
+    assert "exists and is not an FMU" in capsys.readouterr().err
