@@ -38,6 +38,7 @@ from idefix_rules.campaign.input.environment import TERRAIN_FILE, build_terrain,
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.validate import (
+    check_drawn_starts_on_terrain,
     check_paths_on_terrain,
     check_rocks_on_terrain,
     check_simulation_size,
@@ -487,6 +488,7 @@ def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, flo
     # everywhere)
     if campaign.fmu is None and terrain_given and gather(check_start_on_terrain):
         gather(check_paths_on_terrain)
+        gather(check_drawn_starts_on_terrain)
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 

@@ -11,9 +11,11 @@ from __future__ import annotations
 import difflib
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from idefix_rules.campaign.input.load import (
     INITIAL_POSITION,
@@ -191,6 +193,55 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
         hint="initial.x and initial.y are world coordinates, in the terrain's frame")],
         sources={str(campaign.source): campaign.text})
+
+
+def planned_draws(campaign: Campaign, names: Sequence[str]
+                  ) -> tuple[int, dict[str, dict[str, np.ndarray]]]:
+    """The runs planned per path (an adaptive campaign's cap) and every uncertain parameter's
+    draws for them, per path of ``names``: the values the Monte Carlo stage draws (the same
+    method, seed and stream), known before any run is simulated."""
+    from idefix_rules.campaign.input import sampling
+
+    if campaign.adaptive is not None:
+        planned, method = campaign.adaptive.max_runs, sampling.ADAPTIVE_SAMPLING
+    else:
+        planned, method = campaign.runs, campaign.model.uncertainty.method
+    parameters = campaign.model.uncertainty.parameters
+    if not parameters:
+        return planned, {name: {} for name in names}
+    paired = campaign.model.uncertainty.paired
+    return planned, {name: sampling.sample_path(parameters, method, campaign.seed,
+                                                sampling.path_stream(name, paired), planned)
+                     for name in names}
+
+
+def check_drawn_starts_on_terrain(campaign: Campaign,
+                                  extent: tuple[float, float, float, float]) -> None:
+    """Every planned run's drawn start (``initial.x``, ``initial.y``) must lie on the terrain
+    grid, as the nominal one must (C216): off it the rover model drives on the grid's edge
+    heights carried on. The first run of the first path off it is named."""
+    uncertain = [name for name in INITIAL_POSITION
+                 if name in campaign.model.uncertainty.parameters]
+    if not uncertain:
+        return
+    x_min, x_max, y_min, y_max = extent
+    nominal = nominal_parameters(campaign)
+    planned, draws = planned_draws(campaign, [spec.name for spec in campaign.paths])
+    for path, drawn in draws.items():
+        x, y = (np.asarray(drawn[name]) if name in drawn
+                else np.full(planned, float(nominal.get(name, 0.0))) for name in INITIAL_POSITION)
+        off = np.flatnonzero((x < x_min) | (x > x_max) | (y < y_min) | (y > y_max))
+        if not off.size:
+            continue
+        run = int(off[0])
+        raise UserInputError([error(
+            "C216", f"run {run} of path {path} starts at ({x[run]:g} m, {y[run]:g} m), outside "
+                    f"the terrain (x {x_min:g} … {x_max:g} m, y {y_min:g} … {y_max:g} m): "
+                    f"{off.size} of its {planned} planned runs draw a start off it",
+            campaign.locations.span(("uncertainty", "parameters", uncertain[0]), at_key=True),
+            hint="narrow the start's distribution, or bound it inside the terrain (a "
+                 "truncated_normal with low and high, a uniform); or give a larger terrain")],
+            sources={str(campaign.source): campaign.text})
 
 
 def check_tolerance_start(campaign: Campaign, evaluator: Any, stored: bool = False) -> None:

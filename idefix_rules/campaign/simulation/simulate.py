@@ -32,6 +32,7 @@ from idefix_rules.campaign.input.load import (
     stop_limit,
     where_set,
 )
+from idefix_rules.campaign.input.validate import planned_draws
 from idefix_rules.campaign.input.wording import (
     DisplayUnits,
     range_text,
@@ -432,18 +433,10 @@ def _draw_checks(campaign: Campaign, fmu: FmuSource, plans: Sequence[PathPlan],
     """For each uncertain parameter, its smallest and largest draw over every planned run of
     ``plans`` (an interval of the FMU's holds the draws when it holds these two), each with
     the other parameters nominal, as tasks that only set the FMU up (stop time 0)."""
-    parameters = campaign.model.uncertainty.parameters
-    if not parameters:
-        return []
-    if campaign.adaptive is not None:
-        planned, method = campaign.adaptive.max_runs, sampling.ADAPTIVE_SAMPLING
-    else:
-        planned, method = campaign.runs, campaign.model.uncertainty.method
+    planned, draws = planned_draws(campaign, [plan.spec.name for plan in plans])
     found: dict[tuple[str, float], DrawCheck] = {}
     for plan in plans:
-        drawn = sampling.sample_path(parameters, method, campaign.seed,
-                                     path_stream(campaign, plan.spec.name), planned)
-        for key, values in drawn.items():
+        for key, values in draws[plan.spec.name].items():
             values = np.asarray(values, dtype=float)
             if not values.size:
                 continue
