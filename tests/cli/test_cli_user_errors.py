@@ -362,6 +362,12 @@ CASES = [
           "the file is left as it is"), unchanged=("big.rules",)),
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
          2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
+    # a wheel rate so slow the chain itself takes years: said at the path, not the settings
+    Case("campaign-crawling-chain", campaign(('{max_wheel_rate: "0.1 rad/s", delta_position: '
+                                              '"0.1 m", delta_heading: "0 deg"}',
+                                              '{max_wheel_rate: "1e-7 rad/s", delta_position: '
+                                              '"0.1 m", delta_heading: "0 deg"}')), RUN,
+         2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last",)),
     Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),
          RUN, 2, ("campaign.yaml:4:11: error[C200]: rulebook: rulebook 'nope.rules' not found",)),
     Case("campaign-rulebook-with-errors",

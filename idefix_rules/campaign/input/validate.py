@@ -148,14 +148,18 @@ def check_simulation_size(campaign: Campaign) -> None:
             hint="an output interval of a fraction of a second (the default 0.1 s)")],
             sources={str(campaign.source): campaign.text})
     for spec in campaign.paths:
-        samples = limits[spec.name][1]
+        samples, ideal = limits[spec.name][1], limits[spec.name][2]
+        # at the path when its chain makes the run long (a tiny wheel rate), else at the
+        # simulation settings that stretch it (extra_time, duration_margin)
+        where = (("paths", spec.name) if ideal * settings.duration_margin > settings.extra_time
+                 else ("simulation",))
         if samples > MAX_SAMPLES:
             problems.append(error(
                 "C404", f"paths.{spec.name}: a run would last "
                         f"{samples * settings.output_interval:.6g} s at an output interval of "
                         f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
                         f"than {MAX_SAMPLES}",
-                campaign.locations.span(("simulation",), at_key=True),
+                campaign.locations.span(where, at_key=True),
                 hint="stop time = chain duration × duration_margin + extra_time; check the "
                      "simulation section and the chain's wheel rates"))
     if problems:
