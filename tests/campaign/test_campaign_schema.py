@@ -274,3 +274,26 @@ def test_a_misspelt_key_gets_the_key_meant_and_every_mistake_is_said_at_once(
         load_campaign(write(tmp_path, nested))
     (diagnostic,) = caught.value.diagnostics
     assert diagnostic.hint == "did you mean 'output_interval'?"
+
+
+def test_yes_no_on_off_are_names_where_names_are_meant_and_flags_where_flags_are(
+        tmp_path: Path) -> None:
+    """The campaign's YAML reads only true/false as booleans (YAML 1.2): a path named `yes`
+    and a keep-out area named `off` keep their names (YAML 1.1 made them booleans, refused as
+    'not a valid string'); a flag still takes yes/no/on/off; anything else is no flag."""
+    text = GOOD.replace("  straight:\n", "  yes:\n").replace(
+        "  - {path: straight,", "  - {path: 'yes',").replace(
+        "uncertainty:\n", "uncertainty:\n  paired: no\n").replace(
+        "  rocks:\n", "  keep_out:\n    - {name: off, level: L3, polygon: [[\"1 m\", \"1 m\"], "
+        "[\"1.2 m\", \"1 m\"], [\"1.2 m\", \"1.2 m\"]]}\n  rocks:\n")
+    campaign = load_campaign(write(tmp_path, text))
+    assert [p.name for p in campaign.paths] == ["yes", "detour"]
+    assert campaign.model.uncertainty.paired is False
+    assert [area.name for area in campaign.model.environment.keep_out] == ["off"]
+    for word, paired in (("on", True), ("Off", False), ("true", True), ("FALSE", False)):
+        flagged = load_campaign(write(tmp_path, GOOD.replace(
+            "uncertainty:\n", f"uncertainty:\n  paired: {word}\n"), f"c{word}.yaml"))
+        assert flagged.model.uncertainty.paired is paired
+    refused = messages(write(tmp_path, GOOD.replace("uncertainty:\n",
+                                                    "uncertainty:\n  paired: maybe\n"), "m.yaml"))
+    assert any("uncertainty.paired" in m and "boolean" in m for m in refused)

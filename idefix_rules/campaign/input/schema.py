@@ -49,6 +49,21 @@ def _seed_range(value: int) -> int:
 # StrictInt: YAML's `true` is not a seed
 Seed = Annotated[StrictInt, AfterValidator(_seed_range)]
 
+# The words YAML 1.1 reads as booleans: the campaign's YAML reads only true and false so
+# (YAML 1.2, campaign/input/yamlsource.py: a keep-out area named `off` stays a name), and a flag
+# still takes them as written.
+_FLAG_WORDS = {"true": True, "yes": True, "on": True, "y": True,
+               "false": False, "no": False, "off": False, "n": False}
+
+
+def _flag(value: Any) -> Any:
+    if isinstance(value, str) and value.lower() in _FLAG_WORDS:
+        return _FLAG_WORDS[value.lower()]
+    return value  # a bool passes, anything else is refused by StrictBool
+
+
+Flag = Annotated[StrictBool, BeforeValidator(_flag)]
+
 
 def _quantity(dimension: Dimension | None) -> BeforeValidator:
     """A validator turning ``"5 cm"`` into SI; ``dimension=None`` accepts any dimension."""
@@ -372,7 +387,7 @@ class UncertaintySection(Strict):
     seed: Seed = 0
     # Run j of every path draws the same values (common random numbers); false: each path
     # draws its own.
-    paired: StrictBool = True
+    paired: Flag = True
     parameters: dict[str, Distribution] = {}
 
 
@@ -483,7 +498,7 @@ class Waiver(Strict):
     reason: Text
     approved_by: Text
     until: Annotated[date, BeforeValidator(_written_date)]
-    command_rules: StrictBool = False
+    command_rules: Flag = False
 
     def covers(self, path: str) -> bool:
         return self.path in ("all", path)

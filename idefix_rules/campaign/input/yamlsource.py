@@ -12,6 +12,7 @@ Pydantic reports errors at a ``loc`` tuple such as ``("paths", "detour", 1, "del
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -138,6 +139,18 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
                      + ("date or time if one is meant: a day and an hour that exist"
                         if kind == "timestamp" else kind))) from None
 
+
+
+# Booleans as YAML 1.2 reads them: only true and false (any case). YAML 1.1, PyYAML's default,
+# also reads yes/no/on/off/y/n unquoted as booleans, so a keep-out area named `off` or a path
+# named `yes` became a boolean and was refused as "not a valid string". Where a flag is meant,
+# pydantic still reads the text yes/no/on/off as one.
+_BOOL = "tag:yaml.org,2002:bool"
+LocatingLoader.yaml_implicit_resolvers = {
+    first: [(tag, pattern) for tag, pattern in resolvers if tag != _BOOL]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+LocatingLoader.add_implicit_resolver(
+    _BOOL, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
 
 def load_yaml(text: str, path: str) -> YamlDocument:
     """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics."""
