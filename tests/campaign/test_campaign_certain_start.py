@@ -89,3 +89,4 @@ def test_the_cli_refuses_it_with_every_other_mistake_and_simulates_nothing(
     assert "error[C219]: rulebook idefix-ops reads the tolerance radius" in output
     assert "error[C213]" in output and "error[C218]" in output  # said together
     assert not (tmp_path / "out" / "results.h5").exists()
+

@@ -19,6 +19,7 @@ import numpy as np
 
 from idefix_rules.campaign.input.load import (
     INITIAL_POSITION,
+    REGOLITH_PREFIX,
     Campaign,
     format_loc,
     initial_position_sigma,
@@ -361,6 +362,9 @@ def prepare_output(campaign: Campaign) -> None:
 
 def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping[str, object],
              what: str, fmu_path: Path) -> Diagnostic:
+    if loc[:2] == ("environment", "regolith") and name.startswith(REGOLITH_PREFIX) \
+            and loc[-1] == name[len(REGOLITH_PREFIX):]:
+        return _unknown_regolith(campaign, loc, name, known, fmu_path)
     close = difflib.get_close_matches(name, list(known), n=1)
     hint = f"did you mean {close[0]!r}?" if close else None
     if hint is None and what == "FMU parameter":
@@ -371,3 +375,18 @@ def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping
                 f"this name: fmu.parameters: {{its_name: {name}}}")
     return error("C401", f"{format_loc(loc)}: unknown {what} {name!r} in {fmu_path.name}",
                  campaign.locations.span(loc, at_key=True), hint)
+
+
+def _unknown_regolith(campaign: Campaign, loc: tuple[str, ...], name: str,
+                      known: Mapping[str, object], fmu_path: Path) -> Diagnostic:
+    """A regolith key the FMU has no soil parameter for: the hint names the regolith keys
+    there are (the soil parameters without ``soil.``), and how another group's parameter is
+    written (its full name)."""
+    keys = sorted(n[len(REGOLITH_PREFIX):] for n in known if n.startswith(REGOLITH_PREFIX))
+    close = difflib.get_close_matches(str(loc[-1]), keys, n=1)
+    listing = ", ".join(keys) or "none"
+    hint = (f"did you mean {close[0]!r}? " if close else "") + (
+        f"regolith keys are {fmu_path.name}'s soil parameters without 'soil.': {listing}; a "
+        "parameter of another group is written with its full name (rover.half_track)")
+    return error("C401", f"{format_loc(loc)}: unknown FMU parameter {name!r} in "
+                         f"{fmu_path.name}", campaign.locations.span(loc, at_key=True), hint)
