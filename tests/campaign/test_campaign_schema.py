@@ -144,6 +144,11 @@ CATALOGUE = [
      ["4:1: duplicate key 'runs'"]),
     ("not a mapping", "- just\n- a list\n",
      ["1:1: a campaign file is a mapping (key: value lines)"]),
+    ("expectation of two kinds",
+     GOOD.replace("  - {path: detour, verdict: pass}",
+                  "  - {path: detour, verdict: pass, max_mean_risk: \"30 %\"}"),
+     ["23:5: expect[0]: an expectation has one kind; this one gives verdict and max_mean_risk: "
+      "write each as its own entry of expect"]),
 ]
 
 

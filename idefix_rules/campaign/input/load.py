@@ -192,7 +192,8 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
                        f"{context.get('expected_tags', '')})")
             span = locations.span((*loc, "distribution"))
         else:
-            message = item["msg"]
+            # a validator's own words, without pydantic's "Value error, " before them
+            message = str(item["msg"]).removeprefix("Value error, ")
             # "[key]": pydantic's marker for a mistake in a mapping key, not its value
             span = locations.span(loc, at_key=item["loc"][-1:] == ("[key]",))
             position = item.get("ctx", {}).get("position")

@@ -465,6 +465,20 @@ Expectation = Annotated[
 ]
 
 
+def _one_kind(value: Any) -> Any:
+    """An expectation of two kinds at once is two expectations: said as such, not as an
+    unknown key of whichever kind was read first."""
+    if isinstance(value, dict):
+        kinds = [key for key in _EXPECTATION_KEYS if key in value]
+        if len(kinds) > 1:
+            raise ValueError(f"an expectation has one kind; this one gives {' and '.join(kinds)}: "
+                             "write each as its own entry of expect")
+    return value
+
+
+ExpectationEntry = Annotated[Expectation, BeforeValidator(_one_kind)]
+
+
 # --- waivers --------------------------------------------------------------------------------
 
 def _plain_text(value: Any) -> Any:
@@ -597,7 +611,7 @@ class CampaignFile(Strict):
     output: str = "results"
     workers: StrictInt | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
-    expect: list[Expectation] = []
+    expect: list[ExpectationEntry] = []
     waivers: list[Waiver] = []
 
     @property
