@@ -177,6 +177,7 @@ def read_terrain(path: str | Path) -> Terrain:
                                    Span(str(path)))) from None
     header: dict[str, list[str]] = {}
     rocks: list[Rock] = []
+    rock_lines: list[int] = []  # the line of each rock
     offset, line_number = 0, 0
 
     lines: dict[str, int] = {}  # header key → its line, for messages about its values
@@ -219,6 +220,7 @@ def read_terrain(path: str | Path) -> Terrain:
             if len(values) == 7 and values[6] not in ("L1", "L2", "L3"):
                 raise fail(f"rock level '{values[6]}': expected L1, L2 or L3")
             rocks.append(Rock(x, y, a, b, c, z=z, level=values[6] if len(values) == 7 else None))
+            rock_lines.append(line_number)
             continue
         if key not in ("nx", "ny", "origin", "cell", "rocks"):
             raise fail(f"unknown header line '{key}'")
@@ -244,6 +246,13 @@ def read_terrain(path: str | Path) -> Terrain:
         raise fail("need a finite origin", "origin")
     if count != len(rocks):
         raise fail(f"'rocks {count}' but {len(rocks)} rock lines", "rocks")
+    x1, y1 = x0 + (nx - 1) * cell, y0 + (ny - 1) * cell
+    for rock, at in zip(rocks, rock_lines, strict=True):
+        if not (x0 <= rock.x <= x1 and y0 <= rock.y <= y1):  # as a campaign's rock (C206)
+            raise UserInputError(error(
+                "F204", f"rock at ({rock.x:g} m, {rock.y:g} m) lies outside the grid (x {x0:g} "
+                        f"… {x1:g} m, y {y0:g} … {y1:g} m)", Span(str(path), at, 1),
+                hint="rock positions are world coordinates, in the grid's frame"))
     expected = nx * ny * 8
     if len(data) - offset != expected:
         raise fail(f"height grid holds {len(data) - offset} bytes, expected {expected} "

@@ -131,3 +131,22 @@ def test_height_at_interpolates_bilinearly() -> None:
     terrain = Terrain(np.array([[0.0, 1.0], [2.0, 3.0]]), (0.0, 0.0), 1.0)
     assert float(terrain.height_at(0.5, 0.5)) == pytest.approx(1.5)
     assert float(terrain.height_at(5.0, -5.0)) == pytest.approx(1.0)  # edge continues
+
+
+@pytest.mark.parametrize(("x", "refused"), [(0.9, False), (0.95, False), (0.951, True)])
+def test_a_rock_of_a_terrain_file_outside_its_grid_is_named_at_its_line(
+        tmp_path: Path, x: float, refused: bool) -> None:
+    from idefix_rules.fmu.terrain import Rock, Terrain, write_terrain
+
+    path = tmp_path / "site.dem"
+    heights = np.zeros((20, 20))  # cell 0.05 m from (0, 0): x and y up to 0.95 m
+    write_terrain(path, Terrain(heights, (0.0, 0.0), 0.05, (Rock(x, 0.5, 0.02, 0.02, 0.02),)))
+    if not refused:
+        assert load_dem(path).rocks[0].x == x
+        return
+    with pytest.raises(UserInputError) as caught:
+        load_dem(path)
+    found = caught.value.diagnostics[0]
+    assert found.code == "F204" and "lies outside the grid (x 0 … 0.95 m" in found.message
+    assert found.span is not None and path.read_bytes().split(b"\n")[found.span.line - 1] \
+        .startswith(b"rock ")
