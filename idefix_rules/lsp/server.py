@@ -61,7 +61,20 @@ class RulebookServer(LanguageServer):
     # ---- analyses
 
     def document(self, uri: str) -> TextDocument:
-        return self.workspace.get_text_document(uri)
+        """The open document, or the file of ``uri`` as it is on disk; a request for a
+        document neither open nor readable is refused as invalid (-32602), never with an
+        internal error's traceback."""
+        document = self.workspace.get_text_document(uri)
+        if not _is_open(self, uri):
+            try:
+                document.source  # noqa: B018 - read now: pygls reads an unopened one from disk
+            except (OSError, UnicodeDecodeError, ValueError) as failure:
+                from pygls.exceptions import JsonRpcInvalidParams
+
+                raise JsonRpcInvalidParams(
+                    message=f"{uri} is not open and cannot be read: "
+                            f"{getattr(failure, 'strerror', None) or failure}") from None
+        return document
 
     def analysis(self, uri: str) -> tuple[TextDocument, Analysis]:
         """The analysis of the document's current text (made now if the text is newer)."""

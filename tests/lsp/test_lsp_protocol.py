@@ -405,3 +405,19 @@ def test_columns_follow_the_encoding_the_client_asks_for(tmp_path: Path) -> None
         assert typo["range"]["end"]["character"] == line.index("wheel.slp") + len("wheel.slp")
     finally:
         assert editor.close() == 0
+
+
+@pytest.mark.parametrize("method", ["textDocument/hover", "textDocument/formatting"])
+def test_a_request_for_a_document_neither_open_nor_on_disk_is_invalid_params(
+        client: LspClient, tmp_path: Path, method: str) -> None:
+    uri = (tmp_path / "nope.rules").as_uri()
+    params: dict[str, object] = {"textDocument": {"uri": uri}}
+    if method.endswith("hover"):
+        params["position"] = {"line": 0, "character": 0}
+    else:
+        params["options"] = {"tabSize": 2, "insertSpaces": True}
+    with pytest.raises(AssertionError) as failed:
+        client.request(method, params)
+    error = str(failed.value)
+    assert "-32602" in error and "is not open and cannot be read" in error
+    assert "Traceback" not in error and "FileNotFoundError" not in error
