@@ -17,6 +17,7 @@ from idefix_rules.errors import Span, UserInputError, error
 MAX_RULEBOOK_BYTES = 128 * 1024  # 18 times the operations rulebook
 MAX_RULEBOOK_LINE = 20_000  # characters; the formatter writes lines of at most 100
 MAX_CAMPAIGN_BYTES = 256 * 1024
+MAX_CASE_FILE_BYTES = 1024 * 1024  # about 50 times the operations rulebook's case file
 # A terrain file is a short text header (rocks included) and nx*ny float64 heights; the FMU
 # reads at most 16 million nodes (fmu/terrain.py MAX_NODES).
 MAX_TERRAIN_HEADER_BYTES = 1024 * 1024

@@ -202,6 +202,9 @@ def discover_case_files(paths: Sequence[str | Path]) -> list[Path]:
 
 def load_case_file(path: str | Path) -> CaseFile:
     """Read, validate and check a case file and its rulebook; every mistake in one error."""
+    from idefix_rules.limits import MAX_CASE_FILE_BYTES, check_file_size
+
+    check_file_size(path, MAX_CASE_FILE_BYTES, "T001", "case file")
     text = read_user_text(path, "T001", "case file")
     return parse_case_file(text, str(path))
 

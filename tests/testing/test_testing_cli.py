@@ -343,3 +343,18 @@ def test_no_case_files_with_json_output_is_json(tmp_path, capsys):
     assert main(["test", "--format", "json", str(tmp_path)]) == 2
     data = json.loads(capsys.readouterr().out)
     assert data["exit_code"] == 2 and data["broken"][0]["code"] == "T013"
+
+
+def test_a_case_file_over_its_size_limit_is_refused_before_it_is_read(tmp_path, capsys):
+    from idefix_rules.limits import MAX_CASE_FILE_BYTES
+
+    path = write(tmp_path, """  slip:
+    signals: {"wheel.slip[FL]": 35 %}
+    expect: {verdict: pass}
+""")
+    padding = MAX_CASE_FILE_BYTES - path.stat().st_size
+    path.write_text(path.read_text() + "#" * (padding - 1) + "\n")  # just at the limit
+    assert main(["test", str(path)]) == 0
+    path.write_text(path.read_text() + "#\n")  # just over it
+    assert main(["test", str(path)]) == 2
+    assert "error[T001]: case file" in capsys.readouterr().out
