@@ -53,3 +53,22 @@ def _creatable(folder: Path, text: str) -> None:
         raise argparse.ArgumentTypeError(f"cannot write {text}: {existing} is a file")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise argparse.ArgumentTypeError(f"cannot write {text}: {existing} is not writable")
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler address (``tcp://host:port``, ``host:port``): its scheme one Dask
+    knows and a location given, checked when the arguments are read (nothing is connected:
+    an address no scheduler answers at is the campaign's infrastructure error)."""
+    from distributed.comm.addressing import parse_address
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(text)
+        get_backend(scheme)
+    except (ValueError, TypeError) as failure:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: "
+                                         f"{failure}") from None
+    if not location.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: it names "
+                                         "no host (tcp://HOST:PORT)")
+    return text

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from idefix_rules.cli.destinations import output_file, output_folder
+from idefix_rules.cli.destinations import output_file, output_folder, scheduler_address
 from idefix_rules.cli.numbers import (
     run_count,
     run_count_only,
@@ -63,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "per phase with its duration and per 10 %% of each path's runs)")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
     cluster = parser.add_mutually_exclusive_group()
-    cluster.add_argument("--scheduler", metavar="ADDRESS",
+    cluster.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                          help="run on a Dask distributed cluster (scheduler address)")
     cluster.add_argument("--dask-local", action="store_true",
                          help="run on a local Dask cluster instead of the process pool")

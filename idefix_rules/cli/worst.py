@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from idefix_rules.cli.destinations import output_folder
+from idefix_rules.cli.destinations import output_folder, scheduler_address
 from idefix_rules.cli.numbers import integer, positive_int, seconds, seed_number, worker_count
 from idefix_rules.limits import MAX_WORKERS
 
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress")
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
     cluster = parser.add_mutually_exclusive_group()
-    cluster.add_argument("--scheduler", metavar="ADDRESS",
+    cluster.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                          help="run on a Dask distributed cluster (scheduler address)")
     cluster.add_argument("--dask-local", action="store_true",
                          help="run on a local Dask cluster instead of the process pool")

@@ -1067,3 +1067,18 @@ def test_report_into_a_folder_keeps_the_report_already_there(
     assert "Traceback" not in "".join(capsys.readouterr())
     assert (site / "report.previous.html").read_text() == "<html>my own report</html>"
     assert "my own report" not in (site / "report.html").read_text()
+
+
+@pytest.mark.parametrize(("address", "words"), [
+    ("nonsense://x", "unknown address scheme 'nonsense'"),
+    ("tcp://", "it names no host"),
+])
+def test_a_scheduler_address_that_is_none_is_a_usage_error_before_anything_runs(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str], address: str, words: str) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main([*RUN, "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert f"argument --scheduler: {address!r} is not a Dask scheduler address" in err
+    assert words in err and not (tmp_path / "out").exists()
