@@ -33,6 +33,10 @@ HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, th
 _COMPARISONS = {"<", "<=", ">", ">=", "==", "!="}
 
 
+# The terminal width the tables need to read well (their formula and rationale columns fold).
+TABLE_COLUMNS = 120
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("rulebook", type=Path, metavar="RULEBOOK", help="rulebook file (.rules)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
@@ -190,13 +194,42 @@ def run(args: argparse.Namespace) -> int:
                           ("rationale", 3)):
         table.add_column(column, ratio=ratio, overflow="fold",
                          style="dim" if column == "rationale" else None)
-    for row in rows(checked):
+    found = list(rows(checked))
+    for row in found:
         table.add_row(*row)
-    console.print(table)
-    console.print(_constants_table(checked))
+    if console.is_terminal and console.width >= TABLE_COLUMNS:
+        console.print(table)
+        console.print(_constants_table(checked))
+    else:  # a pipe or a narrow terminal: a record per rule, unfolded (the tables fold every
+        # cell into slivers there, and a record a line is what grep and a log read)
+        console.print(f"{header.name} {header.version} — {header.purpose}", markup=False,
+                      soft_wrap=True)
+        for line in _records(found, checked):
+            console.print(line, markup=False, soft_wrap=True)
     for line in _footer(checked):
         console.print(line, markup=False)
     return 0
+
+
+def _records(found: list[tuple[str, ...]], checked: CheckedRulebook) -> Iterator[str]:
+    """The rules and constants as records, a field a line, where the tables would fold every
+    cell into slivers: ``kind name``, then its formula, unit, threshold, weight and rationale
+    (those it has), each indented."""
+    from idefix_rules.rulebook.summary import constants
+
+    fields = ("formula", "unit", "threshold", "weight", "rationale")
+    for kind, name, *values in found:
+        yield ""
+        yield f"{kind} {name.replace(chr(10), ' — ')}"
+        for label, value in zip(fields, values, strict=True):
+            if value:
+                yield f"  {label}: " + value.replace("\n", "\n    ")
+    yield ""
+    yield "constants"
+    for constant in constants(checked):
+        si = "" if constant.si == constant.written else f" (= {constant.si})"
+        yield f"  {constant.name} = {constant.written}{si}" + (
+            f"  # {constant.rationale}" if constant.rationale else "")
 
 
 def _constants_table(checked: CheckedRulebook) -> Table:

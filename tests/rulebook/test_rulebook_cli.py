@@ -254,3 +254,16 @@ def test_check_json_gives_the_end_of_each_span(write, capsys):
     line = bad.read_text().splitlines()[record["line"] - 1]
     assert record["end_line"] == record["line"]
     assert line[record["column"] - 1:record["end_column"] - 1] == "critcal_slip"
+
+
+def test_explain_into_a_pipe_prints_a_record_a_line_not_folded_tables(capsys):
+    """Piped (CI logs, grep), the tables would fold every cell into slivers at 80 columns:
+    each rule is a record, each field on one line, its formula and rationale whole."""
+    assert main(["explain", str(FROZEN)]) == 0
+    out = capsys.readouterr().out
+    assert "┃" not in out and "│" not in out
+    lines = out.splitlines()
+    assert "command max_turn_angle" in lines
+    at = lines.index("command max_turn_angle")
+    assert lines[at + 1] == "  formula: abs(delta_heading) <= max_turn"
+    assert any(line.startswith("  critical_slip = ") for line in lines)
