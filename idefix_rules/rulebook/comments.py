@@ -24,12 +24,12 @@ _BLOCK_ANCHORS = {
 }
 
 
-def attach_comments(nodes: list[Any], blocks: list[tuple[Any, Span]], comments: list[Token],
-                    text: str) -> dict[Any, Any]:
+def attach_comments(nodes: list[Any], blocks: list[tuple[Any, Any, Span]],
+                    comments: list[Token], text: str) -> dict[Any, Any]:
     """Node id → the node with its comments; ``"trailing"`` → comments after everything.
 
-    ``nodes`` are the commentable nodes, the header first; ``blocks`` the first entry and span
-    of each ``settings``/``obstacles`` block.
+    ``nodes`` are the commentable nodes, the header first; ``blocks`` the first and last entry
+    and the span of each ``settings``/``obstacles`` block.
     """
     header = nodes[0]
     present = [node for node in nodes if node is not None and node.span.line > 0]
@@ -50,6 +50,12 @@ def attach_comments(nodes: list[Any], blocks: list[tuple[Any, Span]], comments: 
             found.setdefault(id(holder), []).append(
                 _inside_comment(holder, body, line, own_line, lines))
             continue
+        closing = next((last for _, last, block_span in blocks
+                        if (last.span.end_line, last.span.end_column) < (line, column)
+                        and line < block_span.end_line), None)
+        if closing is not None:  # after a block's last entry, before its `}`: stays inside
+            found.setdefault(id(closing), []).append("@block$ " + body)
+            continue
         following = next((node for node in present
                           if (node.span.line, node.span.column) > (line, column)), None)
         if present and following is present[0] and header in present:
@@ -58,7 +64,7 @@ def attach_comments(nodes: list[Any], blocks: list[tuple[Any, Span]], comments: 
             trailing.append(body)
             continue
         prefix = ""
-        for first_entry, block_span in blocks:
+        for first_entry, _, block_span in blocks:
             if first_entry is following and (line, column) < (block_span.line,
                                                                block_span.column):
                 prefix = "@block^ "

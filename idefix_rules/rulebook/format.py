@@ -224,6 +224,7 @@ def _simple_section(entries: Sequence[tuple[object, str, str | None]],
     lines: list[_Line] = []
     for position, (node, text, rationale) in enumerate(entries):
         comments = _Comments.of(node)
+        comments.inline.pop("block$", None)  # a block's closing comments: printed by _block
         if comments.leading and position > 0:
             lines.append(_Line(""))
         lines += [_Line(indent + text_) for text_ in comments.leading]
@@ -246,7 +247,8 @@ def _block(keyword: str, entries: Sequence[object], texts: Sequence[str]) -> lis
     body = _simple_section([(entry, text, None) for entry, text in zip(entries, texts,
                                                                          strict=True)],
                            INDENT)
-    return [*block_comments, f"{keyword} {{", *body, "}"]
+    closing = [INDENT + text for text in _Comments.of(entries[-1]).inline.get("block$", [])]
+    return [*block_comments, f"{keyword} {{", *body, *closing, "}"]
 
 
 def _settings(settings: Sequence[model.Setting]) -> list[str]:

@@ -17,7 +17,9 @@ Comments are kept on the declaration they belong to (``comments``; the end of th
   ``indifference``, ``verdict_indifference``, the block's own keyword for its first line,
   ``}`` for its last);
 * a comment on its own line inside such a block: ``"@ITEM^ # text"`` (printed above ITEM);
-* a comment before ``settings {`` / ``obstacles {``: ``"@block^ # text"`` on the first entry.
+* a comment before ``settings {`` / ``obstacles {``: ``"@block^ # text"`` on the first entry;
+* a comment on its own line after the last entry of such a block, before its ``}``:
+  ``"@block$ # text"`` on the last entry (printed before the ``}``).
 
 The formatter (:mod:`~idefix_rules.rulebook.format`) puts each back in its place.
 
@@ -521,7 +523,8 @@ def _assemble(declarations: list[Any], comments: list[Token], text: str, path: s
          *(n for n in levels if isinstance(n, model.Area)), *lists[model.CommandRule],
          *lists[model.Index], *lists[model.Chance], singles.get(model.Combine),
          *lists[model.Prescreen], *lists[model.VerdictRule], singles.get(model.Ranking)],
-        [(block.entries[0], block.span) for block in blocks if block.entries], comments, text)
+        [(block.entries[0], block.entries[-1], block.span) for block in blocks
+         if block.entries], comments, text)
     rulebook = model.Rulebook(
         header=attached.get(id(header), header),
         constants=tuple(attached.get(id(node), node) for node in lists[model.Constant]),

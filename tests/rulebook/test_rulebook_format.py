@@ -133,3 +133,33 @@ def test_fmt_round_trips_generated_rulebooks(model):
     parsed = parse_rulebook(text, "gen.rules")
     assert parsed == model
     assert format_rulebook(parsed) == text
+
+
+BLOCK_END = """rulebook "demo" version "1.0.0" purpose "p"
+settings {
+  tolerance_growth = 5 cm/rad
+  # about the settings, last in their block
+}
+obstacles {
+  level L1 below 3 cm buffer 2 cm
+  level L2 below 10 cm buffer 5 cm
+  level L3 buffer 10 cm
+  # last in obstacles
+}
+# about the index
+index I_s "slip" {
+  value = max over time (max over wheels (abs(wheel.slip)))
+  limit = 70 %
+  weight = 1
+}
+verdict ok: require risk <= 70 %
+"""
+
+
+def test_a_comment_closing_a_block_stays_in_it_and_one_above_a_declaration_stays_above_it():
+    text = format_rulebook(parse_rulebook(BLOCK_END, "b.rules"))
+    assert "  tolerance_growth = 5 cm/rad\n  # about the settings, last in their block\n}" in text
+    assert "  level L3             buffer 10 cm\n  # last in obstacles\n}" in text
+    assert "\n# about the index\nindex I_s" in text
+    again = parse_rulebook(text, "b.rules")
+    assert again == parse_rulebook(BLOCK_END, "b.rules") and format_rulebook(again) == text
