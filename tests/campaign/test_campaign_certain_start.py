@@ -90,3 +90,22 @@ def test_the_cli_refuses_it_with_every_other_mistake_and_simulates_nothing(
     assert "error[C213]" in output and "error[C218]" in output  # said together
     assert not (tmp_path / "out" / "results.h5").exists()
 
+
+
+def test_chains_that_all_turn_need_no_spread_and_one_that_does_not_is_named(
+        tmp_path: Path) -> None:
+    """The radius grows by tolerance_growth per radian turned: a chain that turns ends with a
+    radius above 0 and a finite index; only the chains that never turn are refused."""
+    path = _campaign(tmp_path, "")
+    text = path.read_text()
+    turning = text[:text.index("  straight:")] + text[text.index("  wide-detour:"):]
+    turning = turning.replace("  - {path: straight, max_mean_risk: \"30 %\"}\n",
+                              "  - {path: wide-detour, verdict: fail}\n")
+    path.write_text(turning)
+    assert _problems(path) == []
+    campaign = load_campaign(_campaign(tmp_path, ""))
+    evaluator = compile_rulebook_file(campaign.rulebook)
+    with pytest.raises(UserInputError) as caught:
+        check_tolerance_start(campaign, evaluator)
+    message = caught.value.diagnostics[0].message
+    assert "with chains that do not turn (straight) the radius stays 0" in message

@@ -251,13 +251,24 @@ def check_drawn_starts_on_terrain(campaign: Campaign,
 
 def check_tolerance_start(campaign: Campaign, evaluator: Any, stored: bool = False) -> None:
     """A rulebook that reads the tolerance radius needs an uncertain start position: the radius
-    starts at the start position's σ (``docs/derived-signals.md``), so with σ = 0 a chain that
-    does not turn divides every run's drift by 0 and every run is critical, for no reason of
-    its own (C219, at the campaign's ``uncertainty``). ``stored``: the campaign of a results
-    file (the hint then says to run it again)."""
+    starts at the start position's σ (``docs/derived-signals.md``) and grows only while a
+    chain turns, so with σ = 0 a chain that does not turn (or any chain, without
+    ``tolerance_growth``) divides every run's drift by 0 and every run is critical, for no
+    reason of its own (C219, at the campaign's ``uncertainty``, naming those chains); chains
+    that all turn are let through. ``stored``: the campaign of a results file (the hint then
+    says to run it again)."""
     if "tolerance_radius" not in getattr(evaluator, "signals_read", ()):
         return
     if initial_position_sigma(campaign) > 0.0:
+        return
+    # a chain that turns grows the radius above 0 (tolerance_growth per radian): only the
+    # chains that never turn, or every chain without a growth, keep it at 0 to their end
+    growth = float(getattr(getattr(evaluator, "derived_settings", None), "tolerance_growth",
+                           0.0))
+    straight = [spec.name for spec in campaign.paths
+                if growth <= 0.0 or not any(command.delta_heading != 0.0
+                                            for command in spec.chain)]
+    if not straight:
         return
     given = [name for name in INITIAL_POSITION
              if name in campaign.model.uncertainty.parameters]
@@ -265,11 +276,14 @@ def check_tolerance_start(campaign: Campaign, evaluator: Any, stored: bool = Fal
     name = evaluator.name
     certain = f"{' and '.join(given)} fixed" if given else \
         "initial.x and initial.y are not uncertain"
+    shown = ", ".join(straight[:3]) + (f" and {len(straight) - 3} more"
+                                       if len(straight) > 3 else "")
+    why = "no tolerance_growth" if growth <= 0.0 else "chains that do not turn"
     raise UserInputError([error(
         "C219", f"rulebook {name} reads the tolerance radius, which starts at the start "
                 "position's standard deviation, and this campaign's start position is certain "
-                f"({certain}): the radius is 0 until a chain turns, so a run's drift over it "
-                "is infinite and every run critical",
+                f"({certain}): with {why} ({shown}) the radius stays 0, so a run's drift "
+                "over it is infinite and every run critical",
         campaign.locations.span(where, at_key=True),
         hint=("give the start position its uncertainty, e.g. `initial.x: {distribution: "
               "normal, mean: \"0 m\", std: \"1 cm\"}` and the same for initial.y"
