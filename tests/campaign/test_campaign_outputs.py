@@ -68,7 +68,7 @@ def test_rank_and_collision_expectations() -> None:
     results = evaluation()
     assert check_expectation(RankFirstExpectation(rank_first="good"), results).held
     assert not check_expectation(RankFirstExpectation(rank_first="close"), results).held
-    # 1 hit in 10 runs: 10 % is within 20 %, but its bounds (0.5–39.4 %) do not show it
+    # 1 hit in 10 runs: 10 % is within 20 %, but its bounds (0.05–52.5 %) do not show it
     within = CollisionExpectation(path="good", max_collision_chance={"L2": "10 %", "any": "20 %"})
     found = check_expectation(within, results)
     assert not found.held and "not decided at this number of runs" in found.message
@@ -77,9 +77,10 @@ def test_rank_and_collision_expectations() -> None:
 
 
 def test_expectations_hold_only_where_the_bounds_show_them() -> None:
-    """3 hits in 300 runs: bounds 0.27–2.6 % (Clopper-Pearson, one-sided 5 % each); a mean
-    risk of 0.30 with bounds 0.25–0.35. A limit above the upper bound holds, one between the
-    bounds is not decided, one below the lower bound fails outright."""
+    """3 hits in 300 runs: bounds 0.035–4.0 % (one-sided 5 % each, valid after an adaptive
+    stop too: campaign/statistics/bernoulli.py, anytime_bounds); a mean risk of 0.30 with
+    bounds 0.25–0.35. A limit above the upper bound holds, one between the bounds is not
+    decided, one below the lower bound fails outright."""
     results = evaluation()
     results.paths[0].completed = results.paths[0].runs = 300
     results.paths[0].collision_chance = {"L2": 0.01}
@@ -89,10 +90,10 @@ def test_expectations_hold_only_where_the_bounds_show_them() -> None:
             path="good", max_collision_chance={"L2": limit}), results)
         return found.held, "not decided" in found.message
 
-    assert chance("2.7 %") == (True, False)   # just above the upper bound, 2.61 %
-    assert chance("2.5 %") == (False, True)   # just below it
-    assert chance("0.3 %") == (False, True)   # just above the lower bound, 0.27 %
-    assert chance("0.25 %") == (False, False)  # below it: shown above the limit
+    assert chance("4.01 %") == (True, False)   # just above the upper bound, 4.003 %
+    assert chance("3.99 %") == (False, True)   # just below it
+    assert chance("0.04 %") == (False, True)   # just above the lower bound, 0.035 %
+    assert chance("0.03 %") == (False, False)  # below it: shown above the limit
 
     def risk(limit: str) -> tuple[bool, bool]:
         found = check_expectation(MeanRiskExpectation(path="good", max_mean_risk=limit),
@@ -278,3 +279,33 @@ def test_rank_first_in_a_paired_campaign_reads_the_paired_comparison() -> None:
         found = check_expectation(RankFirstExpectation(rank_first="good"), results)
         assert found.held is held, outcome
         assert ("tied with close" in found.message) is (outcome == "tied")
+
+
+def test_any_collision_without_its_own_chance_is_bounded_by_the_sum_of_the_levels() -> None:
+    """Without a chance of a hit of any level, the union of the levels' hits lies between the
+    largest level's chance and the sum of theirs: 2 L1 and 2 L2 hits in 128 runs may be 4
+    runs with a hit, so `any <= 6 %` is not shown by the largest level's 1.6 % (whose upper
+    bound alone is below 6 %): not decided. `any <= 20 %` holds."""
+    results = evaluation()
+    good = results.paths[0]
+    good.completed = good.runs = 128
+    good.collision_chance = {"L1": 2 / 128, "L2": 2 / 128, "L3": 0.0}
+    found = check_expectation(CollisionExpectation(
+        path="good", max_collision_chance={"any": "6 %"}), results)
+    assert not found.held and "not decided" in found.message
+    found = check_expectation(CollisionExpectation(
+        path="good", max_collision_chance={"any": "20 %"}), results)
+    assert found.held
+
+
+def test_rank_first_holds_for_either_chain_of_a_tie_at_the_top() -> None:
+    from idefix_rules.campaign.statistics.pairwise import PairComparison
+
+    results = evaluation()
+    results.paths[1].undecided = False
+    results.paths[1].rank = 1  # tied with good: they share the first rank
+    results.pairs = [PairComparison("close", "good", 10, 5, 5, 0, 0.0, -0.01, 0.01, 0.99, 0.02,
+                                    "tied")]
+    for name, other in (("good", "close"), ("close", "good")):
+        found = check_expectation(RankFirstExpectation(rank_first=name), results)
+        assert found.held and f"tied with {other}" in found.message, name

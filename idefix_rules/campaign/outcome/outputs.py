@@ -36,7 +36,7 @@ from idefix_rules.campaign.outcome.decision import (
 )
 from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
-from idefix_rules.campaign.statistics.bernoulli import fixed_lower, fixed_upper
+from idefix_rules.campaign.statistics.bernoulli import anytime_bounds
 from idefix_rules.campaign.statistics.stopping import STOP_FIXED
 from idefix_rules.files import write_atomic
 from idefix_rules.plain import as_plain
@@ -103,24 +103,48 @@ def check_expectation(expectation: Any, evaluation: CampaignEvaluation) -> Expec
     open_levels = []
     alpha = evaluation.budget.alpha if evaluation.budget is not None else DEFAULT_ALPHA
     for level, bound in expectation.max_collision_chance.items():
-        chance = _any_collision(path) if level == "any" else path.collision_chance.get(level)
-        if chance is None:
-            found.append(f"{level} {_percent(chance)}")
+        bounds = _any_bounds(path, alpha) if level == "any" else (
+            None if path.collision_chance.get(level) is None
+            else (path.collision_chance[level],
+                  *chance_bounds(path.collision_chance[level], path.completed, alpha)))
+        if bounds is None:
+            found.append(f"{level} {_percent(None)}")
             problems.append(level)
             continue
-        events, runs = round(chance * path.completed), path.completed
-        low, high = fixed_lower(events, runs, alpha), fixed_upper(events, runs, alpha)
+        chance, low, high = bounds
         found.append(f"{level} {_percent(chance)} (bounds {_percent(low)}–{_percent(high)})")
         if high > bound:
             problems.append(level)
             if low <= bound:
                 open_levels.append(level)
     held = not problems and not path.failed and path.status == "simulated"
-    bounds = ", ".join(f"{lvl} <= {_percent(b)}"
-                       for lvl, b in expectation.max_collision_chance.items())
-    return ExpectationResult(f"{path.name} collision chance {bounds}", held,
+    shown = ", ".join(f"{lvl} <= {_percent(b)}"
+                      for lvl, b in expectation.max_collision_chance.items())
+    return ExpectationResult(f"{path.name} collision chance {shown}", held,
                              "collision chance " + ", ".join(found)
                              + (UNDECIDED if open_levels and held is False else ""))
+
+
+def chance_bounds(chance: float, runs: int, alpha: float) -> tuple[float, float]:
+    """A chance's one-sided bounds at ``alpha`` each, valid however the run count was reached
+    (a fixed count, or an adaptive campaign's stop, which could fool a Clopper-Pearson
+    interval): :func:`~idefix_rules.campaign.statistics.bernoulli.anytime_bounds`."""
+    return anytime_bounds(round(chance * runs), runs, alpha)
+
+
+def _any_bounds(path: PathResult, alpha: float) -> tuple[float, float, float] | None:
+    """The chance of a hit of any level, and its bounds: a dedicated chance's where the
+    rulebook has one; else from the per-level chances, which the union only bounds: at least
+    the largest (its lower bound), at most their sum (the sum of their upper bounds)."""
+    for key in ("any", "collision", "hit", "collision.any", "hit_any"):
+        if key in path.chances:
+            return (path.chances[key], *chance_bounds(path.chances[key], path.completed, alpha))
+    values = list(path.collision_chance.values())
+    if not values:
+        return None
+    each = [chance_bounds(value, path.completed, alpha) for value in values]
+    return (max(values), max(low for low, _ in each),
+            min(1.0, sum(high for _, high in each)))
 
 
 UNDECIDED = " (not decided at this number of runs)"
@@ -134,9 +158,10 @@ def _rank_first(name: str, evaluation: CampaignEvaluation) -> ExpectationResult:
     chain ranked first shares the first rank and holds, saying so."""
     description = f"{name} ranks first"
     ranking = ", ".join(evaluation.ranking) or "(none)"
-    if not evaluation.ranking or evaluation.ranking[0] != name:
+    me = evaluation.path(name) if name in evaluation.ranking else None
+    # first in the ranking, or sharing the first rank (a tie, ordered by name there)
+    if me is None or (evaluation.ranking[0] != name and me.rank != 1):
         return ExpectationResult(description, False, f"ranking: {ranking}")
-    me = evaluation.path(name)
     ties: list[str] = []
     open_with: list[str] = []
     shown_to_pass = bool(me.passed) and not me.undecided
@@ -162,15 +187,6 @@ def _rank_first(name: str, evaluation: CampaignEvaluation) -> ExpectationResult:
         message += (f"; its lead over {', '.join(open_with)} is not settled"
                     f"{UNDECIDED}")
     return ExpectationResult(description, not open_with, message)
-
-
-def _any_collision(path: PathResult) -> float | None:
-    for key in ("any", "collision", "hit", "collision.any", "hit_any"):
-        if key in path.chances:
-            return path.chances[key]
-    values = list(path.collision_chance.values())
-    # Without a dedicated chance, the largest per-level chance is a lower bound.
-    return max(values) if values else None
 
 
 def check_expectations(expectations: list[Any],

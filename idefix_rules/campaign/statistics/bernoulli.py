@@ -157,6 +157,23 @@ def _intersection_points(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return count[at], runs[at]
 
 
+def anytime_bounds(events: int, runs: int, alpha: float) -> tuple[float, float]:
+    """One-sided lower and upper bounds, at ``alpha`` each, of a proportion after ``events``
+    in ``runs``: the mixture martingale's at that run count alone, valid however the count was
+    reached (a fixed count, or a stop chosen from the data). (0, 1) without runs.
+
+    >>> low, high = anytime_bounds(0, 128, 0.05)
+    >>> low, round(high, 4)
+    (0.0, 0.0245)
+    """
+    if runs <= 0:
+        return 0.0, 1.0
+    high = float(_boundary(np.array([float(events)]), np.array([float(runs)]), alpha)[0])
+    low = 1.0 - float(_boundary(np.array([float(runs - events)]), np.array([float(runs)]),
+                                alpha)[0])
+    return max(0.0, low), min(1.0, high)
+
+
 def sequential_upper(events: np.ndarray, alpha: float) -> float:
     """Anytime-valid upper bound of the proportion after the 0/1 ``events`` (run order):
     the running intersection over every run count. 1 without runs."""
