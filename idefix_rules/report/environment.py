@@ -14,7 +14,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import yaml
 
 LEVEL_NAMES = ("L1", "L2", "L3")
 
@@ -92,10 +91,11 @@ def map_environment(campaign_text: str, checked: Any | None,
     their explicit level or '?'.
     """
     from idefix_rules.campaign.input.schema import EnvironmentSection
+    from idefix_rules.campaign.input.yamlsource import yaml_data
 
     notes: list[str] = []
     try:
-        data = yaml.safe_load(campaign_text) or {}
+        data = yaml_data(campaign_text) or {}
         environment = EnvironmentSection.model_validate(
             data.get("environment", {}) if isinstance(data, dict) else {})
     except Exception as failure:  # a stored campaign the current schema no longer reads

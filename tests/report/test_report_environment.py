@@ -41,3 +41,15 @@ def test_rocks_and_areas_from_the_stored_campaign() -> None:
 def test_an_unreadable_environment_is_a_note_not_an_error() -> None:
     environment, notes = map_environment("environment: {rocks: [{x: 1}]}", None)
     assert environment.rocks == () and "could not be read" in notes[0]
+
+
+def test_an_area_named_off_is_drawn_as_the_campaign_read_it() -> None:
+    """The campaign reads only true/false as booleans (YAML 1.2): an area named `off` is a
+    name there, and the report reads the stored campaign the same way (it dropped every
+    obstacle, the environment unreadable with a boolean for a name)."""
+    checked = check_text(RULEBOOK, "report-test.rules").checked
+    text = CAMPAIGN.replace("    - name: crater", "    - name: off")
+    assert text != CAMPAIGN
+    environment, notes = map_environment(text, checked)
+    assert notes == [] and [area.name for area in environment.areas] == ["off"]
+    assert len(environment.rocks) == 1

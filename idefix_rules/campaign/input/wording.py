@@ -25,6 +25,7 @@ from typing import Any
 
 import yaml
 
+from idefix_rules.campaign.input.yamlsource import yaml_data
 from idefix_rules.units import UnitError, convert, parse_unit, percent_text
 
 # Units people read when a name's own unit is not known (rules' derived command quantities).
@@ -103,7 +104,7 @@ def written_unit_at(text: str, place: tuple[str | int, ...]) -> str | None:
     'N/m^2'
     """
     try:
-        node: Any = yaml.safe_load(text)
+        node: Any = yaml_data(text)
     except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
             AttributeError):
         return None
@@ -124,7 +125,7 @@ class DisplayUnits:
     def from_campaign_text(cls, text: str) -> DisplayUnits:
         """The units a campaign's author wrote: command fields and uncertain parameters."""
         try:
-            data = yaml.safe_load(text) or {}
+            data = yaml_data(text) or {}
         except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
                 AttributeError):
             return cls()  # (load_yaml said what is wrong where it read the campaign)

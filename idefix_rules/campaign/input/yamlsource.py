@@ -152,6 +152,13 @@ LocatingLoader.yaml_implicit_resolvers = {
 LocatingLoader.add_implicit_resolver(
     _BOOL, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
 
+def yaml_data(text: str) -> Any:
+    """The data of YAML text as :func:`load_yaml` reads it (safely, booleans as YAML 1.2 reads
+    them), without positions or checks: for readers of a campaign already checked (a stored
+    one, its units). PyYAML's errors propagate."""
+    return yaml.load(text, Loader=LocatingLoader)
+
+
 def load_yaml(text: str, path: str) -> YamlDocument:
     """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics."""
     loader = LocatingLoader(text)
