@@ -327,10 +327,12 @@ def _read_csv(path: Path) -> np.ndarray:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) from None
-    # Cells are separated by commas, or by semicolons in a file that holds one: there (as the
+    # Cells are separated by commas, or by semicolons in a file whose rows hold one (its
+    # comment lines say nothing about it): there (as the
     # CSV of locales that write a decimal comma gives it) a comma is the decimal sign, read as
     # a point; splitting on both read '0,01;0,02' as four heights 0, 1, 0, 2.
-    separator = ";" if ";" in text else ","
+    separator = ";" if any(";" in line for line in text.splitlines()
+                           if not line.lstrip().startswith("#")) else ","
     rows: list[list[float]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):

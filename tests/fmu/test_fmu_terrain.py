@@ -83,6 +83,8 @@ def test_csv_dem_error_points_at_line_and_column(tmp_path: Path) -> None:
     ("1.5;2.5\n3.5;4.5\n", [[1.5, 2.5], [3.5, 4.5]]),  # semicolons, decimal points
     ("\ufeff1.0,2.0\n3.0,4.0\n", [[1.0, 2.0], [3.0, 4.0]]),  # Excel's byte-order mark
     ("1.0,2.0,\n3.0,4.0,\n", [[1.0, 2.0], [3.0, 4.0]]),  # a separator ending each row
+    # a semicolon in a comment says nothing about the rows' separator
+    ("# survey 2026; heights in m\n0.00,0.01\n0.02,0.03\n", [[0.0, 0.01], [0.02, 0.03]]),
 ])
 def test_csv_dialects_are_read_as_the_grid_they_write(
         tmp_path: Path, text: str, expected: list[list[float]]) -> None:
