@@ -368,6 +368,10 @@ CASES = [
                                               '{max_wheel_rate: "1e-7 rad/s", delta_position: '
                                               '"0.1 m", delta_heading: "0 deg"}')), RUN,
          2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last",)),
+    # an output interval so fine the runs hold too many samples: said once, at the interval
+    Case("campaign-fine-output-interval", campaign(('output_interval: "0.5 s"',
+                                                    'output_interval: "1e-5 s"')), RUN,
+         2, ("campaign.yaml:20:20: error[C404]: paths.straight: a run would last",)),
     Case("campaign-rulebook-missing", campaign(("rulebook: test.rules", "rulebook: nope.rules")),
          RUN, 2, ("campaign.yaml:4:11: error[C200]: rulebook: rulebook 'nope.rules' not found",)),
     Case("campaign-rulebook-with-errors",

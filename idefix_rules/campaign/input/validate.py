@@ -126,6 +126,10 @@ def _not_settable(campaign: Campaign, loc: tuple[str, ...], variable: FmuVariabl
                  hint="`fmpy info` lists the FMU's parameters and inputs")
 
 
+# The output interval a campaign gets when it gives none (schema.SimulationSection), s.
+DEFAULT_OUTPUT_INTERVAL = 0.1
+
+
 def check_simulation_size(campaign: Campaign) -> None:
     """Refuse a run longer than :data:`MAX_SAMPLES` output samples before simulating."""
     from idefix_rules.campaign.input.load import rover_geometry, stop_limit
@@ -148,21 +152,31 @@ def check_simulation_size(campaign: Campaign) -> None:
             campaign.locations.span(("simulation", "output_interval")),
             hint="an output interval of a fraction of a second (the default 0.1 s)")],
             sources={str(campaign.source): campaign.text})
+    interval_said = False
     for spec in campaign.paths:
-        samples, ideal = limits[spec.name][1], limits[spec.name][2]
-        # at the path when its chain makes the run long (a tiny wheel rate), else at the
-        # simulation settings that stretch it (extra_time, duration_margin)
-        where = (("paths", spec.name) if ideal * settings.duration_margin > settings.extra_time
-                 else ("simulation",))
-        if samples > MAX_SAMPLES:
-            problems.append(error(
-                "C404", f"paths.{spec.name}: a run would last "
-                        f"{samples * settings.output_interval:.6g} s at an output interval of "
-                        f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
-                        f"than {MAX_SAMPLES}",
-                campaign.locations.span(where, at_key=True),
-                hint="stop time = chain duration × duration_margin + extra_time; check the "
-                     "simulation section and the chain's wheel rates"))
+        stop, samples, ideal = limits[spec.name]
+        if samples <= MAX_SAMPLES:
+            continue
+        # at the output interval when the run would fit at the default one (said once, for
+        # the first path), else at the path when its chain makes it long (a tiny wheel rate),
+        # else at the settings stretching it (extra_time, duration_margin)
+        if stop / DEFAULT_OUTPUT_INTERVAL <= MAX_SAMPLES:
+            if interval_said:
+                continue
+            interval_said = True
+            where: tuple[str, ...] = ("simulation", "output_interval")
+        elif ideal * settings.duration_margin > settings.extra_time:
+            where = ("paths", spec.name)
+        else:
+            where = ("simulation",)
+        problems.append(error(
+            "C404", f"paths.{spec.name}: a run would last "
+                    f"{samples * settings.output_interval:.6g} s at an output interval of "
+                    f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
+                    f"than {MAX_SAMPLES}",
+            campaign.locations.span(where, at_key=where[-1] != "output_interval"),
+            hint="stop time = chain duration × duration_margin + extra_time; check the "
+                 "simulation section and the chain's wheel rates"))
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
