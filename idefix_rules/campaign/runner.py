@@ -294,12 +294,15 @@ class PreparedSimulation:
 
 
 def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
-                       again: str, resume: bool = False) -> PreparedSimulation:
+                       again: str, resume: bool = False,
+                       planned_runs: bool = True) -> PreparedSimulation:
     """Compile the rulebook, check the waivers and the FMU's mapping, build the terrain (and
     write it where the FMU reads it) and the obstacle checker; every mistake is a
     :class:`UserInputError` before anything is simulated. ``again`` is the command that goes
     on after a full disk was freed; ``resume``: the terrain stored in the results file so far
-    is the one the missing runs are simulated on."""
+    is the one the missing runs are simulated on. ``planned_runs``: the campaign simulates its
+    planned Monte Carlo runs, whose draws are checked (False for a worst-case search, which
+    draws worlds of its own)."""
     say(f"compiling the rulebook {campaign.rulebook.name}")
     evaluator = compile_rulebook_file(campaign.rulebook)
     # the campaign's mistakes, every one found before any is said (a check that needs what a
@@ -326,7 +329,7 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     terrain = gather(lambda: build_terrain(campaign.model.environment, campaign.dem))
     if terrain is not None:
         extent = terrain.extent
-        gather(lambda: _check_on_terrain(campaign, extent))
+        gather(lambda: _check_on_terrain(campaign, extent, planned_runs))
     if problems:
         raise UserInputError(problems, sources=sources)
     assert mapping is not None and terrain is not None
@@ -467,7 +470,8 @@ def _check_writable_results_folder(results: Path) -> None:
         raise _not_writable(results, f"its folder {folder} is not writable")
 
 
-def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]) -> None:
+def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float],
+                      planned_runs: bool = True) -> None:
     """Rocks, the rover's start and its chains on the terrain, every mistake said at once (a
     chain is checked only from a start on the terrain: from one off it, every chain is off)."""
     problems: list[Diagnostic] = []
@@ -488,7 +492,8 @@ def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, flo
     # everywhere)
     if campaign.fmu is None and terrain_given and gather(check_start_on_terrain):
         gather(check_paths_on_terrain)
-        gather(check_drawn_starts_on_terrain)
+        if planned_runs:
+            gather(check_drawn_starts_on_terrain)
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 

@@ -69,3 +69,30 @@ def test_the_cli_says_it_before_simulating(tmp_path: Path,
     output = "".join(capsys.readouterr())
     assert "error[C216]" in output and "Traceback" not in output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+def test_the_distribution_pointed_at_is_the_coordinate_that_leaves(tmp_path: Path) -> None:
+    path = _campaign(tmp_path, '{distribution: normal, mean: "0 m", std: "1 cm"}')
+    text = path.read_text().replace(
+        '    initial.y: {distribution: normal, mean: "0 m", std: "1 cm"}',
+        '    initial.y: {distribution: normal, mean: "0 m", std: "2 m"}')
+    path.write_text(text)
+    campaign = load_campaign(path)
+    extent = build_terrain(campaign.model.environment, campaign.dem).extent
+    with pytest.raises(UserInputError) as caught:
+        check_drawn_starts_on_terrain(campaign, extent)
+    line = caught.value.diagnostics[0].span.line
+    assert "initial.y" in text.splitlines()[line - 1]
+
+
+def test_a_worst_case_search_draws_its_own_worlds_and_is_not_refused_for_planned_ones(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from idefix_rules.campaign import runner
+
+    path = _campaign(tmp_path, '{distribution: normal, mean: "0 m", std: "2 m"}')
+    campaign = load_campaign(path)
+    with pytest.raises(UserInputError):  # a campaign's planned runs: refused
+        runner.prepare_simulation(campaign, lambda said: None, "again")
+    prepared = runner.prepare_simulation(campaign, lambda said: None, "again",
+                                         planned_runs=False)
+    assert prepared.terrain is not None

@@ -253,11 +253,15 @@ def check_drawn_starts_on_terrain(campaign: Campaign,
         if not off.size:
             continue
         run = int(off[0])
+        # at the distribution of the coordinate that leaves the terrain in that run
+        x_off = bool(x[run] < x_min or x[run] > x_max)
+        axis = next((name for name in (INITIAL_POSITION if x_off else INITIAL_POSITION[::-1])
+                     if name in uncertain), uncertain[0])
         raise UserInputError([error(
             "C216", f"run {run} of path {path} starts at ({x[run]:g} m, {y[run]:g} m), outside "
                     f"the terrain (x {x_min:g} … {x_max:g} m, y {y_min:g} … {y_max:g} m): "
                     f"{off.size} of its {planned} planned runs draw a start off it",
-            campaign.locations.span(("uncertainty", "parameters", uncertain[0]), at_key=True),
+            campaign.locations.span(("uncertainty", "parameters", axis), at_key=True),
             hint="narrow the start's distribution, or bound it inside the terrain (a "
                  "truncated_normal with low and high, a uniform); or give a larger terrain")],
             sources={str(campaign.source): campaign.text})

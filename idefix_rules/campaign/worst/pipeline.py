@@ -162,7 +162,7 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
     started = time.perf_counter()
     say = progress.message if progress is not None else (lambda text: None)
     again = _again(campaign, settings)
-    prepared = prepare_simulation(campaign, say, again)
+    prepared = prepare_simulation(campaign, say, again, planned_runs=False)
     evaluator = prepared.evaluator
     _check_threshold(campaign, evaluator, settings)
     workers = 1 if options.scheduler else max(
