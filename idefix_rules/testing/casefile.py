@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from idefix_rules import signals
-from idefix_rules.campaign.input.yamlsource import Loc, SourceMap, load_yaml
+from idefix_rules.campaign.input.yamlsource import Loc, SourceMap, flag_value, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text
 from idefix_rules.rulebook import check_text, read_source
@@ -483,8 +483,8 @@ def _run_group(reader: _Reader, data: Mapping[str, Any], loc: Loc, count: int) -
                 collisions.append(found)
     unfinished = False
     if "unfinished" in data:
-        if isinstance(data["unfinished"], bool):
-            unfinished = data["unfinished"]
+        if isinstance(flag_value(data["unfinished"]), bool):
+            unfinished = bool(flag_value(data["unfinished"]))
         else:
             reader.fail("T012", "'unfinished' is true or false", (*loc, "unfinished"))
     return RunGroup(count, keyframes, tuple(collisions), unfinished)
@@ -613,7 +613,7 @@ def _collision(reader: _Reader, data: Any, loc: Loc) -> Collision | None:
     else:
         reader.fail("T010", "a collision needs 'at' or 'from' (and 'to')", loc)
         return None
-    buffer_only = data.get("buffer", False)
+    buffer_only = flag_value(data.get("buffer", False))
     if not isinstance(buffer_only, bool):
         reader.fail("T010", "'buffer' is true or false", (*loc, "buffer"))
         ok = False
@@ -699,8 +699,9 @@ def _range(reader: _Reader, value: Any, loc: Loc, tolerance: float
 
 def _outcome(reader: _Reader, value: Any, loc: Loc, words: tuple[str, str]) -> bool | None:
     """``pass``/``fail`` (or ``true``/``false`` for chances) → bool."""
-    if isinstance(value, bool):
-        return value
+    flag = flag_value(value) if words == ("true", "false") else value
+    if isinstance(flag, bool):
+        return flag
     if value in words:
         return bool(value == words[0])
     reader.fail("T009", f"expected {words[0]} or {words[1]}, got {value!r}", loc)
@@ -765,7 +766,7 @@ def _expectations(reader: _Reader, data: Any, loc: Loc, checked: CheckedRulebook
             if passed is not None:
                 add("verdict_rule", name, passed, "pass" if passed else "fail", at)
     if "decided" in data:
-        decided = data["decided"]
+        decided = flag_value(data["decided"])
         if not isinstance(decided, bool):
             reader.fail("T009", "'decided' is true or false", (*loc, "decided"))
         else:

@@ -358,3 +358,14 @@ def test_a_case_file_over_its_size_limit_is_refused_before_it_is_read(tmp_path, 
     path.write_text(path.read_text() + "#\n")  # just over it
     assert main(["test", str(path)]) == 2
     assert "error[T001]: case file" in capsys.readouterr().out
+
+
+def test_flags_in_a_case_file_take_yes_and_no_as_before(tmp_path, capsys):
+    """Case files read only true/false as booleans (YAML 1.2), but a flag (unfinished, a
+    collision's buffer, decided, a chance's expectation) still takes yes/no/on/off."""
+    path = write(tmp_path, """  calm:
+    unfinished: no
+    collisions: [{part: wheel, level: L1, at: 3 s, buffer: yes}]
+    expect: {chances: {hit_L3: no}, decided: no}
+""")
+    assert main(["test", str(path)]) == 0, capsys.readouterr().out

@@ -31,6 +31,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from idefix_rules import units
+from idefix_rules.campaign.input.yamlsource import flag_value
 from idefix_rules.limits import MAX_RUNS, MAX_SEED
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
@@ -49,20 +50,10 @@ def _seed_range(value: int) -> int:
 # StrictInt: YAML's `true` is not a seed
 Seed = Annotated[StrictInt, AfterValidator(_seed_range)]
 
-# The words YAML 1.1 reads as booleans: the campaign's YAML reads only true and false so
-# (YAML 1.2, campaign/input/yamlsource.py: a keep-out area named `off` stays a name), and a flag
-# still takes them as written.
-_FLAG_WORDS = {"true": True, "yes": True, "on": True, "y": True,
-               "false": False, "no": False, "off": False, "n": False}
-
-
-def _flag(value: Any) -> Any:
-    if isinstance(value, str) and value.lower() in _FLAG_WORDS:
-        return _FLAG_WORDS[value.lower()]
-    return value  # a bool passes, anything else is refused by StrictBool
-
-
-Flag = Annotated[StrictBool, BeforeValidator(_flag)]
+# The campaign's YAML reads only true and false as booleans (YAML 1.2: a keep-out area named
+# `off` stays a name); a flag still takes yes/no/on/off as written, anything else StrictBool
+# refuses.
+Flag = Annotated[StrictBool, BeforeValidator(flag_value)]
 
 
 def _quantity(dimension: Dimension | None) -> BeforeValidator:

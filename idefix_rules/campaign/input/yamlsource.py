@@ -152,6 +152,20 @@ LocatingLoader.yaml_implicit_resolvers = {
 LocatingLoader.add_implicit_resolver(
     _BOOL, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF"))
 
+# The words YAML 1.1 reads as booleans, which a flag still takes as written (the loader reads
+# only true and false so).
+FLAG_WORDS = {"true": True, "yes": True, "on": True, "y": True,
+              "false": False, "no": False, "off": False, "n": False}
+
+
+def flag_value(value: Any) -> Any:
+    """A flag's value: a bool as given, one of :data:`FLAG_WORDS` written as text as its bool,
+    anything else as given (for the caller to refuse)."""
+    if isinstance(value, str) and value.lower() in FLAG_WORDS:
+        return FLAG_WORDS[value.lower()]
+    return value
+
+
 def yaml_data(text: str) -> Any:
     """The data of YAML text as :func:`load_yaml` reads it (safely, booleans as YAML 1.2 reads
     them), without positions or checks: for readers of a campaign already checked (a stored
