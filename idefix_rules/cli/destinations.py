@@ -59,16 +59,18 @@ def scheduler_address(text: str) -> str:
     """A Dask scheduler address (``tcp://host:port``, ``host:port``): its scheme one Dask
     knows and a location given, checked when the arguments are read (nothing is connected:
     an address no scheduler answers at is the campaign's infrastructure error)."""
-    from distributed.comm.addressing import parse_address
+    from distributed.comm.addressing import parse_address, parse_host_port
     from distributed.comm.registry import get_backend
 
     try:
         scheme, location = parse_address(text)
         get_backend(scheme)
+        # a network address names a host and a port that is a number (inproc:// does not)
+        host = location if scheme == "inproc" else parse_host_port(location, 8786)[0]
     except (ValueError, TypeError) as failure:
         raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: "
                                          f"{failure}") from None
-    if not location.strip():
+    if not str(host).strip():
         raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: it names "
                                          "no host (tcp://HOST:PORT)")
     return text

@@ -1076,6 +1076,8 @@ def test_report_into_a_folder_keeps_the_report_already_there(
 @pytest.mark.parametrize(("address", "words"), [
     ("nonsense://x", "unknown address scheme 'nonsense'"),
     ("tcp://", "it names no host"),
+    ("tcp://:8786", "it names no host"),
+    ("tcp://scheduler:notaport", "invalid literal for int()"),
 ])
 def test_a_scheduler_address_that_is_none_is_a_usage_error_before_anything_runs(
         tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
