@@ -262,7 +262,12 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     The output folder is owned by this campaign while it runs (:func:`claimed_output`)."""
     options = options or SimulationOptions()
     with claimed_output(campaign, junit, options.resume) as lock:
-        result = _run_owned(campaign, options, progress, junit, report)
+        try:
+            result = _run_owned(campaign, options, progress, junit, report)
+        except ReportInterrupted as stop:  # the campaign is complete: its notes go with it
+            if lock.note is not None:
+                stop.result.warnings.insert(0, lock.note)
+            raise
         if lock.note is not None:
             result.warnings.insert(0, lock.note)
         return result

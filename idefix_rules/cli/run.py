@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -180,6 +181,9 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
         done = stop.result
         print_outcome(console, done.evaluation, done.expectations, done.exit_code,
                       done.warnings, stored_titles(done.results), [("results", done.results)])
+        if done.problems:  # why the exit code would have been 2 (a waiver matching nothing)
+            print(UserInputError(done.problems, sources={str(campaign.source): campaign.text})
+                  .render(), file=sys.stderr)
         console.print(f"[yellow]interrupted[/yellow] while writing the report: the results "
                       f"and summary.json are complete (exit code {done.exit_code} without "
                       f"the interrupt); write the report with "

@@ -1088,3 +1088,25 @@ def test_a_scheduler_address_that_is_none_is_a_usage_error_before_anything_runs(
     err = capsys.readouterr().err
     assert f"argument --scheduler: {address!r} is not a Dask scheduler address" in err
     assert words in err and not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_while_the_report_is_written_still_says_why_the_exit_code_would_be_2(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from idefix_rules.campaign import runner
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    waiver = ("waivers:\n  - {rule: acceptable_risk, path: straight, reason: \"x\", "
+              "approved_by: \"me\", until: 2099-01-01}\n")
+    materialise(tmp_path, campaign(append=waiver), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    # at 40 runs acceptable_risk passes decidedly on straight: the waiver matches nothing
+    assert main(["campaign.yaml", "--runs", "40", "--quiet", "--no-report"]) == 2
+    plain = "".join(capsys.readouterr())
+    assert "error[C215]" in plain
+    monkeypatch.setattr(runner, "write_report", interrupted)
+    assert main(["campaign.yaml", "--runs", "40", "--quiet"]) == 130
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert "error[C215]" in output and "(exit code 2 without the interrupt)" in output
