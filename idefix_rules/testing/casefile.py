@@ -168,7 +168,11 @@ _CASES_KEY = re.compile(r"^cases\s*:", re.MULTILINE)
 
 
 def _holds_cases(path: Path) -> bool:
+    from idefix_rules.limits import MAX_CASE_FILE_BYTES
+
     try:
+        if path.stat().st_size > MAX_CASE_FILE_BYTES:
+            return True  # refused as T001 for its size, before it is read
         return bool(_CASES_KEY.search(path.read_text(encoding="utf-8")))
     except (OSError, UnicodeDecodeError):
         return True  # said as T001 when it is read

@@ -369,3 +369,21 @@ def test_flags_in_a_case_file_take_yes_and_no_as_before(tmp_path, capsys):
     expect: {chances: {hit_L3: no}, decided: no}
 """)
     assert main(["test", str(path)]) == 0, capsys.readouterr().out
+
+
+def test_a_huge_yaml_file_in_a_folder_is_refused_unread(tmp_path, monkeypatch, capsys):
+    from idefix_rules.limits import MAX_CASE_FILE_BYTES
+    from idefix_rules.testing import casefile
+
+    huge = tmp_path / "big.yaml"
+    huge.write_bytes(b"#" * (MAX_CASE_FILE_BYTES + 10))
+    read: list[str] = []
+    real = Path.read_text
+
+    def watched(self: Path, *args: object, **kwargs: object) -> str:
+        read.append(self.name)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(casefile.Path, "read_text", watched)
+    assert main(["test", str(tmp_path)]) == 2
+    assert "big.yaml" not in read and "error[T001]" in capsys.readouterr().out
