@@ -139,7 +139,9 @@ def test_the_last_screen_of_the_example_at_80_by_40_shows_the_decision_and_ranki
         [sys.executable, "-m", "idefix_rules", str(root / "campaigns" / "rock-detour.yaml"),
          "--runs", "4", "--workers", "2", "--no-report", "--out", str(tmp_path / "out")],
         cwd=root, env=env, capture_output=True, text=True, timeout=600, check=False)
-    assert done.returncode == 0, done.stdout + done.stderr
+    # 4 runs cannot show the wide detour's L2 chance below 10 %: that expectation is not
+    # decided (exit 1); the straight chain fails as expected
+    assert done.returncode == 1, done.stdout + done.stderr
     assert "Traceback" not in done.stderr
     lines = (done.stdout + done.stderr).splitlines()
     screen = lines[-40:]
@@ -148,7 +150,7 @@ def test_the_last_screen_of_the_example_at_80_by_40_shows_the_decision_and_ranki
     ranking = next(line for line in screen if line.startswith("Ranking: "))
     assert set(ranking.removeprefix("Ranking: ").split(" > ")) == \
         {"straight", "wide-detour", "smooth-detour", "approach"}
-    assert screen[-1] == "CI expectations: 2 of 2 held (exit 0)"
+    assert screen[-1] == "CI expectations: 1 of 2 held (exit 1)"
     text = " ".join(done.stdout.split())
     # The slip assumption is the rulebook's: one warning for the four paths, said once.
     assert text.count("assumes theoretical_slip") == 1

@@ -63,10 +63,11 @@ def test_text_lists_constants_settings_and_levels(rulebook: Path,
     assert main(["explain", str(rulebook)]) == 0
     out = capsys.readouterr().out
     lines = [" ".join(line.replace("│", " ").split()) for line in out.splitlines()]
-    assert ("critical_slip 60 % 0.6 Slip above 60 % is critical on the softer regolith"
+    # not a terminal here: a record per rule, a line per constant (cli/explain.py)
+    assert ("critical_slip = 60 % (= 0.6) # Slip above 60 % is critical on the softer regolith"
             in lines)
-    assert "critical_sinkage 4 cm 0.04 m Assumption: under half the wheel radius" in lines
-    assert "f_obs {L1: 0.3, L2: 0.8, L3: 1} Risk factor per obstacle level" in lines
+    assert "critical_sinkage = 4 cm (= 0.04 m) # Assumption: under half the wheel radius" in lines
+    assert "f_obs = {L1: 0.3, L2: 0.8, L3: 1} # Risk factor per obstacle level" in lines
     assert "setting tolerance_growth = 5 cm/rad (= 0.05 m/rad)" in lines
     assert "setting theoretical_slip = (default) (= 0)" in lines
     assert "obstacle level L1: below 3 cm (0.03 m), buffer 2 cm (0.02 m), f_obs 0.3" in lines

@@ -20,7 +20,9 @@ def stored_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("diff-campaign") / "rock-detour"
     code = main([str(ROOT / "campaigns" / "rock-detour.yaml"), "--runs", "4", "--out", str(out),
                  "--workers", "2", "--quiet", "--no-report"])
-    assert code == 0  # the example's expectations hold
+    # the straight chain fails as expected; 0 L2 hits of the wide detour in 4 runs cannot
+    # show its chance below 10 % (bounds 0-59.3 %): that expectation is not decided, exit 1
+    assert code == 1
     return out / "results.h5"
 
 

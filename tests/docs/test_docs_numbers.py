@@ -56,7 +56,8 @@ def test_a_run_of_the_example_writes_what_the_docs_say(tmp_path: Path) -> None:
             [sys.executable, "-m", "idefix_rules", str(ROOT / "campaigns" / "rock-detour.yaml"),
              "--runs", str(runs), "--workers", "2", "--no-report", "--quiet", "--out", str(out)],
             cwd=ROOT, capture_output=True, text=True, timeout=600, check=False)
-        assert done.returncode == 0, done.stdout + done.stderr
+        # (8 and 16 runs cannot show the wide detour's L2 chance below 10 %: exit 1)
+        assert done.returncode == 1, done.stdout + done.stderr
         sizes.append((out / "results.h5").stat().st_size)
     per_run = (sizes[1] - sizes[0]) / (3 * RUNS) / 1e6
     quoted = quoted_per_run()["README.md"]
