@@ -35,6 +35,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
 )
 from idefix_rules.campaign.evaluation.gate import NOT_SIMULATED, gate_again
 from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
+from idefix_rules.campaign.input.waivers import waive_verdict
 from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
 from idefix_rules.campaign.statistics.budget import alpha_budget
@@ -198,11 +199,11 @@ class _Side:
 
 def _gate(side: _Side, chain: tuple[Command, ...], context: dict[str, Any],
           reference: dict[str, np.ndarray] | None, collisions: Any) -> None:
-    """Command rules and prescreen of this side's rulebook, as a campaign would apply them
-    (without the campaign's waivers: a diff shows the rules; ``--waivers`` the waivers they
-    touch)."""
+    """Command rules and prescreen of this side's rulebook, as a campaign would apply them,
+    with the stored campaign's waivers (as ``evaluate --rulebook`` does: each side is the plan's
+    verdict under that rulebook; ``--waivers`` lists the waivers a change touches)."""
     gate_again(side.result, side.evaluator, chain, context["rover"], context["sigma"],
-               reference, collisions, (), context["units"])
+               reference, collisions, context["waivers"], context["units"])
 
 
 def _side_result(side: _Side) -> SideResult:
@@ -260,7 +261,8 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         store = stored.store
         campaign = stored.require_campaign()
         context = {"rover": stored.rover, "sigma": stored.sigma,
-                   "units": DisplayUnits.from_campaign_text(campaign.text)}
+                   "units": DisplayUnits.from_campaign_text(campaign.text),
+                   "waivers": tuple(campaign.model.waivers)}
         evaluators = [values_only(old.checked), values_only(new.checked)]
         digests = [source_sha256(old.checked), source_sha256(new.checked)]
         collisions = CollisionSources(stored, evaluators, (old.checked, new.checked))
@@ -396,8 +398,11 @@ def _judge(stored: StoredCampaign, evaluators: Sequence[Any],
                                 adaptive, waivers)
         for name, side in active.items():
             side.statistics = judged[name][0]
-            fill_result(side.result, side.evaluation, side.statistics,
-                        evaluator.verdict(side.statistics))
+            # the campaign's waivers, as its evaluation applies them: a waived failure is
+            # `waived` on both sides, and a change that ends it shows as a verdict change
+            verdict, waived = waive_verdict(evaluator.verdict(side.statistics), waivers, name)
+            side.result.waivers.extend(waived)
+            fill_result(side.result, side.evaluation, side.statistics, verdict)
 
 
 def diff_results(paths: Sequence[Path], old: RulebookSource, new: RulebookSource,

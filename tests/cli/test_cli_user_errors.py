@@ -1110,3 +1110,26 @@ def test_ctrl_c_while_the_report_is_written_still_says_why_the_exit_code_would_b
     assert main(["campaign.yaml", "--runs", "40", "--quiet"]) == 130
     output = " ".join("".join(capsys.readouterr()).split())
     assert "error[C215]" in output and "(exit code 2 without the interrupt)" in output
+
+
+def test_diff_judges_each_side_with_the_campaigns_waivers_as_evaluate_does(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A path waived under the stored rulebook is `waived` on both sides of a diff with the
+    same rulebook (it was `fail`), and `diff` agrees with `evaluate --rulebook` on it."""
+    waiver = ("waivers:\n  - {rule: acceptable_risk, path: straight, reason: \"x\", "
+              "approved_by: \"me\", until: 2099-01-01}\n")
+    materialise(tmp_path, campaign(append=waiver), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    stored = {p["name"]: p["verdict"] for p in summary["paths"]}
+    assert stored["straight"] == "waived"
+    capsys.readouterr()
+    assert main(["diff", "test.rules", "test.rules", "--results", "out/results.h5",
+                 "--format", "json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    found = data["results"] if "files" not in data else data
+    sides = {path["name"]: (path["old"]["verdict"], path["new"]["verdict"])
+             for result in found["files"] for path in result["paths"]}
+    assert sides["straight"] == ("waived", "waived")
