@@ -63,7 +63,14 @@ from idefix_rules.campaign.storage.journal import roll_back
 from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
 from idefix_rules.campaign.storage.revision import Revision
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
-from idefix_rules.errors import Diagnostic, InfrastructureError, Span, UserInputError, error
+from idefix_rules.errors import (
+    Diagnostic,
+    IdefixError,
+    InfrastructureError,
+    Span,
+    UserInputError,
+    error,
+)
 from idefix_rules.files import previous_path, set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import StoredCampaign
@@ -264,8 +271,8 @@ def run_campaign(campaign: Campaign, options: SimulationOptions | None = None,
     with claimed_output(campaign, junit, options.resume) as lock:
         try:
             result = _run_owned(campaign, options, progress, junit, report)
-        except ReportInterrupted as stop:  # the campaign is complete: its notes go with it
-            if lock.note is not None:
+        except (ReportInterrupted, ReportFailed) as stop:  # the campaign is complete: its
+            if lock.note is not None:                      # notes go with it
                 stop.result.warnings.insert(0, lock.note)
             raise
         if lock.note is not None:
@@ -281,6 +288,18 @@ class ReportInterrupted(KeyboardInterrupt):
     def __init__(self, result: CampaignResult) -> None:
         super().__init__("interrupted while writing the report")
         self.result = result
+
+
+class ReportFailed(Exception):
+    """The report could not be written (a full disk, a file it cannot replace): the campaign
+    itself is complete (``result``, as for :class:`ReportInterrupted`); ``failure`` says
+    why, and its exit code (3 for the machine's, or the error's own) is the command's."""
+
+    def __init__(self, result: CampaignResult, failure: Exception) -> None:
+        super().__init__(f"the report could not be written: {failure}")
+        self.result = result
+        self.failure = failure
+        self.exit_code = failure.exit_code if isinstance(failure, IdefixError) else 3
 
 
 @dataclass
@@ -425,6 +444,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                          advance)
         except KeyboardInterrupt as stop:  # the results and summary.json are complete
             raise ReportInterrupted(result) from stop
+        except (OSError, IdefixError) as failure:  # a full disk, a folder where a figure goes
+            raise ReportFailed(result, failure) from failure
     result.timings = {"preparation_and_simulation": simulated - started,
                       "evaluation": evaluated - simulated,
                       "report": time.perf_counter() - evaluated,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from idefix_rules.cli.destinations import output_file, output_folder, scheduler_address
 from idefix_rules.cli.numbers import (
@@ -15,7 +15,7 @@ from idefix_rules.cli.numbers import (
     seed_number,
     worker_count,
 )
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import IdefixError, Span, UserInputError, error
 from idefix_rules.limits import MAX_RUNS, MAX_WORKERS
 
 if TYPE_CHECKING:
@@ -169,26 +169,40 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
                progress: RichProgress | PlainProgress, console: Console) -> int:
     from rich.markup import escape
 
-    from idefix_rules.campaign.runner import ReportInterrupted, run_campaign
+    from idefix_rules.campaign.runner import ReportFailed, ReportInterrupted, run_campaign
     from idefix_rules.cli.outcome import print_outcome
 
-    try:
-        result = run_campaign(campaign, options, progress, junit=args.junit,
-                              report=not args.no_report)
-    except ReportInterrupted as stop:
-        # the campaign is complete: its answer is said, then what the interrupt left undone
+    def complete(done: Any) -> None:
+        """A complete campaign's answer, said before what the report stage left undone."""
         progress.stop()
-        done = stop.result
         print_outcome(console, done.evaluation, done.expectations, done.exit_code,
                       done.warnings, stored_titles(done.results), [("results", done.results)])
         if done.problems:  # why the exit code would have been 2 (a waiver matching nothing)
             print(UserInputError(done.problems, sources={str(campaign.source): campaign.text})
                   .render(), file=sys.stderr)
+
+    try:
+        result = run_campaign(campaign, options, progress, junit=args.junit,
+                              report=not args.no_report)
+    except ReportInterrupted as stop:
+        complete(stop.result)
         console.print(f"[yellow]interrupted[/yellow] while writing the report: the results "
-                      f"and summary.json are complete (exit code {done.exit_code} without "
-                      f"the interrupt); write the report with "
-                      f"`idefix-verify report {escape(str(done.results))}`")
+                      f"and summary.json are complete (exit code {stop.result.exit_code} "
+                      f"without the interrupt); write the report with "
+                      f"`idefix-verify report {escape(str(stop.result.results))}`")
         return 130  # as the dispatcher would, without saying "interrupted" twice
+    except ReportFailed as stop:
+        complete(stop.result)
+        failure = stop.failure
+        why = failure.render() if isinstance(failure, IdefixError) else (
+            f"{type(failure).__name__}: {failure}")
+        print(f"error: the report could not be written: {why}", file=sys.stderr)
+        console.print(f"the results and summary.json are complete (exit code "
+                      f"{stop.result.exit_code} without the report's failure); once that is "
+                      f"put right, write the report with "
+                      f"`idefix-verify report {escape(str(stop.result.results))}`",
+                      markup=False)
+        return stop.exit_code
     except KeyboardInterrupt:
         progress.stop()
         console.print(f"[yellow]interrupted[/yellow]: continue with `{escape(_again(args))}`")

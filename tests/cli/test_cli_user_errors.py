@@ -1133,3 +1133,26 @@ def test_diff_judges_each_side_with_the_campaigns_waivers_as_evaluate_does(
     sides = {path["name"]: (path["old"]["verdict"], path["new"]["verdict"])
              for result in found["files"] for path in result["paths"]}
     assert sides["straight"] == ("waived", "waived")
+
+
+def test_a_report_that_cannot_be_written_says_the_answer_then_why_exit_3(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The campaign is complete when the report stage fails (a folder where a figure goes, a
+    full disk): its answer is said, then why the report is missing and how to write it; the
+    exit code is the failure's (3), never a traceback."""
+    from idefix_rules.campaign import runner
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise IsADirectoryError(21, "Is a directory", "out/risk_map_all.png")
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(runner, "write_report", broken)
+    assert main(["campaign.yaml", "--runs", "2", "--quiet"]) == 3
+    output = " ".join("".join(capsys.readouterr()).split())
+    assert "Traceback" not in output and "Decision:" in output
+    assert "error: the report could not be written: IsADirectoryError" in output
+    assert "(exit code 1 without the report's failure)" in output
+    assert "idefix-verify report" in output
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["exit_code"] == 1
