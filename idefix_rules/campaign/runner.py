@@ -556,7 +556,7 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campai
         code = outputs.EXIT_INPUT
     results = str(revision.path.resolve())
     data = outputs.summary(evaluation, checks, code, store_sensitivity(revision.store.file),
-                           results)
+                           results, problems)
     revision.store.file.require_group("evaluation").attrs["summary"] = \
         json.dumps(data, default=str)
     revision.commit(f"write the evaluation into {revision.path.name}", then)
@@ -569,7 +569,7 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campai
             junit.parent.mkdir(parents=True, exist_ok=True)
             with diskspace.guard(junit.parent, f"write {junit.name}", written):
                 write_atomic(junit, outputs.junit_xml(evaluation, checks, name, seconds,
-                                                      results))
+                                                      results, problems))
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",

@@ -1156,3 +1156,27 @@ def test_a_report_that_cannot_be_written_says_the_answer_then_why_exit_3(
     assert "(exit code 1 without the report's failure)" in output
     assert "idefix-verify report" in output
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["exit_code"] == 1
+
+
+def test_a_waiver_matching_nothing_is_in_summary_json_and_junit_not_only_on_stderr(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Exit 2 for a waiver that matches nothing: CI's files say why (summary.json `problems`,
+    a JUnit case in error), not only the console."""
+    import xml.etree.ElementTree as ET
+
+    waiver = ("waivers:\n  - {rule: acceptable_risk, path: straight, reason: \"x\", "
+              "approved_by: \"me\", until: 2099-01-01}\n")
+    materialise(tmp_path, campaign(append=waiver), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(["campaign.yaml", "--runs", "40", "--quiet", "--no-report",
+                 "--junit", "junit.xml"]) == 2
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["exit_code"] == 2
+    assert [problem["code"] for problem in summary["problems"]] == ["C215"]
+    root = ET.parse(tmp_path / "junit.xml").getroot()
+    assert root.get("errors") == "1"
+    (error_element,) = [e for e in root.iter("error") if e.get("type") == "C215"]
+    assert "waiver" in (error_element.get("message") or "")
+    for suite in root.iter("testsuite"):  # each suite's time is the sum of its cases'
+        cases = sum(float(case.get("time", "0")) for case in suite.iter("testcase"))
+        assert abs(float(suite.get("time", "0")) - cases) < 5e-4, suite.get("name")

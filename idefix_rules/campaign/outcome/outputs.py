@@ -15,7 +15,7 @@ import dataclasses
 import json
 import time
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,6 +38,7 @@ from idefix_rules.campaign.simulation.dask_pool import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bernoulli import anytime_bounds
 from idefix_rules.campaign.statistics.stopping import STOP_FIXED
+from idefix_rules.errors import Diagnostic
 from idefix_rules.files import write_atomic
 from idefix_rules.plain import as_plain
 
@@ -295,7 +296,8 @@ def path_record(path: PathResult) -> dict[str, Any]:
 
 def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
             code: int, sensitivity: dict[str, Any] | None = None,
-            results: str | None = None) -> dict[str, Any]:
+            results: str | None = None,
+            problems: Sequence[Diagnostic] = ()) -> dict[str, Any]:
     prov = evaluation.provenance
     return {
         "format": "idefix-summary",
@@ -325,6 +327,9 @@ def summary(evaluation: CampaignEvaluation, expectations: list[ExpectationResult
         "expectations": [{"description": e.description, "held": e.held, "message": e.message}
                          for e in expectations],
         "slip": slip_record(evaluation),
+        # the campaign's mistakes only its evaluation shows (a waiver matching nothing): why
+        # the exit code is 2
+        "problems": [problem.to_dict() for problem in problems],
         "exit_code": code,
     }
 
@@ -356,7 +361,7 @@ def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
 
 def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
               suite_name: str, seconds: Mapping[str, float] | None = None,
-              results: str | None = None) -> str:
+              results: str | None = None, problems: Sequence[Diagnostic] = ()) -> str:
     """JUnit XML whose failures are exactly what makes the exit code 1 (docs/ci.md).
 
     Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
@@ -406,7 +411,8 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
         ET.SubElement(paths, "system-out").text = "\n".join(
             f"pair: {pairwise.describe(pair, above)}" for above, pair in neighbours)
     _suite_counts(paths, len(evaluation.paths), failures, errors,
-                  sum(seconds.get(p.name, 0.0) for p in evaluation.paths), skipped)
+                  sum(_milliseconds(seconds.get(p.name, 0.0)) for p in evaluation.paths),
+                  skipped)
     if expectations:
         suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
         _run_properties(suite, evaluation, results)
@@ -421,12 +427,28 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
                               type="expectation").text = expectation.message
             ET.SubElement(case, "system-out").text = expectation.message
         _suite_counts(suite, len(expectations), failed, 0,
-                      sum(e.seconds for e in expectations))
+                      sum(_milliseconds(e.seconds) for e in expectations))
         failures += failed
-    _suite_counts(root, len(evaluation.paths) + len(expectations), failures, errors,
-                  sum(float(s.get("time", "0")) for s in root.iter("testsuite")), skipped)
+    if problems:  # the mistakes that make the exit code 2: a case in error each
+        suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.campaign")
+        _run_properties(suite, evaluation, results)
+        for problem in problems:
+            case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.campaign",
+                                 name=f"{problem.code} {problem.location()}", time="0.000")
+            ET.SubElement(case, "error", message=problem.message,
+                          type=problem.code).text = problem.format()
+        _suite_counts(suite, len(problems), 0, len(problems), 0.0)
+        errors += len(problems)
+    _suite_counts(root, len(evaluation.paths) + len(expectations) + len(problems), failures,
+                  errors, sum(float(s.get("time", "0")) for s in root.iter("testsuite")),
+                  skipped)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _milliseconds(seconds: float) -> float:
+    """A case's time as its ``time`` attribute shows it, so a suite's is their sum."""
+    return round(seconds, 3)
 
 
 def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
