@@ -48,6 +48,23 @@ def _umask() -> int:
     return current
 
 
+# The report's figures beside its page (report/__init__.py writes them): set aside with the
+# page, so that no figure of an earlier report (of another campaign, another evaluation, a run
+# without a report) stays beside this one's outputs.
+REPORT_FIGURES = ("risk_map_*.png", "box_local_error.png", "box_heading_error.png",
+                  "dominant_index.png", "sensitivity.png")
+
+
+def report_outputs(folder: Path, page: str = "report.html") -> list[Path]:
+    """The report's page and every figure of a report in ``folder`` (existing or not, for
+    :func:`set_aside`); copies already set aside (``*.previous.*``) are not among them."""
+    found = [Path(folder) / page]
+    for pattern in REPORT_FIGURES:
+        found += sorted(path for path in Path(folder).glob(pattern)
+                        if ".previous." not in path.name)
+    return found
+
+
 def set_aside(*paths: Path | None) -> list[Path]:
     """Rename each existing file to its :func:`previous_path` (replacing an older copy), so no
     output of an earlier run stays where this run's will be. Returns the new names."""

@@ -71,7 +71,7 @@ from idefix_rules.errors import (
     UserInputError,
     error,
 )
-from idefix_rules.files import previous_path, set_aside, write_atomic
+from idefix_rules.files import previous_path, report_outputs, set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import StoredCampaign
 from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, collision_function
@@ -178,7 +178,7 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     try:
         with own_folder(campaign.output, span=Span(str(campaign.output)),
                         sources=sources) as lock:
-            set_aside(campaign.output / SUMMARY_FILE, campaign.output / REPORT_FILE, junit,
+            set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output), junit,
                       None if resume else campaign.output / RESULTS_FILE)
             yield lock
     finally:
@@ -640,7 +640,8 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
         if output.resolve() != results.parent.resolve():
             output.mkdir(parents=True, exist_ok=True)
             notes.append(owned.enter_context(own_folder(output)).note)
-        set_aside(output / SUMMARY_FILE, junit)
+        # the report spoke for the evaluation this replaces: set aside with its figures
+        set_aside(output / SUMMARY_FILE, *report_outputs(output), junit)
         result = _rescore_owned(store, results, rulebook, junit, output)
         result.warnings[:0] = [note for note in notes if note is not None]
         return result

@@ -46,10 +46,10 @@ def run(args: argparse.Namespace) -> int:
                 hint="the report goes beside the results file by default: give a folder this "
                      "user can write with -o DIR"))
     # a report already there (of this campaign or any other) is kept, as a run keeps it
-    from idefix_rules.files import set_aside
+    from idefix_rules.files import report_outputs, set_aside
     from idefix_rules.report import REPORT_FILE
 
-    set_aside(out / REPORT_FILE)
+    set_aside(*report_outputs(out, REPORT_FILE))
     console = Console(stderr=True)
     with console.status("writing the report"):
         page = write_report(args.results, out, "free space, then run this command again")

@@ -1180,3 +1180,30 @@ def test_a_waiver_matching_nothing_is_in_summary_json_and_junit_not_only_on_stde
     for suite in root.iter("testsuite"):  # each suite's time is the sum of its cases'
         cases = sum(float(case.get("time", "0")) for case in suite.iter("testcase"))
         assert abs(float(suite.get("time", "0")) - cases) < 5e-4, suite.get("name")
+
+
+def test_a_new_run_or_evaluation_sets_the_earlier_report_and_its_figures_aside(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Outputs never speak for another run: a run without a report, or `evaluate`, leaves
+    no report page or figure of the earlier one in place (they become *.previous.*); every
+    figure the report writes is one of files.REPORT_FIGURES."""
+    import fnmatch
+
+    from idefix_rules.files import REPORT_FIGURES
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    assert main(["campaign.yaml", "--runs", "2", "--quiet"]) == 1
+    figures = sorted(path.name for path in out.glob("*.png"))
+    assert figures and (out / "report.html").is_file()
+    assert all(any(fnmatch.fnmatch(name, pattern) for pattern in REPORT_FIGURES)
+               for name in figures), figures
+    assert main(["campaign.yaml", "--runs", "2", "--quiet", "--no-report"]) == 1
+    assert not (out / "report.html").exists()
+    assert all(".previous." in path.name for path in out.glob("*.png"))
+    assert (out / "report.previous.html").is_file()
+    assert main(["campaign.yaml", "--runs", "2", "--quiet"]) == 1  # a report again
+    assert main(["evaluate", "out/results.h5", "--quiet"]) == 1
+    assert not (out / "report.html").exists()
+    assert all(".previous." in path.name for path in out.glob("*.png"))
