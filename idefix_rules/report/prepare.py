@@ -2,8 +2,8 @@
 
 The results file keeps per-run index values, not per-sample ones. For the result map the
 stored runs of each path are scored again chunk by chunk
-(:func:`idefix_rules.results.scoring.score_chunks`) with the rulebook stored in
-``/provenance/rulebook`` (the one the evaluation used), the run context of the stored campaign
+(:func:`idefix_rules.results.scoring.score_chunks`) with the rulebook the stored evaluation
+used (``/evaluation/rulebook_text``, else ``/provenance/rulebook``), the run context of the stored campaign
 (:class:`idefix_rules.results.campaign.StoredCampaign`) and its collision signals (stored by the
 evaluation when they are those the rulebook reads, else from the obstacle checker on the
 stored terrain), and the per-sample run risk (max over indices of weight × per-sample value)
@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.campaign.evaluation.evaluate import EVALUATION_RULEBOOK
 from idefix_rules.commands import RoverGeometry, chain_duration, ideal_poses
 from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData
@@ -102,9 +103,17 @@ def setup_from_store(store: StoredResults) -> Setup:
     stored = StoredCampaign(store)
     setup = Setup(stored=stored)
     try:
-        rulebook_text = store.text("rulebook")
-        attributes = store.file["provenance"]["rulebook"].attrs
-        rulebook_path = str(attributes.get("path", "rulebook.rules"))
+        evaluation = store.file.get("evaluation")
+        if evaluation is not None and EVALUATION_RULEBOOK in evaluation:
+            # the rulebook the stored evaluation used (`evaluate --rulebook` judged with
+            # another than the campaign's): its limits and per-sample risks, not the campaign's
+            value = evaluation[EVALUATION_RULEBOOK][()]
+            rulebook_text = value.decode("utf-8") if isinstance(value, bytes) else str(value)
+            rulebook_path = str(evaluation.attrs.get("rulebook_path", "rulebook.rules"))
+        else:
+            rulebook_text = store.text("rulebook")
+            attributes = store.file["provenance"]["rulebook"].attrs
+            rulebook_path = str(attributes.get("path", "rulebook.rules"))
     except KeyError:
         setup.notes.append("the results file holds no rulebook text: no per-sample risk")
         rulebook_text, rulebook_path = "", ""

@@ -1207,3 +1207,31 @@ def test_a_new_run_or_evaluation_sets_the_earlier_report_and_its_figures_aside(
     assert main(["evaluate", "out/results.h5", "--quiet"]) == 1
     assert not (out / "report.html").exists()
     assert all(".previous." in path.name for path in out.glob("*.png"))
+
+
+def test_the_report_after_evaluate_rulebook_draws_with_that_rulebook(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`evaluate --rulebook NEW` stores NEW's text with its evaluation; `report` then draws
+    its limits and maps with NEW, not with the campaign's rulebook."""
+    import h5py
+
+    from idefix_rules.report.prepare import setup_from_store
+    from idefix_rules.results.reader import StoredResults
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    changed = tmp_path / "changed.rules"
+    changed.write_text((tmp_path / "test.rules").read_text().replace(
+        "critical_slip = 70 %", "critical_slip = 60 %"))
+    assert "critical_slip = 60 %" in changed.read_text()
+    assert main(["evaluate", "out/results.h5", "--rulebook", str(changed), "--quiet"]) == 1
+    with h5py.File(tmp_path / "out" / "results.h5") as file:
+        assert "critical_slip = 60 %" in file["evaluation/rulebook_text"][()].decode()
+    store = StoredResults.open(tmp_path / "out" / "results.h5")
+    try:
+        setup = setup_from_store(store)
+        assert setup.checked is not None
+        assert setup.checked.constants["critical_slip"] == pytest.approx(0.6)
+    finally:
+        store.close()

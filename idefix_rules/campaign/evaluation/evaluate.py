@@ -134,6 +134,10 @@ class PathResult:
         return "waived" if self.waivers else "pass"
 
 
+# The dataset of /evaluation holding the text of the rulebook it was made with.
+EVALUATION_RULEBOOK = "rulebook_text"
+
+
 @dataclass
 class CampaignEvaluation:
     paths: list[PathResult]
@@ -339,6 +343,15 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         root = target.file.require_group("evaluation")
         for key, value in rulebook_info.items():
             root.attrs[f"rulebook_{key}"] = value
+        # the rulebook text this evaluation used (`evaluate --rulebook` judges with another
+        # than /provenance/rulebook): what the report draws its limits and maps with
+        if EVALUATION_RULEBOOK in root:
+            del root[EVALUATION_RULEBOOK]
+        source = getattr(getattr(getattr(evaluator, "checked", None), "rulebook", None),
+                         "source", None)
+        if isinstance(source, str) and source:
+            root.create_dataset(EVALUATION_RULEBOOK, data=source,
+                                dtype=h5py.string_dtype("utf-8"))
         root.attrs["ranking"] = json.dumps(ranking)
         root.attrs["ties"] = json.dumps(ties)
         from idefix_rules.timestamps import now_iso
