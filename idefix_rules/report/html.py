@@ -337,7 +337,8 @@ def why_html(data: ReportData, dominance_image: Image | None,
         total = sum(count for _, count in dominance) or 1
         parts.append("<p>Index that set I_max: " + ", ".join(
             f"<b>{escape(_titled(name, context.titles))}</b> in {count} of {total} runs "
-            f"({100 * count / total:.0f} %)" for name, count in dominance) + ".</p>")
+            # one decimal, as the console's percentages: halves are not rounded to even
+            f"({100 * count / total:.1f} %)" for name, count in dominance) + ".</p>")
         parts.append(worst_runs_html(path, context))
     coverage = data.coverage()
     if coverage:
