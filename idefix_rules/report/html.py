@@ -256,9 +256,10 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
 
 
 def pairs_html(data: ReportData) -> str:
-    """The ranking's neighbours compared in the same drawn worlds (a paired campaign): who
-    was safer in how many worlds, the risk difference and its interval, and what it decides."""
-    neighbours = pairwise.adjacent(data.ranking, data.pairs)
+    """The ranking's neighbours compared in the same drawn worlds (a paired campaign), and
+    every other pair the decision depends on: who was safer in how many worlds, the risk
+    difference and its interval, and what it decides."""
+    neighbours = pairwise.shown(data.ranking, data.pairs)
     if not neighbours:
         return ""
     head = ("Pair (higher rank first)", "Safer in the same worlds", "Risk difference [%]",
@@ -279,7 +280,8 @@ def pairs_html(data: ReportData) -> str:
     return (f'<h3 id="pairs">Paired comparisons</h3>'
             f"{_table(head, rows, numeric={2}, css='stack', labels=True)}"
             f"<p>Run j of every path was simulated in the same drawn world (initial pose, "
-            f"soil): each row compares two neighbours of the ranking world by world. The "
+            f"soil): each row compares two neighbours of the ranking world by world (and, "
+            f"below them, any other pair the decision waits on). The "
             f"interval is an anytime-valid confidence sequence of the mean risk difference, "
             f"at the confidence the campaign's α leaves each comparison.</p><ul>{sentences}</ul>")
 

@@ -3,8 +3,9 @@
 The results file keeps per-run index values, not per-sample ones. For the result map the
 stored runs of each path are scored again chunk by chunk
 (:func:`idefix_rules.results.scoring.score_chunks`) with the rulebook the stored evaluation
-used (``/evaluation/rulebook_text``, else ``/provenance/rulebook``), the run context of the stored campaign
-(:class:`idefix_rules.results.campaign.StoredCampaign`) and its collision signals (stored by the
+used (``/evaluation/rulebook_text``, else ``/provenance/rulebook``), the run context of the
+stored campaign (:class:`idefix_rules.results.campaign.StoredCampaign`) and its collision
+signals (stored by the
 evaluation when they are those the rulebook reads, else from the obstacle checker on the
 stored terrain), and the per-sample run risk (max over indices of weight × per-sample value)
 is binned on the map grid (:mod:`idefix_rules.report.riskmap`).

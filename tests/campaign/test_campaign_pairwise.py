@@ -94,3 +94,21 @@ def test_tied_neighbours_share_a_rank_within_the_same_verdict() -> None:
     ranks, ties = pairwise.shared_ranks(["a", "b", "c"], {"a": True, "b": False, "c": False},
                                         pairs)
     assert ranks == {"a": 1, "b": 2, "c": 2} and ties == [("b", "c")]
+
+
+def test_the_pairs_shown_are_the_neighbours_and_then_every_pair_the_decision_waits_on() -> None:
+    from idefix_rules.campaign.statistics.pairwise import PairComparison, shown
+
+    def pair(first: str, second: str, outcome: str, needed: bool) -> PairComparison:
+        return PairComparison(first, second, 32, 20, 12, 0, -0.01, -0.05, 0.03, 0.99, 0.0,
+                              outcome, needed)
+
+    ranking = ["approach", "smooth", "wide", "straight"]
+    pairs = [pair("approach", "smooth", "first safer", True),
+             pair("smooth", "wide", "open", False),
+             pair("wide", "straight", "first safer", False),
+             pair("wide", "approach", "open", True),      # the decision waits on it
+             pair("smooth", "straight", "open", False)]   # no decision depends on it
+    found = [(above, p.first, p.second) for above, p in shown(ranking, pairs)]
+    assert found == [("approach", "approach", "smooth"), ("smooth", "smooth", "wide"),
+                     ("wide", "wide", "straight"), ("approach", "wide", "approach")]

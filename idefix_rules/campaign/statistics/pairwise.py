@@ -157,6 +157,21 @@ def adjacent(ranking: Sequence[str], pairs: Sequence[PairComparison]
     return found
 
 
+def shown(ranking: Sequence[str], pairs: Sequence[PairComparison]
+          ) -> list[tuple[str, PairComparison]]:
+    """:func:`adjacent`, then each pair the decision depends on that is not a neighbour pair
+    (the chain to send against one further down), seen from its higher-ranked path."""
+    found = adjacent(ranking, pairs)
+    taken = {id(pair) for _, pair in found}
+    place = {name: position for position, name in enumerate(ranking)}
+    for pair in pairs:
+        if pair.needed and id(pair) not in taken and pair.first in place \
+                and pair.second in place:
+            above = min((pair.first, pair.second), key=lambda name: place[name])
+            found.append((above, pair))
+    return found
+
+
 def difference_interval(differences: np.ndarray, alpha: float, sequential: bool = True,
                         tuned: float | None = None) -> tuple[float, float]:
     """The mean of ``differences`` (values in [−1, 1], run order) between a lower and an upper
