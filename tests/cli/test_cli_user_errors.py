@@ -1235,3 +1235,28 @@ def test_the_report_after_evaluate_rulebook_draws_with_that_rulebook(
         assert setup.checked.constants["critical_slip"] == pytest.approx(0.6)
     finally:
         store.close()
+
+
+def test_an_evaluated_interrupted_campaign_says_how_many_runs_it_simulated(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its stop reason says the runs simulated of those planned, not 'fixed run count'."""
+    from idefix_rules.campaign.storage.store import STATUS_MISSING
+
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(["campaign.yaml", "--runs", "4", "--quiet", "--no-report"]) == 1
+    results = tmp_path / "out" / "results.h5"
+    with h5py.File(results, "r+") as file:  # as a kill after two runs of straight leaves it
+        file.attrs["state"] = "interrupted"
+        status = file["paths/straight/runs/status"]
+        status[2:] = STATUS_MISSING
+        for key in file["paths/straight/runs/signals"]:
+            signal = file["paths/straight/runs/signals"][key]
+            signal[2:] = np.nan
+    assert main(["evaluate", str(results), "--quiet"]) == 1
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    paths = {path["name"]: path for path in summary["paths"]}
+    assert paths["straight"]["stop_reason"] == ("interrupted: 2 of the 4 planned runs "
+                                                "simulated (the others count as failed)")
+    assert paths["straight"]["missing_runs"] == 2
+    assert paths["arc"]["stop_reason"] == "fixed run count (4 runs)"

@@ -310,7 +310,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         unwaived = evaluator.verdict(stats)
         verdict, waived = waive_verdict(unwaived, waivers, name)
         if not sequential and not result.stop_reason:
-            result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)"
+            result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)" if not result.missing \
+                else (f"interrupted: {result.runs - result.missing} of the {result.runs} "
+                      "planned runs simulated (the others count as failed)")
         elif sequential:  # in the looks' words (statistics/stopping.py)
             # the path's own (prescreen, command) waivers are the result's before the verdict's
             result.stop_reason = restated(result.stop_reason, settled_outcome(
