@@ -194,9 +194,11 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
     except ReportFailed as stop:
         complete(stop.result)
         failure = stop.failure
-        why = failure.render() if isinstance(failure, IdefixError) else (
-            f"{type(failure).__name__}: {failure}")
-        print(f"error: the report could not be written: {why}", file=sys.stderr)
+        # the tool's own errors say what they were writing (a full disk: the report and its
+        # figures); a plain OSError is said with the stage it broke
+        print(failure.render() if isinstance(failure, IdefixError) else
+              f"error: the report could not be written: {type(failure).__name__}: {failure}",
+              file=sys.stderr)
         console.print(f"the results and summary.json are complete (exit code "
                       f"{stop.result.exit_code} without the report's failure); once that is "
                       f"put right, write the report with "
