@@ -73,7 +73,7 @@ from idefix_rules.errors import (
 )
 from idefix_rules.files import previous_path, report_outputs, set_aside, write_atomic
 from idefix_rules.fmu.terrain import Terrain
-from idefix_rules.results.campaign import StoredCampaign
+from idefix_rules.results.campaign import STORED_RULEBOOK, StoredCampaign
 from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, collision_function
 from idefix_rules.results.format import SEARCHED_RUNS
 from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
@@ -655,11 +655,12 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     if rulebook is None:
         from idefix_rules.rulebook import compile_rulebook
 
-        # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN
-        rulebook_path = Path(stored.rulebook_text()[1])
+        # Spans point into the stored text: results.h5:/provenance/rulebook:LINE:COLUMN; the
+        # evaluation records the file absolute, as it records the results and campaign
+        rulebook_path = Path(f"{results.resolve()}:{STORED_RULEBOOK}")
         evaluator = compile_rulebook(stored.checked_rulebook())
     else:
-        rulebook_path = rulebook
+        rulebook_path = rulebook.resolve()
         evaluator = compile_rulebook_file(rulebook)
     # The stored campaign's waivers against this rulebook and today's date, as a run checks
     # them: a waiver that expired since the campaign ran no longer covers its failure.

@@ -1260,3 +1260,18 @@ def test_an_evaluated_interrupted_campaign_says_how_many_runs_it_simulated(
                                                 "simulated (the others count as failed)")
     assert paths["straight"]["missing_runs"] == 2
     assert paths["arc"]["stop_reason"] == "fixed run count (4 runs)"
+
+
+def test_evaluate_records_the_rulebook_absolute_as_it_records_the_results(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    summary_file = tmp_path / "out" / "summary.json"
+    assert main(["evaluate", "out/results.h5", "--rulebook", "test.rules", "--quiet"]) == 1
+    summary = json.loads(summary_file.read_text())
+    assert summary["rulebook"]["path"] == str((tmp_path / "test.rules").resolve())
+    assert main(["evaluate", "out/results.h5", "--quiet"]) == 1
+    summary = json.loads(summary_file.read_text())
+    assert summary["rulebook"]["path"] == \
+        f"{(tmp_path / 'out' / 'results.h5').resolve()}:/provenance/rulebook"
