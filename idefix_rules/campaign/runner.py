@@ -40,6 +40,7 @@ from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, r
 from idefix_rules.campaign.input.validate import (
     check_drawn_starts_on_terrain,
     check_paths_on_terrain,
+    check_polygons_on_terrain,
     check_rocks_on_terrain,
     check_simulation_size,
     check_start_on_terrain,
@@ -511,6 +512,7 @@ def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, flo
         return True
 
     gather(check_rocks_on_terrain)
+    gather(check_polygons_on_terrain)
     terrain_given = campaign.model.environment.terrain.dem is not None \
         or campaign.model.environment.terrain.synthetic is not None
     # the built-in rover starts at initial.x, initial.y on the terrain it is given (a foreign

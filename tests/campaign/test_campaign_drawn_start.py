@@ -96,3 +96,28 @@ def test_a_worst_case_search_draws_its_own_worlds_and_is_not_refused_for_planned
     prepared = runner.prepare_simulation(campaign, lambda said: None, "again",
                                          planned_runs=False)
     assert prepared.terrain is not None
+
+
+@pytest.mark.parametrize(("xs", "refused"), [
+    (("10 m", "11 m"), True),     # entirely beyond x = 2 m: another frame
+    (("1.9 m", "2.5 m"), False),  # across the edge: fine
+])
+def test_a_keep_out_polygon_entirely_off_the_terrain_is_c206(
+        tmp_path: Path, xs: tuple[str, str], refused: bool) -> None:
+    from idefix_rules.campaign.input.validate import check_polygons_on_terrain
+
+    path = _campaign(tmp_path, '{distribution: normal, mean: "0 m", std: "1 cm"}')
+    low, high = xs
+    path.write_text(path.read_text().replace(
+        "  regolith:\n",
+        f'  keep_out:\n    - {{name: crater, level: L3, polygon: [["{low}", "1 m"], '
+        f'["{high}", "1 m"], ["{high}", "1.5 m"]]}}\n  regolith:\n', 1))
+    campaign = load_campaign(path)
+    extent = build_terrain(campaign.model.environment, campaign.dem).extent
+    if not refused:
+        check_polygons_on_terrain(campaign, extent)
+        return
+    with pytest.raises(UserInputError) as caught:
+        check_polygons_on_terrain(campaign, extent)
+    found = caught.value.diagnostics[0]
+    assert found.code == "C206" and "keep_out[0] (crater) lies entirely outside" in found.message

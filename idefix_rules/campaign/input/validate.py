@@ -196,6 +196,35 @@ def check_rocks_on_terrain(campaign: Campaign, extent: tuple[float, float, float
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
 
 
+def check_polygons_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
+                              ) -> None:
+    """A keep-out polygon or a named area's polygon must reach the terrain grid: one whose
+    every vertex lies beyond one of its edges covers none of it, almost always coordinates in
+    another frame (C206, as for a rock). A polygon partly on the terrain is fine."""
+    x_min, x_max, y_min, y_max = extent
+
+    def outside(polygon: list[tuple[float, float]]) -> bool:
+        xs, ys = [x for x, _ in polygon], [y for _, y in polygon]
+        return max(xs) < x_min or min(xs) > x_max or max(ys) < y_min or min(ys) > y_max
+
+    where = f"the terrain (x {x_min:g} … {x_max:g} m, y {y_min:g} … {y_max:g} m)"
+    environment = campaign.model.environment
+    problems = [
+        error("C206", f"environment.keep_out[{index}] ({area.name}) lies entirely outside "
+                      f"{where}", campaign.span(("environment", "keep_out", index)),
+              hint="polygon vertices are world coordinates, in the terrain's frame")
+        for index, area in enumerate(environment.keep_out) if outside(area.polygon)]
+    problems += [
+        error("C206", f"environment.areas.{name}.polygons[{index}] lies entirely outside "
+                      f"{where}",
+              campaign.span(("environment", "areas", name, "polygons", index)),
+              hint="polygon vertices are world coordinates, in the terrain's frame")
+        for name, geometry in environment.areas.items()
+        for index, polygon in enumerate(geometry.polygons) if outside(polygon)]
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+
+
 def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float]
                            ) -> None:
     """The rover's nominal start (``initial.x``, ``initial.y`` of the reference run) must lie
