@@ -9,6 +9,7 @@ nor the evaluation (which follows the rulebook).
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import h5py
@@ -60,27 +61,35 @@ verdict acceptable: require risk <= 50 %
 """
 
 
+def simulated(file: h5py.File) -> Iterator[tuple[str, np.ndarray | float]]:
+    """Every simulated dataset (``PATH/NAME``, its data) and reference parameter
+    (``PATH/ref.KEY``, its value), path by path in a fixed order: what the simulation stage
+    writes, not the evaluation nor the failures' platform-worded texts."""
+    for path in sorted(file["paths"]):
+        group = file["paths"][path]
+        names: list[str] = []
+        group.visit(names.append)
+        for name in sorted(names):
+            item = group[name]
+            if not isinstance(item, h5py.Dataset) or name.startswith("evaluation") \
+                    or name == "runs/failure":  # text of failures, none expected
+                continue
+            yield f"{path}/{name}", np.ascontiguousarray(item[()])
+        for key in sorted(group["reference/parameters"].attrs) \
+                if "reference/parameters" in group else ():
+            yield f"{path}/ref.{key}", float(group["reference/parameters"].attrs[key])
+
+
 def results_digest(results: Path) -> str:
     """sha256 over the names, dtypes, shapes and bytes of every simulated dataset."""
     digest = hashlib.sha256()
     with h5py.File(results, "r") as file:
-        for path in sorted(file["paths"]):
-            group = file["paths"][path]
-            names: list[str] = []
-            group.visit(names.append)
-            for name in sorted(names):
-                item = group[name]
-                if not isinstance(item, h5py.Dataset) or name.startswith("evaluation"):
-                    continue
-                if name == "runs/failure":
-                    continue  # text of failures, none expected; platform-worded
-                data = np.ascontiguousarray(item[()])
-                digest.update(f"{path}/{name}:{data.dtype.str}:{data.shape}".encode())
+        for label, data in simulated(file):
+            if isinstance(data, float):
+                digest.update(f"{label}={data!r}".encode())
+            else:
+                digest.update(f"{label}:{data.dtype.str}:{data.shape}".encode())
                 digest.update(data.tobytes())
-            for key in sorted(group["reference/parameters"].attrs) \
-                    if "reference/parameters" in group else ():
-                value = float(group["reference/parameters"].attrs[key])
-                digest.update(f"{path}/ref.{key}={value!r}".encode())
     return digest.hexdigest()
 
 
@@ -106,30 +115,21 @@ def results_fingerprint(results: Path) -> dict[str, object]:
     value."""
     found: dict[str, object] = {}
     with h5py.File(results, "r") as file:
-        for path in sorted(file["paths"]):
-            group = file["paths"][path]
-            names: list[str] = []
-            group.visit(names.append)
-            for name in sorted(names):
-                item = group[name]
-                if not isinstance(item, h5py.Dataset) or name.startswith("evaluation") \
-                        or name == "runs/failure":
-                    continue
-                data = np.asarray(item[()])
-                entry: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
-                if data.dtype.kind in "fiub" and data.size:
-                    flat = data.astype(np.float64).reshape(-1)
-                    places = np.unique(np.linspace(0, flat.size - 1, PLACES).astype(int))
-                    entry["values"] = [_plain(v) for v in (
-                        np.nansum(flat) if np.isfinite(flat).any() else np.nan,
-                        np.nanmin(flat) if np.isfinite(flat).any() else np.nan,
-                        np.nanmax(flat) if np.isfinite(flat).any() else np.nan,
-                        *flat[places])]
-                found[f"{path}/{name}"] = entry
-            for key in sorted(group["reference/parameters"].attrs) \
-                    if "reference/parameters" in group else ():
-                value = float(group["reference/parameters"].attrs[key])
-                found[f"{path}/ref.{key}"] = {"values": [_plain(value)]}
+        for label, data in simulated(file):
+            if isinstance(data, float):
+                found[label] = {"values": [_plain(data)]}
+                continue
+            entry: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
+            if data.dtype.kind in "fiub" and data.size:
+                flat = data.astype(np.float64).reshape(-1)
+                places = np.unique(np.linspace(0, flat.size - 1, PLACES).astype(int))
+                finite = bool(np.isfinite(flat).any())
+                entry["values"] = [_plain(v) for v in (
+                    np.nansum(flat) if finite else np.nan,
+                    np.nanmin(flat) if finite else np.nan,
+                    np.nanmax(flat) if finite else np.nan,
+                    *flat[places])]
+            found[label] = entry
     return found
 
 

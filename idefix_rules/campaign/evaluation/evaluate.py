@@ -349,11 +349,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         # than /provenance/rulebook): what the report draws its limits and maps with
         if EVALUATION_RULEBOOK in root:
             del root[EVALUATION_RULEBOOK]
-        source = getattr(getattr(getattr(evaluator, "checked", None), "rulebook", None),
-                         "source", None)
-        if isinstance(source, str) and source:
-            root.create_dataset(EVALUATION_RULEBOOK, data=source,
-                                dtype=h5py.string_dtype("utf-8"))
+        root.create_dataset(EVALUATION_RULEBOOK, data=evaluator.checked.rulebook.source,
+                            dtype=h5py.string_dtype("utf-8"))
         root.attrs["ranking"] = json.dumps(ranking)
         root.attrs["ties"] = json.dumps(ties)
         from idefix_rules.timestamps import now_iso

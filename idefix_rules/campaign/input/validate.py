@@ -258,8 +258,12 @@ def planned_draws(campaign: Campaign, names: Sequence[str]
     if not parameters:
         return planned, {name: {} for name in names}
     paired = campaign.model.uncertainty.paired
+    if paired:  # every path draws the same worlds: drawn once, shared
+        shared = sampling.sample_path(parameters, method, campaign.seed,
+                                      sampling.path_stream("", True), planned)
+        return planned, {name: shared for name in names}
     return planned, {name: sampling.sample_path(parameters, method, campaign.seed,
-                                                sampling.path_stream(name, paired), planned)
+                                                sampling.path_stream(name, False), planned)
                      for name in names}
 
 
@@ -304,14 +308,13 @@ def check_tolerance_start(campaign: Campaign, evaluator: Any, stored: bool = Fal
     reason of its own (C219, at the campaign's ``uncertainty``, naming those chains); chains
     that all turn are let through. ``stored``: the campaign of a results file (the hint then
     says to run it again)."""
-    if "tolerance_radius" not in getattr(evaluator, "signals_read", ()):
+    if "tolerance_radius" not in evaluator.signals_read:
         return
     if initial_position_sigma(campaign) > 0.0:
         return
     # a chain that turns grows the radius above 0 (tolerance_growth per radian): only the
     # chains that never turn, or every chain without a growth, keep it at 0 to their end
-    growth = float(getattr(getattr(evaluator, "derived_settings", None), "tolerance_growth",
-                           0.0))
+    growth = float(evaluator.derived_settings.tolerance_growth)
     straight = [spec.name for spec in campaign.paths
                 if growth <= 0.0 or not any(command.delta_heading != 0.0
                                             for command in spec.chain)]
