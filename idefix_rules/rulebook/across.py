@@ -78,13 +78,20 @@ class RunsAccumulator:
         self.runs = 0
         self.state: np.ndarray | None = None  # sum, sum of squares, extreme or true count
         self.values: list[np.ndarray] = []  # percentile only
+        # Some run's operand read a non-finite signal or was non-finite itself: the path-level
+        # value is not a number, whatever the reducer made of it (a comparison with NaN is
+        # false, so `fraction over runs (x > 1)` would count that run as not holding).
+        self.non_finite = False
 
-    def add(self, values: Any) -> None:
-        """Add the operand's values of a chunk of runs (axis 0 = run)."""
+    def add(self, values: Any, non_finite: bool = False) -> None:
+        """Add the operand's values of a chunk of runs (axis 0 = run); ``non_finite``: some
+        run of the chunk read a non-finite signal in the operand."""
         array = np.asarray(values)
         if array.ndim == 0:
             raise ValueError("add() needs the run axis (expressions.runs_first spells it out)")
         self.runs += array.shape[0]
+        if non_finite or (array.dtype != bool and not np.isfinite(array).all()):
+            self.non_finite = True
         if self.reducer == "percentile":
             self.values.append(np.asarray(array, dtype=float))
             return
@@ -117,6 +124,7 @@ class RunsAccumulator:
         """A copy to fold more chunks on (this one stays as it is)."""
         twin = RunsAccumulator(self.node)
         twin.runs = self.runs
+        twin.non_finite = self.non_finite
         twin.state = None if self.state is None else self.state.copy()
         twin.values = list(self.values)  # arrays never changed in place
         return twin
@@ -124,6 +132,7 @@ class RunsAccumulator:
     def merge(self, other: RunsAccumulator) -> None:
         """Fold another partial of the same reduction (e.g. another worker's chunks) in."""
         self.runs += other.runs
+        self.non_finite = self.non_finite or other.non_finite
         self.values += other.values
         if other.state is not None:
             self.state = other.state if self.state is None else self._combine(self.state,
@@ -185,6 +194,12 @@ class AcrossRuns:
     def values(self) -> dict[Reduce, np.ndarray]:
         return {node: accumulator.result() for node, accumulator in self.accumulators.items()}
 
+    def non_finite(self) -> frozenset[Reduce]:
+        """The reductions some run's operand of which read a non-finite value: an index or
+        chance reading one is critical (holds) in every run of the path."""
+        return frozenset(node for node, accumulator in self.accumulators.items()
+                         if accumulator.non_finite)
+
 
 def first_pass(evaluators: Sequence[Any], chunks: Callable[[set[str]], Iterable[Any]],
                context: Any, start: Sequence[AcrossRuns | None] | None = None
@@ -217,4 +232,17 @@ def finished(across: AcrossRuns | Mapping[Reduce, np.ndarray]) -> Mapping[Reduce
     return across.values() if isinstance(across, AcrossRuns) else across
 
 
-__all__ = ["AcrossRuns", "RunsAccumulator", "finished", "first_pass", "runs_reductions"]
+def non_finite_nodes(across: AcrossRuns | Mapping[Reduce, np.ndarray] | None
+                     ) -> frozenset[Reduce]:
+    """The path-level values that are not numbers: an accumulator says which operands read a
+    non-finite value; of finished values, those not finite."""
+    if across is None:
+        return frozenset()
+    if isinstance(across, AcrossRuns):
+        return across.non_finite()
+    return frozenset(node for node, value in across.items()
+                     if np.asarray(value).dtype != bool and not np.isfinite(value).all())
+
+
+__all__ = ["AcrossRuns", "RunsAccumulator", "finished", "first_pass", "non_finite_nodes",
+           "runs_reductions"]

@@ -27,7 +27,7 @@ import numpy as np
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, forward_acceleration
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
-from idefix_rules.rulebook.across import AcrossRuns, finished, runs_reductions
+from idefix_rules.rulebook.across import AcrossRuns, finished, non_finite_nodes, runs_reductions
 from idefix_rules.rulebook.check import CheckedRulebook, check
 from idefix_rules.rulebook.derived import (
     DerivedSettings,
@@ -114,6 +114,7 @@ class _Index:
     value: Closure
     per_sample: Closure
     reads: tuple[str, ...]  # signal names, for the non-finite rule
+    over_runs: frozenset[Reduce]  # the path-level values it reads, for the same rule
 
 
 @dataclass(frozen=True)
@@ -123,6 +124,7 @@ class _Condition:
     reads: tuple[str, ...]
     rationale: str | None
     expr: Expr
+    over_runs: frozenset[Reduce] = frozenset()
 
 
 class CompiledRulebook:
@@ -152,17 +154,20 @@ class CompiledRulebook:
             _Index(i.name, self.checked.limits[i.name], self.checked.nominals.get(i.name),
                    self.checked.weights[i.name],
                    run.compile(value), run.compile(sample),
-                   self._signals_read(value, sample))
+                   self._signals_read(value, sample),
+                   frozenset(runs_reductions([value, sample])))
             for i, (value, sample) in zip(model.indices, forms, strict=True))
         self._chances = tuple(
             _Condition(c.name, run.compile(c.condition), self._signals_read(c.condition),
-                       c.rationale, c.condition)
+                       c.rationale, c.condition, frozenset(runs_reductions([c.condition])))
             for c in model.chances)
         # Reductions over the runs of a path: their operands, evaluated in a first pass.
         self.runs_reductions: tuple[Reduce, ...] = runs_reductions(
             [e for pair in forms for e in pair] + [c.condition for c in model.chances])
         self._runs_operands = {node: run.compile(node.operand)
                                for node in self.runs_reductions}
+        self._runs_reads = {node: self._signals_read(node.operand)
+                            for node in self.runs_reductions}
 
         scoped = ExpressionCompiler(self.constants, scope_closure)
         self._command_rules = tuple(
@@ -295,9 +300,14 @@ class CompiledRulebook:
         if source is None:
             source = self.derived_signals(signals, context)
         frame = Frame(source=source)
+        finite: dict[str, np.ndarray] = {}
         with np.errstate(all="ignore"):
             for node, accumulator in across.accumulators.items():
-                accumulator.add(runs_first(self._runs_operands[node](frame), source.runs))
+                values = runs_first(self._runs_operands[node](frame), source.runs)
+                # a number carries its NaN; a truth value lost it in a comparison: it is not
+                # a number where the signals it read were not (as a run's own chance holds)
+                accumulator.add(values, non_finite=values.dtype == bool and bool(
+                    _bad_runs(source, self._runs_reads[node], finite).any()))
         return across
 
     def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
@@ -328,19 +338,15 @@ class CompiledRulebook:
         frame = Frame(source=source, across=finished(across) if across is not None else {})
         # Which runs hold only finite values, per signal: shared like the values are.
         finite: dict[str, np.ndarray] = {} if shared is None else shared.setdefault(_FINITE, {})
+        # the path-level values that are not numbers: whoever reads one is critical (holds)
+        # in every run of the path (docs/rulebook-language.md, "Non-finite data")
+        not_numbers = non_finite_nodes(across)
 
-        def bad_runs(names: tuple[str, ...]) -> np.ndarray:
-            flags = np.zeros(runs, dtype=bool)
-            for name in names:
-                if name not in finite:
-                    array = np.asarray(source.get(name))
-                    if array.dtype == bool:
-                        finite[name] = np.ones(array.shape[0], dtype=bool)
-                    else:
-                        total = array.reshape(array.shape[0], -1).sum(axis=1)
-                        finite[name] = np.isfinite(total)
-                flags |= ~finite[name]
-            return flags
+        def bad_runs(names: tuple[str, ...], over_runs: frozenset[Reduce] = frozenset()
+                     ) -> np.ndarray:
+            if over_runs & not_numbers:
+                return np.ones(runs, dtype=bool)
+            return _bad_runs(source, names, finite)
 
         def computed(name: str, closure: Closure) -> np.ndarray:
             if shared is None:
@@ -355,7 +361,7 @@ class CompiledRulebook:
         with np.errstate(all="ignore"):
             for index in self._indices:
                 value = computed(index.name, index.value)
-                bad = bad_runs(index.reads) | np.isnan(value)
+                bad = bad_runs(index.reads, index.over_runs) | np.isnan(value)
                 raw[index.name] = np.where(bad, np.nan, value)
                 values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit,
                                                                    index.nominal))
@@ -364,8 +370,8 @@ class CompiledRulebook:
                 else:
                     sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
-            chances = {c.name: computed(c.name, c.test).astype(bool) | bad_runs(c.reads)
-                       for c in self._chances}
+            chances = {c.name: computed(c.name, c.test).astype(bool) |
+                       bad_runs(c.reads, c.over_runs) for c in self._chances}
         frame.memo.clear()
         stacked = np.stack([weighted[n] for n in self.index_names])
         dominant = np.argmax(stacked, axis=0)
@@ -457,6 +463,22 @@ class CompiledRulebook:
 
 
 _FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals
+
+
+def _bad_runs(source: DerivedSignals, names: tuple[str, ...],
+              finite: dict[str, np.ndarray]) -> np.ndarray:
+    """The runs in which one of the signals ``names`` holds NaN or ±inf (``finite``: which runs
+    hold only finite values, per signal, filled as signals are read)."""
+    flags = np.zeros(source.runs, dtype=bool)
+    for name in names:
+        if name not in finite:
+            array = np.asarray(source.get(name))
+            if array.dtype == bool:
+                finite[name] = np.ones(array.shape[0], dtype=bool)
+            else:  # elementwise: a sum of finite values near the largest double overflows
+                finite[name] = np.isfinite(array.reshape(array.shape[0], -1)).all(axis=1)
+        flags |= ~finite[name]
+    return flags
 
 
 def _sample_value(index: _Index, frame: Frame, runs: int, samples: int) -> np.ndarray:

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from idefix_rules.rulebook.across import runs_reductions
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.derived import DerivedSettings, DerivedSignals, RunContext
 from idefix_rules.rulebook.fold import number_si
@@ -389,6 +390,26 @@ def interpret(rulebook: CheckedRulebook, signals: Mapping[str, np.ndarray],
 
 
 def _non_finite(evaluator: _Run, expr: Expr, constants: Mapping[str, Value]) -> bool:
+    """Whether ``expr`` reads a non-finite signal in this run, or a path-level value
+    (``… over runs``) that is not a number (:func:`_operand_non_finite` in any run)."""
+    if _reads_non_finite(evaluator, expr, constants):
+        return True
+    return any(_operand_non_finite(peer, node.operand, constants)
+               for node in runs_reductions([expr]) for peer in evaluator.peers)
+
+
+def _operand_non_finite(evaluator: _Run, operand: Expr, constants: Mapping[str, Value]
+                        ) -> bool:
+    """Whether a reduction over runs reads no number from this run: a number that is not
+    finite, or a truth value computed from a signal that is not (the comparison lost its
+    NaN)."""
+    items = list(evaluator.evaluate(operand).data.values())
+    if items and all(isinstance(item, (bool, np.bool_)) for item in items):
+        return _reads_non_finite(evaluator, operand, constants)
+    return not all(math.isfinite(item) for item in items)
+
+
+def _reads_non_finite(evaluator: _Run, expr: Expr, constants: Mapping[str, Value]) -> bool:
     for name in sorted(names_in(expr)):
         if name in constants or lookup(name) is None:
             continue

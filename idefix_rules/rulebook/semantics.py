@@ -77,8 +77,10 @@ critical limit 1. Without a nominal the line through (0, 0) and (L, 1) is the sa
 
 Non-finite data: an index whose signals hold NaN or ±inf in a run is 1 (critical) for that run,
 and so is an index whose raw value is NaN (e.g. 0/0); a chance whose signals hold non-finite
-values in a run counts as holding. Normalised values and per-sample values are always finite
-in [0, 1].
+values in a run counts as holding. A path-level value that is no number (an operand NaN or
+±inf in some run; a truth-valued operand whose signals are not finite in some run) makes the
+indices reading it 1 and the chances reading it hold in every run. Normalised values and
+per-sample values are always finite in [0, 1].
 """
 
 from __future__ import annotations

@@ -374,6 +374,58 @@ def test_a_non_finite_value_across_runs_makes_a_path_level_index_critical_in_eve
     np.testing.assert_allclose(evaluation.values["I_m"][[0, 2]], 0.25 / 3)
 
 
+@pytest.mark.parametrize(("reduction", "unread_sample"), [
+    # a truth value lost its NaN in a comparison: the signal it read counts, as it does for a
+    # run's own chance, even at a sample `final` does not use
+    ("fraction over runs (final over time (x) > 0.2 m) > 0.5", [True] * 3),
+    ("any over runs (final over time (x) > 0.2 m)", [True] * 3),
+    # a number carries its NaN: a sample it does not use spoils only its own run
+    ("mean over runs (final over time (x)) > 0.2 m", [False, True, False]),
+])
+def test_a_non_finite_value_across_runs_makes_a_chance_hold_in_every_run(reduction,
+                                                                          unread_sample):
+    """Non-finite data is read conservatively: a chance reading a path-level value that some
+    run's non-finite signal spoilt holds in every run, as the run's own non-finite signals make
+    it hold there (a comparison with NaN is false: the spoilt run counted as not holding)."""
+    checked = rulebook(f"chance off = {reduction}\n"
+                       "index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }\n")
+    x = np.asarray([[0.0] * 6, [0.0] * 6, [0.0] * 6])  # no run ends beyond 0.2 m
+    assert evaluate(checked, *batch(3, x=x)).chances["off"].tolist() == [False] * 3
+    x[1, 5] = np.nan  # the value the path-level value reads
+    assert evaluate(checked, *batch(3, x=x)).chances["off"].tolist() == [True] * 3
+    x[1, 5] = 0.0
+    x[1, 3] = np.inf  # a sample `final` does not use
+    assert evaluate(checked, *batch(3, x=x)).chances["off"].tolist() == unread_sample
+
+
+def test_a_path_level_value_spoilt_in_one_chunk_is_spoilt_for_every_chunk():
+    checked = rulebook("chance off = fraction over runs (final over time (x) > 0.2 m) > 0.5\n"
+                       "index I { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }\n")
+    evaluator = compile_rulebook(checked)
+    x = np.zeros((3, 6))
+    x[2, 5] = np.nan
+    signals, context = batch(3, x=x)
+    first, rest = ({k: v[:1] for k, v in signals.items()}, {k: v[1:] for k, v in signals.items()})
+    across = evaluator.across_runs(first, context)
+    across.merge(evaluator.across_runs(rest, context))
+    assert evaluator.evaluate(first, context, across=across).chances["off"].tolist() == [True]
+    assert evaluator.evaluate(first, context, across=across.copy()).chances["off"].tolist() == \
+        [True]
+    clean = evaluator.across_runs(first, context)  # the first chunk alone is finite
+    assert evaluator.evaluate(first, context, across=clean).chances["off"].tolist() == [False]
+
+
+def test_signals_near_the_largest_double_are_finite():
+    """Finiteness is judged value by value: two finite values whose sum overflows are finite."""
+    checked = rulebook("index I { value = max over time (x) / max over time (y) limit = 2 "
+                       "weight = 1 }\n")
+    x = np.full((1, 6), 1e308)
+    y = np.full((1, 6), 1e308)
+    evaluation = evaluate(checked, *batch(1, x=x, y=y))
+    assert evaluation.raw["I"].tolist() == [1.0]
+    assert evaluation.values["I"].tolist() == [0.5]
+
+
 def test_forward_acceleration_is_the_ramp_of_the_body_centre():
     """The fastest wheel ramps at wheel_acceleration; the centre follows in proportion:
     a straight drive at 0.05 rad/s on 10 cm wheels speeds up at 0.1 m/rad · 0.015 rad/s²."""
