@@ -110,7 +110,15 @@ class Unit:
     """A unit: multiply a number in this unit by ``scale`` to get SI.
 
     The scale is kept as an exact fraction so decimal prefixes and ``%`` convert exactly
-    (``70 %`` is the double nearest 0.7, ``648.32 mAs`` the double nearest 0.64832 A·s).
+    (``70 %`` is the double nearest 0.7, ``648.32 mAs`` the double nearest 0.64832 A·s): the
+    number is taken as the decimal it was written as (the shortest one its double reads back
+    as), not as the double's binary value, which is off by up to half an ulp (7.4 is
+    7.4000000000000003552…; times 1/100 it rounded to 0.07400000000000001, not 0.074).
+
+    >>> parse_unit("cm").to_si(7.4), parse_unit("%").to_si(29.1), parse_unit("mm").to_si(74.0)
+    (0.074, 0.291, 0.074)
+    >>> parse_unit("cm").from_si(0.074)
+    7.4
     """
 
     symbol: str
@@ -122,10 +130,17 @@ class Unit:
         return float(self.exact_scale)
 
     def to_si(self, number: float) -> float:
-        return float(Fraction(number) * self.exact_scale)
+        return float(_decimal(number) * self.exact_scale)
 
     def from_si(self, value: float) -> float:
-        return float(Fraction(value) / self.exact_scale)
+        return float(_decimal(value) / self.exact_scale)
+
+
+def _decimal(number: float) -> Fraction:
+    """The decimal a double was written as: the shortest that reads back as it (``repr``)."""
+    if not math.isfinite(number):
+        raise OverflowError(f"{number} has no exact value")
+    return Fraction(repr(float(number)))
 
 
 _DEG = Fraction(math.pi) / 180

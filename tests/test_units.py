@@ -1,6 +1,8 @@
 import math
 
 import pytest
+from hypothesis import event, given
+from hypothesis import strategies as st
 
 from idefix_rules.units import (
     ANGLE,
@@ -75,3 +77,26 @@ def test_a_nonzero_number_that_would_be_read_as_0_is_refused(text):
 @pytest.mark.parametrize("text", ["0e-400", "0.0e-999 m", "1e-300 %", "4.9e-324"])
 def test_zero_and_numbers_a_double_holds_are_read(text):
     assert (parse_quantity(text).value == 0) == (float(text.split()[0]) == 0)
+
+
+@pytest.mark.parametrize(("text", "same_as"), [
+    ("7.4 cm", "74 mm"), ("4.1 cm", "0.041 m"), ("1.1 %", "0.011"), ("29.1 %", "0.291"),
+    ("648.32 mAs", "0.64832 As"), ("2.5 min", "150 s")])
+def test_a_decimal_converts_as_written_not_as_its_binary_value(text, same_as):
+    """7.4 as a double is 7.4000000000000003552…: scaled by 1/100 and rounded it was
+    0.07400000000000001, one ulp above 0.074, so `>= 7.4 cm` missed a sinkage of 74 mm."""
+    assert parse_quantity(text).value == parse_quantity(same_as).value
+
+
+@given(st.integers(min_value=1, max_value=10**9), st.integers(min_value=0, max_value=6),
+       st.sampled_from(["%", "cm", "mm", "um", "km", "g", "ms", "mA", "mAs", "mAh", "mrad",
+                        "mN"]))
+def test_every_decimal_is_the_double_nearest_its_exact_value_in_si(digits, places, unit):
+    from fractions import Fraction
+    text = f"{digits / 10**places:.{places}f}" if places else str(digits)
+    exact = Fraction(text) * parse_unit(unit).exact_scale
+    value = parse_unit(unit).to_si(float(text))
+    binary = float(Fraction(float(text)) * parse_unit(unit).exact_scale)
+    event(f"the binary value would be off by an ulp: {binary != value}")
+    assert value == float(exact)
+    assert parse_unit(unit).from_si(value) == float(text)
