@@ -21,8 +21,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
+
+from idefix_rules.units import written_decimal
 
 WHEELS = ("FL", "FR", "RL", "RR")
 
@@ -94,7 +97,9 @@ def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinemat
     fastest = max(abs(left_path), abs(right_path))
     if fastest == 0.0:  # a rover without track turning on the spot: no wheel moves
         return CommandKinematics(math.inf, 0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
-    scaled_duration = fastest / (rate * r)
+    rim_speed = rate * r
+    # (a subnormal rate's rim speed underflows to 0: its duration overflows instead, to inf)
+    scaled_duration = fastest / rim_speed if rim_speed > 0.0 else fastest / rate / r
     left_rate = left_path / scaled_duration / r
     right_rate = right_path / scaled_duration / r
     turn_radius = math.inf if dh == 0.0 else dp / dh
@@ -123,6 +128,53 @@ def forward_acceleration(command: Command, rover: RoverGeometry) -> float:
     if rover.wheel_acceleration <= 0.0:
         return math.inf
     return abs(k.speed) / abs(command.max_wheel_rate) * rover.wheel_acceleration
+
+
+def rule_quantities(command: Command, rover: RoverGeometry) -> dict[str, float]:
+    """What a command rule reads of a command, worked out exactly from its numbers as written
+    and rounded once: the kinematics of :func:`command_kinematics` (the same special cases)
+    and :func:`forward_acceleration`, with the lateral acceleration ``|speed · yaw_rate|``.
+
+    In floating point a command at a limit can miss it: 0.1 rad/s on 10 cm wheels is
+    0.010000000000000002 m/s, which breaks ``speed <= 1 cm/s``; the rulebook's numbers are
+    converted as written (``units``), and so are the command's here.
+
+    >>> rule_quantities(Command(0.1, 0.2, 0.0), RoverGeometry())["speed"]
+    0.01
+    """
+    rate = abs(written_decimal(command.max_wheel_rate))
+    dp, dh = written_decimal(command.delta_position), written_decimal(command.delta_heading)
+    b, r = written_decimal(rover.half_track), written_decimal(rover.wheel_radius)
+    left, right = dp - b * dh, dp + b * dh
+    fastest = max(abs(left), abs(right))
+    still = {"duration": 0.0, "speed": 0.0, "yaw_rate": 0.0, "wheel_speed": 0.0,
+             "lateral_acceleration": 0.0, "forward_acceleration": 0.0}
+    if rate == 0 or (dp == 0 and dh == 0):
+        return {"turn_radius": math.inf, **still}
+    turn_radius = math.inf if dh == 0 else _rounded(dp / dh)
+    if fastest == 0:  # a rover without track turning on the spot: no wheel moves
+        return {"turn_radius": turn_radius, **still}
+    duration = fastest / (rate * r)
+    speed, yaw_rate = dp / duration, dh / duration
+    if speed == 0:
+        forward = 0.0
+    elif rover.wheel_acceleration <= 0.0:
+        forward = math.inf
+    else:
+        forward = _rounded(abs(speed) / rate * written_decimal(rover.wheel_acceleration))
+    return {"turn_radius": turn_radius, "duration": _rounded(duration),
+            "speed": _rounded(speed), "yaw_rate": _rounded(yaw_rate),
+            "wheel_speed": _rounded(rate * r),
+            "lateral_acceleration": _rounded(abs(speed * yaw_rate)),
+            "forward_acceleration": forward}
+
+
+def _rounded(value: Fraction) -> float:
+    """The double nearest ``value`` (±inf beyond the largest)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def chain_duration(chain: list[Command] | tuple[Command, ...], rover: RoverGeometry) -> float:

@@ -130,14 +130,18 @@ class Unit:
         return float(self.exact_scale)
 
     def to_si(self, number: float) -> float:
-        return float(_decimal(number) * self.exact_scale)
+        return float(written_decimal(number) * self.exact_scale)
 
     def from_si(self, value: float) -> float:
-        return float(_decimal(value) / self.exact_scale)
+        return float(written_decimal(value) / self.exact_scale)
 
 
-def _decimal(number: float) -> Fraction:
-    """The decimal a double was written as: the shortest that reads back as it (``repr``)."""
+def written_decimal(number: float) -> Fraction:
+    """The decimal a double was written as: the shortest that reads back as it (``repr``).
+
+    >>> written_decimal(0.1), written_decimal(7.4)
+    (Fraction(1, 10), Fraction(37, 5))
+    """
     if not math.isfinite(number):
         raise OverflowError(f"{number} has no exact value")
     return Fraction(repr(float(number)))

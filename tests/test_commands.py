@@ -91,3 +91,55 @@ def test_a_tiny_heading_change_never_breaks_the_kinematics(heading: float, rate:
         straight = command_kinematics(Command(rate, position, 0.0), ROVER)
         assert k.duration == pytest.approx(straight.duration, rel=1e-12)
         assert k.speed == pytest.approx(straight.speed, rel=1e-12)
+
+
+def test_a_command_at_the_default_rulebooks_speed_limit_keeps_it() -> None:
+    """0.1 rad/s on 10 cm wheels is 1 cm/s: in floating point 0.010000000000000002, which broke
+    `speed <= 1 cm/s`. Worked out from the numbers as written, it keeps the limit; just above,
+    it does not."""
+    from pathlib import Path
+
+    from idefix_rules.rulebook import compile_rulebook, load_rulebook
+    rulebook = compile_rulebook(load_rulebook(
+        Path(__file__).resolve().parents[1] / "rulebooks" / "idefix-ops.rules"))
+    at_limit = rulebook.check_chain([Command(0.1, 0.2, 0.0)], ROVER)
+    assert [v.rule for v in at_limit] == []
+    above = rulebook.check_chain([Command(0.1000001, 0.2, 0.0)], ROVER)
+    assert sorted(v.rule for v in above) == ["speed_limit", "wheel_rate_limit"]
+
+
+@given(st.one_of(st.just(0.0), st.floats(1e-6, 0.3), st.floats(-0.3, -1e-6)),
+       # (a subnormal's written decimal, 5e-324, is 1 % off its binary value 4.94e-324)
+       st.floats(-3.0, 3.0, allow_subnormal=False), st.floats(-4.0, 4.0, allow_subnormal=False))
+def test_rule_quantities_are_the_kinematics_rounded_once(rate: float, position: float,
+                                                          heading: float) -> None:
+    """The same quantities as the floating-point kinematics, within a few ulps, and the same
+    special cases (no motion, point turn, straight)."""
+    from idefix_rules.commands import forward_acceleration, rule_quantities
+    command = Command(rate, position, heading)
+    k = command_kinematics(command, ROVER)
+    exact = rule_quantities(command, ROVER)
+    floating = {"turn_radius": k.turn_radius, "duration": k.duration, "speed": k.speed,
+                "yaw_rate": k.yaw_rate,
+                "wheel_speed": max(abs(w) for w in k.wheel_rates) * ROVER.wheel_radius,
+                "lateral_acceleration": abs(k.speed * k.yaw_rate),
+                "forward_acceleration": forward_acceleration(command, ROVER)}
+    for name, value in floating.items():
+        if math.isinf(value) and not math.isinf(exact[name]):  # the floats overflowed
+            assert abs(exact[name]) > 1e300 and math.copysign(1, exact[name]) == \
+                math.copysign(1, value), name
+        elif value == 0.0 or math.isinf(value):
+            assert exact[name] == value, name
+        else:
+            assert exact[name] == pytest.approx(value, rel=1e-14), name
+
+
+@pytest.mark.parametrize("rate", [SMALLEST_SUBNORMAL, TINY_NORMAL])
+def test_a_subnormal_rate_breaks_neither_the_kinematics_nor_the_rules(rate: float) -> None:
+    """The rim speed of a subnormal rate underflows to 0: the float kinematics last forever
+    (no division by zero); the rules see the exact, vanishing speed."""
+    from idefix_rules.commands import rule_quantities
+    k = command_kinematics(Command(rate, 1.0, 0.0), ROVER)
+    assert k.duration == math.inf or k.duration > 1e300
+    exact = rule_quantities(Command(rate, 1.0, 0.0), ROVER)
+    assert exact["duration"] == math.inf and 0.0 <= exact["speed"] < 1e-300

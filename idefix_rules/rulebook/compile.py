@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.commands import Command, RoverGeometry, command_kinematics, forward_acceleration
+from idefix_rules.commands import Command, RoverGeometry, rule_quantities
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
 from idefix_rules.rulebook.across import AcrossRuns, finished, non_finite_nodes, runs_reductions
@@ -75,19 +75,13 @@ def checked_model(rulebook: Rulebook | CheckedRulebook) -> CheckedRulebook:
 
 
 def command_quantities(command: Command, number: int, rover: RoverGeometry) -> dict[str, float]:
-    """The names a command rule reads, SI, from :func:`command_kinematics`."""
-    k = command_kinematics(command, rover)
+    """The names a command rule reads, SI, from :func:`rule_quantities` (worked out exactly
+    from the command's numbers as written)."""
     return {
         "max_wheel_rate": command.max_wheel_rate,
         "delta_position": command.delta_position,
         "delta_heading": command.delta_heading,
-        "turn_radius": k.turn_radius,
-        "duration": k.duration,
-        "speed": k.speed,
-        "yaw_rate": k.yaw_rate,
-        "wheel_speed": max(abs(rate) for rate in k.wheel_rates) * rover.wheel_radius,
-        "lateral_acceleration": abs(k.speed * k.yaw_rate),
-        "forward_acceleration": forward_acceleration(command, rover),
+        **rule_quantities(command, rover),
         "command_number": float(number),
     }
 
