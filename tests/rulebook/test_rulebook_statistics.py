@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import event, given
+from hypothesis import strategies as st
 from scipy import stats as scipy_stats
 
 from idefix_rules.rulebook.check import check
@@ -192,3 +194,30 @@ def test_verdict_thresholds_may_be_table_entries_and_expressions():
                       "verdict acceptable: require risk <= limits[L2] and risk * 2 < 1.5")
     verdict = rules.verdict(rules.path_statistics(evaluation([0.1, 0.12, 0.11, 0.09] * 5)))
     assert verdict.passed and verdict.decided
+
+
+@pytest.mark.parametrize("runs", [2, 3, 7, 10, 30, 49])
+def test_runs_exactly_at_the_limit_keep_it_whatever_their_number(runs):
+    """Runs of equal risk average to that risk: `risk <= 70 %` on runs at 0.7 passes, decided,
+    at every run count (numpy's mean of seven was 0.7000000000000001: failed, not decided)."""
+    rules = evaluator("verdict acceptable: require risk <= 70 %")
+    stats = rules.path_statistics(evaluation([0.7] * runs))
+    assert stats.risk == Estimate(0.7, 0.7, 0.7) and stats.risk_std == 0.0
+    verdict = rules.verdict(stats)
+    assert verdict.passed and verdict.decided
+    above = rules.verdict(rules.path_statistics(evaluation([0.7000000000000001] * runs)))
+    assert not above.passed and above.decided
+
+
+@given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=60))
+def test_the_sample_mean_is_numpys_to_rounding_and_exact_for_equal_values(values):
+    from idefix_rules.rulebook.statistics import sample_mean, sample_std
+    x = np.asarray(values)
+    equal = bool(np.all(x == x[0]))
+    event(f"equal values: {equal}")
+    assert sample_mean(x) == pytest.approx(float(x.mean()), rel=1e-12, abs=1e-15)
+    assert min(values) <= sample_mean(x) <= max(values)
+    if equal:
+        assert sample_mean(x) == x[0] and sample_std(x) == 0.0
+    elif x.size > 1:
+        assert sample_std(x) == pytest.approx(float(x.std(ddof=1)), rel=1e-9, abs=1e-15)

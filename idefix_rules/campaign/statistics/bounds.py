@@ -36,6 +36,7 @@ from idefix_rules.campaign.statistics.sequential import (
     plugin_bets,
 )
 from idefix_rules.rulebook.results import Estimate, PathStatistics, RunEvaluation
+from idefix_rules.rulebook.statistics import sample_mean, sample_std
 
 Levels = Callable[[str], tuple[float, float]]
 
@@ -52,7 +53,7 @@ def bounded_estimate(values: np.ndarray, alpha_low: float, alpha_high: float,
     unit = x / scale
     fixed = None if sequential else int(x.size)
     bet_low, bet_high = tuned if tuned is not None else (alpha_low, alpha_high)
-    return Estimate(float(x.mean()),
+    return Estimate(sample_mean(x),
                     one_sided_bound(unit, alpha_low, "lower", fixed, bet_low) * scale,
                     one_sided_bound(unit, alpha_high, "upper", fixed, bet_high) * scale)
 
@@ -74,10 +75,10 @@ def unbounded_estimate(values: np.ndarray, alpha_low: float, alpha_high: float,
     ``tuned``: the levels (lower, upper) the sequence's boundary is tuned for, by default
     the bounds' own."""
     x = np.asarray(values, dtype=np.float64).ravel()
-    mean = float(x.mean()) if x.size else math.nan
+    mean = sample_mean(x)
     if x.size < 2:
         return Estimate(mean, -math.inf, math.inf)
-    variance = float(x.var(ddof=1))
+    variance = sample_std(x, mean) ** 2
 
     def half(alpha: float, tuned_alpha: float) -> float:
         if sequential:  # the sequence's half width at 2α puts α on each side
