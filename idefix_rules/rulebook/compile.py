@@ -407,9 +407,12 @@ class CompiledRulebook:
 
     @staticmethod
     def _time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
-        # The run ends where the chain is complete: 'command' -1, else a mapped 'done', else
-        # the last sample; without 'energy' the run's energy is unknown (NaN).
-        if source.provides("command"):
+        # The run ends where the chain is complete (chain_done): 'command' back at -1 after
+        # the chain started (a -1 before it is no end), else a mapped 'done', else the last
+        # sample; without 'energy' the run's energy is unknown (NaN).
+        if source.provides("command") and source.context.chain:
+            done = np.broadcast_to(source.get("chain_done") > 0, (runs, source.samples))
+        elif source.provides("command"):  # nothing to execute: the first -1 ends it
             done = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples)) == -1
         elif source.provides("done"):
             done = np.broadcast_to(source.get("done"), (runs, source.samples)) >= 0.5

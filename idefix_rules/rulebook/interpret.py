@@ -448,10 +448,19 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
     row["dominant"] = weighted.index(row["i_max"])
     per_sample = row["per_sample"][names[row["dominant"]]]
     row["dominant_sample"] = per_sample.index(max(per_sample))
-    # The run ends where the chain is complete: 'command' -1, else a mapped 'done', else the
-    # last sample; without 'energy' the run's energy is unknown (NaN).
+    # The run ends where the chain is complete: 'command' back at -1 after the chain started
+    # (or past its last command), else a mapped 'done', else the last sample; without
+    # 'energy' the run's energy is unknown (NaN).
     source = evaluator.source
-    if source.provides("command"):
+    commands = len(source.context.chain)
+    if source.provides("command") and commands:
+        ended: list[bool] = []
+        started = False
+        for value in np.asarray(source.get("command"))[0]:
+            active = round(float(value))
+            started = started or active >= 0
+            ended.append(active >= commands or (active < 0 and started))
+    elif source.provides("command"):
         ended = [round(float(c)) == -1 for c in np.asarray(source.get("command"))[0]]
     elif source.provides("done"):
         ended = [float(d) >= 0.5 for d in np.asarray(source.get("done"))[0]]

@@ -69,3 +69,21 @@ def test_a_chance_counts_the_runs_still_executing_in_both_evaluators():
     assert compiled.chances["unfinished"].tolist() == [False, True, False]
     interpreted = interpret(model, signals, context)
     assert np.asarray(interpreted.chances["unfinished"]).tolist() == [False, True, False]
+
+
+def test_a_runs_time_and_energy_are_read_where_chain_done_turns_one_in_both_evaluators():
+    """A -1 before the chain started is no end: the time is read where the chain is complete
+    (it was read at the first -1, t = 0, energy 0)."""
+    result = check_text(RULEBOOK, "done.rules")
+    assert result.checked is not None
+    t = np.arange(8, dtype=float)
+    signals = {"t": np.broadcast_to(t, (2, 8)).copy(), "x": np.zeros((2, 8)),
+               "energy": np.broadcast_to(0.1 * t, (2, 8)).copy(),
+               "command": np.array([[-1, -1, 0, 0, 1, -1, -1, -1],
+                                    [0, 1, -1, -1, -1, -1, -1, -1]], dtype=float)}
+    context = RunContext(chain=CHAIN)
+    for evaluation in (compile_rulebook(result.checked).evaluate(signals, context),
+                       interpret(result.checked, signals, context)):
+        assert np.asarray(evaluation.time).tolist() == [5.0, 2.0]
+        np.testing.assert_allclose(evaluation.energy, [0.5, 0.2])
+    assert done(signals).tolist()[0] == [0, 0, 0, 0, 0, 1, 1, 1]
