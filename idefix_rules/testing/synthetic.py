@@ -154,7 +154,26 @@ def build_runs(case: Case, rover: RoverGeometry | None = None, areas: Iterable[s
     _shape(reference, case.reference, t)
     reference_fmu = {k: v for k, v in reference.items() if k in signals.FMU_SIGNALS}
     context = RunContext(case.chain, rover, case.initial_position_sigma, reference_fmu)
+    _hold_after_end(batch, context)
     return batch, context
+
+
+def _hold_after_end(batch: dict[str, np.ndarray], context: RunContext) -> None:
+    """Every signal of a run holds its last own sample's value after it (semantics: "A run's
+    own samples"), as a campaign's runner holds an FMU's outputs once the chain is complete
+    and the rover at rest: ``max`` and ``percentile 100`` then read the same."""
+    from idefix_rules.rulebook.derived import DerivedSignals
+
+    lengths = DerivedSignals(batch, context).run_lengths()
+    if lengths is None:
+        return
+    samples = len(batch["t"][0])
+    in_time = [name for name in batch if name != "t"
+               and (spec := signals.lookup(name)) is not None and spec.axes[:1] == ("time",)]
+    for run, length in enumerate(lengths.tolist()):
+        if 0 < length < samples:
+            for name in in_time:
+                batch[name][run, length:] = batch[name][run, length - 1]
 
 
 def _group(case: Case, group: RunGroup, t: np.ndarray, command: np.ndarray,

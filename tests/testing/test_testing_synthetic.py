@@ -81,3 +81,23 @@ def test_the_reference_run_can_be_shaped_and_variants_add_up():
     assert np.all(signals["roll"][:3] == 0)
     assert context.reference["roll"][20] == pytest.approx(np.radians(10))
     np.testing.assert_allclose(signals["roll"][3], context.reference["roll"])
+
+
+def test_every_signal_holds_its_last_own_sample_after_the_run_ends():
+    """The chain ends at 50 s and the pose rests from there: from t = 51 s every signal holds
+    (a campaign's runner holds the FMU's outputs so), and a ramp past it shapes nothing, so
+    `max` and `percentile 100` read the same value."""
+    signals, _ = build_runs(case("""    signals:
+      wheel.slip[FL]: {0 s: 0 %, 55 s: 55 %}"""))
+    slip = signals["wheel.slip"][0, :, 0]
+    assert slip[50] == pytest.approx(0.50) and slip[51] == pytest.approx(0.51)
+    assert np.all(slip[51:] == slip[51])
+    kept, _ = build_runs(case("""    offsets:
+      x: {50 s: 0 cm, 55 s: 1 cm}
+    signals:
+      wheel.slip[FL]: {0 s: 0 %, 55 s: 55 %}"""))  # still moving to the end: its own
+    assert kept["wheel.slip"][0, -1, 0] == pytest.approx(0.55)
+    unfinished, _ = build_runs(case("""    unfinished: true
+    signals:
+      wheel.slip[FL]: {0 s: 0 %, 55 s: 55 %}"""))
+    assert unfinished["wheel.slip"][0, -1, 0] == pytest.approx(0.55)
