@@ -71,10 +71,12 @@ class RunsAccumulator:
     """Partial state of one reduction over runs; ``add`` per chunk, ``merge`` partials,
     ``result`` the value (run axis of length 1, the operand's other axes kept)."""
 
-    def __init__(self, node: Reduce) -> None:
+    def __init__(self, node: Reduce, parameter: float | None = None) -> None:
         self.node = node
         self.reducer = node.reducer
-        self.parameter = None if node.parameter is None else _parameter(node.parameter)
+        # the percentile's P, folded by the caller when it names constants
+        self.parameter = parameter if parameter is not None or node.parameter is None else \
+            _parameter(node.parameter)
         self.runs = 0
         self.state: np.ndarray | None = None  # sum, sum of squares, extreme or true count
         self.values: list[np.ndarray] = []  # percentile only
@@ -122,7 +124,7 @@ class RunsAccumulator:
 
     def copy(self) -> RunsAccumulator:
         """A copy to fold more chunks on (this one stays as it is)."""
-        twin = RunsAccumulator(self.node)
+        twin = RunsAccumulator(self.node, self.parameter)
         twin.runs = self.runs
         twin.non_finite = self.non_finite
         twin.state = None if self.state is None else self.state.copy()
@@ -161,8 +163,9 @@ class RunsAccumulator:
 
 
 def _parameter(expr: Expr) -> float:
-    """The percentile parameter: the checker admits only a plain number from 0 to 100."""
-    assert isinstance(expr, Number), "percentile needs a number written in place"
+    """The percentile parameter written in place (one naming constants is folded by
+    :class:`AcrossRuns`' caller, which knows them)."""
+    assert isinstance(expr, Number), "a percentile naming constants needs them folded"
     return float(number_si(expr))
 
 
@@ -174,8 +177,11 @@ class AcrossRuns:
     values by node, which the evaluators read in place of the reductions.
     """
 
-    def __init__(self, nodes: Iterable[Reduce]) -> None:
-        self.accumulators = {node: RunsAccumulator(node) for node in nodes}
+    def __init__(self, nodes: Iterable[Reduce],
+                 parameters: Mapping[Reduce, float] | None = None) -> None:
+        """``parameters``: each percentile's P where it names constants (folded)."""
+        self.accumulators = {node: RunsAccumulator(node, (parameters or {}).get(node))
+                             for node in nodes}
 
     @property
     def runs(self) -> int:
@@ -214,7 +220,7 @@ def first_pass(evaluators: Sequence[Any], chunks: Callable[[set[str]], Iterable[
     """
     wanted = [e if getattr(e, "runs_reductions", ()) else None for e in evaluators]
     accumulators: list[AcrossRuns | None] = [
-        None if e is None else AcrossRuns(e.runs_reductions) for e in wanted] \
+        None if e is None else e.new_across() for e in wanted] \
         if start is None else [None if a is None else a.copy() for a in start]
     needed = [e for e in wanted if e is not None]
     if not needed:

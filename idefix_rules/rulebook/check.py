@@ -23,6 +23,8 @@ from idefix_rules.rulebook.judging import MARGIN_RANGE, verdict_margins
 from idefix_rules.rulebook.model import (
     Expr,
     Index,
+    Number,
+    Reduce,
     Rulebook,
 )
 from idefix_rules.rulebook.types import (
@@ -32,7 +34,7 @@ from idefix_rules.rulebook.types import (
     ExprType,
     Scope,
 )
-from idefix_rules.rulebook.walk import names_in, rulebook_expressions, windowed
+from idefix_rules.rulebook.walk import names_in, nodes, rulebook_expressions, windowed
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, describe
 
 _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-]+)?"
@@ -584,6 +586,22 @@ def check_command_windows(env: CheckEnv) -> list[Diagnostic]:
     return problems
 
 
+def check_percentiles(env: CheckEnv) -> list[Diagnostic]:
+    """``percentile P`` with P naming constants: P must fold to a number from 0 to 100 (one
+    written in place is checked with the types, E308 too)."""
+    problems: list[Diagnostic] = []
+    for expr in rulebook_expressions(env.rulebook):
+        for node in nodes(expr):
+            if not (isinstance(node, Reduce) and node.reducer == "percentile"
+                    and node.parameter is not None and not isinstance(node.parameter, Number)):
+                continue
+            number = folded_number(node.parameter, env.constants)
+            if number is not None and not 0 <= number <= 100:
+                problems.append(error("E308", f"percentile needs a number from 0 to 100, "
+                                              f"got {number:g}", node.parameter.span))
+    return problems
+
+
 CHECKS: tuple[Check, ...] = (
     check_header,
     check_names,
@@ -594,6 +612,7 @@ CHECKS: tuple[Check, ...] = (
     check_indices,
     check_chances,
     check_command_windows,
+    check_percentiles,
     check_combine,
     check_prescreens,
     check_verdicts,

@@ -18,7 +18,7 @@ makes an index 1 (see :mod:`.semantics`). Nothing of the rulebook text is execut
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -47,7 +47,8 @@ from idefix_rules.rulebook.expressions import (
     runs_first,
     signal_closure,
 )
-from idefix_rules.rulebook.model import Expr, Reduce, Rulebook
+from idefix_rules.rulebook.fold import folded_number
+from idefix_rules.rulebook.model import Expr, Number, Reduce, Rulebook
 from idefix_rules.rulebook.results import (
     CommandViolation,
     PathStatistics,
@@ -162,6 +163,11 @@ class CompiledRulebook:
                                for node in self.runs_reductions}
         self._runs_reads = {node: self._signals_read(node.operand)
                             for node in self.runs_reductions}
+        # a percentile's P naming constants, folded (the checker made it a number in 0 … 100)
+        self._runs_parameters = {
+            node: float(number) for node in self.runs_reductions
+            if node.parameter is not None and not isinstance(node.parameter, Number)
+            and (number := folded_number(node.parameter, self.checked.constants)) is not None}
 
         scoped = ExpressionCompiler(self.constants, scope_closure)
         self._command_rules = tuple(
@@ -278,6 +284,12 @@ class CompiledRulebook:
         computed once); rulebooks with equal ``derived_settings`` can share one."""
         return DerivedSignals(signals, context, self.derived_settings)
 
+    def new_across(self, nodes: Iterable[Reduce] | None = None) -> AcrossRuns:
+        """Empty accumulators of the reductions over runs (``nodes``, by default all of
+        them), for :meth:`across_runs` to fold chunks into."""
+        return AcrossRuns(self.runs_reductions if nodes is None else nodes,
+                          self._runs_parameters)
+
     def across_runs(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
                     source: DerivedSignals | None = None,
                     into: AcrossRuns | None = None) -> AcrossRuns:
@@ -288,7 +300,7 @@ class CompiledRulebook:
         :meth:`evaluate`. An ``into`` made for some of the reductions
         (``AcrossRuns(self.sample_runs_reductions)``) folds only those.
         """
-        across = into if into is not None else AcrossRuns(self.runs_reductions)
+        across = into if into is not None else self.new_across()
         if not across.accumulators:
             return across
         if source is None:
@@ -397,7 +409,7 @@ class CompiledRulebook:
             raise ValueError("a shared signal source needs equal derived settings")
         if across is None and self.sample_runs_reductions:
             across = self.across_runs(signals, context, source=source,
-                                      into=AcrossRuns(self.sample_runs_reductions))
+                                      into=self.new_across(self.sample_runs_reductions))
         frame = Frame(source=source, across=finished(across) if across is not None else {})
         with np.errstate(all="ignore"):
             values = {index.name: _sample_value(index, frame, source.runs, source.samples)

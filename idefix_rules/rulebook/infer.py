@@ -414,9 +414,12 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
         problems.append(error("E301", f"'{expr.reducer}' only reduces over time", expr.span))
         return None
     if expr.reducer == "percentile" and parameter is not None:
+        # a number written in place is checked here; one naming constants once folded
+        # (check.check_percentiles)
         value = expr.parameter
-        if parameter.dimension != DIMENSIONLESS or not (
-                isinstance(value, Number) and 0 <= value.value <= 100 and value.unit is None):
+        if parameter.dimension != DIMENSIONLESS or parameter.axes or (
+                isinstance(value, Number) and not (0 <= value.value <= 100
+                                                   and value.unit is None)):
             problems.append(error("E308", "percentile needs a number from 0 to 100",
                                   expr.parameter.span if expr.parameter else expr.span))
             return None

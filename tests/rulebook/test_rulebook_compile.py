@@ -511,3 +511,26 @@ def test_per_sample_values_of_a_path_level_map_use_the_values_over_runs():
                                   ["I_m"], whole.per_sample["I_m"][:1])
     np.testing.assert_array_equal(evaluator.per_sample_values(signals, context)["I_m"],
                                   whole.per_sample["I_m"])
+
+
+@pytest.mark.parametrize("domain", ["time", "runs"])
+def test_a_percentile_may_name_a_constant(domain):
+    """Reducer parameters take constants (`const p = 50`), over time and over runs alike, with
+    the same value as the number written in place."""
+    operand = "abs(x)" if domain == "time" else "final over time (abs(x))"
+    named = rulebook(f"const p = 50\nindex I {{\n  value = percentile p over {domain} "
+                     f"({operand})\n  limit = 1 m\n  weight = 1\n}}\n")
+    written = rulebook(f"index I {{\n  value = percentile 50 over {domain} ({operand})\n"
+                       "  limit = 1 m\n  weight = 1\n}\n")
+    signals, context = batch(3, x=X3)
+    np.testing.assert_array_equal(evaluate(named, signals, context).raw["I"],
+                                  evaluate(written, signals, context).raw["I"])
+
+
+def test_a_constant_percentile_outside_0_to_100_is_E308_at_its_name():
+    result = check(parse_rulebook(HEADER + "const p = 150\nindex I {\n  value = percentile p "
+                                  "over time (abs(x))\n  limit = 1 m\n  weight = 1\n}\n" + FOOTER,
+                                  "t.rules"))
+    assert [(d.code, d.message) for d in result.errors] == [
+        ("E308", "percentile needs a number from 0 to 100, got 150")]
+    assert (result.errors[0].span.line, result.errors[0].span.column) == (5, 22)
