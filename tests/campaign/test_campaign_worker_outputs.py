@@ -28,3 +28,13 @@ def test_a_run_a_stored_file_could_not_hold_finite_is_refused(values: np.ndarray
                                                               says: str) -> None:
     with pytest.raises(ValueError, match=says):
         check_outputs({"wheel.slip": np.repeat(values[:, None], 4, axis=1)}, 3)
+
+
+def test_a_wheel_not_finite_while_the_others_are_names_its_first_sample():
+    """One wheel's column NaN from sample 5 (the others finite): the run fails there, with the
+    documented reason (the first bad sample was looked for where no wheel was finite: an
+    IndexError)."""
+    slip = np.zeros((8, 4))
+    slip[5:, 2] = np.nan
+    with pytest.raises(ValueError, match=r"signal 'wheel.slip' is not finite from sample 5"):
+        check_outputs({"wheel.slip": slip}, 8)

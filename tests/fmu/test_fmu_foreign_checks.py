@@ -59,6 +59,11 @@ MISTAKES = [
               "provides"),)),
     Mistake("wheel-signal-without-a-wheel", "unicycle", (("    px: x", "    px: wheel.rate"),),
             (("wheel.rate", "C500", "'wheel.rate' needs one wheel, e.g. 'wheel.rate[FL]'"),)),
+    Mistake("a-wheel-signal-for-one-wheel-only", "unicycle",
+            (("    py: y\n", "    py: y\n    phase: wheel.slip[FL]\n"),),
+            (("wheel.slip[FL]", "C500", "fmu.signals.phase: signal 'wheel.slip' is mapped for FL "
+              "only: a wheel signal has all four wheels hint: map wheel.slip[FR], "
+              "wheel.slip[RL], wheel.slip[RR] too, or none of them"),)),
     Mistake("an-input-mapped-as-a-signal", "unicycle",
             (("    py: y\n", "    py: y\n    w: yaw\n"),),
             (("w: yaw", "C501", "fmu.signals.w: 'w' is an input; a signal must be an output "

@@ -152,7 +152,26 @@ def signal_problems(campaign: Campaign, description: FmuDescription
                         f"'{seen[target]}' and '{fmu_name}'", _span(campaign, loc),
                 hint="map each signal from one FMU variable"))
         seen[target] = fmu_name
+    problems += _partial_wheels(campaign, seen)
     return dict(explicit), problems
+
+
+def _partial_wheels(campaign: Campaign, seen: dict[str, str]) -> list[Diagnostic]:
+    """A wheel signal is four columns: mapped for some wheels only, the others would be empty
+    (not a number) and every run would fail on them."""
+    problems = []
+    wheels = AXIS_LABELS["wheel"]
+    for base in dict.fromkeys(target.partition("[")[0] for target in seen):
+        mapped = [w for w in wheels if f"{base}[{w}]" in seen]
+        if mapped and len(mapped) < len(wheels):
+            loc: Loc = ("fmu", "signals", seen[f"{base}[{mapped[0]}]"])
+            missing = [w for w in wheels if w not in mapped]
+            problems.append(error(
+                "C500", f"{format_loc(loc)}: signal '{base}' is mapped for "
+                        f"{', '.join(mapped)} only: a wheel signal has all four wheels",
+                _span(campaign, loc, at_key=False),
+                hint=f"map {', '.join(f'{base}[{w}]' for w in missing)} too, or none of them"))
+    return problems
 
 
 def _signal_entry(campaign: Campaign, description: FmuDescription, fmu_name: str,

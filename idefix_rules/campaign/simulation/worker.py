@@ -169,7 +169,7 @@ def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, 
             raise ValueError(f"signal {name!r} has {array.shape[0] if array.ndim else 0} "
                              f"samples, expected {samples}")
         if not np.all(np.isfinite(array)):
-            first = int(np.flatnonzero(~np.isfinite(array.reshape(samples, -1)).any(axis=1))[0])
+            first = int(np.flatnonzero((~np.isfinite(array.reshape(samples, -1))).any(axis=1))[0])
             raise ValueError(f"signal {name!r} is not finite from sample {first}")
         stored = storage_dtype(name)
         if stored != np.float64 and np.any(np.abs(array) > np.finfo(stored).max):
