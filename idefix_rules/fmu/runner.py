@@ -81,17 +81,29 @@ def default_signal_map(description: FmuDescription, source: Path) -> dict[str, s
     """The map used when a campaign gives none: the FMU's shipped ``signal_map.json``, else
     every variable named like a contract signal."""
     text = None
-    if source.is_dir():
-        shipped = source / SIGNAL_MAP_FILE
-        text = shipped.read_text(encoding="utf-8") if shipped.is_file() else None
-    else:
-        with zipfile.ZipFile(source) as archive:
-            if SIGNAL_MAP_FILE in archive.namelist():
-                text = archive.read(SIGNAL_MAP_FILE).decode("utf-8")
-    if text is not None:
-        return dict(json.loads(text))
-    return {name: name for name in FMU_SIGNALS
-            if name in description.variables and name != DONE_SIGNAL}
+    try:
+        if source.is_dir():
+            shipped = source / SIGNAL_MAP_FILE
+            text = shipped.read_text(encoding="utf-8") if shipped.is_file() else None
+        else:
+            with zipfile.ZipFile(source) as archive:
+                if SIGNAL_MAP_FILE in archive.namelist():
+                    text = archive.read(SIGNAL_MAP_FILE).decode("utf-8")
+        shipped_map = None if text is None else json.loads(text)
+    except (OSError, UnicodeDecodeError, ValueError, zipfile.BadZipFile) as failure:
+        raise UserInputError(error("F102", f"not a readable FMU: its {SIGNAL_MAP_FILE} cannot "
+                                   f"be read ({failure})", Span(str(source)))) from None
+    if shipped_map is None:
+        return {name: name for name in FMU_SIGNALS
+                if name in description.variables and name != DONE_SIGNAL}
+    if not (isinstance(shipped_map, dict) and all(
+            isinstance(key, str) and isinstance(value, str)
+            for key, value in shipped_map.items())):
+        raise UserInputError(error(
+            "F102", f"not a readable FMU: its {SIGNAL_MAP_FILE} must be a JSON object of FMU "
+                    "variable names to signal names (strings), e.g. {\"px\": \"x\"}",
+            Span(str(source))))
+    return dict(shipped_map)
 
 
 def contract_column(contract: str, span: Span) -> tuple[str, int | None]:

@@ -199,3 +199,31 @@ def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
     guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
     documented = set(re.findall(r"^\| (C[45]\d\d) \|", guide, re.M))
     assert emitted - {"C404"} == documented  # C404 (run size) is docs/ci.md's
+
+
+@pytest.mark.parametrize(("shipped", "says"), [
+    ('{"px": x}', "its signal_map.json cannot be read (Expecting value"),
+    ('{"px": 1}', "its signal_map.json must be a JSON object of FMU variable names to signal "
+                  "names (strings)"),
+    ('["px", "x"]', "its signal_map.json must be a JSON object"),
+])
+def test_a_broken_shipped_signal_map_is_C400_at_the_fmu_path(
+        shipped: str, says: str, tmp_path: Path, unicycle_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The map an FMU ships (used when the campaign gives none) is read as a user's file: a
+    broken one is exit 2 at `fmu.path`, not a traceback."""
+    import shutil
+    import zipfile
+
+    fmu = tmp_path / "Shipped.fmu"
+    shutil.copy(unicycle_fmu, fmu)
+    with zipfile.ZipFile(fmu, "a") as archive:
+        archive.writestr("signal_map.json", shipped)
+    text = UNICYCLE_CAMPAIGN.replace("Unicycle.fmu", "Shipped.fmu").replace(
+        "  signals:\n    px: x\n    py: y\n", "")
+    code, output = _run(_campaign(tmp_path, fmu, text), capsys)
+    assert code == 2, output
+    assert f"{_location(text, 'path: Shipped.fmu')}: error[C400]: Shipped.fmu: not a readable " \
+        "FMU: " in output, output
+    assert says in " ".join(output.split()), output
+    assert "Traceback" not in output

@@ -126,7 +126,14 @@ def signal_problems(campaign: Campaign, description: FmuDescription
     """The signal map in effect and what is wrong with it."""
     explicit = campaign.model.fmu.signals
     if explicit is None:
-        mapping = default_signal_map(description, Path(description.path))
+        try:
+            mapping = default_signal_map(description, Path(description.path))
+        except UserInputError as failure:  # its shipped signal_map.json: said at fmu.path
+            return {}, [error("C400", f"{description.path.name}: "
+                                      f"{failure.diagnostics[0].message}",
+                              _span(campaign, _fmu_loc(campaign)),
+                              hint="give the campaign its own map (fmu.signals: FMU variable: "
+                                   "signal)")]
         absent = [name for name in mapping if name not in description.variables]
         problems = [] if not absent else [error(
             "C401", f"the signal map shipped in {description.path.name} names "
