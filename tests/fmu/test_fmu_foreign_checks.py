@@ -227,3 +227,29 @@ def test_a_broken_shipped_signal_map_is_C400_at_the_fmu_path(
         "FMU: " in output, output
     assert says in " ".join(output.split()), output
     assert "Traceback" not in output
+
+
+@pytest.mark.parametrize("unit", ["milli-metre", "K"])
+def test_a_declared_unit_the_tool_cannot_convert_is_C503(
+        unit: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """An output in a unit the tool cannot read was taken as SI: `milli-metre` as metres (a
+    rover 284 m from its start). Now it is said at the map line, exit 2."""
+    import zipfile
+
+    fmu = tmp_path / "DiffDrive.fmu"
+    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'name="pos_x" valueReference="6" causality="output" '
+                                    b'unit="mm"', f'name="pos_x" valueReference="6" causality='
+                                    f'"output" unit="{unit}"'.encode())
+            target.writestr(item, data)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    code, output = _run(_campaign(folder, fmu, DIFF_DRIVE_CAMPAIGN), capsys)
+    assert code == 2, output
+    where = _location(DIFF_DRIVE_CAMPAIGN, "x\n    pos_y")  # the value the map gives pos_x
+    assert f"{where}: error[C503]: fmu.signals.pos_x: " \
+        f"'pos_x' is in '{unit}', which this tool cannot convert ('x' is in m)" in output, output

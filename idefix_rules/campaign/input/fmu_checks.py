@@ -226,9 +226,18 @@ def _article(causality: str) -> str:
 
 def _unit_problem(campaign: Campaign, loc: Loc, variable: FmuVariable, name: str,
                   unit: str) -> list[Diagnostic]:
-    """A declared unit whose dimension is not the signal's (or set-point's) is an error."""
-    if variable.si is None or name == DONE_SIGNAL:
+    """A declared unit whose dimension is not the signal's (or set-point's) is an error, and
+    so is one the tool cannot read (its values would be taken as SI: `milli-metre` as metres)."""
+    if name == DONE_SIGNAL:
         return []
+    if variable.si is None:
+        if not variable.unit or variable.unit == "-":  # none declared: SI as the docs say
+            return []
+        return [error("C503", f"{format_loc(loc)}: {variable.name!r} is in "
+                              f"{variable.unit!r}, which this tool cannot convert ('{name}' "
+                              f"is in {unit})", _span(campaign, loc, at_key=False),
+                      hint="declare the unit in SI symbols (mm, m/s, rad, A.s …, or a "
+                           "<BaseUnit> without an offset) or map another variable")]
     expected = parse_unit(unit)
     if variable.si.dimension == expected.dimension:
         return []
