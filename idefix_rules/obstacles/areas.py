@@ -72,9 +72,12 @@ def unknown_terrain(mask: np.ndarray, origin: Sequence[float], cell: float, leve
 
 
 def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
-                 parts: tuple[str, ...] = AREA_PARTS, ground_z: float = 0.0) -> Obstacle:
+                 parts: tuple[str, ...] = AREA_PARTS,
+                 ground: tuple[float, float] = (0.0, 0.0)) -> Obstacle:
     """A user polygon (x, y vertices, any orientation, simple, convex or not) as one obstacle,
-    cut into triangles (ear clipping), each a vertical prism.
+    cut into triangles (ear clipping), each a vertical prism from ``AREA_HALF_HEIGHT`` below
+    the lowest to as far above the highest of the terrain's heights ``ground`` (the DEM's range:
+    a DEM at a site's elevation, 100 m up, keeps its areas where the rover drives).
 
     >>> area = polygon_area([(0, 0), (2, 0), (2, 2), (1, 1), (0, 2)], "L1", "keep-out")
     >>> len(area.pieces)
@@ -100,8 +103,15 @@ def polygon_area(vertices: Sequence[Sequence[float]], level: object, name: str,
                                            "lie on a line)"))
     if area2 < 0:
         points = points[::-1]
-    pieces = tuple(_prism(points[list(tri)], ground_z) for tri in _ear_clip(points, name))
+    pieces = tuple(_prism(points[list(tri)], ground) for tri in _ear_clip(points, name))
     return Obstacle(name, "polygon", level_index(level, f"area {name}"), pieces, parts=parts)
+
+
+def height_range(heights: np.ndarray | None) -> tuple[float, float]:
+    """The lowest and highest of a DEM's heights; (0, 0), the datum, without one."""
+    if heights is None or np.size(heights) == 0:
+        return (0.0, 0.0)
+    return (float(np.min(heights)), float(np.max(heights)))
 
 
 def _grid(values: np.ndarray, cell: float, what: str, dtype: type) -> np.ndarray:
@@ -126,13 +136,15 @@ def _mask_areas(mask: np.ndarray, heights: np.ndarray, origin: Sequence[float], 
     out = []
     for label in range(1, count + 1):
         component = labels == label
-        z_mid = float(heights[component].mean())
+        # from below the patch's lowest ground to above its highest (a 25° ramp 100 m high
+        # is all one patch): the rover's bodies are inside wherever they stand on it
+        z_low, z_high = float(heights[component].min()), float(heights[component].max())
         pieces = []
         for row0, row1, col0, col1 in _rectangles(component):
             lower = np.array([x0 + (col0 - 0.5) * cell, y0 + (row0 - 0.5) * cell])
             upper = np.array([x0 + (col1 + 0.5) * cell, y0 + (row1 + 0.5) * cell])
-            centre = np.array([*(lower + upper) / 2.0, z_mid])
-            size = (*(upper - lower), 2.0 * AREA_HALF_HEIGHT)
+            centre = np.array([*(lower + upper) / 2.0, (z_low + z_high) / 2.0])
+            size = (*(upper - lower), z_high - z_low + 2.0 * AREA_HALF_HEIGHT)
             pieces.append(Piece("box", tuple(float(v) for v in size), centre, np.eye(3)))
         out.append(Obstacle(f"{name}{label}", kind, level_number, tuple(pieces), parts=parts))
     return out
@@ -256,9 +268,9 @@ def _inside(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
     return _cross(a, b, p) >= 0 and _cross(b, c, p) >= 0 and _cross(c, a, p) >= 0
 
 
-def _prism(triangle: np.ndarray, ground_z: float) -> Piece:
-    lo = np.column_stack([triangle, np.full(3, ground_z - AREA_HALF_HEIGHT)])
-    hi = np.column_stack([triangle, np.full(3, ground_z + AREA_HALF_HEIGHT)])
+def _prism(triangle: np.ndarray, ground: tuple[float, float]) -> Piece:
+    lo = np.column_stack([triangle, np.full(3, ground[0] - AREA_HALF_HEIGHT)])
+    hi = np.column_stack([triangle, np.full(3, ground[1] + AREA_HALF_HEIGHT)])
     vertices = np.vstack([lo, hi])
     centre = vertices.mean(axis=0)
     faces = np.array([[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4],

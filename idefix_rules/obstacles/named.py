@@ -35,7 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from idefix_rules.commands import RoverGeometry
-from idefix_rules.obstacles.areas import polygon_area, steep_mask, unknown_terrain
+from idefix_rules.obstacles.areas import (
+    height_range,
+    polygon_area,
+    steep_mask,
+    unknown_terrain,
+)
 from idefix_rules.obstacles.obstacles import Obstacle
 
 
@@ -67,7 +72,8 @@ class AreaGeometry:
         """The area as obstacles of its level for the collision check."""
         several = len(self.polygons) > 1
         found = [polygon_area(points.tolist(), self.level,
-                              f"{self.name}{k + 1}" if several else self.name)
+                              f"{self.name}{k + 1}" if several else self.name,
+                              ground=height_range(heights))
                  for k, points in enumerate(self.polygons)]
         if self.mask is not None and self.mask.any():
             found += unknown_terrain(self.mask, self.origin, self.cell, self.level, self.name,

@@ -186,3 +186,34 @@ def test_scoring_stored_runs_with_a_rulebook_of_areas_the_campaign_never_placed_
                "gives no polygons" in flat, output
         assert ("new rulebook: " in flat) == (argv[0] == "diff")
         assert "area 'crater'" not in flat
+
+
+@pytest.mark.parametrize("elevation", [100.0, -30.0])
+def test_areas_stay_where_the_rover_drives_on_a_dem_at_a_sites_elevation(
+        areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch, elevation: float) -> None:
+    """A DEM in site elevation, 100 m up (or 30 m down): the areas' prisms were placed about
+    height 0 and reached 20 m, so the rover drove through the crater without a hit."""
+    np.save(areas_dir / "site.npy", np.full((151, 151), elevation))
+    text = CAMPAIGN.replace(
+        '    synthetic: {size: "3 m", cell: "2 cm", slope: "0 deg", roughness: "0 mm", seed: 1}',
+        '    dem: site.npy\n    cell: "2 cm"\n    origin: ["-1.5 m", "-1.5 m"]')
+    (areas_dir / "campaign.yaml").write_text(text)
+    assert run(areas_dir, monkeypatch) == 1
+    with h5py.File(areas_dir / "out" / "results.h5", "r") as results:
+        chances = results["paths/straight/evaluation/chances"]
+        assert np.all(chances["entered_crater"][()] == 1)
+        assert np.all(chances["hit_L3"][()] == 1)  # the crater's prism is hit, L3
+
+
+def test_a_steep_patch_reaches_from_its_lowest_to_its_highest_ground() -> None:
+    """A ramp 100 m high is one steep patch: its box spans the ramp's heights (it was a box
+    20 m above and below the patch's mean height, 50 m, above the ramp's foot)."""
+    from idefix_rules.obstacles.named import steep_area
+
+    heights = np.tile(np.linspace(0.0, 100.0, 60), (20, 1))  # 100 m over 59 cells of 2 m
+    area = steep_area("scarp", "L3", 0.05, np.radians(20), heights, (0.0, 0.0), 2.0)
+    (obstacle,) = area.obstacles(heights)
+    for piece in obstacle.pieces:
+        low = piece.centre[2] - piece.size[2] / 2
+        high = piece.centre[2] + piece.size[2] / 2
+        assert low <= -20.0 + 1e-9 and high >= 120.0 - 1e-9

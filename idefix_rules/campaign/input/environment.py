@@ -103,7 +103,7 @@ def obstacle_set(environment: EnvironmentSection, evaluator: Any, terrain: Any) 
     """The :class:`~idefix_rules.obstacles.ObstacleSet` of the terrain's rocks, keep-out areas
     and the rulebook's named areas (``terrain`` None: the campaign's rocks resting on the
     datum)."""
-    from idefix_rules.obstacles.areas import polygon_area
+    from idefix_rules.obstacles.areas import height_range, polygon_area
     from idefix_rules.obstacles.obstacles import ObstacleSet
 
     if terrain is not None:
@@ -115,9 +115,10 @@ def obstacle_set(environment: EnvironmentSection, evaluator: Any, terrain: Any) 
         ground = None
     obstacles = ObstacleSet.from_rocks(rocks, _thresholds(environment, evaluator),
                                        buffer_margins(evaluator), ground)
-    areas = [polygon_area([tuple(p) for p in area.polygon], area.level, area.name)
-             for area in environment.keep_out]
     heights = terrain.heights if terrain is not None else None
+    areas = [polygon_area([tuple(p) for p in area.polygon], area.level, area.name,
+                          ground=height_range(heights))
+             for area in environment.keep_out]
     for area in named_areas(environment, evaluator, terrain).values():
         areas += area.obstacles(heights)
     return obstacles.extended(areas) if areas else obstacles
