@@ -76,7 +76,7 @@ from idefix_rules.files import previous_path, report_outputs, set_aside, write_a
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.campaign import STORED_RULEBOOK, StoredCampaign
 from idefix_rules.results.collisions import CollisionFunction, ObstacleCheck, collision_function
-from idefix_rules.results.format import SEARCHED_RUNS
+from idefix_rules.results.format import is_search
 from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_for_resume
 
 _T = TypeVar("_T")
@@ -547,12 +547,16 @@ def evaluation_revision(store: ResultStore, then: str) -> Revision:
 
 def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campaign,
             output: Path, junit: Path | None, name: str,
-            seconds: dict[str, float] | None = None, then: str = "") -> CampaignResult:
+            seconds: dict[str, float] | None = None, then: str = "",
+            expect: bool = True) -> CampaignResult:
     """Store the summary with the evaluation, put the new results file in place, then write
-    ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2."""
+    ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2.
+    ``expect``: the campaign's expectations are checked (not for a worst-case search's
+    runs, which say nothing about how often a world occurs)."""
     model = campaign.model
-    checks = outputs.check_expectations(model.expect, evaluation)
-    code = outputs.exit_code(evaluation, checks, bool(model.expect))
+    expected = model.expect if expect else []
+    checks = outputs.check_expectations(expected, evaluation)
+    code = outputs.exit_code(evaluation, checks, bool(expected))
     problems = waivers.unused(model.waivers, evaluation, campaign.span)
     if problems and code != outputs.EXIT_INFRASTRUCTURE:
         code = outputs.EXIT_INPUT
@@ -654,6 +658,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     stored = StoredCampaign(store)
     stub = stored.require_campaign()
     model = stub.model
+    search = is_search(store.attrs)
     if rulebook is None:
         from idefix_rules.rulebook import compile_rulebook
 
@@ -695,14 +700,17 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                                     waivers=model.waivers, gate=gate)
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
-                         then)
+                         then, expect=not search)
     state = str(store.attrs.get("state", "complete"))
-    if str(store.attrs.get("runs_mode", "fixed")) == SEARCHED_RUNS:
+    if search:
+        unchecked = ("; the campaign's expect: entries are not checked (a search states "
+                     "facts about worlds, not about how often they occur): the exit code "
+                     "follows the verdicts") if model.expect else ""
         result.warnings.append(
             f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
             "worlds the search chose, not draws of the campaign's distributions, so each "
             "run's risk holds but a path's mean risk, chances and verdict are not the "
-            "campaign's (docs/worst-case.md)")
+            f"campaign's (docs/worst-case.md){unchecked}")
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
     again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
                            store.attrs.get("seed"),

@@ -45,6 +45,7 @@ from idefix_rules.diff.source import RulebookSource
 from idefix_rules.errors import UserInputError, error
 from idefix_rules.results.campaign import StoredCampaign
 from idefix_rules.results.collisions import CollisionSources, collision_reads, source_sha256
+from idefix_rules.results.format import drawn_paired
 from idefix_rules.results.runs import ParallelRuns
 from idefix_rules.results.scoring import score_chunks, stored_evaluation
 
@@ -385,7 +386,7 @@ def _judge(stored: StoredCampaign, evaluators: Sequence[Any],
     together, since a path shown to fail raises the others' levels (budget.py)."""
     store = stored.store
     adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
-    paths, paired = ranked_paths(store), bool(store.attrs.get("paired", False))
+    paths, paired = ranked_paths(store), drawn_paired(store.attrs)
     waivers = stored.campaign.model.waivers if stored.campaign is not None else ()
     for position, evaluator in enumerate(evaluators):
         active = {name: sides[position] for name, sides, _ in path_sides

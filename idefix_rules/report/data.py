@@ -19,7 +19,7 @@ import numpy as np
 
 from idefix_rules.campaign.input.waivers import recorded
 from idefix_rules.campaign.statistics.pairwise import PairComparison
-from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED
+from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED, drawn_paired
 from idefix_rules.results.reader import StoredResults, reading
 
 LEVELS = ("L1", "L2", "L3")
@@ -487,6 +487,7 @@ def _read_report_data(store: StoredResults) -> ReportData:
                       expectations=list(summary.get("expectations", [])),
                       decision=summary.get("decision"),
                       exit_code=int(code) if isinstance(code, int) else None,
+                      # a search's file of an earlier version stored pairs of unpaired runs
                       pairs=[PairComparison.from_dict(pair) for pair in summary.get("pairs", [])
-                             if isinstance(pair, Mapping)],
+                             if isinstance(pair, Mapping) and drawn_paired(file.attrs)],
                       confidence=0.95 if confidence is None else confidence)

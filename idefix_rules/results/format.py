@@ -56,3 +56,15 @@ def decode_reason(value: bytes) -> str:
 # ``runs_mode`` of a worst-case search's results file (``idefix-verify worst``): its runs are
 # searched worlds, not Monte Carlo draws.
 SEARCHED_RUNS = "worst"
+
+
+def is_search(attrs: Any) -> bool:
+    """Whether a results file's root attributes are a worst-case search's."""
+    return str(attrs.get("runs_mode", "fixed")) == SEARCHED_RUNS
+
+
+def drawn_paired(attrs: Any) -> bool:
+    """Whether run ``j`` of every path was simulated in the same drawn world (the root
+    attribute ``paired``). Never for a worst-case search, whose paths search their worlds
+    apart: its files written before the search stored ``paired`` false claim it true."""
+    return bool(attrs.get("paired", False)) and not is_search(attrs)

@@ -258,3 +258,38 @@ def test_the_searched_runs_are_judged_with_the_campaigns_waivers(
     waived = {path["name"]: [w["rule"] for w in path.get("waivers", [])]
               for path in summary["paths"]}
     assert any("acceptable_risk" in rules for rules in waived.values()), waived
+
+
+def test_a_search_is_unpaired_and_its_evaluation_checks_no_expectation(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Each path searches its own worlds: run j of two paths is not the same world, so the file
+    says unpaired, nothing compares paths world by world, and evaluate checks no `expect:`
+    (worst-case.md), also on a file whose `paired` claims otherwise (an earlier version's)."""
+    campaign = campaign_dir / "campaign.yaml"
+    campaign.write_text(campaign.read_text() + "expect:\n  - {path: straight, verdict: pass}\n")
+    out = campaign_dir / "search"
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
+    assert code == 0, output
+    results = out / "results.h5"
+    with h5py.File(results, "r") as file:
+        assert not file.attrs["paired"]
+        summary = json.loads(file["evaluation"].attrs["summary"])
+    assert summary["paired"] is False and summary["pairs"] == []
+    assert main(["report", str(results)]) == 0
+    capsys.readouterr()
+    assert "Paired comparisons" not in (out / "report.html").read_text()
+    with h5py.File(results, "r+") as file:
+        file.attrs["paired"] = True  # as the search stored it before
+    code = main(["evaluate", str(results)])
+    captured = capsys.readouterr()
+    output = " ".join((captured.out + captured.err).split())
+    summary = json.loads((out / "summary.json").read_text())
+    # straight fails over the searched worlds: exit 1 from the verdicts, not the expectation
+    assert code == 1 and "Traceback" not in output
+    assert "same worlds" not in output and "expect straight" not in output
+    assert ("the campaign's expect: entries are not checked (a search states facts about "
+            "worlds, not about how often they occur): the exit code follows the verdicts"
+            ) in output
+    assert "CI verdicts (no expectations: every path must pass)" in output
+    assert summary["expectations"] == [] and summary["pairs"] == []
+    assert summary["paired"] is False

@@ -42,6 +42,7 @@ from idefix_rules.results.collisions import (
     ChunkCollisions,
     CollisionFunction,
 )
+from idefix_rules.results.format import drawn_paired
 from idefix_rules.results.reader import StoredResults
 from idefix_rules.results.runs import ParallelRuns, complete_rows
 from idefix_rules.results.scoring import FirstPassCache, score_chunks
@@ -277,7 +278,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
     statistics: dict[str, Any] = {}
     run_risks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     sequential = str(store.attrs.get("runs_mode", "fixed")) == "auto"
-    paired = bool(store.attrs.get("paired", False))
+    paired = drawn_paired(store.attrs)
     evaluated: dict[str, tuple[Any, PathResult, np.ndarray, float]] = {}
     extras: dict[str, dict[str, Any]] = {}
     for name in store.path_names:

@@ -79,8 +79,11 @@ class WorstStage:
                  progress: Progress, summary: SimulationSummary, collisions: Any) -> None:
         parameters = campaign.model.uncertainty.parameters
         space = self.space = QuantileSpace.of(parameters, self.settings.tail)
+        # each path searches worlds of its own (search_seed): run j of two paths is not
+        # the same world, so the file is unpaired whatever the campaign says
         store.attrs.update({"runs": self.settings.runs, "runs_mode": RUNS_MODE,
-                            "sampling": SAMPLING, "seed_derivation": SEED_DERIVATION,
+                            "sampling": SAMPLING, "paired": False,
+                            "seed_derivation": SEED_DERIVATION,
                             "worst_threshold": self.settings.threshold,
                             "worst_tail": self.settings.tail})
         base = {**fmu_parameters, **nominal_parameters(campaign)}
