@@ -50,7 +50,7 @@ from idefix_rules.campaign.input.validate import (
 from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome import outputs
 from idefix_rules.campaign.simulation.dask_pool import ClusterError
-from idefix_rules.campaign.simulation.resume import resume_command
+from idefix_rules.campaign.simulation.resume import resume_command, stored_resume_command
 from idefix_rules.campaign.simulation.simulate import (
     RESULTS_FILE,
     TERRAIN_PARAMETER,
@@ -711,10 +711,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
             "worlds the search chose, not draws of the campaign's distributions, so each "
             "run's risk holds but a path's mean risk, chances and verdict are not the "
             f"campaign's (docs/worst-case.md){unchecked}")
-    adaptive = str(store.attrs.get("runs_mode", "fixed")) == "auto"
-    again = resume_command(stub.source, results.parent, store.attrs.get("runs"),
-                           store.attrs.get("seed"),
-                           store.attrs.get("min_runs") if adaptive else None)
+    again = stored_resume_command(store.attrs, stub.source, results.parent)
     _warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
     result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),

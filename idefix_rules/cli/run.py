@@ -93,7 +93,11 @@ def run(args: argparse.Namespace) -> int:
 
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import claimed_output
-    from idefix_rules.campaign.simulation.resume import interrupted_runs, stored_campaign
+    from idefix_rules.campaign.simulation.resume import (
+        continue_command,
+        interrupted_runs,
+        stored_campaign,
+    )
     from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, SimulationOptions
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.progress import make_progress
@@ -134,12 +138,14 @@ def run(args: argparse.Namespace) -> int:
             console.print(f"[yellow]note:[/yellow] {escape(lock.note)}")
         if interrupted is not None and interrupted[0] > 0:  # runs worth resuming
             stored, planned = interrupted
+            # the stored campaign's runs and seed, which may not be this command's
+            again = continue_command(previous_path(results), args.campaign) or _again(args)
             console.print(
                 f"[yellow]note:[/yellow] {escape(str(results))} held an interrupted campaign "
                 f"({stored} of {planned} Monte Carlo runs stored): it is set aside as "
                 f"{escape(previous_path(results).name)} and this run starts from zero; to "
-                f"continue it instead, stop now (Ctrl-C) and run "
-                f"`{escape(_again(args))}`")
+                f"continue it instead, stop now (Ctrl-C), rename it back to "
+                f"{escape(results.name)} and run `{escape(again)}`")
         for path, name in others.items():
             if path == results and not (interrupted is not None and interrupted[0] > 0):
                 console.print(f"[yellow]note:[/yellow] {escape(str(results))} held the results "

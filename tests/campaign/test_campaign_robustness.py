@@ -273,8 +273,9 @@ def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
     words = " ".join(out.split())
     note = (f"note: {results} held an interrupted campaign ({stored} of {planned} Monte Carlo "
             "runs stored): it is set aside as results.previous.h5 and this run starts from "
-            "zero; to continue it instead, stop now (Ctrl-C) and run `idefix-verify "
-            f"{campaign_dir / 'campaign.yaml'} --resume`")
+            "zero; to continue it instead, stop now (Ctrl-C), rename it back to results.h5 "
+            f"and run `idefix-verify {campaign_dir / 'campaign.yaml'} --resume --out "
+            f"{campaign.output} --runs 6 --seed 5`")
     assert note in words
     assert words.index(note) < words.index("compiling the rulebook")  # before it starts
     assert (campaign.output / "results.previous.h5").is_file()
@@ -288,6 +289,32 @@ def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
     assert main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet",
                  "--resume"]) == 1  # too-fast rejected again
     assert "interrupted campaign" not in capsys.readouterr().out
+
+
+def test_the_command_that_continues_an_interrupted_campaign_has_its_runs_and_seed(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run with other --runs and --seed finds the interrupted campaign: the command it
+    suggests continues that campaign (its 6 runs, seed 5), not this command's (H010)."""
+    from idefix_rules.cli import main
+
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(5), report=False)
+    results = campaign.output / "results.h5"
+    capsys.readouterr()
+    assert main([str(campaign_dir / "campaign.yaml"), "--no-report", "--quiet",
+                 "--runs", "4", "--seed", "9"]) == 1  # too-fast rejected
+    words = " ".join(capsys.readouterr().out.split())
+    again = (f"idefix-verify {campaign_dir / 'campaign.yaml'} --resume --out {campaign.output} "
+             "--runs 6 --seed 5")
+    assert f"rename it back to results.h5 and run `{again}`" in words, words
+    (campaign.output / "results.previous.h5").replace(results)
+    code = main([*again.split()[1:], "--no-report", "--quiet"])
+    captured = capsys.readouterr()
+    words = " ".join((captured.out + captured.err).split())
+    assert code == 1 and "H010" not in words  # continued: too-fast is rejected, as before
+    with h5py.File(results) as continued:
+        assert continued.attrs["state"] == "complete" and continued.attrs["runs"] == 6
 
 
 def test_a_path_cut_off_before_its_runs_were_allocated_is_started_again(

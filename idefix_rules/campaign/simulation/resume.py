@@ -23,8 +23,8 @@ from idefix_rules.campaign.storage.store import (
     decode_reason,
 )
 
-__all__ = ["INFRASTRUCTURE", "interrupted_runs", "is_infrastructure", "resume_command",
-           "runs_to_simulate"]
+__all__ = ["INFRASTRUCTURE", "continue_command", "interrupted_runs", "is_infrastructure",
+           "resume_command", "runs_to_simulate", "stored_resume_command"]
 
 
 def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
@@ -117,3 +117,28 @@ def resume_command(source: Any, output: Any, runs: Any, seed: Any,
     count = f"--runs {runs}" if min_runs is None else (
         f"--runs auto --max-runs {runs} --min-runs {min_runs}")
     return f"idefix-verify {source} --resume --out {output} {count} --seed {seed}"
+
+
+def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
+    """The command that continues the campaign of a results file whose root attributes are
+    ``attrs``: with its stored run count and seed (an adaptive one's cap and first look),
+    whatever the command that found the file asked for (``--resume`` refuses others)."""
+    adaptive = str(attrs.get("runs_mode", "fixed")) == "auto"
+    return resume_command(source, output, attrs.get("runs"), attrs.get("seed"),
+                          attrs.get("min_runs") if adaptive else None)
+
+
+def continue_command(results: Path, source: Any) -> str | None:
+    """:func:`stored_resume_command` of the results file ``results`` (its folder as
+    ``--out``); None when it cannot be read."""
+    import h5py
+
+    try:
+        with h5py.File(results, "r") as file:
+            attrs = {key: file.attrs[key] for key in ("runs_mode", "runs", "seed", "min_runs")
+                     if key in file.attrs}
+    except Exception:  # unreadable: nothing to continue
+        return None
+    if "runs" not in attrs or "seed" not in attrs:
+        return None
+    return stored_resume_command(attrs, source, Path(results).parent)
