@@ -81,6 +81,7 @@ from idefix_rules.results.terrain import StoredTerrain, TerrainSource, terrain_f
 
 _T = TypeVar("_T")
 SUMMARY_FILE = "summary.json"
+EXPIRED_WAIVER = "C213"
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
 # energy, chances, collision counts and details, the clearance profile), for the free-space
 # check before it starts.
@@ -628,7 +629,9 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
     """Evaluate stored results again, with their own or another rulebook; no simulation.
 
     The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
-    writes there); the ``summary.json`` and JUnit file this rewrites are set aside first."""
+    writes there). Once the new evaluation is being written (nothing refused it), what spoke
+    for the one it replaces is set aside: the ``summary.json``, report and figures in ``out``
+    and beside the results, and the JUnit file."""
     output = out or results.parent
     _check_writable_results_folder(results)
     check_junit_destination(junit, [results, rulebook],
@@ -643,18 +646,21 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
             roll_back(results)  # a change of its structure a kill cut off (journal.py)
         store = ResultStore.open(results)  # read only: the evaluation writes a new version
         owned.callback(store.close)
+        # what spoke for the evaluation this replaces: the summary, the report with its
+        # figures (here and, with --out elsewhere, beside the results) and the JUnit file
+        stale = [output / SUMMARY_FILE, *report_outputs(output), junit]
         if output.resolve() != results.parent.resolve():
             output.mkdir(parents=True, exist_ok=True)
             notes.append(owned.enter_context(own_folder(output)).note)
-        # the report spoke for the evaluation this replaces: set aside with its figures
-        set_aside(output / SUMMARY_FILE, *report_outputs(output), junit)
-        result = _rescore_owned(store, results, rulebook, junit, output)
+            stale += [results.parent / SUMMARY_FILE, *report_outputs(results.parent)]
+        result = _rescore_owned(store, results, rulebook, junit, output, stale)
         result.warnings[:0] = [note for note in notes if note is not None]
         return result
 
 
 def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
-                   junit: Path | None, output: Path) -> CampaignResult:
+                   junit: Path | None, output: Path, stale: list[Path | None]
+                   ) -> CampaignResult:
     stored = StoredCampaign(store)
     stub = stored.require_campaign()
     model = stub.model
@@ -677,6 +683,10 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     except UserInputError as failure:
         mistakes += failure.diagnostics
     if mistakes:
+        if any(mistake.code == EXPIRED_WAIVER for mistake in mistakes):
+            # the stored evaluation waived on an approval that has lapsed: its outputs no
+            # longer hold today, though nothing is scored again
+            set_aside(*stale)
         raise UserInputError(mistakes, sources={str(stub.source): stub.text})
     _check_stored_signals(store, evaluator, results)
     # the terrain matters to the scores only through the collision and area checks
@@ -694,6 +704,8 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                        store.reference(result.name), collisions, model.waivers, units)
 
     with evaluation_revision(store, then) as revision:
+        # nothing refused the evaluation and the disk has room: it is being written now
+        set_aside(*stale)
         evaluation = evaluate_store(store, evaluator, stored.rover, stored.sigma, collisions,
                                     rulebook_info(evaluator, rulebook_path),
                                     on_path=clock.start, into=revision.store,

@@ -1,0 +1,92 @@
+"""What `evaluate` leaves beside the results it evaluates again: the outputs that spoke for the
+evaluation it replaces are set aside once the new one is written (beside the results too
+when `--out` names another folder), never when it is refused."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import pytest
+from test_cli_user_errors import campaign, materialise
+
+from idefix_rules.cli import main
+
+SPOKE = ("summary.json", "report.html")  # what a run writes beside its results.h5
+
+
+def _stored(folder: Path, toy: Path, append: str = "") -> Path:
+    """A campaign run with its report: ``out/results.h5``, ``summary.json``, report and
+    figures."""
+    folder.mkdir(exist_ok=True)
+    materialise(folder, campaign(append=append), toy)
+    here = Path.cwd()
+    try:
+        os.chdir(folder)
+        assert main(["campaign.yaml", "--runs", "4", "--quiet"]) in (0, 1)
+    finally:
+        os.chdir(here)
+    out = folder / "out"
+    assert all((out / name).is_file() for name in SPOKE)
+    return out / "results.h5"
+
+
+def _words(capsys: pytest.CaptureFixture[str]) -> str:
+    captured = capsys.readouterr()
+    output = captured.out + captured.err
+    assert "Traceback" not in output
+    return " ".join(output.split())
+
+
+def _evaluated_with(results: Path) -> str:
+    with h5py.File(results, "r") as file:
+        return str(json.loads(file["evaluation"].attrs["summary"])["rulebook"]["path"])
+
+
+def test_evaluate_into_another_folder_sets_aside_what_spoke_beside_the_results(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path, cli_toy_fmu)
+    out = results.parent
+    other = tmp_path / "rescored"
+    assert main(["evaluate", str(results), "--rulebook", str(tmp_path / "test.rules"),
+                 "--out", str(other)]) == 1, _words(capsys)
+    assert (other / "summary.json").is_file()
+    for name in SPOKE:  # they spoke for the evaluation results.h5 no longer holds
+        assert not (out / name).exists(), name
+    assert (out / "summary.previous.json").is_file() and (out / "report.previous.html").is_file()
+    assert not [path.name for path in out.glob("*.png") if ".previous." not in path.name]
+
+
+@pytest.mark.parametrize("mistake", ["missing", "syntax", "waiver"])
+def test_a_refused_evaluation_sets_nothing_aside(
+        mistake: str, tmp_path: Path, cli_toy_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path, cli_toy_fmu)
+    out = results.parent
+    argv = ["evaluate", str(results)]
+    if mistake == "missing":
+        argv += ["--rulebook", str(tmp_path / "missing.rules")]
+        said = "error[E002]"
+    elif mistake == "syntax":
+        broken = tmp_path / "broken.rules"
+        broken.write_text((tmp_path / "test.rules").read_text() + "verdict oops: require\n")
+        argv += ["--rulebook", str(broken)]
+        said = "broken.rules:"
+    else:  # the stored campaign's waiver names a rule this rulebook does not have
+        renamed = tmp_path / "renamed.rules"
+        renamed.write_text((tmp_path / "test.rules").read_text().replace(
+            "acceptable_risk", "risk_kept"))
+        with h5py.File(results, "r+") as file:
+            text = file["provenance/campaign"][()].decode()
+            del file["provenance/campaign"]
+            file["provenance/campaign"] = text + (
+                "waivers:\n  - {rule: acceptable_risk, path: arc, reason: \"known\", "
+                "approved_by: \"J. Doe\", until: 2099-12-31}\n")
+        argv += ["--rulebook", str(renamed)]
+        said = "error[C211]"
+    before = sorted(path.name for path in out.iterdir())
+    assert main(argv) == 2
+    assert said in _words(capsys)
+    assert sorted(path.name for path in out.iterdir()) == before
