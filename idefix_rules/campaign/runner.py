@@ -549,11 +549,13 @@ def evaluation_revision(store: ResultStore, then: str) -> Revision:
 def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campaign,
             output: Path, junit: Path | None, name: str,
             seconds: dict[str, float] | None = None, then: str = "",
-            expect: bool = True) -> CampaignResult:
+            expect: bool = True, steps: EvaluationSteps | None = None) -> CampaignResult:
     """Store the summary with the evaluation, put the new results file in place, then write
     ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2.
     ``expect``: the campaign's expectations are checked (not for a worst-case search's
-    runs, which say nothing about how often a world occurs)."""
+    runs, which say nothing about how often a world occurs); ``steps`` hears how far it
+    got."""
+    steps = steps or EvaluationSteps()
     model = campaign.model
     expected = model.expect if expect else []
     checks = outputs.check_expectations(expected, evaluation)
@@ -567,10 +569,12 @@ def _finish(revision: Revision, evaluation: CampaignEvaluation, campaign: Campai
     revision.store.file.require_group("evaluation").attrs["summary"] = \
         json.dumps(data, default=str)
     revision.commit(f"write the evaluation into {revision.path.name}", then)
+    steps.stored = True
     written = f"the evaluation is stored in {results}; free space, then write the outputs " \
               f"again with `idefix-verify evaluate {results}`"
     with diskspace.guard(output, f"write {SUMMARY_FILE}", written):
         outputs.write_summary(output / SUMMARY_FILE, data)
+    steps.summary = True
     if junit is not None:
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
@@ -624,14 +628,36 @@ def write_report(results: Path, output: Path, then: str = "",
         return Path(write_html_report(results, output, advance))
 
 
+@dataclass
+class EvaluationSteps:
+    """How far an evaluation of stored results got: the outputs it set aside (their new
+    names), whether the new evaluation is in the results file, and ``summary.json`` written."""
+
+    set_aside: list[Path] = field(default_factory=list)
+    stored: bool = False
+    summary: bool = False
+
+
+class EvaluationInterrupted(KeyboardInterrupt):
+    """Ctrl-C while stored results were evaluated again: ``steps`` says what is done (the
+    results file keeps its previous evaluation until ``steps.stored``)."""
+
+    def __init__(self, results: Path, output: Path, steps: EvaluationSteps) -> None:
+        super().__init__("interrupted while evaluating")
+        self.results = results
+        self.output = output
+        self.steps = steps
+
+
 def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = None,
             out: Path | None = None) -> CampaignResult:
     """Evaluate stored results again, with their own or another rulebook; no simulation.
 
     The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
-    writes there). Once the new evaluation is being written (nothing refused it), what spoke
-    for the one it replaces is set aside: the ``summary.json``, report and figures in ``out``
-    and beside the results, and the JUnit file."""
+    writes there). Once the new evaluation is being
+    written (nothing refused it), what spoke for the one it replaces is set aside: the
+    ``summary.json``, report and figures in ``out`` and beside the results, and the JUnit
+    file. Ctrl-C is :class:`EvaluationInterrupted`."""
     output = out or results.parent
     _check_writable_results_folder(results)
     check_junit_destination(junit, [results, rulebook],
@@ -653,14 +679,18 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
             output.mkdir(parents=True, exist_ok=True)
             notes.append(owned.enter_context(own_folder(output)).note)
             stale += [results.parent / SUMMARY_FILE, *report_outputs(results.parent)]
-        result = _rescore_owned(store, results, rulebook, junit, output, stale)
+        steps = EvaluationSteps()
+        try:
+            result = _rescore_owned(store, results, rulebook, junit, output, stale, steps)
+        except KeyboardInterrupt:
+            raise EvaluationInterrupted(results, output, steps) from None
         result.warnings[:0] = [note for note in notes if note is not None]
         return result
 
 
 def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
-                   junit: Path | None, output: Path, stale: list[Path | None]
-                   ) -> CampaignResult:
+                   junit: Path | None, output: Path, stale: list[Path | None],
+                   steps: EvaluationSteps) -> CampaignResult:
     stored = StoredCampaign(store)
     stub = stored.require_campaign()
     model = stub.model
@@ -705,14 +735,14 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
 
     with evaluation_revision(store, then) as revision:
         # nothing refused the evaluation and the disk has room: it is being written now
-        set_aside(*stale)
+        steps.set_aside = set_aside(*stale)
         evaluation = evaluate_store(store, evaluator, stored.rover, stored.sigma, collisions,
                                     rulebook_info(evaluator, rulebook_path),
                                     on_path=clock.start, into=revision.store,
                                     waivers=model.waivers, gate=gate)
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
-                         then, expect=not search)
+                         then, expect=not search, steps=steps)
     state = str(store.attrs.get("state", "complete"))
     if search:
         unchecked = ("; the campaign's expect: entries are not checked (a search states "

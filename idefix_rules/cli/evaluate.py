@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from idefix_rules.cli.destinations import output_file, output_folder
+
+if TYPE_CHECKING:
+    from idefix_rules.campaign.runner import EvaluationInterrupted
 
 NAME = "evaluate"
 HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
@@ -26,14 +30,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from idefix_rules.campaign.runner import rescore
+    from idefix_rules.campaign.runner import EvaluationInterrupted, rescore
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.outcome import print_outcome
     from idefix_rules.cli.run import stored_titles
 
     console = make_console()
-    with Console(stderr=True).status("evaluating the stored runs (collision checks, rulebook)"):
-        result = rescore(args.results, args.rulebook, args.junit, args.out)
+    try:
+        with Console(stderr=True).status("evaluating the stored runs (collision checks, "
+                                         "rulebook)"):
+            result = rescore(args.results, args.rulebook, args.junit, args.out)
+    except EvaluationInterrupted as stop:
+        console.print(interrupted_text(stop, again(args)), markup=False)
+        return 130  # as the dispatcher would, without saying "interrupted" twice
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
                   result.warnings, stored_titles(result.results))
     if result.problems:  # a waiver matching nothing: said at its line, exit 2
@@ -41,3 +50,33 @@ def run(args: argparse.Namespace) -> int:
 
         raise UserInputError(result.problems)
     return result.exit_code
+
+
+def again(args: argparse.Namespace) -> str:
+    """This command again: what evaluates the stored results anew."""
+    command = f"idefix-verify evaluate {args.results}"
+    for flag, value in (("--rulebook", args.rulebook), ("--junit", args.junit),
+                        ("--out", args.out)):
+        if value is not None:
+            command += f" {flag} {value}"
+    return command
+
+
+def interrupted_text(stop: EvaluationInterrupted, command: str) -> str:
+    """What a Ctrl-C left of an evaluation (``interrupted: …``), and the command that does it
+    again."""
+    steps = stop.steps
+    moved = [path.name for path in steps.set_aside if path.suffix != ".png"]
+    figures = len(steps.set_aside) - len(moved)
+    aside = ", ".join(moved) + (f" and {figures} figure{'s' if figures > 1 else ''}"
+                                if figures else "")
+    if steps.stored:
+        summary = stop.output / "summary.json"
+        done = f"the new evaluation is stored in {stop.results}; {summary} is " + \
+            ("written" if steps.summary else "not written")
+    elif steps.set_aside:
+        done = (f"{stop.results} is unchanged (it holds the evaluation it had); the outputs "
+                f"that spoke for that evaluation are set aside ({aside})")
+    else:
+        done = f"nothing was written: {stop.results} and its outputs are as they were"
+    return f"interrupted: {done}; evaluate again with `{command}`"

@@ -1,6 +1,7 @@
 """What `evaluate` leaves beside the results it evaluates again: the outputs that spoke for the
 evaluation it replaces are set aside once the new one is written (beside the results too
-when `--out` names another folder), never when it is refused."""
+when `--out` names another folder), never when it is refused; a Ctrl-C says what state the
+files are in and how to evaluate again."""
 
 from __future__ import annotations
 
@@ -90,3 +91,40 @@ def test_a_refused_evaluation_sets_nothing_aside(
     assert main(argv) == 2
     assert said in _words(capsys)
     assert sorted(path.name for path in out.iterdir()) == before
+
+
+@pytest.mark.parametrize("when", ["scoring", "summary"])
+def test_an_interrupted_evaluation_says_what_state_the_files_are_in(
+        when: str, tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from idefix_rules.campaign import runner
+    from idefix_rules.campaign.outcome import outputs
+
+    results = _stored(tmp_path, cli_toy_fmu)
+    out = results.parent
+    before = _evaluated_with(results)
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    if when == "scoring":
+        monkeypatch.setattr(runner, "evaluate_store", interrupted)
+    else:
+        monkeypatch.setattr(outputs, "write_summary", interrupted)
+    stricter = tmp_path / "stricter.rules"
+    stricter.write_text((tmp_path / "test.rules").read_text().replace("50 %", "40 %"))
+    assert main(["evaluate", str(results), "--rulebook", str(stricter)]) == 130
+    words = _words(capsys)
+    again = f"evaluate again with `idefix-verify evaluate {results} --rulebook {stricter}`"
+    if when == "scoring":
+        assert _evaluated_with(results) == before
+        assert (f"interrupted: {results} is unchanged (it holds the evaluation it had); the "
+                "outputs that spoke for that evaluation are set aside (summary.previous.json, "
+                "report.previous.html and ") in words, words
+    else:
+        assert _evaluated_with(results) == str(stricter.resolve())
+        assert (f"interrupted: the new evaluation is stored in {results}; "
+                f"{out / 'summary.json'} is not written") in words, words
+    assert again in words
+    assert not (out / "summary.json").exists() and (out / "summary.previous.json").is_file()
+    assert not list(out.glob(".idefix.lock"))  # the lock went with the command
