@@ -653,11 +653,14 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
             out: Path | None = None) -> CampaignResult:
     """Evaluate stored results again, with their own or another rulebook; no simulation.
 
-    The results file's folder (and ``out``) are owned for the time (``C208`` while a campaign
-    writes there). Once the new evaluation is being
+    A symbolic link is followed: the file it names is evaluated and rewritten, in its own
+    folder (where its outputs go, unless ``out``). That folder (and ``out``) are owned for
+    the time (``C208`` while a campaign writes there). Once the new evaluation is being
     written (nothing refused it), what spoke for the one it replaces is set aside: the
     ``summary.json``, report and figures in ``out`` and beside the results, and the JUnit
     file. Ctrl-C is :class:`EvaluationInterrupted`."""
+    if results.is_symlink():  # the evaluation is renamed over the file, not over the link
+        results = results.resolve()
     output = out or results.parent
     _check_writable_results_folder(results)
     check_junit_destination(junit, [results, rulebook],

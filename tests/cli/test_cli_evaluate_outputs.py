@@ -1,7 +1,7 @@
 """What `evaluate` leaves beside the results it evaluates again: the outputs that spoke for the
 evaluation it replaces are set aside once the new one is written (beside the results too
-when `--out` names another folder), never when it is refused; a Ctrl-C says what state the
-files are in and how to evaluate again."""
+when `--out` names another folder), never when it is refused; a symbolic link is followed to
+the file it names; a Ctrl-C says what state the files are in and how to evaluate again."""
 
 from __future__ import annotations
 
@@ -128,3 +128,23 @@ def test_an_interrupted_evaluation_says_what_state_the_files_are_in(
     assert again in words
     assert not (out / "summary.json").exists() and (out / "summary.previous.json").is_file()
     assert not list(out.glob(".idefix.lock"))  # the lock went with the command
+
+
+def test_evaluate_through_a_symbolic_link_rewrites_the_file_it_names(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _stored(tmp_path, cli_toy_fmu)
+    latest = tmp_path / "latest"
+    latest.mkdir()
+    link = latest / "results.h5"
+    link.symlink_to(os.path.relpath(results, latest))
+    stricter = tmp_path / "stricter.rules"
+    stricter.write_text((tmp_path / "test.rules").read_text().replace("50 %", "40 %"))
+    assert main(["evaluate", str(link), "--rulebook", str(stricter)]) == 1
+    _words(capsys)
+    assert link.is_symlink() and link.resolve() == results.resolve()
+    assert _evaluated_with(results) == str(stricter.resolve())
+    # the outputs go where the file is, and the ones that spoke for it there are set aside
+    assert sorted(path.name for path in latest.iterdir()) == ["results.h5"]
+    summary = json.loads((results.parent / "summary.json").read_text())
+    assert summary["results"] == str(results.resolve())
+    assert (results.parent / "report.previous.html").is_file()
