@@ -720,7 +720,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
             # the stored evaluation waived on an approval that has lapsed: its outputs no
             # longer hold today, though nothing is scored again
             set_aside(*stale)
-        raise UserInputError(mistakes, sources={str(stub.source): stub.text})
+        raise UserInputError(mistakes, sources={stub.locations.path: stub.text})
     _check_stored_signals(store, evaluator, results)
     # the terrain matters to the scores only through the collision and area checks
     ground = stored.ground() if getattr(evaluator, "needs_collisions", False) \
@@ -760,7 +760,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     _warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
     result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),
-                                             {str(stub.source): stub.text}))
+                                             {stub.locations.path: stub.text}))
     if state != "complete":  # its missing runs count as failed: say why
         result.warnings.append(
             f"{results} holds a campaign that is {state}: runs never simulated count as "

@@ -31,11 +31,14 @@ from idefix_rules.results.reader import StoredResults, damaged
 from idefix_rules.results.terrain import StoredTerrain, terrain_for_rescoring
 
 STORED_RULEBOOK = "/provenance/rulebook"  # the rulebook text inside results.h5
+STORED_CAMPAIGN_TEXT = "/provenance/campaign"  # the campaign text inside results.h5
 
 
 def rebuilt_campaign(store: StoredResults) -> Campaign:
     """The campaign a results file was simulated from, rebuilt from its stored text (for
-    geometry, uncertainty, environment and waivers; the FMU and DEM are not resolved).
+    geometry, uncertainty, environment and waivers; the FMU and DEM are not resolved). Its
+    spans point into the stored text (``results.h5:/provenance/campaign:LINE:COLUMN``, the
+    results file absolute): the campaign file may have changed since, or be gone.
 
     KeyError when the file holds no campaign text; ValueError (pydantic's validation error)
     or :class:`~idefix_rules.errors.UserInputError` when this version cannot read it."""
@@ -44,7 +47,7 @@ def rebuilt_campaign(store: StoredResults) -> Campaign:
 
     text = store.text("campaign")
     path = str(store.attrs.get("campaign_path", "campaign.yaml"))
-    document = load_yaml(text, path)
+    document = load_yaml(text, f"{Path(store.path).resolve()}:{STORED_CAMPAIGN_TEXT}")
     # the checks added since it ran do not refuse it: its results stand
     model = CampaignFile.model_validate(document.data, context=STORED_CAMPAIGN)
     base = Path(path).parent

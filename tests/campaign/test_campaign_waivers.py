@@ -146,12 +146,31 @@ def test_evaluate_checks_the_waivers_expiry_against_today(
     assert main(["evaluate", str(results)]) == 2
     err = " ".join(capsys.readouterr().err.split())
     line = CAMPAIGN.count("\n") + 1 + 5
-    assert f"campaign.yaml:{line}:12: error[C213]" in err
-    assert f"campaign.yaml:{line + 5}:12: error[C213]" in err
+    stored = f"{results.resolve()}:/provenance/campaign"  # the campaign as it ran
+    assert f"{stored}:{line}:12: error[C213]" in err
+    assert f"{stored}:{line + 5}:12: error[C213]" in err
     assert "expired on 2026-12-01 (today is 2026-12-02)" in err
     assert "renew it in the campaign file (a new date, approved again) and run the campaign " \
         "again" in err
     assert not (campaign_dir / "out" / "summary.json").exists()  # no summary says waived
+
+
+def test_evaluate_names_a_waiver_in_the_campaign_text_stored_with_the_results(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The campaign file may have changed since it ran, or be gone: a stored waiver's
+    mistake is said at its line in the stored text, which is quoted."""
+    path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"))
+    assert main([str(path), "--quiet", "--no-report"]) == 1  # too-fast is still rejected
+    path.write_text("# rewritten since\n" + path.read_text())
+    renamed = campaign_dir / "renamed.rules"
+    renamed.write_text(RULEBOOK.replace("acceptable_risk", "risk_kept"))
+    capsys.readouterr()
+    results = campaign_dir / "out" / "results.h5"
+    assert main(["evaluate", str(results), "--rulebook", str(renamed)]) == 2
+    err = capsys.readouterr().err
+    line = CAMPAIGN.count("\n") + 2
+    assert f"{results.resolve()}:/provenance/campaign:{line}:11: error[C211]" in err, err
+    assert "  - rule: acceptable_risk\n" in err and str(path) not in err
 
 
 def test_a_waiver_of_a_rule_that_holds_matches_nothing_exit_2(
