@@ -104,6 +104,8 @@ class CampaignResult:
     timings: dict[str, float] = field(default_factory=dict)
     # Mistakes of the campaign only the evaluation shows (a waiver matching nothing): exit 2.
     problems: list[Diagnostic] = field(default_factory=list)
+    # What was done besides, to say as notes (a stale lock taken over).
+    notes: list[str] = field(default_factory=list)
 
 
 def compile_rulebook_file(path: Path) -> Any:
@@ -687,7 +689,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
             result = _rescore_owned(store, results, rulebook, junit, output, stale, steps)
         except KeyboardInterrupt:
             raise EvaluationInterrupted(results, output, steps) from None
-        result.warnings[:0] = [note for note in notes if note is not None]
+        result.notes[:0] = [note for note in notes if note is not None]
         return result
 
 
@@ -736,9 +738,13 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
             gate_again(result, evaluator, store.chain(result.name), stored.rover, stored.sigma,
                        store.reference(result.name), collisions, model.waivers, units)
 
+    state = str(store.attrs.get("state", "complete"))
     with evaluation_revision(store, then) as revision:
         # nothing refused the evaluation and the disk has room: it is being written now
         steps.set_aside = set_aside(*stale)
+        if state == "running":  # this process owns the folder: no campaign writes the file,
+            state = "interrupted"  # the one that did was killed
+            revision.store.attrs["state"] = state
         evaluation = evaluate_store(store, evaluator, stored.rover, stored.sigma, collisions,
                                     rulebook_info(evaluator, rulebook_path),
                                     on_path=clock.start, into=revision.store,
@@ -746,7 +752,6 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then, expect=not search, steps=steps)
-    state = str(store.attrs.get("state", "complete"))
     if search:
         unchecked = ("; the campaign's expect: entries are not checked (a search states "
                      "facts about worlds, not about how often they occur): the exit code "

@@ -29,6 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
+    from rich.markup import escape
 
     from idefix_rules.campaign.runner import EvaluationInterrupted, rescore
     from idefix_rules.cli.console import make_console
@@ -43,6 +44,8 @@ def run(args: argparse.Namespace) -> int:
     except EvaluationInterrupted as stop:
         console.print(interrupted_text(stop, again(args)), markup=False)
         return 130  # as the dispatcher would, without saying "interrupted" twice
+    for note in result.notes:  # as a run says them, before its outcome
+        console.print(f"[yellow]note:[/yellow] {escape(note)}")
     print_outcome(console, result.evaluation, result.expectations, result.exit_code,
                   result.warnings, stored_titles(result.results))
     if result.problems:  # a waiver matching nothing: said at its line, exit 2

@@ -307,6 +307,36 @@ def test_a_campaign_killed_early_leaves_no_old_output_and_its_lock_is_taken_over
     assert not (out / LOCK_FILE).exists()
 
 
+def test_evaluate_takes_over_a_killed_campaigns_lock_with_a_note_and_calls_it_interrupted(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A campaign killed mid-run leaves its lock and its results file `running`: evaluate
+    takes the lock over (a note, as for a run) and, owning the folder, knows no campaign
+    writes the file: it is interrupted, and so the file says from then on."""
+    from idefix_rules.cli import main
+
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report"]) == 1
+    capsys.readouterr()
+    out = campaign_dir / "out"
+    results = out / "results.h5"
+    with h5py.File(results, "r+") as file:  # as a kill -9 midway leaves it
+        file.attrs["state"], file.attrs["finished"] = "running", ""
+        status = file["paths/arc/runs/status"]
+        status[3:] = 0
+    pid = dead_pid()
+    write_lock(out, pid)
+    assert main(["evaluate", str(results)]) == 1
+    captured = capsys.readouterr()
+    words = " ".join(captured.out.split())
+    assert f"note: {out / LOCK_FILE}: took over the lock of pid {pid} on host" in words
+    assert "warning: " + str(out / LOCK_FILE) not in words
+    assert f"{results} holds a campaign that is interrupted: runs never simulated count as " \
+           "failed" in words
+    assert "that is running" not in words
+    with h5py.File(results) as file:
+        assert file.attrs["state"] == "interrupted"
+    assert not (out / LOCK_FILE).exists()
+
+
 @pytest.mark.slow
 def test_ctrl_c_releases_the_folder(campaign_dir: Path) -> None:
     out = campaign_dir / "out"
