@@ -49,6 +49,7 @@ from idefix_rules.campaign.input.validate import (
 )
 from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome import outputs
+from idefix_rules.campaign.outcome.held import held_warnings
 from idefix_rules.campaign.simulation.dask_pool import ClusterError
 from idefix_rules.campaign.simulation.resume import resume_command, stored_resume_command
 from idefix_rules.campaign.simulation.simulate import (
@@ -752,24 +753,12 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
         name = str(store.attrs.get("campaign_name", "campaign"))
         result = _finish(revision, evaluation, stub, output, junit, name, clock.seconds(),
                          then, expect=not search, steps=steps)
-    if search:
-        unchecked = ("; the campaign's expect: entries are not checked (a search states "
-                     "facts about worlds, not about how often they occur): the exit code "
-                     "follows the verdicts") if model.expect else ""
-        result.warnings.append(
-            f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
-            "worlds the search chose, not draws of the campaign's distributions, so each "
-            "run's risk holds but a path's mean risk, chances and verdict are not the "
-            f"campaign's (docs/worst-case.md){unchecked}")
-    again = stored_resume_command(store.attrs, stub.source, results.parent)
-    _warn_lost_runs(result, again)
+    result.warnings.extend(held_warnings(store.attrs, results, stub.source,
+                                         bool(model.expect), state))
+    _warn_lost_runs(result, stored_resume_command(store.attrs, stub.source, results.parent))
     result.warnings.extend(ground.warnings)
     result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),
                                              {stub.locations.path: stub.text}))
-    if state != "complete":  # its missing runs count as failed: say why
-        result.warnings.append(
-            f"{results} holds a campaign that is {state}: runs never simulated count as "
-            f"failed; continue it with `{again}`")
     return result
 
 

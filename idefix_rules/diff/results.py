@@ -38,6 +38,7 @@ from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
 from idefix_rules.campaign.input.waivers import waive_verdict
 from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
+from idefix_rules.campaign.outcome.held import held_warnings
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.commands import Command
 from idefix_rules.diff.evaluators import values_only
@@ -142,7 +143,9 @@ class ResultsFileDiff:
     new_ranking: tuple[str, ...]
     collisions: str
     timings: dict[str, float] = field(default_factory=dict)
-    warnings: tuple[str, ...] = ()  # about the terrain the collision and area checks used
+    # what the file holds (a search, a campaign not complete), the terrain the collision and
+    # area checks used, areas the campaign left unplaced
+    warnings: tuple[str, ...] = ()
     # the sides ("old", "new") whose per-run values came from the stored evaluation
     stored_evaluation: tuple[str, ...] = ()
 
@@ -312,7 +315,8 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
         timings["total"] = time.perf_counter() - started
         return ResultsFileDiff(str(path), str(store.attrs.get("campaign_name", "")), paths,
                                rankings[0], rankings[1], collisions.describe(), timings,
-                               (*collisions.warnings, *_unplaced_areas(stored, evaluators)),
+                               (*held_warnings(store.attrs, path, campaign.source),
+                                *collisions.warnings, *_unplaced_areas(stored, evaluators)),
                                tuple(label for i, label in enumerate(("old", "new"))
                                      if i in reused))
     finally:

@@ -317,6 +317,22 @@ def test_the_command_that_continues_an_interrupted_campaign_has_its_runs_and_see
         assert continued.attrs["state"] == "complete" and continued.attrs["runs"] == 6
 
 
+def test_diff_of_an_interrupted_campaign_warns_as_evaluate_does(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from diff_warnings import diff_warnings
+
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(5), report=False)
+    said = (f"{campaign.output / 'results.h5'} holds a campaign that is interrupted: runs never "
+            f"simulated count as failed; continue it with `idefix-verify "
+            f"{campaign_dir / 'campaign.yaml'} --resume --out {campaign.output} --runs 6 "
+            "--seed 5`")
+    words, warnings = diff_warnings(campaign_dir / "test.rules",
+                                    campaign.output / "results.h5", capsys)
+    assert f"warning: {said}" in words and said in warnings
+
+
 def test_a_path_cut_off_before_its_runs_were_allocated_is_started_again(
         campaign_dir: Path) -> None:
     campaign = load_campaign(campaign_dir / "campaign.yaml")

@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 import pytest
 from campaign_texts import RULEBOOK
+from diff_warnings import diff_warnings
 
 from idefix_rules.cli import main
 
@@ -293,3 +294,16 @@ def test_a_search_is_unpaired_and_its_evaluation_checks_no_expectation(
     assert "CI verdicts (no expectations: every path must pass)" in output
     assert summary["expectations"] == [] and summary["pairs"] == []
     assert summary["paired"] is False
+
+
+def test_diff_of_a_search_warns_as_evaluate_does(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = campaign_dir / "search"
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
+    assert code == 0, output
+    results = out / "results.h5"
+    said = (f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
+            "worlds the search chose, not draws of the campaign's distributions")
+    words, warnings = diff_warnings(campaign_dir / "test.rules", results, capsys)
+    assert f"warning: {said}" in words
+    assert any(warning.startswith(said) for warning in warnings), warnings
