@@ -212,6 +212,8 @@ class ReportData:
     exit_code: int | None = None
     pairs: list[PairComparison] = field(default_factory=list)  # summary.json's, paired runs
     confidence: float = 0.95  # the bounds' family-wise confidence (1 - summary's alpha.alpha)
+    # summary.json's problems: the campaign's mistakes only its evaluation shows (exit 2)
+    problems: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def evaluated_paths(self) -> list[PathReport]:
@@ -490,4 +492,6 @@ def _read_report_data(store: StoredResults) -> ReportData:
                       # a search's file of an earlier version stored pairs of unpaired runs
                       pairs=[PairComparison.from_dict(pair) for pair in summary.get("pairs", [])
                              if isinstance(pair, Mapping) and drawn_paired(file.attrs)],
-                      confidence=0.95 if confidence is None else confidence)
+                      confidence=0.95 if confidence is None else confidence,
+                      problems=[dict(problem) for problem in summary.get("problems", [])
+                                if isinstance(problem, Mapping)])

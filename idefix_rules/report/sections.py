@@ -57,9 +57,25 @@ def decision_html(data: ReportData) -> str:
         ci = "CI verdicts (no expectations: every path must pass)"
     if data.exit_code is not None:
         ci += f" (exit {data.exit_code})"
+    # why the exit code is 2 although the expectations say otherwise, as the console says it
+    problems = "".join(f"<li>{escape(problem_text(problem))}</li>" for problem in data.problems)
     return (f'<div class="banner {decision.kind}" id="decision"><b>Decision:</b> '
             f"{escape(decision.text)}" + (f'<div class="ci">{escape(ci)}</div>' if ci else "")
-            + "</div>")
+            + (f'<ul class="ci problems">{problems}</ul>' if problems else "") + "</div>")
+
+
+def problem_text(problem: Mapping[str, Any]) -> str:
+    """A stored problem (summary.json's ``problems``) as the console says it, in one line.
+
+    >>> problem_text({"code": "C215", "severity": "error", "message": "no match",
+    ...               "path": "c.yaml", "line": 3, "column": 5, "hint": "remove it"})
+    'c.yaml:3:5: error[C215]: no match (remove it)'
+    """
+    where = ":".join(str(part) for part in (problem.get("path"), problem.get("line"),
+                                            problem.get("column")) if part is not None)
+    hint = f" ({problem['hint']})" if problem.get("hint") else ""
+    return (f"{where or '<input>'}: {problem.get('severity', 'error')}"
+            f"[{problem.get('code', '')}]: {problem.get('message', '')}{hint}")
 
 
 def interactive_html(payload_json: str, order: Sequence[str],

@@ -183,6 +183,23 @@ def test_a_waiver_of_a_rule_that_holds_matches_nothing_exit_2(
     assert summary["exit_code"] == 2
 
 
+def test_the_report_says_why_the_exit_code_is_2(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The report's CI line says the exit code 2 as the console, summary.json and JUnit do:
+    with the waiver that matches nothing, at its line."""
+    from html import unescape
+
+    path = with_waivers(campaign_dir, waiver("runs_complete", path="straight"))
+    assert main([str(path), "--quiet"]) == 2
+    capsys.readouterr()
+    page = (campaign_dir / "out" / "report.html").read_text()
+    banner = unescape(page[page.index('id="decision"'):].split("</div></div>")[0])
+    assert "(exit 2)" in banner
+    line = CAMPAIGN.count("\n") + 2
+    assert (f"{path}:{line}:5: error[C215]: waivers[0]: the waiver matches nothing: rule "
+            "'runs_complete' did not fail on path 'straight'") in banner, banner
+
+
 def test_a_waiver_of_a_rule_the_named_path_passes_matches_nothing_and_waives_nothing(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # acceptable_risk fails on straight, passes on arc (decided with 40 runs: six cannot show
