@@ -107,3 +107,33 @@ def test_a_path_the_stored_campaign_rejected_that_the_new_rulebook_would_run_has
         "excluded before Monte Carlo, or needs a run under this rulebook)" in output
     with h5py.File(results, "r") as file:
         assert file["paths"]["straight"].attrs["status"] == "rejected"  # the campaign's
+
+
+def test_an_adaptive_paths_stop_reason_adds_the_verdict_this_rulebook_gives(
+        tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The looks stopped each path on their verdict; excluded by the new rulebook's prescreen,
+    its stop reason says so too (results-format.md), in summary.json and on the console."""
+    folder = tmp_path / "stored"
+    folder.mkdir()
+    materialise(folder, campaign(), cli_toy_fmu)
+    here = Path.cwd()
+    try:
+        os.chdir(folder)
+        assert main(["campaign.yaml", "--runs", "auto", "--max-runs", "16", "--min-runs", "8",
+                     "--quiet", "--no-report"]) in (0, 1)
+    finally:
+        os.chdir(here)
+    results = folder / "out" / "results.h5"
+    before = {p["name"]: p["stop_reason"] for p in json.loads(
+        (results.parent / "summary.json").read_text())["paths"]}
+    assert all(reason.startswith(("decided after", "stopped after", "cap of"))
+               for reason in before.values()), before
+    excluding = tmp_path / "excluding.rules"
+    excluding.write_text(RULEBOOK + TINY_RISK)
+    code, paths, output = _evaluate(results, excluding, capsys)
+    assert code == 1, output
+    for name, reason in before.items():
+        assert paths[name]["verdict"] == "excluded", output
+        said = f"{reason}; verdict excluded under this rulebook"
+        assert paths[name]["stop_reason"] == said
+        assert f"{name}: runs: {said}" in output

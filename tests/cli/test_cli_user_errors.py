@@ -1239,7 +1239,8 @@ def test_the_report_after_evaluate_rulebook_draws_with_that_rulebook(
 
 def test_an_evaluated_interrupted_campaign_says_how_many_runs_it_simulated(
         tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Its stop reason says the runs simulated of those planned, not 'fixed run count'."""
+    """Its stop reason says the runs simulated of those planned, not 'fixed run count', also
+    for a path none of whose runs were simulated."""
     from idefix_rules.campaign.storage.store import STATUS_MISSING
 
     materialise(tmp_path, campaign(), cli_toy_fmu)
@@ -1248,18 +1249,17 @@ def test_an_evaluated_interrupted_campaign_says_how_many_runs_it_simulated(
     results = tmp_path / "out" / "results.h5"
     with h5py.File(results, "r+") as file:  # as a kill after two runs of straight leaves it
         file.attrs["state"] = "interrupted"
-        status = file["paths/straight/runs/status"]
-        status[2:] = STATUS_MISSING
-        for key in file["paths/straight/runs/signals"]:
-            signal = file["paths/straight/runs/signals"][key]
-            signal[2:] = np.nan
+        for name, kept in (("straight", 2), ("arc", 0)):
+            file[f"paths/{name}/runs/status"][kept:] = STATUS_MISSING
+            for signal in file[f"paths/{name}/runs/signals"].values():
+                signal[kept:] = np.nan
     assert main(["evaluate", str(results), "--quiet"]) == 1
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     paths = {path["name"]: path for path in summary["paths"]}
-    assert paths["straight"]["stop_reason"] == ("interrupted: 2 of the 4 planned runs "
-                                                "simulated (the others count as failed)")
-    assert paths["straight"]["missing_runs"] == 2
-    assert paths["arc"]["stop_reason"] == "fixed run count (4 runs)"
+    for name, kept in (("straight", 2), ("arc", 0)):
+        assert paths[name]["stop_reason"] == (f"interrupted: {kept} of the 4 planned runs "
+                                              "simulated (the others count as failed)")
+        assert paths[name]["missing_runs"] == 4 - kept
 
 
 def test_evaluate_records_the_rulebook_absolute_as_it_records_the_results(

@@ -285,6 +285,9 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         result = stored_path_result(store, name)
         if gate is not None:
             gate(result)
+            if result.status != "simulated" and sequential and result.stop_reason:
+                # its looks stopped it on a verdict this rulebook does not give
+                result.stop_reason += f"; verdict {result.verdict_text} under this rulebook"
             if write and result.status != "simulated":
                 _drop_evaluation(target, name)
         results.append(result)
@@ -297,6 +300,8 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         if evaluation is None:
             result.passed = False
             result.verdict_reasons = ["no complete run to evaluate"]
+            if not sequential and not result.stop_reason:  # interrupted before its first run
+                result.stop_reason = fixed_stop_reason(result)
             continue
         stop_time = float(store.path_group(name).attrs.get("stop_time", 0.0))
         evaluated[name] = (evaluation, result, np.asarray(extra["rows"]), stop_time)
@@ -311,9 +316,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         unwaived = evaluator.verdict(stats)
         verdict, waived = waive_verdict(unwaived, waivers, name)
         if not sequential and not result.stop_reason:
-            result.stop_reason = f"{STOP_FIXED} ({result.runs} runs)" if not result.missing \
-                else (f"interrupted: {result.runs - result.missing} of the {result.runs} "
-                      "planned runs simulated (the others count as failed)")
+            result.stop_reason = fixed_stop_reason(result)
         elif sequential:  # in the looks' words (statistics/stopping.py)
             # the path's own (prescreen, command) waivers are the result's before the verdict's
             result.stop_reason = restated(result.stop_reason, settled_outcome(
@@ -395,6 +398,15 @@ def _drop_evaluation(target: ResultStore, name: str) -> None:
     group = target.path_group(name)
     if "evaluation" in group:
         del group["evaluation"]
+
+
+def fixed_stop_reason(result: PathResult) -> str:
+    """Why a path of a fixed campaign ended its Monte Carlo runs: its run count, or how many of
+    them an interrupted campaign simulated."""
+    if not result.missing:
+        return f"{STOP_FIXED} ({result.runs} runs)"
+    return (f"interrupted: {result.runs - result.missing} of the {result.runs} planned runs "
+            "simulated (the others count as failed)")
 
 
 def stored_path_result(store: StoredResults, name: str) -> PathResult:
