@@ -21,6 +21,7 @@ from idefix_rules.rulebook import check_text, load_checked
 from idefix_rules.rulebook.check import CheckedRulebook
 
 GIT_TIMEOUT_S = 30.0
+NO_FILE = "D005"  # PATH@REV with no file before the '@'
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,13 @@ def load_source(spec: str) -> RulebookSource:
     """Read and check the rulebook a spec names; every mistake is a :class:`UserInputError`."""
     path_text, revision = split_spec(spec)
     path = Path(path_text)
+    if revision is not None and (not path_text or path_text.endswith("/") or path.is_dir()):
+        # git would show the folder's listing ("tree …"), not a rulebook
+        named = f"names the folder {path_text}" if path_text else "is empty"
+        raise UserInputError(error(
+            NO_FILE, f"the path before '@' {named}: PATH@REV reads the file PATH at "
+                     f"revision {revision}", Span(spec),
+            hint=f"name the rulebook file, e.g. rulebooks/idefix-ops.rules@{revision}"))
     if revision is None:
         return RulebookSource(str(path), path, None, load_checked(path))
     return load_revision(path, revision)

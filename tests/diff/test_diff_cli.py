@@ -90,6 +90,20 @@ def test_a_missing_rulebook_exits_2(rules: tuple[Path, Path], tmp_path: Path,
     assert "rulebook file not found" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize(("spec", "said"), [
+    ("@HEAD", "@HEAD: error[D005]: the path before '@' is empty"),
+    ("{folder}/@HEAD", "{folder}/@HEAD: error[D005]: the path before '@' names the folder "
+                       "{folder}/"),
+    ("{folder}@v1", "{folder}@v1: error[D005]: the path before '@' names the folder {folder}")])
+def test_a_revision_without_a_rulebook_file_before_it_exits_2(
+        spec: str, said: str, rules: tuple[Path, Path], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(capsys, spec.format(folder=tmp_path), str(rules[1]))
+    assert code == 2
+    assert said.format(folder=tmp_path) in err and "Traceback" not in err
+    assert "not a rulebook" not in err  # git's listing of a folder is never read as one
+
+
 def test_an_invalid_rulebook_exits_2_with_line_and_column(
         rules: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
     rules[1].write_text(NEW.replace("risk <= 70 %", "risk = 70 %"))
