@@ -287,6 +287,9 @@ def load_dem(path: str | Path, cell: float | None = None,
     if suffix == ".npy":
         try:
             heights = np.load(path, allow_pickle=False)
+        except EOFError:  # an empty file
+            raise UserInputError(error("F203", "cannot read DEM: the file is empty",
+                                       Span(str(path)))) from None
         except (OSError, ValueError) as exc:
             # numpy's words for a file of Python objects advise loading it unsafely: never
             reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
@@ -304,10 +307,23 @@ def load_dem(path: str | Path, cell: float | None = None,
                         "not numbers (heights in metres)", Span(str(path))))
     else:
         heights = _read_csv(path)
+    if np.size(heights) > MAX_NODES:  # a float32 grid fits the byte limit with twice as many
+        shape = " x ".join(map(str, np.shape(heights)))
+        raise UserInputError(error(
+            "F204", f"DEM has {np.size(heights):,} heights ({shape}); at most {MAX_NODES:,} "
+                    "are accepted", Span(str(path)),
+            hint="resample the DEM to a coarser cell, or cut it to the area the chains cross"))
     heights = np.asarray(heights, dtype=float)
-    if heights.ndim != 2 or min(heights.shape) < 2 or not np.all(np.isfinite(heights)):
+    if heights.ndim != 2 or min(heights.shape) < 2:
         raise UserInputError(error("F206", "DEM must be a finite 2-D grid of at least 2 x 2",
                                    Span(str(path))))
+    if not np.all(np.isfinite(heights)):
+        row, column = (int(i) for i in np.argwhere(~np.isfinite(heights))[0])
+        raise UserInputError(error(
+            "F206", f"DEM must be a finite 2-D grid: row {row}, column {column} (0-based) holds "
+                    f"{heights[row, column]}", Span(str(path)),
+            hint="fill the no-data cells (interpolate them, or cut the DEM to the area with "
+                 "data)"))
     ny, nx = heights.shape
     if origin is None:
         origin = (-(nx - 1) * cell / 2, -(ny - 1) * cell / 2)

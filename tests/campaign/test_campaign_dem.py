@@ -93,3 +93,39 @@ def test_a_csv_dem_reaches_the_fmu_and_a_bad_value_names_file_and_line(
     assert main([str(path), "--runs", "2", "--quiet", "--no-report"]) == 2
     err = capsys.readouterr().err
     assert f"{campaign_dir / 'dem.csv'}:2:" in err and "'O.04'" in err
+
+
+def _dem_mistake(campaign_dir: Path, name: str) -> str:
+    campaign = load_campaign(with_terrain(campaign_dir, f'    dem: {name}\n    cell: "5 cm"\n'))
+    with pytest.raises(UserInputError) as caught:
+        build_terrain(campaign.model.environment, campaign.dem)
+    return caught.value.diagnostics[0].format()
+
+
+def test_an_empty_npy_dem_is_a_user_error_naming_it(campaign_dir: Path) -> None:
+    (campaign_dir / "empty.npy").write_bytes(b"")  # numpy raised EOFError: a traceback
+    said = _dem_mistake(campaign_dir, "empty.npy")
+    assert "empty.npy: error[F203]: cannot read DEM: the file is empty" in said
+
+
+def test_a_dem_with_too_many_heights_is_refused_naming_it(campaign_dir: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A float32 grid of more heights than the FMU reads fits the .npy byte limit: it was
+    prepared, written as terrain.dem and refused there, naming a file the user never wrote."""
+    import idefix_rules.fmu.terrain as terrain_module
+    monkeypatch.setattr(terrain_module, "MAX_NODES", 12)
+    np.save(campaign_dir / "just.npy", GRID.astype(np.float32))  # 12 heights: accepted
+    campaign = load_campaign(with_terrain(campaign_dir, '    dem: just.npy\n    cell: "5 cm"\n'))
+    assert build_terrain(campaign.model.environment, campaign.dem).heights.size == 12
+    np.save(campaign_dir / "big.npy", np.zeros((3, 5), np.float32))  # 15: one row too many
+    said = _dem_mistake(campaign_dir, "big.npy")
+    assert "big.npy: error[F204]: DEM has 15 heights (3 x 5); at most 12 are accepted" in said
+
+
+def test_a_non_finite_height_is_named_by_row_and_column(campaign_dir: Path) -> None:
+    grid = GRID.copy()
+    grid[2, 1] = np.nan
+    np.save(campaign_dir / "holes.npy", grid)
+    said = _dem_mistake(campaign_dir, "holes.npy")
+    assert "holes.npy: error[F206]: DEM must be a finite 2-D grid: row 2, column 1 (0-based) " \
+        "holds nan" in said
