@@ -269,7 +269,10 @@ def rock_obstacle(record: Any, number: int, thresholds: LevelThresholds | None,
             raise fail(f"dimensions must be finite and positive, got {size}")
         piece = Piece(shape, size, centre, rotation)
         top = float(centre[2] + size[-1])
-    rock_size = top - (ground(float(centre[0]), float(centre[1])) if ground else 0.0)
+    # the size as stored and shown, to the picometre: a rock whose top stands 10 cm above the
+    # ground by its numbers (6 cm radius, 2 cm embedded; or on a DEM 100 m up) is 10 cm, not
+    # the 0.09999999999999999 m of the subtraction, whichever side of a level boundary
+    rock_size = round(top - (ground(float(centre[0]), float(centre[1])) if ground else 0.0), 12)
     level_value = _field(record, "level")
     if level_value is not None:
         level = level_index(level_value, where)
@@ -277,7 +280,7 @@ def rock_obstacle(record: Any, number: int, thresholds: LevelThresholds | None,
         level = thresholds.level_of(rock_size)
     else:
         raise fail("has no level and no size thresholds were given to assign one")
-    return Obstacle(name, "rock", level, (piece,), size=round(rock_size, 12))
+    return Obstacle(name, "rock", level, (piece,), size=rock_size)
 
 
 def _hull_piece(points: np.ndarray, fail: Callable[[str], UserInputError]) -> Piece:

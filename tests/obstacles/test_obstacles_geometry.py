@@ -230,3 +230,23 @@ def test_quaternions_are_the_same_rotations_as_the_matrices():
     for k in range(5):
         body.setQuatRotation(q[k])
         assert np.allclose(body.getRotation(), matrices[k] @ _axis(0, tilt))
+
+
+@pytest.mark.parametrize("ground", [0.0, 100.0, -30.0])
+@pytest.mark.parametrize(("centre_above", "radius", "level"), [
+    (0.04, 0.06, 2),  # its top exactly 10 cm up: "L2 below 10 cm" makes it L3
+    (0.039, 0.06, 1),  # 9.9 cm: L2
+])
+def test_a_rock_at_a_level_boundary_takes_the_level_its_numbers_give(
+        ground: float, centre_above: float, radius: float, level: int) -> None:
+    """The subtraction top − ground left 0.0999999999999943 m on a DEM 100 m up (and
+    0.09999999999999999 for 6 cm − 2 cm embedded): L2 where the size stored and shown was 10 cm
+    and the rulebook's boundary puts it in L3."""
+    from idefix_rules.obstacles import LevelThresholds
+
+    rock = {"x": 0.5, "y": 0.0, "z": ground + centre_above, "radius": radius}
+    obstacles = ObstacleSet.from_rocks([rock], LevelThresholds(0.03, 0.10),
+                                       ground=lambda x, y: ground)
+    (obstacle,) = obstacles.obstacles
+    assert obstacle.level == level
+    assert obstacle.size == pytest.approx(centre_above + radius, abs=1e-12)
