@@ -253,3 +253,25 @@ def test_a_declared_unit_the_tool_cannot_convert_is_C503(
     where = _location(DIFF_DRIVE_CAMPAIGN, "x\n    pos_y")  # the value the map gives pos_x
     assert f"{where}: error[C503]: fmu.signals.pos_x: " \
         f"'pos_x' is in '{unit}', which this tool cannot convert ('x' is in m)" in output, output
+
+
+def test_an_fmu_without_a_binary_for_this_platform_is_C400_before_any_run(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The zip's listing says so before anything is simulated: it was every reference run
+    failing to instantiate, exit 3, as if the machine were at fault."""
+    import zipfile
+
+    import fmpy
+
+    fmu = tmp_path / "Unicycle.fmu"
+    with zipfile.ZipFile(unicycle_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():  # it ships Windows and Linux binaries: drop this one's
+            if not item.filename.startswith(f"binaries/{fmpy.platform}/"):
+                target.writestr(item, source.read(item))
+    code, output = _run(_campaign(tmp_path, fmu, UNICYCLE_CAMPAIGN), capsys)
+    assert code == 2, output
+    flat = " ".join(output.split())
+    assert f"{_location(UNICYCLE_CAMPAIGN, 'Unicycle.fmu')}: error[C400]: " in output, output
+    assert f"no binary for this platform (binaries/{fmpy.platform}/Unicycle" \
+        f"{fmpy.sharedLibraryExtension} is missing); it has binaries for win64" in flat, output
+    assert not (tmp_path / "out" / "results.h5").exists()

@@ -21,6 +21,7 @@ diagnostics located at the campaign line that says the wrong thing:
 from __future__ import annotations
 
 import difflib
+import zipfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -92,6 +93,29 @@ def _fmu_loc(campaign: Campaign) -> Loc:
     return ("fmu", "path") if campaign.fmu is not None else ("fmu",)
 
 
+def _missing_binary(description: FmuDescription) -> str | None:
+    """What is missing when the FMU has no shared library for this platform under the model
+    identifier of the interface the runner uses (co-simulation first); None when it has."""
+    import fmpy
+
+    identifier = description.co_simulation or description.model_exchange
+    folder = fmpy.platform_tuple if description.major == 3 else fmpy.platform
+    wanted = f"binaries/{folder}/{identifier}{fmpy.sharedLibraryExtension}"
+    path = Path(description.path)
+    if path.is_dir():
+        present = (path / wanted).is_file()
+    else:
+        with zipfile.ZipFile(path) as archive:
+            present = wanted in archive.namelist()
+    if present:
+        return None
+    supported = fmpy.supported_platforms(str(path))
+    platforms = [p for p in supported if p != "c-code"]
+    has = f"it has binaries for {', '.join(platforms)}" if platforms else "it has no binaries"
+    sources = " and C sources" if "c-code" in supported else ""
+    return f"no binary for this platform ({wanted} is missing); {has}{sources}"
+
+
 def _did_you_mean(name: str, known: Iterable[str]) -> str | None:
     # FMU variable names are often short ('px', 'v'): a lower cut-off than difflib's 0.6
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
@@ -108,6 +132,12 @@ def fmu_interface(campaign: Campaign, fmu_path: Path) -> FmuDescription:
         raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({reason})", span),
                              sources={str(campaign.source): campaign.text}) from None
     if description.major in (2, 3) and (description.co_simulation or description.model_exchange):
+        missing = _missing_binary(description)  # found now, not as a failed reference run
+        if missing is not None:
+            raise UserInputError(error("C400", f"{fmu_path}: {missing}", span,
+                                       hint="export the FMU with a binary for this platform "
+                                            "(or compile its C sources into one)"),
+                                 sources={str(campaign.source): campaign.text})
         return description  # model exchange only: fmpy's solver integrates it
     kinds = ", ".join(kind for kind, part in (("co-simulation", description.co_simulation),
                                               ("model exchange", description.model_exchange))
