@@ -112,12 +112,16 @@ def describe_fmu(path: str | Path, span: Span | None = None) -> FmuDescription:
         declared = variable.declaredType
         if not unit and declared is not None:
             unit = getattr(declared, "unit", None) or ""
+        # an FMI 3 array (<Dimension>) is several values under one reference: no getter here
+        # reads one of them, so it is no signal, set-point or parameter (read as a scalar, its
+        # first element stood for it)
+        array = bool(getattr(variable, "dimensions", None))
         variables[variable.name] = FmuVariable(
-            name=variable.name, type=str(variable.type),
+            name=variable.name, type=f"{variable.type} array" if array else str(variable.type),
             causality=str(variable.causality or "local"),
             variability=str(variable.variability or "continuous"),
             unit=unit, value_reference=int(variable.valueReference),
-            reader=_READERS.get(str(variable.type), "unsupported"),
+            reader="unsupported" if array else _READERS.get(str(variable.type), "unsupported"),
             si=fmi_unit(unit, definitions) if unit else None)
     experiment = description.defaultExperiment
     stop = getattr(experiment, "stopTime", None) if experiment is not None else None

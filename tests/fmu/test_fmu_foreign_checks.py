@@ -275,3 +275,33 @@ def test_an_fmu_without_a_binary_for_this_platform_is_C400_before_any_run(
     assert f"no binary for this platform (binaries/{fmpy.platform}/Unicycle" \
         f"{fmpy.sharedLibraryExtension} is missing); it has binaries for win64" in flat, output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+@pytest.mark.parametrize(("mapped", "says"), [
+    ("pos_x", "fmu.signals.pos_x: 'pos_x' is a Float64 array; a signal is read from a "
+              "Real/Float, Integer, Boolean or Enumeration output"),
+    ("pos_x[1]", "fmu.signals.pos_x[1]: 'pos_x[1]' is an element of 'pos_x', a Float64 array: "
+                 "elements of FMI 3 arrays are not read"),
+])
+def test_an_fmi3_array_output_is_C502_not_its_first_element(
+        mapped: str, says: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """An array output mapped as a signal was read as its first element (y held pos[0])."""
+    import zipfile
+
+    fmu = tmp_path / "DiffDrive.fmu"
+    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                declared = b'name="pos_x" valueReference="6" causality="output" unit="mm"/>'
+                assert declared in data
+                data = data.replace(declared, declared[:-2] + b'><Dimension start="3"/>'
+                                    b"</Float64>")
+            target.writestr(item, data)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    text = DIFF_DRIVE_CAMPAIGN.replace("    pos_x: x\n", f"    {mapped}: x\n")
+    code, output = _run(_campaign(folder, fmu, text), capsys)
+    assert code == 2, output
+    assert f"{_location(text, mapped + ': x')}: error[C502]: {says}" in " ".join(output.split())

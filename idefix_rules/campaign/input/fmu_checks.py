@@ -217,6 +217,11 @@ def _signal_entry(campaign: Campaign, description: FmuDescription, fmu_name: str
     where = format_loc(loc)
     fmu_file = description.path.name
     variable = description.variables.get(fmu_name)
+    whole = description.variables.get(fmu_name.partition("[")[0])
+    if variable is None and whole is not None and whole.type.endswith(" array"):
+        return [error("C502", f"{where}: {fmu_name!r} is an element of {whole.name!r}, a "
+                              f"{whole.type}: elements of FMI 3 arrays are not read",
+                      _span(campaign, loc), hint="map a scalar output of the FMU")]
     if variable is None:
         outputs = [v.name for v in description.variables.values() if v.causality == "output"]
         return [error("C401", f"{where}: unknown FMU variable {fmu_name!r} in {fmu_file}",
