@@ -305,3 +305,34 @@ def test_an_fmi3_array_output_is_C502_not_its_first_element(
     code, output = _run(_campaign(folder, fmu, text), capsys)
     assert code == 2, output
     assert f"{_location(text, mapped + ': x')}: error[C502]: {says}" in " ".join(output.split())
+
+
+@pytest.mark.parametrize(("given", "says"), [
+    ("slip: {distribution: uniform, low: 0.0, high: 0.05}",
+     "but a uniform distribution draws fractions"),
+    ("slip: {distribution: fixed, value: 2.7}", "but 2.7 is not a whole number"),
+])
+def test_fractions_for_an_integer_parameter_are_C505(
+        given: str, says: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Values for an Integer parameter were cut to whole numbers where they were set: 2.7 ran
+    as 2, and a uniform draw was biased down."""
+    import zipfile
+
+    fmu = tmp_path / "DiffDrive.fmu"
+    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                assert b'<Float64 name="slip"' in data
+                data = data.replace(b'<Float64 name="slip"', b'<Int32 name="slip"')
+            target.writestr(item, data)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    text = DIFF_DRIVE_CAMPAIGN.replace("slip: {distribution: uniform, low: 0.0, high: 0.05}",
+                                       given)
+    code, output = _run(_campaign(folder, fmu, text), capsys)
+    assert code == 2, output
+    assert f"{_location(text, given)}: error[C505]: uncertainty.parameters.slip: FMU parameter " \
+        f"'slip' is an Int32, {says}: it would be cut to a whole number" in \
+        " ".join(output.split()), output

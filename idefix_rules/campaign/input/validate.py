@@ -94,6 +94,15 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
                         f"{variable.type}; a sampled or regolith value needs a Real or Integer",
                 campaign.locations.span(loc, at_key=True)))
             continue
+        if variable.reader == "integer":
+            fractional = _not_whole(campaign, loc)
+            if fractional is not None:
+                problems.append(error(
+                    "C505", f"{format_loc(loc)}: FMU parameter {variable.name!r} is an "
+                            f"{variable.type}, {fractional}: it would be cut to a whole number",
+                    campaign.locations.span(loc, at_key=True),
+                    hint="give whole numbers (distribution fixed), or map a Real parameter"))
+                continue
         if dimension is None:
             continue
         expected = variable.si.dimension if variable.si is not None else None
@@ -102,6 +111,19 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
                         f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
     return problems
+
+
+def _not_whole(campaign: Campaign, loc: tuple[str, ...]) -> str | None:
+    """What in a sampled or regolith value is no whole number (an Integer parameter takes
+    one): a distribution other than ``fixed`` draws fractions; a value may be one."""
+    if loc[0] == "uncertainty":
+        spec = campaign.model.uncertainty.parameters[loc[-1]]
+        if spec.distribution != "fixed":
+            return f"but a {spec.distribution} distribution draws fractions"
+        value = float(spec.value)
+    else:
+        value = float(campaign.model.environment.regolith[loc[-1]])
+    return None if value == int(value) else f"but {value:g} is not a whole number"
 
 
 def is_chain_parameter(name: str) -> bool:
