@@ -582,6 +582,15 @@ CASES = [
                              '["3 m", "1 m"]]}\npaths:')),
          RUN, 2, ("campaign.yaml:17:14: error[E613]: environment.keep_out[1]: the name 'k' is "
                   "taken by keep_out[0]",)),
+    Case("keep-out-named-like-a-rock",
+         campaign(("paths:", "environment:\n  rocks:\n"
+                             '    - {x: "0.5 m", y: "1 m", radius: "4 cm", level: L2}\n'
+                             "  keep_out:\n"
+                             '    - {name: rock1, polygon: [["2 m", "0 m"], ["3 m", "0 m"], '
+                             '["3 m", "1 m"]]}\npaths:')),
+         RUN, 2, ("campaign.yaml:18:14: error[E613]: environment.keep_out[0]: the name 'rock1' "
+                  "is taken by the campaign's rock 1 (environment.rocks[0]: rocks are named "
+                  "rock1, rock2, … in their order)",)),
     Case("rock-levels-reversed",
          campaign(("paths:", 'environment:\n  rock_levels: {l1_max_size: "10 cm", '
                              'l2_max_size: "3 cm"}\npaths:')),

@@ -8,6 +8,7 @@ found in the terrain (its inclination above the rulebook's ``above``) and takes 
 from __future__ import annotations
 
 import difflib
+import re
 from typing import Any
 
 from idefix_rules.campaign.input.environment import declared_areas
@@ -52,7 +53,7 @@ def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
                     "C209", f"environment.areas.{name}.polygons[{number}]: "
                     f"{failure.diagnostics[0].message}",
                     campaign.locations.span((*loc, "polygons", number))))
-    problems += _keep_out_problems(campaign) + _rock_level_problems(campaign)
+    problems += _keep_out_problems(campaign, declared) + _rock_level_problems(campaign)
     for name, spec in declared.items():
         if spec.kind != "steep" and name not in given:
             problems.append(warning(
@@ -73,20 +74,26 @@ def unplaced_area_warnings(campaign: Campaign, evaluator: Any) -> list[Diagnosti
     return [problem for problem in area_problems(campaign, evaluator) if problem.code == "C210"]
 
 
-def _keep_out_problems(campaign: Campaign) -> list[Diagnostic]:
-    """``environment.keep_out``: each polygon simple and with area, each name once (E622,
-    E613), at the line that says it."""
+def _keep_out_problems(campaign: Campaign, declared: dict[str, Any]) -> list[Diagnostic]:
+    """``environment.keep_out``: each polygon simple and with area, each name once and none
+    another obstacle's (the campaign's rocks are rock1, rock2, … in their order; a rulebook
+    area is its name, with a number when it has several parts) (E622, E613), at the line
+    that says it."""
     from idefix_rules.obstacles.areas import polygon_area
 
     problems: list[Diagnostic] = []
     seen: dict[str, int] = {}
+    rocks = len(campaign.model.environment.rocks)
     for number, area in enumerate(campaign.model.environment.keep_out):
         loc: tuple[str | int, ...] = ("environment", "keep_out", number)
+        taken = _taken_by(area.name, rocks, declared)
         if area.name in seen:
+            taken = f"keep_out[{seen[area.name]}]"
+        if taken is not None:
             problems.append(error(
                 "E613", f"environment.keep_out[{number}]: the name {area.name!r} is taken by "
-                        f"keep_out[{seen[area.name]}]; obstacle names must be unique",
-                campaign.locations.span((*loc, "name"))))
+                        f"{taken}; obstacle names must be unique",
+                campaign.locations.span((*loc, "name")), hint="give the keep-out another name"))
         seen.setdefault(area.name, number)
         try:
             polygon_area([tuple(point) for point in area.polygon], area.level, area.name)
@@ -96,6 +103,18 @@ def _keep_out_problems(campaign: Campaign) -> list[Diagnostic]:
                         f"{failure.diagnostics[0].message}",
                 campaign.locations.span((*loc, "polygon"))))
     return problems
+
+
+def _taken_by(name: str, rocks: int, declared: dict[str, Any]) -> str | None:
+    """The obstacle that already bears ``name`` (a keep-out's), or None."""
+    match = re.fullmatch(r"rock([1-9]\d*)", name)
+    if match is not None and int(match[1]) <= rocks:
+        return f"the campaign's rock {match[1]} (environment.rocks[{int(match[1]) - 1}]: rocks " \
+               "are named rock1, rock2, … in their order)"
+    for area in declared:
+        if re.fullmatch(re.escape(area) + r"\d*", name):
+            return f"the rulebook's area {area!r} (its parts are {area}, or {area}1, {area}2, …)"
+    return None
 
 
 def _rock_level_problems(campaign: Campaign) -> list[Diagnostic]:
