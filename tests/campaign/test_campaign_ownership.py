@@ -139,9 +139,16 @@ def test_a_lock_file_being_written_is_waited_for_before_it_counts_as_damaged(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(ownership, "UNREADABLE_GRACE_SECONDS", 0.3)
     (tmp_path / LOCK_FILE).write_text("")  # created, not yet filled (no hard links here)
-    began = time.monotonic()
+    # written just now, whatever the machine's load between here and the check (an age
+    # measured against the file's time could end the wait early)
+    future = time.time() + 60
+    os.utime(tmp_path / LOCK_FILE, (future, future))
+    waits: list[float] = []
+    sleep = time.sleep
+    monkeypatch.setattr(ownership.time, "sleep", lambda seconds: (waits.append(seconds),
+                                                                   sleep(seconds)))
     with own_folder(tmp_path) as lock:
-        assert time.monotonic() - began >= 0.3
+        assert waits  # it waited for the file to be written before it took it over
         assert lock.note is not None and "an unknown owner" in lock.note
 
 
