@@ -64,6 +64,10 @@ MISTAKES = [
             (("wheel.slip[FL]", "C500", "fmu.signals.phase: signal 'wheel.slip' is mapped for FL "
               "only: a wheel signal has all four wheels hint: map wheel.slip[FR], "
               "wheel.slip[RL], wheel.slip[RR] too, or none of them"),)),
+    Mistake("done-at-beyond-a-boolean", "diff_drive",
+            (("  path: DiffDrive.fmu\n", "  path: DiffDrive.fmu\n  done_at: 2\n"),),
+            (("2\n  signals:", "C502", "fmu.done_at: 'arrived' is a Boolean, read as 0 or 1: "
+              "'done' never reaches 2"),)),
     Mistake("an-input-mapped-as-a-signal", "unicycle",
             (("    py: y\n", "    py: y\n    w: yaw\n"),),
             (("w: yaw", "C501", "fmu.signals.w: 'w' is an input; a signal must be an output "

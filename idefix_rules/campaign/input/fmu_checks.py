@@ -189,8 +189,24 @@ def signal_problems(campaign: Campaign, description: FmuDescription
                         f"'{seen[target]}' and '{fmu_name}'", _span(campaign, loc),
                 hint="map each signal from one FMU variable"))
         seen[target] = fmu_name
-    problems += _partial_wheels(campaign, seen)
+    problems += _partial_wheels(campaign, seen) + _unreachable_done(campaign, description, seen)
     return dict(explicit), problems
+
+
+def _unreachable_done(campaign: Campaign, description: FmuDescription, seen: dict[str, str]
+                      ) -> list[Diagnostic]:
+    """``done`` from a Boolean output reads 0 or 1: a ``done_at`` above 1 is never reached
+    (every run would drive to the stop limit), one at 0 or below at the first sample."""
+    variable = description.variables.get(seen.get(DONE_SIGNAL, ""))
+    done_at = campaign.model.fmu.done_at
+    if variable is None or variable.reader != "boolean" or 0.0 < done_at <= 1.0:
+        return []
+    loc: Loc = ("fmu", "done_at")
+    reached = "never reaches" if done_at > 1 else "is from the first sample at least"
+    return [error("C502", f"{format_loc(loc)}: {variable.name!r} is a {variable.type}, read as "
+                          f"0 or 1: 'done' {reached} {done_at:g}",
+                  _span(campaign, loc, at_key=False),
+                  hint="leave done_at out (1: true) for a Boolean output")]
 
 
 def _partial_wheels(campaign: Campaign, seen: dict[str, str]) -> list[Diagnostic]:
