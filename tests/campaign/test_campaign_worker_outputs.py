@@ -38,3 +38,11 @@ def test_a_wheel_not_finite_while_the_others_are_names_its_first_sample():
     slip[5:, 2] = np.nan
     with pytest.raises(ValueError, match=r"signal 'wheel.slip' is not finite from sample 5"):
         check_outputs({"wheel.slip": slip}, 8)
+
+
+def test_a_time_signal_that_does_not_increase_fails_the_run_where_it_stalls():
+    """An output mapped to t that is no clock (a phase 0, 1, 1, 2) made every run's time 2 s."""
+    with pytest.raises(ValueError, match=r"signal 't' does not increase at sample 2 \(1 s, then "
+                                         r"1 s\)"):
+        check_outputs({"t": np.array([0.0, 1.0, 1.0, 2.0])}, 4)
+    assert check_outputs({"t": np.array([0.0, 0.5, 1.0])}, 3)["t"][-1] == 1.0

@@ -171,6 +171,12 @@ def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, 
         if not np.all(np.isfinite(array)):
             first = int(np.flatnonzero((~np.isfinite(array.reshape(samples, -1))).any(axis=1))[0])
             raise ValueError(f"signal {name!r} is not finite from sample {first}")
+        if name == "t" and array.ndim == 1 and not np.all(np.diff(array) > 0):
+            # a mapped output that is no clock (a phase, a counter): every time read from it
+            # would be wrong
+            at = int(np.argmax(np.diff(array) <= 0)) + 1
+            raise ValueError(f"signal 't' does not increase at sample {at} ({array[at - 1]:g} s, "
+                             f"then {array[at]:g} s)")
         stored = storage_dtype(name)
         if stored != np.float64 and np.any(np.abs(array) > np.finfo(stored).max):
             # stored as float32 it would read back as infinite: no finite run is stored so
