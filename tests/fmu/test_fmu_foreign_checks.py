@@ -340,3 +340,26 @@ def test_fractions_for_an_integer_parameter_are_C505(
     assert f"{_location(text, given)}: error[C505]: uncertainty.parameters.slip: FMU parameter " \
         f"'slip' is an Int32, {says}: it would be cut to a whole number" in \
         " ".join(output.split()), output
+
+
+def test_a_damaged_fmu_is_C400_at_its_path_before_any_stage(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A byte flipped in the binary inside the zip: it was F102 without a place, after the
+    rulebook and terrain stages, leaving an interrupted results file."""
+    import zipfile
+
+    import fmpy
+
+    member = f"binaries/{fmpy.platform}/Unicycle{fmpy.sharedLibraryExtension}"
+    data = bytearray(unicycle_fmu.read_bytes())
+    with zipfile.ZipFile(unicycle_fmu) as archive:
+        info = archive.getinfo(member)
+    start = info.header_offset + 30 + len(info.filename.encode()) + len(info.extra)
+    data[start + info.compress_size // 2] ^= 0xFF
+    fmu = tmp_path / "Unicycle.fmu"
+    fmu.write_bytes(bytes(data))
+    code, output = _run(_campaign(tmp_path, fmu, UNICYCLE_CAMPAIGN), capsys)
+    assert code == 2, output
+    assert f"{_location(UNICYCLE_CAMPAIGN, 'Unicycle.fmu')}: error[C400]: " in output, output
+    assert "not a readable FMU" in output and member in " ".join(output.split()), output
+    assert not (tmp_path / "out" / "results.h5").exists()

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import difflib
 import zipfile
+import zlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -93,6 +94,21 @@ def _fmu_loc(campaign: Campaign) -> Loc:
     return ("fmu", "path") if campaign.fmu is not None else ("fmu",)
 
 
+def _damaged_member(description: FmuDescription) -> str | None:
+    """The first file of the FMU's zip whose bytes do not match their checksum, said; None
+    for a sound zip (or an extracted folder)."""
+    path = Path(description.path)
+    if path.is_dir():
+        return None
+    try:
+        with zipfile.ZipFile(path) as archive:
+            bad = archive.testzip()
+    except (OSError, zipfile.BadZipFile, EOFError, zlib.error) as failure:
+        return f"not a readable FMU ({failure})"
+    return None if bad is None else f"not a readable FMU: {bad} is damaged (its checksum " \
+        "does not match)"
+
+
 def _missing_binary(description: FmuDescription) -> str | None:
     """What is missing when the FMU has no shared library for this platform under the model
     identifier of the interface the runner uses (co-simulation first); None when it has."""
@@ -132,12 +148,13 @@ def fmu_interface(campaign: Campaign, fmu_path: Path) -> FmuDescription:
         raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({reason})", span),
                              sources={str(campaign.source): campaign.text}) from None
     if description.major in (2, 3) and (description.co_simulation or description.model_exchange):
-        missing = _missing_binary(description)  # found now, not as a failed reference run
-        if missing is not None:
-            raise UserInputError(error("C400", f"{fmu_path}: {missing}", span,
-                                       hint="export the FMU with a binary for this platform "
-                                            "(or compile its C sources into one)"),
-                                 sources={str(campaign.source): campaign.text})
+        # found now, at fmu.path, not as failed reference runs after the other stages
+        for problem, hint in ((_damaged_member(description), "copy or export the FMU again"),
+                              (_missing_binary(description), "export the FMU with a binary for "
+                               "this platform (or compile its C sources into one)")):
+            if problem is not None:
+                raise UserInputError(error("C400", f"{fmu_path}: {problem}", span, hint=hint),
+                                     sources={str(campaign.source): campaign.text})
         return description  # model exchange only: fmpy's solver integrates it
     kinds = ", ".join(kind for kind, part in (("co-simulation", description.co_simulation),
                                               ("model exchange", description.model_exchange))
