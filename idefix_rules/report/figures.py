@@ -241,8 +241,10 @@ def risk_map_figure(values: np.ndarray, grid: RiskGrid, environment: MapEnvironm
     axes.set_xlim(left, right)
     axes.set_ylim(bottom, top)
     axes.set_aspect("equal")
-    axes.set_xlabel(f"x [m] (rover start frame, forward)\ngrid: {cell_note}", fontsize=10)
-    axes.set_ylabel("y [m] (left)", fontsize=10)
+    # the terrain's frame, that of the FMU's x/y and the DEM (the rover's start frame only
+    # when it starts at the origin heading +x)
+    axes.set_xlabel(f"x [m] (terrain frame)\ngrid: {cell_note}", fontsize=10)
+    axes.set_ylabel("y [m] (terrain frame)", fontsize=10)
     axes.tick_params(labelsize=10)
     # At the top of the map, as matplotlib would place it: given, it is not placed again at
     # every draw (which measures the tick labels of the map and its colour bar once more;

@@ -6,8 +6,9 @@ that crossed it** of those run values. With a single run the map shows that run'
 several runs cross, their run-specific maxima are averaged. The per-sample risk is the run risk
 of eq. 1 before the time reduction: ``max over indices of weight × per-sample index value``.
 
-Positions are the body centre ``(x, y)`` in the rover's start frame (the frame of the FMU's
-``x``/``y`` signals). Between two samples the body centre moves along a straight segment; the
+Positions are the body centre ``(x, y)`` in the terrain's frame (the frame of the FMU's
+``x``/``y`` signals and of the DEM; the rover's start frame only when it starts at the origin
+heading +x). Between two samples the body centre moves along a straight segment; the
 segment is **rasterised** by sub-sampling it at most half a cell apart, so a fast segment never
 leaves a gap of untouched cells. Each sub-sample carries the risk of the nearer of the two
 samples (the first half of a segment the first sample's risk, the second half the second's), so
