@@ -105,6 +105,19 @@ def map_environment(campaign_text: str, checked: Any | None,
                getattr(checked, "obstacle_levels", ())}
     areas = [AreaShape(area.name, np.array(area.polygon, dtype=float), area.level,
                        margins.get(area.level, 0.0)) for area in environment.keep_out]
+    # the polygons the campaign gives the rulebook's keep-out and unknown areas, with the
+    # area's own level and buffer (steep areas come from the terrain, below)
+    from idefix_rules.campaign.input.environment import declared_areas
+
+    declared = {spec.name: spec for spec in declared_areas(checked)} if checked is not None \
+        else {}
+    for name, given in environment.areas.items():
+        spec = declared.get(name)
+        if spec is None or spec.kind == "steep":
+            continue
+        areas += [AreaShape(name if number == 0 else "", np.array(polygon, dtype=float),
+                            spec.level, float(spec.buffer))
+                  for number, polygon in enumerate(given.polygons)]
     try:
         from idefix_rules.campaign.input.environment import obstacle_set
 

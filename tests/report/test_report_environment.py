@@ -53,3 +53,26 @@ def test_an_area_named_off_is_drawn_as_the_campaign_read_it() -> None:
     environment, notes = map_environment(text, checked)
     assert notes == [] and [area.name for area in environment.areas] == ["off"]
     assert len(environment.rocks) == 1
+
+
+def test_the_rulebooks_areas_are_drawn_with_the_polygons_the_campaign_gives_them() -> None:
+    """`environment.areas` polygons of the rulebook's keep-out and unknown areas were not drawn
+    (only `environment.keep_out` was): the map showed contacts with nothing there."""
+    rulebook = RULEBOOK.replace("obstacles {", "obstacles {\n  area pit keep_out level L3 buffer "
+                                "10 cm because \"A pit\"\n  area dark unknown level L2 buffer "
+                                "30 cm because \"Not seen\"", 1)
+    assert rulebook != RULEBOOK
+    checked = check_text(rulebook, "report-test.rules").checked
+    assert checked is not None
+    text = CAMPAIGN.replace("environment:\n", "environment:\n  areas:\n"
+                            '    pit: {polygons: [[["0.8 m", "0 m"], ["1 m", "0 m"], '
+                            '["1 m", "0.2 m"]]]}\n'
+                            '    dark: {polygons: [[["2 m", "0 m"], ["3 m", "0 m"], '
+                            '["3 m", "1 m"]], [["4 m", "0 m"], ["5 m", "0 m"], ["5 m", "1 m"]]]}\n',
+                            1)
+    assert text != CAMPAIGN
+    environment, notes = map_environment(text, checked)
+    assert notes == []
+    drawn = [(a.name, a.level, round(a.buffer, 3)) for a in environment.areas]
+    assert drawn == [("crater", "L3", 0.1), ("pit", "L3", 0.1), ("dark", "L2", 0.3),
+                     ("", "L2", 0.3)]
