@@ -13,6 +13,7 @@ getter family that reads it (``real``, ``integer``, ``boolean``). Units are unde
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from fractions import Fraction
@@ -47,6 +48,9 @@ class FmuVariable:
     value_reference: int
     reader: Reader
     si: Unit | None  # the declared unit understood (None: no unit or one we cannot read)
+    # the range it declares (min, max attributes, its own or its declared type's), in its unit
+    minimum: float | None = None
+    maximum: float | None = None
 
     @property
     def settable(self) -> bool:
@@ -95,6 +99,19 @@ def fmi_unit(name: str, definitions: dict[str, Any] | None = None) -> Unit | Non
     return Unit(name, Fraction(float(base.factor)), dimension)
 
 
+def _bound(variable: Any, declared: Any, which: str) -> float | None:
+    """A numeric variable's declared ``min`` or ``max`` (its own, else its type's)."""
+    for source in (variable, declared):
+        text = getattr(source, which, None) if source is not None else None
+        if text not in (None, ""):
+            try:
+                value = float(text)
+            except (TypeError, ValueError):
+                return None
+            return value if math.isfinite(value) else None
+    return None
+
+
 def describe_fmu(path: str | Path, span: Span | None = None) -> FmuDescription:
     """Read an FMU's (or an extracted FMU folder's) model description; F102 when unreadable."""
     from fmpy import read_model_description
@@ -122,7 +139,8 @@ def describe_fmu(path: str | Path, span: Span | None = None) -> FmuDescription:
             variability=str(variable.variability or "continuous"),
             unit=unit, value_reference=int(variable.valueReference),
             reader="unsupported" if array else _READERS.get(str(variable.type), "unsupported"),
-            si=fmi_unit(unit, definitions) if unit else None)
+            si=fmi_unit(unit, definitions) if unit else None,
+            minimum=_bound(variable, declared, "min"), maximum=_bound(variable, declared, "max"))
     experiment = description.defaultExperiment
     stop = getattr(experiment, "stopTime", None) if experiment is not None else None
     token = description.guid if description.fmiVersion.startswith("2") \

@@ -154,6 +154,22 @@ def _location(text: str, marker: str) -> str:
     return f"campaign.yaml:{line}:{column}"
 
 
+def _edited_diff_drive(diff_drive_fmu: Path, folder: Path, old: bytes, new: bytes) -> Path:
+    """A copy of DiffDrive.fmu in ``folder`` whose model description has ``old`` replaced by
+    ``new`` (a unit, a type, a range, a dimension the test needs)."""
+    import zipfile
+
+    fmu = folder / "DiffDrive.fmu"
+    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "modelDescription.xml":
+                assert old in data
+                data = data.replace(old, new)
+            target.writestr(item, data)
+    return fmu
+
+
 @pytest.mark.parametrize("mistake", MISTAKES, ids=[m.id for m in MISTAKES])
 def test_a_mapping_mistake_is_a_located_exit_2_before_any_run(
         mistake: Mistake, tmp_path: Path, unicycle_fmu: Path, diff_drive_fmu: Path,
@@ -239,17 +255,9 @@ def test_a_declared_unit_the_tool_cannot_convert_is_C503(
         capsys: pytest.CaptureFixture[str]) -> None:
     """An output in a unit the tool cannot read was taken as SI: `milli-metre` as metres (a
     rover 284 m from its start). Now it is said at the map line, exit 2."""
-    import zipfile
-
-    fmu = tmp_path / "DiffDrive.fmu"
-    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
-        for item in source.infolist():
-            data = source.read(item)
-            if item.filename == "modelDescription.xml":
-                data = data.replace(b'name="pos_x" valueReference="6" causality="output" '
-                                    b'unit="mm"', f'name="pos_x" valueReference="6" causality='
-                                    f'"output" unit="{unit}"'.encode())
-            target.writestr(item, data)
+    declared = b'name="pos_x" valueReference="6" causality="output" unit="mm"'
+    fmu = _edited_diff_drive(diff_drive_fmu, tmp_path, declared,
+                             declared.replace(b'"mm"', f'"{unit}"'.encode()))
     folder = tmp_path / "c"
     folder.mkdir()
     code, output = _run(_campaign(folder, fmu, DIFF_DRIVE_CAMPAIGN), capsys)
@@ -291,24 +299,29 @@ def test_an_fmi3_array_output_is_C502_not_its_first_element(
         mapped: str, says: str, tmp_path: Path, diff_drive_fmu: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     """An array output mapped as a signal was read as its first element (y held pos[0])."""
-    import zipfile
-
-    fmu = tmp_path / "DiffDrive.fmu"
-    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
-        for item in source.infolist():
-            data = source.read(item)
-            if item.filename == "modelDescription.xml":
-                declared = b'name="pos_x" valueReference="6" causality="output" unit="mm"/>'
-                assert declared in data
-                data = data.replace(declared, declared[:-2] + b'><Dimension start="3"/>'
-                                    b"</Float64>")
-            target.writestr(item, data)
+    declared = b'name="pos_x" valueReference="6" causality="output" unit="mm"/>'
+    fmu = _edited_diff_drive(diff_drive_fmu, tmp_path, declared,
+                             declared[:-2] + b'><Dimension start="3"/></Float64>')
     folder = tmp_path / "c"
     folder.mkdir()
     text = DIFF_DRIVE_CAMPAIGN.replace("    pos_x: x\n", f"    {mapped}: x\n")
     code, output = _run(_campaign(folder, fmu, text), capsys)
     assert code == 2, output
     assert f"{_location(text, mapped + ': x')}: error[C502]: {says}" in " ".join(output.split())
+
+
+def _slip_given(diff_drive_fmu: Path, tmp_path: Path, slip: bytes, given: str,
+                capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    """DiffDrive's campaign run with its `slip` parameter declared as ``slip`` (the start of
+    its XML element) and the campaign's distribution of it replaced by ``given``: exit code,
+    output, campaign text."""
+    fmu = _edited_diff_drive(diff_drive_fmu, tmp_path, b'<Float64 name="slip"', slip)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    text = DIFF_DRIVE_CAMPAIGN.replace("slip: {distribution: uniform, low: 0.0, high: 0.05}",
+                                       given)
+    code, output = _run(_campaign(folder, fmu, text), capsys)
+    return code, output, text
 
 
 @pytest.mark.parametrize(("given", "says"), [
@@ -321,21 +334,8 @@ def test_fractions_for_an_integer_parameter_are_C505(
         capsys: pytest.CaptureFixture[str]) -> None:
     """Values for an Integer parameter were cut to whole numbers where they were set: 2.7 ran
     as 2, and a uniform draw was biased down."""
-    import zipfile
-
-    fmu = tmp_path / "DiffDrive.fmu"
-    with zipfile.ZipFile(diff_drive_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
-        for item in source.infolist():
-            data = source.read(item)
-            if item.filename == "modelDescription.xml":
-                assert b'<Float64 name="slip"' in data
-                data = data.replace(b'<Float64 name="slip"', b'<Int32 name="slip"')
-            target.writestr(item, data)
-    folder = tmp_path / "c"
-    folder.mkdir()
-    text = DIFF_DRIVE_CAMPAIGN.replace("slip: {distribution: uniform, low: 0.0, high: 0.05}",
-                                       given)
-    code, output = _run(_campaign(folder, fmu, text), capsys)
+    code, output, text = _slip_given(diff_drive_fmu, tmp_path, b'<Int32 name="slip"', given,
+                                     capsys)
     assert code == 2, output
     assert f"{_location(text, given)}: error[C505]: uncertainty.parameters.slip: FMU parameter " \
         f"'slip' is an Int32, {says}: it would be cut to a whole number" in \
@@ -363,3 +363,23 @@ def test_a_damaged_fmu_is_C400_at_its_path_before_any_stage(
     assert f"{_location(UNICYCLE_CAMPAIGN, 'Unicycle.fmu')}: error[C400]: " in output, output
     assert "not a readable FMU" in output and member in " ".join(output.split()), output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+@pytest.mark.parametrize(("declared", "given", "says"), [
+    ('max="0.01"', "slip: {distribution: uniform, low: 0.0, high: 0.05}",
+     "above the maximum 0.01 DiffDrive.fmu declares for 'slip', before any run was simulated"),
+    ('min="0.01"', "slip: {distribution: fixed, value: 0.005}",
+     "draws 0.005 (of 10 planned), below the minimum 0.01 DiffDrive.fmu declares for 'slip'"),
+])
+def test_a_draw_outside_the_range_an_fmu_declares_is_F110_before_any_run(
+        declared: str, given: str, says: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The FMU refuses such a value when it is set: the runs failed one by one (exit 1); the
+    built-in rover's refusals were caught by its log's wording, a foreign FMU's range never."""
+    code, output, text = _slip_given(diff_drive_fmu, tmp_path,
+                                     f'<Float64 {declared} name="slip"'.encode(), given, capsys)
+    assert code == 2, output
+    flat = " ".join(output.split())
+    assert f"{_location(text, given)}: error[F110]: uncertainty.parameters.slip: " in flat, output
+    assert says in flat, output
+    assert not (tmp_path / "c" / "out" / "results.h5").exists()

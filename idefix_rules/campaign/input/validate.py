@@ -70,6 +70,7 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     # parameter's name (an FMU's own name for chain.count), the others by their own name
     renamed = {fmu_name for fmu_name, ours in (fmu.parameters or {}).items()
                if is_chain_parameter(ours)}
+    ranged: list[tuple[tuple[str, ...], str, FmuVariable]] = []  # to hold to their range
     for loc, name, dimension in entries:
         if chain_set and (is_chain_parameter(name) or parameter_names.get(name) in renamed):
             problems.append(error(
@@ -104,12 +105,58 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
                     hint="give whole numbers (distribution fixed), or map a Real parameter"))
                 continue
         if dimension is None:
+            ranged.append((loc, name, variable))
             continue
         expected = variable.si.dimension if variable.si is not None else None
         if expected is not None and expected != dimension:
             problems.append(error(
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
                         f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
+            continue
+        ranged.append((loc, name, variable))
+    return problems + _outside_declared_range(campaign, description, ranged)
+
+
+def _outside_declared_range(campaign: Campaign, description: FmuDescription,
+                            entries: Sequence[tuple[tuple[str, ...], str, FmuVariable]]
+                            ) -> list[Diagnostic]:
+    """A regolith value, or a planned draw of an uncertain parameter, outside the range the FMU
+    declares for its variable (min, max) is F110 at its line, naming the run that draws it,
+    before any run: the FMU would refuse it (fmi2SetReal) and the runs fail one by one."""
+    entries = [entry for entry in entries
+               if entry[2].minimum is not None or entry[2].maximum is not None]
+    if not entries:
+        return []
+    draws: dict[str, dict[str, np.ndarray]] | None = None
+    planned = 0
+    problems = []
+    for loc, name, variable in entries:
+        if loc[0] == "uncertainty":
+            if draws is None:
+                planned, draws = planned_draws(campaign, [spec.name for spec in campaign.paths])
+            candidates = [(float(values[run]), f"run {run} of path {path} draws")
+                          for path, drawn in draws.items() if name in drawn
+                          for values in (np.asarray(drawn[name], dtype=float),) if values.size
+                          for run in (int(np.argmin(values)), int(np.argmax(values)))]
+        else:
+            candidates = [(float(campaign.model.environment.regolith[loc[-1]]), "the value is")]
+        for value, who in candidates:
+            own = variable.si.from_si(value) if variable.si is not None else value
+            side = ("below the minimum", variable.minimum) if variable.minimum is not None \
+                and own < variable.minimum else ("above the maximum", variable.maximum) \
+                if variable.maximum is not None and own > variable.maximum else None
+            if side is None:
+                continue
+            unit = f" {variable.unit}" if variable.unit else ""
+            planned_text = f" (of {planned} planned)" if loc[0] == "uncertainty" else ""
+            problems.append(error(
+                "F110", f"{format_loc(loc)}: {who} {own:g}{unit}{planned_text}, "
+                        f"{side[0]} {side[1]:g}{unit} {description.path.name} declares for "
+                        f"{variable.name!r}, before any run was simulated",
+                campaign.locations.span(loc, at_key=True),
+                hint="bound the distribution inside the range the FMU allows (a "
+                     "truncated_normal with low and high, a uniform), or narrow it"))
+            break
     return problems
 
 
