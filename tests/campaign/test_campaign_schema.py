@@ -110,7 +110,8 @@ CATALOGUE = [
       "std is an angle"]),
     ("unknown sampling method",
      GOOD.replace("method: latin_hypercube", "method: halton"),
-     ["12:11: uncertainty.method: Input should be 'monte_carlo', 'latin_hypercube' or 'sobol'"]),
+     ["12:11: uncertainty.method: expected 'monte_carlo', 'latin_hypercube' or 'sobol', got "
+      "'halton'"]),
     ("runs not positive",
      GOOD.replace("runs: 8", "runs: 0"),
      ["3:7: runs: expected a whole number of runs from 1 to 1000000 or 'auto', got 0"]),
@@ -135,7 +136,7 @@ CATALOGUE = [
      GOOD.replace(
          '  straight:\n    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", '
          'delta_heading: "0 deg"}\n', "  straight: []\n"),
-     ["6:13: paths.straight: List should have at least 1 item after validation, not 0"]),
+     ["6:13: paths.straight: expected at least 1 value, got 0"]),
     ("YAML syntax",
      GOOD.replace("runs: 8", "runs: [8"),
      ["4:7: invalid YAML: expected ',' or ']', but got ':'"]),

@@ -284,7 +284,7 @@ CASES = [
          ("campaign.yaml:13:44: error[C100]: uncertainty.parameters.toy.slip.low: 1.0e-400 is "
           "too small for a double: it would be read as 0",)),
     Case("campaign-zero-commands", campaign((f"  straight:\n{STRAIGHT}", "  straight: []\n")),
-         RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: List should have at least",)),
+         RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: expected at least 1 value, got 0",)),
     Case("campaign-100-commands", campaign((f"  straight:\n{STRAIGHT}",
                                             "  straight:\n" + STRAIGHT * 100)), RUN, 2,
          ("campaign.yaml:15:3: error[C403]: paths.straight: 100 commands, but toy.fmu takes at "
@@ -515,8 +515,15 @@ CASES = [
     Case("rock-negative-radius",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
                              'radius: "-4 cm"}\npaths:')), RUN, 2,
-         ("campaign.yaml:16:36: error[C100]: environment.rocks[0].radius: Input should be "
-          "greater than 0",)),
+         ("campaign.yaml:16:36: error[C100]: environment.rocks[0].radius: must be above 0",)),
+    Case("simulation-margin-below-one",
+         campaign(('  extra_time: "2 s"', '  extra_time: "2 s"\n  duration_margin: -1')), RUN, 2,
+         ("campaign.yaml:22:20: error[C100]: simulation.duration_margin: must be at least 1.0",)),
+    Case("dem-origin-of-three-values",
+         campaign(("paths:", 'environment:\n  terrain:\n    dem: flat.npy\n    cell: "2 cm"\n'
+                             '    origin: ["1 m", "2 m", "3 m"]\npaths:')), RUN, 2,
+         ("campaign.yaml:18:13: error[C100]: environment.terrain.origin: expected at most 2 "
+          "values, got 3",)),
     *(Case(f"synthetic-terrain-slope-{name}",
            campaign(("paths:", "environment:\n  terrain:\n    synthetic:\n"
                                f'      slope: "{value}"\npaths:')), RUN, 2,

@@ -69,7 +69,7 @@ def check_fmu(campaign: Campaign, fmu_path: Path, evaluator: Any) -> FmuCheck:
     from idefix_rules.campaign.input.validate import parameter_problems
 
     description = fmu_interface(campaign, fmu_path)
-    problems = parameter_problems(campaign, description)
+    problems = binary_problems(campaign, description) + parameter_problems(campaign, description)
     signal_map, found = signal_problems(campaign, description)
     problems += found
     check = FmuCheck(description, signal_map, _terrain_variable(campaign, description) is not None)
@@ -92,6 +92,17 @@ def _span(campaign: Campaign, loc: Loc, at_key: bool = True) -> Span:
 def _fmu_loc(campaign: Campaign) -> Loc:
     """Where the campaign names its FMU (the whole file for the built-in rover)."""
     return ("fmu", "path") if campaign.fmu is not None else ("fmu",)
+
+
+def binary_problems(campaign: Campaign, description: FmuDescription) -> list[Diagnostic]:
+    """A damaged file in the FMU's zip, or no binary for this platform: C400 at fmu.path now,
+    with the other mistakes, not failed reference runs after the other stages."""
+    span = campaign.locations.span(_fmu_loc(campaign))
+    return [error("C400", f"{description.path}: {problem}", span, hint=hint)
+            for problem, hint in ((_damaged_member(description), "copy or export the FMU again"),
+                                  (_missing_binary(description), "export the FMU with a binary "
+                                   "for this platform (or compile its C sources into one)"))
+            if problem is not None]
 
 
 def _damaged_member(description: FmuDescription) -> str | None:
@@ -148,13 +159,6 @@ def fmu_interface(campaign: Campaign, fmu_path: Path) -> FmuDescription:
         raise UserInputError(error("C400", f"{fmu_path}: not a readable FMU ({reason})", span),
                              sources={str(campaign.source): campaign.text}) from None
     if description.major in (2, 3) and (description.co_simulation or description.model_exchange):
-        # found now, at fmu.path, not as failed reference runs after the other stages
-        for problem, hint in ((_damaged_member(description), "copy or export the FMU again"),
-                              (_missing_binary(description), "export the FMU with a binary for "
-                               "this platform (or compile its C sources into one)")):
-            if problem is not None:
-                raise UserInputError(error("C400", f"{fmu_path}: {problem}", span, hint=hint),
-                                     sources={str(campaign.source): campaign.text})
         return description  # model exchange only: fmpy's solver integrates it
     kinds = ", ".join(kind for kind, part in (("co-simulation", description.co_simulation),
                                               ("model exchange", description.model_exchange))

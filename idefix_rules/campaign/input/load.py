@@ -185,6 +185,20 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         elif kind == "missing":
             message = "missing required key"
             span = locations.span(loc[:-1] if not found else loc)
+        elif kind in _BOUND_WORDS:  # pydantic's "Input should be greater than 0"
+            bound = next(iter(item.get("ctx", {}).values()), "")
+            message = f"must be {_BOUND_WORDS[kind]} {bound}"
+            span = locations.span(loc)
+        elif kind in ("too_long", "too_short"):  # "Tuple should have at most 2 items …"
+            context = item.get("ctx", {})
+            limit = context.get("max_length" if kind == "too_long" else "min_length")
+            message = (f"expected {'at most' if kind == 'too_long' else 'at least'} {limit} "
+                       f"value{'' if limit == 1 else 's'}, got {context.get('actual_length')}")
+            span = locations.span(loc)
+        elif kind == "literal_error":  # "Input should be 'monte_carlo', … or 'sobol'"
+            expected = item.get("ctx", {}).get("expected", "")
+            message = f"expected {expected}, got {_shown(item.get('input'))}"
+            span = locations.span(loc)
         elif kind == "union_tag_invalid":
             context = item.get("ctx", {})
             message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
@@ -207,6 +221,16 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         diagnostics.append(error("C100", text, span, hint))
     diagnostics.sort(key=lambda d: (d.span.line, d.span.column) if d.span else (0, 0))
     return diagnostics
+
+
+def _shown(value: Any) -> str:
+    """A value as the campaign file wrote it (a string in quotes, a number as it is)."""
+    return f"'{value}'" if isinstance(value, str) else str(value)
+
+
+# pydantic's bound checks in the words of the other messages
+_BOUND_WORDS = {"greater_than": "above", "greater_than_equal": "at least",
+                "less_than": "below", "less_than_equal": "at most"}
 
 
 def _known_keys(loc: Sequence[str | int]) -> list[str]:
