@@ -10,6 +10,7 @@ The FMU's log messages are kept (the last 20) to explain a failed call.
 from __future__ import annotations
 
 import ctypes
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -57,6 +58,10 @@ class OutputGroup:
     fmi3: bool  # FMI 3.0 getters take the number of values as a fifth argument
 
 
+class InstantiationFailed(Exception):
+    """The FMU refused to be instantiated; the message carries its last log line."""
+
+
 class FmuInstance:
     """An instantiated co-simulation FMU (FMI 2.0 or 3.0), reset between runs."""
 
@@ -70,13 +75,20 @@ class FmuInstance:
 
             self.slave: Any = FMU3Slave(guid=description.token, unzipDirectory=unzipped,
                                         modelIdentifier=identifier, instanceName=instance_name)
-            self.slave.instantiate(loggingOn=True, logMessage=self._fmi3_logger)
+            instantiate = functools.partial(self.slave.instantiate, loggingOn=True,
+                                            logMessage=self._fmi3_logger)
         else:
             from fmpy.fmi2 import FMU2Slave
 
             self.slave = FMU2Slave(guid=description.token, unzipDirectory=unzipped,
                                    modelIdentifier=identifier, instanceName=instance_name)
-            self.slave.instantiate(loggingOn=True, callbacks=self._fmi2_callbacks())
+            instantiate = functools.partial(self.slave.instantiate, loggingOn=True,
+                                            callbacks=self._fmi2_callbacks())
+        try:
+            instantiate()
+        except Exception as failure:  # fmpy's plain Exception: the FMU's own reason is logged
+            logged = f"; the FMU logged: {self.log[-1]}" if self.log else ""
+            raise InstantiationFailed(f"{failure}{logged}") from None
         # Logging on (all categories: exporters file errors under categories of their own), so
         # that FMUs which log only then, like pythonfmu's, explain a failed call.
         self.component = self.slave.component

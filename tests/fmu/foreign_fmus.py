@@ -151,6 +151,34 @@ def build_diff_drive(folder: Path) -> Path:
     return Path(FmuBuilder.build_FMU(script, dest=folder))
 
 
+# Refuses to be instantiated by the runner (instance name "idefix"), saying why in its log, as
+# an FMU that checks a licence does; pythonfmu builds it under another name.
+REFUSER = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class Refuser(Fmi2Slave):
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.px = 0.0
+        self.register_variable(Real("px", causality=Fmi2Causality.output))
+        if kwargs.get("instance_name") == "idefix":
+            raise RuntimeError("license server not reachable")
+
+    def do_step(self, current_time, step_size):
+        return True
+'''
+
+
+def build_refuser(folder: Path) -> Path:
+    """``Refuser.fmu`` (FMI 2.0 co-simulation, pythonfmu) that the runner cannot instantiate."""
+    from pythonfmu.builder import FmuBuilder
+
+    script = folder / "refuser.py"
+    script.write_text(REFUSER, encoding="utf-8")
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
 PLANAR_ME = '''
 import math
 from typing import List

@@ -133,3 +133,18 @@ def test_a_failing_step_is_reported_with_the_fmus_own_message(unicycle_fmu: Path
         run_in_child(unicycle_fmu, {"signal_map": UNICYCLE_MAP, "chain_delivery": "inputs",
                                     "chain_inputs": BODY_INPUTS},
                      [({"slip": 1.5}, CHAIN, 10.0, 0.5)])
+
+
+def test_an_fmu_that_refuses_to_be_instantiated_says_why_from_its_log(tmp_path: Path) -> None:
+    """fmpy says only "Failed to instantiate model": the FMU's own reason is in its log, which
+    was lost with the instance that was never made."""
+    from foreign_fmus import build_refuser
+
+    from idefix_rules.errors import InfrastructureError
+
+    with pytest.raises(InfrastructureError) as caught:
+        FmuRunner(build_refuser(tmp_path), signal_map={"px": "x"})
+    said = str(caught.value)
+    assert said.startswith("Refuser.fmu: cannot instantiate (Failed to instantiate model; the "
+                           "FMU logged: ")
+    assert "license server not reachable" in said
