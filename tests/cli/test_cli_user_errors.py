@@ -284,7 +284,8 @@ CASES = [
          ("campaign.yaml:13:44: error[C100]: uncertainty.parameters.toy.slip.low: 1.0e-400 is "
           "too small for a double: it would be read as 0",)),
     Case("campaign-zero-commands", campaign((f"  straight:\n{STRAIGHT}", "  straight: []\n")),
-         RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: expected at least 1 value, got 0",)),
+         RUN, 2, ("campaign.yaml:15:13: error[C100]: paths.straight: expected at least 1 value, "
+                  "got 0",)),
     Case("campaign-100-commands", campaign((f"  straight:\n{STRAIGHT}",
                                             "  straight:\n" + STRAIGHT * 100)), RUN, 2,
          ("campaign.yaml:15:3: error[C403]: paths.straight: 100 commands, but toy.fmu takes at "
