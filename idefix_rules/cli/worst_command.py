@@ -56,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
         progress.stop()
     units = DisplayUnits.from_campaign_text(campaign.text)
     print_worst(console, result.record, units)
+    for note in result.notes:
+        console.print(f"[yellow]note:[/yellow] {escape(note)}")
     for warning in result.warnings:
         console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
     console.print(f"results: {escape(str(result.results))}")

@@ -307,3 +307,25 @@ def test_diff_of_a_search_warns_as_evaluate_does(
     words, warnings = diff_warnings(campaign_dir / "test.rules", results, capsys)
     assert f"warning: {said}" in words
     assert any(warning.startswith(said) for warning in warnings), warnings
+
+
+def test_a_stale_lock_a_search_takes_over_is_a_note_as_for_a_run(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run says a lock it took over as a note; the search said it as a warning."""
+    import socket
+    import subprocess
+    import sys
+
+    from idefix_rules.campaign.storage.ownership import LOCK_FILE, Owner, process_start
+
+    folder = campaign_dir / "out" / "worst"
+    folder.mkdir(parents=True)
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    (folder / LOCK_FILE).write_text(Owner(gone.pid, socket.gethostname(),
+                                          "2025-05-01T12:00:03+02:00", "idefix-verify worst c",
+                                          process_start(gone.pid)).to_json())
+    code, output = worst(campaign_dir, capsys, "--runs", "66")
+    assert code == 0, output
+    assert f"note: {folder / LOCK_FILE}: took over the lock of pid {gone.pid}" in output, output
+    assert "warning: " + str(folder / LOCK_FILE) not in output

@@ -66,6 +66,8 @@ class WorstResult:
     report: Path | None = None
     warnings: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    # what was done besides, said as notes (a stale lock taken over), as a run says them
+    notes: list[str] = field(default_factory=list)
 
 
 def default_output(campaign: Campaign) -> Path:
@@ -147,7 +149,7 @@ def run_worst(campaign: Campaign, settings: SearchSettings,
         set_aside(campaign.output / RECORD_FILE)
         result = _run_owned(campaign, settings, space, options, progress, report)
         if lock.note is not None:
-            result.warnings.insert(0, lock.note)
+            result.notes.insert(0, lock.note)
         return result
 
 
