@@ -51,6 +51,7 @@ class FmuVariable:
     # the range it declares (min, max attributes, its own or its declared type's), in its unit
     minimum: float | None = None
     maximum: float | None = None
+    array: bool = False  # an FMI 3 array (<Dimension>): no getter here reads it
 
     @property
     def settable(self) -> bool:
@@ -140,7 +141,8 @@ def describe_fmu(path: str | Path, span: Span | None = None) -> FmuDescription:
             unit=unit, value_reference=int(variable.valueReference),
             reader="unsupported" if array else _READERS.get(str(variable.type), "unsupported"),
             si=fmi_unit(unit, definitions) if unit else None,
-            minimum=_bound(variable, declared, "min"), maximum=_bound(variable, declared, "max"))
+            minimum=_bound(variable, declared, "min"), maximum=_bound(variable, declared, "max"),
+            array=array)
     experiment = description.defaultExperiment
     stop = getattr(experiment, "stopTime", None) if experiment is not None else None
     token = description.guid if description.fmiVersion.startswith("2") \

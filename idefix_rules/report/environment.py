@@ -107,17 +107,13 @@ def map_environment(campaign_text: str, checked: Any | None,
                        margins.get(area.level, 0.0)) for area in environment.keep_out]
     # the polygons the campaign gives the rulebook's keep-out and unknown areas, with the
     # area's own level and buffer (steep areas come from the terrain, below)
-    from idefix_rules.campaign.input.environment import declared_areas
+    from idefix_rules.campaign.input.environment import named_areas
 
-    declared = {spec.name: spec for spec in declared_areas(checked)} if checked is not None \
-        else {}
-    for name, given in environment.areas.items():
-        spec = declared.get(name)
-        if spec is None or spec.kind == "steep":
-            continue
-        areas += [AreaShape(name if number == 0 else "", np.array(polygon, dtype=float),
-                            spec.level, float(spec.buffer))
-                  for number, polygon in enumerate(given.polygons)]
+    if checked is not None:
+        areas += [AreaShape(area.name if number == 0 else "", polygon, area.level,
+                            float(area.buffer))
+                  for area in named_areas(environment, checked, None).values()
+                  for number, polygon in enumerate(area.polygons)]
     try:
         from idefix_rules.campaign.input.environment import obstacle_set
 

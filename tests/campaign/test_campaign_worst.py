@@ -28,6 +28,14 @@ def worst(campaign_dir: Path, capsys: pytest.CaptureFixture[str], *extra: str
     return code, " ".join(output.split())
 
 
+def searched(campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> Path:
+    """A search of 66 runs into ``campaign_dir``/search, which it must complete (exit 0)."""
+    out = campaign_dir / "search"
+    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
+    assert code == 0, output
+    return out
+
+
 def comparable(record: dict[str, Any]) -> dict[str, Any]:
     """worst.json without what names the folder it was written to."""
     return {key: value for key, value in record.items() if key not in ("results", "campaign")}
@@ -95,9 +103,7 @@ def test_another_seed_searches_other_worlds(campaign_dir: Path,
 
 def test_the_searched_runs_are_evaluated_again_and_diffed_like_a_campaign(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = campaign_dir / "search"
-    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
-    assert code == 0, output
+    out = searched(campaign_dir, capsys)
     results = out / "results.h5"
     stricter = campaign_dir / "stricter.rules"
     stricter.write_text(RULEBOOK.replace("limit  = critical_slip", "limit  = 20 %")
@@ -251,9 +257,7 @@ def test_the_searched_runs_are_judged_with_the_campaigns_waivers(
     approved_by: "ops"
     until: 2099-01-01
 """)
-    out = campaign_dir / "search"
-    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
-    assert code == 0, output
+    out = searched(campaign_dir, capsys)
     with h5py.File(out / "results.h5", "r") as file:
         summary = json.loads(file["evaluation"].attrs["summary"])
     waived = {path["name"]: [w["rule"] for w in path.get("waivers", [])]
@@ -268,9 +272,7 @@ def test_a_search_is_unpaired_and_its_evaluation_checks_no_expectation(
     (worst-case.md), also on a file whose `paired` claims otherwise (an earlier version's)."""
     campaign = campaign_dir / "campaign.yaml"
     campaign.write_text(campaign.read_text() + "expect:\n  - {path: straight, verdict: pass}\n")
-    out = campaign_dir / "search"
-    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
-    assert code == 0, output
+    out = searched(campaign_dir, capsys)
     results = out / "results.h5"
     with h5py.File(results, "r") as file:
         assert not file.attrs["paired"]
@@ -298,9 +300,7 @@ def test_a_search_is_unpaired_and_its_evaluation_checks_no_expectation(
 
 def test_diff_of_a_search_warns_as_evaluate_does(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = campaign_dir / "search"
-    code, output = worst(campaign_dir, capsys, "--runs", "66", "--out", str(out))
-    assert code == 0, output
+    out = searched(campaign_dir, capsys)
     results = out / "results.h5"
     said = (f"{results} holds a worst-case search (idefix-verify worst): its runs are the "
             "worlds the search chose, not draws of the campaign's distributions")

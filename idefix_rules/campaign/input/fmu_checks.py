@@ -255,7 +255,7 @@ def _signal_entry(campaign: Campaign, description: FmuDescription, fmu_name: str
     fmu_file = description.path.name
     variable = description.variables.get(fmu_name)
     whole = description.variables.get(fmu_name.partition("[")[0])
-    if variable is None and whole is not None and whole.type.endswith(" array"):
+    if variable is None and whole is not None and whole.array:
         return [error("C502", f"{where}: {fmu_name!r} is an element of {whole.name!r}, a "
                               f"{whole.type}: elements of FMI 3 arrays are not read",
                       _span(campaign, loc), hint="map a scalar output of the FMU")]

@@ -131,20 +131,19 @@ def _outside_declared_range(campaign: Campaign, description: FmuDescription,
     planned = 0
     problems = []
     for loc, name, variable in entries:
+        candidates: list[tuple[float, str]] = []
         if loc[0] == "uncertainty":
             if draws is None:
                 planned, draws = planned_draws(campaign, [spec.name for spec in campaign.paths])
-            candidates = [(float(values[run]), f"run {run} of path {path} draws")
-                          for path, drawn in draws.items() if name in drawn
-                          for values in (np.asarray(drawn[name], dtype=float),) if values.size
-                          for run in (int(np.argmin(values)), int(np.argmax(values)))]
+            for path, drawn in draws.items():
+                values = np.asarray(drawn.get(name, ()), dtype=float)
+                candidates += [(float(values[run]), f"run {run} of path {path} draws")
+                               for run in (values.argmin(), values.argmax()) if values.size]
         else:
             candidates = [(float(campaign.model.environment.regolith[loc[-1]]), "the value is")]
         for value, who in candidates:
             own = variable.si.from_si(value) if variable.si is not None else value
-            side = ("below the minimum", variable.minimum) if variable.minimum is not None \
-                and own < variable.minimum else ("above the maximum", variable.maximum) \
-                if variable.maximum is not None and own > variable.maximum else None
+            side = _beyond(own, variable)
             if side is None:
                 continue
             unit = f" {variable.unit}" if variable.unit else ""
@@ -158,6 +157,15 @@ def _outside_declared_range(campaign: Campaign, description: FmuDescription,
                      "truncated_normal with low and high, a uniform), or narrow it"))
             break
     return problems
+
+
+def _beyond(value: float, variable: FmuVariable) -> tuple[str, float] | None:
+    """Which bound of the range ``variable`` declares ``value`` (in its unit) breaks."""
+    if variable.minimum is not None and value < variable.minimum:
+        return "below the minimum", variable.minimum
+    if variable.maximum is not None and value > variable.maximum:
+        return "above the maximum", variable.maximum
+    return None
 
 
 def _not_whole(campaign: Campaign, loc: tuple[str, ...]) -> str | None:
