@@ -18,7 +18,10 @@ a wheel on a rock was compared with the soil at the depth the soil would carry i
 of at zero sinkage (a wheel at a rock's edge no longer alternates between the two every step;
 its 4 cm rock meets it); where the balance search fails the rover now follows Newton's second
 law over the step instead of the search's last iterate (no run of the digest's campaign meets a
-failed search: the digest reproduced, the source hash recorded again). A change to either must
+failed search: the digest reproduced, the source hash recorded again), and the rover's when the
+load solve counted a soil support from its static share's sinkage (one datum with a rock's) and
+a wheel on a rock took its lateral friction on the contact's normal force (the old fingerprint
+reproduced on the old sources before it was replaced). A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression.
 
@@ -54,9 +57,10 @@ from idefix_rules.fmu.build import source_hash
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing, the
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
-# pressed fraction and mean depth; results format 2, default
+# pressed fraction and mean depth, soil supports counted from their static sinkage, lateral
+# rock friction on the normal force; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "15ca84b3c43e68c01b18b0e5c9ab7c34797cdcc20c29f5f83ca8935ebb49dbed"
+ROVER_SOURCE_HASH = "eb40b22adb0dbf1413c02ff22aba62543117e1a67cc3429fe429a0ac82cc502e"
 
 
 def _same_as_recorded(name: str, results: Path) -> None:

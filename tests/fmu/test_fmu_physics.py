@@ -376,7 +376,6 @@ def test_a_command_starting_on_a_pebble_accelerates_the_body_with_the_wheel_ramp
     t = out["t"]
     speed = np.hypot(np.gradient(out["x"], t), np.gradient(out["y"], t))
     second = int(np.argmax(out["command"] == 1))
-    start = slice(second, second + 60)  # the second leg's first 3 s, every 0.05 s step
     ramping = slice(second + 2, second + 60)  # central differences clear of the first leg
     # on the pebble (no sinkage into soil, a load) and lifted (no load)
     assert out["wheel.sinkage"][second, FL] == 0.0 and out["wheel.FL.load"][second] > 0.0
@@ -385,7 +384,12 @@ def test_a_command_starting_on_a_pebble_accelerates_the_body_with_the_wheel_ramp
         VARIABLES_BY_NAME["rover.wheel_radius"].start)
     acceleration = np.gradient(speed, t)[ramping]
     assert 0.8 * ramp < acceleration.min() and acceleration.max() < 1.1 * ramp
-    assert out["wheel.slip"][start].min() > -0.15  # the body never runs far ahead of its rims
+    # the body never runs far ahead of its rims once they turn (at the leg's first sample the
+    # rims have not started, 1e-5 rad/s, and the body still creeps from the first leg: a slip
+    # reading of 0/0, -0.08 to -0.3 depending on the loads the first leg left)
+    turning = slice(second + 1, second + 60)  # the rest of the leg's first 3 s, 0.05 s steps
+    assert (np.abs(out["wheel.rate"][turning]) > 1e-4).all()
+    assert out["wheel.slip"][turning].min() > -0.15
 
 
 def test_every_rock_near_a_wheel_counts_however_many(rover: FmuRunner, tmp_path: Path) -> None:

@@ -6,6 +6,8 @@ motor drives forwards, and where the push does not suffice the rover is `stuck`.
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +15,7 @@ import pytest
 import soil_model
 
 from idefix_rules.commands import Command
-from idefix_rules.fmu import FmuRunner, Rock, synthetic_terrain, write_terrain
+from idefix_rules.fmu import FmuRunner, Rock, source_dir, synthetic_terrain, write_terrain
 
 STRAIGHT = [Command(0.05, 1.0, 0.0)]
 RADIUS, WIDTH = soil_model.RADIUS, soil_model.WIDTH
@@ -192,3 +194,48 @@ def test_slip_on_a_rock_is_measured_along_the_path_the_wheel_centre_takes(
         slip = out["wheel.slip"][climbing, wheel]
         assert np.abs(slip - path).max() < 0.01
         assert np.abs(slip - body_plane).max() > 0.2
+
+
+@pytest.fixture(scope="module")
+def rock_friction_driver(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """tests/fmu/rock_friction_driver.c compiled with wheel.c and soil.c."""
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    if compiler is None:
+        pytest.skip("no C compiler")
+    sources = source_dir() / "sources"
+    driver = tmp_path_factory.mktemp("rock_friction") / "rock_friction_driver"
+    subprocess.run([compiler, "-std=c99", "-O2", f"-I{sources}",
+                    str(Path(__file__).with_name("rock_friction_driver.c")),
+                    str(sources / "wheel.c"), str(sources / "soil.c"), "-lm", "-o", str(driver)],
+                   check=True)
+    return driver
+
+
+@pytest.mark.parametrize("angle", [math.radians(30), math.radians(60)])
+@pytest.mark.parametrize(("rim", "along", "vy"), [(0.005, 0.001, 0.002), (0.005, 0.005, 0.003),
+                                                  (0.0, 0.002, -0.004)])
+def test_rock_friction_is_coulomb_on_the_contact_s_normal_force(
+        rock_friction_driver: Path, angle: float, rim: float, along: float, vy: float) -> None:
+    # A wheel on a rock face tilted by `angle` slides along its path and sideways. Statics of
+    # the contact (any text on friction, e.g. Timoshenko & Young): the face pushes with N along
+    # its normal and friction T (along the face, in the wheel plane) and T_y (across it); the
+    # weight W is carried, N cos a + T sin a = W, and what is left along the path is the wheel's
+    # force, -N sin a + T cos a = F_x. Coulomb's law holds on N: |(T, T_y)| = mu_m N, with the
+    # same mobilised mu_m and direction as the same sliding on a level rock (a = 0, N = W).
+    # Taking the load for N across the wheel made T_y short by N / W (2x at 60°, no slip).
+    load = 0.0356
+
+    def forces(a: float) -> tuple[float, float]:
+        out = subprocess.run([str(rock_friction_driver), repr(a), repr(load), repr(rim),
+                              repr(along), repr(vy)], capture_output=True, text=True, check=True)
+        fx, fy, _ = (float(v) for v in out.stdout.split())
+        return fx, fy
+
+    level_x, level_y = forces(0.0)
+    fx, fy = forces(angle)
+    normal, tangent = np.linalg.solve([[math.cos(angle), math.sin(angle)],
+                                       [-math.sin(angle), math.cos(angle)]], [load, fx])
+    mobilised = math.hypot(level_x, level_y) / load
+    assert math.hypot(tangent, fy) == pytest.approx(mobilised * normal, rel=1e-9)
+    assert math.atan2(fy, tangent) == pytest.approx(math.atan2(level_y, level_x), abs=1e-9)
+    assert abs(normal / load - 1) > 0.02  # the precondition: N is not the load here

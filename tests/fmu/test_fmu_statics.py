@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.optimize
 import soil_model
 
 from idefix_rules.commands import Command
@@ -30,6 +31,7 @@ WEIGHT = soil_model.MASS * soil_model.GRAVITY
 FR = 1
 ROCK = Rock(0.55, -0.26, 0.03, 0.06, 0.08, z=0.0)  # 8 cm tall, steep, in the right track
 MU = 0.6  # rock.friction_coefficient
+LEG = 0.03  # rover.leg_compliance, m/N
 
 
 def _at_rest(rover: FmuRunner, tmp_path: Path, fr_x: float, rocks: list[Rock] | None = None,
@@ -113,6 +115,13 @@ def _rock_state(rover: FmuRunner, tmp_path: Path, fr_x: float, **parameters: flo
     return state, xs, pitch, roll, body_angle
 
 
+def _twist(t: float, shares: np.ndarray, diagonal: np.ndarray) -> float:
+    """Twist of the hubs of a rigid chassis on a plane when one diagonal takes t from the
+    other: the wheels' static sinkages and the legs' deflections under S + t s."""
+    w = shares + t * diagonal
+    return float(diagonal @ (np.array([soil_model.static_sinkage(x) for x in w]) + LEG * w))
+
+
 def test_loads_balance_the_weight_on_flat_ground_and_on_a_plane(
         rover: FmuRunner, tmp_path: Path) -> None:
     for slope, direction in ((0.0, 0.0), (math.radians(10), math.radians(30))):
@@ -122,11 +131,21 @@ def test_loads_balance_the_weight_on_flat_ground_and_on_a_plane(
         loads = np.array([out[f"wheel.{w}.load"][0] for w in WHEELS])
         pitch, roll = float(out["pitch"][0]), float(out["roll"][0])
         _assert_balanced(loads, HUB_X, pitch, roll)
-        # a plane has no twist: every wheel carries its static share
+        # A plane has no twist, but the wheels sink by z(W) ~ W^(2/3), which is not linear in
+        # the load: unequal static shares S do not sink the hubs into a plane. The rigid chassis
+        # keeps them in one, so one diagonal takes t from the other (W = S + t s), with t
+        # solved here exactly, sum s_i (z(S_i + t s_i) + c_leg (S_i + t s_i)) = 0, which the
+        # model's linearisation about S meets to 1e-5 of t (0.09 mN on the 10° plane). On flat
+        # ground every share is equal and t = 0.
         fz, mx, my = _weight(pitch, roll)
         shares = fz / 4 + SIDE_X * mx / (4 * soil_model.HALF_WHEELBASE) + \
             SIDE_Y * my / (4 * soil_model.HALF_TRACK)
-        np.testing.assert_allclose(loads, shares, rtol=1e-9)
+        diagonal = SIDE_X * SIDE_Y
+        t = scipy.optimize.brentq(_twist, -0.5 * shares.min(), 0.5 * shares.min(),
+                                  args=(shares, diagonal), xtol=1e-15)
+        if slope:
+            assert abs(t) > 5e-4 * WEIGHT  # the precondition: the nonlinear sinkage matters
+        np.testing.assert_allclose(loads, shares + t * diagonal, rtol=1e-6, atol=1e-12)
 
 
 def test_a_wheel_on_a_rock_is_supported_at_its_contact_point(
@@ -168,6 +187,28 @@ def test_on_soft_legs_a_wheel_on_a_rock_moves_the_load_by_its_contact_offset(
     expected = np.linalg.solve(a, b)[:4]
     _assert_balanced(state["loads"], xs, pitch, roll)
     np.testing.assert_allclose(state["loads"], expected, rtol=0, atol=1e-4 * WEIGHT)
+
+
+def test_a_rock_flush_with_a_wheel_s_rim_changes_no_load(rover: FmuRunner, tmp_path: Path
+                                                        ) -> None:
+    # A wide, nearly flat rock whose top is 1 µm above where the front right rim rests on the
+    # soil under its static share (its static sinkage below the surface): the wheel stands on
+    # the rock, rigidly, at the height the soil held it at. A support at the height it had
+    # changes nothing, so the loads stay the static shares of flat ground. Counting the soil
+    # supports from the undisturbed surface and the rock's from the rim twisted the chassis by
+    # the static sinkage: 7 mN moved between the diagonals.
+    top = -soil_model.static_sinkage(soil_model.WHEEL_LOAD) + 1e-6
+    flat = Rock(ROCK.x - 0.085, -soil_model.HALF_TRACK, 0.12, 0.12, 0.005, z=top - 0.005)
+    terrain = write_terrain(tmp_path / "flush.terrain", synthetic_terrain(
+        size=4.0, cell=0.02, rocks=[flat]))
+    out = rover.run({"terrain.file": str(terrain),
+                     "initial.x": flat.x - soil_model.HALF_WHEELBASE},
+                    [Command(0.05, 1.0, 0.0)], 0.2, 0.1)
+    loads = np.stack([out[f"wheel.{w}.load"] for w in WHEELS], axis=1)[-1]
+    fz, mx, my = _weight(float(out["pitch"][-1]), float(out["roll"][-1]))
+    shares = fz / 4 + SIDE_X * mx / (4 * soil_model.HALF_WHEELBASE) + \
+        SIDE_Y * my / (4 * soil_model.HALF_TRACK)
+    np.testing.assert_allclose(loads, shares, rtol=0, atol=1e-3 * WEIGHT)
 
 
 def test_a_wheel_sliding_off_a_rock_leaves_the_chassis_on_the_other_three(

@@ -35,6 +35,13 @@ const double SIDE_Y[N_WHEELS] = {1.0, -1.0, 1.0, -1.0};  /* left +1 */
  * rock. With every support under its hub n = s and q = 0: T = 4 w / sum c_i, one diagonal
  * gaining what the other loses.
  *
+ * The heights are those of the supports carrying S_i undeflected, one datum for both kinds: a
+ * rock support is rigid, so its height is the rim's lowest point; a soil support carrying S_i
+ * holds the rim at the static sinkage of S_i below the undisturbed surface (linearising the
+ * soil's deflection about S_i: z(W) = z(S) + z'(S) (W - S), the compliance above). Counting a
+ * soil support from the surface instead made a rock flush with a wheel's rim, which changes no
+ * load, twist the chassis by that wheel's static sinkage.
+ *
  * Supports push and never pull: t is bounded where a load reaches 0, and the chassis then
  * rests on three wheels, whose loads the three balances give uniquely. A wheel sliding off a
  * rock face (`dropping`) carries the least load these bounds allow: none when the other three
@@ -51,8 +58,13 @@ static void supports(const Instance *inst, const double contact_angle[N_WHEELS],
     for (i = 0; i < N_WHEELS; i++) {
         const Wheel *w = &inst->wheels[i];
         offset[i] = w->on_rock ? radius * sin(contact_angle[i] - atan(plane_x)) : 0.0;
-        /* the ground contact: on soil the centre stands its supporting depth below the surface */
-        height[i] = w->centre_z - radius + (w->on_rock ? 0.0 : w->support_sinkage);
+        /* undeflected under its static share (w->load here): on a rock the rim's lowest point;
+         * on soil the static sinkage of the share below the undisturbed surface, which the
+         * centre stands its supporting depth below */
+        height[i] = w->centre_z - radius;
+        if (!w->on_rock)
+            height[i] += w->support_sinkage -
+                         bekker_static_sinkage(&inst->soil, w->load, radius, width);
         compliance[i] = inst->r[VR_ROVER_LEG_COMPLIANCE];
         if (!w->on_rock && w->load > 0.0)
             compliance[i] += bekker_static_sinkage(&inst->soil, w->load, radius, width) /

@@ -52,6 +52,11 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         const double limit = 0.5 * 3.141592653589793 - 0.01;
         angle = angle > limit ? limit : (angle < -limit ? -limit : angle);
         force_x = load * tan(angle);
+        /* Coulomb friction acts on the contact's normal force N, not on the load W: across the
+         * wheel too, T_y = m_y mu N with N = W / (cos a + m mu sin a) = W cos(atan(m mu)) /
+         * cos(atan(m mu) - a) from the same balance (the lateral friction lies in the tangent
+         * plane and carries no weight). `mobilised` was taken of mu W: scale by N / W. */
+        ty *= cos(atan(tx / load)) / cos(angle);
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
