@@ -60,7 +60,7 @@ from idefix_rules.fmu.build import source_hash
 # pressed fraction and mean depth, soil supports counted from their static sinkage, lateral
 # rock friction on the normal force; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "eb40b22adb0dbf1413c02ff22aba62543117e1a67cc3429fe429a0ac82cc502e"
+ROVER_SOURCE_HASH = "951fc2ee8de8b49dfba2d112b3be89a30a6cb3f93e68b6daa4e6fbaca4f7e445"
 
 
 def _same_as_recorded(name: str, results: Path) -> None:

@@ -62,13 +62,13 @@ static void supports(const Instance *inst, const double contact_angle[N_WHEELS],
          * on soil the static sinkage of the share below the undisturbed surface, which the
          * centre stands its supporting depth below */
         height[i] = w->centre_z - radius;
-        if (!w->on_rock)
-            height[i] += w->support_sinkage -
-                         bekker_static_sinkage(&inst->soil, w->load, radius, width);
         compliance[i] = inst->r[VR_ROVER_LEG_COMPLIANCE];
-        if (!w->on_rock && w->load > 0.0)
-            compliance[i] += bekker_static_sinkage(&inst->soil, w->load, radius, width) /
-                             ((inst->soil.n + 0.5) * w->load);
+        if (!w->on_rock) {
+            double static_sinkage = bekker_static_sinkage(&inst->soil, w->load, radius, width);
+            height[i] += w->support_sinkage - static_sinkage;
+            if (w->load > 0.0)
+                compliance[i] += static_sinkage / ((inst->soil.n + 0.5) * w->load);
+        }
     }
 }
 
