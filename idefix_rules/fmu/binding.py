@@ -4,15 +4,18 @@
 initialised, which setter takes a variable of a given type, and which getter (with which C
 type) reads it. Outputs are read by raw ``fmi2Get*``/``fmi3Get*`` calls straight into numpy
 rows (one call per getter family and communication step); everything else goes through fmpy.
-The FMU's log messages are kept (the last 20) to explain a failed call.
+The FMU's log messages are kept (the last 20) to explain a failed call, and what a failed call
+left the instance in decides how it is closed (:meth:`FmuInstance.record`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,6 +23,44 @@ import numpy as np
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
 
 OK_STATUSES = (0, 1)  # OK, Warning (FMI 2.0 and 3.0 alike)
+DISCARD, ERROR = 2, 3
+# What a failed call leaves behind, FMI 2.0.x section 2.1.3 "Status Returned by Functions" (FMI
+# 3.0, "Status Returned by Functions and Logging Mechanism", says the same of fmi3Error and
+# fmi3Fatal):
+# - Discard: the instance goes on; a failed step's instance is terminated and freed as usual.
+# - Error: "The simulation cannot be continued with this FMU instance … fmi2FreeInstance or
+#   fmi2Reset must be called afterwards … especially other FMU instances are not affected": the
+#   instance is freed without fmi2Terminate, and a fresh instance in the same process is sound.
+# - Fatal: "the model computations are irreparably corrupted for all FMU instances … It is not
+#   possible to call any other function for any of the FMU instances": nothing of the FMU is
+#   called again, not even fmi2FreeInstance or the unloading of its library (whose destructors
+#   are its code too), and no instance of it may be made in this process again.
+# A status FMI does not define there (Pending from a step not asked to run asynchronously, a
+# number outside the enumeration) leaves the state undefined: it is taken as Fatal.
+
+
+def corrupts_process(status: int) -> bool:
+    """Whether a failed call's status forbids every later call of the FMU in this process.
+
+    >>> corrupts_process(3), corrupts_process(4), corrupts_process(5)
+    (False, True, True)
+    """
+    return status not in (*OK_STATUSES, DISCARD, ERROR)
+
+
+# The extracted FMUs (folders) whose library returned Fatal in this process: loading the same
+# file again gives the same corrupted library, so none of them is called here again.
+_CORRUPTED: set[str] = set()
+
+
+def corrupted_here(unzipped: str | Path) -> bool:
+    """Whether the FMU extracted to ``unzipped`` returned Fatal in this process."""
+    return str(unzipped) in _CORRUPTED
+
+
+def mark_corrupted(unzipped: str | Path) -> None:
+    """Remember that the FMU extracted to ``unzipped`` returned Fatal in this process."""
+    _CORRUPTED.add(str(unzipped))
 
 # FMI 3.0 type → (getter/setter suffix, C type, numpy type).
 _FMI3_TYPES: dict[str, tuple[str, Any, Any]] = {
@@ -66,6 +107,10 @@ class FmuInstance:
     """An instantiated co-simulation FMU (FMI 2.0 or 3.0), reset between runs."""
 
     def __init__(self, description: FmuDescription, unzipped: str, instance_name: str) -> None:
+        if corrupted_here(unzipped):
+            raise InstantiationFailed("it returned Fatal in this process before, and FMI allows "
+                                      "no further call of it here")
+        self.unzipped = unzipped
         self.fmi3 = description.major == 3
         self.types = _FMI3_TYPES if self.fmi3 else _FMI2_TYPES
         self.log: list[str] = []
@@ -99,6 +144,7 @@ class FmuInstance:
             do_step.restype = ctypes.c_int
             self.do_step = do_step
         self._started = False
+        self.failed = False  # a call returned Error: the instance may only be freed
 
     # ------------------------------------------------------------------ logging
     def _keep(self, message: bytes | None) -> None:
@@ -131,20 +177,49 @@ class FmuInstance:
                      message: bytes) -> None:
         self._keep(message)
 
+    # ------------------------------------------------------------------ status
+    @property
+    def fatal(self) -> bool:
+        """Whether this FMU returned Fatal in this process (through any instance)."""
+        return corrupted_here(self.unzipped)
+
+    def record(self, status: int) -> None:
+        """Remember what a failed call (its status) left this instance and the process in."""
+        if status == ERROR:
+            self.failed = True
+        elif corrupts_process(status):
+            mark_corrupted(self.unzipped)
+
+    def failure(self, status: int) -> str:
+        """What a raw call's failed status says, recorded."""
+        self.record(status)
+        return f"status {status}"
+
+    def _call(self, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """An fmpy call whose failed status is recorded before fmpy's exception goes on."""
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            return function(*args, **kwargs)
+        except FMICallException as failure:
+            self.record(failure.status)
+            raise
+
     # ------------------------------------------------------------------ runs
     def start(self, stop_time: float) -> None:
         """Reset (after the first run) and enter initialisation mode for 0 … ``stop_time``."""
         if self._started:
-            self.slave.reset()
+            self._call(self.slave.reset)
+            self.failed = False  # reset after an Error: the instance is as new
         self._started = True
         if self.fmi3:
-            self.slave.enterInitializationMode(startTime=0.0, stopTime=stop_time)
+            self._call(self.slave.enterInitializationMode, startTime=0.0, stopTime=stop_time)
         else:
-            self.slave.setupExperiment(startTime=0.0, stopTime=stop_time)
-            self.slave.enterInitializationMode()
+            self._call(self.slave.setupExperiment, startTime=0.0, stopTime=stop_time)
+            self._call(self.slave.enterInitializationMode)
 
     def end_initialisation(self) -> None:
-        self.slave.exitInitializationMode()
+        self._call(self.slave.exitInitializationMode)
 
     def set_values(self, values: Sequence[tuple[FmuVariable, float | int | str]]) -> None:
         """Set variables by type, one setter call per type."""
@@ -162,17 +237,17 @@ class FmuInstance:
             else:
                 items.append(int(value))
         for suffix, (refs, items) in by_setter.items():
-            getattr(self.slave, f"set{suffix}")(refs, items)
+            self._call(getattr(self.slave, f"set{suffix}"), refs, items)
 
     def step(self, time: float, step: float) -> str | None:
         """One communication step; None when it succeeded, else why not."""
         if self.do_step is not None:
             status = self.do_step(self.component, time, step, 1)
-            return None if status in OK_STATUSES else f"status {status}"
+            return None if status in OK_STATUSES else self.failure(status)
         from fmpy.fmi1 import FMICallException
 
         try:
-            _, terminate, _, _ = self.slave.doStep(time, step)
+            _, terminate, _, _ = self._call(self.slave.doStep, time, step)
         except FMICallException as failure:
             return str(failure)
         return "the FMU asked to terminate the simulation" if terminate else None
@@ -199,5 +274,16 @@ class FmuInstance:
         return groups
 
     def close(self) -> None:
-        self.slave.terminate()
+        """End the instance as far as its state allows (the statuses above): terminated and
+        freed; after an Error freed only; after a Fatal left alone."""
+        if self.fatal:
+            return
+        if not self.failed:
+            from fmpy.fmi1 import FMICallException
+
+            # an instance that refuses to terminate (recorded) is freed all the same
+            with contextlib.suppress(FMICallException):
+                self._call(self.slave.terminate)
+            if self.fatal:
+                return
         self.slave.freeInstance()

@@ -42,8 +42,9 @@ def simulate_model_exchange(unzipped: Path, name: str,
             input=signal, output=names, stop_time=steps * interval,
             output_interval=interval, record_events=False)
     except Exception as failure:  # fmpy raises plain exceptions for failed FMI calls
+        # the cause stays: a failed call's status says what it left (binding.corrupts_process)
         raise InfrastructureError(f"{name}: model exchange simulation failed ({failure})") \
-            from None
+            from failure
     if len(result) != steps + 1:
         raise InfrastructureError(f"{name}: the solver returned {len(result)} samples, "
                                   f"expected {steps + 1}")

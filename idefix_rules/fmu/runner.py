@@ -40,7 +40,14 @@ import numpy as np
 
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
-from idefix_rules.fmu.binding import OK_STATUSES, FmuInstance, OutputGroup
+from idefix_rules.fmu.binding import (
+    OK_STATUSES,
+    FmuInstance,
+    OutputGroup,
+    corrupted_here,
+    corrupts_process,
+    mark_corrupted,
+)
 from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu
 from idefix_rules.fmu.exchange import simulate_model_exchange
 from idefix_rules.fmu.setpoints import SETPOINTS, chain_setpoints
@@ -266,6 +273,15 @@ class FmuRunner:
         return f": {self._log[-1]}" if self._log else "; the FMU logged no reason"
 
     @property
+    def fatal(self) -> bool:
+        """Whether the FMU returned Fatal, or a status that leaves its state undefined: no
+        function of it may be called again in this process, for any instance (FMI 2.0.x
+        section 2.1.3; :mod:`~idefix_rules.fmu.binding`). The runner then calls nothing more
+        on close, and a process that ran it must run the FMU no more: a campaign's worker
+        ends once it has answered (docs/bring-your-own-fmu.md)."""
+        return corrupted_here(self._unzipdir)
+
+    @property
     def unzipped(self) -> Path:
         """The folder the FMU is extracted to (the caller's when given, else the runner's)."""
         return self._unzipdir
@@ -413,6 +429,9 @@ class FmuRunner:
         """
         if self._closed:
             raise InfrastructureError("FmuRunner used after close()")
+        if self.fatal:
+            raise InfrastructureError(f"{self.fmu_path.name}: returned Fatal in an earlier run, "
+                                      "and FMI allows no further call of it in this process")
         if not (output_interval > 0 and stop_time >= 0 and math.isfinite(stop_time)):
             raise UserInputError(error("F109", "need output_interval > 0 and stop_time >= 0"))
         from fmpy.fmi1 import FMICallException
@@ -421,9 +440,15 @@ class FmuRunner:
         feed = self._input_rows(chain, rover or RoverGeometry(), output_interval, steps)
         if self._instance is None:  # model exchange: fmpy's solver, a new instance per run
             self._runs += 1
-            columns = simulate_model_exchange(
-                self._unzipdir, self.fmu_path.name, self._start_values(parameters, chain), feed,
-                [variable for variable, _ in self._outputs], steps, output_interval)
+            try:
+                columns = simulate_model_exchange(
+                    self._unzipdir, self.fmu_path.name, self._start_values(parameters, chain),
+                    feed, [variable for variable, _ in self._outputs], steps, output_interval)
+            except InfrastructureError as problem:
+                cause = problem.__cause__  # fmpy's failed call, with its status
+                if isinstance(cause, FMICallException) and corrupts_process(cause.status):
+                    mark_corrupted(self._unzipdir)
+                raise
             # fmpy's solver runs to the stop time: the same hold afterwards, so the stored
             # samples mean the same whatever the FMU's interface
             end = self._end_of(columns) if hold_after_chain else None
@@ -450,8 +475,9 @@ class FmuRunner:
                   buffer.strides[0], (group.count,) if group.fmi3 else ())
                  for group, buffer in zip(self._groups, buffers, strict=True)]
         for get, refs, count, base, _, tail in reads:
-            if get(component, refs, count, base, *tail) not in OK_STATUSES:
-                raise self._read_error(0.0)
+            status = get(component, refs, count, base, *tail)
+            if status not in OK_STATUSES:
+                raise self._read_error(0.0, status)
         do_step = self._do_step
         watch = self._end_watch(buffers) if hold_after_chain else None
         rest = self._rest_watch(buffers) if watch is not None else None
@@ -462,7 +488,7 @@ class FmuRunner:
                 instance.set_values([(v, row[k]) for v, row in feed])
             if do_step is not None:
                 status = do_step(component, k * output_interval, output_interval, 1)
-                failure = None if status in OK_STATUSES else f"status {status}"
+                failure = None if status in OK_STATUSES else instance.failure(status)
             else:
                 failure = instance.step(k * output_interval, output_interval)
             if failure is not None:
@@ -471,9 +497,9 @@ class FmuRunner:
                                           f"{k * output_interval:g} s ({failure})"
                                           f"{self._log_detail()}")
             for get, refs, count, base, row_bytes, tail in reads:
-                if get(component, refs, count, base + (k + 1) * row_bytes, *tail) \
-                        not in OK_STATUSES:
-                    raise self._read_error((k + 1) * output_interval)
+                status = get(component, refs, count, base + (k + 1) * row_bytes, *tail)
+                if status not in OK_STATUSES:
+                    raise self._read_error((k + 1) * output_interval, status)
             if ended and (rest is None or rest(k + 1)):
                 # past the chain's end with the rover at rest: the motors hold, nothing moves
                 held = k + 1
@@ -538,7 +564,9 @@ class FmuRunner:
             end += 1  # still moving after the chain: hold only once at rest
         return end
 
-    def _read_error(self, time: float) -> InfrastructureError:
+    def _read_error(self, time: float, status: int) -> InfrastructureError:
+        if self._instance is not None:
+            self._instance.record(status)
         return InfrastructureError(f"{self.fmu_path.name}: reading the outputs failed at "
                                    f"t = {time:g} s{self._log_detail()}")
 

@@ -120,3 +120,15 @@ def continued_alone(payload):
     from idefix_rules.campaign.simulation.processes import Continued
 
     return Continued(payload)
+
+
+def retiring(payload):
+    """The process that ran the task; "retire" answers it as a ``Retire`` (the process ends
+    after answering, as one whose FMU returned Fatal), "retire-failed" answers a failure so."""
+    from idefix_rules.campaign.simulation.processes import Retire
+
+    if payload == "retire":
+        return Retire(os.getpid())
+    if payload == "retire-failed":
+        return Retire(failure=RuntimeError("corrupted for good"))
+    return os.getpid()

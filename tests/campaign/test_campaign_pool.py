@@ -1,5 +1,6 @@
 """The local pool: results by key whatever the order; crashes and hangs become failed runs;
-the work a task does after handing back its value (a run's collision check) is not the run's."""
+the work a task does after handing back its value (a run's collision check) is not the run's; a
+task whose process must run no other (its FMU returned Fatal) ends it after answering."""
 
 from __future__ import annotations
 
@@ -117,6 +118,29 @@ def test_an_isolated_runner_leaves_the_work_after_a_value_for_the_next_task() ->
         runner.close()
     assert (first.ok, first.value) == (True, ("ran", "a"))
     assert (second.ok, second.value) == (True, ("ran", "b"))
+
+
+def test_a_retiring_task_is_answered_and_its_process_takes_no_other_task() -> None:
+    # one worker: every task after a retiring one runs in a fresh process, the one before it
+    # in the same; neither answer is a crash
+    payloads = ["stay", "retire", "stay", "retire-failed", "stay"]
+    pool = LocalPool(tasks.retiring, workers=1, run_timeout=30.0)
+    results = dict(pool.map(enumerate(payloads)))
+    assert [results[i].ok for i in range(5)] == [True, True, True, False, True]
+    assert results[3].reason == "RuntimeError: corrupted for good"
+    assert results[0].value == results[1].value
+    assert len({results[0].value, results[2].value, results[4].value}) == 3
+    assert pool._workers == []
+
+    runner = IsolatedRunner(tasks.retiring)  # a Dask worker's child, the same way
+    try:
+        seen = [runner.run(i, payload, timeout=30.0) for i, payload in enumerate(payloads)]
+    finally:
+        runner.close()
+    assert [(o.ok, o.reason) for o in seen] == [(True, "")] * 3 + \
+        [(False, "RuntimeError: corrupted for good"), (True, "")]
+    assert seen[0].value == seen[1].value
+    assert len({seen[0].value, seen[2].value, seen[4].value}) == 3
 
 
 def test_a_continued_value_without_work_after_it_is_one_answer() -> None:

@@ -13,7 +13,9 @@ that exceeds the timeout is ended by killing its worker. A worker killed from ou
 runs a run (SIGKILL or SIGTERM the pool did not send: the out-of-memory killer, an operator)
 says nothing about the run: the run is given to a fresh worker again, up to
 :data:`~idefix_rules.campaign.simulation.processes.MAX_KILLS` attempts, and then yields
-``infrastructure: killed by SIGKILL 3 times``. Workers keep their FMU instance between runs.
+``infrastructure: killed by SIGKILL 3 times``. Workers keep their FMU instance between runs; a
+worker whose task answers :class:`~idefix_rules.campaign.simulation.processes.Retire` (its FMU
+returned Fatal) is retired once the answer is in and replaced like a crashed one.
 
 On Linux workers are forked: cheap to start again after a crash, and they never re-run the
 caller's ``__main__`` (forkserver and spawn do, which breaks scripts without a main guard). The
@@ -43,6 +45,7 @@ from idefix_rules.campaign.simulation.processes import (
     MAX_KILLS,
     Continued,
     Outcome,
+    Retire,
     TaskFunction,
     Then,
     Timeouts,
@@ -215,6 +218,9 @@ class LocalPool:
                     continue
                 worker.key = worker.deadline = None
                 worker.after = False
+                if isinstance(value, Retire):  # it ends: the next task gets a fresh worker
+                    self._retire(worker, kill=True)
+                    value = value.value
                 yield key, value if isinstance(value, Then) else Outcome(ok, value, reason)
             else:
                 worker.process.join(timeout=5)

@@ -15,9 +15,11 @@ Such a run is marked :attr:`Outcome.killed_by`, and the executors run it again, 
 times``), which ``--resume`` runs again.
 
 A child serves one task at a time over a pipe and keeps its state (the FMU instance) between
-tasks. Children die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and an
-idle child also watches its parent), so a killed campaign or Dask worker leaves no hanging FMU
-behind.
+tasks, unless a task says its process must take no other (:class:`Retire`: an FMU that returned
+Fatal leaves every instance of it in the process corrupted): the child ends once it has
+answered, and the executors start a fresh one for the next task. Children die with the process
+that started them (``PR_SET_PDEATHSIG`` on Linux, and an idle child also watches its parent), so
+a killed campaign or Dask worker leaves no hanging FMU behind.
 """
 
 from __future__ import annotations
@@ -78,6 +80,18 @@ class Continued:
 
     value: Any
     then: Callable[[], Any] | None = None
+
+
+@dataclass(frozen=True)
+class Retire:
+    """What a task function returns when its process must take no other task: the task's
+    answer is ``value`` (not a :class:`Continued`), or its failure ``failure`` (with the reason
+    an exception of the task function would give), and the process ends once it has sent it.
+    Sent to the parent as the marker around the value (``failure`` None), so that the executor
+    starts a fresh process for the next task instead of handing it to this one."""
+
+    value: Any = None
+    failure: Exception | None = None
 
 
 def is_infrastructure(reason: str) -> bool:
@@ -168,7 +182,7 @@ def worker_main(connection: Connection, function: TaskFunction, parent: int,
                 inherited: Connection | None = None) -> None:
     """The loop of a child: receive ``(key, payload)``, send ``(key, ok, value, reason)``;
     a :class:`Continued` value is sent without its ``then``, and ``(key, True, Then, "")``
-    follows once ``then`` has run."""
+    follows once ``then`` has run; after a :class:`Retire` answer the child ends."""
     # Ctrl-C goes to the parent, which decides; children are ended by it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -191,17 +205,24 @@ def worker_main(connection: Connection, function: TaskFunction, parent: int,
             return
         key, payload = message
         then = None
+        retire = False
         try:
             value = function(payload)
             if isinstance(value, Continued):  # the value now, then the rest (if any)
                 value, then = (Continued(value.value), value.then) \
                     if value.then is not None else (value.value, None)
             result = (key, True, value, "")
+            if isinstance(value, Retire):  # answered, then this process ends
+                retire = True
+                if value.failure is not None:
+                    result = (key, False, Retire(), _reason(value.failure))
         except Exception as failure:
             result = (key, False, None, _reason(failure))
         try:
             connection.send(result)
         except (OSError, ValueError):
+            return
+        if retire:
             return
         if then is None:
             continue
@@ -351,6 +372,9 @@ class IsolatedRunner:
             self._end(kill=True)
             return outcome
         _, ok, value, reason = message
+        if isinstance(value, Retire):  # the child ends: the next task starts a fresh one
+            self._end(kill=True)
+            return Outcome(ok, value.value, reason)
         if isinstance(value, Continued):
             # the work after the value (the local pool's): its answer is waited for and
             # left, so that it is not taken for the next task's
@@ -378,9 +402,13 @@ def run_isolated(function: TaskFunction, key: Hashable, payload: Any,
     if not hasattr(os, "fork"):  # pragma: no cover - Windows workers
         try:
             value = function(payload)
-            return Outcome(True, value.value if isinstance(value, Continued) else value)
         except Exception as failure:
             return Outcome(False, None, _reason(failure))
+        # no process of its own to end: a Retire is answered like any value, and the runner
+        # refuses every later run of an FMU that returned Fatal here (idefix_rules.fmu.binding)
+        if isinstance(value, Retire) and value.failure is not None:
+            return Outcome(False, None, _reason(value.failure))
+        return Outcome(True, value.value if isinstance(value, Continued | Retire) else value)
     ident = threading.get_ident()
     runner = _ISOLATED.get(ident)
     if runner is None or runner.function is not function:

@@ -2,7 +2,11 @@
 
 The same function runs in the local pool and on Dask workers. Each worker process keeps its
 :class:`~idefix_rules.fmu.FmuRunner` (instantiated once) and reuses it through ``reset`` for
-every later run; a failing run drops the instance so the next run starts clean. The campaign
+every later run; a failing run drops the instance so the next run starts with a fresh one in
+the same process (an FMI Error concerns its instance alone), unless the FMU returned Fatal:
+then nothing of it may run in this process again (FMI 2.0.x section 2.1.3), and the run's
+answer is a :class:`~idefix_rules.campaign.simulation.processes.Retire`, which ends the
+process once it is sent (the pool starts a fresh one). The campaign
 extracts the FMU once and names the folder in ``RunTask.unzipped``; a task without it (Dask
 workers on other machines cannot see the folder) makes each worker extract the FMU itself.
 """
@@ -19,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.simulation.processes import Continued
+from idefix_rules.campaign.simulation.processes import Continued, Retire
 from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
@@ -100,8 +104,10 @@ class RunResult:
         return self.encoded if self.encoded is not None else self.signals
 
 
-def simulate(task: RunTask) -> RunResult | InputProblem | Continued:
-    """Simulate one run; raises on an FMU error or an output that breaks the contract.
+def simulate(task: RunTask) -> RunResult | InputProblem | Continued | Retire:
+    """Simulate one run; raises on an FMU error or an output that breaks the contract. After
+    an FMU's Fatal the run's answer (its failure, or the campaign's mistake) is a
+    :class:`~idefix_rules.campaign.simulation.processes.Retire`: this process runs no more.
 
     When the task asks for the check this worker holds (:func:`run_checks`), the run is
     handed back first and checked after it (:class:`~idefix_rules.campaign.simulation.
@@ -117,11 +123,18 @@ def simulate(task: RunTask) -> RunResult | InputProblem | Continued:
                              stop_time=task.stop_time, output_interval=task.output_interval,
                              rover=task.rover)
     except UserInputError as failure:
-        return InputProblem(tuple(failure.diagnostics))
+        problem = InputProblem(tuple(failure.diagnostics))
+        if runner.fatal:
+            _drop(runner)
+            return Retire(problem)
+        return problem
+    except Exception as failure:
+        _drop(runner)
+        if runner.fatal:
+            return Retire(failure=failure)
+        raise
     except BaseException:
-        _RUNNERS.clear()
-        with contextlib.suppress(Exception):
-            runner.close()
+        _drop(runner)
         raise
     seconds = time.perf_counter() - started
     checked = check_outputs(signals, task.samples)
@@ -131,6 +144,14 @@ def simulate(task: RunTask) -> RunResult | InputProblem | Continued:
     if check is None:
         return result
     return Continued(result, functools.partial(check, checked, task.run))
+
+
+def _drop(runner: Any) -> None:
+    """Close a runner whose run failed (after a Fatal it calls nothing of the FMU), so the
+    next run of this process makes a fresh one."""
+    _RUNNERS.clear()
+    with contextlib.suppress(Exception):
+        runner.close()
 
 
 # The obstacle check a worker inherits when it is forked (local pool), named by a token that

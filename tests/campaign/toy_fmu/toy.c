@@ -1,7 +1,9 @@
 /* A toy rover FMU for the campaign tests: ideal arc kinematics with a fixed slip, plus faults
- * on demand (segfault, endless loop, FMI error at a given time). FMI 2.0 co-simulation.
+ * on demand (segfault, endless loop, FMI error or fatal error at a given time). FMI 2.0
+ * co-simulation.
  * Value references come from toy_vr.h, written by the tests next to this file. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "fmi2Functions.h"
@@ -13,8 +15,14 @@ typedef struct {
     double time;
     double cmd_time;
     int cmd;
+    int failed; /* a step returned fmi2Error or fmi2Fatal: only a reset or a free is allowed */
     const fmi2CallbackFunctions *cb;
 } Toy;
+
+/* Shared by every instance in the process, as a real FMU's global tables are, so that the fatal
+ * fault can do what fmi2Fatal announces: it corrupts this, and every later step of any instance
+ * in the process then slips more than its parameter says, with no error. */
+static double shared_slip_error = 0.0;
 
 static void reset_state(Toy *m) {
     memset(m->r, 0, sizeof(m->r));
@@ -23,6 +31,7 @@ static void reset_state(Toy *m) {
     m->time = 0.0;
     m->cmd_time = 0.0;
     m->cmd = 0;
+    m->failed = 0;
 }
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
@@ -51,7 +60,10 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     m->r[VR_COMMAND] = m->count > 0 ? 0.0 : -1.0;
     return fmi2OK;
 }
-fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
+/* After an error only fmi2Reset and fmi2FreeInstance are allowed (FMI 2.0.x section 2.1.3):
+ * the toy answers fmi2Terminate then with fmi2Error, as FMI 3.0 requires of a call its state
+ * does not allow. */
+fmi2Status fmi2Terminate(fmi2Component c) { return ((Toy *)c)->failed ? fmi2Error : fmi2OK; }
 fmi2Status fmi2Reset(fmi2Component c) { reset_state((Toy *)c); return fmi2OK; }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
@@ -117,13 +129,26 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean last)
             volatile int spin = 1;
             while (spin) { }
         }
-        if (m->r[VR_ERROR_AT] > 0.0 && now >= m->r[VR_ERROR_AT]) return fmi2Error;
+        if (m->r[VR_ERROR_AT] > 0.0 && now >= m->r[VR_ERROR_AT]) {
+            m->failed = 1;
+            return fmi2Error;
+        }
         if (m->r[VR_NAN_AT] > 0.0 && now >= m->r[VR_NAN_AT]) m->r[VR_X] = NAN;
+        if (m->r[VR_FATAL_AT] > 0.0 && now >= m->r[VR_FATAL_AT]) {
+            char message[96];
+            shared_slip_error = 0.3;
+            m->failed = 1;
+            /* the logger reads its format as the message: no conversion left in it */
+            snprintf(message, sizeof(message), "toy: slip table corrupted at t = %g s", now);
+            m->cb->logger(m->cb->componentEnvironment, "toy", fmi2Fatal, "logStatusFatal",
+                          message);
+            return fmi2Fatal;
+        }
         double moving = 0.0;
         while (m->cmd < m->count) {
             double duration = command_duration(m, m->cmd);
             if (m->cmd_time < duration) {
-                double slip = m->r[VR_SLIP];
+                double slip = m->r[VR_SLIP] + shared_slip_error;
                 double v = m->r[VR_DP0 + m->cmd] / duration * (1.0 - slip);
                 double w = m->r[VR_DH0 + m->cmd] / duration * (1.0 - slip);
                 double yaw = m->r[VR_YAW] + 0.5 * w * step;

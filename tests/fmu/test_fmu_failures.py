@@ -1,0 +1,81 @@
+"""FmuRunner after the FMU reported an error (FMI 2.0.x section 2.1.3): after fmi2Error the
+instance is only freed (the toy FMU refuses fmi2Terminate then, as FMUs of common exporters do)
+and a fresh instance in the same process runs as any; after fmi2Fatal nothing of the FMU is
+called again in that process, for any instance, so the run after it is refused, not simulated
+by a corrupted library (the toy's fatal fault makes every later step in the process slip more).
+
+Each case runs in a forked child, as campaign workers do: the fatal one leaves its process with
+the toy's library corrupted."""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from idefix_rules.commands import Command
+from idefix_rules.fmu import extract_fmu
+
+# The toy FMU builder lives with the campaign tests; import it by name from there.
+sys.path.insert(0, str(Path(__file__).parents[1] / "campaign"))
+
+from campaign_toy_fmu import build_toy_fmu
+
+CHAIN = [Command(0.1, 0.1, 0.0)]
+
+
+@pytest.fixture(scope="module")
+def toy(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The campaign tests' toy FMU and the folder it is extracted to once (as a campaign
+    does, so that every runner loads the same library file)."""
+    fmu = build_toy_fmu(tmp_path_factory.mktemp("toy"))
+    return fmu, extract_fmu(fmu, tmp_path_factory.mktemp("toy-unzipped"))
+
+
+def _after(fmu: Path, unzipped: Path, fault: str) -> dict[str, Any]:
+    """A run that fails with ``fault`` at 2 s, then what closing its runner and a new runner's
+    run (in the same process, the same library) give."""
+    from idefix_rules.fmu import FmuRunner
+
+    def said(action: Any) -> Any:
+        try:
+            return action()
+        except Exception as failure:  # sent back as text: FMU errors need not pickle
+            return f"{type(failure).__name__}: {failure}"
+
+    runner = FmuRunner(fmu, unzipped=unzipped)
+    failure = said(lambda: runner.run({fault: 2.0}, CHAIN, 20.0, 0.5))
+    fatal = said(lambda: runner.fatal)
+    closed = said(runner.close)
+
+    def again() -> float:
+        with FmuRunner(fmu, unzipped=unzipped) as fresh:
+            return float(fresh.run({"toy.slip": 0.1}, CHAIN, 20.0, 0.5)["wheel.slip"].max())
+
+    return {"failure": failure, "fatal": fatal, "closed": closed, "again": said(again)}
+
+
+def after(toy: tuple[Path, Path], fault: str) -> dict[str, Any]:
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        return pool.apply(_after, (*toy, fault))
+
+
+def test_after_an_error_the_instance_is_freed_and_a_fresh_one_runs_in_the_same_process(
+        toy: tuple[Path, Path]) -> None:
+    assert after(toy, "toy.error_at") == {
+        "failure": "InfrastructureError: toy.fmu: fmi2DoStep failed at t = 1.5 s (status 3); "
+                   "the FMU logged no reason",
+        "fatal": False, "closed": None, "again": pytest.approx(0.1)}
+
+
+def test_after_a_fatal_error_nothing_of_the_fmu_is_called_again_in_the_process(
+        toy: tuple[Path, Path]) -> None:
+    assert after(toy, "toy.fatal_at") == {
+        "failure": "InfrastructureError: toy.fmu: fmi2DoStep failed at t = 1.5 s (status 4): "
+                   "toy: slip table corrupted at t = 2 s",
+        "fatal": True, "closed": None,
+        "again": "InfrastructureError: toy.fmu: cannot instantiate (it returned Fatal in this "
+                 "process before, and FMI allows no further call of it here)"}
