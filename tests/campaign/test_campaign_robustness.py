@@ -360,3 +360,26 @@ def test_when_every_reference_run_fails_it_is_an_infrastructure_error(
     err = capsys.readouterr().err
     assert "every reference run failed" in err and "SIGSEGV" in err
     assert "Traceback" not in err
+
+
+def test_an_fmu_that_never_finishes_its_set_up_stops_the_campaign_after_one_timeout(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The toy loops forever leaving initialisation. Every reference run (3) and every check of
+    # an extreme draw (one per distinct bound: 5 here) would set it up and wait out its own
+    # timeout, one after another (with the defaults 50 s or more each); the campaign sets the
+    # FMU up once first, on its own, and stops when that set-up times out: exit 3, one set-up.
+    from idefix_rules.cli import main
+
+    log = campaign_dir / "setups.log"
+    monkeypatch.setenv("TOY_SETUP_LOG", str(log))
+    hang = '    toy.hang_setup: {distribution: fixed, value: 1}\n'
+    text = CAMPAIGN.replace("    toy.slip:", hang + "    toy.slip:")
+    (campaign_dir / "campaign.yaml").write_text(text)
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report",
+                 "--run-timeout", "1"]) == 3
+    err = capsys.readouterr().err
+    assert "the FMU did not finish setting up" in err and "within 1 s" in err
+    assert "Traceback" not in err
+    assert log.read_text().splitlines() == ["set up"]
+

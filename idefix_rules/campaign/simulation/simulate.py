@@ -43,6 +43,7 @@ from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts
 from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Then, Timeouts
 from idefix_rules.campaign.simulation.prescreen import finding_text, prescreen_reference
+from idefix_rules.campaign.simulation.processes import timeout_reason
 from idefix_rules.campaign.simulation.worker import InputProblem, RunTask, simulate
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import (
@@ -428,6 +429,15 @@ class DrawCheck:
     planned: int  # the runs planned per path (an adaptive campaign's cap)
 
 
+@dataclass(frozen=True)
+class SetupProbe:
+    """The FMU set up once with the nominal parameters (no step simulated), before the
+    reference runs: an FMU that never finishes its set-up stops the campaign after one
+    set-up timeout instead of one per reference run and draw check."""
+
+    path: str
+
+
 def _draw_checks(campaign: Campaign, fmu: FmuSource, plans: Sequence[PathPlan],
                  nominal: Mapping[str, float | str]) -> list[tuple[DrawCheck, RunTask]]:
     """For each uncertain parameter, its smallest and largest draw over every planned run of
@@ -485,8 +495,30 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
     checks = _draw_checks(campaign, fmu, todo, nominal) if draws else []
     by_name = {plan.spec.name: plan for plan in todo}
     timeouts = run_timeouts.reference_timeouts(by_name, options.run_timeout)
-    pool = open_pool(simulate, options, campaign,
-                     lambda key: timeouts(key.path if isinstance(key, DrawCheck) else key))
+    setup_timeout = run_timeouts.setup_timeout(options.run_timeout)
+
+    def timeout(key: Any) -> float | None:
+        if isinstance(key, SetupProbe | DrawCheck):  # set-up alone: no step simulated
+            return setup_timeout
+        return timeouts(key)
+
+    pool = open_pool(simulate, options, campaign, timeout, persistent=True)
+    probe = SetupProbe(todo[0].spec.name)
+    try:
+        with _map(pool, [(probe, dataclasses.replace(tasks[0][1], stop_time=0.0, samples=1))],
+                  close=False) as results:
+            for _, outcome in results:
+                _raise_input_problem(campaign, outcome)
+                if not outcome.ok and setup_timeout is not None and \
+                        outcome.reason == timeout_reason(setup_timeout):
+                    raise InfrastructureError(
+                        f"the FMU did not finish setting up (instantiation, parameters, "
+                        f"initialisation; no step simulated) within {setup_timeout:g} s, so "
+                        "nothing was simulated: it hangs there, or needs a longer "
+                        "--run-timeout (docs/operations.md, \"Timeouts\")")
+    except BaseException:
+        pool.close()
+        raise
     refused: list[Diagnostic] = []
     with _map(pool, tasks + [(check, task) for check, task in checks]) as results:
         for name, outcome in results:

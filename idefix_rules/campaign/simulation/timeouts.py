@@ -63,6 +63,17 @@ def reference_timeout(stop_time: float, option: float | None) -> float | None:
     return nice_ceiling(max(REFERENCE_FLOOR, stop_time * REFERENCE_PER_SIMULATED_SECOND))
 
 
+def setup_timeout(option: float | None) -> float | None:
+    """The timeout of setting the FMU up with no step simulated (the probe before the
+    reference runs, the extreme draws' checks): :data:`REFERENCE_FLOOR`, or the option.
+
+    >>> setup_timeout(None), setup_timeout(2.0), setup_timeout(0.0)
+    (50.0, 2.0, None)
+    """
+    given, value = explicit(option)
+    return value if given else REFERENCE_FLOOR
+
+
 def monte_carlo_timeout(stop_time: float, cost: float | None,
                         option: float | None) -> float | None:
     """The timeout of a Monte Carlo run; ``cost`` is the measured wall seconds per simulated

@@ -1,5 +1,6 @@
 /* A toy rover FMU for the campaign tests: ideal arc kinematics with a fixed slip, plus faults
- * on demand (segfault, endless loop, FMI error or fatal error at a given time). FMI 2.0
+ * on demand (segfault, endless loop, FMI error or fatal error at a given time; an endless loop
+ * leaving initialisation). FMI 2.0
  * co-simulation.
  * Value references come from toy_vr.h, written by the tests next to this file. */
 #include <math.h>
@@ -54,6 +55,15 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean a, fmi2Real tol, fmi
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Toy *m = (Toy *)c;
+    const char *log = getenv("TOY_SETUP_LOG");
+    if (log != NULL) {
+        FILE *f = fopen(log, "a");
+        if (f != NULL) { fputs("set up\n", f); fclose(f); }
+    }
+    if (m->r[VR_HANG_SETUP] > 0.0) {
+        volatile int spin = 1;
+        while (spin) { }
+    }
     m->r[VR_X] = m->r[VR_INITIAL_X];
     m->r[VR_Y] = m->r[VR_INITIAL_Y];
     m->r[VR_YAW] = m->r[VR_INITIAL_YAW];
