@@ -21,7 +21,9 @@ law over the step instead of the search's last iterate (no run of the digest's c
 failed search: the digest reproduced, the source hash recorded again), and the rover's when the
 load solve counted a soil support from its static share's sinkage (one datum with a rock's) and
 a wheel on a rock took its lateral friction on the contact's normal force (the old fingerprint
-reproduced on the old sources before it was replaced). A change to either must
+reproduced on the old sources before it was replaced), and the rover's when a wheel on a rock
+took its rim's friction (the motor's torque, its current and energy) on that normal force too,
+bounded by what the other wheels can push with. A change to either must
 re-record them on purpose (``tests/campaign/dataset_digest.py``); anything else that moves
 them is a regression.
 
@@ -57,10 +59,10 @@ from idefix_rules.fmu.build import source_hash
 # Recorded on the rover model with feed-forward arcs, displacement-mobilised bulldozing, the
 # first-touch rock contact, the loads of a rigid chassis with a rock's support at its contact and
 # a wheel on a rock compared with the soil at its supporting depth, ruts kept per cell as the
-# pressed fraction and mean depth, soil supports counted from their static sinkage, lateral
-# rock friction on the normal force; results format 2, default
+# pressed fraction and mean depth, soil supports counted from their static sinkage, rock
+# friction (lateral and the rim's) on the bounded normal force; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "951fc2ee8de8b49dfba2d112b3be89a30a6cb3f93e68b6daa4e6fbaca4f7e445"
+ROVER_SOURCE_HASH = "7a4d8e0619e824ddf8f8c98103e118119368911a6a85819f89751a02301cedf5"
 
 
 def _same_as_recorded(name: str, results: Path) -> None:

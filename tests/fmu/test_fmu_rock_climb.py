@@ -211,31 +211,57 @@ def rock_friction_driver(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return driver
 
 
-@pytest.mark.parametrize("angle", [math.radians(30), math.radians(60)])
+def _rock_forces(driver: Path, angle: float, load: float, rim: float, along: float, vy: float,
+                 push: float) -> tuple[float, float, float]:
+    """fx, fy and the rim's friction force (the motor's torque over the radius) of a wheel on a
+    rock (tests/fmu/rock_friction_driver.c)."""
+    out = subprocess.run([str(driver), repr(angle), repr(load), repr(rim), repr(along), repr(vy),
+                          repr(push)], capture_output=True, text=True, check=True)
+    fx, fy, thrust = (float(v) for v in out.stdout.split())
+    return fx, fy, thrust
+
+
+LOAD = 0.0356  # N, a wheel's share of the weight
+
+
+@pytest.mark.parametrize("angle", [math.radians(30), math.radians(60), math.radians(-30)])
 @pytest.mark.parametrize(("rim", "along", "vy"), [(0.005, 0.001, 0.002), (0.005, 0.005, 0.003),
                                                   (0.0, 0.002, -0.004)])
 def test_rock_friction_is_coulomb_on_the_contact_s_normal_force(
         rock_friction_driver: Path, angle: float, rim: float, along: float, vy: float) -> None:
     # A wheel on a rock face tilted by `angle` slides along its path and sideways. Statics of
     # the contact (any text on friction, e.g. Timoshenko & Young): the face pushes with N along
-    # its normal and friction T (along the face, in the wheel plane) and T_y (across it); the
-    # weight W is carried, N cos a + T sin a = W, and what is left along the path is the wheel's
-    # force, -N sin a + T cos a = F_x. Coulomb's law holds on N: |(T, T_y)| = mu_m N, with the
-    # same mobilised mu_m and direction as the same sliding on a level rock (a = 0, N = W).
-    # Taking the load for N across the wheel made T_y short by N / W (2x at 60°, no slip).
-    load = 0.0356
-
-    def forces(a: float) -> tuple[float, float]:
-        out = subprocess.run([str(rock_friction_driver), repr(a), repr(load), repr(rim),
-                              repr(along), repr(vy)], capture_output=True, text=True, check=True)
-        fx, fy, _ = (float(v) for v in out.stdout.split())
-        return fx, fy
-
-    level_x, level_y = forces(0.0)
-    fx, fy = forces(angle)
+    # its normal and friction T (along the face, in the wheel plane: the rim's torque over its
+    # radius) and T_y (across it); the weight W is carried, N cos a + T sin a = W, and what is
+    # left along the path is the wheel's force, -N sin a + T cos a = F_x. Coulomb's law holds on
+    # N: |(T, T_y)| = mu_m N, with the same mobilised mu_m and direction as the same sliding on
+    # a level rock (a = 0, N = W). Taking the load for N, across the wheel and for the torque,
+    # was short by N / W (2x at 60° without slip). The other wheels push hard enough (1 N).
+    level_x, level_y, level_thrust = _rock_forces(rock_friction_driver, 0.0, LOAD, rim, along,
+                                                  vy, 1.0)
+    fx, fy, thrust = _rock_forces(rock_friction_driver, angle, LOAD, rim, along, vy, 1.0)
     normal, tangent = np.linalg.solve([[math.cos(angle), math.sin(angle)],
-                                       [-math.sin(angle), math.cos(angle)]], [load, fx])
-    mobilised = math.hypot(level_x, level_y) / load
+                                       [-math.sin(angle), math.cos(angle)]], [LOAD, fx])
+    mobilised = math.hypot(level_x, level_y) / LOAD
+    assert level_thrust == pytest.approx(level_x, rel=1e-12)
     assert math.hypot(tangent, fy) == pytest.approx(mobilised * normal, rel=1e-9)
     assert math.atan2(fy, tangent) == pytest.approx(math.atan2(level_y, level_x), abs=1e-9)
-    assert abs(normal / load - 1) > 0.02  # the precondition: N is not the load here
+    assert thrust == pytest.approx(tangent, rel=1e-9)
+    assert abs(normal / LOAD - 1) > 1e-3  # the precondition: N is not the load here
+
+
+def test_a_face_pushes_back_no_harder_than_the_rover_pushes(rock_friction_driver: Path) -> None:
+    # An 80° face, the rim at rest and the hub sliding up and sideways: the friction angle
+    # turns the contact force past the vertical and the law reaches its near-rigid stop, where
+    # W / cos(angle) is about 100 W. No face pushes back harder than the wheel is pushed into
+    # it, at most the other wheels' strength P: N <= cos(atan(m mu)) sqrt(W^2 + P^2), and the
+    # friction is Coulomb on that N, in the level rock's direction (before the bound: 49 W
+    # sideways with P = 2.8 W).
+    angle, rim, along, vy, push = math.radians(80), 0.0, 0.002, -0.004, 0.1
+    level_x, level_y, _ = _rock_forces(rock_friction_driver, 0.0, LOAD, rim, along, vy, 1.0)
+    fx, fy, thrust = _rock_forces(rock_friction_driver, angle, LOAD, rim, along, vy, push)
+    assert abs(fx) > 50 * LOAD  # the precondition: at the stop
+    bound = math.cos(math.atan(level_x / LOAD)) * math.hypot(LOAD, push)
+    mobilised = math.hypot(level_x, level_y) / LOAD
+    assert math.hypot(thrust, fy) == pytest.approx(mobilised * bound, rel=1e-9)
+    assert math.atan2(fy, thrust) == pytest.approx(math.atan2(level_y, level_x), abs=1e-9)

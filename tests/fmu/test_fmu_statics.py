@@ -204,6 +204,7 @@ def test_a_rock_flush_with_a_wheel_s_rim_changes_no_load(rover: FmuRunner, tmp_p
     out = rover.run({"terrain.file": str(terrain),
                      "initial.x": flat.x - soil_model.HALF_WHEELBASE},
                     [Command(0.05, 1.0, 0.0)], 0.2, 0.1)
+    assert out["wheel.sinkage"][-1, FR] == 0.0  # the precondition: on the rock (it digs none)
     loads = np.stack([out[f"wheel.{w}.load"] for w in WHEELS], axis=1)[-1]
     fz, mx, my = _weight(float(out["pitch"][-1]), float(out["roll"][-1]))
     shares = fz / 4 + SIDE_X * mx / (4 * soil_model.HALF_WHEELBASE) + \

@@ -103,7 +103,9 @@ typedef struct {
     double slip_excavation;  /* sinkage dug by slip so far, m (builds up over the rim's travel) */
     double step_travel;      /* rim or ground travel in the last step, whichever is longer, m */
     double bulldozing;       /* lateral (bulldozing) resistance of the soil beside the wheel, N */
-    double capacity;         /* shear strength of the patch (soil) or mu*N (rock), N */
+    double capacity;         /* shear strength of the patch (soil) or mu*W (rock), N */
+    double push_limit;       /* the most the other wheels can push this one with: the sum of
+                              * their strengths, N (bounds a rock contact's normal force) */
     double shear_K;          /* m */
     double resistance;       /* compaction resistance, N */
     double rut_depth, disturbed;

@@ -44,6 +44,12 @@ static void update_geometry(Instance *inst)
         w->pitch = inst->pitch;
         wheel_ground_state(inst, i);
     }
+    {
+        double strength = 0.0;
+        for (i = 0; i < N_WHEELS; i++) strength += inst->wheels[i].capacity;
+        for (i = 0; i < N_WHEELS; i++)
+            inst->wheels[i].push_limit = strength - inst->wheels[i].capacity;
+    }
 }
 
 static void move(Instance *inst, const double q[3], double dt)

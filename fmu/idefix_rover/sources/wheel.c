@@ -52,11 +52,22 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         const double limit = 0.5 * 3.141592653589793 - 0.01;
         angle = angle > limit ? limit : (angle < -limit ? -limit : angle);
         force_x = load * tan(angle);
-        /* Coulomb friction acts on the contact's normal force N, not on the load W: across the
-         * wheel too, T_y = m_y mu N with N = W / (cos a + m mu sin a) = W cos(atan(m mu)) /
-         * cos(atan(m mu) - a) from the same balance (the lateral friction lies in the tangent
-         * plane and carries no weight). `mobilised` was taken of mu W: scale by N / W. */
-        ty *= cos(atan(tx / load)) / cos(angle);
+        /* Coulomb friction acts on the contact's normal force N, not on the load W: along the
+         * face (the rim's torque) and across the wheel, T = m mu N with N = W / (cos a + m mu
+         * sin a) = W cos(atan(m mu)) / cos(atan(m mu) - a) from the same balance (the lateral
+         * friction lies in the tangent plane and carries no weight). `mobilised` was taken of
+         * mu W: scale by N / W. The contact's force in the wheel plane, W / cos(angle), is
+         * that of a wheel whose weight the face carries; near the stop it grows without bound,
+         * but no face pushes back harder than the rover pushes the wheel into it: at most the
+         * other wheels' strength (w->push_limit), so N is at most cos(atan(m mu)) sqrt(W^2 +
+         * P^2). */
+        {
+            double contact = load / cos(angle);
+            double most = sqrt(load * load + w->push_limit * w->push_limit);
+            double normal = cos(atan(tx / load)) * (contact < most ? contact : most);
+            ty *= normal / load;
+            tx *= normal / load;
+        }
         (void)rock_mu;
     } else {
         force_x = tx - w->load * tan(w->grade) - w->resistance * rolling;
