@@ -248,8 +248,8 @@ class FmuInstance:
 
         try:
             _, terminate, _, _ = self._call(self.slave.doStep, time, step)
-        except FMICallException as failure:
-            return str(failure)
+        except FMICallException as failure:  # recorded; said as a raw call's status is
+            return f"status {failure.status}"
         return "the FMU asked to terminate the simulation" if terminate else None
 
     def output_groups(self, variables: Sequence[FmuVariable]) -> list[OutputGroup]:

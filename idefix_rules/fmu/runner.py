@@ -430,8 +430,10 @@ class FmuRunner:
         if self._closed:
             raise InfrastructureError("FmuRunner used after close()")
         if self.fatal:
-            raise InfrastructureError(f"{self.fmu_path.name}: returned Fatal in an earlier run, "
-                                      "and FMI allows no further call of it in this process")
+            raise InfrastructureError(
+                f"{self.fmu_path.name}: returned Fatal in an earlier run (or failed inside "
+                "fmpy's solver, which hides the status), and FMI allows no further call of it "
+                "in this process")
         if not (output_interval > 0 and stop_time >= 0 and math.isfinite(stop_time)):
             raise UserInputError(error("F109", "need output_interval > 0 and stop_time >= 0"))
         from fmpy.fmi1 import FMICallException
@@ -446,7 +448,14 @@ class FmuRunner:
                     feed, [variable for variable, _ in self._outputs], steps, output_interval)
             except InfrastructureError as problem:
                 cause = problem.__cause__  # fmpy's failed call, with its status
-                if isinstance(cause, FMICallException) and corrupts_process(cause.status):
+                if isinstance(cause, FMICallException):
+                    if corrupts_process(cause.status):
+                        mark_corrupted(self._unzipdir)
+                elif cause is not None:
+                    # fmpy's solver calls the FMU from C callbacks (derivatives, states, event
+                    # indicators), where a failed call's exception is swallowed and the solver
+                    # fails with an error of its own: whether the FMU returned Fatal there
+                    # cannot be known, so the process is taken as corrupted (its worker ends)
                     mark_corrupted(self._unzipdir)
                 raise
             # fmpy's solver runs to the stop time: the same hold afterwards, so the stored

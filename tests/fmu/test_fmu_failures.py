@@ -79,3 +79,44 @@ def test_after_a_fatal_error_nothing_of_the_fmu_is_called_again_in_the_process(
         "fatal": True, "closed": None,
         "again": "InfrastructureError: toy.fmu: cannot instantiate (it returned Fatal in this "
                  "process before, and FMI allows no further call of it here)"}
+
+
+def _model_exchange_fatal(fmu: Path) -> tuple[str, bool]:
+    """A model-exchange run whose FMU fails Fatal inside the solver's derivative callback."""
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi3 import FMU3Model
+
+    from idefix_rules.fmu import FmuRunner
+
+    original = FMU3Model.getContinuousStateDerivatives
+    calls = [0]
+
+    def failing(self: Any, *args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        if calls[0] > 50:  # well into the run: the solver has stepped before
+            raise FMICallException("fmi3GetContinuousStateDerivatives", 4)
+        return original(self, *args, **kwargs)
+
+    FMU3Model.getContinuousStateDerivatives = failing  # type: ignore[method-assign]
+    runner = FmuRunner(fmu, signal_map={"px": "x", "py": "y", "psi": "yaw"},
+                       chain_delivery="inputs",
+                       chain_inputs={"v": "body.speed", "w": "body.yaw_rate"})
+    try:
+        runner.run({}, CHAIN, 20.0, 0.5)
+    except Exception as failure:  # sent back as text: FMU errors need not pickle
+        return f"{type(failure).__name__}: {failure}", runner.fatal
+    return "no failure", runner.fatal
+
+
+def test_a_model_exchange_run_failing_inside_the_solver_is_taken_as_fatal(
+        planar_me_fmu: Path) -> None:
+    # fmpy's CVode calls the FMU's derivatives from a C callback: a Fatal status raised there
+    # is swallowed (ctypes prints it) and the solver fails with its own error, so the status
+    # never reaches the runner. The process cannot know whether the FMU returned Fatal: it is
+    # taken as corrupted (the campaign's worker then ends and a fresh one takes the next run).
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        failure, fatal = pool.apply(_model_exchange_fatal, (planar_me_fmu,))
+    assert failure.startswith("InfrastructureError: PlanarME.fmu: model exchange simulation "
+                              "failed (CVode error"), failure
+    assert "at the first call" not in failure  # the precondition: it failed mid-run
+    assert fatal is True
