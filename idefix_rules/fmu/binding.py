@@ -103,6 +103,15 @@ class InstantiationFailed(Exception):
     """The FMU refused to be instantiated; the message carries its last log line."""
 
 
+class ResetFailed(Exception):
+    """The reset of a reused instance failed: what the previous run left, not the next run's
+    doing (``status``: the reset's)."""
+
+    def __init__(self, status: int) -> None:
+        super().__init__(f"status {status}")
+        self.status = status
+
+
 class FmuInstance:
     """An instantiated co-simulation FMU (FMI 2.0 or 3.0), reset between runs."""
 
@@ -209,7 +218,12 @@ class FmuInstance:
     def start(self, stop_time: float) -> None:
         """Reset (after the first run) and enter initialisation mode for 0 … ``stop_time``."""
         if self._started:
-            self._call(self.slave.reset)
+            from fmpy.fmi1 import FMICallException
+
+            try:
+                self._call(self.slave.reset)
+            except FMICallException as failure:  # recorded: Error or Fatal, as any call's
+                raise ResetFailed(failure.status) from None
             self.failed = False  # reset after an Error: the instance is as new
         self._started = True
         if self.fmi3:

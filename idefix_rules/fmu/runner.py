@@ -44,6 +44,7 @@ from idefix_rules.fmu.binding import (
     OK_STATUSES,
     FmuInstance,
     OutputGroup,
+    ResetFailed,
     corrupted_here,
     corrupts_process,
     mark_corrupted,
@@ -182,6 +183,12 @@ def hold_after_end(columns: Sequence[np.ndarray], held: int) -> None:
         column[held + 1:] = column[held]
 
 
+class ProcessCorrupted(InfrastructureError):
+    """The FMU returned Fatal (or a status FMI leaves undefined) where the run about to start
+    is not to blame (the reset of the instance the previous run left): the run has to go to a
+    fresh process, and this one runs the FMU no more."""
+
+
 @dataclass(frozen=True)
 class _Slot:
     """Where an output goes: signal, wheel column (None: a time signal), SI factor, done."""
@@ -241,18 +248,45 @@ class FmuRunner:
         self._groups: list[OutputGroup] = []
         if not self.model_exchange:
             try:
-                self._instance = FmuInstance(self.description, str(self._unzipdir), "idefix")
-            except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
+                self._instantiate()
+            except InfrastructureError:
                 self._remove_unzipdir()
-                raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
-                    from None
-            self._slave = self._instance.slave
-            self._log = self._instance.log
-            self._do_step = self._instance.do_step
-            self._groups = self._instance.output_groups([v for v, _ in self._outputs])
+                raise
         self._runs = 0
         self._closed = False
         self._checked_terrain: tuple[str, int, int] | None = None
+
+    def _instantiate(self) -> FmuInstance:
+        """A new instance of the co-simulation FMU, the one runs use from now on."""
+        try:
+            instance = FmuInstance(self.description, str(self._unzipdir), "idefix")
+        except Exception as exc:  # fmpy raises a plain Exception when instantiation fails
+            raise InfrastructureError(f"{self.fmu_path.name}: cannot instantiate ({exc})") \
+                from None
+        self._instance = instance
+        self._slave = instance.slave
+        self._log = instance.log
+        self._do_step = instance.do_step
+        self._groups = instance.output_groups([v for v, _ in self._outputs])
+        return instance
+
+    def _start(self, instance: FmuInstance, stop_time: float) -> FmuInstance:
+        """``instance`` reset (after its first run) and in initialisation mode; the instance
+        to use. A reset that fails is what the previous run left, not this run's doing: after
+        Error (the instance alone unusable, FMI 2.0.x section 2.1.3) a fresh instance in this
+        process takes the run; after Fatal, :class:`ProcessCorrupted` (a fresh process must)."""
+        try:
+            instance.start(stop_time)
+            return instance
+        except ResetFailed as failed:
+            if corrupts_process(failed.status):
+                raise ProcessCorrupted(
+                    f"{self.fmu_path.name}: its reset after the previous run of this process "
+                    f"failed (status {failed.status}){self._log_detail()}") from None
+        instance.close()  # after Error: freed only
+        fresh = self._instantiate()
+        fresh.start(stop_time)
+        return fresh
 
     # ------------------------------------------------------------------ set-up
     def _initialisation_error(self, exc: Exception) -> Exception:
@@ -471,7 +505,7 @@ class FmuRunner:
         instance = self._instance
         try:
             self._runs += 1
-            instance.start(steps * output_interval)
+            instance = self._start(instance, steps * output_interval)
             instance.set_values(self._start_values(parameters, chain))
             if feed:
                 instance.set_values([(v, row[0]) for v, row in feed])

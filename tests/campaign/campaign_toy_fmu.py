@@ -7,7 +7,9 @@ FMI error or output a NaN position from that time on; ``toy.fatal_at`` makes it 
 after corrupting what every instance in the process shares (later steps of any instance there
 slip more than asked, as an FMU's corrupted global state would make them); ``toy.hang_setup``
 (1: yes) makes it loop forever leaving initialisation, before any step, and (with the
-environment variable ``TOY_SETUP_LOG`` naming a file) each set-up is logged there as a line.
+environment variable ``TOY_SETUP_LOG`` naming a file) each set-up is logged there as a line;
+``toy.reset_fails_above`` (0 = never) makes ``fmi2Reset`` fail after a run whose slip was above
+it: with the status the environment variable ``TOY_RESET_STATUS`` gives (3 Error, 4 Fatal).
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ WHEEL_OUTPUTS = (("rate", "rad/s"), ("slip", "1"), ("slip_angle", "rad"), ("sink
 PARAMETERS = [("initial.x", "m", 0.0), ("initial.y", "m", 0.0), ("initial.yaw", "rad", 0.0),
               ("toy.crash_at", "s", 0.0), ("toy.hang_at", "s", 0.0), ("toy.error_at", "s", 0.0),
               ("soil.cohesion", "Pa", 250.0), ("toy.slip", "1", 0.1), ("toy.nan_at", "s", 0.0),
-              ("toy.fatal_at", "s", 0.0), ("toy.hang_setup", "1", 0.0)]
+              ("toy.fatal_at", "s", 0.0), ("toy.hang_setup", "1", 0.0),
+              ("toy.reset_fails_above", "1", 0.0)]
 CHAIN = ([(f"chain.max_wheel_rate[{i}]", "rad/s", 0.0) for i in range(MAX_COMMANDS)]
          + [(f"chain.delta_position[{i}]", "m", 0.0) for i in range(MAX_COMMANDS)]
          + [(f"chain.delta_heading[{i}]", "rad", 0.0) for i in range(MAX_COMMANDS)])
@@ -56,6 +59,7 @@ def _header() -> str:
         f"#define VR_NAN_AT {index['toy.nan_at']}",
         f"#define VR_FATAL_AT {index['toy.fatal_at']}",
         f"#define VR_HANG_SETUP {index['toy.hang_setup']}",
+        f"#define VR_RESET_FAILS_ABOVE {index['toy.reset_fails_above']}",
         f"#define VR_SLIP {index['toy.slip']}",
         f"#define VR_RATE0 {index['chain.max_wheel_rate[0]']}",
         f"#define VR_DP0 {index['chain.delta_position[0]']}",

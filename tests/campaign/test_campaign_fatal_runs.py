@@ -74,3 +74,38 @@ def test_a_fatal_run_fails_alone_and_its_worker_runs_nothing_more(
         assert float(match["step"]) < fatal_at <= float(match["at"])
     assert_same_datasets(one.parent / "out" / "results.h5", two.parent / "out" / "results.h5")
 
+
+
+# Every run complete: the toy's reset fails after a run that slipped more than 0.2 (about
+# one run in four of toy.slip's 0.05 … 0.25), which is what that run left, not the next run's
+# doing: the next run is simulated all the same (Error: by a fresh instance in the process;
+# Fatal: by a fresh process), and which worker ran what changes nothing.
+RESET_FAILS = CAMPAIGN.replace("runs: 6", "runs: 8").replace(TOO_FAST, "") \
+    .replace("    toy.slip:", "    toy.reset_fails_above: {distribution: fixed, value: 0.2}\n"
+                               "    toy.slip:")
+
+
+@pytest.mark.parametrize("status", ["3", "4"])
+def test_a_reset_failing_after_a_run_is_not_the_next_run_s_failure(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        status: str) -> None:
+    monkeypatch.setenv("TOY_RESET_STATUS", status)
+    one = copy_campaign(campaign_dir, tmp_path / "one", RESET_FAILS.replace("workers: 2",
+                                                                             "workers: 1"))
+    two = copy_campaign(campaign_dir, tmp_path / "two", RESET_FAILS)
+    # 8 runs decide no verdict of this rulebook: exit 1, as without the failing resets
+    assert main([str(one), "--quiet", "--no-report"]) == 1
+    assert main([str(two), "--quiet", "--no-report"]) == 1
+    for results in (one.parent / "out" / "results.h5", two.parent / "out" / "results.h5"):
+        found = outcomes(results)
+        assert {state for state, _ in found.values()} == {STATUS_COMPLETE}, found
+        with h5py.File(results) as stored:
+            slips = np.concatenate([stored[f"paths/{name}/runs/parameters/toy.slip"][()]
+                                    for name in ("straight", "arc")])
+            assert (slips > 0.2).sum() >= 2  # the precondition: resets do fail
+            for name in ("straight", "arc"):
+                runs = stored[f"paths/{name}/runs"]
+                for run in range(8):  # each slipped as its parameter says, none corrupted
+                    assert float(np.max(runs["signals/wheel.slip"][run])) == pytest.approx(
+                        float(runs["parameters/toy.slip"][run]), rel=1e-6), (name, run)
+    assert_same_datasets(one.parent / "out" / "results.h5", two.parent / "out" / "results.h5")

@@ -42,6 +42,7 @@ from typing import Any
 
 from idefix_rules.campaign.simulation.dask_pool import DaskPool
 from idefix_rules.campaign.simulation.processes import (
+    AGAIN,
     MAX_KILLS,
     Continued,
     Outcome,
@@ -220,6 +221,9 @@ class LocalPool:
                 worker.after = False
                 if isinstance(value, Retire):  # it ends: the next task gets a fresh worker
                     self._retire(worker, kill=True)
+                    if value.again:  # not its own failure: the run goes to a fresh worker
+                        yield key, Outcome(False, None, reason, killed_by=AGAIN)
+                        continue
                     value = value.value
                 yield key, value if isinstance(value, Then) else Outcome(ok, value, reason)
             else:

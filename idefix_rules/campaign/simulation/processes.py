@@ -46,6 +46,11 @@ _PR_SET_PDEATHSIG = 1
 INFRASTRUCTURE = "infrastructure: "
 # Attempts of a run killed from outside before it is recorded as lost to the infrastructure.
 MAX_KILLS = 3
+# What stands in Outcome.killed_by for a run whose process could not run it (its FMU corrupted
+# before the run began, :class:`Retire` ``again``): it runs again in a fresh process, as a run
+# killed from outside does.
+AGAIN = "a process whose FMU failed before the run"
+
 # Signals only another process sends: no FMU code raises them on its own process by a fault.
 OUTSIDE_SIGNALS = frozenset({signal.SIGKILL, signal.SIGTERM})
 
@@ -92,6 +97,9 @@ class Retire:
 
     value: Any = None
     failure: Exception | None = None
+    # the task is not this process's to answer (the FMU it holds was corrupted before the task
+    # began): the executors run it again in a fresh process instead of recording ``failure``
+    again: bool = False
 
 
 def is_infrastructure(reason: str) -> bool:
@@ -215,7 +223,7 @@ def worker_main(connection: Connection, function: TaskFunction, parent: int,
             if isinstance(value, Retire):  # answered, then this process ends
                 retire = True
                 if value.failure is not None:
-                    result = (key, False, Retire(), _reason(value.failure))
+                    result = (key, False, Retire(again=value.again), _reason(value.failure))
         except Exception as failure:
             result = (key, False, None, _reason(failure))
         try:
@@ -374,7 +382,7 @@ class IsolatedRunner:
         _, ok, value, reason = message
         if isinstance(value, Retire):  # the child ends: the next task starts a fresh one
             self._end(kill=True)
-            return Outcome(ok, value.value, reason)
+            return Outcome(ok, value.value, reason, killed_by=AGAIN if value.again else "")
         if isinstance(value, Continued):
             # the work after the value (the local pool's): its answer is waited for and
             # left, so that it is not taken for the next task's
@@ -407,7 +415,8 @@ def run_isolated(function: TaskFunction, key: Hashable, payload: Any,
         # no process of its own to end: a Retire is answered like any value, and the runner
         # refuses every later run of an FMU that returned Fatal here (idefix_rules.fmu.binding)
         if isinstance(value, Retire) and value.failure is not None:
-            return Outcome(False, None, _reason(value.failure))
+            return Outcome(False, None, _reason(value.failure),
+                           killed_by=AGAIN if value.again else "")
         return Outcome(True, value.value if isinstance(value, Continued | Retire) else value)
     ident = threading.get_ident()
     runner = _ISOLATED.get(ident)

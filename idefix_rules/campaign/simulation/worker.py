@@ -113,6 +113,8 @@ def simulate(task: RunTask) -> RunResult | InputProblem | Continued | Retire:
     handed back first and checked after it (:class:`~idefix_rules.campaign.simulation.
     processes.Continued`): the check's time is not the run's (its timeout), and a check that
     fails or crashes leaves the run as it is (the look checks it again)."""
+    from idefix_rules.fmu.runner import ProcessCorrupted
+
     try:
         runner = _runner(task)
     except UserInputError as failure:
@@ -128,6 +130,9 @@ def simulate(task: RunTask) -> RunResult | InputProblem | Continued | Retire:
             _drop(runner)
             return Retire(problem)
         return problem
+    except ProcessCorrupted as failure:  # the previous run's doing: a fresh process runs it
+        _drop(runner)
+        return Retire(failure=failure, again=True)
     except Exception as failure:
         _drop(runner)
         if runner.fatal:

@@ -74,7 +74,18 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
  * the toy answers fmi2Terminate then with fmi2Error, as FMI 3.0 requires of a call its state
  * does not allow. */
 fmi2Status fmi2Terminate(fmi2Component c) { return ((Toy *)c)->failed ? fmi2Error : fmi2OK; }
-fmi2Status fmi2Reset(fmi2Component c) { reset_state((Toy *)c); return fmi2OK; }
+fmi2Status fmi2Reset(fmi2Component c) {
+    Toy *m = (Toy *)c;
+    double above = m->r[VR_RESET_FAILS_ABOVE], slip = m->r[VR_SLIP];
+    const char *status = getenv("TOY_RESET_STATUS");
+    if (above > 0.0 && slip > above) {  /* what the previous run left: the reset fails */
+        if (status != NULL && status[0] == '3') { m->failed = 1; return fmi2Error; }
+        shared_slip_error = 0.3;
+        return fmi2Fatal;
+    }
+    reset_state(m);
+    return fmi2OK;
+}
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
     Toy *m = (Toy *)c;
