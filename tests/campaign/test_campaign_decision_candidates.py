@@ -43,3 +43,16 @@ def test_a_failing_chain_is_never_a_candidate():
 
 def test_unpaired_campaigns_have_no_comparisons_and_name_one_chain():
     assert decide([path("a", 1), path("b", 2)]).candidates == ("a",)
+
+
+def test_no_chain_scored_says_which_failed_and_which_were_rejected() -> None:
+    # every Monte Carlo run of 'a' failed (no rank), 'b' was rejected by a command rule: the
+    # decision named every chain rejected or excluded, which 'a' was not
+    failed = P(name="a", verdict="fail", undecided=False, rank=None, reasons=[])
+    rejected = P(name="b", verdict="rejected", undecided=False, rank=None, reasons=["x"])
+    assert decide([failed, rejected]).text == (
+        "no chain is acceptable (none was scored: a was left without a run to score (the "
+        "reference run, or every Monte Carlo run, failed); b was rejected or excluded before "
+        "Monte Carlo)")
+    assert decide([rejected]).text == ("no chain is acceptable (none was scored: every chain "
+                                       "was rejected or excluded before Monte Carlo)")

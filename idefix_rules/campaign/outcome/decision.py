@@ -57,6 +57,15 @@ class Decision:
                 "reasons": list(self.reasons), "candidates": list(self.candidates)}
 
 
+def _named(names: Sequence[str]) -> str:
+    """``names`` as the subject of a sentence.
+
+    >>> _named(["a"]), _named(["a", "b"])
+    ('a was', 'a, b were')
+    """
+    return f"{', '.join(names)} {'was' if len(names) == 1 else 'were'}"
+
+
 def _rank(path: Any) -> tuple[bool, int]:
     rank = getattr(path, "rank", None)
     return (rank is None, rank or 0)
@@ -158,10 +167,22 @@ of 1)'
                         f"of a limit ({near.name}: {rules}); not sent: accepting such a chain "
                         "is a person's call", tuple(near.reasons))
     if not ranked:
-        rerun = any(reason.endswith(NEEDS_RUN) for p in paths for reason in p.reasons)
-        return Decision("none", None, "no chain is acceptable (none was scored: every chain "
-                        "was rejected or excluded before Monte Carlo" + (
-                            ", or needs a run under this rulebook)" if rerun else ")"))
+        needs = [p.name for p in paths if any(r.endswith(NEEDS_RUN) for r in p.reasons)]
+        failed = [p.name for p in paths if p.verdict not in ("rejected", "excluded")
+                  and p.name not in needs]
+        if not failed:
+            return Decision("none", None, "no chain is acceptable (none was scored: every chain "
+                            "was rejected or excluded before Monte Carlo" + (
+                                ", or needs a run under this rulebook)" if needs else ")"))
+        before = [p.name for p in paths if p.verdict in ("rejected", "excluded")]
+        unscored = [f"{_named(failed)} left without a run to score (the reference run, or "
+                    "every Monte Carlo run, failed)"]
+        if before:
+            unscored.append(f"{_named(before)} rejected or excluded before Monte Carlo")
+        if needs:
+            unscored.append(f"{_named(needs)} to be run under this rulebook")
+        return Decision("none", None, "no chain is acceptable (none was scored: "
+                        + "; ".join(unscored) + ")")
     least = sorted(ranked, key=_rank)[0]
     reasons = tuple(least.reasons)
     why = f": it fails {'; '.join(reasons)}" if reasons else ""
