@@ -360,6 +360,12 @@ def test_when_every_reference_run_fails_it_is_an_infrastructure_error(
     err = capsys.readouterr().err
     assert "every reference run failed" in err and "SIGSEGV" in err
     assert "Traceback" not in err
+    # resumed, the stored campaign is in the same state: the same answer (it said exit 1)
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report",
+                 "--resume"]) == 3
+    err = capsys.readouterr().err
+    assert "every reference run failed" in err and "SIGSEGV" in err
+    assert "Traceback" not in err
 
 
 def test_an_fmu_that_never_finishes_its_set_up_stops_the_campaign_after_one_timeout(

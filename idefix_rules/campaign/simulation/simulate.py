@@ -484,8 +484,23 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
                     store: ResultStore, options: SimulationOptions, progress: Progress,
                     collisions: Any, summary: SimulationSummary, draws: bool = True) -> None:
     todo = [p for p in plans if p.status == "pending"]
-    if not todo:
-        return
+    if todo:
+        _run_references(campaign, evaluator, rover, fmu, fmu_parameters, todo, store, options,
+                        progress, collisions, summary, draws)
+    tried = [p for p in plans if p.status in ("reference_failed", "simulated", "excluded")]
+    if tried and all(plan.status == "reference_failed" for plan in tried):
+        # Nothing could be simulated at all: the FMU or its set-up is broken, not a chain (a
+        # resumed campaign whose reference runs all failed is in the same state)
+        reasons = sorted({plan.reason for plan in tried})
+        raise InfrastructureError("every reference run failed, so nothing was simulated: "
+                                  + "; ".join(reasons))
+
+
+def _run_references(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fmu: FmuSource,
+                    fmu_parameters: Mapping[str, float | str], todo: list[PathPlan],
+                    store: ResultStore, options: SimulationOptions, progress: Progress,
+                    collisions: Any, summary: SimulationSummary, draws: bool) -> None:
+    """The reference runs of the paths ``todo``, after the FMU's set-up on its own."""
     nominal = {**fmu_parameters, **nominal_parameters(campaign)}
     progress.message(f"reference runs of {len(todo)} path(s)")
     tasks: list[tuple[Any, RunTask]] = [(plan.spec.name, run_task(campaign, fmu, plan, nominal))
@@ -529,11 +544,6 @@ def _reference_runs(campaign: Campaign, evaluator: Any, rover: RoverGeometry, fm
                                outcome, collisions, summary)
     if refused:
         raise UserInputError(refused[:1], sources={str(campaign.source): campaign.text})
-    if all(plan.status == "reference_failed" for plan in todo):
-        # Nothing could be simulated at all: the FMU or its set-up is broken, not a chain.
-        reasons = sorted({plan.reason for plan in todo})
-        raise InfrastructureError("every reference run failed, so nothing was simulated: "
-                                  + "; ".join(reasons))
 
 
 def _reference_outcome(campaign: Campaign, evaluator: Any, rover: RoverGeometry,
