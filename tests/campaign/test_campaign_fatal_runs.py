@@ -48,15 +48,24 @@ def outcomes(results: Path) -> dict[tuple[str, int], tuple[int, str]]:
     return found
 
 
+def run_on_one_and_two_workers(campaign_dir: Path, tmp_path: Path, text: str,
+                               exit_code: int) -> tuple[Path, Path]:
+    """The campaign ``text`` run with one worker and with two (each must exit ``exit_code``);
+    their results files."""
+    found = []
+    for workers in (1, 2):
+        path = copy_campaign(campaign_dir, tmp_path / f"workers-{workers}",
+                             text.replace("workers: 2", f"workers: {workers}"))
+        assert main([str(path), "--quiet", "--no-report"]) == exit_code
+        found.append(path.parent / "out" / "results.h5")
+    return found[0], found[1]
+
+
 def test_a_fatal_run_fails_alone_and_its_worker_runs_nothing_more(
         campaign_dir: Path, tmp_path: Path) -> None:
-    one = copy_campaign(campaign_dir, tmp_path / "one", FATAL.replace("workers: 2",
-                                                                       "workers: 1"))
-    two = copy_campaign(campaign_dir, tmp_path / "two", FATAL)
     # the fatal run is a failed run of arc, and a path with failed runs cannot pass
-    assert main([str(one), "--quiet", "--no-report"]) == 1
-    assert main([str(two), "--quiet", "--no-report"]) == 1
-    for results in (one.parent / "out" / "results.h5", two.parent / "out" / "results.h5"):
+    one, two = run_on_one_and_two_workers(campaign_dir, tmp_path, FATAL, exit_code=1)
+    for results in (one, two):
         found = outcomes(results)
         status, reason = found.pop(FATAL_RUN)
         assert status == STATUS_FAILED
@@ -72,7 +81,7 @@ def test_a_fatal_run_fails_alone_and_its_worker_runs_nothing_more(
                 assert float(np.max(runs["signals/wheel.slip"][run])) == \
                     pytest.approx(slip, rel=1e-6), (name, run)
         assert float(match["step"]) < fatal_at <= float(match["at"])
-    assert_same_datasets(one.parent / "out" / "results.h5", two.parent / "out" / "results.h5")
+    assert_same_datasets(one, two)
 
 
 
@@ -90,13 +99,9 @@ def test_a_reset_failing_after_a_run_is_not_the_next_run_s_failure(
         campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         status: str) -> None:
     monkeypatch.setenv("TOY_RESET_STATUS", status)
-    one = copy_campaign(campaign_dir, tmp_path / "one", RESET_FAILS.replace("workers: 2",
-                                                                             "workers: 1"))
-    two = copy_campaign(campaign_dir, tmp_path / "two", RESET_FAILS)
     # 8 runs decide no verdict of this rulebook: exit 1, as without the failing resets
-    assert main([str(one), "--quiet", "--no-report"]) == 1
-    assert main([str(two), "--quiet", "--no-report"]) == 1
-    for results in (one.parent / "out" / "results.h5", two.parent / "out" / "results.h5"):
+    one, two = run_on_one_and_two_workers(campaign_dir, tmp_path, RESET_FAILS, exit_code=1)
+    for results in (one, two):
         found = outcomes(results)
         assert {state for state, _ in found.values()} == {STATUS_COMPLETE}, found
         with h5py.File(results) as stored:
@@ -108,4 +113,4 @@ def test_a_reset_failing_after_a_run_is_not_the_next_run_s_failure(
                 for run in range(8):  # each slipped as its parameter says, none corrupted
                     assert float(np.max(runs["signals/wheel.slip"][run])) == pytest.approx(
                         float(runs["parameters/toy.slip"][run]), rel=1e-6), (name, run)
-    assert_same_datasets(one.parent / "out" / "results.h5", two.parent / "out" / "results.h5")
+    assert_same_datasets(one, two)

@@ -62,7 +62,7 @@ from idefix_rules.fmu.build import source_hash
 # pressed fraction and mean depth, soil supports counted from their static sinkage, rock
 # friction (lateral and the rim's) on the bounded normal force; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "7a4d8e0619e824ddf8f8c98103e118119368911a6a85819f89751a02301cedf5"
+ROVER_SOURCE_HASH = "66ff6958e36deca38a1e3d9a40439c67ebb95dd68618579775f14a6b4488f546"
 
 
 def _same_as_recorded(name: str, results: Path) -> None:

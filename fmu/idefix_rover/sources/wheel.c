@@ -48,7 +48,8 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         /* N cos a + T sin a = W and T = m mu N give F_x = W tan(atan(m mu) - a); beyond a
          * right angle the contact cannot carry the wheel at any push: a near-rigid stop. */
         double load = w->load > 1e-12 ? w->load : 1e-12;
-        double angle = atan(tx / load) - w->grade;
+        double friction_angle = atan(tx / load);  /* atan(m mu) */
+        double angle = friction_angle - w->grade;
         const double limit = 0.5 * 3.141592653589793 - 0.01;
         angle = angle > limit ? limit : (angle < -limit ? -limit : angle);
         force_x = load * tan(angle);
@@ -64,7 +65,7 @@ void wheel_forces(Wheel *w, double radius, double rock_mu, double u, double v, d
         {
             double contact = load / cos(angle);
             double most = sqrt(load * load + w->push_limit * w->push_limit);
-            double normal = cos(atan(tx / load)) * (contact < most ? contact : most);
+            double normal = cos(friction_angle) * (contact < most ? contact : most);
             ty *= normal / load;
             tx *= normal / load;
         }
