@@ -71,3 +71,33 @@ def test_a_run_that_kills_every_dask_worker_it_lands_on_fails_after_bounded_retr
     assert "worker died 4 times" in killer.reason
     assert all(results[i].ok and results[i].value == p
                for i, p in enumerate(payloads) if p != "kill-worker")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("after", [0.05, 0.3, 0.8])
+def test_ctrl_c_while_the_local_cluster_starts_leaves_no_cluster_open(after: float) -> None:
+    """Ctrl-C lands while the LocalCluster's workers start (they take about a second): the
+    pool stops with KeyboardInterrupt and closes what it started; nothing is left for
+    Dask's exit hook, whose close of a half-started cluster fails with a traceback
+    (``AssertionError: Status.init``)."""
+    import signal
+    import threading
+
+    from distributed.core import Status
+    from distributed.deploy.spec import SpecCluster
+
+    before = set(SpecCluster._instances)
+    timer = threading.Timer(after, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        pool = DaskPool(tasks.square, workers=2)
+        try:  # a start faster than the timer: the Ctrl-C lands in the map's wait
+            list(pool.map((i, i) for i in range(10_000)))
+        finally:
+            pool.close()
+    timer.join()
+    assert time.monotonic() - started < 60
+    left = [cluster for cluster in set(SpecCluster._instances) - before
+            if cluster.status != Status.closed]
+    assert left == []

@@ -356,6 +356,31 @@ def test_ctrl_c_releases_the_folder(campaign_dir: Path) -> None:
     assert not (out / LOCK_FILE).exists()
 
 
+
+@pytest.mark.slow
+def test_ctrl_c_on_a_local_dask_cluster_says_only_how_to_continue(campaign_dir: Path) -> None:
+    """The cluster's workers are stopped mid-run: what they log about the runs cancelled
+    under them is Dask's business, not the operator's; the campaign's own line says what
+    happened and how to continue."""
+    out = campaign_dir / "out"
+    campaign = slow_campaign(campaign_dir, INTERRUPTED_RUNS)
+    # runs that hang (the reference's, at the mean, does not): the workers are busy with one
+    # when the operator presses Ctrl-C
+    campaign.write_text(campaign.read_text().replace("    toy.slip:", """\
+    toy.hang_at: {distribution: uniform, low: "1 s", high: "1000 s"}
+    toy.slip:"""))
+    process = start(campaign, "--no-report", "--dask-local", "--workers", "2",
+                    "--run-timeout", "600")
+    wait_for(out / "results.h5")
+    time.sleep(8.0)  # the cluster is up and both workers hang in a run
+    process.send_signal(signal.SIGINT)
+    code, text = finish(process)
+    assert code == 130, text
+    assert "distributed" not in text and "CancelledError" not in text, text
+    assert "interrupted: continue with `" in text, text
+    assert not (out / LOCK_FILE).exists()
+
+
 KILLED_AT_FIRST_STEP = textwrap.dedent("""\
     import os, signal, sys
     from idefix_rules.campaign.input.load import load_campaign

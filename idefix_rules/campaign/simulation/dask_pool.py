@@ -24,8 +24,12 @@ trouble:
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+import logging
 import os
+import signal
+import threading
 import time
 from collections import Counter
 from collections.abc import Hashable, Iterable, Iterator
@@ -64,6 +68,28 @@ class ClusterError(InfrastructureError):
     runs stored so far stay and ``--resume`` continues."""
 
 
+@contextlib.contextmanager
+def _ctrl_c_deferred() -> Iterator[list[bool]]:
+    """Within the block, Ctrl-C is noted (the list yielded gets ``True``) instead of raising;
+    a second Ctrl-C raises at once. Off the main thread, where signals cannot be handled,
+    nothing is deferred."""
+    pressed: list[bool] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield pressed
+        return
+
+    def note(signum: int, frame: Any) -> None:
+        if pressed:
+            raise KeyboardInterrupt
+        pressed.append(True)
+
+    previous = signal.signal(signal.SIGINT, note)
+    try:
+        yield pressed
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class DaskPool:
     """The local pool's interface on a Dask cluster (``address``) or a LocalCluster."""
 
@@ -76,27 +102,37 @@ class DaskPool:
         self.run_timeout = run_timeout
         self.persistent = persistent  # as LocalPool's: kept for the next map, closed by its owner
         self._cluster = None
-        if address is None:
-            import dask
+        # Ctrl-C while the cluster starts is taken once it has started, and the cluster closed:
+        # interrupted halfway, its workers still starting, it could not be closed at all (Dask's
+        # exit hook then fails on it with a traceback)
+        with _ctrl_c_deferred() as pressed:
+            if address is None:
+                import dask
 
-            # One task per worker thread at a time: a worker that dies then takes only the run
-            # it was executing, not runs merely queued on it (which Dask would count as
-            # suspects of its death too).
-            with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
-                # its HTTP server (dashboard, health) on a free port: two local clusters would
-                # otherwise contend for 8787 and Dask warn about it
-                self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
-                    n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                    processes=True, dashboard_address=":0")
-            self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
-        else:
-            try:
-                self._client = Client(address)  # type: ignore[no-untyped-call]
-            except ValueError as failure:  # not an address at all: a usage mistake
-                raise UserInputError(f"--scheduler {address!r}: {failure}") from None
-            except OSError as failure:  # no scheduler answers there
-                raise ClusterError(f"cannot reach the Dask scheduler {address}: "
-                                   f"{failure}") from None
+                # One task per worker thread at a time: a worker that dies then takes only
+                # the run it was executing, not runs merely queued on it (which Dask would
+                # count as suspects of its death too).
+                with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                    # Its HTTP server (dashboard, health) on a free port: two local clusters
+                    # would otherwise contend for 8787 and Dask warn about it. Only its errors
+                    # logged: the campaign says itself what became of each run, and Ctrl-C
+                    # would otherwise end in the workers' warnings about the runs cancelled
+                    # under them and the nanny's about killing them.
+                    self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                        n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                        processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
+                self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
+            else:
+                try:
+                    self._client = Client(address)  # type: ignore[no-untyped-call]
+                except ValueError as failure:  # not an address at all: a usage mistake
+                    raise UserInputError(f"--scheduler {address!r}: {failure}") from None
+                except OSError as failure:  # no scheduler answers there
+                    raise ClusterError(f"cannot reach the Dask scheduler {address}: "
+                                       f"{failure}") from None
+        if pressed:
+            self.close()
+            raise KeyboardInterrupt
         self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
     def _submit(self, key: Hashable, payload: Any) -> Any:
