@@ -56,7 +56,7 @@ from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
 from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget, recycled
 from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
-from idefix_rules.campaign.storage.store import STATUS_MISSING, ResultStore
+from idefix_rules.campaign.storage.store import STATUS_FAILED, STATUS_MISSING, ResultStore
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.results.scoring import FirstPassCache
 
@@ -86,7 +86,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         sampled[name] = values
         running[name] = plan
         status = store.run_status(name)
-        progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)))
+        progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)),
+                            int(np.sum(status == STATUS_FAILED)))
     parts: dict[str, list[Any]] = {name: [] for name in running}
     rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
     drawn_paired = bool(campaign.model.uncertainty.paired)

@@ -127,7 +127,7 @@ class RichProgress:
             self.console.print(f"[dim]{escape(text)} ({time.perf_counter() - began:.1f} s)"
                                "[/dim]")
 
-    def start_path(self, name: str, total: int, done: int) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
         if self.quiet:
             return
         self._end_step()
@@ -142,17 +142,19 @@ class RichProgress:
                                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                  console=self.console, transient=False)
             self.bars.start()
+        self.failed[name] = failed
         self.tasks[name] = self.bars.add_task(escape(name), total=total, completed=done,
-                                              failed="")
-        self.failed[name] = 0
+                                              failed=self._failed_label(name))
 
     def run_finished(self, name: str, ok: bool) -> None:
         if self.bars is None or name not in self.tasks:
             return
         if not ok:
             self.failed[name] += 1
-        label = f"[red]{self.failed[name]} failed[/red]" if self.failed[name] else ""
-        self.bars.update(self.tasks[name], advance=1, failed=label)
+        self.bars.update(self.tasks[name], advance=1, failed=self._failed_label(name))
+
+    def _failed_label(self, name: str) -> str:
+        return f"[red]{self.failed[name]} failed[/red]" if self.failed[name] else ""
 
     def stop(self) -> None:
         self._end_step()
@@ -250,15 +252,17 @@ class PlainProgress:
             self.runs_began = None
             self.paths = {}
 
-    def start_path(self, name: str, total: int, done: int) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
         self._end_phase()
         now = self.clock()
         if self.runs_began is None:
             self.runs_began = now
         decile = done * 10 // total if total else 10
-        self.paths[name] = _PathRuns(total, done, now, done, decile)
+        self.paths[name] = _PathRuns(total, done, now, done, decile, failed)
         if done:
-            self._say(f"{name}: {done}/{total} runs stored already, {total - done} to simulate")
+            failures = f" ({failed} failed)" if failed else ""
+            self._say(f"{name}: {done}/{total} runs stored already{failures}, {total - done} "
+                      "to simulate")
 
     def run_finished(self, name: str, ok: bool) -> None:
         runs = self.paths.get(name)

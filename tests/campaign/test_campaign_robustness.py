@@ -75,7 +75,7 @@ KILLER = textwrap.dedent("""\
         seen = 0
         def message(self, text): pass
         def note(self, text): pass
-        def start_path(self, name, total, done): pass
+        def start_path(self, name, total, done, failed=0): pass
         def run_finished(self, name, ok):
             self.seen += 1
             if self.seen == int(sys.argv[2]):
@@ -231,7 +231,7 @@ class InterruptAfter:
     def note(self, text: str) -> None:
         pass
 
-    def start_path(self, name: str, total: int, done: int) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
         pass
 
     def run_finished(self, name: str, ok: bool) -> None:
@@ -253,6 +253,40 @@ def test_an_interrupted_campaign_is_marked_and_resumes_to_the_same_result(
     run_campaign(campaign, SimulationOptions(resume=True), report=False)
     run_campaign(load_campaign(whole), report=False)
     assert_same_datasets(results, whole.parent / "out" / "results.h5")
+
+
+
+def test_a_resumed_campaign_counts_its_stored_failed_runs_in_its_progress(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Runs that failed before the interruption are kept (their own failure, not the
+    infrastructure's): the progress says so, and its counts of failed runs are the file's."""
+    from idefix_rules.cli import main
+
+    failing = CAMPAIGN.replace("runs: 6", "runs: 16").replace("    toy.slip:", """\
+    toy.error_at: {distribution: uniform, low: "1 s", high: "100 s"}
+    toy.slip:""")
+    (campaign_dir / "campaign.yaml").write_text(failing)
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(20), report=False)
+    results = campaign.output / "results.h5"
+    with h5py.File(results) as partial:
+        stored = {name: partial[f"paths/{name}/runs/status"][()] for name in ("straight", "arc")}
+    kept = {name: int(np.sum(status == 2)) for name, status in stored.items()}
+    assert sum(kept.values()) > 0, kept  # failures stored before the Ctrl-C
+    capsys.readouterr()
+    assert main([str(campaign_dir / "campaign.yaml"), "--no-report", "--resume"]) == 1
+    out = capsys.readouterr().out
+    with h5py.File(results) as whole:
+        failed = {name: int(np.sum(whole[f"paths/{name}/runs/status"][()] == 2))
+                  for name in ("straight", "arc")}
+    assert all(failed[name] > kept[name] for name in failed), (kept, failed)  # some new, too
+    for name, status in stored.items():
+        done = int(np.sum(status != STATUS_MISSING))
+        assert f"{name}: {done}/16 runs stored already ({kept[name]} failed), {16 - done} to " \
+               "simulate" in out, out
+        assert f"{name}: 16/16 runs (100 %), {failed[name]} failed, " in out, out
+    assert f"Monte Carlo runs of 2 path(s): 32 runs, {sum(failed.values())} failed (" in out
 
 
 def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(

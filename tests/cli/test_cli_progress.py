@@ -87,6 +87,15 @@ def test_resumed_runs_are_said_and_the_eta_counts_only_new_runs() -> None:
     lines = out.getvalue().splitlines()
     assert lines == ["p: 5/10 runs stored already, 5 to simulate",
                      "p: 6/10 runs (60 %), 0:02, ETA 0:08"]
+    progress, clock, out = _plain()
+    progress.start_path("p", total=10, done=5, failed=2)  # kept: they failed on their own
+    clock.now += 2.0
+    progress.run_finished("p", ok=False)
+    progress.message("evaluating")
+    lines = out.getvalue().splitlines()
+    assert lines == ["p: 5/10 runs stored already (2 failed), 5 to simulate",
+                     "p: 6/10 runs (60 %), 3 failed, 0:02, ETA 0:08",
+                     "Monte Carlo runs of 1 path(s): 6 runs, 3 failed (2.0 s)"]
 
 
 def test_a_phase_that_says_how_far_it_is_gets_an_eta_per_tenth() -> None:

@@ -49,6 +49,7 @@ from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import (
     FORMAT_VERSION,
     RESUMABLE_FORMAT_VERSIONS,
+    STATUS_FAILED,
     ResultStore,
     run_bytes,
 )
@@ -78,7 +79,10 @@ class Progress(Protocol):
         unlike :meth:`message`, which starts a new phase."""
         ...
 
-    def start_path(self, name: str, total: int, done: int) -> None: ...
+    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+        """Runs of path ``name`` begin: ``total`` planned, ``done`` of them stored already
+        (a resumed campaign's), ``failed`` of those failed."""
+        ...
 
     def run_finished(self, name: str, ok: bool) -> None: ...
 
@@ -90,7 +94,7 @@ class SilentProgress:
     def note(self, text: str) -> None:
         pass
 
-    def start_path(self, name: str, total: int, done: int) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
         pass
 
     def run_finished(self, name: str, ok: bool) -> None:
@@ -642,7 +646,8 @@ def _monte_carlo(campaign: Campaign, fmu: FmuSource, fmu_parameters: Mapping[str
         store.allocate_runs(name, campaign.runs, shapes, sampled[name],
                             parameter_info(campaign, list(sampled[name])))
         rows[name] = resuming.runs_to_simulate(store, name, reset=True)
-        progress.start_path(name, campaign.runs, campaign.runs - len(rows[name]))
+        progress.start_path(name, campaign.runs, campaign.runs - len(rows[name]),
+                            int(np.sum(store.run_status(name) == STATUS_FAILED)))
     run_and_store(campaign, PlannedRuns(rows, sampled_task(campaign, fmu, base, by_name,
                                                            sampled)),
                   by_name, store, options, progress, summary)
