@@ -120,7 +120,10 @@ class DaskProcesses:
 
     def __init__(self, folder: Path) -> None:
         self.scheduler_file = folder / "scheduler.json"
-        self.environment = {**os.environ,
+        # the processes' own temporary folder, to see what they leave in it
+        self.temporary = folder / "cluster-tmp"
+        self.temporary.mkdir()
+        self.environment = {**os.environ, "TMPDIR": str(self.temporary),
                             "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0"}
         self.started: list[subprocess.Popen[bytes]] = []
         self._start("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
@@ -177,6 +180,28 @@ def test_a_dask_scheduler_and_workers_record_the_same_faults_and_datasets(
     assert run(faulty_dir, "cluster", "--scheduler", dask_cluster) == 1
     check_faults(faulty_dir / "cluster" / "results.h5")
     assert_same_datasets(pool_results, faulty_dir / "cluster" / "results.h5")
+
+
+def test_the_workers_of_a_dask_cluster_leave_no_extracted_fmu_behind(
+        faulty_dir: Path, dask_processes: DaskProcesses) -> None:
+    """On a cluster every worker extracts the FMU itself (it cannot see the campaign's folder):
+    once, into the Dask worker's own scratch folder, which its run processes share (they are
+    started again after each crash or hang, and killed with their worker) and Dask removes
+    when the worker ends. Before, each run process extracted it into the temporary folder and
+    left it there."""
+    dask_processes.start_workers(2)
+    assert run(faulty_dir, "cluster", "--scheduler", dask_processes.address) == 1
+    check_faults(faulty_dir / "cluster" / "results.h5")  # crashes and hangs: processes anew
+    during = sorted(path.name for path in dask_processes.temporary.rglob("*")
+                    if path.name.startswith("idefix-fmu-"))
+    assert len(during) == 2, during  # one per Dask worker, whatever its processes' count
+    assert not any(dask_processes.temporary.glob("tmp*"))  # no process extracted its own
+    dask_processes.end()
+    left = [str(path.relative_to(dask_processes.temporary))
+            for path in dask_processes.temporary.rglob("*") if not path.is_dir()]
+    # Dask's own lock files stay (its next start purges them); nothing else does
+    assert [name for name in left if not (name.startswith("dask-scratch-space/")
+                                          and name.endswith((".lock", ".dirlock")))] == [], left
 
 
 def test_without_run_timeout_a_hanging_run_ends_at_the_default_timeout(

@@ -401,12 +401,30 @@ class IsolatedRunner:
 _ISOLATED: dict[int, IsolatedRunner] = {}
 
 
+# The Dask worker's scratch folder (its ``local_directory``, which Dask removes when the worker
+# ends), set in the worker before its first child is forked: the children inherit it, and what
+# they share there (the FMU, extracted once per worker) outlives any one of them, not the worker.
+SCRATCH: str | None = None
+
+
+def _dask_scratch() -> str | None:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().local_directory)
+    except (ImportError, ValueError):  # not in a Dask worker (a test calling it directly)
+        return None
+
+
 def run_isolated(function: TaskFunction, key: Hashable, payload: Any,
                  timeout: float | None) -> Outcome:
     """The task a Dask worker executes: ``function(payload)`` in this thread's child process.
 
     Off POSIX (no fork) the function runs in the worker itself, without crash isolation.
     """
+    global SCRATCH
+    if SCRATCH is None:
+        SCRATCH = _dask_scratch()
     if not hasattr(os, "fork"):  # pragma: no cover - Windows workers
         try:
             value = function(payload)

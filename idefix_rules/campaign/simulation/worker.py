@@ -8,7 +8,8 @@ then nothing of it may run in this process again (FMI 2.0.x section 2.1.3), and 
 answer is a :class:`~idefix_rules.campaign.simulation.processes.Retire`, which ends the
 process once it is sent (the pool starts a fresh one). The campaign
 extracts the FMU once and names the folder in ``RunTask.unzipped``; a task without it (Dask
-workers on other machines cannot see the folder) makes each worker extract the FMU itself.
+workers on other machines cannot see the folder) makes each Dask worker extract the FMU itself,
+once, into its scratch folder (shared by its run processes, removed by Dask with the worker).
 """
 
 from __future__ import annotations
@@ -16,13 +17,17 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import shutil
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from idefix_rules.campaign.simulation import processes
 from idefix_rules.campaign.simulation.processes import Continued, Retire
 from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
@@ -65,6 +70,28 @@ class InputProblem:
 _RUNNERS: dict[tuple[Any, ...], Any] = {}
 
 
+def _shared_extraction(fmu_path: str, scratch: str) -> str | None:
+    """The FMU extracted into ``scratch`` once for every process that shares the folder: named
+    by the file's SHA-256, extracted aside and renamed into place, so a process never sees a
+    half-extracted FMU and two extracting at once keep one. None when there is no such file
+    (the runner then says so)."""
+    from idefix_rules.fmu import extract_fmu
+    from idefix_rules.results.terrain import file_sha256
+
+    if not os.path.isfile(fmu_path):
+        return None
+    target = os.path.join(scratch, f"idefix-fmu-{file_sha256(Path(fmu_path))}")
+    if os.path.isdir(target):
+        return target
+    aside = tempfile.mkdtemp(prefix=".idefix-fmu-", dir=scratch)
+    extract_fmu(fmu_path, aside)
+    try:
+        os.rename(aside, target)
+    except OSError:  # another process got there first
+        shutil.rmtree(aside, ignore_errors=True)
+    return target
+
+
 def _runner(task: RunTask) -> Any:
     from idefix_rules.fmu import FmuRunner
 
@@ -75,11 +102,16 @@ def _runner(task: RunTask) -> Any:
         for old in _RUNNERS.values():
             old.close()
         _RUNNERS.clear()
+        unzipped = task.unzipped
+        if unzipped is None and processes.SCRATCH is not None:
+            # a Dask worker's process: the worker's scratch folder, not one of its own that a
+            # process killed at a timeout, a crash or its worker's end would leave behind
+            unzipped = _shared_extraction(task.fmu_path, processes.SCRATCH)
         runner = FmuRunner(
             task.fmu_path,
             signal_map=dict(task.signal_map) if task.signal_map is not None else None,
             parameter_map=dict(task.parameter_map) if task.parameter_map is not None else None,
-            unzipped=task.unzipped,
+            unzipped=unzipped,
             chain_delivery=task.chain_delivery,
             chain_inputs=dict(task.chain_inputs),
             done_at=task.done_at,
