@@ -103,9 +103,13 @@ def command_kinematics(command: Command, rover: RoverGeometry) -> CommandKinemat
     left_rate = left_path / scaled_duration / r
     right_rate = right_path / scaled_duration / r
     turn_radius = math.inf if dh == 0.0 else dp / dh
+    try:
+        duration = math.ldexp(scaled_duration, exponent)
+    except OverflowError:  # 1e308 m at 0.04 rad/s: longer than a double holds
+        duration = math.inf
     return CommandKinematics(
         turn_radius=turn_radius,
-        duration=math.ldexp(scaled_duration, exponent),
+        duration=duration,
         speed=dp_scaled / scaled_duration,
         yaw_rate=dh_scaled / scaled_duration,
         wheel_rates=(left_rate, right_rate, left_rate, right_rate),

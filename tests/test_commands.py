@@ -49,6 +49,20 @@ def test_a_point_turn_of_any_angle_turns_at_the_same_rates(heading: float) -> No
                                        rel=1e-15, abs=SMALLEST_SUBNORMAL)
 
 
+@pytest.mark.parametrize(("rate", "distance"), [(0.04, 1e308), (1e-10, 1e300), (0.04, -1e308)])
+def test_a_command_longer_than_a_double_lasts_forever_at_its_rates(rate: float,
+                                                                    distance: float) -> None:
+    """Its duration overflows to inf (the callers refuse it by its length), as a subnormal
+    rate's does; it used to raise OverflowError from the exact rescaling."""
+    k = command_kinematics(Command(rate, distance, 0.0), ROVER)
+    assert k.duration == math.inf
+    assert k.wheel_rates == pytest.approx((math.copysign(rate, distance),) * 4, rel=1e-15)
+    assert k.speed == pytest.approx(math.copysign(rate * ROVER.wheel_radius, distance),
+                                    rel=1e-15)
+    nearly = command_kinematics(Command(rate, math.copysign(1e300, distance) * rate, 0.0), ROVER)
+    assert math.isfinite(nearly.duration)  # just inside: still a number
+
+
 @pytest.mark.parametrize("heading", [SMALLEST_SUBNORMAL, TINY_NORMAL, 1e-12])
 def test_an_arc_with_a_vanishing_heading_change_drives_as_the_straight_line(
         heading: float) -> None:

@@ -88,7 +88,8 @@ def _is_ratio(expr: Expr, rulebook: Rulebook) -> bool:
         if single and expr.function in ("chance", "mean", "max") and (
                 expr.function == "chance" or expr.args[0].name in indices):  # type: ignore[union-attr]
             return True
-        return expr.function == "abs" and _is_ratio(expr.args[0], rulebook)
+        return expr.function == "abs" and len(expr.args) == 1 \
+            and _is_ratio(expr.args[0], rulebook)
     if isinstance(expr, Select):
         return _is_ratio(expr.operand, rulebook)
     if isinstance(expr, Reduce) and expr.reducer == "fraction":  # of the samples, runs …
@@ -267,7 +268,7 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str, float]]:
                 found = parse_quantity(candidate)
                 half = abs(found.value / float(number)) * 0.5 * _place(number) \
                     if float(number) != 0.0 else 0.0
-            except (UnitError, ValueError, ZeroDivisionError):
+            except (UnitError, ValueError, ZeroDivisionError, OverflowError):
                 continue
             yield found.value, found.dimension, candidate, half
             break
@@ -358,7 +359,7 @@ def lint_underflow(env: CheckEnv) -> list[Diagnostic]:
                 continue
             try:
                 si = number_si(node)
-            except (UnitError, ValueError):
+            except (UnitError, ValueError, OverflowError):  # too large: E003 says so
                 continue
             written = _written(node.span, source)
             nonzero = any(ch in "123456789" for ch in written.split("e")[0].split("E")[0])

@@ -194,3 +194,34 @@ def test_the_editor_offers_the_percent_number_as_a_quick_fix() -> None:
     fixes = [(f.title, f.new_text) for f in quick_fixes(analyse(text, "t.rules"))
              if f.diagnostic.code == "W616"]
     assert fixes == [("replace '0.95' with '95'", "95")]
+
+
+BROKEN = [
+    # (what replaces the index's value, or text appended; the error plain check reports)
+    (("max over time (abs())", ""), "E106"),
+    (("max over time (max over wheels (abs(wheel.slip)))",
+      "verdict w: require risk <= abs()\n"), "E106"),
+    (("max over time (max over wheels (abs(wheel.slip)))", "const big = 1e306 km\n"), "E003"),
+    (("max over time before 1e308 h (max over wheels (abs(wheel.slip)))", ""), "E003"),
+    (("max over time (max over wheels (abs(wheel.slip)))",
+      "chance far = max over time (x) <= 1e308 km\n"), "E003"),
+    (("max over time (max over wheels (abs(wheel.slip)))",
+      'const c = 5 cm because "above 1e306 km it overflows"\n'), None),
+]
+
+
+@pytest.mark.parametrize(("edit", "error"), BROKEN)
+def test_the_lints_survive_what_plain_check_reports(edit: tuple[str, str],
+                                                    error: str | None) -> None:
+    """``check --strict`` (and the language server, which runs it on every edit) reports the
+    errors plain ``check`` reports, lints or not: an empty call or a number a unit pushes past
+    a double crashed two lints (IndexError, OverflowError)."""
+    value, extra = edit
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") \
+        .replace("max over time (max over wheels (abs(wheel.slip)))", value) + extra
+    plain = [d.code for d in check_text(text, "t.rules").diagnostics
+             if d.code.startswith("E")]
+    strict = [d.code for d in check_text(text, "t.rules", strict=True).diagnostics
+              if d.code.startswith("E")]
+    assert plain == ([error] if error else [])
+    assert strict == plain
