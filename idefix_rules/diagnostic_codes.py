@@ -175,8 +175,8 @@ T010|bad collision|A collision names a `part` (wheel, solar_panel, chassis), a `
 T011|unknown key|A key of the case file is not part of the format (a typo?).|expectt: {verdict: pass}|`expect: {verdict: pass}`.
 T012|bad run count|`runs`, `failed_runs` and each variant's `count` are whole numbers (runs ≥ 1); give either `runs` or `variants`.|runs: 0|`runs: 20`.
 T013|no case files found|`idefix-verify test` found no case file (a `*.yaml` with a top-level `cases:`) in the given folders (default `rulebooks/tests`); campaign files are no case files.|idefix-verify test campaigns/|Put case files in `rulebooks/tests/` or name them.
-T014|--min-coverage out of range|`--min-coverage` is a percentage from 0 to 100.|--min-coverage 150|`--min-coverage 100`.
-T015|mutation option out of range|`--min-mutation-score` is a percentage from 0 to 100; `--nudge` (how far a threshold, limit or factor is moved by a mutant) a percentage above 0 and below 100.|--mutate --nudge 0|`--mutate --nudge 10` (the default).
+T014|--min-coverage out of range|`--min-coverage` is a percentage from 0 to 100, written `90` or `90%`; a bare number below 1 (`0.9`) is refused, as a fraction was likely meant (write `0.9%` if 0.9 % is).|--min-coverage 0.9|`--min-coverage 90`.
+T015|mutation option out of range|`--min-mutation-score` is a percentage from 0 to 100; `--nudge` (how far a threshold, limit or factor is moved by a mutant) a percentage above 0 and below 100; both written `90` or `90%`, a bare number below 1 refused as a likely fraction.|--mutate --nudge 0|`--mutate --nudge 10` (the default).
 W601|constant never used|(`--strict`) A constant no rule reads: a leftover, or a rule that forgot it.|const forgotten = 3 cm|Use it (`limit = forgotten`) or delete it.
 W602|index with weight 0|(`--strict`) An index with weight 0 never affects the risk.|weight = 0|Give it a weight (`weight = 1`) or delete the index.
 W610|ratio written as a bare number above 1|(`--strict`) A fraction (risk, chance, slip, an index) is compared with, or limited by, a bare number above 1: `70` means 7000 %, not 70 %.|verdict acceptable_risk: require risk <= 70|`require risk <= 70 %` (or `0.7`).

@@ -42,24 +42,49 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--coverage", action="store_true",
                         help="for every rule: did the cases bring it across its limit, near it, "
                              "or never touch it")
-    parser.add_argument("--min-coverage", type=float, metavar="PERCENT", default=None,
+    parser.add_argument("--min-coverage", metavar="PERCENT", default=None,
                         help="exit 1 when fewer than PERCENT %% of the rules were brought "
-                             "across their limit by the cases (implies --coverage)")
+                             "across their limit by the cases (implies --coverage); 90 or "
+                             "90%% (a bare number below 1, such as 0.9, is refused: write "
+                             "0.9%% if that is meant)")
     parser.add_argument("--mutate", action="store_true",
                         help="run every mutant of each rulebook (reducer swaps, thresholds, "
                              "limits and factors nudged both ways, weights, dropped terms, "
                              "flipped operators) against all its cases; print the mutation "
                              "score and the surviving mutants with their line:col")
-    parser.add_argument("--min-mutation-score", type=float, metavar="PERCENT", default=None,
+    parser.add_argument("--min-mutation-score", metavar="PERCENT", default=None,
                         help="with --mutate: exit 0 when at least PERCENT %% of the mutants "
                              "are killed, even if some survive (default: any survivor "
                              "exits 1; implies --mutate)")
-    parser.add_argument("--nudge", type=float, metavar="PERCENT", default=DEFAULT_NUDGE_PERCENT,
+    parser.add_argument("--nudge", metavar="PERCENT", default=str(DEFAULT_NUDGE_PERCENT),
                         help="how far a mutant moves a threshold, limit, nominal or factor, "
                              "both ways (default %(default)g %%)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or the outcomes as JSON")
 
+
+
+def _percent(text: str | None, option: str, code: str) -> float | None:
+    """A percentage option's value: ``90`` or ``90%``. A bare number between 0 and 1 is
+    refused: ``--min-coverage 0.9`` would be 0.9 %, and a gate that low passes everything
+    (a fraction meant), so the sign is asked for when so small a percentage is meant."""
+    from idefix_rules.errors import error
+
+    if text is None:
+        return None
+    written = text.strip()
+    signed = written.endswith("%")
+    try:
+        value = float(written.removesuffix("%").strip())
+    except ValueError:
+        raise UserInputError(error(code, f"{option} {text!r} is not a number: a percentage "
+                                         "such as 90 or 90%")) from None
+    if not signed and 0 < value < 1:
+        raise UserInputError(error(
+            code, f"{option} {text} would be {value:g} %, which looks like a fraction: the "
+                  f"option counts in percent", hint=f"write {option} {value * 100:g} for "
+                  f"{value * 100:g} %, or {option} {value:g}% if {value:g} % is meant"))
+    return value
 
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.cli.console import StdoutConsole
@@ -69,6 +94,9 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.testing.mutation_score import MutationReport, score_mutants
     from idefix_rules.testing.runner import FileOutcome
 
+    args.min_coverage = _percent(args.min_coverage, "--min-coverage", "T014")
+    args.min_mutation_score = _percent(args.min_mutation_score, "--min-mutation-score", "T015")
+    args.nudge = _percent(args.nudge, "--nudge", "T015")
     if args.min_coverage is not None and not 0 <= args.min_coverage <= 100:
         raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
     if args.min_mutation_score is not None and not 0 <= args.min_mutation_score <= 100:

@@ -207,6 +207,19 @@ def test_min_coverage_gates_the_exit_code(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "rule coverage:" in out and "(minimum 50 %)" in out
     assert main(["test", "--min-coverage", "150", str(path)]) == 2
+    # the sign may be written; a bare fraction is refused, since a 0.5 % gate passes anything
+    assert main(["test", "--min-coverage", "50%", str(path)]) == 1
+    assert main(["test", "--min-coverage", "5%", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["test", "--min-coverage", "0.5", str(path)]) == 2
+    err = capsys.readouterr()
+    assert "error[T014]: --min-coverage 0.5 would be 0.5 %, which looks like a fraction" \
+        in err.out + err.err
+    assert "write --min-coverage 50 for 50 %, or --min-coverage 0.5% if 0.5 % is meant" \
+        in err.out + err.err
+    assert main(["test", "--min-coverage", "0.5%", str(path)]) == 0  # said so: 0.5 %
+    assert main(["test", "--min-coverage", "1", str(path)]) == 0  # 1 %: no fraction
+    assert main(["test", "--min-coverage", "most", str(path)]) == 2
 
 
 def test_coverage_states_across_near_and_untouched(tmp_path, capsys):
