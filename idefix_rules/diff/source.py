@@ -65,6 +65,11 @@ def git_text(path: Path, revision: str) -> str:
     if done.returncode != 0:
         message = done.stderr.decode("utf-8", errors="replace").strip().splitlines()
         reason = message[-1] if message else f"git exited with {done.returncode}"
+        if not _is_revision(folder, revision):
+            raise UserInputError(error("D001", f"{label}: {revision!r} is not a git revision "
+                                               f"({reason})", where,
+                                       hint="git log --oneline -- PATH lists the revisions "
+                                            "that have the file"))
         raise UserInputError(error("D004", f"{label}: cannot read the file at revision "
                                            f"{revision!r}: {reason}", where,
                                    hint="check the revision (git log -- PATH) and that PATH "
@@ -75,6 +80,20 @@ def git_text(path: Path, revision: str) -> str:
         raise UserInputError(error("E002", f"{label}: not UTF-8 text ({failure.reason} at "
                                            f"byte {failure.start})", where)) from None
 
+
+
+def _is_revision(folder: Path, revision: str) -> bool:
+    """Whether git, run in ``folder``, knows ``revision`` as a commit (True outside a
+    repository or when git cannot say: the read's own message then stands)."""
+    try:
+        known = subprocess.run(["git", "-C", str(folder), "rev-parse", "--verify", "--quiet",
+                                f"{revision}^{{commit}}"], capture_output=True,
+                               timeout=GIT_TIMEOUT_S, check=False)
+        inside = subprocess.run(["git", "-C", str(folder), "rev-parse", "--git-dir"],
+                                capture_output=True, timeout=GIT_TIMEOUT_S, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return True
+    return known.returncode == 0 or inside.returncode != 0
 
 def load_source(spec: str) -> RulebookSource:
     """Read and check the rulebook a spec names; every mistake is a :class:`UserInputError`."""

@@ -92,11 +92,19 @@ def test_a_bad_revision_is_a_user_error_naming_it(repo: Path,
     with pytest.raises(UserInputError) as caught:
         load_source("rules/ops.rules@no-such-rev")
     diagnostic = caught.value.diagnostics[0]
-    assert diagnostic.code == "D004"
-    assert "rules/ops.rules@no-such-rev" in diagnostic.message
-    assert "'no-such-rev'" in diagnostic.message
+    assert diagnostic.code == "D001"  # git knows no such revision (D004: no such file there)
+    assert "rules/ops.rules@no-such-rev: 'no-such-rev' is not a git revision" \
+        in diagnostic.message
     # located at the file named, not "<input>"
     assert diagnostic.span is not None and diagnostic.span.path == "rules/ops.rules"
+    for typo in ("HAED~1", "HEAD~99", "deadbeef"):
+        with pytest.raises(UserInputError) as caught:
+            load_source(f"rules/ops.rules@{typo}")
+        assert caught.value.diagnostics[0].code == "D001", typo
+    with pytest.raises(UserInputError) as caught:  # a revision git knows, without the file
+        load_source("rules/gone.rules@HEAD")
+    assert caught.value.diagnostics[0].code == "D004"
+    assert "does not exist in 'HEAD'" in caught.value.diagnostics[0].message
 
 
 @needs_git

@@ -94,6 +94,6 @@ def test_the_fixture_loads_a_rulebook_at_a_git_revision(pytester):
     """)
     result = pytester.runpytest("-p", "no:cacheprovider")
     result.assert_outcomes(passed=2, failed=1)
-    result.stdout.fnmatch_lines(["*D004*ops.rules@nosuchrev: cannot read the file at "
-                                 "revision 'nosuchrev'*"])
+    result.stdout.fnmatch_lines(["*D001*ops.rules@nosuchrev: 'nosuchrev' is not a git "
+                                 "revision*"])
     assert "Traceback" not in result.stdout.str()
