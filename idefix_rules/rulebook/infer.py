@@ -317,8 +317,10 @@ def _runs_allowed(expr: Reduce, scope: Scope, problems: Problems) -> bool:
         problems.append(error("E801", "a reduction over runs cannot contain another one",
                               expr.span, "reduce over runs once, outermost"))
         return False
+    # a name that is no collision signal (a typo) is left to the name check (E101, with a
+    # did-you-mean), not called a collision signal here
     collision = sorted(n for n in semantics.names_in(expr.operand)
-                       if n.startswith("collision."))
+                       if n in signals.COLLISION_SIGNALS)
     if collision:
         problems.append(error("E802", f"'{collision[0]}' cannot be reduced over runs",
                               expr.span, "collision signals are per run: declare a chance and "

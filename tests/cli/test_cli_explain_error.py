@@ -54,3 +54,92 @@ def test_unknown_code_exits_2_with_close_codes(capsys):
 def test_list_names_every_code(capsys):
     assert main(["explain-error", "--list"]) == 0
     assert len(capsys.readouterr().out.strip().splitlines()) == len(CODES)
+
+
+CONTEXT = '''rulebook "r" version "1.0.0"
+purpose "explain-error examples"
+index I_r "roll" {
+  value  = max over time (abs(roll))
+  limit  = 15 deg
+  weight = 1
+}
+chance hit_L3 = any over parts (collision.hits[L3] > 0)
+verdict ok: require risk <= 70 %
+'''
+
+
+def in_context(snippet: str) -> str | None:
+    """A rulebook around an example that is a declaration or an index's item (None: the
+    example is a command line, a fragment, or a campaign's)."""
+    text = snippet.replace("\\n", "\n")
+    if text.startswith("value"):
+        return CONTEXT + 'index I_t "t" {\n  ' + text + '\n  limit = 1\n  weight = 1\n}\n'
+    if text.startswith("map"):
+        return (CONTEXT + 'index I_t "t" {\n  value = max over time (speed)\n  ' + text
+                + '\n  limit = 1 m/s\n  weight = 1\n}\n')
+    if re.match(r"(const|verdict|chance|index) ", text):
+        return CONTEXT + text + "\n"
+    return None
+
+
+# whole files, not declarations: no header (E500), a line of 50 MB (E901)
+WHOLE_FILES = {"E500", "E901"}
+RULEBOOK_EXAMPLES = sorted(code for code, entry in CODES.items()
+                           if code.startswith("E") and code not in WHOLE_FILES
+                           and in_context(entry.example) is not None)
+
+
+def rulebook_codes(text: str) -> list[str]:
+    from idefix_rules.errors import UserInputError
+    from idefix_rules.rulebook import check_text
+
+    try:
+        diagnostics = check_text(text, "t.rules").diagnostics
+    except UserInputError as refused:  # a syntax error
+        diagnostics = refused.diagnostics
+    return sorted({d.code for d in diagnostics if d.code.startswith("E")})
+
+
+def test_the_rulebook_examples_are_tried() -> None:
+    assert len(RULEBOOK_EXAMPLES) >= 25
+
+
+@pytest.mark.parametrize("code", RULEBOOK_EXAMPLES)
+def test_a_rulebook_example_makes_its_own_error_and_no_other(code: str) -> None:
+    """An example that drew another error too (a constant named like a signal, a typo
+    in a signal's name, a wheel axis left) taught the wrong thing."""
+    text = in_context(CODES[code].example)
+    assert text is not None
+    assert rulebook_codes(text) == [code], CODES[code].example
+
+
+@pytest.mark.parametrize(("code", "fixed"), [
+    ("E202", "const area = (5 cm) ^ 2"),
+    ("E801", "value = max over runs (final over time (abs(roll) / 1 deg))"),
+    ("E802", "chance hit = sum over parts (sum over levels (collision.hits)) > 0"),
+    ("E310", "value = max over time during command 1 (max over wheels (abs(wheel.slip)))"),
+])
+def test_the_fix_of_a_rulebook_example_checks_clean(code: str, fixed: str) -> None:
+    """What the fix says to write, in the example's place: no error at all (E801's and
+    E802's fixes used to draw E302 and E101)."""
+    text = in_context(fixed)
+    assert text is not None
+    assert rulebook_codes(text) == [], CODES[code].fix
+
+
+def test_a_misspelt_collision_signal_over_runs_is_an_unknown_name() -> None:
+    """E802 is for the collision signals there are; a typo gets E101 with its did-you-mean,
+    not 'collision.count cannot be reduced over runs'."""
+    from idefix_rules.errors import UserInputError
+    from idefix_rules.rulebook import check_text
+
+    text = in_context("value = fraction over runs (sum over parts (sum over levels "
+                      "(collision.hist)) > 0)")
+    assert text is not None
+    try:
+        diagnostics = check_text(text, "t.rules").diagnostics
+    except UserInputError as refused:
+        diagnostics = refused.diagnostics
+    [found] = [d for d in diagnostics if d.code.startswith("E")]
+    assert (found.code, found.hint) == ("E101", "did you mean 'collision.hits'?")
+    assert rulebook_codes(text.replace("collision.hist", "collision.hits")) == ["E802"]
