@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from idefix_rules import signals
-from idefix_rules.errors import Diagnostic, Severity, error, warning
+from idefix_rules.errors import Diagnostic, Severity, Span, error, warning
 from idefix_rules.rulebook.environment import AreaSpec, CheckEnv, ObstacleLevelSpec, scope_of
 from idefix_rules.rulebook.fold import NotConstant, Value, fold, folded_number
 from idefix_rules.rulebook.infer import did_you_mean, infer_type
@@ -152,13 +152,18 @@ def resolve_constants(env: CheckEnv) -> list[Diagnostic]:
 def check_header(env: CheckEnv) -> list[Diagnostic]:
     header = env.rulebook.header
     problems = []
+    def at(span: Span) -> Span:  # a header built without its strings' places: the header's
+        return span if span.line > 0 else header.span
+
     if not _SEMVER.match(header.version):
         problems.append(error("E503", f"version '{header.version}' is not a semantic version",
-                              header.span, "write MAJOR.MINOR.PATCH, e.g. \"1.2.0\""))
+                              at(header.version_span),
+                              "write MAJOR.MINOR.PATCH, e.g. \"1.2.0\""))
     if not header.name.strip():
-        problems.append(error("E504", "the rulebook needs a name", header.span))
+        problems.append(error("E504", "the rulebook needs a name", at(header.name_span)))
     if not header.purpose.strip():
-        problems.append(error("E504", "the rulebook needs a one-line purpose", header.span))
+        problems.append(error("E504", "the rulebook needs a one-line purpose",
+                              at(header.purpose_span)))
     return problems
 
 
@@ -337,7 +342,10 @@ def check_obstacle_levels(env: CheckEnv) -> list[Diagnostic]:
             if below <= previous:
                 problems.append(error(
                     "E405", f"size thresholds must increase from L1 to L3: {level.level}'s "
-                    f"({below * 100:g} cm) is not above {previous_level}'s ({previous * 100:g} cm)",
+                    f"({below * 100:g} cm) is not above {previous_level}'s "
+                    f"({previous * 100:g} cm)" if previous_level else
+                    f"{level.level}'s size threshold ({below * 100:g} cm) must be above 0 cm: "
+                    f"{level.level} holds the rocks smaller than it",
                     level.below.span if level.below else level.span))
             previous, previous_level = below, level.level
     env.levels = [ObstacleLevelSpec(level.level, below, buffer)

@@ -151,6 +151,10 @@ class Header:
     purpose: str
     span: Span = _span()
     comments: tuple[str, ...] = _comments()
+    # the quoted strings, where their mistakes are reported (the header's span without them)
+    name_span: Span = _span()
+    version_span: Span = _span()
+    purpose_span: Span = _span()
 
 
 @dataclass(frozen=True)

@@ -328,7 +328,10 @@ class _Lowering(Transformer):  # type: ignore[type-arg]
 
     def header(self, meta: Any, children: list[Token]) -> model.Header:
         name, version, purpose = (_unquote(child) for child in children)
-        return model.Header(name, version, purpose, span=self._s(meta))
+        name_span, version_span, purpose_span = (_token_span(self.path, child)
+                                                 for child in children)
+        return model.Header(name, version, purpose, span=self._s(meta), name_span=name_span,
+                            version_span=version_span, purpose_span=purpose_span)
 
     def constant(self, meta: Any, children: list[Any]) -> model.Constant:
         name, value, because = children
