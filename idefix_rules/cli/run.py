@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
     from idefix_rules.campaign.input.load import load_campaign
-    from idefix_rules.campaign.runner import claimed_output
+    from idefix_rules.campaign.output_folder import claimed_output
     from idefix_rules.campaign.simulation.resume import (
         continue_command,
         interrupted_runs,

@@ -26,7 +26,8 @@ from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
 from idefix_rules.campaign.input.environment import read_terrain
 from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
+from idefix_rules.campaign.preparation import compile_rulebook_file
+from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation import worker
 from idefix_rules.campaign.simulation.simulate import (
     SilentProgress,

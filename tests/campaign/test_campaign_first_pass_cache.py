@@ -13,7 +13,8 @@ from test_campaign_adaptive import ROCK, rock_campaign
 
 from idefix_rules.campaign.input.environment import read_terrain
 from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
+from idefix_rules.campaign.preparation import compile_rulebook_file
+from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation.prescreen import run_context
 from idefix_rules.campaign.simulation.simulate import (
     SimulationOptions,
