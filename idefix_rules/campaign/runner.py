@@ -31,12 +31,9 @@ from idefix_rules.campaign.preparation import prepare_simulation
 from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
 from idefix_rules.campaign.simulation.dask_pool import ClusterError
 from idefix_rules.campaign.simulation.resume import resume_command
-from idefix_rules.campaign.simulation.simulate import (
-    Progress,
-    SimulationOptions,
-    local_workers,
-    simulate_campaign,
-)
+from idefix_rules.campaign.simulation.run_stage import Progress, SimulationOptions
+from idefix_rules.campaign.simulation.run_tasks import local_workers
+from idefix_rules.campaign.simulation.simulate import simulate_campaign
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.errors import IdefixError, InfrastructureError

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
     from idefix_rules.campaign.input.load import Campaign
-    from idefix_rules.campaign.simulation.simulate import SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SimulationOptions
     from idefix_rules.cli.progress import PlainProgress, RichProgress
 
 NAME = "run"
@@ -98,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
         interrupted_runs,
         stored_campaign,
     )
-    from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SimulationOptions
+    from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.progress import make_progress
     from idefix_rules.files import previous_path

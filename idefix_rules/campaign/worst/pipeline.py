@@ -25,13 +25,9 @@ from idefix_rules.campaign.outcome import outputs
 from idefix_rules.campaign.output_folder import claimed_output
 from idefix_rules.campaign.preparation import prepare_simulation
 from idefix_rules.campaign.runner import write_report
-from idefix_rules.campaign.simulation.simulate import (
-    RESULTS_FILE,
-    Progress,
-    SimulationOptions,
-    parameter_info,
-    simulate_campaign,
-)
+from idefix_rules.campaign.simulation.monte_carlo import parameter_info
+from idefix_rules.campaign.simulation.run_stage import Progress, SimulationOptions
+from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, simulate_campaign
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.campaign.worst.outcome import (
