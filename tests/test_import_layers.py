@@ -21,7 +21,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("models", ("idefix_rules.rulebook", "idefix_rules.fmu", "idefix_rules.obstacles")),
     ("stages", ("idefix_rules.campaign", "idefix_rules.results")),
     ("outputs", ("idefix_rules.diff", "idefix_rules.report", "idefix_rules.testing")),
-    ("pipelines", ("idefix_rules.campaign.runner", "idefix_rules.campaign.worst.pipeline")),
+    ("pipelines", ("idefix_rules.campaign.runner", "idefix_rules.campaign.rescore",
+                   "idefix_rules.campaign.worst.pipeline")),
     ("front ends", ("idefix_rules.cli", "idefix_rules.lsp", "idefix_rules.__main__")),
 )
 

@@ -35,22 +35,24 @@ from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, ru
 from idefix_rules.campaign.evaluation.scoring import failing_paths
 from idefix_rules.campaign.input import sampling, waivers
 from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.simulation.pool import LocalPool
-from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
-from idefix_rules.campaign.simulation.simulate import (
-    FmuSource,
-    PathPlan,
+from idefix_rules.campaign.simulation.monte_carlo import (
     PlannedRuns,
-    Progress,
-    SimulationOptions,
-    SimulationSummary,
-    local_workers,
     monte_carlo_pool,
     parameter_info,
     path_stream,
     run_and_store,
     sampled_task,
 )
+from idefix_rules.campaign.simulation.pool import LocalPool
+from idefix_rules.campaign.simulation.resume import is_infrastructure, runs_to_simulate
+from idefix_rules.campaign.simulation.run_stage import (
+    FmuSource,
+    PathPlan,
+    Progress,
+    SimulationOptions,
+    SimulationSummary,
+)
+from idefix_rules.campaign.simulation.run_tasks import local_workers
 from idefix_rules.campaign.simulation.worker import run_checks
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics

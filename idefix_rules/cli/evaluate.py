@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from idefix_rules.cli.destinations import output_file, output_folder
 
 if TYPE_CHECKING:
-    from idefix_rules.campaign.runner import EvaluationInterrupted
+    from idefix_rules.campaign.rescore import EvaluationInterrupted
 
 NAME = "evaluate"
 HELP = ("Evaluate a stored campaign (results.h5) again without simulating, with the rulebook "
@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.markup import escape
 
-    from idefix_rules.campaign.runner import EvaluationInterrupted, rescore
+    from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.outcome import print_outcome
     from idefix_rules.cli.run import stored_titles

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
     from idefix_rules.campaign.input.load import Campaign
-    from idefix_rules.campaign.simulation.simulate import SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SimulationOptions
     from idefix_rules.cli.progress import PlainProgress, RichProgress
 
 NAME = "run"
@@ -92,13 +92,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
     from idefix_rules.campaign.input.load import load_campaign
-    from idefix_rules.campaign.runner import claimed_output
+    from idefix_rules.campaign.output_folder import claimed_output
     from idefix_rules.campaign.simulation.resume import (
         continue_command,
         interrupted_runs,
         stored_campaign,
     )
-    from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SimulationOptions
+    from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
     from idefix_rules.cli.console import make_console
     from idefix_rules.cli.progress import make_progress
     from idefix_rules.files import previous_path

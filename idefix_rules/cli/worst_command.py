@@ -21,7 +21,7 @@ from rich.table import Table
 
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.input.wording import DisplayUnits, parameter_text, percent
-from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 from idefix_rules.campaign.worst.outcome import rarity, sigmas
 from idefix_rules.cli.console import make_console
 from idefix_rules.cli.progress import PlainProgress, make_progress

@@ -12,7 +12,8 @@ True
 
 from __future__ import annotations
 
-from idefix_rules.testing.casefile import Case, CaseFile, discover_case_files, load_case_file
+from idefix_rules.testing.case_model import Case, CaseFile
+from idefix_rules.testing.casefile import discover_case_files, load_case_file
 from idefix_rules.testing.runner import (
     CaseOutcome,
     FileOutcome,

@@ -20,7 +20,7 @@ from typing import Any
 
 from idefix_rules.rulebook.check import check
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
-from idefix_rules.testing.casefile import Case, CaseFile
+from idefix_rules.testing.case_model import Case, CaseFile
 from idefix_rules.testing.mutations import NUDGE, Mutant, mutants
 from idefix_rules.testing.runner import run_case
 

@@ -33,7 +33,8 @@ from idefix_rules.errors import UserInputError, render_diagnostics
 from idefix_rules.rulebook import load_checked
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.compile import CompiledRulebook, compile_rulebook
-from idefix_rules.testing.casefile import Case, CaseFile, load_case_file
+from idefix_rules.testing.case_model import Case, CaseFile
+from idefix_rules.testing.casefile import load_case_file
 from idefix_rules.testing.runner import run_case
 
 _CASE_FILE = re.compile(r"^rulebook\s*:", re.MULTILINE)

@@ -32,7 +32,7 @@ from idefix_rules.rulebook.results import (
     RunEvaluation,
     Verdict,
 )
-from idefix_rules.testing.casefile import Case, CaseFile, Expectation
+from idefix_rules.testing.case_model import Case, CaseFile, Expectation
 from idefix_rules.testing.synthetic import build_runs
 
 

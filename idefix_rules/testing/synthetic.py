@@ -24,7 +24,7 @@ import numpy as np
 from idefix_rules import signals
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 from idefix_rules.rulebook.derived import RunContext
-from idefix_rules.testing.casefile import (
+from idefix_rules.testing.case_model import (
     DEFAULT_SETTLE,
     STEP_SIGNALS,
     Case,

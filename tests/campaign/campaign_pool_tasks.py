@@ -78,11 +78,11 @@ def pid(payload):
 def count_pools(monkeypatch):
     """Make the campaign's local pools count themselves: returns ``(made, maps)``, each pool's
     ``persistent`` flag as it is made and each map's task count as it starts."""
-    from idefix_rules.campaign.simulation import simulate
+    from idefix_rules.campaign.simulation import run_tasks
 
     made, maps = [], []
 
-    class Counted(simulate.LocalPool):
+    class Counted(run_tasks.LocalPool):
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
             made.append(self.persistent)
@@ -92,7 +92,7 @@ def count_pools(monkeypatch):
             maps.append(len(listed))
             return super().map(listed)
 
-    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    monkeypatch.setattr(run_tasks, "LocalPool", Counted)
     return made, maps
 
 

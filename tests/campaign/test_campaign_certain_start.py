@@ -12,7 +12,7 @@ import pytest
 
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.input.validate import check_tolerance_start
-from idefix_rules.campaign.runner import compile_rulebook_file
+from idefix_rules.campaign.preparation import compile_rulebook_file
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 

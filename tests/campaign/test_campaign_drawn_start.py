@@ -87,14 +87,14 @@ def test_the_distribution_pointed_at_is_the_coordinate_that_leaves(tmp_path: Pat
 
 def test_a_worst_case_search_draws_its_own_worlds_and_is_not_refused_for_planned_ones(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from idefix_rules.campaign import runner
+    from idefix_rules.campaign import preparation
 
     path = _campaign(tmp_path, '{distribution: normal, mean: "0 m", std: "2 m"}')
     campaign = load_campaign(path)
     with pytest.raises(UserInputError):  # a campaign's planned runs: refused
-        runner.prepare_simulation(campaign, lambda said: None, "again")
-    prepared = runner.prepare_simulation(campaign, lambda said: None, "again",
-                                         planned_runs=False)
+        preparation.prepare_simulation(campaign, lambda said: None, "again")
+    prepared = preparation.prepare_simulation(campaign, lambda said: None, "again",
+                                              planned_runs=False)
     assert prepared.terrain is not None
 
 

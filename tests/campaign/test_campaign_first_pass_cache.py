@@ -12,14 +12,11 @@ from campaign_texts import CAMPAIGN
 from test_campaign_adaptive import ROCK, rock_campaign
 
 from idefix_rules.campaign.input.environment import read_terrain
-from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.runner import compile_rulebook_file, run_campaign
+from idefix_rules.campaign.input.load import initial_position_sigma, load_campaign, rover_geometry
+from idefix_rules.campaign.preparation import compile_rulebook_file
+from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation.prescreen import run_context
-from idefix_rules.campaign.simulation.simulate import (
-    SimulationOptions,
-    initial_position_sigma,
-    rover_geometry,
-)
+from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 from idefix_rules.campaign.storage.store import (
     STATUS_COMPLETE,
     STATUS_MISSING,

@@ -429,7 +429,7 @@ def test_planning_a_million_runs_writes_almost_nothing_before_the_first_run(
     would stop it), a campaign planning 1,000,000 runs has written well under 1 MB."""
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulation.simulate import SilentProgress, SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SilentProgress, SimulationOptions
     from idefix_rules.campaign.storage.store import FIRST_ROWS, STATUS_MISSING
 
     text = TEXT.replace(f"runs: {RUNS}", "runs: 1000000").replace(

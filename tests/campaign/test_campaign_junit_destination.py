@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.runner import _is_junit_report
+from idefix_rules.campaign.output_folder import _is_junit_report
 
 REPLACEABLE = {
     "empty (touch, mktemp)": b"",

@@ -19,7 +19,7 @@ import h5py
 import pytest
 from test_campaign_robustness import assert_same_datasets
 
-import idefix_rules.campaign.simulation.simulate as simulate_module
+from idefix_rules.campaign.simulation import monte_carlo, reference_runs
 from idefix_rules.campaign.simulation.dask_pool import DaskPool
 from idefix_rules.campaign.simulation.pool import LocalPool
 from idefix_rules.campaign.storage.store import STATUS_FAILED
@@ -147,7 +147,9 @@ def mark_run(folder: Path, out: str, path: str, run_index: int | None,
         value = 0.0 if run_index is None \
             else float(group["runs/parameters/initial.x"][run_index])
     monkeypatch.setenv(tasks.MARKED, f"{commands}:{value!r}")
-    monkeypatch.setattr(simulate_module, "simulate", tasks.marked_simulate)
+    # the task function of the reference runs and of the Monte Carlo runs
+    monkeypatch.setattr(reference_runs, "simulate", tasks.marked_simulate)
+    monkeypatch.setattr(monte_carlo, "simulate", tasks.marked_simulate)
 
 
 def summary_of(folder: Path, out: str) -> dict[str, dict[str, object]]:

@@ -14,7 +14,7 @@ from test_campaign_robustness import assert_same_datasets, copy_campaign
 
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 from idefix_rules.cli import main
 
 UNPAIRED = CAMPAIGN.replace("  method: monte_carlo\n", "  method: monte_carlo\n  paired: false\n")

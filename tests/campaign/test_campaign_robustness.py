@@ -15,7 +15,7 @@ from campaign_texts import CAMPAIGN
 
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulation.simulate import SimulationOptions
+from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, STATUS_MISSING
 
 pytestmark = pytest.mark.slow
@@ -69,7 +69,7 @@ KILLER = textwrap.dedent("""\
     from pathlib import Path
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
-    from idefix_rules.campaign.simulation.simulate import SimulationOptions
+    from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 
     class KillAfter:
         seen = 0

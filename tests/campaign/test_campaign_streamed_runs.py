@@ -14,10 +14,11 @@ import pytest
 
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
-from idefix_rules.campaign.simulation import simulate
+from idefix_rules.campaign.simulation import monte_carlo, run_tasks
 from idefix_rules.campaign.simulation.dask_pool import DaskPool
+from idefix_rules.campaign.simulation.monte_carlo import PlannedRuns
 from idefix_rules.campaign.simulation.pool import LocalPool
-from idefix_rules.campaign.simulation.simulate import PlannedRuns, SimulationOptions
+from idefix_rules.campaign.simulation.run_stage import SimulationOptions
 
 
 class Drawn:
@@ -91,14 +92,14 @@ def test_a_campaign_makes_its_run_tasks_as_the_workers_take_them(
     made = [0]
     answered = [0]
     most_held = [0]
-    real_task = simulate.run_task
+    real_task = monte_carlo.run_task
 
     def counted_task(*args: Any, **kwargs: Any) -> Any:
         if kwargs.get("encode"):  # a Monte Carlo run (reference runs are one per path)
             made[0] += 1
         return real_task(*args, **kwargs)
 
-    class Counted(simulate.LocalPool):
+    class Counted(run_tasks.LocalPool):
         def map(self, work: Any) -> Iterator[Any]:
             for key, outcome in super().map(work):
                 if isinstance(key, tuple):  # (path, run): a Monte Carlo run's outcome
@@ -106,8 +107,8 @@ def test_a_campaign_makes_its_run_tasks_as_the_workers_take_them(
                     answered[0] += 1
                 yield key, outcome
 
-    monkeypatch.setattr(simulate, "run_task", counted_task)
-    monkeypatch.setattr(simulate, "LocalPool", Counted)
+    monkeypatch.setattr(monte_carlo, "run_task", counted_task)
+    monkeypatch.setattr(run_tasks, "LocalPool", Counted)
     text = (campaign_dir / "campaign.yaml").read_text().replace("runs: 6", "runs: 40")
     (campaign_dir / "campaign.yaml").write_text(text)
     result = run_campaign(load_campaign(campaign_dir / "campaign.yaml"),

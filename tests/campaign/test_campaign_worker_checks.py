@@ -80,7 +80,7 @@ def test_a_campaign_checks_collisions_with_its_own_geometry(tmp_path: Path) -> N
     one `evaluate` rebuilds from the stored campaign takes the stored campaign's geometry,
     `StoredCampaign.rover`, the same way)."""
     from idefix_rules.campaign.input.load import load_campaign
-    from idefix_rules.campaign.runner import prepare_simulation
+    from idefix_rules.campaign.preparation import prepare_simulation
 
     root = Path(__file__).parents[2]
     text = (root / "campaigns" / "rock-detour.yaml").read_text().replace(

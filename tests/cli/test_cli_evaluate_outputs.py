@@ -97,7 +97,7 @@ def test_a_refused_evaluation_sets_nothing_aside(
 def test_an_interrupted_evaluation_says_what_state_the_files_are_in(
         when: str, tmp_path: Path, cli_toy_fmu: Path, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch) -> None:
-    from idefix_rules.campaign import runner
+    from idefix_rules.campaign import rescore
     from idefix_rules.campaign.outcome import outputs
 
     results = _stored(tmp_path, cli_toy_fmu)
@@ -108,7 +108,7 @@ def test_an_interrupted_evaluation_says_what_state_the_files_are_in(
         raise KeyboardInterrupt
 
     if when == "scoring":
-        monkeypatch.setattr(runner, "evaluate_store", interrupted)
+        monkeypatch.setattr(rescore, "evaluate_store", interrupted)
     else:
         monkeypatch.setattr(outputs, "write_summary", interrupted)
     stricter = tmp_path / "stricter.rules"

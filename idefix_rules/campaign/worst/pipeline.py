@@ -19,22 +19,15 @@ import h5py
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_store
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
+from idefix_rules.campaign.evaluation_writing import evaluation_revision, rulebook_info
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
 from idefix_rules.campaign.outcome import outputs
-from idefix_rules.campaign.runner import (
-    claimed_output,
-    evaluation_revision,
-    prepare_simulation,
-    rulebook_info,
-    write_report,
-)
-from idefix_rules.campaign.simulation.simulate import (
-    RESULTS_FILE,
-    Progress,
-    SimulationOptions,
-    parameter_info,
-    simulate_campaign,
-)
+from idefix_rules.campaign.output_folder import claimed_output
+from idefix_rules.campaign.preparation import prepare_simulation
+from idefix_rules.campaign.runner import write_report
+from idefix_rules.campaign.simulation.monte_carlo import parameter_info
+from idefix_rules.campaign.simulation.run_stage import Progress, SimulationOptions
+from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, simulate_campaign
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.campaign.worst.outcome import (

@@ -2,7 +2,7 @@
 
 Each round, every path still searching asks its :class:`~.search.PathSearch` for a batch of
 worlds; all batches are simulated together on the campaign's pool (local processes or Dask,
-:func:`~idefix_rules.campaign.simulation.simulate.run_and_store`) and stored as the path's next
+:func:`~idefix_rules.campaign.simulation.monte_carlo.run_and_store`) and stored as the path's next
 rows of runs, like Monte Carlo runs, with the values each world gives its parameters; then each
 path's new runs are evaluated with the rulebook and their run risks told to its search. Rows the
 search did not need are marked *not needed*, as an adaptive campaign marks them.
@@ -26,20 +26,22 @@ from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.input import sampling
 from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.input.schema import Fixed
-from idefix_rules.campaign.simulation.prescreen import run_context
-from idefix_rules.campaign.simulation.simulate import (
-    FmuSource,
-    PathPlan,
+from idefix_rules.campaign.simulation.monte_carlo import (
     PlannedRuns,
-    Progress,
-    SimulationOptions,
-    SimulationSummary,
     TaskMaker,
     monte_carlo_pool,
     parameter_info,
     run_and_store,
-    run_task,
 )
+from idefix_rules.campaign.simulation.prescreen import run_context
+from idefix_rules.campaign.simulation.run_stage import (
+    FmuSource,
+    PathPlan,
+    Progress,
+    SimulationOptions,
+    SimulationSummary,
+)
+from idefix_rules.campaign.simulation.run_tasks import run_task
 from idefix_rules.campaign.simulation.worker import RunTask
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.campaign.worst.search import PathSearch, SearchSettings

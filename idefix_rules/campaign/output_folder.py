@@ -1,0 +1,121 @@
+"""A campaign's output folder, owned by one campaign at a time, and the files it holds:
+:func:`claimed_output` owns the folder while a campaign writes there and sets the last run's
+outputs aside at once, :func:`campaign_files` names what a run reads and writes, and
+:func:`check_junit_destination` refuses a ``--junit`` file that is one of those, or an existing
+file that is not a JUnit report (``C703``)."""
+
+from __future__ import annotations
+
+import contextlib
+import re
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from idefix_rules.campaign.input.environment import TERRAIN_FILE
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.campaign.input.validate import prepare_output
+from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
+from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
+from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.files import previous_path, report_outputs, set_aside
+
+SUMMARY_FILE = "summary.json"
+REPORT_FILE = "report.html"
+
+
+@contextlib.contextmanager
+def claimed_output(campaign: Campaign, junit: Path | None = None,
+                   resume: bool = False) -> Iterator[FolderLock]:
+    """The campaign's output folder, created and owned by this process for the ``with`` block
+    (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
+    ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
+    become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
+    check_junit_destination(junit, *campaign_files(campaign))
+    _check_terrain_source(campaign)
+    existed = campaign.output.exists()
+    prepare_output(campaign)
+    sources = {str(campaign.source): campaign.text}
+    try:
+        with own_folder(campaign.output, span=Span(str(campaign.output)),
+                        sources=sources) as lock:
+            set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output), junit,
+                      None if resume else campaign.output / RESULTS_FILE)
+            yield lock
+    finally:
+        if not existed:  # a campaign refused before writing anything leaves no folder behind
+            with contextlib.suppress(OSError):
+                campaign.output.rmdir()  # only when empty
+
+
+JUNIT_CODE = "C703"
+
+
+def check_junit_destination(junit: Path | None, inputs: Iterable[Path | None],
+                            outputs: Iterable[Path]) -> None:
+    """Refuse (``C703``, exit 2) a JUnit destination that names an input of the command (the
+    campaign, its rulebook, FMU, terrain file; a results file re-scored), one of the files it
+    writes (``results.h5``, ``summary.json``, the report …), or any existing file that is not
+    a JUnit report: the file given is set aside as ``*.previous.*`` and replaced by XML, so a
+    slip of the argument would put XML where the campaign or its results were."""
+    if junit is None:
+        return
+    target = junit.resolve()
+    for path in [*inputs, *outputs]:
+        if path is not None and path.resolve() == target:
+            raise UserInputError(error(
+                JUNIT_CODE, f"--junit {junit} is a file this command reads or writes "
+                            f"({path}); it would be replaced by the JUnit report",
+                Span(str(junit)), hint="give the JUnit report a file of its own, e.g. "
+                                       "--junit junit.xml"))
+    if target.is_file() and not _is_junit_report(target):
+        raise UserInputError(error(
+            JUNIT_CODE, f"--junit {junit} is an existing file that is not a JUnit report; "
+                        "it would be replaced (set aside as "
+                        f"{previous_path(junit).name})", Span(str(junit)),
+            hint="give a new file name, or delete the file first if it is meant to go"))
+
+
+def _is_junit_report(path: Path) -> bool:
+    """Whether an existing file may be replaced by a JUnit report: an empty file (``touch``,
+    ``mktemp``), or an XML document (UTF-8 or UTF-16 with its byte order mark) whose first
+    element is ``testsuites`` or ``testsuite`` (ours or another tool's, after any
+    declaration, stylesheet instruction, comment or document type)."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(8192)
+    except OSError:
+        return False
+    if not head.strip():
+        return True
+    encoding = "utf-16" if head[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8"
+    text = head.decode(encoding, errors="replace").lstrip("\ufeff")
+    prolog = re.compile(r"\s*(<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>)", re.DOTALL)
+    while (found := prolog.match(text)) is not None:
+        text = text[found.end():]
+    return re.match(r"\s*<testsuites?[\s/>]", text) is not None
+
+
+def _check_terrain_source(campaign: Campaign) -> None:
+    """A DEM the campaign reads is never the terrain file it writes into its output folder
+    (C217): the run would replace it with itself plus the campaign's rocks, and every run
+    after would add the rocks again."""
+    if campaign.dem is None:
+        return
+    written = campaign.output / TERRAIN_FILE
+    if campaign.dem.resolve() in (written.resolve(), previous_path(written).resolve()):
+        raise UserInputError(error(
+            "C217", f"environment.terrain.dem: the DEM is the terrain file this campaign "
+                    f"writes into its output folder ({TERRAIN_FILE}); the run would replace it",
+            campaign.span(("environment", "terrain", "dem")),
+            hint="keep the DEM beside the campaign, or write the campaign's output elsewhere"),
+            sources={str(campaign.source): campaign.text})
+
+
+def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:
+    """What a campaign run reads (its files) and writes (its output folder's files and what
+    they are set aside as)."""
+    inputs: list[Path | None] = [campaign.source, campaign.rulebook, campaign.fmu, campaign.dem]
+    written = [RESULTS_FILE, SUMMARY_FILE, REPORT_FILE, TERRAIN_FILE]
+    outputs = [campaign.output / name for name in written]
+    outputs += [previous_path(path) for path in outputs]
+    return inputs, outputs
