@@ -239,3 +239,15 @@ def error(code: str, message: str, span: Span | None = None, hint: str | None = 
 def warning(code: str, message: str, span: Span | None = None,
             hint: str | None = None) -> Diagnostic:
     return Diagnostic(code, Severity.WARNING, message, span, hint)
+
+
+def unique_diagnostics(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """The diagnostics in their order, each (code, message, place) once."""
+    seen: set[tuple[str, str, Span | None]] = set()
+    unique = []
+    for diagnostic in diagnostics:
+        key = (diagnostic.code, diagnostic.message, diagnostic.span)
+        if key not in seen:
+            seen.add(key)
+            unique.append(diagnostic)
+    return unique

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from idefix_rules import signals
-from idefix_rules.errors import Diagnostic, Severity, Span, error, warning
+from idefix_rules.errors import Diagnostic, Severity, Span, error, unique_diagnostics, warning
 from idefix_rules.rulebook.environment import AreaSpec, CheckEnv, ObstacleLevelSpec, scope_of
 from idefix_rules.rulebook.fold import NotConstant, Value, fold, folded_number
 from idefix_rules.rulebook.infer import did_you_mean, infer_type
@@ -642,7 +642,7 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
     for check_pass in CHECKS + (STRICT_CHECKS + LINTS if strict else ()):
         diagnostics.extend(check_pass(env))
     diagnostics = path_hints(rulebook, fold_cascades(rulebook, set(env.constants),
-                                                     _deduplicate(diagnostics)))
+                                                     unique_diagnostics(diagnostics)))
     diagnostics = fold_misfit_constants(rulebook, env.constant_types, diagnostics)
     diagnostics.sort(key=lambda d: (d.span.line if d.span else 0,
                                     d.span.column if d.span else 0))
@@ -664,14 +664,3 @@ def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
             verdict_margins=env.verdict_margins,
         )
     return CheckResult(diagnostics, checked)
-
-
-def _deduplicate(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
-    seen = set()
-    out = []
-    for d in diagnostics:
-        key = (d.code, d.message, d.span)
-        if key not in seen:
-            seen.add(key)
-            out.append(d)
-    return out

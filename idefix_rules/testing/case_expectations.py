@@ -52,7 +52,24 @@ def _named(reader: CaseReader, data: Any, loc: Loc, checked: CheckedRulebook,
 def _range(reader: CaseReader, value: Any, loc: Loc, tolerance: float
            ) -> tuple[tuple[float, float], str] | None:
     """``0.5`` (± the file's tolerance), ``{value: 0.5, tolerance: 0.1}``, ``{at_least: …}``,
-    ``{at_most: …}`` → ``((low, high), text)``."""
+    ``{at_most: …}`` → ``((low, high), text)``; T009 for a range no index or risk (each in
+    [0, 1]) can meet, which would fail whatever the rulebook does."""
+    found = _written_range(reader, value, loc, tolerance)
+    if found is None:
+        return None
+    (low, high), text = found
+    if low > high:
+        reader.fail("T009", f"the expected range ({text}) is empty: no value meets it", loc)
+        return None
+    if high < 0.0 or low > 1.0:
+        reader.fail("T009", f"an index or a risk lies in [0, 1], so the expected {text} can "
+                    "never hold", loc, "write it as a fraction: 0.7, not 70")
+        return None
+    return found
+
+
+def _written_range(reader: CaseReader, value: Any, loc: Loc, tolerance: float
+                   ) -> tuple[tuple[float, float], str] | None:
     if isinstance(value, dict):
         reader.unknown_keys(value, loc, ("value", "tolerance", "at_least", "at_most"))
         if "value" in value and ("at_least" in value or "at_most" in value):

@@ -171,6 +171,11 @@ def _collision(reader: CaseReader, data: Any, loc: Loc) -> Collision | None:
         ok = False
     if start is None or end is None or not ok:
         return None
+    if start < 0:  # before the run: it would count as a hit the run never had
+        key = "at" if "at" in data else "from"
+        reader.fail("T010", f"a collision {key} {data[key]} lies before the run's start: "
+                    "times count from 0 s", (*loc, key))
+        return None
     if end < start:
         reader.fail("T010", "'to' comes before 'from'", (*loc, "to"))
         return None

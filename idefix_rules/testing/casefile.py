@@ -26,7 +26,7 @@ from typing import Any
 
 from idefix_rules.campaign.input.yamlsource import Loc, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
-from idefix_rules.errors import Span, UserInputError, error, read_user_text
+from idefix_rules.errors import Span, UserInputError, error, read_user_text, unique_diagnostics
 from idefix_rules.rulebook import check_text, read_source
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.testing.case_expectations import read_expectations
@@ -143,7 +143,8 @@ def parse_case_file(text: str, path: str) -> CaseFile:
         sources = {path: text}
         if checked is not None:
             sources[checked.rulebook.path] = checked.rulebook.source
-        raise UserInputError(reader.problems, sources)
+        # a mistake in 'defaults' is read again with every case: said once
+        raise UserInputError(unique_diagnostics(reader.problems), sources)
     assert checked is not None
     return CaseFile(path, rulebook_path, checked, tuple(cases), text)
 

@@ -151,6 +151,30 @@ def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
     ("""  c:
     expect: {rejected: {min_motion: [2]}}
 """, "T009", ":7:", "command 2 of 'min_motion': the case's chain has 1 command"),
+    # a hit before the run counted as one (I_obs 1, hit_L3 true): refused at its time
+    ("""  c:
+    collisions: [{part: chassis, level: L3, at: -5 s}]
+    expect: {verdict: fail}
+""", "T010", ":7:", "a collision at -5 s lies before the run's start"),
+    ("""  c:
+    collisions: [{part: chassis, level: L3, from: -10 s, to: -5 s}]
+    expect: {verdict: fail}
+""", "T010", ":7:", "a collision from -10 s lies before the run's start"),
+    ("""  c:
+    collisions: [{part: chassis, level: L3, from: 0 s, to: 1 s}]
+    expect: {indices: {I_s: {at_least: 0.6, at_most: 0.4}}}
+""", "T009", ":8:", "the expected range (≥ 0.6 and ≤ 0.4) is empty"),
+    ("""  c:
+    expect: {indices: {I_s: 1.5}}
+""", "T009", ":7:", "an index or a risk lies in [0, 1], so the expected 1.5 ± "),
+    ("""  c:
+    expect: {risk: {at_least: 70}}
+""", "T009", ":7:", "so the expected ≥ 70 can never hold"),
+    # longer than a double: T005 like any chain too long, not an OverflowError
+    ("""  c:
+    chain: [{max_wheel_rate: 0.04 rad/s, delta_position: 1e308 m, delta_heading: 0 deg}]
+    expect: {verdict: pass}
+""", "T005", ":6:", "the case's run would have inf samples"),
 ])
 def test_a_broken_case_file_exits_2_naming_line_and_column(tmp_path, capsys, body, code,
                                                               where, words):
@@ -400,3 +424,15 @@ def test_a_huge_yaml_file_in_a_folder_is_refused_unread(tmp_path, monkeypatch, c
     monkeypatch.setattr(casefile.Path, "read_text", watched)
     assert main(["test", str(tmp_path)]) == 2
     assert "big.yaml" not in read and "error[T001]" in capsys.readouterr().out
+
+
+def test_a_mistake_in_the_defaults_is_said_once_not_once_per_case(tmp_path, capsys):
+    path = write(tmp_path, """  a:
+    expect: {risk: 0}
+  b:
+    expect: {risk: 0}
+""")
+    path.write_text(path.read_text().replace("defaults:\n", "defaults:\n  step: 0 s\n"))
+    assert main(["test", str(path)]) == 2
+    out = capsys.readouterr()
+    assert (out.out + out.err).count("error[T005]: step must be above 0 s") == 1
