@@ -63,7 +63,7 @@ RUN_NON_NEGATIVE = frozenset({"speed"})
 _COMPARISONS = {"<", "<=", ">", ">="}
 _TRIGGER = re.compile(
     r"(?:above|below|over|under|beyond|exceed\w*|than|at most|at least|up to|limit(?:ed)?"
-    r"(?: of| to| is| at)?|maximum|minimum|[<>≤≥]=?)\s+(-?\d+(?:\.\d+)?(?:[eE]-?\d+)?)"
+    r"(?: of| to| is| at)?|maximum|minimum|[<>≤≥]=?)\s+(-?\d+(?:\.\d+)?(?:[eE]-?\d+)?)(?!\.\d)"
     r"(?:\s*([^\s,;:)]+))?", re.IGNORECASE)
 
 
@@ -227,7 +227,7 @@ def lint_constant_comparisons(env: CheckEnv) -> list[Diagnostic]:
                     continue
                 try:
                     threshold = fold(other, env.constants)
-                except (NotConstant, KeyError, ValueError, ZeroDivisionError, TypeError):
+                except (NotConstant, KeyError, ValueError, ArithmeticError, TypeError):
                     continue
                 if isinstance(threshold, dict):
                     continue
@@ -253,6 +253,10 @@ def _quantities(text: str) -> Iterator[tuple[float, Dimension, str, float]]:
     from it). A fraction (``2/3``) is no number of a unit and is left out."""
     for match in _TRIGGER.finditer(text):
         number, unit = match.group(1), match.group(2)
+        if unit is not None:
+            unit = unit.rstrip(".") or None  # "above 70 %." ends a sentence
+        if unit is not None and unit.lower() in ("percent", "pct"):  # "above 70 percent"
+            unit = "%"
         fraction = re.match(r"\s*/\s*(\d+)\b", text[match.end(1):])
         if fraction is not None:  # "above 2/3": the ratio, exactly
             if float(fraction.group(1)) != 0.0:
@@ -334,7 +338,7 @@ def lint_rationale_numbers(env: CheckEnv) -> list[Diagnostic]:
             continue
         try:
             threshold = fold(condition.right, env.constants)
-        except (NotConstant, KeyError, ValueError, ZeroDivisionError, TypeError):
+        except (NotConstant, KeyError, ValueError, ArithmeticError, TypeError):
             continue
         dimension = _dimension_of(condition.right, env)
         compare(rule.name, rule.rationale, threshold, dimension, condition.right, rule.span)

@@ -58,6 +58,12 @@ def test_bare_ratio_limits(limit, expected):
     ('const c = 65 % because "Slip above 70 % is critical"', ["W612"]),
     ('const c = 5 cm because "Assumption: half the 10 cm wheel radius"', []),
     ('const c = 5 cm because "Sinkage above 6 cm digs in"', ["W612"]),
+    # ordinary wording: "percent", a sentence's full stop, a version number
+    ('const c = 70 % because "Slip above 70 percent is critical"', []),
+    ('const c = 70 % because "Slip above 65 percent is critical"', ["W612"]),
+    ('const c = 70 % because "Critical above 70 %."', []),
+    ('const c = 70 % because "Critical above 65 %."', ["W612"]),
+    ('const c = 70 % because "Limit 1.0.0 of the flight rules"', []),
     ('const c = 5 cm because "Speeds above 6 % of the limit"', []),  # another dimension
     # a rationale rounds: to the digits it writes, in the unit it writes
     ('const c = 15 deg because "Tilt above 0.2618 rad is critical"', []),
@@ -207,6 +213,10 @@ BROKEN = [
       "chance far = max over time (x) <= 1e308 km\n"), "E003"),
     (("max over time (max over wheels (abs(wheel.slip)))",
       'const c = 5 cm because "above 1e306 km it overflows"\n'), None),
+    (("max over time (max over wheels (abs(wheel.slip)))",
+      "verdict w: require mean(I_s) <= 1e308 km\n"), "E003"),
+    (("max over time (max over wheels (abs(wheel.slip)))",
+      "command c: require max_wheel_rate <= 1e308 km/s\n"), "E003"),
 ]
 
 
