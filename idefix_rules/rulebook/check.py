@@ -12,7 +12,7 @@ import math
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, get_args
 
 from idefix_rules import signals
 from idefix_rules.errors import Diagnostic, Severity, Span, error, unique_diagnostics, warning
@@ -25,6 +25,7 @@ from idefix_rules.rulebook.model import (
     Index,
     Number,
     Reduce,
+    Reducer,
     Rulebook,
 )
 from idefix_rules.rulebook.types import (
@@ -182,6 +183,14 @@ def _declarations(rulebook: Rulebook) -> Iterator[tuple[str, str, object]]:
         yield "verdict", v.name, v
 
 
+# The reduction words (`max over time (…)`): a name spelt like one starts a reduction wherever
+# an expression may, so a declaration of it could never be used.
+REDUCER_WORDS: frozenset[str] = frozenset(get_args(Reducer))
+# the declarations whose names expressions read (`limit = c`, `chance(c)`, `mean(I)`); rules
+# and verdicts are named in outputs and waivers only
+READ_KINDS = frozenset({"constant", "index", "chance"})
+
+
 def check_names(env: CheckEnv) -> list[Diagnostic]:
     """Duplicate declarations, and names that would hide a signal or a built-in name."""
     problems = []
@@ -207,6 +216,10 @@ def check_names(env: CheckEnv) -> list[Diagnostic]:
         if signals.lookup(name) is not None or name in reserved:
             problems.append(error("E103", f"{kind} '{name}' hides the built-in name '{name}'",
                                   span, "choose another name"))
+        elif name in REDUCER_WORDS and kind in READ_KINDS:  # `x > max`: a reduction begins
+            problems.append(error("E103", f"{kind} '{name}' is named like the reduction "
+                                  f"'{name} over …': the name could never be read",
+                                  span, f"choose another name, e.g. '{name}_{kind.split()[0]}'"))
     settings_seen: set[str] = set()
     for setting in env.rulebook.settings:
         if setting.name in settings_seen:
