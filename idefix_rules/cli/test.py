@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "exits 1; implies --mutate)")
     parser.add_argument("--nudge", metavar="PERCENT", default=str(DEFAULT_NUDGE_PERCENT),
                         help="how far a mutant moves a threshold, limit, nominal or factor, "
-                             "both ways (default %(default)g %%)")
+                             f"both ways (default {DEFAULT_NUDGE_PERCENT:g} %%)")
     parser.add_argument("--format", choices=("text", "json"), default="text",
                         help="text (default) or the outcomes as JSON")
 
