@@ -13,6 +13,7 @@ error of an index or chance named in a verdict the hint to use its path statisti
 
 from __future__ import annotations
 
+import difflib
 import re
 from collections.abc import Iterator, Mapping
 from dataclasses import replace
@@ -111,23 +112,55 @@ def _owner(diagnostic: Diagnostic, broken: Mapping[str, Constant]) -> str | None
     return None
 
 
+# What each context reads instead of an index or a chance (verdicts: see path_hints).
+_INSTEAD = {
+    "a constant expression": "a constant expression reads constants and numbers: write the "
+                             "value, or declare it as a constant",
+    "an index or chance": "indices and chances read signals: use the signals the other one "
+                          "reads (its value is no signal)",
+    "a command rule": "a command rule reads the command's max_wheel_rate, delta_position and "
+                      "delta_heading",
+}
+
+
 def path_hints(rulebook: Rulebook, diagnostics: list[Diagnostic]) -> list[Diagnostic]:
-    """An index or chance named in a verdict or rank key: point to its path statistic."""
+    """An index or chance named where it cannot be read: in a verdict or rank key, point to
+    its path statistic; elsewhere, say it exists but is not visible there (not "unknown"),
+    and what that context reads. An unknown name closest to an index or chance: that one."""
     indices = {i.name for i in rulebook.indices}
     chances = {c.name for c in rulebook.chances}
     out = []
     for diagnostic in diagnostics:
         match = _UNKNOWN.match(diagnostic.message) if diagnostic.code == "E101" else None
-        if match and "verdict" in diagnostic.message:
-            name = match.group(1)
-            if name in indices:
+        if match is None:
+            out.append(diagnostic)
+            continue
+        name = match.group(1)
+        where = diagnostic.message.split(" in ", 1)[-1]
+        if name in indices or name in chances:
+            kind = "index" if name in indices else "chance"
+            if "verdict" in diagnostic.message:
                 diagnostic = replace(diagnostic, message=(
-                    f"index '{name}' is a value per run; a verdict reads path statistics"),
-                    hint=f"use mean({name}) (mean over the runs) or max({name}) (largest run)")
-            elif name in chances:
+                    f"{kind} '{name}' is a {'value' if kind == 'index' else 'condition'} per "
+                    "run; a verdict reads path statistics"), hint=(
+                    f"use mean({name}) (mean over the runs) or max({name}) (largest run)"
+                    if kind == "index" else
+                    f"use chance({name}) (the fraction of runs where it holds)"))
+            else:
+                context = next((text for key, text in _INSTEAD.items()
+                                if where.startswith(key)), None)
                 diagnostic = replace(diagnostic, message=(
-                    f"chance '{name}' is a condition per run; a verdict reads path statistics"),
-                    hint=f"use chance({name}) (the fraction of runs where it holds)")
+                    f"{kind} '{name}' cannot be read in {where}"), hint=context)
+        else:
+            close = difflib.get_close_matches(name, sorted(indices | chances), n=1, cutoff=0.8)
+            if close and (diagnostic.hint is None or close[0] not in diagnostic.hint):
+                kind = "index" if close[0] in indices else "chance"
+                diagnostic = replace(diagnostic, hint=(
+                    f"did you mean {kind} '{close[0]}'? (" + (
+                        f"a verdict reads mean({close[0]}) or max({close[0]}))"
+                        if kind == "index" else f"a verdict reads chance({close[0]}))")
+                    if "verdict" in where else
+                    f"did you mean {kind} '{close[0]}'? It cannot be read in {where}"))
         out.append(diagnostic)
     return out
 
