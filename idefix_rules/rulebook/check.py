@@ -138,7 +138,8 @@ def resolve_constants(env: CheckEnv) -> list[Diagnostic]:
         values = value.values() if isinstance(value, dict) else [value]
         if not all(math.isfinite(float(v)) for v in values):
             problems.append(error("E402", f"constant '{name}' is not a finite number (a "
-                                          "division by zero?)", constant.value.span))
+                                          "division by zero, or a value beyond a double?)",
+                                  constant.value.span))
             return
         env.constant_types[name] = found
         env.constants[name] = value
@@ -273,7 +274,8 @@ def _constant_quantity(env: CheckEnv, expr: Expr, wanted: object, what: str,
         return None
     if not math.isfinite(float(value)):
         problems.append(error("E402", f"{what} is not a finite number ({float(value)}; a "
-                                      "division by zero?)", expr.span))
+                                      "division by zero, or a value beyond a double?)",
+                              expr.span))
         return None
     return float(value)
 

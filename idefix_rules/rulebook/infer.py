@@ -214,12 +214,22 @@ def _binary(expr: Binary, scope: Scope, problems: Problems) -> ExprType | None:
         return None
     if left.dimension.is_dimensionless:
         return ExprType(DIMENSIONLESS, axes)
-    if not (isinstance(exponent, Number) and exponent.unit is None
-            and float(exponent.value).is_integer()):
+    power = _whole_number(exponent)
+    if power is None:
         problems.append(error("E202", "a quantity with a unit can only be raised to a whole "
                               "number written in place", exponent.span))
         return None
-    return ExprType(left.dimension ** int(exponent.value), left.axes)
+    return ExprType(left.dimension ** power, left.axes)
+
+
+def _whole_number(expr: Expr) -> int | None:
+    """The whole number written in place (``2``, ``-1``), else None."""
+    sign = 1
+    while isinstance(expr, Unary) and expr.op == "-":
+        sign, expr = -sign, expr.operand
+    if isinstance(expr, Number) and expr.unit is None and float(expr.value).is_integer():
+        return sign * int(expr.value)
+    return None
 
 
 def _is_bare_zero(expr: Expr) -> bool:
@@ -422,8 +432,14 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
         if parameter.dimension != DIMENSIONLESS or parameter.axes or (
                 isinstance(value, Number) and not (0 <= value.value <= 100
                                                    and value.unit is None)):
-            problems.append(error("E308", "percentile needs a number from 0 to 100",
-                                  expr.parameter.span if expr.parameter else expr.span))
+            message, hint = "percentile needs a number from 0 to 100", None
+            if isinstance(value, Number) and value.unit == "%" and 0 <= value.value <= 100:
+                message += ", written without '%': it counts in percent already"
+                hint = f"percentile {value.value:g} over …"
+            elif isinstance(value, Number) and value.unit is not None:
+                message += f", without a unit (got {value.value:g} {value.unit})"
+            problems.append(error("E308", message,
+                                  expr.parameter.span if expr.parameter else expr.span, hint))
             return None
     if expr.reducer == "time_above" and parameter is not None:
         if parameter.dimension != operand.dimension:

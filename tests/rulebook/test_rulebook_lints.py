@@ -235,3 +235,36 @@ def test_the_lints_survive_what_plain_check_reports(edit: tuple[str, str],
               if d.code.startswith("E")]
     assert plain == ([error] if error else [])
     assert strict == plain
+
+
+@pytest.mark.parametrize(("power", "value", "error"), [
+    ("(2 cm) ^ 2", 4e-4, None),
+    ("(2 cm) ^ -1", 50.0, None),         # a whole number too, written with its sign
+    ("(2 cm) ^ --2", 4e-4, None),
+    ("(2 cm) ^ -0.5", None, "E202"),
+    ("(2 cm) ^ (1 + 1)", None, "E202"),  # written in place: no expression
+])
+def test_a_quantity_with_a_unit_is_raised_to_a_whole_number_written_in_place(
+        power: str, value: float | None, error: str | None) -> None:
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") \
+        + f"const p = {power}\n"
+    result = check_text(text, "t.rules")
+    assert [d.code for d in result.diagnostics if d.code.startswith("E")] == \
+        ([error] if error else [])
+    if value is not None:
+        assert result.checked is not None
+        assert result.checked.constants["p"] == pytest.approx(value, rel=1e-12)
+
+
+@pytest.mark.parametrize(("parameter", "words", "hint"), [
+    ("95 %", "percentile needs a number from 0 to 100, written without '%': it counts in "
+             "percent already", "percentile 95 over …"),
+    ("95 cm", "percentile needs a number from 0 to 100, without a unit (got 95 cm)", None),
+    ("150", "percentile needs a number from 0 to 100", None),
+])
+def test_a_percentile_parameter_out_of_place_says_what_is_wrong_with_it(
+        parameter: str, words: str, hint: str | None) -> None:
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %").replace(
+        "max over time (max over wheels", f"percentile {parameter} over time (max over wheels")
+    [found] = check_text(text, "t.rules").diagnostics
+    assert (found.code, found.message, found.hint) == ("E308", words, hint)
