@@ -139,6 +139,15 @@ def lint_bare_ratios(env: CheckEnv) -> list[Diagnostic]:
                     if bare is not None and _is_ratio(ratio, rulebook):
                         from idefix_rules.rulebook.format import format_expr
                         report(*bare, f"'{format_expr(ratio)}'", node.span)
+    for top in _every_expression(rulebook):  # time_above's threshold is compared too
+        for node in nodes(top):
+            if isinstance(node, Reduce) and node.reducer == "time_above" and \
+                    node.parameter is not None and _is_ratio(node.operand, rulebook):
+                bare = _bare_number(node.parameter, rulebook)
+                if bare is not None:
+                    from idefix_rules.rulebook.format import format_expr
+                    report(*bare, f"the threshold of 'time_above' over "
+                           f"'{format_expr(node.operand)}'", node.span)
     for index in rulebook.indices:
         if not (_is_ratio(index.value, rulebook) and
                 env.index_types.get(index.name, None) is not None and

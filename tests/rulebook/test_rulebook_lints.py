@@ -268,3 +268,14 @@ def test_a_percentile_parameter_out_of_place_says_what_is_wrong_with_it(
         "max over time (max over wheels", f"percentile {parameter} over time (max over wheels")
     [found] = check_text(text, "t.rules").diagnostics
     assert (found.code, found.message, found.hint) == ("E308", words, hint)
+
+
+@pytest.mark.parametrize(("threshold", "expected"), [
+    ("50", ["W610"]),  # 5000 % of slip: 50 % meant
+    ("50 %", []), ("0.5", []), ("1", []),
+])
+def test_a_bare_time_above_threshold_on_a_ratio_is_a_percentage_meant(
+        threshold: str, expected: list[str]) -> None:
+    assert codes(extra=f"chance slow = time_above {threshold} over time (max over wheels "
+                       "(wheel.slip)) > 10 s\nverdict w: require chance(slow) <= 5 %\n") \
+        == expected
