@@ -91,10 +91,15 @@ def _inside_comment(node: Any, body: str, line: int, own_line: bool, lines: list
 
     if own_line:
         for number in range(line + 1, node.span.end_line + 1):
+            text = lines[number - 1].strip() if 0 < number <= len(lines) else ""
+            if not text or text.startswith("#"):
+                continue
             anchor = anchor_of(number)
             if anchor is not None:
                 return f"@{anchor}^ {body}"
-        return f"@{anchors[-1]}^ {body}"
+            break  # the next line goes on with an item's expression: the comment is in it
+        else:
+            return f"@{anchors[-1]}^ {body}"
     for number in range(line, node.span.line - 1, -1):
         anchor = anchor_of(number)
         if anchor is not None:

@@ -70,6 +70,19 @@ def test_every_comment_survives_formatting():
         assert comment in text
 
 
+
+def test_a_comment_inside_an_index_items_expression_stays_with_that_item():
+    """Joined at the end of its item's line, as in a constant or a verdict; it used to go
+    above the next item (here `limit`), where it spoke of the wrong thing."""
+    text = format_rulebook(parse_rulebook(
+        'rulebook "d" version "1.0.0"\npurpose "p"\nindex I_r "roll" {\n'
+        '  value  = max over time (\n    # the worst roll\n    abs(roll))\n'
+        '  # about the limit\n\n  limit  = 15 deg\n  weight = 1\n}\n'
+        'verdict ok: require risk <= 70 %\n', "c.rules"))
+    assert "  value  = max over time (abs(roll))  # the worst roll\n" in text
+    assert "  # about the limit\n  limit  = 15 deg\n" in text
+    assert format_rulebook(parse_rulebook(text, "c.rules")) == text
+
 def test_a_long_rationale_moves_to_its_own_line_for_the_whole_section():
     text = format_rulebook(parse_rulebook(
         'rulebook "d" version "1.0.0" purpose "p"\n'
