@@ -210,6 +210,9 @@ def _hint(token: lark.Token, expected: set[str], following: str = "") -> str | N
     if token.type in _DECLARATION_START and token.column == 1 \
             and len(expected & _DECLARATION_START) < 4:
         return "the declaration before this line is not finished"
+    if str(token) == "-" and "LPAR" in expected and expected <= {"QUANTITY", "NAME", "LPAR"}:
+        # a reducer's parameter or a window's value: a number, a name or a parenthesis
+        return "a negative value here goes in parentheses: time_above (-5 deg) over …"
     if token.type == "COMPARE" and "COMPARE" not in expected:
         return "comparisons do not chain: write `0 < x and x < 1`"
     if token.type == "REQUIRE" and "COLON" in expected:
