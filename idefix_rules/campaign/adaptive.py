@@ -87,6 +87,7 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                             parameter_info(campaign, list(values)))
         sampled[name] = values
         running[name] = plan
+        runs_to_simulate(store, name, reset=True)  # lost to the infrastructure: to simulate
         status = store.run_status(name)
         progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)),
                             int(np.sum(status == STATUS_FAILED)))

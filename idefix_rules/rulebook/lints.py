@@ -63,7 +63,8 @@ RUN_NON_NEGATIVE = frozenset({"speed"})
 _COMPARISONS = {"<", "<=", ">", ">="}
 _TRIGGER = re.compile(
     r"(?:above|below|over|under|beyond|exceed\w*|than|at most|at least|up to|limit(?:ed)?"
-    r"(?: of| to| is| at)?|maximum|minimum|[<>≤≥]=?)\s+(-?\d+(?:\.\d+)?(?:[eE]-?\d+)?)(?!\.\d)"
+    r"(?: of| to| is| at)?|maximum|minimum|[<>≤≥]=?)\s+(-?\d+(?:\.\d+)?(?:[eE]-?\d+)?)"
+    r"(?![\d.]*\.\d)"  # a version (1.0.0, 10.2.1) is no number
     r"(?:\s*([^\s,;:)]+))?", re.IGNORECASE)
 
 

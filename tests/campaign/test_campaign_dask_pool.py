@@ -101,3 +101,42 @@ def test_ctrl_c_while_the_local_cluster_starts_leaves_no_cluster_open(after: flo
     left = [cluster for cluster in set(SpecCluster._instances) - before
             if cluster.status != Status.closed]
     assert left == []
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_connecting_to_a_scheduler_stops_at_once() -> None:
+    """Nothing is started there to close whole: Ctrl-C is not deferred (a scheduler that
+    never answers kept it waiting for the connect timeout, then said exit 3)."""
+    import signal
+    import socket
+    import threading
+
+    with socket.socket() as silent:  # listens, never answers
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+        timer.start()
+        started = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            DaskPool(tasks.square, address=address).close()
+        timer.join()
+    assert time.monotonic() - started < 10
+
+
+def test_ctrl_c_is_not_taken_over_where_it_is_ignored() -> None:
+    """A campaign started with Ctrl-C ignored (a background job of a script) keeps it
+    ignored while the cluster starts."""
+    import signal
+
+    from idefix_rules.campaign.simulation.dask_pool import ctrl_c_deferred
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with ctrl_c_deferred() as pressed:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert pressed == []
+    finally:
+        signal.signal(signal.SIGINT, previous)

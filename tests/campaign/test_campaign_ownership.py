@@ -358,10 +358,14 @@ def test_ctrl_c_releases_the_folder(campaign_dir: Path) -> None:
 
 
 @pytest.mark.slow
-def test_ctrl_c_on_a_local_dask_cluster_says_only_how_to_continue(campaign_dir: Path) -> None:
-    """The cluster's workers are stopped mid-run: what they log about the runs cancelled
-    under them is Dask's business, not the operator's; the campaign's own line says what
-    happened and how to continue."""
+@pytest.mark.parametrize("after", [0.3, 1.5, 8.0])
+def test_ctrl_c_on_a_local_dask_cluster_says_only_how_to_continue(campaign_dir: Path,
+                                                                   after: float) -> None:
+    """Ctrl-C as a terminal sends it, to the whole process group (the cluster's starting or
+    running workers get it too): while the cluster starts (a start it failed made it an
+    internal error, exit 3) or while its workers hang in runs (what they log about the runs
+    cancelled under them is Dask's business, not the operator's). The campaign's own line
+    says what happened and how to continue, exit 130."""
     out = campaign_dir / "out"
     campaign = slow_campaign(campaign_dir, INTERRUPTED_RUNS)
     # runs that hang (the reference's, at the mean, does not): the workers are busy with one
@@ -369,17 +373,19 @@ def test_ctrl_c_on_a_local_dask_cluster_says_only_how_to_continue(campaign_dir: 
     campaign.write_text(campaign.read_text().replace("    toy.slip:", """\
     toy.hang_at: {distribution: uniform, low: "1 s", high: "1000 s"}
     toy.slip:"""))
-    process = start(campaign, "--no-report", "--dask-local", "--workers", "2",
-                    "--run-timeout", "600")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "idefix_rules", str(campaign), "--no-report", "--dask-local",
+         "--workers", "2", "--run-timeout", "600"], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, env={**os.environ, "COLUMNS": "400"},
+        start_new_session=True)
     wait_for(out / "results.h5")
-    time.sleep(8.0)  # the cluster is up and both workers hang in a run
-    process.send_signal(signal.SIGINT)
+    time.sleep(after)
+    os.killpg(process.pid, signal.SIGINT)
     code, text = finish(process)
     assert code == 130, text
     assert "distributed" not in text and "CancelledError" not in text, text
     assert "interrupted: continue with `" in text, text
     assert not (out / LOCK_FILE).exists()
-
 
 KILLED_AT_FIRST_STEP = textwrap.dedent("""\
     import os, signal, sys

@@ -289,6 +289,39 @@ def test_a_resumed_campaign_counts_its_stored_failed_runs_in_its_progress(
     assert f"Monte Carlo runs of 2 path(s): 32 runs, {sum(failed.values())} failed (" in out
 
 
+
+def test_an_adaptive_resume_counts_as_failed_only_the_runs_it_keeps(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Runs lost to the infrastructure are simulated again, so they are neither stored
+    nor failed when the progress starts; its counts end at the file's."""
+    from idefix_rules.cli import main
+
+    adaptive = CAMPAIGN.replace("runs: 6", "runs: auto\nmax_runs: 200\nmin_runs: 10\n"
+                                "batch_runs: 16").replace("workers: 2", "workers: 1")
+    (campaign_dir / "campaign.yaml").write_text(adaptive)
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(campaign, progress=InterruptAfter(20), report=False)
+    results = campaign.output / "results.h5"
+    with h5py.File(results, "r+") as stored:
+        status = stored["paths/straight/runs/status"]
+        lost = np.flatnonzero(status[()] == STATUS_COMPLETE)[:2]
+        for run in lost:
+            status[run] = 2
+            stored["paths/straight/runs/failure"][run] = \
+                b"infrastructure: killed by SIGKILL 3 times"
+        kept = int(np.sum(status[()] != STATUS_MISSING)) - len(lost)
+    capsys.readouterr()
+    main([str(campaign_dir / "campaign.yaml"), "--no-report", "--resume"])
+    out = capsys.readouterr().out
+    assert f"straight: {kept}/200 runs stored already, " in out, out
+    with h5py.File(results) as stored:
+        failed = int(np.sum(stored["paths/straight/runs/status"][()] == 2))
+    assert failed == 0  # the lost runs ran again, and completed
+    [summary] = [line for line in out.splitlines() if line.startswith("Monte Carlo runs of")]
+    assert "failed" not in summary, summary
+
+
 def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from idefix_rules.campaign.simulation.resume import interrupted_runs

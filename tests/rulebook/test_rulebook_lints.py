@@ -64,6 +64,8 @@ def test_bare_ratio_limits(limit, expected):
     ('const c = 70 % because "Critical above 70 %."', []),
     ('const c = 70 % because "Critical above 65 %."', ["W612"]),
     ('const c = 70 % because "Limit 1.0.0 of the flight rules"', []),
+    ('const c = 70 % because "Limit 10.0.0 of the flight rules"', []),
+    ('const c = 70 % because "Slip below 2.10.1 rules"', []),
     ('const c = 5 cm because "Speeds above 6 % of the limit"', []),  # another dimension
     # a rationale rounds: to the digits it writes, in the unit it writes
     ('const c = 15 deg because "Tilt above 0.2618 rad is critical"', []),

@@ -69,13 +69,15 @@ class ClusterError(InfrastructureError):
 
 
 @contextlib.contextmanager
-def _ctrl_c_deferred() -> Iterator[list[bool]]:
+def ctrl_c_deferred() -> Iterator[list[bool]]:
     """Within the block, Ctrl-C is noted (the list yielded gets ``True``) instead of raising;
-    a second Ctrl-C raises at once. Off the main thread, where signals cannot be handled,
-    nothing is deferred."""
+    a second Ctrl-C raises at once. Nothing is deferred off the main thread (where signals
+    cannot be handled) or where Ctrl-C does not raise KeyboardInterrupt (ignored, or the
+    caller's own handler)."""
     pressed: list[bool] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield pressed
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield pressed  # off the main thread, or Ctrl-C ignored or handled by the caller
         return
 
     def note(signum: int, frame: Any) -> None:
@@ -84,9 +86,14 @@ def _ctrl_c_deferred() -> Iterator[list[bool]]:
         pressed.append(True)
 
     previous = signal.signal(signal.SIGINT, note)
+    # Blocked in this thread meanwhile: the threads and processes it starts inherit the mask,
+    # so a terminal's Ctrl-C (sent to the whole process group) does not kill workers halfway
+    # through their start, each with its traceback; it waits, and is taken when unblocked.
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield pressed
     finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # a pending one: noted
         signal.signal(signal.SIGINT, previous)
 
 
@@ -96,19 +103,35 @@ class DaskPool:
     def __init__(self, function: TaskFunction, address: str | None = None,
                  workers: int | None = None, run_timeout: Timeouts = None,
                  persistent: bool = False) -> None:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
 
         self.function = function
         self.run_timeout = run_timeout
         self.persistent = persistent  # as LocalPool's: kept for the next map, closed by its owner
-        self._cluster = None
-        # Ctrl-C while the cluster starts is taken once it has started, and the cluster closed:
-        # interrupted halfway, its workers still starting, it could not be closed at all (Dask's
-        # exit hook then fails on it with a traceback)
-        with _ctrl_c_deferred() as pressed:
-            if address is None:
-                import dask
+        self._cluster: Any = None
+        if address is None:
+            self._start_local(workers)
+        else:
+            try:
+                self._client = Client(address)  # type: ignore[no-untyped-call]
+            except ValueError as failure:  # not an address at all: a usage mistake
+                raise UserInputError(f"--scheduler {address!r}: {failure}") from None
+            except OSError as failure:  # no scheduler answers there
+                raise ClusterError(f"cannot reach the Dask scheduler {address}: "
+                                   f"{failure}") from None
+        self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
+    def _start_local(self, workers: int | None) -> None:
+        """A LocalCluster of ``workers`` processes and its client. Ctrl-C while it starts is
+        taken once it has started (or failed to), and the cluster closed: interrupted halfway,
+        its workers still starting, it could not be closed at all (Dask's exit hook then fails
+        on it with a traceback). A terminal's Ctrl-C reaches the starting workers too, and the
+        start fails with them: that is the interrupt, not the cluster's failure."""
+        import dask
+        from dask.distributed import Client, LocalCluster
+
+        with ctrl_c_deferred() as pressed:
+            try:
                 # One task per worker thread at a time: a worker that dies then takes only
                 # the run it was executing, not runs merely queued on it (which Dask would
                 # count as suspects of its death too).
@@ -120,20 +143,16 @@ class DaskPool:
                     # under them and the nanny's about killing them.
                     self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
                         n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                        processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
+                        processes=True, dashboard_address=":0", silence_logs=logging.ERROR,
+                        preload=["idefix_rules.campaign.simulation.dask_worker_setup"])
                 self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
-            else:
-                try:
-                    self._client = Client(address)  # type: ignore[no-untyped-call]
-                except ValueError as failure:  # not an address at all: a usage mistake
-                    raise UserInputError(f"--scheduler {address!r}: {failure}") from None
-                except OSError as failure:  # no scheduler answers there
-                    raise ClusterError(f"cannot reach the Dask scheduler {address}: "
-                                       f"{failure}") from None
+            except Exception:
+                if not pressed:
+                    raise
         if pressed:
-            self.close()
+            if self._cluster is not None:
+                self.close()
             raise KeyboardInterrupt
-        self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
 
     def _submit(self, key: Hashable, payload: Any) -> Any:
         return self._client.submit(
