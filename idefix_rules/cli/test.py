@@ -45,8 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--min-coverage", metavar="PERCENT", default=None,
                         help="exit 1 when fewer than PERCENT %% of the rules were brought "
                              "across their limit by the cases (implies --coverage); 90 or "
-                             "90%% (a bare number below 1, such as 0.9, is refused: write "
-                             "0.9%% if that is meant)")
+                             "90%% (a bare fraction such as 0.9 is refused: write 0.9%% if "
+                             "that is meant)")
     parser.add_argument("--mutate", action="store_true",
                         help="run every mutant of each rulebook (reducer swaps, thresholds, "
                              "limits and factors nudged both ways, weights, dropped terms, "
@@ -55,7 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--min-mutation-score", metavar="PERCENT", default=None,
                         help="with --mutate: exit 0 when at least PERCENT %% of the mutants "
                              "are killed, even if some survive (default: any survivor "
-                             "exits 1; implies --mutate)")
+                             "exits 1; implies --mutate); 90 or 90%% (a bare fraction such "
+                             "as 0.9 is refused: write 0.9%% if that is meant)")
     parser.add_argument("--nudge", metavar="PERCENT", default=str(DEFAULT_NUDGE_PERCENT),
                         help="how far a mutant moves a threshold, limit, nominal or factor, "
                              f"both ways (default {DEFAULT_NUDGE_PERCENT:g} %%)")
@@ -64,10 +65,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 
-def _percent(text: str | None, option: str, code: str) -> float | None:
-    """A percentage option's value: ``90`` or ``90%``. A bare number between 0 and 1 is
-    refused: ``--min-coverage 0.9`` would be 0.9 %, and a gate that low passes everything
-    (a fraction meant), so the sign is asked for when so small a percentage is meant."""
+def _percent(text: str | None, option: str, code: str, gate: bool = True) -> float | None:
+    """A percentage option's value: ``90`` or ``90%``. For a ``gate``, a bare number from 0
+    to 1 written with a point (``0.9``, ``1.0``) is refused: read as 0.9 % or 1 %, a gate that
+    low passes everything (a fraction meant), so the sign is asked for when so small a
+    percentage is meant; ``1`` is 1 %."""
     from idefix_rules.errors import error
 
     if text is None:
@@ -79,7 +81,7 @@ def _percent(text: str | None, option: str, code: str) -> float | None:
     except ValueError:
         raise UserInputError(error(code, f"{option} {text!r} is not a number: a percentage "
                                          "such as 90 or 90%")) from None
-    if not signed and 0 < value < 1:
+    if gate and not signed and 0 < value <= 1 and "." in written:
         raise UserInputError(error(
             code, f"{option} {text} would be {value:g} %, which looks like a fraction: the "
                   f"option counts in percent", hint=f"write {option} {value * 100:g} for "
@@ -96,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
 
     args.min_coverage = _percent(args.min_coverage, "--min-coverage", "T014")
     args.min_mutation_score = _percent(args.min_mutation_score, "--min-mutation-score", "T015")
-    args.nudge = _percent(args.nudge, "--nudge", "T015")
+    # a nudge read too small fails loudly (its mutants survive): a bare 0.5 is 0.5 %
+    args.nudge = _percent(args.nudge, "--nudge", "T015", gate=False)
     if args.min_coverage is not None and not 0 <= args.min_coverage <= 100:
         raise UserInputError(error("T014", "--min-coverage is a percentage from 0 to 100"))
     if args.min_mutation_score is not None and not 0 <= args.min_mutation_score <= 100:

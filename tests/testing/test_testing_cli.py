@@ -243,6 +243,7 @@ def test_min_coverage_gates_the_exit_code(tmp_path, capsys):
         in err.out + err.err
     assert main(["test", "--min-coverage", "0.5%", str(path)]) == 0  # said so: 0.5 %
     assert main(["test", "--min-coverage", "1", str(path)]) == 0  # 1 %: no fraction
+    assert main(["test", "--min-coverage", "1.0", str(path)]) == 2  # 100 % meant?
     assert main(["test", "--min-coverage", "most", str(path)]) == 2
 
 

@@ -90,6 +90,7 @@ def test_min_mutation_score_gates_the_exit_code(tmp_path, capsys):
     assert main(["test", "--min-mutation-score", "101", str(calm)]) == 2
     assert main(["test", "--min-mutation-score", "0.73", str(calm)]) == 2  # 73 % meant?
     assert main(["test", "--min-mutation-score", "73%", str(calm)]) == 1
+    assert main(["test", "--mutate", "--nudge", "0.5", str(calm)]) == 1  # 0.5 %: survivors
     assert main(["test", "--mutate", "--nudge", "0", str(calm)]) == 2
     err = capsys.readouterr()
     assert "T015" in err.out + err.err
