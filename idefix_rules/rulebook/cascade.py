@@ -139,7 +139,7 @@ def path_hints(rulebook: Rulebook, diagnostics: list[Diagnostic]) -> list[Diagno
         where = diagnostic.message.split(" in ", 1)[-1]
         if name in indices or name in chances:
             kind = "index" if name in indices else "chance"
-            if "verdict" in diagnostic.message:
+            if where.startswith("a verdict"):
                 diagnostic = replace(diagnostic, message=(
                     f"{kind} '{name}' is a {'value' if kind == 'index' else 'condition'} per "
                     "run; a verdict reads path statistics"), hint=(
@@ -153,17 +153,30 @@ def path_hints(rulebook: Rulebook, diagnostics: list[Diagnostic]) -> list[Diagno
                     f"{kind} '{name}' cannot be read in {where}"), hint=context)
         else:
             close = difflib.get_close_matches(name, sorted(indices | chances), n=1, cutoff=0.8)
-            if close and (diagnostic.hint is None or close[0] not in diagnostic.hint):
+            if close and not _closer_hint(name, close[0], diagnostic.hint):
                 kind = "index" if close[0] in indices else "chance"
                 diagnostic = replace(diagnostic, hint=(
                     f"did you mean {kind} '{close[0]}'? (" + (
                         f"a verdict reads mean({close[0]}) or max({close[0]}))"
                         if kind == "index" else f"a verdict reads chance({close[0]}))")
-                    if "verdict" in where else
+                    if where.startswith("a verdict") else
                     f"did you mean {kind} '{close[0]}'? It cannot be read in {where}"))
         out.append(diagnostic)
     return out
 
+
+
+def _closer_hint(name: str, candidate: str, hint: str | None) -> bool:
+    """Whether ``hint`` already suggests a visible name at least as close to ``name`` as
+    ``candidate`` (an index or chance that cannot be read there)."""
+    suggested = re.match(r"did you mean '([^']+)'", hint or "")
+    if suggested is None:
+        return False
+
+    def ratio(other: str) -> float:
+        return difflib.SequenceMatcher(None, name, other).ratio()
+
+    return ratio(suggested.group(1)) >= ratio(candidate)
 
 def _nodes(expr: Expr) -> Iterator[Expr]:
     yield expr
