@@ -68,12 +68,12 @@ def git_text(path: Path, revision: str) -> str:
         if not _is_revision(folder, revision):
             raise UserInputError(error("D001", f"{label}: {revision!r} is not a git revision "
                                                f"({reason})", where,
-                                       hint="git log --oneline -- PATH lists the revisions "
-                                            "that have the file"))
+                                       hint=f"git log --oneline -- {path} lists the "
+                                            "revisions that have the file"))
         raise UserInputError(error("D004", f"{label}: cannot read the file at revision "
                                            f"{revision!r}: {reason}", where,
-                                   hint="check the revision (git log -- PATH) and that PATH "
-                                        "is inside a git repository"))
+                                   hint=f"check the revision (git log -- {path}) and that "
+                                        f"{path} is inside a git repository"))
     try:
         return done.stdout.decode("utf-8")
     except UnicodeDecodeError as failure:

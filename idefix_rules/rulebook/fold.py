@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping
 
 from idefix_rules.rulebook.model import Binary, Call, Expr, Name, Number, Select, Table, Unary
+from idefix_rules.rulebook.types import FUNCTION_ARITY
 from idefix_rules.units import parse_unit
 
 Value = float | dict[str, float]
@@ -105,14 +106,10 @@ def _binary(expr: Binary, constants: Mapping[str, Value]) -> Value:
     return _zip(_OPS[expr.op], fold(expr.left, constants), fold(expr.right, constants))
 
 
-# The functions a constant expression may call, with their argument counts (None: one or more);
-# a call with another count is an error the checker reports (E106), not a value.
-_ARITY: dict[str, int | None] = {"abs": 1, "sqrt": 1, "min": None, "max": None, "hypot": 2,
-                                 "clamp": 3}
-
-
 def _call(function: str, args: list[Value]) -> Value:
-    if function not in _ARITY or not args or _ARITY[function] not in (None, len(args)):
+    # a call with another argument count is an error the checker reports (E106), not a value
+    fewest, most = FUNCTION_ARITY.get(function, (1, 0))
+    if not fewest <= len(args) <= most:
         raise NotConstant(function)
     if function == "abs":
         return _map(abs, args[0])

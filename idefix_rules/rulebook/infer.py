@@ -38,6 +38,7 @@ from idefix_rules.rulebook.model import (
 from idefix_rules.rulebook.types import (
     BOOLEAN,
     ELEMENTWISE_FUNCTIONS,
+    FUNCTION_ARITY,
     PATH_FUNCTIONS,
     RATIO,
     SCOPE_DESCRIPTIONS,
@@ -246,8 +247,7 @@ def _call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
                               did_you_mean(expr.function, known)
                               or f"functions are {', '.join(known)}"))
         return None
-    arity = {"abs": (1, 1), "sqrt": (1, 1), "clamp": (3, 3), "hypot": (2, 2), "min": (2, 99),
-             "max": (2, 99)}
+    arity = FUNCTION_ARITY
     low, high = arity[expr.function]
     if not low <= len(expr.args) <= high:
         wanted = str(low) if low == high else f"at least {low}"

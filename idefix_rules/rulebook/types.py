@@ -95,6 +95,9 @@ PATH_FUNCTIONS: dict[str, str] = {"chance": "chance", "mean": "index", "max": "i
 
 ELEMENTWISE_FUNCTIONS: frozenset[str] = frozenset({"abs", "min", "max", "sqrt", "clamp",
                                                  "hypot"})
+# Each function's argument count, fewest and most (E106 outside them).
+FUNCTION_ARITY: dict[str, tuple[int, int]] = {"abs": (1, 1), "sqrt": (1, 1), "clamp": (3, 3),
+                                              "hypot": (2, 2), "min": (2, 99), "max": (2, 99)}
 
 SETTINGS: dict[str, tuple[Dimension, float]] = {
     # name: (dimension, default in SI)

@@ -369,6 +369,13 @@ CASES = [
                                               '{max_wheel_rate: "1e-7 rad/s", delta_position: '
                                               '"0.1 m", delta_heading: "0 deg"}')), RUN,
          2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last",)),
+    # a command longer than a double holds (its duration inf): said at the path, not a crash
+    Case("campaign-endless-chain", campaign(('{max_wheel_rate: "0.1 rad/s", delta_position: '
+                                             '"0.1 m", delta_heading: "0 deg"}',
+                                             '{max_wheel_rate: "0.1 rad/s", delta_position: '
+                                             '"1e308 m", delta_heading: "0 deg"}')), RUN,
+         2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last longer than a "
+             "number can say",)),
     # an output interval so fine the runs hold too many samples: said once, at the interval
     Case("campaign-fine-output-interval", campaign(('output_interval: "0.5 s"',
                                                     'output_interval: "1e-5 s"')), RUN,

@@ -434,8 +434,15 @@ def stop_limit(campaign: Campaign, chain: Sequence[Command], rover: RoverGeometr
     settings = campaign.model.simulation
     ideal = chain_duration(tuple(chain), rover)
     raw_stop = ideal * settings.duration_margin + settings.extra_time
+    if not math.isfinite(raw_stop / settings.output_interval):  # longer than a double holds
+        return math.inf, UNBOUNDED_SAMPLES, ideal
     steps = max(1, math.ceil(raw_stop / settings.output_interval - 1e-9))
     return steps * settings.output_interval, steps + 1, ideal
+
+
+# The sample count of a run whose stop time is beyond a double (a command 1e308 m long): more
+# than any limit, so it is refused before anything is simulated.
+UNBOUNDED_SAMPLES = 2 ** 63
 
 
 def rover_geometry(campaign: Campaign) -> RoverGeometry:

@@ -250,7 +250,9 @@ def check_simulation_size(campaign: Campaign) -> None:
             "C404", f"paths.{spec.name}: a run would last "
                     f"{samples * settings.output_interval:.6g} s at an output interval of "
                     f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
-                    f"than {MAX_SAMPLES}",
+                    f"than {MAX_SAMPLES}" if math.isfinite(stop) else
+                    f"paths.{spec.name}: a run would last longer than a number can say (its "
+                    f"chain's duration is beyond a double): more than {MAX_SAMPLES} samples",
             campaign.locations.span(where, at_key=where[-1] != "output_interval"),
             hint="stop time = chain duration × duration_margin + extra_time; check the "
                  "simulation section and the chain's wheel rates"))

@@ -70,7 +70,7 @@ class InputProblem:
 _RUNNERS: dict[tuple[Any, ...], Any] = {}
 
 
-def _shared_extraction(fmu_path: str, scratch: str) -> str | None:
+def shared_extraction(fmu_path: str, scratch: str) -> str | None:
     """The FMU extracted into ``scratch`` once for every process that shares the folder: named
     by the file's SHA-256, extracted aside and renamed into place, so a process never sees a
     half-extracted FMU and two extracting at once keep one. None when there is no such file
@@ -83,12 +83,20 @@ def _shared_extraction(fmu_path: str, scratch: str) -> str | None:
     target = os.path.join(scratch, f"idefix-fmu-{file_sha256(Path(fmu_path))}")
     if os.path.isdir(target):
         return target
-    aside = tempfile.mkdtemp(prefix=".idefix-fmu-", dir=scratch)
-    extract_fmu(fmu_path, aside)
     try:
+        aside = tempfile.mkdtemp(prefix=".idefix-fmu-", dir=scratch)
+    except OSError:  # the scratch folder is gone or full: the runner extracts its own
+        return None
+    try:
+        extract_fmu(fmu_path, aside)
         os.rename(aside, target)
-    except OSError:  # another process got there first
-        shutil.rmtree(aside, ignore_errors=True)
+    except OSError:
+        if not os.path.isdir(target):  # not another process that got there first
+            shutil.rmtree(aside, ignore_errors=True)
+            return None
+    finally:
+        if os.path.isdir(aside):  # a failed extraction, or one that lost the race
+            shutil.rmtree(aside, ignore_errors=True)
     return target
 
 
@@ -106,7 +114,7 @@ def _runner(task: RunTask) -> Any:
         if unzipped is None and processes.SCRATCH is not None:
             # a Dask worker's process: the worker's scratch folder, not one of its own that a
             # process killed at a timeout, a crash or its worker's end would leave behind
-            unzipped = _shared_extraction(task.fmu_path, processes.SCRATCH)
+            unzipped = shared_extraction(task.fmu_path, processes.SCRATCH)
         runner = FmuRunner(
             task.fmu_path,
             signal_map=dict(task.signal_map) if task.signal_map is not None else None,
