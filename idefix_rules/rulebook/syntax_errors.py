@@ -121,10 +121,32 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         message = f"unexpected {_describe_token(token)}; expected {describe_expected(expected)}"
         end = token.end_pos if isinstance(token.end_pos, int) else None
         following = text[end] if end is not None and end < len(text) else ""
-        return error(SYNTAX_ERROR, message, span, _hint(token, expected, following))
+        hint = _name_read_as_reduction(token, expected, text) or \
+            _hint(token, expected, following)
+        return error(SYNTAX_ERROR, message, span, hint)
     line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
 
+
+
+def _name_read_as_reduction(token: lark.Token, expected: set[str], text: str) -> str | None:
+    """A declared constant, index or chance spelt like a reduction word (``const max = …``)
+    read where it is used as the start of a reduction: point at its declaration (E103)."""
+    if "OVER" not in expected:
+        return None
+    start = token.start_pos if isinstance(token.start_pos, int) and token.type != "$END" \
+        else len(text.rstrip())
+    word = re.search(r"([A-Za-z_]\w*)\s*$", text[:start])
+    if word is None:
+        return None
+    declared = re.search(rf"^[ \t]*(const|index|chance)[ \t]+{re.escape(word.group(1))}\b",
+                         text, re.MULTILINE)
+    if declared is None:
+        return None
+    line = text.count("\n", 0, declared.start()) + 1
+    kind = {"const": "constant"}.get(declared.group(1), declared.group(1))
+    return (f"'{word.group(1)}' is read as the reduction '{word.group(1)} over …'; the {kind} "
+            f"of that name (line {line}) can never be read: rename it")
 
 def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | None:
     """A reduction written wrong before the token: a parametric reducer without its parameter
