@@ -131,7 +131,11 @@ def resolve_constants(env: CheckEnv) -> list[Diagnostic]:
             value = fold(constant.value, env.constants)
         except NotConstant:
             return
-        except (OverflowError, ValueError, ZeroDivisionError) as failure:
+        except OverflowError:
+            problems.append(error("E402", f"constant '{name}' is beyond a double: its value "
+                                          "is too large for a number", constant.value.span))
+            return
+        except (ValueError, ZeroDivisionError) as failure:
             problems.append(error("E402", f"constant '{name}' cannot be computed: {failure}",
                                   constant.value.span))
             return

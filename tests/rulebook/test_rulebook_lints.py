@@ -281,3 +281,11 @@ def test_a_bare_time_above_threshold_on_a_ratio_is_a_percentage_meant(
     assert codes(extra=f"chance slow = time_above {threshold} over time (max over wheels "
                        "(wheel.slip)) > 10 s\nverdict w: require chance(slow) <= 5 %\n") \
         == expected
+
+
+def test_a_constant_beyond_a_double_says_so() -> None:
+    text = HEAD.replace("LIMIT", "70 %").replace("CONDITION", "risk <= 70 %") \
+        + "const p = (1e200 m) ^ 2\n"
+    [found] = check_text(text, "t.rules").diagnostics
+    assert (found.code, found.message) == (
+        "E402", "constant 'p' is beyond a double: its value is too large for a number")
