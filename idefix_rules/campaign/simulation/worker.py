@@ -92,7 +92,6 @@ def shared_extraction(fmu_path: str, scratch: str) -> str | None:
         os.rename(aside, target)
     except OSError:
         if not os.path.isdir(target):  # not another process that got there first
-            shutil.rmtree(aside, ignore_errors=True)
             return None
     finally:
         if os.path.isdir(aside):  # a failed extraction, or one that lost the race
