@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -98,8 +99,10 @@ def test_a_killed_campaign_resumes_to_the_same_result(campaign_dir: Path,
     whole = copy_campaign(campaign_dir, tmp_path / "whole", text)
     script = tmp_path / "killer.py"
     script.write_text(KILLER)
+    # a killed campaign cannot remove its FMU extraction: keep it in the test's own folder
     process = subprocess.run([sys.executable, str(script), str(killed), "7"],
-                             capture_output=True, text=True, timeout=120)
+                             capture_output=True, text=True, timeout=120,
+                             env={**os.environ, "TMPDIR": str(tmp_path)})
     assert process.returncode == -9, process.stderr
     results = killed.parent / "out" / "results.h5"
     with h5py.File(results) as partial:
