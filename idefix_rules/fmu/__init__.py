@@ -3,8 +3,9 @@
 >>> from idefix_rules.fmu import FmuRunner, default_fmu_path, synthetic_terrain, write_terrain
 """
 
+from idefix_rules.fmu.archive import extract_fmu
 from idefix_rules.fmu.build import build_fmu, default_fmu_path, source_dir
-from idefix_rules.fmu.runner import FmuRunner, extract_fmu
+from idefix_rules.fmu.runner import FmuRunner
 from idefix_rules.fmu.terrain import (
     Rock,
     Terrain,

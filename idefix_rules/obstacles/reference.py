@@ -4,7 +4,8 @@ No broad phase, no advancement, no interpolation between samples. It is the base
 ``benchmarks/bench_collisions.py`` and the oracle the tests compare :func:`collision_signals`
 with (on trajectories sampled finely enough that nothing happens between samples). Distances fcl
 computes with GJK (every piece but spheres) go through the same certificate as in the fast
-checker (:func:`~idefix_rules.obstacles.check.certified_distance`), so both see fcl's best answer.
+checker (:func:`~idefix_rules.obstacles.distances.certified_distance`), so both see fcl's best
+answer.
 """
 
 from __future__ import annotations
@@ -15,11 +16,9 @@ import fcl
 import numpy as np
 
 from idefix_rules.obstacles.bodies import PARTS, Body, RoverBodies, rotation_matrices
-from idefix_rules.obstacles.check import (
-    Tracks,
+from idefix_rules.obstacles.chunks import Tracks, check_poses, collect
+from idefix_rules.obstacles.distances import (
     certified_distance,
-    check_poses,
-    collect,
     fcl_body,
     fcl_piece,
     piece_support,

@@ -4,9 +4,11 @@ passes; :mod:`.lints` and :mod:`.cascade` read this state without importing the 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from idefix_rules import signals
+from idefix_rules.errors import Diagnostic
 from idefix_rules.rulebook.fold import Value
 from idefix_rules.rulebook.model import Rulebook
 from idefix_rules.rulebook.types import (
@@ -18,6 +20,8 @@ from idefix_rules.rulebook.types import (
     Scope,
 )
 from idefix_rules.units import DIMENSIONLESS
+
+LEVELS = signals.AXIS_LABELS["level"]
 
 
 @dataclass(frozen=True)
@@ -66,6 +70,9 @@ class CheckEnv:
 
     def scope(self, kind: str) -> Scope:
         return scope_of(kind, self.rulebook, self.constant_types)
+
+
+Check = Callable[[CheckEnv], list[Diagnostic]]
 
 
 def scope_of(kind: str, rulebook: Rulebook, constant_types: dict[str, ExprType]) -> Scope:

@@ -427,7 +427,7 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
         return None
     if expr.reducer == "percentile" and parameter is not None:
         # a number written in place is checked here; one naming constants once folded
-        # (check.check_percentiles)
+        # (expression_checks.check_percentiles)
         value = expr.parameter
         if parameter.dimension != DIMENSIONLESS or parameter.axes or (
                 isinstance(value, Number) and not (0 <= value.value <= 100

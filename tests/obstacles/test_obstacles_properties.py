@@ -18,7 +18,7 @@ from idefix_rules.obstacles import (
     collision_signals,
     rotation_matrices,
 )
-from idefix_rules.obstacles.check import (
+from idefix_rules.obstacles.distances import (
     certified_distance,
     fcl_body,
     fcl_piece,

@@ -30,14 +30,9 @@ from typing import Any
 
 from idefix_rules.campaign.input.load import Campaign, format_loc
 from idefix_rules.errors import Diagnostic, Severity, Span, UserInputError, error, warning
+from idefix_rules.fmu.archive import default_signal_map
 from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu
-from idefix_rules.fmu.runner import (
-    CHAIN_ARRAYS,
-    CHAIN_COUNT,
-    DONE_SIGNAL,
-    TERRAIN_FILE,
-    default_signal_map,
-)
+from idefix_rules.fmu.mapping import CHAIN_ARRAYS, CHAIN_COUNT, DONE_SIGNAL, TERRAIN_FILE
 from idefix_rules.fmu.setpoints import SETPOINTS
 from idefix_rules.signals import AXIS_LABELS, FMU_SIGNALS
 from idefix_rules.units import parse_unit

@@ -30,7 +30,7 @@ from idefix_rules.campaign.input.load import (
 )
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
-from idefix_rules.fmu.runner import CHAIN_ARRAYS, CHAIN_COUNT
+from idefix_rules.fmu.mapping import CHAIN_ARRAYS, CHAIN_COUNT
 from idefix_rules.units import Dimension, describe
 
 # Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval

@@ -18,7 +18,7 @@ from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, 
 from idefix_rules.campaign.simulation.run_stage import FmuSource, PathPlan, SimulationOptions
 from idefix_rules.campaign.simulation.worker import InputProblem, RunTask
 from idefix_rules.errors import Diagnostic, UserInputError
-from idefix_rules.fmu.runner import PARAMETER_REJECTED
+from idefix_rules.fmu.mapping import PARAMETER_REJECTED
 
 
 def open_pool(function: Any, options: SimulationOptions, campaign: Campaign,
