@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any, Literal
 
 from idefix_rules.rulebook.fold import number_si
@@ -47,16 +47,6 @@ def combine(*polarities: Polarity) -> Polarity:
 
 def negate(polarity: Polarity) -> Polarity:
     return None if polarity is None else -polarity
-
-
-Atom = Callable[[Expr], "Polarity | NotAtom"]
-
-
-class NotAtom:
-    """Marker: the expression is not an atom of the quantity in question."""
-
-
-NOT_ATOM = NotAtom()
 
 
 class Polarities:

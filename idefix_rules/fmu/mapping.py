@@ -14,7 +14,6 @@ CHAIN_COUNT = "chain.count"
 TERRAIN_FILE = "terrain.file"
 CHAIN_ARRAYS = ("chain.max_wheel_rate", "chain.delta_position", "chain.delta_heading")
 DONE_SIGNAL = "done"
-CHAIN_DELIVERIES = ("parameters", "inputs", "none")
 _INDEXED = re.compile(r"^(?P<name>[^\[\]]+)\[(?P<index>[A-Za-z0-9_]+)\]$")
 # How the rover FMU (and any FMU following its wording) names a parameter it rejects.
 PARAMETER_REJECTED = re.compile(r"^parameter (?P<name>[^\s=]+) = (?P<value>\S+) out of range")
