@@ -5,9 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from idefix_rules.diff.polarity import Direction, Polarities, combine, direction_of, merge
-from idefix_rules.diff.quantities import effective_nominal, index_of, number_change, sign
+from idefix_rules.diff.quantities import effective_nominal, index_of, leaf_moves, sign
 from idefix_rules.rulebook.check import CheckedRulebook
-from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.model import Expr
 from idefix_rules.rulebook.semantics import names_in
 
@@ -63,17 +62,10 @@ def _moves(old: CheckedRulebook, new: CheckedRulebook, name: str) -> list[Move]:
 
 def _number_moves(new: CheckedRulebook, before: Expr, after: Expr) -> list[Move]:
     """Each number that moved in an expression whose shape stayed (a new shape: unknown)."""
-    pairs = number_change(before, after)
-    if pairs is None:
+    moves = leaf_moves(before, after)
+    if moves is None:
         return [(new, {}, None)]
-    moves: list[Move] = []
-    for old_number, new_number in pairs:
-        try:
-            moved = sign(number_si(old_number), number_si(new_number))
-        except (ValueError, KeyError):
-            moved = None
-        moves.append((new, {f"id:{id(new_number)}": 1}, moved))
-    return moves
+    return [(new, {key: 1}, moved) for key, moved in moves]
 
 
 def affected_index(old: CheckedRulebook, new: CheckedRulebook, name: str,

@@ -28,16 +28,17 @@ from the rule model, never from data:
    **stricter** when it is ``-1``, **neutral** when it is 0 or ``v`` did not move in SI.
 
 What moves: a constant (each of its uses), an index's limit, nominal or weight, a number in a
-condition (the rest of the condition unchanged), a level's buffer (more buffer entries,
-``collision.buffer``), ``tolerance_growth`` (a wider ``tolerance_radius``). An added command
-rule, prescreen or verdict is stricter, a removed one looser; an added index raises the risk
-(stricter when verdicts bound the risk from above). Header, ranking, titles, rationales, maps
-``confidence`` (which only decides whether a verdict is *decided*), ``indifference`` (which
-only decides whether two paths' ranks are tied) and a verdict's margin (``indifference`` after
-its condition, ``verdict_indifference``: whether an open verdict is within the margin of its
-limit; a path passes or fails as before) are neutral; a changed
-expression shape, a level size threshold read by the rules, or ``theoretical_slip`` are
-unknown.
+condition (the rest of the condition unchanged), a comparison that gained or lost its boundary
+(``<`` → ``<=`` holds on the boundary too, like its right side moved up by an infinitesimal), a
+level's buffer (more buffer entries, ``collision.buffer``), ``tolerance_growth`` (a wider
+``tolerance_radius``). An added command rule, prescreen or verdict is stricter, a removed one
+looser; an added index raises the risk (stricter when verdicts bound the risk from above).
+Header, ranking, titles, rationales, maps ``confidence`` (which only decides whether a verdict
+is *decided*), ``indifference`` (which only decides whether two paths' ranks are tied) and a
+verdict's margin (``indifference`` after its condition, ``verdict_indifference``: whether an
+open verdict is within the margin of its limit; a path passes or fails as before) are neutral;
+a changed expression shape, a level size threshold read by the rules, or ``theoretical_slip``
+are unknown.
 """
 
 from __future__ import annotations
@@ -46,10 +47,15 @@ from collections.abc import Iterable, Iterator, Mapping
 
 from idefix_rules.diff.affected import affected_condition, affected_index
 from idefix_rules.diff.polarity import Direction, Polarities, direction_of, merge
-from idefix_rules.diff.quantities import effective_nominal, index_of, number_change, sign
+from idefix_rules.diff.quantities import (
+    effective_nominal,
+    index_of,
+    leaf_moves,
+    number_change,
+    sign,
+)
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.derived import SETTING_SIGNALS
-from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.model import Expr, Rulebook
 from idefix_rules.rulebook.semantics import names_in
 
@@ -122,16 +128,10 @@ def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
 def _leaf_label(new: CheckedRulebook, old_expr: Expr, new_expr: Expr) -> Direction:
     """Numbers that moved inside an expression whose shape stayed: each moved number is a
     quantity of its own; they must all push the same way."""
-    pairs = number_change(old_expr, new_expr)
-    if pairs is None:
+    moves = leaf_moves(old_expr, new_expr)
+    if moves is None:
         return "unknown"
-    labels = []
-    for old_number, new_number in pairs:
-        try:
-            moved = sign(number_si(old_number), number_si(new_number))
-        except (ValueError, KeyError):
-            return "unknown"
-        labels.append(_label(new, {f"id:{id(new_number)}": 1}, moved))
+    labels = [_label(new, {key: 1}, moved) for key, moved in moves]
     return merge(labels)
 
 

@@ -118,7 +118,9 @@ class Polarities:
         if isinstance(expr, Reduce):
             return self._reduce(expr)
         if isinstance(expr, Binary):
-            return self._binary(expr)
+            # a comparison that gained or lost its equality moves itself (``id:N`` of it)
+            own = self.seed.get(f"id:{id(expr)}", 0)
+            return combine(own, self._binary(expr)) if own else self._binary(expr)
         return None
 
     def _name(self, name: str) -> Polarity:

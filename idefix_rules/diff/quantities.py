@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 from idefix_rules.rulebook.check import CheckedRulebook
+from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.model import (
     Binary,
     Call,
@@ -45,19 +46,27 @@ def index_of(checked: CheckedRulebook, name: str) -> Index:
     return next(i for i in checked.rulebook.indices if i.name == name)
 
 
-def number_change(old: Expr, new: Expr) -> list[tuple[Number, Number]] | None:
-    """Pairs of numbers that differ between two expressions of the same shape (None: the
-    shape differs)."""
+# A comparison that only gained or lost its equality: +1 when it now holds more often (on its
+# boundary too), -1 when less. ``a <= b`` → ``a < b`` is ``b`` moved down by an infinitesimal.
+_STRICTNESS = {("<", "<="): 1, ("<=", "<"): -1, (">", ">="): 1, (">=", ">"): -1}
+
+
+def number_change(old: Expr, new: Expr) -> list[tuple[Expr, Expr]] | None:
+    """What moved between two expressions of the same shape: pairs of numbers that differ,
+    and pairs of comparisons whose operator only gained or lost its equality (``<=`` → ``<``;
+    see :func:`leaf_moves`). None: the shape differs."""
     if type(old) is not type(new):
         return None
     if isinstance(old, Number) and isinstance(new, Number):
         return [] if old == new else [(old, new)]
-    pairs: list[tuple[Number, Number]] = []
+    pairs: list[tuple[Expr, Expr]] = []
     if isinstance(old, Name) and isinstance(new, Name):
         return [] if old.name == new.name else None
     if isinstance(old, Binary) and isinstance(new, Binary):
         if old.op != new.op:
-            return None
+            if (old.op, new.op) not in _STRICTNESS:
+                return None
+            pairs.append((old, new))
         children = [(old.left, new.left), (old.right, new.right)]
     elif isinstance(old, Unary) and isinstance(new, Unary):
         if old.op != new.op:
@@ -95,3 +104,26 @@ def number_change(old: Expr, new: Expr) -> list[tuple[Number, Number]] | None:
             return None
         pairs += found
     return pairs
+
+
+def leaf_moves(old: Expr, new: Expr) -> list[tuple[str, int | None]] | None:
+    """What moved in an expression whose shape stayed, as ``(id:N of the node in new, sign of
+    its move)``: each number that moved (in SI; None when it has no SI value), and each
+    comparison that gained its equality (+1: it holds on its boundary too) or lost it (-1).
+    None: the shape differs."""
+    pairs = number_change(old, new)
+    if pairs is None:
+        return None
+    moves: list[tuple[str, int | None]] = []
+    for before, after in pairs:
+        moved: int | None
+        if isinstance(before, Binary) and isinstance(after, Binary):
+            moved = _STRICTNESS[(before.op, after.op)]
+        else:
+            assert isinstance(before, Number) and isinstance(after, Number)
+            try:
+                moved = sign(number_si(before), number_si(after))
+            except (ValueError, KeyError):
+                moved = None
+        moves.append((f"id:{id(after)}", moved))
+    return moves

@@ -52,6 +52,16 @@ def edited(old: str, new: str, count: int = 1) -> str:
     # verdict threshold on the path risk
     ("require risk <= 70 %", "require risk <= 80 %", ("verdict", "acceptable_risk"), "looser"),
     ("require risk <= 70 %", "require risk <= 60 %", ("verdict", "acceptable_risk"), "stricter"),
+    # a comparison that gains or loses its boundary: `<=` → `<` holds less often
+    ("require risk <= 70 %", "require risk < 70 %", ("verdict", "acceptable_risk"), "stricter"),
+    ("require I_obs < 1", "require I_obs <= 1", ("prescreen", "no_clear_collision"), "looser"),
+    ("abs(delta_position) >= min_delta_position", "abs(delta_position) > min_delta_position",
+     ("command", "min_motion"), "stricter"),
+    # a chance that counts more runs, read by a verdict with an upper bound
+    ("(collision.hits[L3] > 0)", "(collision.hits[L3] >= 0)", ("chance", "hit_L3"), "stricter"),
+    # the side swapped, not only the boundary: monotonicity cannot say
+    ("require risk <= 70 %", "require risk >= 70 %", ("verdict", "acceptable_risk"), "unknown"),
+    ("require risk <= 70 %", "require risk == 70 %", ("verdict", "acceptable_risk"), "unknown"),
     # command rule threshold
     ("<= max_turn\n", "<= 60 deg\n", ("command", "max_turn_angle"), "unknown"),
     ("const max_turn                 = 90 deg", "const max_turn                 = 120 deg",
@@ -240,3 +250,23 @@ def test_a_setting_or_obstacle_level_lists_the_rules_it_moves_with_their_directi
     assert found[setting] == expected
     for where in affected:
         assert found.get(where) == expected, (where, found)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_a_comparison_that_gains_its_boundary_turns_passes_into_fails_only_when_stricter(data):
+    """Runs without L3 hits sit on the boundary of `hits[L3] > 0`: with `>= 0` every run
+    counts as a hit and `rare_l3_hits` fails. The label must allow that (stricter), and the
+    opposite label must not."""
+    base = compile_rulebook(MODEL)
+    changed_text = edited("(collision.hits[L3] > 0)", "(collision.hits[L3] >= 0)")
+    assert labels(DEFAULT, changed_text)[("chance", "hit_L3")] == "stricter"
+    changed = check_text(changed_text, "new.rules").checked
+    assert changed is not None
+    signals, context = data.draw(realistic_runs(NARROW))
+    before, after = check_direction(base, compile_rulebook(changed), "stricter", signals, context)
+    assert not after  # every run now hits L3
+    event(f"{'pass' if before else 'fail'} → fail")
+    if before:
+        with pytest.raises(AssertionError, match="looser change turned a pass into a fail"):
+            check_direction(base, compile_rulebook(changed), "looser", signals, context)
