@@ -150,6 +150,41 @@ def test_resume_refuses_results_of_another_campaign(campaign_dir: Path,
     assert "cannot resume" in capsys.readouterr().err
 
 
+def test_resume_refuses_a_rulebook_edited_since_the_campaign_started(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Its command rules and prescreen decided which paths were simulated: a tighter wheel-rate
+    rule would forbid the chain that was simulated under the old one. Nothing is changed, and
+    the message says how to score the stored runs with the new rulebook instead."""
+    from idefix_rules.cli import main
+
+    path = campaign_dir / "campaign.yaml"
+    rulebook = campaign_dir / "test.rules"
+    assert main([str(path), "--quiet", "--no-report"]) == 1
+    results = campaign_dir / "out" / "results.h5"
+    before = datasets(results)
+    with h5py.File(results) as stored:
+        resumed = stored.attrs["resumed"]
+    capsys.readouterr()
+    original = rulebook.read_text()
+    rulebook.write_text(original.replace("<= 0.2 rad/s", "<= 0.01 rad/s"))
+    assert main([str(path), "--quiet", "--no-report", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "error[H010]: cannot resume" in err
+    assert "started with rulebook campaign-test 0.1.0" in err
+    assert "is campaign-test 0.1.0, edited since" in err
+    assert f"idefix-verify evaluate {results} --rulebook {rulebook}" in err
+    assert "Traceback" not in err
+    after = datasets(results)
+    assert after.keys() == before.keys()
+    for name, values in before.items():
+        assert np.array_equal(values, after[name], equal_nan=values.dtype.kind == "f"), name
+    with h5py.File(results) as stored:
+        assert stored.attrs["resumed"] == resumed  # the refused attempt left no trace
+    # the rulebook it started with: resumed as before
+    rulebook.write_text(original)
+    assert main([str(path), "--quiet", "--no-report", "--resume"]) == 1
+
+
 def simulated_until(group: h5py.Group) -> float:
     """How far the toy FMU's runs of a path are simulated: one step past the chain's end (the
     FMU is not stepped after it), read from the reference run, as the toy's timing does not

@@ -40,6 +40,33 @@ def run_settings(campaign: Campaign) -> dict[str, Any]:
             "paired": paired}
 
 
+def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
+                   results: Path) -> None:
+    """A resumed campaign keeps the rulebook it started with: its command rules and prescreen
+    decided which paths were simulated, and one evaluation reads one rulebook. A rulebook
+    edited since is refused (H010); ``evaluate --rulebook`` scores the stored runs with it."""
+    stored = store.file.get("provenance/rulebook")
+    if stored is None or "sha256" not in stored.attrs:
+        return  # written before results kept the rulebook's hash: nothing to compare
+    digest = str(stored.attrs["sha256"])
+    if digest == str(evaluator.source_hash):
+        return
+    started = f"{stored.attrs.get('name', '?')} {stored.attrs.get('version', '?')}"
+    now = f"{evaluator.name} {evaluator.version}"
+    if started == now:
+        now += ", edited since"
+    store.close()
+    raise UserInputError(error(
+        "H010", f"cannot resume {results}: it was started with rulebook {started} "
+                f"(sha256 {digest[:12]}), this campaign's rulebook "
+                f"{campaign.rulebook} is {now} (sha256 {str(evaluator.source_hash)[:12]})",
+        Span(str(results)),
+        hint=f"resume with the rulebook it was started with (its text is stored in "
+             f"{results.name}, /provenance/rulebook), then score the runs with the new one: "
+             f"idefix-verify evaluate {results} --rulebook {campaign.rulebook}; or run "
+             f"without --resume to start again"))
+
+
 def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
                resume: bool, terrain: tuple[Terrain, TerrainSource] | None) -> ResultStore:
     fmu_hash = file_sha256(fmu_path)
@@ -62,6 +89,7 @@ def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path
                             f"this campaign's is {value!r}", Span(str(results)),
                     hint="resume with the same campaign file, --runs, --max-runs, --min-runs, "
                          "--seed and FMU, or choose another --out"))
+        _same_rulebook(store, evaluator, campaign, results)
         resumed = json.loads(str(store.attrs.get("resumed", "[]")))
         store.attrs["resumed"] = json.dumps([*resumed, now_iso()])
         if terrain is not None and not stored_terrain.has_terrain(store.file):
