@@ -5,6 +5,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pytest
 
 from idefix_rules.campaign.evaluation.evaluate import (
     CampaignEvaluation,
@@ -167,6 +168,18 @@ def test_junit_without_expectations_fails_on_path_verdicts() -> None:
     passing = CampaignEvaluation(results.paths[:1], ["good"], {}, {})
     root, _ = _junit_failures(junit_xml(passing, [], "c"))
     assert root.get("failures") == "0" and exit_code(passing, [], False) == 0
+
+
+@pytest.mark.parametrize(("name", "shown"), [
+    ("ba\x02se", "ba\\x02se"), ("tab\tand\x0bvt", "tab\tand\\x0bvt"),
+    ("odd\ufffe", "odd\\ufffe"), ("é\x00", "é\\x00"), ("plain é ✓", "plain é ✓")])
+def test_junit_stays_xml_when_the_campaign_name_holds_a_control_character(
+        name: str, shown: str) -> None:
+    """A name a YAML escape can give: XML 1.0 cannot hold it, even as a reference, so it is
+    written as its Python escape and a CI publisher still reads the file."""
+    root = ET.fromstring(junit_xml(evaluation(), [], name))  # raises on a file that is not XML
+    assert root.get("name") == shown
+    assert {s.get("name") for s in root.iter("testsuite")} == {f"{shown}.paths"}
 
 
 def test_summary_lists_failures_and_uses_mAs() -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
@@ -443,7 +444,30 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
                   errors, sum(float(s.get("time", "0")) for s in root.iter("testsuite")),
                   skipped)
     ET.indent(root)
+    _xml_safe(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+# Characters XML 1.0 cannot hold, even escaped (control characters, lone surrogates, U+FFFE/F):
+# ElementTree writes them as they are, and the file is then not XML.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _visible(match: re.Match[str]) -> str:
+    code = ord(match.group())
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def _xml_safe(root: ET.Element) -> None:
+    """Write what XML cannot hold (a control character in a campaign's name, a waiver's
+    reason or a message) as its Python escape (``\\x02``), so the file stays well-formed."""
+    for element in root.iter():
+        if element.text:
+            element.text = _NOT_XML.sub(_visible, element.text)
+        if element.tail:
+            element.tail = _NOT_XML.sub(_visible, element.tail)
+        for key, value in element.attrib.items():
+            element.attrib[key] = _NOT_XML.sub(_visible, value)
 
 
 def _milliseconds(seconds: float) -> float:
