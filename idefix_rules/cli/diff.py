@@ -79,9 +79,12 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(as_plain(data), indent=2, default=str, allow_nan=False))
         return code
     if args.format == "md":
-        from idefix_rules.diff.changelog import changelog
+        from idefix_rules.diff.changelog import changelog, results_markdown
 
         print(changelog(rules))
+        if results is not None:
+            print()
+            print(results_markdown(results, args.fail_on, code))
         return code
     console = make_console()
     print_rules(console, rules)
@@ -289,17 +292,4 @@ def print_results(console: Console, file: ResultsFileDiff) -> None:
 
 
 def print_exit(console: Console, results: ResultsDiff, fail_on: str, code: int) -> None:
-    changes = results.verdict_changes()
-    first = [f.results for f in results.files if f.first_changed]
-    if code == 0:
-        console.print(f"exit code 0: no verdict changes (fail-on {fail_on})"
-                      + (f"; {len(changes)} verdict change(s) ignored" if changes else ""))
-        return
-    what = []
-    if changes:
-        what.append(f"{len(changes)} path verdict(s) changed")
-    if first:
-        what.append("the first-ranked path changed")
-    if not what:
-        what.append("a rank changed")
-    console.print(f"exit code 1: {', '.join(what)} (fail-on {fail_on})")
+    console.print(results.exit_reason(fail_on, code), markup=False)

@@ -14,7 +14,12 @@ No rule changed (comments and layout aside).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from idefix_rules.diff.rules import FieldChange, RuleChange, RuleDiff
+
+if TYPE_CHECKING:
+    from idefix_rules.diff.results import ResultsDiff, SideResult
 
 _ORDER = ("stricter", "looser", "unknown", "neutral")
 _TITLES = {"stricter": "Stricter", "looser": "Looser",
@@ -72,4 +77,45 @@ def changelog(diff: RuleDiff) -> str:
         if chosen:
             lines += ["", f"### {_TITLES[label]}", ""]
             lines += [_line(c) for c in chosen]
+    return "\n".join(lines)
+
+
+def _side(side: SideResult) -> tuple[str, str, str]:
+    verdict = side.verdict + (" (not decided)" if side.undecided else "")
+    risk = "—" if side.mean_risk is None else f"{100 * side.mean_risk:.1f} %"
+    return verdict, risk, "—" if side.rank is None else str(side.rank)
+
+
+def _cell(old: str, new: str, changed: bool) -> str:
+    text = old if old == new else f"{old} → {new}"
+    return f"**{text}**" if changed else text
+
+
+def _escaped(text: str) -> str:
+    """A table cell: its own ``|`` must not end it."""
+    return text.replace("|", "\\|")
+
+
+def results_markdown(results: ResultsDiff, fail_on: str, code: int) -> str:
+    """What the change does to stored campaigns (``--results``), for the same changelog entry:
+    a table per results file (verdict, risk and rank, old → new; the changes that set the exit
+    code in bold, with the new side's reasons), then the exit code in words."""
+    lines = ["### Effect on stored campaigns"]
+    for file in results.files:
+        lines += ["", f"`{file.results}` (campaign {file.campaign}):", "",
+                  "| path | verdict | risk | rank | runs whose I_max moved |",
+                  "| --- | --- | --- | --- | --- |"]
+        for path in file.paths:
+            (verdict_old, risk_old, rank_old), (verdict_new, risk_new, rank_new) = \
+                _side(path.old), _side(path.new)
+            verdict = _cell(verdict_old, verdict_new, path.verdict_changed)
+            if path.verdict_changed and path.new.reasons:
+                verdict += ": " + "; ".join(path.new.reasons)
+            lines.append(f"| {_escaped(path.name)} | {_escaped(verdict)} | "
+                         f"{_cell(risk_old, risk_new, False)} | "
+                         f"{_cell(rank_old, rank_new, path.rank_changed)} | "
+                         f"{path.changed_runs} of {path.new.runs or path.old.runs} |")
+        lines += [f"\n> warning: {warning}" for warning in file.warnings]
+    reason = results.exit_reason(fail_on, code)
+    lines += ["", reason[:1].upper() + reason[1:] + "."]
     return "\n".join(lines)

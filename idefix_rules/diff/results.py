@@ -180,6 +180,22 @@ class ResultsDiff:
                 return 1
         return 0
 
+    def exit_reason(self, fail_on: str, code: int) -> str:
+        """What the exit code says, in words: ``exit code 1: 1 path verdict(s) changed
+        (fail-on verdict)``."""
+        changes = self.verdict_changes()
+        if code == 0:
+            return (f"exit code 0: no verdict changes (fail-on {fail_on})"
+                    + (f"; {len(changes)} verdict change(s) ignored" if changes else ""))
+        what = []
+        if changes:
+            what.append(f"{len(changes)} path verdict(s) changed")
+        if any(f.first_changed for f in self.files):
+            what.append("the first-ranked path changed")
+        if not what:
+            what.append("a rank changed")
+        return f"exit code 1: {', '.join(what)} (fail-on {fail_on})"
+
     def to_dict(self) -> dict[str, Any]:
         return {"files": [f.to_dict() for f in self.files]}
 

@@ -216,6 +216,32 @@ def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
     assert f"exit code 1: {changed} path verdict(s) changed" in out
 
 
+def test_the_markdown_changelog_says_what_the_change_does_to_stored_results_and_why_it_exits(
+        stored_results: Path, campaign_rulebook: Path, ops_text: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`--format md --results` exits 1 only with the reason beside it: the changelog entry
+    ends with the effect on the stored campaign and the exit code in words."""
+    short = variant(ops_text, tmp_path, "short",
+                    extra="command short_moves: require abs(delta_position) <= 90 cm\n")
+    capsys.readouterr()
+    code = main(["diff", str(campaign_rulebook), str(short), "--results", str(stored_results),
+                 "--format", "md"])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert out.index("### Effect on stored campaigns") > out.index("## ")
+    assert f"`{stored_results}`" in out
+    row = next(line for line in out.splitlines() if line.startswith("| straight |"))
+    assert "→ rejected**: " in row and "short_moves" in row
+    changed = sum(1 for line in out.splitlines() if line.startswith("| ") and "**" in
+                  line.split("|")[2])
+    assert f"Exit code 1: {changed} path verdict(s) changed (fail-on verdict)." in out
+    # without a change: exit 0, said as such
+    code = main(["diff", str(campaign_rulebook), str(campaign_rulebook), "--results",
+                 str(stored_results), "--format", "md"])
+    assert code == 0
+    assert "Exit code 0: no verdict changes (fail-on verdict)." in capsys.readouterr().out
+
+
 def test_a_path_without_stored_collisions_has_them_recomputed(
         stored_results: Path, campaign_rulebook: Path, tmp_path: Path) -> None:
     import shutil
