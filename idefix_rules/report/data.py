@@ -449,7 +449,12 @@ def read_path(name: str, group: h5py.Group, summary_rows: Mapping[str, TableRow]
         path.verdict = dict(_json(evaluation.attrs.get("verdict"), {}) or {})
         for key, dataset in evaluation.get("chances", {}).items():
             path.chances[key] = np.asarray(dataset[()])
-    path.row = summary_rows.get(name) or row_from_arrays(name, group, path)
+    summary_row = summary_rows.get(name)
+    path.row = summary_row or row_from_arrays(name, group, path)
+    if summary_row is not None and summary_row.reason:
+        # the evaluation's word: `evaluate --rulebook` gates the paths again, and a chain its
+        # rulebook rejects was simulated (no reason of its own in the file)
+        path.reason = summary_row.reason
     return path
 
 

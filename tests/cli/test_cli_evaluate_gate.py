@@ -65,6 +65,11 @@ def test_a_chain_the_new_rulebook_rejects_or_excludes_is_not_passed(
         for name in ("straight", "arc"):
             group = file["paths"][name]
             assert group.attrs["status"] == "simulated" and "evaluation" not in group
+    # the report of the re-scored file says why each chain was rejected
+    assert main(["report", str(results)]) == 0
+    page = " ".join((results.parent / "report.html").read_text().split())
+    assert page.count("command 1 breaks rule &#x27;short_only&#x27; (delta_position = 0.1 m)") \
+        == 2, page
     excluding = tmp_path / "excluding.rules"
     excluding.write_text(RULEBOOK + TINY_RISK)
     code, paths, output = _evaluate(results, excluding, capsys)
