@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 
 from idefix_rules.limits import MAX_RUNS, MAX_SEED, MAX_WORKERS
@@ -18,6 +19,10 @@ def positive_int(text: str) -> int:
 
 
 def worker_count(text: str) -> int:
+    """A number of worker processes, or ``auto``: every core (as ``workers: auto`` in a
+    campaign), overriding the campaign's number."""
+    if text.strip().lower() == "auto":
+        return max(1, min(os.cpu_count() or 1, MAX_WORKERS))
     value = positive_int(text)
     if value > MAX_WORKERS:
         raise argparse.ArgumentTypeError(f"at most {MAX_WORKERS} worker processes, got {text}")

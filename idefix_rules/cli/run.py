@@ -47,8 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed_number, help="campaign seed, 0 … 2^64 - 1 (overrides "
                         "`uncertainty.seed`)")
     parser.add_argument("--workers", type=worker_count,
-                        help=f"worker processes, at most {MAX_WORKERS} (default: the campaign's, "
-                             "else all cores)")
+                        help=f"worker processes, at most {MAX_WORKERS}, or auto: all cores "
+                             "(default: the campaign's `workers`, else all cores)")
     parser.add_argument("--run-timeout", type=seconds, metavar="SECONDS",
                         help="a run taking longer is killed and recorded as failed (default: "
                              "derived from the path's simulated duration and the measured "

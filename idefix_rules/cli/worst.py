@@ -35,8 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed_number, help="seed of the search, 0 … 2^64 - 1 "
                         "(default: the campaign's `uncertainty.seed`)")
     parser.add_argument("--workers", type=worker_count,
-                        help=f"worker processes, at most {MAX_WORKERS} (default: the campaign's, "
-                             "else all cores)")
+                        help=f"worker processes, at most {MAX_WORKERS}, or auto: all cores "
+                             "(default: the campaign's `workers`, else all cores)")
     parser.add_argument("--out", type=output_folder,
                         help="output folder (default: the campaign's output folder + /worst)")
     parser.add_argument("--critical", type=_level, default=1.0, metavar="LEVEL",
