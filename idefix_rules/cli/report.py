@@ -45,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
                 "C205", f"output folder {out} cannot be used: {problem}", Span(str(args.results)),
                 hint="the report goes beside the results file by default: give a folder this "
                      "user can write with -o DIR"))
+    if args.out is not None:
+        _refuse_another_campaigns_folder(args.results, out)
     # a report already there (of this campaign or any other) is kept, as a run keeps it
     from idefix_rules.files import report_outputs, set_aside
     from idefix_rules.report import REPORT_FILE
@@ -55,3 +57,22 @@ def run(args: argparse.Namespace) -> int:
         page = write_report(args.results, out, "free space, then run this command again")
     StdoutConsole().print(f"report written: [bold]{page}[/bold]")
     return 0
+
+
+def _refuse_another_campaigns_folder(results: Path, out: Path) -> None:
+    """A report written beside another results file would speak for that campaign: its
+    folder's summary.json and results.h5 would sit next to a report.html of this one (C714)."""
+    from idefix_rules.errors import Span, UserInputError, error
+
+    other = out / "results.h5"
+    try:
+        same = other.samefile(results)
+    except OSError:  # no results file there (or this one is missing: H001 says so)
+        return
+    if not same:
+        raise UserInputError(error(
+            "C714", f"{out} holds the results of another campaign ({other.name}): a report of "
+                    f"{results} written there would speak for that campaign",
+            Span(str(results)),
+            hint=f"leave out -o (the report goes beside {results.name}) or give a folder "
+                 "without a results file"))

@@ -102,6 +102,29 @@ def test_cli_writes_next_to_the_results_or_into_out(synthetic_results: Path, tmp
     assert (synthetic_results.parent / "report.html").exists()
 
 
+def test_cli_refuses_to_write_into_another_campaigns_folder(
+        synthetic_results: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """-o naming a folder with another results file: C714, nothing written there. Its own
+    folder (by another spelling, or a link) and a folder with other files are fine."""
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "results.h5").write_bytes(synthetic_results.read_bytes())
+    (other / "summary.json").write_text("{}")
+    capsys.readouterr()
+    assert main(["report", str(synthetic_results), "-o", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert "error[C714]" in err and "holds the results of another campaign" in err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in other.iterdir()) == ["results.h5", "summary.json"]
+    assert main(["report", str(synthetic_results), "-o",
+                 str(synthetic_results.parent / "." )]) == 0
+    (tmp_path / "link").symlink_to(synthetic_results.parent)
+    assert main(["report", str(synthetic_results), "-o", str(tmp_path / "link")]) == 0
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "summary.json").write_text("{}")
+    assert main(["report", str(synthetic_results), "-o", str(tmp_path / "notes")]) == 0
+
+
 def test_maps_use_the_per_sample_risk_of_the_stored_rulebook(synthetic_results: Path) -> None:
     data, setup, maps = prepare_report(synthetic_results)
     assert maps.per_sample and setup.notes == []
