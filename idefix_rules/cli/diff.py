@@ -68,7 +68,8 @@ def run(args: argparse.Namespace) -> int:
         touched = touched_waivers(rules.changes, load_campaign(args.waivers).model.waivers)
     results = None
     if args.results:
-        results = diff_results(args.results, old, new, args.top, args.chunk_runs, args.threads)
+        results = diff_results(_once(args.results), old, new, args.top, args.chunk_runs,
+                               args.threads)
     code = results.exit_code(args.fail_on) if results is not None else 0
     if args.format == "json":
         data: dict[str, Any] = {"rules": rules.to_dict(),
@@ -98,6 +99,23 @@ def run(args: argparse.Namespace) -> int:
             print_results(console, file)
         print_exit(console, results, args.fail_on, code)
     return code
+
+
+def _once(files: list[Path]) -> list[Path]:
+    """Each results file once, however often (or under whichever name) it was given: a file
+    scored twice would count its verdict changes twice."""
+    import sys
+
+    kept: list[Path] = []
+    seen: set[Path] = set()
+    for file in files:
+        key = file.resolve()
+        if key in seen:
+            print(f"note: {file} was given more than once; it is scored once", file=sys.stderr)
+            continue
+        seen.add(key)
+        kept.append(file)
+    return kept
 
 
 # ----------------------------------------------------------------------------- rules

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -201,10 +202,17 @@ def test_the_text_output_shows_verdicts_risks_and_the_exit_reason(
     lenient = variant(ops_text, tmp_path, "lenient", "verdict lenient: require risk <= 100 %")
     strict = variant(ops_text, tmp_path, "strict", "verdict strict: require risk < 0 %",
                      replace=(("confidence = 95 %", "confidence = 90 %"),))
+    copy = tmp_path / "copy" / "results.h5"  # a second campaign's file: the same runs
+    copy.parent.mkdir()
+    shutil.copyfile(stored_results, copy)
     capsys.readouterr()
     code = main(["diff", str(lenient), str(strict), "--results", str(stored_results),
-                 str(stored_results)])
-    out = capsys.readouterr().out
+                 str(copy), str(stored_results.parent / ".." / stored_results.parent.name /
+                                "results.h5")])
+    captured = capsys.readouterr()
+    out = captured.out
+    # the third is the first by another name: scored once, not counted twice
+    assert "was given more than once; it is scored once" in captured.err
     assert code == 1
     # each side's risk bounds at its own rulebook's family-wise confidence
     flat = " ".join(out.split())
@@ -244,8 +252,6 @@ def test_the_markdown_changelog_says_what_the_change_does_to_stored_results_and_
 
 def test_a_path_without_stored_collisions_has_them_recomputed(
         stored_results: Path, campaign_rulebook: Path, tmp_path: Path) -> None:
-    import shutil
-
     import h5py
 
     copy = tmp_path / "rock-detour" / "results.h5"
