@@ -32,6 +32,7 @@ from idefix_rules.campaign.outcome.decision import (
     campaign_decision,
     path_confidence,
     reason_items,
+    verdict_counts,
 )
 from idefix_rules.campaign.outcome.outputs import ExpectationResult
 from idefix_rules.campaign.simulation.processes import is_infrastructure
@@ -141,14 +142,7 @@ def ci_line(expectations: Sequence[ExpectationResult], code: int,
     if expectations:
         held = sum(1 for e in expectations if e.held)
         return f"CI expectations: {held} of {len(expectations)} held (exit {code})"
-    passed = sum(1 for p in evaluation.paths if p.held and p.verdict_text == "pass")
-    waived = sum(1 for p in evaluation.paths if p.held and p.verdict_text == "waived")
-    open_ = sum(1 for p in evaluation.paths if p.verdict_text in ("pass", "waived")
-                and not p.held)
-    also = (f", {waived} waived" if waived else "") + \
-        (f", {open_} passing but not decided" if open_ else "")
-    return (f"CI verdicts (no expectations: every path must pass): {passed} of "
-            f"{len(evaluation.paths)} passed{also} (exit {code})")
+    return verdict_counts([(p.verdict_text, p.held) for p in evaluation.paths], code)
 
 
 FAILED_MARK = "✗"

@@ -11,7 +11,12 @@ from html import escape
 from typing import Any
 
 from idefix_rules.campaign.input.wording import verdict_reasons
-from idefix_rules.campaign.outcome.decision import Decision, PathFacts, decide
+from idefix_rules.campaign.outcome.decision import (
+    Decision,
+    PathFacts,
+    decide,
+    verdict_counts,
+)
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.html import Image
 
@@ -53,10 +58,11 @@ def decision_html(data: ReportData) -> str:
     if data.expectations:
         held = sum(1 for e in data.expectations if e.get("held"))
         ci = f"CI expectations: {held} of {len(data.expectations)} held"
+        if data.exit_code is not None:
+            ci += f" (exit {data.exit_code})"
     elif data.exit_code is not None:
-        ci = "CI verdicts (no expectations: every path must pass)"
-    if data.exit_code is not None:
-        ci += f" (exit {data.exit_code})"
+        ci = verdict_counts([(p.row.verdict or p.status, not p.row.undecided)
+                             for p in data.paths], data.exit_code)
     # why the exit code is 2 although the expectations say otherwise, as the console says it
     problems = "".join(f"<li>{escape(problem_text(problem))}</li>" for problem in data.problems)
     return (f'<div class="banner {decision.kind}" id="decision"><b>Decision:</b> '

@@ -316,9 +316,15 @@ def test_a_chain_whose_only_failures_are_waived_may_be_sent_and_the_decision_say
 def test_the_report_shows_the_waived_verdict_and_the_waiver(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = with_waivers(campaign_dir, waiver("acceptable_risk", path="straight"))
-    assert main([str(path), "--quiet"]) == 1  # too-fast is still rejected
+    assert main([str(path)]) == 1  # too-fast is still rejected
+    console = " ".join(capsys.readouterr().out.split())
     html = (campaign_dir / "out" / "report.html").read_text()
     assert '<span class="other">waived</span>' in html
+    # CI's outcome in the banner in the console's words, counts included
+    ci = re.search(r'<div class="ci">([^<]+)</div>', html)
+    assert ci is not None and ci[1].startswith("CI verdicts (no expectations: every path must "
+                                                "pass): ") and ", 1 waived" in ci[1], html
+    assert ci[1] in console
     assert ("Waived verdict rule acceptable_risk: survey shows the slope is benign (approved "
             "by J. Doe until 2026-12-01)") in html
 

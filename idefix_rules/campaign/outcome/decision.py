@@ -237,3 +237,15 @@ def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
                              reasons_of(p) or ([p.reason] if p.reason else []),
                              tuple(w.rule for w in p.waivers)) for p in evaluation.paths],
                   evaluation.pairs)
+
+
+def verdict_counts(verdicts: Sequence[tuple[str, bool]], code: int) -> str:
+    """CI's outcome without expectations, from each path's ``(verdict, held)`` (held: shown
+    at this number of runs), as the console and the report both say it."""
+    passed = sum(1 for verdict, held in verdicts if held and verdict == "pass")
+    waived = sum(1 for verdict, held in verdicts if held and verdict == "waived")
+    open_ = sum(1 for verdict, held in verdicts if verdict in ("pass", "waived") and not held)
+    also = (f", {waived} waived" if waived else "") + \
+        (f", {open_} passing but not decided" if open_ else "")
+    return (f"CI verdicts (no expectations: every path must pass): {passed} of "
+            f"{len(verdicts)} passed{also} (exit {code})")
