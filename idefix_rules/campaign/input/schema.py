@@ -424,12 +424,14 @@ class CollisionExpectation(Strict):
     max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Fraction]
 
 
-_EXPECTATION_KEYS = {
-    "verdict": "verdict",
-    "rank_first": "rank_first",
-    "max_mean_risk": "max_mean_risk",
-    "max_collision_chance": "max_collision_chance",
+# An expectation's kind is the key that names it (and tags it in pydantic's union).
+EXPECTATION_KINDS: dict[str, type[Strict]] = {
+    "verdict": PathVerdictExpectation,
+    "rank_first": RankFirstExpectation,
+    "max_mean_risk": MeanRiskExpectation,
+    "max_collision_chance": CollisionExpectation,
 }
+_EXPECTATION_KEYS = tuple(EXPECTATION_KINDS)
 
 
 def _expectation_kind(value: Any) -> str | None:
