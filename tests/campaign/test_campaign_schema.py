@@ -335,3 +335,26 @@ def test_an_unknown_key_of_an_expectation_is_said_at_that_key(
     found = caught.value.diagnostics
     assert [f"{d.span.line}:{d.span.column}: {d.message}" for d in found] == expected
     assert found[-1].hint == hint
+
+
+@pytest.mark.parametrize(("size", "refused"), [
+    ({"radius": "1000 m"}, False), ({"radius": "1 km", "embed": "1999 m"}, False),
+    ({"semi_axes": ["1 cm", "1000 m", "1 cm"]}, False),
+    ({"radius": "1000.001 m"}, True), ({"semi_axes": ["1 cm", "1 cm", "1e200 m"]}, True),
+])
+def test_a_rock_is_at_most_1_km_in_radius_or_semi_axis(size: dict[str, object],
+                                                       refused: bool) -> None:
+    """Larger, it is terrain, and its squares overflowed the obstacle checker's geometry
+    (a rock 1e200 m wide was met by no collision test); a stored campaign is read as it ran."""
+    from pydantic import ValidationError
+
+    from idefix_rules.campaign.input.schema import STORED_CAMPAIGN, RockSpec
+
+    rock = {"x": "0 m", "y": "0 m", **size}
+    if not refused:
+        assert max(RockSpec.model_validate(rock).axes) == pytest.approx(1000.0)
+        return
+    with pytest.raises(ValidationError, match="expected a rock radius or semi-axis of at most "
+                                              "1000 m"):
+        RockSpec.model_validate(rock)
+    assert RockSpec.model_validate(rock, context=STORED_CAMPAIGN)

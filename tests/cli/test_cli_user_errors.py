@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -510,6 +511,33 @@ CASES = [
          ("campaign.yaml:16:10: error[C217]: environment.terrain.dem: the DEM is the terrain "
           "file this campaign writes into its output folder (terrain.dem)",),
          unchanged=("out/terrain.dem",)),
+    # heights beyond ±100 km: numpy's overflow warnings and a run that passed, or exit 3
+    *(Case(f"dem-npy-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                                "    cell: \"1 m\"\npaths:")), site__npy=_npy(array)), RUN, 2,
+           (f"site.npy: error[F206]: DEM height {shown} m at row {row}, column {column} "
+            "(0-based) is beyond ±100000 m of the datum",))
+      for name, array, shown, row, column in (
+          ("one-height-1e308", np.array([[0.0, 0.0, 0.0], [0.0, 1e308, 0.0], [0.0] * 3]),
+           "1e+308", 1, 1),
+          ("of-heights-1e308", np.full((3, 3), 1e308), "1e+308", 0, 0),
+          ("height-just-below-minus-100-km",
+           np.array([[0.0, -100000.001, 0.0], [0.0] * 3, [0.0] * 3]), "-100000", 0, 1))),
+    Case("dem-csv-height-beyond-100-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                              "    cell: \"1 m\"\npaths:")),
+                    site__csv="0,0,0\n0,100000.001,0\n0,0,0\n"), RUN, 2,
+         ("site.csv:2:3: error[F207]: height '100000.001' is beyond ±100000 m of the datum",)),
+    Case("dem-height-beyond-100-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(heights=np.array([0.0] * 5 + [-1e200] + [0.0] * 3))),
+         RUN, 2, ("site.dem:7:1: error[F204]: height grid: height -1e+200 m at row 1, column 2 "
+                  "(0-based) is beyond ±100000 m of the datum",)),
+    Case("dem-rock-too-large",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                        "rocks 0\n", "rocks 1\nrock 0 0 0 1 1e200 1\n"))),
+         RUN, 2, ("site.dem:7:1: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -520,6 +548,18 @@ CASES = [
                              'radius: "4 cm"}\npaths:')), RUN, 2,
          ("campaign.yaml:16:7: error[C206]: environment.rocks[0]: (100 m, 0 m) is outside the "
           "terrain",)),
+    # a rock 1e200 m wide overflowed the collision geometry: every test was silently false
+    *(Case(f"rock-{name}",
+           campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                               f'{size}}}\npaths:')), RUN, 2,
+           (f"campaign.yaml:16:{column}: error[C100]: environment.rocks[0].{where}: expected a "
+            f"rock radius or semi-axis of at most 1000 m, got {shown} m (a larger rock is a "
+            "hill or a crater: give it in the terrain's dem)",))
+      for name, size, column, where, shown in (
+          ("radius-1e200", 'radius: "1e200 m", embed: "1e200 m"', 38, "radius", "1e+200"),
+          ("radius-just-above-1-km", 'radius: "1000.001 m"', 38, "radius", "1000.001"),
+          ("semi-axis-1e300", 'semi_axes: ["1 cm", "1e300 m", "1 cm"]', 50, "semi_axes[1]",
+           "1e+300"))),
     Case("rock-negative-radius",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
                              'radius: "-4 cm"}\npaths:')), RUN, 2,
@@ -759,10 +799,14 @@ def test_a_user_mistake_gets_a_clear_message_and_its_exit_code(
     materialise(tmp_path, case.files, cli_toy_fmu)
     before = {name: (tmp_path / name).read_bytes() for name in case.unchanged}
     monkeypatch.chdir(tmp_path)
-    code = main(list(case.argv))
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        code = main(list(case.argv))
     captured = capsys.readouterr()
     output = captured.out + captured.err
     assert "Traceback" not in output
+    # numpy's and scipy's own words ("overflow encountered in square") never reach the user
+    assert [str(w.message) for w in raised if issubclass(w.category, RuntimeWarning)] == []
     assert code == case.code, output
     flat = " ".join(output.split())  # rich may wrap long lines
     for fragment in case.fragments:

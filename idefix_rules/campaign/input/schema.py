@@ -32,7 +32,7 @@ from pydantic_core import PydanticCustomError
 
 from idefix_rules import units
 from idefix_rules.campaign.input.yamlsource import flag_value
-from idefix_rules.limits import MAX_RUNS, MAX_SEED
+from idefix_rules.limits import MAX_ROCK_SEMI_AXIS, MAX_RUNS, MAX_SEED
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
 LEVELS = ("L1", "L2", "L3")
@@ -215,11 +215,25 @@ class TerrainSection(Strict):
         return self
 
 
+def _rock_size(value: float, info: ValidationInfo) -> float:
+    """A rock's radius or semi-axis: at most :data:`MAX_ROCK_SEMI_AXIS` (a larger one is
+    terrain, and its squares would overflow the obstacle checker's geometry)."""
+    if _new_run(info) and value > MAX_ROCK_SEMI_AXIS:
+        raise PydanticCustomError(
+            "rock", "expected a rock radius or semi-axis of at most {most} m, got {got} m (a "
+            "larger rock is a hill or a crater: give it in the terrain's dem)",
+            {"most": f"{MAX_ROCK_SEMI_AXIS:g}", "got": f"{value:.12g}"})
+    return value
+
+
+RockAxis = Annotated[PositiveLength, AfterValidator(_rock_size)]
+
+
 class RockSpec(Strict):
     x: Length
     y: Length
-    radius: PositiveLength | None = None
-    semi_axes: tuple[PositiveLength, PositiveLength, PositiveLength] | None = None
+    radius: RockAxis | None = None
+    semi_axes: tuple[RockAxis, RockAxis, RockAxis] | None = None
     embed: Length = 0.0
     level: Literal["L1", "L2", "L3"] | None = None
 
