@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import Span, UserInputError, error, read_user_text
 from idefix_rules.files import write_atomic
 from idefix_rules.limits import (
     MAX_CSV_DEM_BYTES,
@@ -305,9 +305,13 @@ def load_dem(path: str | Path, cell: float | None = None,
             raise UserInputError(error("F203", "cannot read DEM: the file is empty",
                                        Span(str(path)))) from None
         except (OSError, ValueError) as exc:
-            # numpy's words for a file of Python objects advise loading it unsafely: never
-            reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
-                      "which are never loaded") if "pickle" in str(exc) else str(exc)
+            # numpy's words for a file of Python objects advise loading it unsafely: never;
+            # numpy takes any file without its header for a pickle (a text file named .npy)
+            reason = str(exc)
+            if "pickle" in str(exc):
+                reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
+                          "which are never loaded") if _has_npy_header(path) else \
+                    "not a .npy file: it has no NumPy header (a .npy file starts with \\x93NUMPY)"
             raise UserInputError(error("F203", f"cannot read DEM: {reason}", Span(str(path)))) \
                 from None
         if not isinstance(heights, np.ndarray):  # an .npz archive under an .npy name
@@ -367,6 +371,15 @@ def _beyond_heights(heights: np.ndarray) -> str:
             f"beyond ±{MAX_TERRAIN_HEIGHT:g} m of the datum")
 
 
+def _has_npy_header(path: Path) -> bool:
+    """Whether ``path`` starts as every .npy file does (``\\x93NUMPY``)."""
+    try:
+        with path.open("rb") as handle:
+            return handle.read(6) == b"\x93NUMPY"
+    except OSError:
+        return False
+
+
 def _dtype_words(dtype: np.dtype[Any]) -> str:
     """What an array of ``dtype`` holds, in words (``text (<U1)``)."""
     words = {"U": "text", "S": "bytes", "V": "records", "M": "dates", "m": "time spans",
@@ -375,11 +388,9 @@ def _dtype_words(dtype: np.dtype[Any]) -> str:
 
 
 def _read_csv(path: Path) -> np.ndarray:
-    try:
-        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is no part of the first height
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) from None
+    # bytes that are not UTF-8 (a CSV saved as Latin-1): named at their line and column, with
+    # the way out; a byte-order mark (Excel's "CSV UTF-8") is no part of the first height
+    text = read_user_text(path, "F203", "DEM file").removeprefix("\ufeff")
     # Cells are separated by commas, or by semicolons in a file whose rows hold one (its
     # comment lines say nothing about it): there (as the
     # CSV of locales that write a decimal comma gives it) a comma is the decimal sign, read as

@@ -300,6 +300,13 @@ CASES = [
          ("campaign.yaml:17:3: error[C100]:", "path name 'a\\x00b' is not usable",)),
     Case("campaign-path-name-with-a-tab", campaign(("  arc:", '  "a\\tb":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]:", "path name 'a\\tb' is not usable",)),
+    *(Case(f"campaign-path-named-{name}", campaign(("  arc:", f'  "{dots}":')), RUN, 2,
+           (f"campaign.yaml:17:3: error[C100]: paths.{dots}: path name '{dots}' is not usable: "
+            "'.' and '..' mean this folder and the one above in a file path",),
+           absent=("give a non-empty name",))
+      for name, dots in (("dot", "."), ("dot-dot", ".."))),
+    Case("campaign-path-named-three-dots", campaign(("  arc:", '  "...":')), RUN, 1,
+         ("CI verdicts",)),
     Case("campaign-empty-path-name", campaign(("  arc:", '  "":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.: path name '' is not usable",)),
     Case("campaign-a-billion-runs", campaign(("runs: 6", "runs: 1000000000")), RUN, 2,
@@ -377,6 +384,17 @@ CASES = [
                                              '"1e308 m", delta_heading: "0 deg"}')), RUN,
          2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last longer than a "
              "number can say",)),
+    # a margin that makes a short chain's run endless: said at the margin, not at the path
+    *(Case(f"campaign-margin-{name}",
+           campaign(('  extra_time: "2 s"', f'  extra_time: "2 s"\n  duration_margin: {margin}')),
+           RUN, 2, (f"campaign.yaml:22:20: error[{code}]: {said}",))
+      for name, margin, code, said in (
+          ("inf", ".inf", "C100", "simulation.duration_margin: expected a finite value, got inf"),
+          ("nan", ".nan", "C100", "simulation.duration_margin: expected a finite value, got nan"),
+          ("1e308", "1e308", "C404", "paths.straight: a run would last longer than a number can "
+                                     "say (duration_margin × the chain's duration is beyond a "
+                                     "double)"),
+          ("1e12", "1e12", "C404", "paths.straight: a run would last 1e+13 s"))),
     # an output interval so fine the runs hold too many samples: said once, at the interval
     Case("campaign-fine-output-interval", campaign(('output_interval: "0.5 s"',
                                                     'output_interval: "1e-5 s"')), RUN,
@@ -501,6 +519,17 @@ CASES = [
           ("dates", np.array([["2024-01-01"] * 2] * 2, dtype="datetime64[D]"),
            "dates (<M8[D])"),
           ("complex", np.ones((2, 2), dtype=complex), "complex numbers (<c16)"))),
+    Case("dem-npy-that-is-a-text-file",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              "    cell: \"1 m\"\npaths:")), site__npy=b"hello\n"), RUN, 2,
+         ("site.npy: error[F203]: cannot read DEM: not a .npy file: it has no NumPy header",),
+         absent=("pickle",)),
+    Case("dem-csv-not-utf8",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                              "    cell: \"1 m\"\npaths:")),
+                    site__csv="0,0,0\n0,\xe9,0\n0,0,0\n".encode("latin-1")), RUN, 2,
+         ("site.csv:2:3: error[F203]: DEM file is not UTF-8 text (byte 0xe9",
+          "hint: save the file as UTF-8"), absent=("codec",)),
     Case("dem-npy-is-an-npz-archive",
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
                               "    cell: \"1 m\"\npaths:")), site__npy=_npz()), RUN, 2,

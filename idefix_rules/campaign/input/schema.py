@@ -67,7 +67,11 @@ def _quantity(dimension: Dimension | None) -> BeforeValidator:
         try:
             if isinstance(value, int | float) or not _has_unit(value):
                 if dimension is None or dimension.is_dimensionless:
-                    return float(parse_quantity(value).value)
+                    number = float(parse_quantity(value).value)
+                    if not math.isfinite(number):  # YAML's .inf: said here, not downstream
+                        raise PydanticCustomError("quantity", "expected a finite value, got "
+                                                  "{got}", {"got": _show(value)})
+                    return number
                 raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
                                           {"wanted": wanted, "got": _show(value)})
             quantity = parse_quantity(value)
@@ -550,6 +554,11 @@ def _path_name(value: Any, info: ValidationInfo) -> Any:
             or (_new_run(info) and (len(value) > MAX_PATH_NAME or any(
                 unicodedata.category(c) in ("Cc", "Cs") for c in value)))):
         shown = repr(value if len(value) <= 40 else value[:37] + "...")
+        if value in (".", ".."):  # which satisfy the rule below, so it would not say why
+            raise PydanticCustomError(
+                "path_name", "path name {name} is not usable: '.' and '..' mean this folder "
+                "and the one above in a file path, and a path name becomes the file name of "
+                "its figures; give it a letter or digit", {"name": shown})
         raise PydanticCustomError("path_name", "path name {name} is not usable: give a "
                                   "non-empty name of at most {most} characters, without '/' "
                                   "or control characters", {"name": shown,
