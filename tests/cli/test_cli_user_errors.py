@@ -1372,3 +1372,19 @@ def test_evaluate_records_the_rulebook_absolute_as_it_records_the_results(
     summary = json.loads(summary_file.read_text())
     assert summary["rulebook"]["path"] == \
         f"{(tmp_path / 'out' / 'results.h5').resolve()}:/provenance/rulebook"
+
+
+def test_junit_into_a_missing_folder_creates_it_as_out_does_and_explain_error_says_so(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """C207's explanation named a missing folder as its cause, but a CI maintainer's
+    `--junit reports/ci/junit.xml` gets its folders made, as `--out` does."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main([*RUN, "--junit", "reports/ci/junit.xml"]) == 1  # the toy's paths: undecided
+    assert (tmp_path / "reports" / "ci" / "junit.xml").read_text().startswith("<?xml")
+    capsys.readouterr()
+    assert main(["explain-error", "C207"]) == 0
+    explained = " ".join(capsys.readouterr().out.split())
+    assert "folder missing" not in explained
+    assert "A missing folder is no mistake: it is created, as `--out`'s is" in explained
