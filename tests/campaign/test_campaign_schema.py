@@ -358,3 +358,19 @@ def test_a_rock_is_at_most_1_km_in_radius_or_semi_axis(size: dict[str, object],
                                               "1000 m"):
         RockSpec.model_validate(rock)
     assert RockSpec.model_validate(rock, context=STORED_CAMPAIGN)
+
+
+@pytest.mark.parametrize(("old", "new", "expected"), [
+    ("  terrain:\n", "  terrain: 5\n  xterrain:\n",
+     "18:12: environment.terrain: expected a mapping (key: value), got 5"),
+    ('    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}',
+     "    - 5", "7:7: paths.straight[0]: expected a mapping (key: value), got 5"),
+    ("uncertainty:\n", "uncertainty: [seed]\nx:\n",
+     "11:14: uncertainty: expected a mapping (key: value), got ['seed']"),
+])
+def test_a_section_that_is_no_mapping_is_said_without_the_schema_s_class_names(
+        tmp_path: Path, old: str, new: str, expected: str) -> None:
+    assert old in GOOD
+    found = messages(write(tmp_path, GOOD.replace(old, new, 1)))
+    assert expected in found
+    assert not any("instance of" in message for message in found), found

@@ -215,6 +215,10 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
             expected = item.get("ctx", {}).get("expected", "")
             message = f"expected {expected}, got {_shown(item.get('input'))}"
             span = locations.span(loc)
+        elif kind in ("model_type", "model_attributes_type", "dict_type"):
+            # pydantic's words name its classes ("instance of TerrainSection"): not the user's
+            message = f"expected a mapping (key: value), got {_shown(item.get('input'))}"
+            span = locations.span(loc)
         elif kind == "union_tag_invalid":
             context = item.get("ctx", {})
             message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
