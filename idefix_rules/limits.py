@@ -33,6 +33,14 @@ MAX_SEED = 2**64 - 1
 # typing mistake (each worker is a process holding an FMU instance).
 MAX_WORKERS = 1024
 
+# Terrain geometry, in m. A rock is an obstacle the rover meets, not a landform: a semi-axis
+# over 1 km makes a hill or a crater, which the DEM gives. Heights lie within 100 km of their
+# datum, as every planet's surface does (Mars spans about 30 km, from the floor of Hellas to the
+# top of Olympus Mons). Far beyond, the squares and differences the obstacle checker and the
+# rover model take overflow a double: a collision test of a rock 1e200 m wide was always false.
+MAX_ROCK_SEMI_AXIS = 1_000.0
+MAX_TERRAIN_HEIGHT = 100_000.0
+
 RULEBOOK_TOO_LARGE = "E900"
 RULEBOOK_LINE_TOO_LONG = "E901"
 NOT_A_RULEBOOK = "E902"

@@ -20,12 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import Span, UserInputError, error, read_user_text
 from idefix_rules.files import write_atomic
 from idefix_rules.limits import (
     MAX_CSV_DEM_BYTES,
     MAX_NPY_DEM_BYTES,
+    MAX_ROCK_SEMI_AXIS,
     MAX_TERRAIN_HEADER_BYTES,
+    MAX_TERRAIN_HEIGHT,
     TERRAIN_TOO_LARGE,
     check_file_size,
 )
@@ -217,6 +219,15 @@ def read_terrain(path: str | Path) -> Terrain:
                     or not np.all(np.isfinite((x, y, z, a, b, c))):
                 raise fail("expected 'rock x y z a b c [level]' with finite values and "
                            "positive semi-axes")
+            if max(a, b, c) > MAX_ROCK_SEMI_AXIS:
+                raise fail(f"rock semi-axis {max(a, b, c):.12g} m: at most "
+                           f"{MAX_ROCK_SEMI_AXIS:g} m (a larger rock is a hill or a crater: "
+                           "give it in the heights)")
+            if abs(z) > MAX_TERRAIN_HEIGHT + MAX_ROCK_SEMI_AXIS:  # a rock on the highest ground
+                raise fail(f"rock centre height {z:.12g} m: at most "
+                           f"{MAX_TERRAIN_HEIGHT + MAX_ROCK_SEMI_AXIS:g} m from the datum either "
+                           "way (heights lie within "
+                           f"{MAX_TERRAIN_HEIGHT:g} m of it)")
             if len(values) == 7 and values[6] not in ("L1", "L2", "L3"):
                 raise fail(f"rock level '{values[6]}': expected L1, L2 or L3")
             rocks.append(Rock(x, y, a, b, c, z=z, level=values[6] if len(values) == 7 else None))
@@ -260,6 +271,9 @@ def read_terrain(path: str | Path) -> Terrain:
     heights = np.frombuffer(data, dtype="<f8", count=nx * ny, offset=offset).reshape(ny, nx)
     if not np.all(np.isfinite(heights)):
         raise fail("height grid holds NaN or infinite values")
+    beyond = _beyond_heights(heights)
+    if beyond:
+        raise fail(f"height grid: {beyond}")
     return Terrain(heights.copy(), (x0, y0), cell, tuple(rocks))
 
 
@@ -291,9 +305,13 @@ def load_dem(path: str | Path, cell: float | None = None,
             raise UserInputError(error("F203", "cannot read DEM: the file is empty",
                                        Span(str(path)))) from None
         except (OSError, ValueError) as exc:
-            # numpy's words for a file of Python objects advise loading it unsafely: never
-            reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
-                      "which are never loaded") if "pickle" in str(exc) else str(exc)
+            # numpy's words for a file of Python objects advise loading it unsafely: never;
+            # numpy takes any file without its header for a pickle (a text file named .npy)
+            reason = str(exc)
+            if "pickle" in str(exc):
+                reason = ("not an array of numbers: numpy reads it as pickled Python objects, "
+                          "which are never loaded") if _has_npy_header(path) else \
+                    "not a .npy file: it has no NumPy header (a .npy file starts with \\x93NUMPY)"
             raise UserInputError(error("F203", f"cannot read DEM: {reason}", Span(str(path)))) \
                 from None
         if not isinstance(heights, np.ndarray):  # an .npz archive under an .npy name
@@ -324,10 +342,42 @@ def load_dem(path: str | Path, cell: float | None = None,
                     f"{heights[row, column]}", Span(str(path)),
             hint="fill the no-data cells (interpolate them, or cut the DEM to the area with "
                  "data)"))
+    beyond = _beyond_heights(heights)
+    if beyond:
+        raise UserInputError(error("F206", f"DEM {beyond}", Span(str(path)), hint=HEIGHTS_HINT))
     ny, nx = heights.shape
     if origin is None:
         origin = (-(nx - 1) * cell / 2, -(ny - 1) * cell / 2)
     return Terrain(heights, origin, cell, tuple(rocks))
+
+
+HEIGHTS_HINT = ("heights are metres from a datum near the ground (every planet's surface lies "
+                f"within {MAX_TERRAIN_HEIGHT / 1000:g} km of its reference); a no-data value "
+                "(1e308, 3.4e38) marks cells to fill or cut away")
+
+
+def _beyond_heights(heights: np.ndarray) -> str:
+    """Where the finite ``heights`` leave the plausible range (±:data:`MAX_TERRAIN_HEIGHT`),
+    in words, or "" when they do not.
+
+    >>> _beyond_heights(np.array([[0.0, 1.0], [2e5, 0.0]]))
+    'height 200000 m at row 1, column 0 (0-based) is beyond ±100000 m of the datum'
+    """
+    outside = np.abs(heights) > MAX_TERRAIN_HEIGHT
+    if not outside.any():
+        return ""
+    row, column = (int(i) for i in np.argwhere(outside)[0])
+    return (f"height {heights[row, column]:.6g} m at row {row}, column {column} (0-based) is "
+            f"beyond ±{MAX_TERRAIN_HEIGHT:g} m of the datum")
+
+
+def _has_npy_header(path: Path) -> bool:
+    """Whether ``path`` starts as every .npy file does (``\\x93NUMPY``)."""
+    try:
+        with path.open("rb") as handle:
+            return handle.read(6) == b"\x93NUMPY"
+    except OSError:
+        return False
 
 
 def _dtype_words(dtype: np.dtype[Any]) -> str:
@@ -338,11 +388,9 @@ def _dtype_words(dtype: np.dtype[Any]) -> str:
 
 
 def _read_csv(path: Path) -> np.ndarray:
-    try:
-        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is no part of the first height
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserInputError(error("F203", f"cannot read DEM: {exc}", Span(str(path)))) from None
+    # bytes that are not UTF-8 (a CSV saved as Latin-1): named at their line and column, with
+    # the way out; a byte-order mark (Excel's "CSV UTF-8") is no part of the first height
+    text = read_user_text(path, "F203", "DEM file").removeprefix("\ufeff")
     # Cells are separated by commas, or by semicolons in a file whose rows hold one (its
     # comment lines say nothing about it): there (as the
     # CSV of locales that write a decimal comma gives it) a comma is the decimal sign, read as
@@ -363,7 +411,7 @@ def _read_csv(path: Path) -> np.ndarray:
                                             else cell_text)
             except ValueError:
                 value = None
-            if value is not None and math.isfinite(value):
+            if value is not None and math.isfinite(value) and abs(value) <= MAX_TERRAIN_HEIGHT:
                 row.append(value)
                 continue
             col = sum(len(c) + 1 for c in cells[:column]) + 1
@@ -374,9 +422,13 @@ def _read_csv(path: Path) -> np.ndarray:
                     Span(str(path), number, 1)), sources={str(path): ""}) from None
             token = cell_text.strip()
             shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
-            what = "not a number" if value is None else "not a finite height"  # nan, 1e400
-            raise UserInputError(error("F207", f"{what}: {shown}",
-                                       Span(str(path), number, col))) from None
+            if value is None or not math.isfinite(value):  # nan, 1e400
+                raise UserInputError(error(
+                    "F207", f"{'not a number' if value is None else 'not a finite height'}: "
+                            f"{shown}", Span(str(path), number, col))) from None
+            raise UserInputError(error(
+                "F207", f"height {shown} is beyond ±{MAX_TERRAIN_HEIGHT:g} m of the datum",
+                Span(str(path), number, col), hint=HEIGHTS_HINT)) from None
         if rows and len(row) != len(rows[0]):
             raise UserInputError(error("F208", f"row has {len(row)} values, the first row has "
                                        f"{len(rows[0])}", Span(str(path), number, 1)))

@@ -149,3 +149,21 @@ def test_a_truncated_normal_near_its_mean_has_scipy_s_sigma() -> None:
         assert sampling.standard_deviation(truncated(1.0, 0.5, 1.0 + 0.5 * low,
                                                      1.0 + 0.5 * high)) == pytest.approx(
             0.5 * float(stats.truncnorm.std(low, high)), rel=1e-10)
+
+
+@pytest.mark.parametrize(("sigma", "finite"), [(90.0, True), (1000.0, False)])
+def test_a_log_normal_too_wide_for_a_double_draws_inf_without_a_runtime_warning(
+        sigma: float, finite: bool) -> None:
+    """Its largest draws (and σ) are beyond a double: inf, which the parameter's range check
+    refuses at the campaign's line (F110); scipy's "overflow encountered in exp" reached the
+    console before."""
+    import warnings
+
+    spec = LogNormal(distribution="log_normal", median=250.0, sigma=sigma)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        top = sampling.inverse_cdf(spec, np.array([0.5, 1.0]))
+        spread = sampling.standard_deviation(spec)
+    assert top[0] == pytest.approx(250.0)
+    assert math.isfinite(top[1]) is finite
+    assert spread == math.inf

@@ -124,7 +124,7 @@ CATALOGUE = [
     ("bad expectation",
      GOOD.replace("{rank_first: detour}", "{first: detour}"),
      ["24:5: expect[1]: an expectation needs one of: verdict, rank_first, max_mean_risk, "
-      "max_collision_chance"]),
+      "max_collision_chance", "24:6: expect[1].first: unknown key"]),
     ("expectation names an unknown path",
      GOOD.replace("{rank_first: detour}", "{rank_first: detuor}"),
      ["24:18: expect[1].rank_first: unknown path 'detuor' (paths: straight, detour)"]),
@@ -303,3 +303,74 @@ def test_yes_no_on_off_are_names_where_names_are_meant_and_flags_where_flags_are
     refused = messages(write(tmp_path, GOOD.replace("uncertainty:\n",
                                                     "uncertainty:\n  paired: maybe\n"), "m.yaml"))
     assert any("uncertainty.paired" in m and "boolean" in m for m in refused)
+
+
+@pytest.mark.parametrize(("entry", "expected", "hint"), [
+    # the kind's key is pydantic's tag too: the unknown key is the one said, not the kind
+    ('{path: detour, verdict: fail, rank: 1}', ["23:35: expect[0].rank: unknown key"], None),
+    ('{path: detour, max_mean_risk: "50 %", pth: x}', ["23:43: expect[0].pth: unknown key"],
+     "did you mean 'path'?"),
+    ('{path: detour, max_collision_chance: {L2: "10 %"}, color: red}',
+     ["23:56: expect[0].color: unknown key"], None),
+    ('{rank_first: detour, pth: x}', ["23:26: expect[0].pth: unknown key"], None),
+    # an entry of no kind: the kind it lacks and the key it has instead, with the key meant
+    ('{path: detour, rank: 1}',
+     ["23:5: expect[0]: an expectation needs one of: verdict, rank_first, max_mean_risk, "
+      "max_collision_chance", "23:20: expect[0].rank: unknown key"], "did you mean 'rank_first'?"),
+    # the kind's own value and a key the kind misses are still said at their place
+    ('{path: detour, verdict: maybe}',
+     ["23:29: expect[0].verdict: expected 'pass', 'fail' or 'marginal', got 'maybe'"], None),
+    ('{verdict: fail}', ["23:5: expect[0].path: missing required key"], None),
+    ('{max_collision_chance: {L2: "10 %"}}', ["23:5: expect[0].path: missing required key"],
+     None),
+    ('{path: detour, max_collision_chance: {L2: "110 %"}}',
+     ['23:47: expect[0].max_collision_chance.L2: expected a risk or chance from 0 to 100 %, '
+      'got 110 % (a bare number is a fraction: write "30 %" or 0.3)'], None),
+])
+def test_an_unknown_key_of_an_expectation_is_said_at_that_key(
+        tmp_path: Path, entry: str, expected: list[str], hint: str | None) -> None:
+    text = GOOD.replace("  - {path: detour, verdict: pass}", f"  - {entry}")
+    with pytest.raises(UserInputError) as caught:
+        load_campaign(write(tmp_path, text))
+    found = caught.value.diagnostics
+    assert [f"{d.span.line}:{d.span.column}: {d.message}" for d in found] == expected
+    assert found[-1].hint == hint
+
+
+@pytest.mark.parametrize(("size", "refused"), [
+    ({"radius": "1000 m"}, False), ({"radius": "1 km", "embed": "1999 m"}, False),
+    ({"semi_axes": ["1 cm", "1000 m", "1 cm"]}, False),
+    ({"radius": "1000.001 m"}, True), ({"semi_axes": ["1 cm", "1 cm", "1e200 m"]}, True),
+])
+def test_a_rock_is_at_most_1_km_in_radius_or_semi_axis(size: dict[str, object],
+                                                       refused: bool) -> None:
+    """Larger, it is terrain, and its squares overflowed the obstacle checker's geometry
+    (a rock 1e200 m wide was met by no collision test); a stored campaign is read as it ran."""
+    from pydantic import ValidationError
+
+    from idefix_rules.campaign.input.schema import STORED_CAMPAIGN, RockSpec
+
+    rock = {"x": "0 m", "y": "0 m", **size}
+    if not refused:
+        assert max(RockSpec.model_validate(rock).axes) == pytest.approx(1000.0)
+        return
+    with pytest.raises(ValidationError, match="expected a rock radius or semi-axis of at most "
+                                              "1000 m"):
+        RockSpec.model_validate(rock)
+    assert RockSpec.model_validate(rock, context=STORED_CAMPAIGN)
+
+
+@pytest.mark.parametrize(("old", "new", "expected"), [
+    ("  terrain:\n", "  terrain: 5\n  xterrain:\n",
+     "18:12: environment.terrain: expected a mapping (key: value), got 5"),
+    ('    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}',
+     "    - 5", "7:7: paths.straight[0]: expected a mapping (key: value), got 5"),
+    ("uncertainty:\n", "uncertainty: [seed]\nx:\n",
+     "11:14: uncertainty: expected a mapping (key: value), got ['seed']"),
+])
+def test_a_section_that_is_no_mapping_is_said_without_the_schema_s_class_names(
+        tmp_path: Path, old: str, new: str, expected: str) -> None:
+    assert old in GOOD
+    found = messages(write(tmp_path, GOOD.replace(old, new, 1)))
+    assert expected in found
+    assert not any("instance of" in message for message in found), found

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -299,6 +300,13 @@ CASES = [
          ("campaign.yaml:17:3: error[C100]:", "path name 'a\\x00b' is not usable",)),
     Case("campaign-path-name-with-a-tab", campaign(("  arc:", '  "a\\tb":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]:", "path name 'a\\tb' is not usable",)),
+    *(Case(f"campaign-path-named-{name}", campaign(("  arc:", f'  "{dots}":')), RUN, 2,
+           (f"campaign.yaml:17:3: error[C100]: paths.{dots}: path name '{dots}' is not usable: "
+            "'.' and '..' mean this folder and the one above in a file path",),
+           absent=("give a non-empty name",))
+      for name, dots in (("dot", "."), ("dot-dot", ".."))),
+    Case("campaign-path-named-three-dots", campaign(("  arc:", '  "...":')), RUN, 1,
+         ("CI verdicts",)),
     Case("campaign-empty-path-name", campaign(("  arc:", '  "":')), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.: path name '' is not usable",)),
     Case("campaign-a-billion-runs", campaign(("runs: 6", "runs: 1000000000")), RUN, 2,
@@ -376,6 +384,17 @@ CASES = [
                                              '"1e308 m", delta_heading: "0 deg"}')), RUN,
          2, ("campaign.yaml:15:3: error[C404]: paths.straight: a run would last longer than a "
              "number can say",)),
+    # a margin that makes a short chain's run endless: said at the margin, not at the path
+    *(Case(f"campaign-margin-{name}",
+           campaign(('  extra_time: "2 s"', f'  extra_time: "2 s"\n  duration_margin: {margin}')),
+           RUN, 2, (f"campaign.yaml:22:20: error[{code}]: {said}",))
+      for name, margin, code, said in (
+          ("inf", ".inf", "C100", "simulation.duration_margin: expected a finite value, got inf"),
+          ("nan", ".nan", "C100", "simulation.duration_margin: expected a finite value, got nan"),
+          ("1e308", "1e308", "C404", "paths.straight: a run would last longer than a number can "
+                                     "say (duration_margin × the chain's duration is beyond a "
+                                     "double)"),
+          ("1e12", "1e12", "C404", "paths.straight: a run would last 1e+13 s"))),
     # an output interval so fine the runs hold too many samples: said once, at the interval
     Case("campaign-fine-output-interval", campaign(('output_interval: "0.5 s"',
                                                     'output_interval: "1e-5 s"')), RUN,
@@ -500,6 +519,17 @@ CASES = [
           ("dates", np.array([["2024-01-01"] * 2] * 2, dtype="datetime64[D]"),
            "dates (<M8[D])"),
           ("complex", np.ones((2, 2), dtype=complex), "complex numbers (<c16)"))),
+    Case("dem-npy-that-is-a-text-file",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              "    cell: \"1 m\"\npaths:")), site__npy=b"hello\n"), RUN, 2,
+         ("site.npy: error[F203]: cannot read DEM: not a .npy file: it has no NumPy header",),
+         absent=("pickle",)),
+    Case("dem-csv-not-utf8",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                              "    cell: \"1 m\"\npaths:")),
+                    site__csv="0,0,0\n0,\xe9,0\n0,0,0\n".encode("latin-1")), RUN, 2,
+         ("site.csv:2:3: error[F203]: DEM file is not UTF-8 text (byte 0xe9",
+          "hint: save the file as UTF-8"), absent=("codec",)),
     Case("dem-npy-is-an-npz-archive",
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
                               "    cell: \"1 m\"\npaths:")), site__npy=_npz()), RUN, 2,
@@ -510,6 +540,33 @@ CASES = [
          ("campaign.yaml:16:10: error[C217]: environment.terrain.dem: the DEM is the terrain "
           "file this campaign writes into its output folder (terrain.dem)",),
          unchanged=("out/terrain.dem",)),
+    # heights beyond ±100 km: numpy's overflow warnings and a run that passed, or exit 3
+    *(Case(f"dem-npy-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                                "    cell: \"1 m\"\npaths:")), site__npy=_npy(array)), RUN, 2,
+           (f"site.npy: error[F206]: DEM height {shown} m at row {row}, column {column} "
+            "(0-based) is beyond ±100000 m of the datum",))
+      for name, array, shown, row, column in (
+          ("one-height-1e308", np.array([[0.0, 0.0, 0.0], [0.0, 1e308, 0.0], [0.0] * 3]),
+           "1e+308", 1, 1),
+          ("of-heights-1e308", np.full((3, 3), 1e308), "1e+308", 0, 0),
+          ("height-just-below-minus-100-km",
+           np.array([[0.0, -100000.001, 0.0], [0.0] * 3, [0.0] * 3]), "-100000", 0, 1))),
+    Case("dem-csv-height-beyond-100-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                              "    cell: \"1 m\"\npaths:")),
+                    site__csv="0,0,0\n0,100000.001,0\n0,0,0\n"), RUN, 2,
+         ("site.csv:2:3: error[F207]: height '100000.001' is beyond ±100000 m of the datum",)),
+    Case("dem-height-beyond-100-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(heights=np.array([0.0] * 5 + [-1e200] + [0.0] * 3))),
+         RUN, 2, ("site.dem:7:1: error[F204]: height grid: height -1e+200 m at row 1, column 2 "
+                  "(0-based) is beyond ±100000 m of the datum",)),
+    Case("dem-rock-too-large",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                        "rocks 0\n", "rocks 1\nrock 0 0 0 1 1e200 1\n"))),
+         RUN, 2, ("site.dem:7:1: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -520,6 +577,18 @@ CASES = [
                              'radius: "4 cm"}\npaths:')), RUN, 2,
          ("campaign.yaml:16:7: error[C206]: environment.rocks[0]: (100 m, 0 m) is outside the "
           "terrain",)),
+    # a rock 1e200 m wide overflowed the collision geometry: every test was silently false
+    *(Case(f"rock-{name}",
+           campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                               f'{size}}}\npaths:')), RUN, 2,
+           (f"campaign.yaml:16:{column}: error[C100]: environment.rocks[0].{where}: expected a "
+            f"rock radius or semi-axis of at most 1000 m, got {shown} m (a larger rock is a "
+            "hill or a crater: give it in the terrain's dem)",))
+      for name, size, column, where, shown in (
+          ("radius-1e200", 'radius: "1e200 m", embed: "1e200 m"', 38, "radius", "1e+200"),
+          ("radius-just-above-1-km", 'radius: "1000.001 m"', 38, "radius", "1000.001"),
+          ("semi-axis-1e300", 'semi_axes: ["1 cm", "1e300 m", "1 cm"]', 50, "semi_axes[1]",
+           "1e+300"))),
     Case("rock-negative-radius",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
                              'radius: "-4 cm"}\npaths:')), RUN, 2,
@@ -759,10 +828,14 @@ def test_a_user_mistake_gets_a_clear_message_and_its_exit_code(
     materialise(tmp_path, case.files, cli_toy_fmu)
     before = {name: (tmp_path / name).read_bytes() for name in case.unchanged}
     monkeypatch.chdir(tmp_path)
-    code = main(list(case.argv))
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        code = main(list(case.argv))
     captured = capsys.readouterr()
     output = captured.out + captured.err
     assert "Traceback" not in output
+    # numpy's and scipy's own words ("overflow encountered in square") never reach the user
+    assert [str(w.message) for w in raised if issubclass(w.category, RuntimeWarning)] == []
     assert code == case.code, output
     flat = " ".join(output.split())  # rich may wrap long lines
     for fragment in case.fragments:
@@ -1299,3 +1372,19 @@ def test_evaluate_records_the_rulebook_absolute_as_it_records_the_results(
     summary = json.loads(summary_file.read_text())
     assert summary["rulebook"]["path"] == \
         f"{(tmp_path / 'out' / 'results.h5').resolve()}:/provenance/rulebook"
+
+
+def test_junit_into_a_missing_folder_creates_it_as_out_does_and_explain_error_says_so(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """C207's explanation named a missing folder as its cause, but a CI maintainer's
+    `--junit reports/ci/junit.xml` gets its folders made, as `--out` does."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main([*RUN, "--junit", "reports/ci/junit.xml"]) == 1  # the toy's paths: undecided
+    assert (tmp_path / "reports" / "ci" / "junit.xml").read_text().startswith("<?xml")
+    capsys.readouterr()
+    assert main(["explain-error", "C207"]) == 0
+    explained = " ".join(capsys.readouterr().out.split())
+    assert "folder missing" not in explained
+    assert "A missing folder is no mistake: it is created, as `--out`'s is" in explained

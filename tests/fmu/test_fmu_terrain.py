@@ -152,3 +152,50 @@ def test_a_rock_of_a_terrain_file_outside_its_grid_is_named_at_its_line(
     assert found.code == "F204" and "lies outside the grid (x 0 … 0.95 m" in found.message
     assert found.span is not None and path.read_bytes().split(b"\n")[found.span.line - 1] \
         .startswith(b"rock ")
+
+
+@pytest.mark.parametrize(("height", "refused"), [(100_000.0, False), (-100_000.0, False),
+                                                 (100_000.001, True), (-100_000.001, True)])
+def test_heights_lie_within_100_km_of_the_datum_in_every_dem_format(
+        tmp_path: Path, height: float, refused: bool) -> None:
+    grid = np.zeros((3, 4))
+    grid[2, 1] = height
+    np.save(tmp_path / "dem.npy", grid)
+    (tmp_path / "dem.csv").write_text(
+        "\n".join(",".join(str(float(v)) for v in row) for row in grid), encoding="utf-8")
+    write_terrain(tmp_path / "site.dem", Terrain(grid, (0.0, 0.0), 0.5))
+    for name, code, where in (("dem.npy", "F206", None), ("dem.csv", "F207", (3, 5)),
+                              ("site.dem", "F204", (7, 1))):
+        if not refused:
+            assert load_dem(tmp_path / name, cell=0.5).heights[2, 1] == height
+            continue
+        with pytest.raises(UserInputError) as caught:
+            load_dem(tmp_path / name, cell=0.5)
+        found = caught.value.diagnostics[0]
+        assert found.code == code and "beyond ±100000 m of the datum" in found.message
+        assert found.span is not None and found.span.path == str(tmp_path / name)
+        if where is None:  # a .npy has no lines: the cell is named by row and column
+            assert "row 2, column 1 (0-based)" in found.message
+        else:
+            assert (found.span.line, found.span.column) == where
+
+
+@pytest.mark.parametrize(("rock", "refused"), [
+    ("rock 0.5 0.5 0 1000 1 1", None),
+    ("rock 0.5 0.5 0 1 1 1000.001", "rock semi-axis 1000.001 m: at most 1000 m"),
+    ("rock 0.5 0.5 101000 1 1 1", None),  # a 1 km rock on ground 100 km high
+    ("rock 0.5 0.5 -101000.001 1 1 1", "rock centre height -101000.001 m: at most 101000 m"),
+])
+def test_a_rock_of_a_terrain_file_is_at_most_1_km_and_near_the_ground(
+        tmp_path: Path, rock: str, refused: str | None) -> None:
+    path = tmp_path / "site.dem"
+    path.write_bytes(f"IDEFIX-TERRAIN 1\nnx 2\nny 2\norigin 0 0\ncell 1\nrocks 1\n{rock}\n"
+                     "heights\n".encode() + np.zeros(4).tobytes())
+    if refused is None:
+        assert len(read_terrain(path).rocks) == 1
+        return
+    with pytest.raises(UserInputError) as caught:
+        read_terrain(path)
+    found = caught.value.diagnostics[0]
+    assert found.code == "F204" and found.message.startswith(refused)
+    assert found.span is not None and found.span.line == 7

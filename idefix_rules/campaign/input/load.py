@@ -19,6 +19,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from idefix_rules.campaign.input.schema import (
+    EXPECTATION_KINDS,
     AdaptiveRuns,
     CampaignFile,
     CollisionExpectation,
@@ -115,28 +116,45 @@ def format_loc(loc: Sequence[str | int]) -> str:
 def _data_loc(data: Any, loc: Sequence[str | int]) -> tuple[tuple[str | int, ...], bool]:
     """Keep only the parts of a pydantic ``loc`` that exist in the data (drops union tags).
 
-    Returns the cleaned location and whether its last part exists in the data.
+    Returns the cleaned location and whether its last part exists in the data. A union tag
+    may also be a key of the data (an expectation's ``verdict`` is its tag and its key), so
+    a tag is read both ways: as the key where only that reading finds the location in the
+    data, as the tag otherwise (pydantic puts the tag before every location in a member).
+
+    >>> entry = {"path": "p", "verdict": "fail", "rank": 1}
+    >>> _data_loc({"expect": [entry]}, ("expect", 0, "verdict", "rank"))
+    (('expect', 0, 'rank'), True)
+    >>> _data_loc({"expect": [entry]}, ("expect", 0, "verdict", "verdict"))
+    (('expect', 0, 'verdict'), True)
     """
-    cleaned: list[str | int] = []
-    node = data
-    found = True
-    for part in loc:
-        in_dict = isinstance(node, dict) and part in node
-        in_list = isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
-        if in_dict or in_list:
-            cleaned.append(part)
-            node = node[part]
-            found = True
-        elif isinstance(node, dict | list):
-            # A union tag (e.g. "normal") or a missing key: keep missing keys for the message.
-            found = False
-            if isinstance(part, str) and part.isidentifier() and part not in _UNION_TAGS:
-                cleaned.append(part)
-                break
-        else:
-            found = False
-            break
-    return tuple(cleaned), found
+    found, _, cleaned = _read_loc(data, tuple(loc))
+    return cleaned, found
+
+
+def _read_loc(node: Any, loc: tuple[str | int, ...]) -> tuple[bool, bool, tuple[str | int, ...]]:
+    """For :func:`_data_loc`: whether all of ``loc`` was found in ``node``, whether the
+    reading fits the data (it looks for no key inside a plain value), and the parts kept."""
+    if not loc:
+        return True, True, ()
+    part, rest = loc[0], loc[1:]
+    if part == "[key]":  # pydantic's marker for a mapping's key: the key before it
+        return True, True, ()
+    in_dict = isinstance(node, dict) and part in node
+    in_list = isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
+    if in_dict or in_list:
+        found, fits, cleaned = _read_loc(node[part], rest)
+        as_data = (found, fits, (part, *cleaned))
+        if part in _UNION_TAGS and isinstance(node, dict) and rest:
+            as_tag = _read_loc(node, rest)
+            if as_tag[:2] >= as_data[:2]:
+                return as_tag
+        return as_data
+    if not isinstance(node, dict | list):
+        return False, False, ()
+    if isinstance(part, str) and part.isidentifier() and part not in _UNION_TAGS:
+        return False, True, (part,)  # a missing key: kept for the message
+    # a union tag ("normal") or another marker of pydantic's: not in the data
+    return _read_loc(node, rest) if rest else (False, True, ())
 
 
 _UNION_TAGS = frozenset({"fixed", "normal", "truncated_normal", "uniform", "log_normal",
@@ -168,9 +186,7 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         if kind == "extra_forbidden":
             message = "unknown key"
             span = locations.span(loc, at_key=True)
-            close = difflib.get_close_matches(str(loc[-1]), _known_keys(loc), n=1) \
-                if loc else []
-            hint = f"did you mean '{close[0]}'?" if close else None
+            hint = _did_you_mean(loc, data)
         elif kind == "missing" and item["loc"] and isinstance(item["loc"][-1], int) \
                 and isinstance(item.get("input"), list):
             # a list too short for its tuple (semi_axes of two values): pydantic reports each
@@ -199,12 +215,26 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
             expected = item.get("ctx", {}).get("expected", "")
             message = f"expected {expected}, got {_shown(item.get('input'))}"
             span = locations.span(loc)
+        elif kind in ("model_type", "model_attributes_type", "dict_type"):
+            # pydantic's words name its classes ("instance of TerrainSection"): not the user's
+            message = f"expected a mapping (key: value), got {_shown(item.get('input'))}"
+            span = locations.span(loc)
         elif kind == "union_tag_invalid":
             context = item.get("ctx", {})
             message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
                        f"{context.get('tag')!r} (expected one of: "
                        f"{context.get('expected_tags', '')})")
             span = locations.span((*loc, "distribution"))
+        elif kind == "expectation" and isinstance(item.get("input"), dict):
+            # an entry of no kind: its keys the schema does not know are likely the kind
+            # misspelt (`rank: 1` for `rank_first`)
+            message = str(item["msg"])
+            span = locations.span(loc)
+            extra = [(*loc, key) for key in item["input"] if key not in _ALL_EXPECTATION_KEYS]
+            for key_loc in extra:
+                diagnostics.append(error("C100", f"{format_loc(key_loc)}: unknown key",
+                                         locations.span(key_loc, at_key=True),
+                                         _did_you_mean(key_loc, data)))
         else:
             # a validator's own words, without pydantic's "Value error, " before them
             message = str(item["msg"]).removeprefix("Value error, ")
@@ -233,9 +263,28 @@ _BOUND_WORDS = {"greater_than": "above", "greater_than_equal": "at least",
                 "less_than": "below", "less_than_equal": "at most"}
 
 
-def _known_keys(loc: Sequence[str | int]) -> list[str]:
+def _did_you_mean(loc: Sequence[str | int], data: Any) -> str | None:
+    """The hint for the unknown key ending ``loc``: the known key closest to it, if any is
+    close (a misspelling, or the start of a longer key: ``rank`` for ``rank_first``)."""
+    if not loc:
+        return None
+    written, known = str(loc[-1]), _known_keys(loc, data)
+    close = difflib.get_close_matches(written, known, n=1) or [
+        key for key in known if len(written) >= 3 and key.startswith(written)][:1]
+    return f"did you mean '{close[0]}'?" if close else None
+
+
+def _known_keys(loc: Sequence[str | int], data: Any) -> list[str]:
     """The keys the campaign schema knows where ``loc``'s last key stands (a section that is
-    a model of its own; none where the schema says less)."""
+    a model of its own, or an expectation: those of its kind, all kinds' for an entry of no
+    kind; none where the schema says less)."""
+    if len(loc) == 3 and loc[0] == "expect" and isinstance(loc[1], int):
+        expect = data.get("expect") if isinstance(data, dict) else None
+        entry = expect[loc[1]] if isinstance(expect, list) and 0 <= loc[1] < len(expect) \
+            else None
+        kinds = [model for kind, model in EXPECTATION_KINDS.items()
+                 if isinstance(entry, dict) and kind in entry]
+        return _field_names(*kinds) if kinds else list(_ALL_EXPECTATION_KEYS)
     model: Any = CampaignFile
     for part in loc[:-1]:
         field = model.model_fields.get(part) if isinstance(part, str) else None
@@ -243,7 +292,15 @@ def _known_keys(loc: Sequence[str | int]) -> list[str]:
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             return []
         model = annotation
-    return [field.alias or name for name, field in model.model_fields.items()]
+    return _field_names(model)
+
+
+def _field_names(*models: type[BaseModel]) -> list[str]:
+    return list(dict.fromkeys(field.alias or name for model in models
+                              for name, field in model.model_fields.items()))
+
+
+_ALL_EXPECTATION_KEYS = _field_names(*EXPECTATION_KINDS.values())
 
 
 def _looks_like_a_rulebook(text: str) -> bool:

@@ -73,7 +73,11 @@ def standard_deviation(spec: AnyDistribution) -> float:
         if low < 0.0 < high:
             return float(stats.truncnorm.std(low, high, loc=spec.mean, scale=spec.std))
         return spec.std * _one_sided_truncated_std(low, high)
-    return float(stats.lognorm.std(spec.sigma, scale=spec.median))
+    # a wide log-normal (sigma: 1000): a σ beyond a double, which scipy gives as nan or inf
+    # with RuntimeWarnings
+    with np.errstate(over="ignore", invalid="ignore"):
+        std = float(stats.lognorm.std(spec.sigma, scale=spec.median))
+    return math.inf if math.isnan(std) else std
 
 
 def _one_sided_truncated_std(low: float, high: float) -> float:
@@ -116,7 +120,10 @@ def inverse_cdf(spec: AnyDistribution, u: np.ndarray) -> np.ndarray:
         return clipped
     if isinstance(spec, Uniform):
         return np.asarray(spec.low + u * (spec.high - spec.low), dtype=float)
-    return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
+    # A wide log-normal (sigma: 1000) draws values beyond a double: they are inf, which the
+    # parameter's range check refuses at the campaign's line (F110), not a RuntimeWarning.
+    with np.errstate(over="ignore"):
+        return np.asarray(stats.lognorm.ppf(u, spec.sigma, scale=spec.median), dtype=float)
 
 
 def cumulative(spec: AnyDistribution, values: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from pydantic_core import PydanticCustomError
 
 from idefix_rules import units
 from idefix_rules.campaign.input.yamlsource import flag_value
-from idefix_rules.limits import MAX_RUNS, MAX_SEED
+from idefix_rules.limits import MAX_ROCK_SEMI_AXIS, MAX_RUNS, MAX_SEED
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
 LEVELS = ("L1", "L2", "L3")
@@ -67,7 +67,11 @@ def _quantity(dimension: Dimension | None) -> BeforeValidator:
         try:
             if isinstance(value, int | float) or not _has_unit(value):
                 if dimension is None or dimension.is_dimensionless:
-                    return float(parse_quantity(value).value)
+                    number = float(parse_quantity(value).value)
+                    if not math.isfinite(number):  # YAML's .inf: said here, not downstream
+                        raise PydanticCustomError("quantity", "expected a finite value, got "
+                                                  "{got}", {"got": _show(value)})
+                    return number
                 raise PydanticCustomError("quantity", "expected {wanted}, got {got}",
                                           {"wanted": wanted, "got": _show(value)})
             quantity = parse_quantity(value)
@@ -215,11 +219,25 @@ class TerrainSection(Strict):
         return self
 
 
+def _rock_size(value: float, info: ValidationInfo) -> float:
+    """A rock's radius or semi-axis: at most :data:`MAX_ROCK_SEMI_AXIS` (a larger one is
+    terrain, and its squares would overflow the obstacle checker's geometry)."""
+    if _new_run(info) and value > MAX_ROCK_SEMI_AXIS:
+        raise PydanticCustomError(
+            "rock", "expected a rock radius or semi-axis of at most {most} m, got {got} m (a "
+            "larger rock is a hill or a crater: give it in the terrain's dem)",
+            {"most": f"{MAX_ROCK_SEMI_AXIS:g}", "got": f"{value:.12g}"})
+    return value
+
+
+RockAxis = Annotated[PositiveLength, AfterValidator(_rock_size)]
+
+
 class RockSpec(Strict):
     x: Length
     y: Length
-    radius: PositiveLength | None = None
-    semi_axes: tuple[PositiveLength, PositiveLength, PositiveLength] | None = None
+    radius: RockAxis | None = None
+    semi_axes: tuple[RockAxis, RockAxis, RockAxis] | None = None
     embed: Length = 0.0
     level: Literal["L1", "L2", "L3"] | None = None
 
@@ -424,12 +442,14 @@ class CollisionExpectation(Strict):
     max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Fraction]
 
 
-_EXPECTATION_KEYS = {
-    "verdict": "verdict",
-    "rank_first": "rank_first",
-    "max_mean_risk": "max_mean_risk",
-    "max_collision_chance": "max_collision_chance",
+# An expectation's kind is the key that names it (and tags it in pydantic's union).
+EXPECTATION_KINDS: dict[str, type[Strict]] = {
+    "verdict": PathVerdictExpectation,
+    "rank_first": RankFirstExpectation,
+    "max_mean_risk": MeanRiskExpectation,
+    "max_collision_chance": CollisionExpectation,
 }
+_EXPECTATION_KEYS = tuple(EXPECTATION_KINDS)
 
 
 def _expectation_kind(value: Any) -> str | None:
@@ -534,6 +554,11 @@ def _path_name(value: Any, info: ValidationInfo) -> Any:
             or (_new_run(info) and (len(value) > MAX_PATH_NAME or any(
                 unicodedata.category(c) in ("Cc", "Cs") for c in value)))):
         shown = repr(value if len(value) <= 40 else value[:37] + "...")
+        if value in (".", ".."):  # which satisfy the rule below, so it would not say why
+            raise PydanticCustomError(
+                "path_name", "path name {name} is not usable: '.' and '..' mean this folder "
+                "and the one above in a file path, and a path name becomes the file name of "
+                "its figures; give it a letter or digit", {"name": shown})
         raise PydanticCustomError("path_name", "path name {name} is not usable: give a "
                                   "non-empty name of at most {most} characters, without '/' "
                                   "or control characters", {"name": shown,

@@ -28,6 +28,7 @@ from idefix_rules.campaign.input.load import (
     rover_geometry,
     where_set,
 )
+from idefix_rules.campaign.input.schema import DEFAULT_DURATION_MARGIN
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
 from idefix_rules.fmu.mapping import CHAIN_ARRAYS, CHAIN_COUNT
@@ -243,17 +244,25 @@ def check_simulation_size(campaign: Campaign) -> None:
             interval_said = True
             where: tuple[str, ...] = ("simulation", "output_interval")
         elif ideal * settings.duration_margin > settings.extra_time:
-            where = ("paths", spec.name)
+            # the chain, unless it fits with the default margin: then the margin (1e308)
+            usual = ideal * DEFAULT_DURATION_MARGIN + settings.extra_time
+            where = ("paths", spec.name) if usual / settings.output_interval > MAX_SAMPLES \
+                else ("simulation", "duration_margin")
         else:
             where = ("simulation",)
+        if math.isfinite(stop):
+            length = (f"{samples * settings.output_interval:.6g} s at an output interval of "
+                      f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
+                      f"than {MAX_SAMPLES}")
+        else:
+            beyond = ("duration_margin × the chain's duration" if math.isfinite(ideal)
+                      else "its chain's duration")
+            length = (f"longer than a number can say ({beyond} is beyond a double): more than "
+                      f"{MAX_SAMPLES} samples")
         problems.append(error(
-            "C404", f"paths.{spec.name}: a run would last "
-                    f"{samples * settings.output_interval:.6g} s at an output interval of "
-                    f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
-                    f"than {MAX_SAMPLES}" if math.isfinite(stop) else
-                    f"paths.{spec.name}: a run would last longer than a number can say (its "
-                    f"chain's duration is beyond a double): more than {MAX_SAMPLES} samples",
-            campaign.locations.span(where, at_key=where[-1] != "output_interval"),
+            "C404", f"paths.{spec.name}: a run would last {length}",
+            campaign.locations.span(where, at_key=where[-1] not in ("output_interval",
+                                                                    "duration_margin")),
             hint="stop time = chain duration × duration_margin + extra_time; check the "
                  "simulation section and the chain's wheel rates"))
     if problems:
