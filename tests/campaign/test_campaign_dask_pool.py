@@ -140,3 +140,43 @@ def test_ctrl_c_is_not_taken_over_where_it_is_ignored() -> None:
         assert pressed == []
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+IGNORED_FROM_THE_START = """\
+import logging, signal, sys
+from dask.distributed import Client, LocalCluster
+from idefix_rules.campaign.simulation.dask_pool import workers_ignore_ctrl_c
+
+def ignores():
+    return signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+
+if __name__ == "__main__":
+    if sys.argv[1] == "fork server":
+        workers_ignore_ctrl_c()
+    # no preload: what the workers do with Ctrl-C is what they were started with
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, \\
+            Client(cluster) as client:
+        print(sorted(set(client.run(ignores).values())))
+    print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+"""
+
+
+@pytest.mark.parametrize("start", ["fork server", "as Dask starts them"])
+def test_local_cluster_workers_ignore_ctrl_c_from_their_first_instant(
+        start: str, tmp_path) -> None:
+    """A terminal's Ctrl-C reaches the workers too; one that comes while a worker still
+    imports Dask (before the preload that ignores it) killed that worker with its traceback.
+    Forked from a fork server started ignoring it, a worker ignores it before its first
+    instruction; Dask's own start (spawn) gives Python's handler. This process keeps its own."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "ignored.py"
+    script.write_text(IGNORED_FROM_THE_START)
+    done = subprocess.run([sys.executable, str(script), start], capture_output=True, text=True,
+                          timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.split("\n")
+    assert lines[0] == ("[True]" if start == "fork server" else "[False]"), done.stdout
+    assert lines[1] == "True"

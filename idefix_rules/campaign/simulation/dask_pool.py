@@ -86,14 +86,42 @@ def ctrl_c_deferred() -> Iterator[list[bool]]:
         pressed.append(True)
 
     previous = signal.signal(signal.SIGINT, note)
-    # Blocked in this thread meanwhile: the threads and processes it starts inherit the mask,
-    # so a terminal's Ctrl-C (sent to the whole process group) does not kill workers halfway
-    # through their start, each with its traceback; it waits, and is taken when unblocked.
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield pressed
     finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # a pending one: noted
+        signal.signal(signal.SIGINT, previous)
+
+
+def workers_ignore_ctrl_c() -> None:
+    """Start the local cluster's worker processes ignoring Ctrl-C from their first instant.
+
+    A terminal's Ctrl-C reaches the whole process group. A worker spawned afresh (Dask's
+    default) installs Python's handler as it starts and, interrupted while it still imports
+    Dask (before its preload, :mod:`dask_worker_setup`, runs), dies with its traceback on the
+    campaign's terminal. Here the workers are forked from a fork server that was started with
+    Ctrl-C ignored: a process started with SIGINT ignored keeps it ignored (Python installs its
+    handler only where SIGINT has its default action), and the fork server hands that on to
+    every worker it forks, the ones the nannies start again later too. The fork server has Dask
+    imported already, so a worker starts in a fraction of the time. Ctrl-C is ignored by this
+    process only while the fork server is started (milliseconds), once per process; off the
+    main thread, or without fork servers (Windows), the workers are started as before."""
+    import multiprocessing
+
+    import dask
+
+    if "forkserver" not in multiprocessing.get_all_start_methods() or \
+            threading.current_thread() is not threading.main_thread():
+        return
+    from multiprocessing import forkserver
+
+    from distributed.utils import get_mp_context
+
+    dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"})
+    get_mp_context()  # type: ignore[no-untyped-call]  # the fork server preloads Dask, once
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
         signal.signal(signal.SIGINT, previous)
 
 
@@ -130,6 +158,7 @@ class DaskPool:
         import dask
         from dask.distributed import Client, LocalCluster
 
+        workers_ignore_ctrl_c()
         with ctrl_c_deferred() as pressed:
             try:
                 # One task per worker thread at a time: a worker that dies then takes only
