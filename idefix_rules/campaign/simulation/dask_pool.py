@@ -153,8 +153,9 @@ class DaskPool:
         """A LocalCluster of ``workers`` processes and its client. Ctrl-C while it starts is
         taken once it has started (or failed to), and the cluster closed: interrupted halfway,
         its workers still starting, it could not be closed at all (Dask's exit hook then fails
-        on it with a traceback). A terminal's Ctrl-C reaches the starting workers too, and the
-        start fails with them: that is the interrupt, not the cluster's failure."""
+        on it with a traceback). The workers ignore it (:func:`workers_ignore_ctrl_c`); where they
+        cannot (no fork server) a terminal's Ctrl-C reaches them too and the start fails with
+        them: that is the interrupt, not the cluster's failure."""
         import dask
         from dask.distributed import Client, LocalCluster
 
