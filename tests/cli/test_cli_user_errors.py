@@ -427,6 +427,11 @@ CASES = [
     Case("fmu-unknown-parameter", campaign(("toy.slip:", "toy.slipp:")), RUN, 2,
          ("campaign.yaml:13:5: error[C401]: uncertainty.parameters.toy.slipp: unknown FMU "
           "parameter 'toy.slipp' in toy.fmu", "did you mean 'toy.slip'?")),
+    # a variable's name without its group: the grouped name is what was meant
+    Case("fmu-parameter-without-its-group", campaign(("toy.slip:", "slip:")), RUN, 2,
+         ("campaign.yaml:13:5: error[C401]: uncertainty.parameters.slip: unknown FMU "
+          "parameter 'slip' in toy.fmu", "did you mean 'toy.slip'? (a variable is named with "
+          "its group)")),
     Case("fmu-parameter-mapped-to-nothing",
          campaign(("  path: toy.fmu", "  path: toy.fmu\n  parameters:\n    soil.nothing: c")),
          RUN, 2, ("campaign.yaml:5:5: error[C401]: fmu.parameters.soil.nothing: unknown FMU "

@@ -517,8 +517,12 @@ def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping
     if loc[:2] == ("environment", "regolith") and name.startswith(REGOLITH_PREFIX) \
             and loc[-1] == name[len(REGOLITH_PREFIX):]:
         return _unknown_regolith(campaign, loc, name, known, fmu_path)
-    close = difflib.get_close_matches(name, list(known), n=1)
+    # a variable's own name without its group (`k_c` for `soil.k_c`) first, then spelling
+    grouped = sorted(n for n in known if "." not in name and n.rsplit(".", 1)[-1] == name)
+    close = grouped[:1] or difflib.get_close_matches(name, list(known), n=1)
     hint = f"did you mean {close[0]!r}?" if close else None
+    if grouped:
+        hint = f"{hint} (a variable is named with its group)"
     if hint is None and what == "FMU parameter":
         # `fmpy info` lists inputs and outputs only: name the parameters there are
         names = [n for n in known if n]
