@@ -723,6 +723,12 @@ CASES = [
     Case("output-is-a-file", campaign(("output: out", "output: test.rules")), RUN, 2,
          ("campaign.yaml:5:9: error[C205]: output folder", "test.rules cannot be used: it is a "
           "file"), unchanged=("test.rules",)),
+    # an empty one (a template's unfilled field) would write beside the campaign file
+    Case("output-empty", campaign(("output: out", 'output: ""')), RUN, 2,
+         ("campaign.yaml:5:9: error[C100]: output: an empty folder name: give the folder the "
+          "results go to (results/NAME), or '.' for the campaign file's own folder",)),
+    Case("output-blank", campaign(("output: out", 'output: "  "')), RUN, 2,
+         ("campaign.yaml:5:9: error[C100]: output: an empty folder name",)),
     Case("output-below-a-file", campaign(("output: out", "output: test.rules/out")), RUN, 2,
          ("campaign.yaml:5:9: error[C205]: output folder", "cannot be used: Not a directory")),
     Case("out-option-is-a-file", campaign(), (*RUN, "--out", "test.rules"), 2,

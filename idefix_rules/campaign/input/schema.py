@@ -568,6 +568,19 @@ def _path_name(value: Any, info: ValidationInfo) -> Any:
 
 PathName = Annotated[str, BeforeValidator(_path_name)]
 
+
+def _output_folder(value: Any) -> Any:
+    """An empty ``output:`` (a template's unfilled field) would write into the campaign file's
+    folder, beside whatever is there: refused, as ``--out ''`` is; ``.`` says it on purpose."""
+    if isinstance(value, str) and not value.strip():
+        raise PydanticCustomError(
+            "output_folder", "an empty folder name: give the folder the results go to "
+            "(results/NAME), or '.' for the campaign file's own folder", {})
+    return value
+
+
+OutputFolder = Annotated[str, BeforeValidator(_output_folder)]
+
 RunCount = Annotated[StrictInt, Field(ge=1, le=MAX_RUNS)]
 
 def _runs(value: Any) -> Any:
@@ -624,7 +637,7 @@ class CampaignFile(Strict):
     min_runs: RunCount | None = None
     batch_runs: RunCount | None = None
     rulebook: str
-    output: str = "results"
+    output: OutputFolder = "results"
     workers: StrictInt | Literal["auto"] = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[ExpectationEntry] = []
