@@ -258,6 +258,14 @@ CASES = [
     Case("campaign-workers-too-many", campaign(("workers: 1", "workers: 1025")), RUN, 2,
          ("campaign.yaml:7:10: error[C201]: workers: expected 'auto' or a number from 1 to "
           "1024, got 1025",)),
+    # one message for a word that is neither a number nor auto (pydantic gave one per type)
+    Case("campaign-workers-text", campaign(("workers: 1", "workers: many")), RUN, 2,
+         ("campaign.yaml:7:10: error[C100]: workers: expected 'auto' or a whole number of "
+          "worker processes from 1 to 1024, got \"many\"",),
+         absent=("Input should be", "expected 'auto', got")),
+    Case("campaign-workers-yes", campaign(("workers: 1", "workers: true")), RUN, 2,
+         ("campaign.yaml:7:10: error[C100]: workers: expected 'auto' or a whole number of "
+          "worker processes from 1 to 1024, got true",), absent=("Input should be",)),
     Case("option-workers-too-many", campaign(), (*RUN, "--workers", "1025"), 2,
          ("argument --workers: at most 1024 worker processes, got 1025",)),
     Case("campaign-seed-text", campaign(("seed: 5", "seed: abc")), RUN, 2,

@@ -32,7 +32,7 @@ from pydantic_core import PydanticCustomError
 
 from idefix_rules import units
 from idefix_rules.campaign.input.yamlsource import flag_value
-from idefix_rules.limits import MAX_ROCK_SEMI_AXIS, MAX_RUNS, MAX_SEED
+from idefix_rules.limits import MAX_ROCK_SEMI_AXIS, MAX_RUNS, MAX_SEED, MAX_WORKERS
 from idefix_rules.units import Dimension, UnitError, describe, parse_quantity
 
 LEVELS = ("L1", "L2", "L3")
@@ -598,6 +598,21 @@ def _runs(value: Any) -> Any:
 
 Runs = Annotated[StrictInt | Literal["auto"], BeforeValidator(_runs)]
 
+
+def _workers(value: Any) -> Any:
+    """``auto`` (any case, as ``--workers`` takes it) or a whole number, in one message for
+    anything else (the range is C201's, :mod:`~idefix_rules.campaign.input.load`)."""
+    if isinstance(value, str) and value.strip().lower() == "auto":
+        return "auto"
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value
+    got = str(value).lower() if isinstance(value, bool) else _show(value)
+    raise PydanticCustomError("workers", "expected 'auto' or a whole number of worker processes "
+                              "from 1 to {limit}, got {got}", {"limit": MAX_WORKERS, "got": got})
+
+
+Workers = Annotated[StrictInt | Literal["auto"], BeforeValidator(_workers)]
+
 # `runs: auto` (docs/campaign-format.md): the cap, the first look and the batch between looks.
 DEFAULT_MAX_RUNS = 1000
 DEFAULT_MIN_RUNS = 32
@@ -638,7 +653,7 @@ class CampaignFile(Strict):
     batch_runs: RunCount | None = None
     rulebook: str
     output: OutputFolder = "results"
-    workers: StrictInt | Literal["auto"] = "auto"
+    workers: Workers = "auto"
     simulation: SimulationSection = SimulationSection()
     expect: list[ExpectationEntry] = []
     waivers: list[Waiver] = []
