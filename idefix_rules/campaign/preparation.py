@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 from idefix_rules.campaign.input import waivers
 from idefix_rules.campaign.input.environment import build_terrain, write_terrain
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
-from idefix_rules.campaign.input.load import Campaign, rover_geometry
+from idefix_rules.campaign.input.load import Campaign, format_loc, rover_geometry
 from idefix_rules.campaign.input.validate import (
     check_drawn_starts_on_terrain,
     check_paths_on_terrain,
@@ -28,7 +28,7 @@ from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, TERRAIN_PARA
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.journal import roll_back
 from idefix_rules.campaign.storage.store import ResultStore
-from idefix_rules.errors import Diagnostic, UserInputError
+from idefix_rules.errors import Diagnostic, UserInputError, error
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results.collisions import CollisionFunction, collision_function
 from idefix_rules.results.terrain import TerrainSource, terrain_for_resume
@@ -110,6 +110,9 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     gather(lambda: check_simulation_size(campaign))
     say("preparing the terrain")
     terrain = gather(lambda: build_terrain(campaign.model.environment, campaign.dem))
+    if terrain is not None and campaign.dem is None:
+        generated = terrain
+        terrain = gather(lambda: _plausible_synthetic(campaign, generated))
     if terrain is not None:
         extent = terrain.extent
         gather(lambda: _check_on_terrain(campaign, extent, planned_runs))
@@ -132,6 +135,23 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
                                     rover_geometry(campaign))
     return PreparedSimulation(evaluator, fmu_path, fixed, collisions, warnings, terrain,
                               source)
+
+
+def _plausible_synthetic(campaign: Campaign, terrain: Terrain) -> Terrain:
+    """A synthetic terrain whose slope over its size, or roughness, lifts the ground beyond
+    the heights a terrain file may hold (±100 km) is the campaign's mistake, said at its
+    ``synthetic`` section (not at the terrain file written from it)."""
+    from idefix_rules.fmu.terrain import beyond_heights
+
+    beyond = beyond_heights(terrain.heights)
+    if not beyond:
+        return terrain
+    loc = ("environment", "terrain", "synthetic")
+    raise UserInputError(error(
+        "C100", f"{format_loc(loc)}: the terrain it describes is not plausible: {beyond}",
+        campaign.span(loc), hint="the slope over the whole size, or the roughness, lifts the "
+        "ground that far: give a smaller size, slope or roughness"),
+        sources={str(campaign.source): campaign.text})
 
 
 def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource

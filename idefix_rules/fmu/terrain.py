@@ -271,7 +271,7 @@ def read_terrain(path: str | Path) -> Terrain:
     heights = np.frombuffer(data, dtype="<f8", count=nx * ny, offset=offset).reshape(ny, nx)
     if not np.all(np.isfinite(heights)):
         raise fail("height grid holds NaN or infinite values")
-    beyond = _beyond_heights(heights)
+    beyond = beyond_heights(heights)
     if beyond:
         raise fail(f"height grid: {beyond}")
     return Terrain(heights.copy(), (x0, y0), cell, tuple(rocks))
@@ -342,7 +342,7 @@ def load_dem(path: str | Path, cell: float | None = None,
                     f"{heights[row, column]}", Span(str(path)),
             hint="fill the no-data cells (interpolate them, or cut the DEM to the area with "
                  "data)"))
-    beyond = _beyond_heights(heights)
+    beyond = beyond_heights(heights)
     if beyond:
         raise UserInputError(error("F206", f"DEM {beyond}", Span(str(path)), hint=HEIGHTS_HINT))
     ny, nx = heights.shape
@@ -356,11 +356,11 @@ HEIGHTS_HINT = ("heights are metres from a datum near the ground (every planet's
                 "(1e308, 3.4e38) marks cells to fill or cut away")
 
 
-def _beyond_heights(heights: np.ndarray) -> str:
+def beyond_heights(heights: np.ndarray) -> str:
     """Where the finite ``heights`` leave the plausible range (±:data:`MAX_TERRAIN_HEIGHT`),
     in words, or "" when they do not.
 
-    >>> _beyond_heights(np.array([[0.0, 1.0], [2e5, 0.0]]))
+    >>> beyond_heights(np.array([[0.0, 1.0], [2e5, 0.0]]))
     'height 200000 m at row 1, column 0 (0-based) is beyond ±100000 m of the datum'
     """
     outside = np.abs(heights) > MAX_TERRAIN_HEIGHT

@@ -341,6 +341,20 @@ CASES = [
                    'cell: "1 cm"}\npaths:')), RUN, 2,
          ("error[C100]: environment.terrain.synthetic: size 1e+160 m with cell 0.01 m gives "
           "1e+162 × 1e+162 grid nodes, more than 16000000",)),
+    # a slope over the whole size lifting the ground beyond 100 km: said at the section, not
+    # at the terrain file written from it (45 deg over 200 km is 100 km: just inside)
+    Case("campaign-synthetic-terrain-beyond-100-km",
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "200.002 km", '
+                   'cell: "100.001 km", slope: "45 deg"}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:16: error[C100]: environment.terrain.synthetic: the terrain it "
+          "describes is not plausible: height 100001 m at row 0, column 0 (0-based) is beyond "
+          "±100000 m of the datum", "hint: the slope over the whole size, or the roughness"),
+         absent=("terrain.dem",)),
+    Case("campaign-synthetic-terrain-rough-beyond-100-km",
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 m", '
+                   'cell: "1 cm", roughness: "1e300 m"}\npaths:')), RUN, 2,
+         ("error[C100]: environment.terrain.synthetic: the terrain it describes is not "
+          "plausible",), absent=("terrain.dem", "RuntimeWarning")),
     Case("campaign-rock-of-two-semi-axes",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
                    'semi_axes: ["1 cm", "1 cm"]}\npaths:')), RUN, 2,

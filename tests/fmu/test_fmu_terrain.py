@@ -199,3 +199,16 @@ def test_a_rock_of_a_terrain_file_is_at_most_1_km_and_near_the_ground(
     found = caught.value.diagnostics[0]
     assert found.code == "F204" and found.message.startswith(refused)
     assert found.span is not None and found.span.line == 7
+
+
+def test_a_synthetic_slope_over_its_size_is_plausible_up_to_100_km() -> None:
+    """45 deg over 200 km reaches 100 km at its edges: just inside; 200.002 km just beyond
+    (the campaign says so at its synthetic section, C100)."""
+    import math
+
+    from idefix_rules.fmu.terrain import beyond_heights, synthetic_terrain
+
+    inside = synthetic_terrain(size=200e3, cell=100e3, slope=math.pi / 4)
+    assert beyond_heights(inside.heights) == ""
+    outside = synthetic_terrain(size=200.002e3, cell=100.001e3, slope=math.pi / 4)
+    assert beyond_heights(outside.heights).startswith("height 100001 m at row 0, column 0")
