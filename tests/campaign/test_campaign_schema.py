@@ -323,6 +323,14 @@ def test_yes_no_on_off_are_names_where_names_are_meant_and_flags_where_flags_are
     ('{verdict: fail}', ["23:5: expect[0].path: missing required key"], None),
     ('{max_collision_chance: {L2: "10 %"}}', ["23:5: expect[0].path: missing required key"],
      None),
+    # a key inside the kind's own mapping named like the entry's keys: said inside it
+    ('{path: detour, max_collision_chance: {L1: 0.1, path: 3}}',
+     ["23:52: expect[0].max_collision_chance.path: expected 'L1', 'L2', 'L3' or 'any', "
+      "got 'path'", "23:58: expect[0].max_collision_chance.path: expected a risk or chance "
+      'from 0 to 100 %, got 300 % (a bare number is a fraction: write "30 %" or 0.3)'], None),
+    ('{path: detour, max_collision_chance: {any: 0.1, verdict: 0.2}}',
+     ["23:53: expect[0].max_collision_chance.verdict: expected 'L1', 'L2', 'L3' or 'any', "
+      "got 'verdict'"], None),
     ('{path: detour, max_collision_chance: {L2: "110 %"}}',
      ['23:47: expect[0].max_collision_chance.L2: expected a risk or chance from 0 to 100 %, '
       'got 110 % (a bare number is a fraction: write "30 %" or 0.3)'], None),

@@ -146,7 +146,9 @@ def _read_loc(node: Any, loc: tuple[str | int, ...]) -> tuple[bool, bool, tuple[
         as_data = (found, fits, (part, *cleaned))
         if part in _UNION_TAGS and isinstance(node, dict) and rest:
             as_tag = _read_loc(node, rest)
-            if as_tag[:2] >= as_data[:2]:
+            # the tag reading wins when it reads more of the location, or on a tie where
+            # neither reading finds the key (a kind's key missing from its entry)
+            if as_tag[:2] > as_data[:2] or (as_tag[:2] == as_data[:2] and not as_tag[0]):
                 return as_tag
         return as_data
     if not isinstance(node, dict | list):
@@ -214,7 +216,7 @@ def _diagnostics_from_validation(failure: ValidationError, data: Any,
         elif kind == "literal_error":  # "Input should be 'monte_carlo', … or 'sobol'"
             expected = item.get("ctx", {}).get("expected", "")
             message = f"expected {expected}, got {_shown(item.get('input'))}"
-            span = locations.span(loc)
+            span = locations.span(loc, at_key=item["loc"][-1:] == ("[key]",))
         elif kind in ("model_type", "model_attributes_type", "dict_type"):
             # pydantic's words name its classes ("instance of TerrainSection"): not the user's
             message = f"expected a mapping (key: value), got {_shown(item.get('input'))}"
