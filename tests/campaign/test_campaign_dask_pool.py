@@ -151,6 +151,8 @@ def ignores():
     return signal.getsignal(signal.SIGINT) == signal.SIG_IGN
 
 if __name__ == "__main__":
+    # as at a terminal, whatever the test runner's parent did with Ctrl-C (nohup, `cmd &`)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     if sys.argv[1] == "fork server":
         workers_ignore_ctrl_c()
     # no preload: what the workers do with Ctrl-C is what they were started with
@@ -180,3 +182,21 @@ def test_local_cluster_workers_ignore_ctrl_c_from_their_first_instant(
     lines = done.stdout.split("\n")
     assert lines[0] == ("[True]" if start == "fork server" else "[False]"), done.stdout
     assert lines[1] == "True"
+
+
+def test_the_fork_server_start_method_is_the_campaigns_alone() -> None:
+    """While the campaign's local cluster lives its nannies start workers from the fork
+    server (restarts too); afterwards the process's other Dask clusters start theirs as
+    before."""
+    import dask
+
+    key = "distributed.worker.multiprocessing-method"
+    before = dask.config.get(key)
+    assert before != "forkserver"
+    pool = DaskPool(tasks.misbehave, workers=1)
+    try:
+        assert dask.config.get(key) == "forkserver"
+        assert dict(pool.map([(0, "a")]))[0].value == "a"
+    finally:
+        pool.close()
+    assert dask.config.get(key) == before

@@ -92,7 +92,10 @@ def ctrl_c_deferred() -> Iterator[list[bool]]:
         signal.signal(signal.SIGINT, previous)
 
 
-def workers_ignore_ctrl_c() -> None:
+MP_METHOD = "distributed.worker.multiprocessing-method"
+
+
+def workers_ignore_ctrl_c() -> str | None:
     """Start the local cluster's worker processes ignoring Ctrl-C from their first instant.
 
     A terminal's Ctrl-C reaches the whole process group. A worker spawned afresh (Dask's
@@ -104,25 +107,30 @@ def workers_ignore_ctrl_c() -> None:
     every worker it forks, the ones the nannies start again later too. The fork server has Dask
     imported already, so a worker starts in a fraction of the time. Ctrl-C is ignored by this
     process only while the fork server is started (milliseconds), once per process; off the
-    main thread, or without fork servers (Windows), the workers are started as before."""
+    main thread, or without fork servers (Windows), the workers are started as before.
+
+    Returns Dask's start method before (None: unchanged), for :meth:`DaskPool.close` to put
+    back: the process's other clusters are not this campaign's."""
     import multiprocessing
 
     import dask
 
     if "forkserver" not in multiprocessing.get_all_start_methods() or \
             threading.current_thread() is not threading.main_thread():
-        return
+        return None
     from multiprocessing import forkserver
 
     from distributed.utils import get_mp_context
 
-    dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"})
+    before = str(dask.config.get(MP_METHOD))
+    dask.config.set({MP_METHOD: "forkserver"})  # for the nannies' restarts too, until close
     get_mp_context()  # type: ignore[no-untyped-call]  # the fork server preloads Dask, once
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         forkserver.ensure_running()
     finally:
         signal.signal(signal.SIGINT, previous)
+    return before
 
 
 class DaskPool:
@@ -137,6 +145,8 @@ class DaskPool:
         self.run_timeout = run_timeout
         self.persistent = persistent  # as LocalPool's: kept for the next map, closed by its owner
         self._cluster: Any = None
+        self._client: Any = None
+        self._method: str | None = None  # Dask's start method to put back at close
         if address is None:
             self._start_local(workers)
         else:
@@ -147,7 +157,7 @@ class DaskPool:
             except OSError as failure:  # no scheduler answers there
                 raise ClusterError(f"cannot reach the Dask scheduler {address}: "
                                    f"{failure}") from None
-        self.size = max(1, sum(self._client.nthreads().values()))  # type: ignore[no-untyped-call]
+        self.size = max(1, sum(self._client.nthreads().values()))
 
     def _start_local(self, workers: int | None) -> None:
         """A LocalCluster of ``workers`` processes and its client. Ctrl-C while it starts is
@@ -159,30 +169,33 @@ class DaskPool:
         import dask
         from dask.distributed import Client, LocalCluster
 
-        workers_ignore_ctrl_c()
-        with ctrl_c_deferred() as pressed:
-            try:
-                # One task per worker thread at a time: a worker that dies then takes only
-                # the run it was executing, not runs merely queued on it (which Dask would
-                # count as suspects of its death too).
-                with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
-                    # Its HTTP server (dashboard, health) on a free port: two local clusters
-                    # would otherwise contend for 8787 and Dask warn about it. Only its errors
-                    # logged: the campaign says itself what became of each run, and Ctrl-C
-                    # would otherwise end in the workers' warnings about the runs cancelled
-                    # under them and the nanny's about killing them.
-                    self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
-                        n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                        processes=True, dashboard_address=":0", silence_logs=logging.ERROR,
-                        preload=["idefix_rules.campaign.simulation.dask_worker_setup"])
-                self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
-            except Exception:
-                if not pressed:
-                    raise
-        if pressed:
-            if self._cluster is not None:
-                self.close()
-            raise KeyboardInterrupt
+        self._method = workers_ignore_ctrl_c()
+        try:
+            with ctrl_c_deferred() as pressed:
+                try:
+                    # One task per worker thread at a time: a worker that dies then takes only
+                    # the run it was executing, not runs merely queued on it (which Dask would
+                    # count as suspects of its death too).
+                    with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                        # Its HTTP server (dashboard, health) on a free port: two local
+                        # clusters would otherwise contend for 8787 and Dask warn about it.
+                        # Only its errors logged: the campaign says itself what became of each
+                        # run, and Ctrl-C would otherwise end in the workers' warnings about
+                        # the runs cancelled under them and the nanny's about killing them.
+                        self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                            n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                            processes=True, dashboard_address=":0",
+                            silence_logs=logging.ERROR,
+                            preload=["idefix_rules.campaign.simulation.dask_worker_setup"])
+                    self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
+                except Exception:
+                    if not pressed:
+                        raise
+            if pressed:
+                raise KeyboardInterrupt
+        except BaseException:
+            self.close()  # what was started, and Dask's start method as it was
+            raise
 
     def _submit(self, key: Hashable, payload: Any) -> Any:
         return self._client.submit(
@@ -276,9 +289,15 @@ class DaskPool:
         return None
 
     def close(self) -> None:
-        self._client.close()  # type: ignore[no-untyped-call]
+        if self._client is not None:
+            self._client.close()
         if self._cluster is not None:
             self._cluster.close()
+        if self._method is not None:
+            import dask
+
+            dask.config.set({MP_METHOD: self._method})
+            self._method = None
 
 
 class _Limits:
