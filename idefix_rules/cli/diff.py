@@ -104,12 +104,17 @@ def run(args: argparse.Namespace) -> int:
 def _once(files: list[Path]) -> list[Path]:
     """Each results file once, however often (or under whichever name) it was given: a file
     scored twice would count its verdict changes twice."""
+    import os
     import sys
 
     kept: list[Path] = []
-    seen: set[Path] = set()
+    seen: set[object] = set()
     for file in files:
-        key = file.resolve()
+        try:  # the file itself, whatever names it (a symbolic or a hard link)
+            status = os.stat(file)
+            key: object = (status.st_dev, status.st_ino)
+        except OSError:  # missing: said when it is read
+            key = file.resolve()
         if key in seen:
             print(f"note: {file} was given more than once; it is scored once", file=sys.stderr)
             continue
