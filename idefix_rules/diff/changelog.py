@@ -109,8 +109,9 @@ def results_markdown(results: ResultsDiff, fail_on: str, code: int) -> str:
             (verdict_old, risk_old, rank_old), (verdict_new, risk_new, rank_new) = \
                 _side(path.old), _side(path.new)
             verdict = _cell(verdict_old, verdict_new, path.verdict_changed)
-            if path.verdict_changed and path.new.reasons:
-                verdict += ": " + "; ".join(path.new.reasons)
+            new_reasons = [r for r in path.new.reasons if r not in path.old.reasons]
+            if path.verdict_changed and new_reasons:  # what changed, not what stayed open
+                verdict += ": " + "; ".join(new_reasons)
             lines.append(f"| {_escaped(path.name)} | {_escaped(verdict)} | "
                          f"{_cell(risk_old, risk_new, False)} | "
                          f"{_cell(rank_old, rank_new, path.rank_changed)} | "

@@ -185,8 +185,10 @@ class ResultsDiff:
         (fail-on verdict)``."""
         changes = self.verdict_changes()
         if code == 0:
-            return (f"exit code 0: no verdict changes (fail-on {fail_on})"
-                    + (f"; {len(changes)} verdict change(s) ignored" if changes else ""))
+            if changes:  # only where nothing is gated (fail-on never)
+                return (f"exit code 0: {len(changes)} path verdict(s) changed, not gated "
+                        f"(fail-on {fail_on})")
+            return f"exit code 0: no verdict changes (fail-on {fail_on})"
         what = []
         if changes:
             what.append(f"{len(changes)} path verdict(s) changed")

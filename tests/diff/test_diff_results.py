@@ -243,9 +243,17 @@ def test_the_markdown_changelog_says_what_the_change_does_to_stored_results_and_
     assert f"`{stored_results}`" in out
     row = next(line for line in out.splitlines() if line.startswith("| straight |"))
     assert "→ rejected**: " in row and "short_moves" in row
-    changed = sum(1 for line in out.splitlines() if line.startswith("| ") and "**" in
-                  line.split("|")[2])
+    changed = len(diff_results([stored_results], load_source(str(campaign_rulebook)),
+                               load_source(str(short))).verdict_changes())
+    assert changed >= 1
     assert f"Exit code 1: {changed} path verdict(s) changed (fail-on verdict)." in out
+    assert sum(1 for line in out.splitlines() if line.startswith("| ") and "**" in
+               line.split("|")[2]) == changed  # each changed verdict in bold, no other
+    # not gated: the changes are said as such, not as "no verdict changes"
+    assert main(["diff", str(campaign_rulebook), str(short), "--results", str(stored_results),
+                 "--format", "md", "--fail-on", "never"]) == 0
+    assert (f"Exit code 0: {changed} path verdict(s) changed, not gated (fail-on never)."
+            in capsys.readouterr().out)
     # without a change: exit 0, said as such
     code = main(["diff", str(campaign_rulebook), str(campaign_rulebook), "--results",
                  str(stored_results), "--format", "md"])

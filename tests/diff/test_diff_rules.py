@@ -265,3 +265,25 @@ def test_the_diff_is_json_data() -> None:
     assert kinds[("constant", "fresh")] == "added"
     tilt = next(c for c in data["changes"] if c["name"] == "max_tilt")
     assert tilt["fields"][0]["new_si"] == "0.261799 rad"
+
+
+def test_the_markdown_effect_names_only_the_reasons_a_change_brought() -> None:
+    """A pass that turns into a fail is said with the rule that now fails, not with the rules
+    that were open before and still are; names and reasons with `|` stay in their cell."""
+    from idefix_rules.diff.changelog import results_markdown
+    from idefix_rules.diff.results import PathDiff, ResultsDiff, ResultsFileDiff, SideResult
+
+    old = SideResult("pass", undecided=True, reasons=("speed_kept not decided",),
+                     mean_risk=0.2, rank=1, runs=8)
+    new = SideResult("fail", reasons=("speed_kept not decided", "acceptable_risk: 20 % > 10 %"),
+                     mean_risk=0.2, rank=1, runs=8)
+    kept = SideResult("fail", reasons=("a|b",), mean_risk=0.9, rank=2, runs=8)
+    file = ResultsFileDiff("out/results.h5", "c", (PathDiff("x|y", old, new, 3),
+                                                   PathDiff("z", kept, kept)),
+                           ("x|y", "z"), ("x|y", "z"), "stored")
+    text = results_markdown(ResultsDiff((file,)), "verdict", 1)
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "---" not in line]
+    assert rows[1] == ("| x\\|y | **pass (not decided) → fail**: acceptable_risk: 20 % > 10 % | "
+                       "20.0 % | 1 | 3 of 8 |")
+    assert rows[2] == "| z | fail | 90.0 % | 2 | 0 of 8 |"
+    assert text.endswith("Exit code 1: 1 path verdict(s) changed (fail-on verdict).")
