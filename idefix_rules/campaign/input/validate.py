@@ -231,6 +231,7 @@ def check_simulation_size(campaign: Campaign) -> None:
             hint="an output interval of a fraction of a second (the default 0.1 s)")],
             sources={str(campaign.source): campaign.text})
     interval_said = False
+    settings_said: set[tuple[str, ...]] = set()
     for spec in campaign.paths:
         stop, samples, ideal = limits[spec.name]
         if samples <= MAX_SAMPLES:
@@ -250,6 +251,10 @@ def check_simulation_size(campaign: Campaign) -> None:
                 else ("simulation", "duration_margin")
         else:
             where = ("simulation",)
+        if where[0] == "simulation":  # a setting stretches every path: said once, at it
+            if where in settings_said:
+                continue
+            settings_said.add(where)
         if math.isfinite(stop):
             length = (f"{samples * settings.output_interval:.6g} s at an output interval of "
                       f"{settings.output_interval:.6g} s: {samples:.3g} samples per run, more "
