@@ -71,8 +71,8 @@ def _refuse_another_campaigns_folder(results: Path, out: Path) -> None:
         return
     if not same:
         raise UserInputError(error(
-            "C714", f"{out} holds the results of another campaign ({other.name}): a report of "
-                    f"{results} written there would speak for that campaign",
+            "C714", f"{out} holds another results file ({other.name}): a report of "
+                    f"{results} written there would speak for the runs that file holds",
             Span(str(results)),
             hint=f"leave out -o (the report goes beside {results.name}) or give a folder "
                  "without a results file"))

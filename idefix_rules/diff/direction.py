@@ -51,7 +51,6 @@ from idefix_rules.diff.quantities import (
     effective_nominal,
     index_of,
     leaf_moves,
-    number_change,
     sign,
 )
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -96,13 +95,12 @@ def index_direction(old: CheckedRulebook, new: CheckedRulebook, name: str,
     unknown. A nominal added or removed moves from or to half the limit (the shape of an index
     without one)."""
     fields = set(fields) - {"title", "map"}
-    if "value" in fields:
-        value_change = number_change(index_of(old, name).value, index_of(new, name).value)
-        if value_change is None:
-            return "unknown"
     labels: list[Direction] = []
     if "value" in fields:
-        labels.append(_leaf_label(new, index_of(old, name).value, index_of(new, name).value))
+        inside = _leaf_label(new, index_of(old, name).value, index_of(new, name).value)
+        if inside == "unknown":  # a new shape, or moves that disagree: nothing else can decide
+            return "unknown"
+        labels.append(inside)
     if "limit" in fields or old.limits.get(name) != new.limits.get(name):
         labels.append(_label(new, {f"limit:{name}": 1},
                              sign(old.limits[name], new.limits[name])))

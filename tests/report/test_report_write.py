@@ -113,7 +113,7 @@ def test_cli_refuses_to_write_into_another_campaigns_folder(
     capsys.readouterr()
     assert main(["report", str(synthetic_results), "-o", str(other)]) == 2
     err = capsys.readouterr().err
-    assert "error[C714]" in err and "holds the results of another campaign" in err
+    assert "error[C714]" in err and "holds another results file (results.h5)" in err
     assert "Traceback" not in err
     assert sorted(p.name for p in other.iterdir()) == ["results.h5", "summary.json"]
     assert main(["report", str(synthetic_results), "-o",

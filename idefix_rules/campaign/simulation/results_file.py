@@ -40,6 +40,11 @@ def run_settings(campaign: Campaign) -> dict[str, Any]:
             "paired": paired}
 
 
+def _text(value: Any) -> str:
+    """An HDF5 string attribute as text, whether h5py gives it as str or bytes."""
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
 def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
                    results: Path) -> None:
     """A resumed campaign keeps the rulebook it started with: its command rules and prescreen
@@ -48,10 +53,10 @@ def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
     stored = store.file.get("provenance/rulebook")
     if stored is None or "sha256" not in stored.attrs:
         return  # written before results kept the rulebook's hash: nothing to compare
-    digest = str(stored.attrs["sha256"])
+    digest = _text(stored.attrs["sha256"])
     if digest == str(evaluator.source_hash):
         return
-    started = f"{stored.attrs.get('name', '?')} {stored.attrs.get('version', '?')}"
+    started = f"{_text(stored.attrs.get('name', '?'))} {_text(stored.attrs.get('version', '?'))}"
     now = f"{evaluator.name} {evaluator.version}"
     if started == now:
         now += ", edited since"
