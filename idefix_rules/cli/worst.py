@@ -76,7 +76,11 @@ def _level(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a run risk such as 1, 0.9 or 90 %, "
                                          f"got {text!r}") from None
     if not 0.0 < value <= 1.0:
-        raise argparse.ArgumentTypeError(f"a run risk lies in (0, 1] (0 % … 100 %), got {text}")
+        # `--critical 90 %` unquoted: the shell hands over 90 and a stray %
+        percent = (f"; for {raw} %, write it as one argument: --critical {raw}% or "
+                   f"--critical \"{raw} %\"" if scale == 1.0 and 1.0 < value <= 100.0 else "")
+        raise argparse.ArgumentTypeError(f"a run risk lies in (0, 1] (0 % … 100 %), got "
+                                         f"{text}{percent}")
     return value
 
 

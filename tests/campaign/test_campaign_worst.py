@@ -156,7 +156,12 @@ def test_a_critical_level_above_every_weight_is_exit_2(
 
 @pytest.mark.parametrize(("option", "value", "message"), [
     ("--critical", "0", "a run risk lies in (0, 1]"),
-    ("--critical", "150 %", "a run risk lies in (0, 1]"),
+    ("--critical", "150 %", "a run risk lies in (0, 1] (0 % … 100 %), got 150 %"),
+    # `--critical 90 %` unquoted reaches the command as 90: said how to write it
+    ("--critical", "90", "got 90; for 90 %, write it as one argument: --critical 90% or "
+                         "--critical \"90 %\""),
+    ("--critical", "100", "got 100; for 100 %, write it as one argument"),
+    ("--critical", "101", "a run risk lies in (0, 1] (0 % … 100 %), got 101"),
     ("--critical", "high", "expected a run risk such as 1, 0.9 or 90 %"),
     ("--tail", "0.7", "a tail probability lies in (0, 0.5)"),
     ("--runs", "0", "expected a positive whole number"),
