@@ -18,6 +18,7 @@ from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
 from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.files import previous_path, report_outputs, set_aside
+from idefix_rules.results.format import SEARCH_RECORD_FILE
 
 SUMMARY_FILE = "summary.json"
 REPORT_FILE = "report.html"
@@ -28,8 +29,9 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
                    resume: bool = False) -> Iterator[FolderLock]:
     """The campaign's output folder, created and owned by this process for the ``with`` block
     (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
-    ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5``
-    become ``*.previous.*``. From then on nothing in the folder speaks for another run."""
+    ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5`` (and
+    a search's ``worst.json``) become ``*.previous.*``. From then on nothing in the folder
+    speaks for another run."""
     check_junit_destination(junit, *campaign_files(campaign))
     _check_terrain_source(campaign)
     existed = campaign.output.exists()
@@ -38,8 +40,10 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     try:
         with own_folder(campaign.output, span=Span(str(campaign.output)),
                         sources=sources) as lock:
+            # a search's record there would speak for results no longer beside it
             set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output), junit,
-                      None if resume else campaign.output / RESULTS_FILE)
+                      None if resume else campaign.output / RESULTS_FILE,
+                      None if resume else campaign.output / SEARCH_RECORD_FILE)
             yield lock
     finally:
         if not existed:  # a campaign refused before writing anything leaves no folder behind

@@ -97,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
         continue_command,
         interrupted_runs,
         stored_campaign,
+        stored_search,
     )
     from idefix_rules.campaign.simulation.run_stage import SimulationOptions
     from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
@@ -130,9 +131,11 @@ def run(args: argparse.Namespace) -> int:
     # another campaign's results there (and in the copy kept before them) are set aside or
     # replaced: said, so that no finished campaign goes without a word
     had_results = results.is_file()
+    search = not args.resume and stored_search(results)
     others = {} if args.resume else {
         path: held for path in (results, previous_path(results))
-        if (held := stored_campaign(path)) is not None and held != campaign.name}
+        if (held := stored_campaign(path)) is not None and held != campaign.name
+        and not (search and path == results)}
     # Owned, and the last run's outputs set aside, before anything slow happens.
     with claimed_output(campaign, args.junit, args.resume) as lock:
         if lock.note is not None:
@@ -147,6 +150,11 @@ def run(args: argparse.Namespace) -> int:
                 f"{escape(previous_path(results).name)} and this run starts from zero; to "
                 f"continue it instead, stop now (Ctrl-C), rename it back to "
                 f"{escape(results.name)} and run `{escape(again)}`")
+        if search:  # its record goes aside with it
+            console.print(f"[yellow]note:[/yellow] {escape(str(results))} held a worst-case "
+                          f"search (idefix-verify worst): it is kept as "
+                          f"{escape(previous_path(results).name)}, its worst.json as "
+                          f"worst.previous.json")
         for path, name in others.items():
             if path == results and not (interrupted is not None and interrupted[0] > 0):
                 console.print(f"[yellow]note:[/yellow] {escape(str(results))} held the results "

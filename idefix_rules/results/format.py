@@ -56,6 +56,8 @@ def decode_reason(value: bytes) -> str:
 # ``runs_mode`` of a worst-case search's results file (``idefix-verify worst``): its runs are
 # searched worlds, not Monte Carlo draws.
 SEARCHED_RUNS = "worst"
+# A search's own record beside its results.h5; a campaign never writes one
+SEARCH_RECORD_FILE = "worst.json"
 
 
 def is_search(attrs: Any) -> bool:

@@ -252,6 +252,35 @@ def test_a_search_into_a_campaigns_folder_is_refused_and_leaves_its_results(
     assert (campaign_dir / "out" / "worst" / "worst.json").is_file()
 
 
+def test_an_interrupted_search_is_run_again_never_resumed_and_a_campaign_sets_it_aside(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A search cannot be resumed: what evaluate says of an interrupted one is the command
+    that runs it again, and a campaign run into its folder neither offers to resume it nor
+    leaves its worst.json beside the campaign's results."""
+    import h5py
+
+    out = searched(campaign_dir, capsys)
+    with h5py.File(out / "results.h5", "r+") as file:
+        file.attrs["state"] = "interrupted"
+        runs, seed = int(file.attrs["runs"]), int(file.attrs["seed"])
+    assert main(["evaluate", str(out / "results.h5")]) == 1
+    captured = capsys.readouterr()
+    said = " ".join((captured.out + captured.err).split())
+    assert "holds a worst-case search that is interrupted" in said
+    assert (f"a search cannot be resumed: run it again with `idefix-verify worst "
+            f"{campaign_dir / 'campaign.yaml'} --out {out} --runs {runs} --seed {seed}`") in said
+    assert "--resume" not in said
+    # a campaign into the search's folder: the search and its record go aside, said once
+    code = main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report", "--out",
+                 str(out)])
+    assert code == 1  # too-fast is rejected
+    said = " ".join(capsys.readouterr().out.split())
+    assert (f"note: {out / 'results.h5'} held a worst-case search (idefix-verify worst): it "
+            "is kept as results.previous.h5, its worst.json as worst.previous.json") in said
+    assert "--resume" not in said and "another campaign" not in said
+    assert not (out / "worst.json").exists() and (out / "worst.previous.json").is_file()
+
+
 def test_the_searched_runs_are_judged_with_the_campaigns_waivers(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A waived failure is no failure for the stored evaluation of a search either (and raises

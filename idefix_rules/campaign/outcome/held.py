@@ -34,6 +34,11 @@ def held_warnings(attrs: Any, results: Any, source: Any, expectations: bool = Fa
     state = state or str(attrs.get("state", "complete"))
     if state != "complete":  # its missing runs count as failed: say why
         again = stored_resume_command(attrs, source, Path(results).parent)
-        found.append(f"{results} holds a campaign that is {state}: runs never simulated count "
-                     f"as failed; continue it with `{again}`")
+        if is_search(attrs):
+            found.append(f"{results} holds a worst-case search that is {state}: runs never "
+                         f"simulated count as failed; a search cannot be resumed: run it again "
+                         f"with `{again}`")
+        else:
+            found.append(f"{results} holds a campaign that is {state}: runs never simulated "
+                         f"count as failed; continue it with `{again}`")
     return found

@@ -22,6 +22,7 @@ from idefix_rules.campaign.storage.store import (
     STATUS_MISSING,
     decode_reason,
 )
+from idefix_rules.results.format import is_search
 
 __all__ = ["INFRASTRUCTURE", "continue_command", "interrupted_runs", "is_infrastructure",
            "resume_command", "runs_to_simulate", "stored_resume_command"]
@@ -63,7 +64,8 @@ def interrupted_runs(results: Path) -> tuple[int, int] | None:
     except Exception:  # unreadable: nothing to resume from either
         return None
     try:
-        if str(store.attrs.get("state", "complete")) not in ("running", "interrupted"):
+        if str(store.attrs.get("state", "complete")) not in ("running", "interrupted") or \
+                is_search(store.attrs):  # a search is run again, never resumed
             return None
         stored = planned = 0
         for name in store.path_names:
@@ -95,6 +97,19 @@ def stored_campaign(results: Path) -> str | None:
     return name.decode() if isinstance(name, bytes) else str(name)
 
 
+def stored_search(results: Path) -> bool:
+    """Whether a results file holds a worst-case search (False: none, or unreadable)."""
+    import h5py
+
+    if not Path(results).is_file():
+        return False
+    try:
+        with h5py.File(results, "r") as file:
+            return is_search(file.attrs)
+    except Exception:  # unreadable: nothing to name
+        return False
+
+
 def reference_lost(store: Any, name: str) -> bool:
     """Whether path ``name``'s reference run was lost to the infrastructure (``--resume``
     starts the path again)."""
@@ -122,7 +137,12 @@ def resume_command(source: Any, output: Any, runs: Any, seed: Any,
 def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
     """The command that continues the campaign of a results file whose root attributes are
     ``attrs``: with its stored run count and seed (an adaptive one's cap and first look),
-    whatever the command that found the file asked for (``--resume`` refuses others)."""
+    whatever the command that found the file asked for (``--resume`` refuses others). A
+    worst-case search cannot be resumed: the command that runs it again, into the same
+    folder, with its budget and seed."""
+    if is_search(attrs):
+        return (f"idefix-verify worst {source} --out {output} --runs {attrs.get('runs')} "
+                f"--seed {attrs.get('seed')}")
     adaptive = str(attrs.get("runs_mode", "fixed")) == "auto"
     return resume_command(source, output, attrs.get("runs"), attrs.get("seed"),
                           attrs.get("min_runs") if adaptive else None)

@@ -43,9 +43,9 @@ from idefix_rules.campaign.worst.space import QuantileSpace
 from idefix_rules.campaign.worst.stage import WorstStage, stored_record
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
-from idefix_rules.results.format import SEARCHED_RUNS
+from idefix_rules.results.format import SEARCH_RECORD_FILE, SEARCHED_RUNS
 
-RECORD_FILE = "worst.json"
+RECORD_FILE = SEARCH_RECORD_FILE
 FOLDER = "worst"  # inside the campaign's output folder
 
 
