@@ -132,3 +132,8 @@ def retiring(payload):
     if payload == "retire-failed":
         return Retire(failure=RuntimeError("corrupted for good"))
     return os.getpid()
+
+
+def surroundings(name: str) -> tuple[str, str | None]:
+    """The folder a run works in and the value of the environment variable ``name`` there."""
+    return os.getcwd(), os.environ.get(name)

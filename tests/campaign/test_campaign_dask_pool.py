@@ -200,3 +200,24 @@ def test_the_fork_server_start_method_is_the_campaigns_alone() -> None:
     finally:
         pool.close()
     assert dask.config.get(key) == before
+
+
+def test_runs_on_a_later_local_cluster_see_the_campaigns_environment_and_folder(
+        tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fork server is started once per process, with the environment and the folder of
+    that moment; a later campaign's runs work in its own (TMPDIR, a variable set since, the
+    folder it was started from), as spawned workers did."""
+    first = DaskPool(tasks.misbehave, workers=1)
+    try:
+        assert dict(first.map([(0, "a")]))[0].value == "a"  # the fork server is running now
+    finally:
+        first.close()
+    monkeypatch.setenv("IDEFIX_TEST_LATER", "set since")
+    monkeypatch.chdir(tmp_path)
+    later = DaskPool(tasks.surroundings, workers=1)
+    try:
+        outcome = dict(later.map([(0, "IDEFIX_TEST_LATER")]))[0]
+    finally:
+        later.close()
+    assert outcome.ok, outcome.reason
+    assert outcome.value == (str(tmp_path), "set since")

@@ -35,6 +35,7 @@ from collections import Counter
 from collections.abc import Hashable, Iterable, Iterator
 from typing import Any
 
+from idefix_rules.campaign.simulation.dask_worker_setup import WORKING_FOLDER
 from idefix_rules.campaign.simulation.processes import (
     INFRASTRUCTURE,
     MAX_KILLS,
@@ -182,11 +183,14 @@ class DaskPool:
                         # Only its errors logged: the campaign says itself what became of each
                         # run, and Ctrl-C would otherwise end in the workers' warnings about
                         # the runs cancelled under them and the nanny's about killing them.
+                        # A worker forked from the fork server has the environment and the
+                        # folder the fork server started in: given this process's own now.
                         self._cluster = LocalCluster(  # type: ignore[no-untyped-call]
                             n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                             processes=True, dashboard_address=":0",
                             silence_logs=logging.ERROR,
-                            preload=["idefix_rules.campaign.simulation.dask_worker_setup"])
+                            preload=["idefix_rules.campaign.simulation.dask_worker_setup"],
+                            env={**os.environ, WORKING_FOLDER: os.getcwd()})
                     self._client = Client(self._cluster)  # type: ignore[no-untyped-call]
                 except Exception:
                     if not pressed:
