@@ -31,6 +31,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
     PathResult,
     concatenate,
     fill_result,
+    risk_ceiling,
     stored_path_result,
 )
 from idefix_rules.campaign.evaluation.gate import NOT_SIMULATED, gate_again
@@ -425,7 +426,8 @@ def _judge(stored: StoredCampaign, evaluators: Sequence[Any],
             # `waived` on both sides, and a change that ends it shows as a verdict change
             verdict, waived = waive_verdict(evaluator.verdict(side.statistics), waivers, name)
             side.result.waivers.extend(waived)
-            fill_result(side.result, side.evaluation, side.statistics, verdict)
+            fill_result(side.result, side.evaluation, side.statistics, verdict,
+                        risk_ceiling(evaluator))
 
 
 def diff_results(paths: Sequence[Path], old: RulebookSource, new: RulebookSource,

@@ -35,6 +35,23 @@ def test_half_the_runs_at_the_limit_saturate_the_path(critical: int, saturated: 
                                   "critical, not how critical, so it does not tell them apart")
 
 
+@pytest.mark.parametrize(("ceiling", "at", "critical"), [
+    (0.5, 0.495, 0.5), (0.5, float(np.nextafter(0.495, 0.0)), 0.0), (1.0, 0.495, 0.0),
+    (0.0, 0.0, 0.0)])
+def test_the_limit_is_that_of_the_largest_weight(ceiling: float, at: float,
+                                                 critical: float) -> None:
+    """With every index weighted 0.5, I_max cannot pass 0.5: a run at 0.495 is at the limit
+    (with weight 1 it is not); with every weight 0, no run is critical."""
+    risks = np.array([at] * 4 + [0.1] * 4)
+    spread = risk_spread("a", risks, {"I_pos": risks / max(ceiling, 1e-9)}, ceiling)
+    assert spread.critical == critical
+    assert spread.saturated is (critical >= 0.5)
+    assert spread.to_dict()["critical_at"] == round(0.99 * ceiling, 6)
+    if spread.saturated:
+        assert "runs are at I_max >= 0.495 (at its limit: I_pos in 50.0 %)" in str(
+            spread.warning)
+
+
 @pytest.mark.parametrize(("runs", "warned"), [(MIN_RUNS, True), (MIN_RUNS - 1, False)])
 def test_too_few_runs_say_nothing_about_a_spread(runs: int, warned: bool) -> None:
     assert (risk_spread("a", np.ones(runs), {}).warning is not None) is warned
@@ -96,3 +113,10 @@ def test_a_campaign_whose_runs_all_saturate_says_so(campaign_dir: Path,
     assert straight["risk_spread"]["saturated"] is True
     assert straight["risk_spread"]["at_limit"]["I_s"] == 1.0
     assert straight["risk_spread"]["iqr"] == 0.0
+    # every index weighted 0.5: I_max is 0.5 at most, and the same runs are at its limit
+    rulebook.write_text(changed.replace("weight = 1", "weight = 0.5"))
+    code = main([str(campaign_dir / "campaign.yaml"), "--runs", "8", "--no-report"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert code == 1
+    assert ("warning: straight: 100.0 % of its 8 runs are at I_max >= 0.495 (at its limit: "
+            "I_s in 100.0 %") in out

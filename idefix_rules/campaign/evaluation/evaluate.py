@@ -324,7 +324,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         result.waivers.extend(waived)
         statistics[name] = stats
         run_risks[name] = (np.asarray(extra["rows"]), np.asarray(evaluation.i_max))
-        fill_result(result, evaluation, stats, verdict)
+        fill_result(result, evaluation, stats, verdict, risk_ceiling(evaluator))
         result.stop_time = stop_time
         if extra["finished"] is not None:
             result.unfinished = int(np.sum(~extra["finished"]))
@@ -426,7 +426,15 @@ def stored_path_result(store: StoredResults, name: str) -> PathResult:
     return result
 
 
-def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -> None:
+def risk_ceiling(evaluator: Any) -> float:
+    """The largest I_max the rulebook can give: its largest index weight (1 without indices)."""
+    weights = [float(w) for w in getattr(getattr(evaluator, "checked", None), "weights",
+                                         {}).values()]
+    return max(weights, default=1.0)
+
+
+def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any,
+                ceiling: float = 1.0) -> None:
     """Copy a path's statistics and verdict into ``result`` (mean risk, chances, reasons …)."""
     result.statistics = stats
     result.verdict = verdict
@@ -443,7 +451,7 @@ def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any) -
         else dominant_index(evaluation)
     i_max = getattr(evaluation, "i_max", None)
     result.risk_spread = None if i_max is None else risk_spread(
-        result.name, np.asarray(i_max), dict(getattr(evaluation, "values", {}) or {}))
+        result.name, np.asarray(i_max), dict(getattr(evaluation, "values", {}) or {}), ceiling)
     result.passed = bool(verdict.passed)
     result.undecided = not bool(verdict.decided)
     # A decided failure is explained by the rules that fail decidedly; otherwise by the rules

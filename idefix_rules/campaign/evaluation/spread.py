@@ -3,7 +3,8 @@
 A mean risk says little when most runs sit at I_max = 1 (the rulebook then calls them
 critical, not how critical) or when every run scores the same. Per path, over its complete runs:
 
-* ``critical`` — the share of runs at ``I_max >= CRITICAL`` (0.99);
+* ``critical`` — the share of runs at ``I_max >= CRITICAL`` (0.99) of the largest I_max the
+  rulebook can give (its largest index weight; 0.99 when that is 1);
 * ``quartiles`` — the 25th, 50th and 75th percentiles of I_max, and ``iqr`` their spread;
 * ``at_limit`` — per index, the share of runs where that index is at ``CRITICAL`` or above.
 
@@ -42,6 +43,7 @@ class RiskSpread:
     lowest: float
     highest: float
     at_limit: dict[str, float] = field(default_factory=dict)
+    critical_at: float = CRITICAL  # CRITICAL × the largest index weight: I_max's own ceiling
 
     @property
     def iqr(self) -> float:
@@ -68,8 +70,8 @@ class RiskSpread:
                                for name, share in self.at_limit.items())
             at = f" (at its limit: {limits})" if limits else ""
             return (f"{self.path}: {100 * self.critical:.1f} % of its {self.runs} runs are at "
-                    f"I_max >= {CRITICAL:g}{at}; its risk says these runs are critical, not "
-                    "how critical, so it does not tell them apart")
+                    f"I_max >= {self.critical_at:g}{at}; its risk says these runs are critical, "
+                    "not how critical, so it does not tell them apart")
         if self.uniform:
             return (f"{self.path}: every one of its {self.runs} runs scores I_max "
                     f"{100 * self.lowest:.1f} %; the uncertainty moves nothing the rulebook "
@@ -79,7 +81,7 @@ class RiskSpread:
     def to_dict(self) -> dict[str, Any]:
         """The JSON record: a path without complete runs has null quartiles and extremes."""
         return {"runs": self.runs, "critical": round(self.critical, 4),
-                "critical_at": CRITICAL,
+                "critical_at": round(self.critical_at, 6),
                 "quartiles": [_rounded(q) for q in self.quartiles],
                 "iqr": _rounded(self.iqr), "lowest": _rounded(self.lowest),
                 "highest": _rounded(self.highest),
@@ -91,14 +93,19 @@ def _rounded(value: float) -> float | None:
     return round(value, 4) if np.isfinite(value) else None
 
 
-def risk_spread(path: str, i_max: np.ndarray, indices: Mapping[str, np.ndarray]) -> RiskSpread:
+def risk_spread(path: str, i_max: np.ndarray, indices: Mapping[str, np.ndarray],
+                ceiling: float = 1.0) -> RiskSpread:
     """The spread of ``i_max`` over the runs where it is a number (complete runs); ``indices``
-    the per-run normalised index values (same rows), in the rulebook's order."""
+    the per-run normalised index values (same rows), in the rulebook's order; ``ceiling`` the
+    largest I_max the rulebook can give (its largest index weight): a run is at the limit from
+    ``CRITICAL`` of it on (with every weight 0.5, at I_max 0.495)."""
     values = np.asarray(i_max, dtype=float)
     done = np.isfinite(values)
     risks = values[done]
+    critical_at = CRITICAL * ceiling
     if risks.size == 0:
-        return RiskSpread(path, 0, 0.0, (float("nan"),) * 3, float("nan"), float("nan"))
+        return RiskSpread(path, 0, 0.0, (float("nan"),) * 3, float("nan"), float("nan"),
+                          critical_at=critical_at)
     q1, q2, q3 = (float(q) for q in np.percentile(risks, [25, 50, 75]))
     at_limit: dict[str, float] = {}
     for name, index in indices.items():
@@ -109,8 +116,9 @@ def risk_spread(path: str, i_max: np.ndarray, indices: Mapping[str, np.ndarray])
         if share > 0.0:
             at_limit[str(name)] = share
     at_limit = dict(sorted(at_limit.items(), key=lambda item: -item[1]))
-    return RiskSpread(path, int(risks.size), float(np.mean(risks >= CRITICAL)), (q1, q2, q3),
-                      float(risks.min()), float(risks.max()), at_limit)
+    critical = float(np.mean(risks >= critical_at)) if ceiling > 0.0 else 0.0
+    return RiskSpread(path, int(risks.size), critical, (q1, q2, q3), float(risks.min()),
+                      float(risks.max()), at_limit, critical_at)
 
 
 def spread_warnings(spreads: Sequence[RiskSpread | None]) -> list[str]:
