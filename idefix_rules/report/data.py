@@ -82,6 +82,8 @@ class TableRow:
     # the failing or undecided verdict rules in words, as the console says them (an
     # undecided one with the runs that would decide it): summary.json's `reasons`
     reasons: tuple[str, ...] = ()
+    # summary.json's risk_spread warning: the run risks do not tell the runs apart
+    spread_warning: str = ""
 
 
 @dataclass(frozen=True)
@@ -339,6 +341,7 @@ def _row_from_summary(entry: Mapping[str, Any]) -> TableRow:
         waivers=tuple({str(k): str(v) for k, v in item.items()}
                       for item in entry.get("waivers") or () if isinstance(item, Mapping)),
         reasons=tuple(str(r) for r in entry.get("reasons") or ()),
+        spread_warning=str((entry.get("risk_spread") or {}).get("warning") or ""),
     )
 
 

@@ -241,6 +241,8 @@ def table_one_html(data: ReportData, titles: Mapping[str, str] | None = None,
                                             row.completed_runs, row.stop_time_s))
         if row.stop_reason:
             lines.insert(0, f"Runs: {row.stop_reason}")
+        if row.spread_warning:
+            lines.append(f"Warning: {row.spread_warning}")
         if lines:
             items = "".join(f"<li>{escape(line)}</li>" for line in lines)
             explained.append(f"<h3>{escape(path.name)}</h3><ul>{items}</ul>")

@@ -101,9 +101,19 @@ def test_a_campaign_whose_runs_all_saturate_says_so(campaign_dir: Path,
         "  because \"Nominal run must not be critical\"\n", "")
     assert changed.count("0.000001") == 1 and "prescreen" not in changed
     rulebook.write_text(changed)
-    code = main([str(campaign_dir / "campaign.yaml"), "--runs", "8", "--no-report"])
+    junit = campaign_dir / "junit.xml"
+    code = main([str(campaign_dir / "campaign.yaml"), "--runs", "8", "--junit", str(junit)])
     out = " ".join(capsys.readouterr().out.split())
     assert code == 1
+    # said in every output a reader may open, not on the console alone
+    page = " ".join((campaign_dir / "out" / "report.html").read_text().split())
+    assert page.count("Warning: straight: 100.0 % of its 8 runs are at I_max &gt;= 0.99") == 1
+    import xml.etree.ElementTree as ET
+
+    case = next(c for c in ET.parse(junit).getroot().iter("testcase")
+                if c.get("name") == "straight")
+    assert "warning: straight: 100.0 % of its 8 runs are at I_max >= 0.99" in (
+        case.findtext("system-out") or "")
     for name in ("straight", "arc"):
         assert (f"warning: {name}: 100.0 % of its 8 runs are at I_max >= 0.99 (at its limit: "
                 "I_s in 100.0 %") in out

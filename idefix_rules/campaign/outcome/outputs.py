@@ -504,6 +504,8 @@ def _path_detail(path: PathResult) -> str:
     if path.unfinished and path.stop_time is not None:
         lines.append(unfinished_text(path.name, path.unfinished, path.completed,
                                      path.stop_time))
+    if path.risk_spread is not None and path.risk_spread.warning:  # its risk tells nothing
+        lines.append(f"warning: {path.risk_spread.warning}")
     for run, reason in sorted(path.failures.items()):
         lines.append(f"run {run} failed: {reason}")
     return "\n".join(lines)
