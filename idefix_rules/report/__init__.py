@@ -260,7 +260,10 @@ def _write_report(store: StoredResults, out_dir: Path, advance: Advance, searche
     box_images = [images[key] for key in sorted(images) if key.startswith("box ")]
     sensitivity_images = [images["sensitivity"]] if "sensitivity" in images else []
     parts = [
-        sections.decision_html(data) if searched is None else worst_html(searched, units),
+        sections.decision_html(data) if searched is None else worst_html(
+            searched, units, (data.header.rulebook_name, data.header.rulebook_version,
+                              data.header.rulebook_sha256),
+            {path.name: path.i_max for path in data.paths}),
         html.notes_html(notes),
         html.table_one_html(data, titles, sections.path_reasons(data)),
         slip,

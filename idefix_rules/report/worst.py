@@ -84,11 +84,47 @@ def _change(path: Mapping[str, Any]) -> str:
     return f"{sigmas(change['distance'])} ({escape(str(change['direction']))})"
 
 
-def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
+def rescored_note(record: Mapping[str, Any], rulebook: tuple[str, str, str]) -> str:
+    """A note when the runs were scored since under another rulebook than the search's
+    (``rulebook``: the evaluation's name, version and sha256): the search's findings are
+    its rulebook's, "" when it is the same."""
+    searched = record.get("rulebook") or {}
+    name, version, sha = rulebook
+    if not searched.get("sha256") or not sha or searched.get("sha256") == sha:
+        return ""
+    return (f"<p class=\"note\"><b>Searched under another rulebook.</b> The search found these "
+            f"worlds under rulebook {escape(str(searched.get('name', '?')))} "
+            f"{escape(str(searched.get('version', '?')))}; its runs were scored since under "
+            f"{escape(name)} {escape(version)} (Table 1 below, and <i>now</i> beside each worst "
+            "I_max), which searched nothing: its own worst world may lie elsewhere, and the "
+            "boundaries are the search's. Run <code>idefix-verify worst</code> with it to "
+            "search under it.</p>")
+
+
+def _now(note: str, now: Mapping[str, np.ndarray] | None, path: Mapping[str, Any],
+         worst: Mapping[str, Any]) -> str:
+    """The worst run's I_max under the rulebook the runs were scored with since ("" when it
+    is the search's, or the worst world is the nominal one)."""
+    if not note or now is None or worst.get("run") is None:
+        return ""
+    values = now.get(str(path["name"]))
+    row = int(worst["run"])
+    if values is None or not 0 <= row < len(values) or not np.isfinite(values[row]):
+        return ""
+    return f" (now {percent(float(values[row]))})"
+
+
+def worst_html(record: Mapping[str, Any], units: DisplayUnits,
+               rulebook: tuple[str, str, str] = ("", "", ""),
+               now: Mapping[str, np.ndarray] | None = None) -> str:
     """The section: per path the nominal and worst run risk, how rare the worst world is, the
-    smallest change to critical; then per path the worlds and the boundary along each ray."""
+    smallest change to critical; then per path the worlds and the boundary along each ray.
+    ``rulebook`` (name, version, sha256) of the stored evaluation and ``now`` its per-run I_max
+    by path: where the runs were scored under another rulebook than the search's, it says so,
+    and each worst run's I_max under it."""
     stored_units = {p["name"]: p.get("unit", "") for p in record.get("parameters", [])}
     threshold = percent(float(record.get("threshold", 1.0)), 0)
+    note = rescored_note(record, rulebook)
     rows = []
     for path in record.get("paths", []):
         if path.get("status") != "searched":
@@ -105,7 +141,7 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
         rows.append(
             f"<tr{opens}><td>{escape(path['name'])}</td>"
             f"<td class=\"num\">{percent(path['nominal']['risk'])}</td>"
-            f"<td class=\"num\">{percent(worst['risk'])}</td>"
+            f"<td class=\"num\">{percent(worst['risk'])}{_now(note, now, path, worst)}</td>"
             f"<td>{escape(str(worst.get('dominant_index') or '–'))}</td>"
             f"<td>{escape(rarity(worst['tail_probability']))} "
             f"({sigmas(worst['distance'])})</td>"
@@ -120,7 +156,7 @@ def worst_html(record: Mapping[str, Any], units: DisplayUnits) -> str:
         "median) as the worst one, in standard-normal quantile coordinates; σ: its distance "
         "from the nominal world there (docs/worst-case.md). Each worst run is dotted and "
         "labelled on the interactive result map; click its row (or its label) to open it "
-        "there with its time series.</p>",
+        f"there with its time series.</p>{note}",
         '<div class="scroll"><table><thead><tr>'
         + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr></thead><tbody>"
         + "".join(rows) + "</tbody></table></div>"]

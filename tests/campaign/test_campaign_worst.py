@@ -281,6 +281,39 @@ def test_an_interrupted_search_is_run_again_never_resumed_and_a_campaign_sets_it
     assert not (out / "worst.json").exists() and (out / "worst.previous.json").is_file()
 
 
+def test_the_report_of_a_search_scored_again_under_another_rulebook_says_whose_findings(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The worst worlds and boundaries are the search's rulebook's; scored since under
+    another, the report says so and gives each worst run's I_max under it."""
+    import h5py
+
+    out = searched(campaign_dir, capsys)
+    rules = campaign_dir / "test.rules"
+    lenient = campaign_dir / "lenient.rules"
+    lenient.write_text(rules.read_text().replace('version "0.1.0"', 'version "0.2.0"')
+                       .replace("limit  = 1\n", "limit  = 4\n", 1))
+    assert main(["report", str(out / "results.h5")]) == 0
+    page = " ".join((out / "report.html").read_text().split())
+    assert "Searched under another rulebook" not in page and "(now " not in page
+    assert main(["evaluate", str(out / "results.h5"), "--rulebook", str(lenient)]) in (0, 1)
+    assert main(["report", str(out / "results.h5")]) == 0
+    page = " ".join((out / "report.html").read_text().split())
+    assert ("<b>Searched under another rulebook.</b> The search found these worlds under "
+            "rulebook campaign-test 0.1.0; its runs were scored since under campaign-test "
+            "0.2.0") in page
+    record = json.loads((out / "worst.json").read_text())
+    shown = 0
+    with h5py.File(out / "results.h5") as file:
+        for path in record["paths"]:
+            run = (path.get("worst") or {}).get("run")
+            if path.get("status") != "searched" or run is None:
+                continue
+            now = float(file["paths"][path["name"]]["evaluation"]["i_max"][run])
+            assert f"{100 * path['worst']['risk']:.1f} % (now {100 * now:.1f} %)" in page
+            shown += 1
+    assert shown >= 1
+
+
 def test_the_searched_runs_are_judged_with_the_campaigns_waivers(
         campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A waived failure is no failure for the stored evaluation of a search either (and raises
