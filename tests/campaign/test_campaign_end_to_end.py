@@ -88,6 +88,16 @@ def test_a_campaign_runs_end_to_end(campaign_dir: Path,
         assert straight["reference/parameters"].attrs["toy.slip"] == pytest.approx(0.15)
         assert straight["chain"].shape == (1, 3)
         assert straight["evaluation/i_max"].shape == (6,)
+        # every evaluation dataset says its unit, as the signals do: an index's raw value in
+        # the SI unit of its expression
+        evaluation = straight["evaluation"]
+        assert evaluation["i_max"].attrs["unit"] == "1"
+        assert evaluation["time"].attrs["unit"] == "s"
+        assert evaluation["energy"].attrs["unit"] == "A·s"
+        assert {k: evaluation["indices"][k].attrs["unit"] for k in evaluation["indices"]} == \
+            {"I_pos": "1", "I_s": "1"}
+        assert {k: evaluation["raw"][k].attrs["unit"] for k in evaluation["raw"]} == \
+            {"I_pos": "1", "I_s": "1"}
         assert results["paths/too-fast"].attrs["status"] == "rejected"
         assert "runs" not in results["paths/too-fast"]
 

@@ -322,3 +322,15 @@ def test_rank_first_holds_for_either_chain_of_a_tie_at_the_top() -> None:
     for name, other in (("good", "close"), ("close", "good")):
         found = check_expectation(RankFirstExpectation(rank_first=name), results)
         assert found.held and f"tied with {other}" in found.message, name
+
+
+def test_raw_index_values_carry_the_si_unit_of_their_expression() -> None:
+    """The default rulebook's raw values: angles in rad, sinkage in m, ratios 1."""
+    from pathlib import Path
+
+    from idefix_rules.campaign.evaluation.evaluate import raw_units
+    from idefix_rules.campaign.preparation import compile_rulebook_file
+
+    units = raw_units(compile_rulebook_file(Path(__file__).parents[2] / "rulebooks" /
+                                            "idefix-ops.rules"))
+    assert units["I_ds"] == "m" and units["I_beta"] == "rad" and units["I_s"] == "1"

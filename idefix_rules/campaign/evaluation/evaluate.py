@@ -331,7 +331,7 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
         fill_runs_needed(result, evaluation, verdict, budget, sequential, stop_time, failures)
         if write:
             _write_path_evaluation(target, name, evaluation, extra, stats, verdict,
-                                   len(store.run_status(name)), waived)
+                                   len(store.run_status(name)), waived, raw_units(evaluator))
     ranking = list(evaluator.rank(statistics)) if statistics else []
     margin = float(getattr(evaluator.checked, "indifference", 0.0))
     pairs = decision_pairs(run_risks, ranking, results, budget, margin, sequential) \
@@ -509,9 +509,21 @@ def dominant_index(evaluation: Any) -> str | None:
     return str(names[int(np.argmax(counts))])
 
 
+def raw_units(evaluator: Any) -> dict[str, str]:
+    """Each index's value before normalisation in its SI unit ("1": a ratio or a count)."""
+    types = getattr(getattr(evaluator, "checked", None), "index_types", {}) or {}
+    units = {}
+    for name, kind in types.items():
+        dimension = getattr(kind, "dimension", None)
+        units[str(name)] = "1" if dimension is None or dimension.is_dimensionless \
+            else str(dimension)
+    return units
+
+
 def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
                            extra: dict[str, Any], stats: Any, verdict: Any, runs: int,
-                           waived: Sequence[WaivedRule] = ()) -> None:
+                           waived: Sequence[WaivedRule] = (),
+                           units: dict[str, str] | None = None) -> None:
     group = store.path_group(name)
     if "evaluation" in group:
         del group["evaluation"]
@@ -539,14 +551,20 @@ def _write_path_evaluation(store: ResultStore, name: str, evaluation: Any,
         sub = target.create_group("indices" if section == "values" else "raw")
         for key, values in data.items():
             array(sub, key, full(values))
+            unit = "1" if section == "values" else (units or {}).get(key)
+            if unit is not None:
+                sub[key].attrs["unit"] = unit
     array(target, "i_max", full(evaluation.i_max))
+    target["i_max"].attrs["unit"] = "1"
     array(target, "dominant", full(evaluation.dominant, -1, np.int16))
     array(target, "time", full(evaluation.time))
+    target["time"].attrs["unit"] = "s"
     # 1: the chain was complete within the stop time, 0: still driving at it, -1: not known
     finished = extra.get("finished")
     array(target, "finished", full(finished, -1, np.int8) if finished is not None
           else np.full(runs, -1, dtype=np.int8))
     array(target, "energy", full(evaluation.energy))
+    target["energy"].attrs["unit"] = "A·s"
     chances = target.create_group("chances")
     for key, values in (getattr(evaluation, "chances", {}) or {}).items():
         array(chances, key, full(values, 0, np.int8))
