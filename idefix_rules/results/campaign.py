@@ -42,7 +42,8 @@ def rebuilt_campaign(store: StoredResults) -> Campaign:
 
     KeyError when the file holds no campaign text; ValueError (pydantic's validation error)
     or :class:`~idefix_rules.errors.UserInputError` when this version cannot read it."""
-    from idefix_rules.campaign.input.schema import STORED_CAMPAIGN, CampaignFile
+    from idefix_rules.campaign.input.field_types import STORED_CAMPAIGN
+    from idefix_rules.campaign.input.schema import CampaignFile
     from idefix_rules.campaign.input.yamlsource import load_yaml
 
     text = store.text("campaign")

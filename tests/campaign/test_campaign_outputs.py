@@ -13,7 +13,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
     collision_chances,
     fill_result,
 )
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.expectations import (
     CollisionExpectation,
     MeanRiskExpectation,
     PathVerdictExpectation,

@@ -18,16 +18,15 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.environment_section import TerrainSection
+from idefix_rules.campaign.input.expectations import (
     EXPECTATION_KINDS,
-    AdaptiveRuns,
-    CampaignFile,
     CollisionExpectation,
     MeanRiskExpectation,
     PathVerdictExpectation,
     RankFirstExpectation,
-    TerrainSection,
 )
+from idefix_rules.campaign.input.schema import AdaptiveRuns, CampaignFile
 from idefix_rules.campaign.input.yamlsource import SourceMap, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error, read_user_text

@@ -10,7 +10,7 @@ name (:func:`path_stream`), so adding or removing a path never changes another p
 Nothing depends on the worker that simulates the run, so results are identical for any worker
 count and order.
 
->>> from idefix_rules.campaign.input.schema import Normal
+>>> from idefix_rules.campaign.input.distributions import Normal
 >>> values = sample_path({"x0": Normal(distribution="normal", mean=0.0, std=0.01)},
 ...                      "monte_carlo", seed=1, stream=(), runs=3)
 >>> values["x0"].shape
@@ -25,7 +25,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.distributions import (
     Fixed,
     LogNormal,
     Normal,

@@ -23,7 +23,7 @@ from typing import Any
 
 from idefix_rules import __version__
 from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.expectations import (
     CollisionExpectation,
     MeanRiskExpectation,
     PathVerdictExpectation,
