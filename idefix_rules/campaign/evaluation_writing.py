@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
 from idefix_rules.campaign.evaluation.spread import spread_warnings

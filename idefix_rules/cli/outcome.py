@@ -19,7 +19,7 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.wording import (
     bounds_label,
     confidence_text,

@@ -7,12 +7,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.evaluation.evaluate import (
-    CampaignEvaluation,
-    PathResult,
-    collision_chances,
-    fill_result,
-)
+from idefix_rules.campaign.evaluation.fill_result import collision_chances, fill_result
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.expectations import (
     CollisionExpectation,
     MeanRiskExpectation,
@@ -328,7 +324,7 @@ def test_raw_index_values_carry_the_si_unit_of_their_expression() -> None:
     """The default rulebook's raw values: angles in rad, sinkage in m, ratios 1."""
     from pathlib import Path
 
-    from idefix_rules.campaign.evaluation.evaluate import raw_units
+    from idefix_rules.campaign.evaluation.evaluation_datasets import raw_units
     from idefix_rules.campaign.preparation import compile_rulebook_file
 
     units = raw_units(compile_rulebook_file(Path(__file__).parents[2] / "rulebooks" /

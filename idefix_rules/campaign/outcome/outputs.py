@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules import __version__
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.expectations import (
     CollisionExpectation,
     MeanRiskExpectation,
