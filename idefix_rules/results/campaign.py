@@ -19,12 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.input.load import (
-    Campaign,
-    PathSpec,
-    initial_position_sigma,
-    rover_geometry,
-)
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.load import Campaign, PathSpec
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.results.collisions import CollisionFunction, collision_function
 from idefix_rules.results.reader import StoredResults, damaged

@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign.input.load import Campaign, format_loc
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.errors import Diagnostic, Severity, Span, UserInputError, error, warning
 from idefix_rules.fmu.archive import default_signal_map
 from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu

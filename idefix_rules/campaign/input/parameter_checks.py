@@ -9,13 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from idefix_rules.campaign.input.load import (
-    REGOLITH_PREFIX,
-    Campaign,
-    format_loc,
-    regolith_parameter,
-)
+from idefix_rules.campaign.input.campaign_values import REGOLITH_PREFIX, regolith_parameter
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.sampling import planned_draws
+from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.errors import Diagnostic, error
 from idefix_rules.fmu.description import FmuDescription, FmuVariable
 from idefix_rules.fmu.mapping import CHAIN_ARRAYS, CHAIN_COUNT

@@ -6,13 +6,13 @@ import math
 
 import numpy as np
 
-from idefix_rules.campaign.input.load import (
+from idefix_rules.campaign.input.campaign_values import (
     INITIAL_POSITION,
-    Campaign,
     nominal_parameters,
     rover_geometry,
     where_set,
 )
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.sampling import planned_draws
 from idefix_rules.errors import UserInputError, error
 

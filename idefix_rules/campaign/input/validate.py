@@ -12,12 +12,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from idefix_rules.campaign.input.load import (
+from idefix_rules.campaign.input.campaign_values import (
     INITIAL_POSITION,
-    Campaign,
     initial_position_sigma,
     rover_geometry,
 )
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.schema import DEFAULT_DURATION_MARGIN
 from idefix_rules.errors import Span, UserInputError, error
 
@@ -31,7 +31,7 @@ DEFAULT_OUTPUT_INTERVAL = 0.1
 
 def check_simulation_size(campaign: Campaign) -> None:
     """Refuse a run longer than :data:`MAX_SAMPLES` output samples before simulating."""
-    from idefix_rules.campaign.input.load import stop_limit
+    from idefix_rules.campaign.input.campaign_values import stop_limit
 
     rover = rover_geometry(campaign)
     settings = campaign.model.simulation
