@@ -19,7 +19,8 @@ from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, Pat
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_paths
 from idefix_rules.campaign.input.schema import Waiver
 from idefix_rules.campaign.outcome.decision import decide
-from idefix_rules.campaign.outcome.outputs import exit_code, junit_xml
+from idefix_rules.campaign.outcome.junit import junit_xml
+from idefix_rules.campaign.outcome.outputs import exit_code
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import judged_statistics
 from idefix_rules.campaign.statistics.budget import alpha_budget

@@ -15,13 +15,9 @@ from idefix_rules.campaign.input.expectations import (
     PathVerdictExpectation,
     RankFirstExpectation,
 )
-from idefix_rules.campaign.outcome.outputs import (
-    check_expectation,
-    check_expectations,
-    exit_code,
-    junit_xml,
-    summary,
-)
+from idefix_rules.campaign.outcome.expectation_checks import check_expectation, check_expectations
+from idefix_rules.campaign.outcome.junit import junit_xml
+from idefix_rules.campaign.outcome.outputs import exit_code, summary
 from idefix_rules.cli.outcome import ci_line
 from idefix_rules.rulebook import RunEvaluation, check_text, compile_rulebook
 
