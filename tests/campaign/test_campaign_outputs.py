@@ -235,15 +235,15 @@ def test_the_report_prints_the_risks_the_console_prints_not_a_value_rounded_twic
     """summary.json keeps a path's figures unrounded: the report prints them again, and a value
     stored rounded (0.067464 as 0.0675) printed 6.8 % where the console and JUnit said 6.7 %."""
     from idefix_rules.campaign.outcome.outputs import path_record
-    from idefix_rules.report.data import _row_from_summary
     from idefix_rules.report.html import _number
+    from idefix_rules.report.reading import row_from_summary
 
     for risk, time, energy in ((0.067464, 232.149, 0.70204999), (0.2274999, 10.05, 0.0),
                                (0.5, 0.0, 1.0)):
         path = PathResult("p", 0, "simulated", runs=4, completed=4, mean_risk=risk,
                           risk_ci=(risk - 0.01, risk + 0.01), chances={"c": risk},
                           energy=energy, time=time)
-        row = _row_from_summary(path_record(path))
+        row = row_from_summary(path_record(path))
         assert _number(row.mean_risk, 1, 100) == f"{100.0 * risk:.1f}"
         assert row.risk_ci95 == path.risk_ci and row.chances == {"c": risk}
         assert row.time_s == time and row.energy_mAs == energy * 1000.0
