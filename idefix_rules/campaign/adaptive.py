@@ -34,7 +34,7 @@ from idefix_rules.campaign.evaluation.evaluate import (
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, run_collisions
 from idefix_rules.campaign.evaluation.scoring import failing_paths
 from idefix_rules.campaign.input import sampling, waivers
-from idefix_rules.campaign.input.load import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, nominal_parameters
 from idefix_rules.campaign.simulation.monte_carlo import (
     PlannedRuns,
     monte_carlo_pool,

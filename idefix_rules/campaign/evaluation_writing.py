@@ -15,13 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation.slip import slip_warning
 from idefix_rules.campaign.evaluation.spread import spread_warnings
 from idefix_rules.campaign.input import waivers
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.outcome import outputs
+from idefix_rules.campaign.outcome.expectation_checks import ExpectationResult, check_expectations
+from idefix_rules.campaign.outcome.junit import junit_xml
 from idefix_rules.campaign.output_folder import SUMMARY_FILE
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.revision import Revision
@@ -41,7 +43,7 @@ class CampaignResult:
 
     results: Path
     evaluation: CampaignEvaluation
-    expectations: list[outputs.ExpectationResult]
+    expectations: list[ExpectationResult]
     summary: dict[str, Any]
     exit_code: int
     warnings: list[str] = field(default_factory=list)
@@ -143,7 +145,7 @@ def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
     steps = steps or EvaluationSteps()
     model = campaign.model
     expected = model.expect if expect else []
-    checks = outputs.check_expectations(expected, evaluation)
+    checks = check_expectations(expected, evaluation)
     code = outputs.exit_code(evaluation, checks, bool(expected))
     problems = waivers.unused(model.waivers, evaluation, campaign.span)
     if problems and code != outputs.EXIT_INFRASTRUCTURE:
@@ -164,7 +166,7 @@ def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
         try:
             junit.parent.mkdir(parents=True, exist_ok=True)
             with diskspace.guard(junit.parent, f"write {junit.name}", written):
-                write_atomic(junit, outputs.junit_xml(evaluation, checks, name, seconds,
+                write_atomic(junit, junit_xml(evaluation, checks, name, seconds,
                                                       results, problems))
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(

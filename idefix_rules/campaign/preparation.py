@@ -12,18 +12,19 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from idefix_rules.campaign.input import waivers
+from idefix_rules.campaign.input.campaign_values import rover_geometry
 from idefix_rules.campaign.input.environment import build_terrain, write_terrain
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
-from idefix_rules.campaign.input.load import Campaign, format_loc, rover_geometry
-from idefix_rules.campaign.input.validate import (
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.campaign.input.terrain_checks import (
     check_drawn_starts_on_terrain,
     check_paths_on_terrain,
     check_polygons_on_terrain,
     check_rocks_on_terrain,
-    check_simulation_size,
     check_start_on_terrain,
-    check_tolerance_start,
 )
+from idefix_rules.campaign.input.validate import check_simulation_size, check_tolerance_start
+from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, TERRAIN_PARAMETER
 from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.journal import roll_back

@@ -10,8 +10,9 @@ import os
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign.evaluation.evaluate import PathResult, evaluate_store
+from idefix_rules.campaign.evaluation.evaluate import evaluate_store
 from idefix_rules.campaign.evaluation.gate import gate_again
+from idefix_rules.campaign.evaluation.path_result import PathResult
 from idefix_rules.campaign.evaluation_writing import (
     CampaignResult,
     EvaluationSteps,

@@ -25,7 +25,8 @@ from idefix_rules.campaign.evaluation_writing import (
     rulebook_info,
     warn_lost_runs,
 )
-from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.output_folder import REPORT_FILE, claimed_output
 from idefix_rules.campaign.preparation import prepare_simulation
 from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore

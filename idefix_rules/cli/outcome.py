@@ -19,7 +19,7 @@ from rich.markup import escape
 from rich.measure import Measurement
 from rich.table import Table
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.wording import (
     bounds_label,
     confidence_text,
@@ -34,7 +34,7 @@ from idefix_rules.campaign.outcome.decision import (
     reason_items,
     verdict_counts,
 )
-from idefix_rules.campaign.outcome.outputs import ExpectationResult
+from idefix_rules.campaign.outcome.expectation_checks import ExpectationResult
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.pairwise import OPEN

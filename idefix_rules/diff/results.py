@@ -27,14 +27,10 @@ from typing import Any, Literal
 import numpy as np
 
 from idefix_rules import __version__
-from idefix_rules.campaign.evaluation.evaluate import (
-    PathResult,
-    concatenate,
-    fill_result,
-    risk_ceiling,
-    stored_path_result,
-)
+from idefix_rules.campaign.evaluation.evaluate import concatenate
+from idefix_rules.campaign.evaluation.fill_result import fill_result, risk_ceiling
 from idefix_rules.campaign.evaluation.gate import NOT_SIMULATED, gate_again
+from idefix_rules.campaign.evaluation.path_result import PathResult, stored_path_result
 from idefix_rules.campaign.evaluation.scoring import judge_paths, ranked_paths
 from idefix_rules.campaign.input.waivers import waive_verdict
 from idefix_rules.campaign.input.wording import DisplayUnits

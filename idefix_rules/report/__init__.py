@@ -22,8 +22,9 @@ from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.input.wording import DisplayUnits
 from idefix_rules.files import write_atomic
 from idefix_rules.report import figures, html, interactive, script, sections
-from idefix_rules.report.data import ReportData, read_report_data
+from idefix_rules.report.data import ReportData
 from idefix_rules.report.prepare import MapSet, Setup, prepare, setup_from_store
+from idefix_rules.report.reading import read_report_data
 from idefix_rules.report.worst import NOTE as WORST_NOTE
 from idefix_rules.report.worst import read_worst, worst_html, worst_rows, worst_tracks
 from idefix_rules.results.reader import StoredResults

@@ -90,7 +90,7 @@ def map_environment(campaign_text: str, checked: Any | None,
     horizontal extent of the rock's geometry. Without it, the campaign's rocks are drawn with
     their explicit level or '?'.
     """
-    from idefix_rules.campaign.input.schema import EnvironmentSection
+    from idefix_rules.campaign.input.environment_section import EnvironmentSection
     from idefix_rules.campaign.input.yamlsource import yaml_data
 
     notes: list[str] = []

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.evaluation.evaluate import EVALUATION_RULEBOOK
+from idefix_rules.campaign.evaluation.evaluation_datasets import EVALUATION_RULEBOOK
 from idefix_rules.commands import RoverGeometry, chain_duration, ideal_poses
 from idefix_rules.obstacles.bodies import RoverBodies
 from idefix_rules.report.data import PathReport, ReportData

@@ -19,12 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.input.load import (
-    Campaign,
-    PathSpec,
-    initial_position_sigma,
-    rover_geometry,
-)
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.load import Campaign, PathSpec
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.results.collisions import CollisionFunction, collision_function
 from idefix_rules.results.reader import StoredResults, damaged
@@ -42,7 +38,8 @@ def rebuilt_campaign(store: StoredResults) -> Campaign:
 
     KeyError when the file holds no campaign text; ValueError (pydantic's validation error)
     or :class:`~idefix_rules.errors.UserInputError` when this version cannot read it."""
-    from idefix_rules.campaign.input.schema import STORED_CAMPAIGN, CampaignFile
+    from idefix_rules.campaign.input.field_types import STORED_CAMPAIGN
+    from idefix_rules.campaign.input.schema import CampaignFile
     from idefix_rules.campaign.input.yamlsource import load_yaml
 
     text = store.text("campaign")

@@ -44,7 +44,7 @@ def collision_function(environment: Any, evaluator: Any, terrain: Any = None,
                        rover: RoverGeometry | None = None) -> ObstacleCheck | None:
     """The obstacle checker for a campaign environment, or None if the rulebook needs none;
     it gives the collision signals and the signals of the rulebook's named areas, for a rover of
-    ``rover``'s geometry (the campaign's: :func:`~idefix_rules.campaign.input.load.
+    ``rover``'s geometry (the campaign's: :func:`~idefix_rules.campaign.input.campaign_values.
     rover_geometry`; the defaults when None)."""
     if not getattr(evaluator, "needs_collisions", False):
         return None

@@ -24,8 +24,9 @@ from test_campaign_robustness import KILLER, assert_same_datasets
 from idefix_rules.campaign import adaptive, runner
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.environment import read_terrain
-from idefix_rules.campaign.input.load import initial_position_sigma, load_campaign, rover_geometry
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.preparation import compile_rulebook_file
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation import worker

@@ -17,7 +17,7 @@ from test_campaign_robustness import copy_campaign
 from idefix_rules.campaign.input import wording
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
-from idefix_rules.report.data import read_report_data
+from idefix_rules.report.reading import read_report_data
 
 NINETY = "\ncombine {\n  confidence = 90 %\n}\n"
 

@@ -15,11 +15,12 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from rich.console import Console
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.evaluation.scoring import decision_pairs, judge_paths
 from idefix_rules.campaign.input.schema import Waiver
 from idefix_rules.campaign.outcome.decision import decide
-from idefix_rules.campaign.outcome.outputs import exit_code, junit_xml
+from idefix_rules.campaign.outcome.junit import junit_xml
+from idefix_rules.campaign.outcome.outputs import exit_code
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import judged_statistics
 from idefix_rules.campaign.statistics.budget import alpha_budget
@@ -415,7 +416,7 @@ def test_a_marginal_chain_that_may_pass_at_the_final_levels_is_compared(
 def test_failed_runs_are_the_rulebook_s_to_judge_and_a_missing_run_fails_the_path():
     """A rulebook that tolerates failed runs (`failed <= 20 %`) passes a path with one; a run
     neither complete nor failed (missing from the results) fails it."""
-    from idefix_rules.campaign.evaluation.evaluate import fill_result
+    from idefix_rules.campaign.evaluation.fill_result import fill_result
 
     tolerant = check(parse_rulebook(
         'rulebook "t" version "1.0.0"\npurpose "test"\n'

@@ -120,7 +120,7 @@ def test_the_report_counts_the_runs_stopped_at_the_limit(
         chain_end_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from idefix_rules.campaign.storage.store import ResultStore
     from idefix_rules.report import write_report
-    from idefix_rules.report.data import read_path
+    from idefix_rules.report.reading import read_path
 
     assert run(chain_end_dir, "out", monkeypatch) == 1
     results = chain_end_dir / "out" / "results.h5"

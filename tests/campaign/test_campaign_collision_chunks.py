@@ -10,8 +10,9 @@ import pytest
 from campaign_texts import RULEBOOK
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_store
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.environment import read_terrain
-from idefix_rules.campaign.input.load import initial_position_sigma, load_campaign, rover_geometry
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.preparation import compile_rulebook_file
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.cli import main

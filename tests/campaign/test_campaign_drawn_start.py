@@ -10,7 +10,8 @@ import pytest
 
 from idefix_rules.campaign.input.environment import build_terrain
 from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.input.validate import check_drawn_starts_on_terrain, planned_draws
+from idefix_rules.campaign.input.sampling import planned_draws
+from idefix_rules.campaign.input.terrain_checks import check_drawn_starts_on_terrain
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 
@@ -104,7 +105,7 @@ def test_a_worst_case_search_draws_its_own_worlds_and_is_not_refused_for_planned
 ])
 def test_a_keep_out_polygon_entirely_off_the_terrain_is_c206(
         tmp_path: Path, xs: tuple[str, str], refused: bool) -> None:
-    from idefix_rules.campaign.input.validate import check_polygons_on_terrain
+    from idefix_rules.campaign.input.terrain_checks import check_polygons_on_terrain
 
     path = _campaign(tmp_path, '{distribution: normal, mean: "0 m", std: "1 cm"}')
     low, high = xs

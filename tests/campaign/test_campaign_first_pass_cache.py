@@ -11,8 +11,9 @@ import pytest
 from campaign_texts import CAMPAIGN
 from test_campaign_adaptive import ROCK, rock_campaign
 
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.environment import read_terrain
-from idefix_rules.campaign.input.load import initial_position_sigma, load_campaign, rover_geometry
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.preparation import compile_rulebook_file
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation.prescreen import run_context

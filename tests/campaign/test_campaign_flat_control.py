@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
-from idefix_rules.campaign.input.load import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.results.campaign import rebuilt_campaign

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.input.load import load_campaign, rover_geometry, stop_limit
+from idefix_rules.campaign.input.campaign_values import rover_geometry, stop_limit
+from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.input.validate import check_simulation_size
 from idefix_rules.errors import UserInputError
 

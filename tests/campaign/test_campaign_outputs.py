@@ -7,25 +7,17 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.evaluation.evaluate import (
-    CampaignEvaluation,
-    PathResult,
-    collision_chances,
-    fill_result,
-)
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.evaluation.fill_result import collision_chances, fill_result
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
+from idefix_rules.campaign.input.expectations import (
     CollisionExpectation,
     MeanRiskExpectation,
     PathVerdictExpectation,
     RankFirstExpectation,
 )
-from idefix_rules.campaign.outcome.outputs import (
-    check_expectation,
-    check_expectations,
-    exit_code,
-    junit_xml,
-    summary,
-)
+from idefix_rules.campaign.outcome.expectation_checks import check_expectation, check_expectations
+from idefix_rules.campaign.outcome.junit import junit_xml
+from idefix_rules.campaign.outcome.outputs import exit_code, summary
 from idefix_rules.cli.outcome import ci_line
 from idefix_rules.rulebook import RunEvaluation, check_text, compile_rulebook
 
@@ -243,15 +235,15 @@ def test_the_report_prints_the_risks_the_console_prints_not_a_value_rounded_twic
     """summary.json keeps a path's figures unrounded: the report prints them again, and a value
     stored rounded (0.067464 as 0.0675) printed 6.8 % where the console and JUnit said 6.7 %."""
     from idefix_rules.campaign.outcome.outputs import path_record
-    from idefix_rules.report.data import _row_from_summary
     from idefix_rules.report.html import _number
+    from idefix_rules.report.reading import row_from_summary
 
     for risk, time, energy in ((0.067464, 232.149, 0.70204999), (0.2274999, 10.05, 0.0),
                                (0.5, 0.0, 1.0)):
         path = PathResult("p", 0, "simulated", runs=4, completed=4, mean_risk=risk,
                           risk_ci=(risk - 0.01, risk + 0.01), chances={"c": risk},
                           energy=energy, time=time)
-        row = _row_from_summary(path_record(path))
+        row = row_from_summary(path_record(path))
         assert _number(row.mean_risk, 1, 100) == f"{100.0 * risk:.1f}"
         assert row.risk_ci95 == path.risk_ci and row.chances == {"c": risk}
         assert row.time_s == time and row.energy_mAs == energy * 1000.0
@@ -328,7 +320,7 @@ def test_raw_index_values_carry_the_si_unit_of_their_expression() -> None:
     """The default rulebook's raw values: angles in rad, sinkage in m, ratios 1."""
     from pathlib import Path
 
-    from idefix_rules.campaign.evaluation.evaluate import raw_units
+    from idefix_rules.campaign.evaluation.evaluation_datasets import raw_units
     from idefix_rules.campaign.preparation import compile_rulebook_file
 
     units = raw_units(compile_rulebook_file(Path(__file__).parents[2] / "rulebooks" /

@@ -11,7 +11,7 @@ import pytest
 
 from idefix_rules.campaign.input.environment import build_terrain
 from idefix_rules.campaign.input.load import load_campaign
-from idefix_rules.campaign.input.validate import check_paths_on_terrain
+from idefix_rules.campaign.input.terrain_checks import check_paths_on_terrain
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 

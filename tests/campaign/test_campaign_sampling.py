@@ -10,7 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from idefix_rules.campaign.input import sampling
-from idefix_rules.campaign.input.schema import Fixed, LogNormal, Normal, TruncatedNormal, Uniform
+from idefix_rules.campaign.input.distributions import (
+    Fixed,
+    LogNormal,
+    Normal,
+    TruncatedNormal,
+    Uniform,
+)
 
 PARAMETERS = {
     "initial.x": Normal(distribution="normal", mean="0 m", std="1 cm"),

@@ -209,7 +209,7 @@ def test_the_largest_seed_is_accepted(tmp_path: Path) -> None:
 def test_a_synthetic_slope_is_an_inclination_from_0_to_under_90_degrees(slope, ok):
     from pydantic import ValidationError
 
-    from idefix_rules.campaign.input.schema import SyntheticTerrain
+    from idefix_rules.campaign.input.environment_section import SyntheticTerrain
 
     if ok:
         assert SyntheticTerrain.model_validate({"slope": slope}).slope >= 0.0
@@ -223,12 +223,10 @@ def test_the_limits_added_for_new_runs_accept_what_lies_just_inside():
     tests/cli/test_cli_user_errors.py), and a stored campaign is read whatever they say."""
     from pydantic import TypeAdapter, ValidationError
 
-    from idefix_rules.campaign.input.schema import (
-        STORED_CAMPAIGN,
-        MeanRiskExpectation,
-        PathName,
-        RockSpec,
-    )
+    from idefix_rules.campaign.input.environment_section import RockSpec
+    from idefix_rules.campaign.input.expectations import MeanRiskExpectation
+    from idefix_rules.campaign.input.field_types import STORED_CAMPAIGN
+    from idefix_rules.campaign.input.schema import PathName
 
     names = TypeAdapter(PathName)
     assert names.validate_python("p" * 100) == "p" * 100
@@ -356,7 +354,8 @@ def test_a_rock_is_at_most_1_km_in_radius_or_semi_axis(size: dict[str, object],
     (a rock 1e200 m wide was met by no collision test); a stored campaign is read as it ran."""
     from pydantic import ValidationError
 
-    from idefix_rules.campaign.input.schema import STORED_CAMPAIGN, RockSpec
+    from idefix_rules.campaign.input.environment_section import RockSpec
+    from idefix_rules.campaign.input.field_types import STORED_CAMPAIGN
 
     rock = {"x": "0 m", "y": "0 m", **size}
     if not refused:

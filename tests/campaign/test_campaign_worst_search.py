@@ -16,14 +16,14 @@ import idefix_rules.campaign.worst.cross_entropy
 import idefix_rules.campaign.worst.outcome
 import idefix_rules.campaign.worst.search
 import idefix_rules.campaign.worst.space
-from idefix_rules.campaign.input.sampling import cumulative, inverse_cdf
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.distributions import (
     Fixed,
     LogNormal,
     Normal,
     TruncatedNormal,
     Uniform,
 )
+from idefix_rules.campaign.input.sampling import cumulative, inverse_cdf
 from idefix_rules.campaign.worst.boundary import Ray, runs_per_ray
 from idefix_rules.campaign.worst.cross_entropy import ranking
 from idefix_rules.campaign.worst.outcome import path_record

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_store
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.environment import read_terrain
-from idefix_rules.campaign.input.load import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.diff import load_source

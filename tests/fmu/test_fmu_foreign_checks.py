@@ -212,9 +212,11 @@ def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
     import re
 
     import idefix_rules.campaign.input.fmu_checks as checks
+    import idefix_rules.campaign.input.parameter_checks as parameters
     import idefix_rules.campaign.input.validate as validate
 
     emitted = set(re.findall(r'"(C[45]\d\d)"', Path(checks.__file__).read_text()
+                             + Path(parameters.__file__).read_text()
                              + Path(validate.__file__).read_text()))
     guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
     documented = set(re.findall(r"^\| (C[45]\d\d) \|", guide, re.M))

@@ -11,7 +11,7 @@ from test_report_browser import check_page, render
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.report import prepare_report
-from idefix_rules.report.data import row_from_arrays
+from idefix_rules.report.reading import row_from_arrays
 
 # No pre-screen and no command rule: every path gets its Monte Carlo runs, whatever the rover
 # model's current tuning makes of the reference runs.

@@ -9,7 +9,8 @@ from report_fixture import write_results
 
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.report import figures
-from idefix_rules.report.data import ReportData, read_report_data
+from idefix_rules.report.data import ReportData
+from idefix_rules.report.reading import read_report_data
 from idefix_rules.report.sections import decision_html, indices_html, sensitivity_html
 
 RECORD = {"p": {"runs": 128, "dominant_index": "I_beta",

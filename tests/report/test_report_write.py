@@ -14,7 +14,7 @@ from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
 from idefix_rules.errors import UserInputError
 from idefix_rules.report import prepare_report, write_report
-from idefix_rules.report.data import read_report_data
+from idefix_rules.report.reading import read_report_data
 
 
 @pytest.fixture(scope="module")

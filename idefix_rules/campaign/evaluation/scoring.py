@@ -20,7 +20,7 @@ from idefix_rules.campaign.statistics.budget import AlphaBudget, recycled, shown
 from idefix_rules.campaign.statistics.runs_needed import pair_runs_needed
 
 if TYPE_CHECKING:
-    from idefix_rules.campaign.evaluation.evaluate import PathResult
+    from idefix_rules.campaign.evaluation.path_result import PathResult
     from idefix_rules.results.reader import StoredResults
 
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.campaign.input.schema import EnvironmentSection, SyntheticTerrain
+from idefix_rules.campaign.input.environment_section import EnvironmentSection, SyntheticTerrain
 
 TERRAIN_FILE = "terrain.dem"
 

@@ -5,8 +5,8 @@ diagnostics located at the campaign line that says the wrong thing:
 
 * ``fmu_interface``: FMI 2.0 or 3.0, co-simulation or model exchange (C400, stops here when
   not);
-* ``parameter_problems`` (:mod:`idefix_rules.campaign.input.validate`): parameter names, settable,
-  dimensions (C401, C402, C504, C505);
+* ``parameter_problems`` (:mod:`idefix_rules.campaign.input.parameter_checks`): parameter names,
+  settable, dimensions (C401, C402, C504, C505);
 * ``signal_problems``: every mapped output exists (did you mean), is an output, has a type a
   getter reads, a unit of the signal's dimension, one variable per signal (C401, C500-C503, C511);
 * ``need_problems``: what the rulebook reads (and collisions need) versus what the map
@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from idefix_rules.campaign.input.load import Campaign, format_loc
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.errors import Diagnostic, Severity, Span, UserInputError, error, warning
 from idefix_rules.fmu.archive import default_signal_map
 from idefix_rules.fmu.description import FmuDescription, FmuVariable, describe_fmu
@@ -61,7 +62,7 @@ class FmuCheck:
 def check_fmu(campaign: Campaign, fmu_path: Path, evaluator: Any) -> FmuCheck:
     """Run every check; raise one :class:`UserInputError` holding every error (warnings too)."""
     from idefix_rules.campaign.input.areas import area_problems
-    from idefix_rules.campaign.input.validate import parameter_problems
+    from idefix_rules.campaign.input.parameter_checks import parameter_problems
 
     description = fmu_interface(campaign, fmu_path)
     problems = binary_problems(campaign, description) + parameter_problems(campaign, description)

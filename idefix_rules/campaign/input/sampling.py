@@ -10,7 +10,7 @@ name (:func:`path_stream`), so adding or removing a path never changes another p
 Nothing depends on the worker that simulates the run, so results are identical for any worker
 count and order.
 
->>> from idefix_rules.campaign.input.schema import Normal
+>>> from idefix_rules.campaign.input.distributions import Normal
 >>> values = sample_path({"x0": Normal(distribution="normal", mean=0.0, std=0.01)},
 ...                      "monte_carlo", seed=1, stream=(), runs=3)
 >>> values["x0"].shape
@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from idefix_rules.campaign.input.schema import (
+from idefix_rules.campaign.input.distributions import (
     Fixed,
     LogNormal,
     Normal,
@@ -33,6 +34,9 @@ from idefix_rules.campaign.input.schema import (
     TruncatedNormal,
     Uniform,
 )
+
+if TYPE_CHECKING:
+    from idefix_rules.campaign.input.load import Campaign
 
 AnyDistribution = Fixed | Normal | TruncatedNormal | Uniform | LogNormal
 
@@ -251,3 +255,24 @@ def adaptive_sampling_note(method: str) -> str | None:
     return (f"runs: auto draws every run independently (monte_carlo); the campaign's {method} "
             "design is not used, because the confidence sequences that decide when to stop "
             "need independent runs")
+
+
+def planned_draws(campaign: Campaign, names: Sequence[str]
+                  ) -> tuple[int, dict[str, dict[str, np.ndarray]]]:
+    """The runs planned per path (an adaptive campaign's cap) and every uncertain parameter's
+    draws for them, per path of ``names``: the values the Monte Carlo stage draws (the same
+    method, seed and stream), known before any run is simulated."""
+    if campaign.adaptive is not None:
+        planned, method = campaign.adaptive.max_runs, ADAPTIVE_SAMPLING
+    else:
+        planned, method = campaign.runs, campaign.model.uncertainty.method
+    parameters = campaign.model.uncertainty.parameters
+    if not parameters:
+        return planned, {name: {} for name in names}
+    paired = campaign.model.uncertainty.paired
+    if paired:  # every path draws the same worlds: drawn once, shared
+        shared = sample_path(parameters, method, campaign.seed, path_stream("", True), planned)
+        return planned, {name: shared for name in names}
+    return planned, {name: sample_path(parameters, method, campaign.seed,
+                                       path_stream(name, False), planned)
+                     for name in names}

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar
 from idefix_rules.errors import Diagnostic, Span, error
 
 if TYPE_CHECKING:
-    from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation
+    from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation
     from idefix_rules.campaign.input.load import Campaign
     from idefix_rules.campaign.input.schema import Waiver
 

@@ -197,3 +197,14 @@ def load_yaml(text: str, path: str) -> YamlDocument:
     finally:
         loader.dispose()
     return YamlDocument(data, source_map, text)
+
+
+def format_loc(loc: Sequence[str | int]) -> str:
+    """``("paths", "detour", 1, "delta_heading")`` → ``paths.detour[1].delta_heading``."""
+    text = ""
+    for part in loc:
+        if isinstance(part, int):
+            text += f"[{part}]"
+        else:
+            text += ("." if text else "") + str(part)
+    return text

@@ -31,8 +31,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from idefix_rules.campaign.evaluation.evaluate import CampaignEvaluation, PathResult
 from idefix_rules.campaign.evaluation.gate import NEEDS_RUN
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.wording import verdict_reason_items
 from idefix_rules.campaign.statistics.pairwise import OPEN, TIED, find
 from idefix_rules.plain import as_plain

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from idefix_rules.campaign.input import sampling
-from idefix_rules.campaign.input.load import Campaign, nominal_parameters
+from idefix_rules.campaign.input.campaign_values import nominal_parameters
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts
 from idefix_rules.campaign.simulation.pool import Then

@@ -13,8 +13,9 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.campaign.input import waivers
-from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.input.validate import planned_draws
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.input.load import Campaign
+from idefix_rules.campaign.input.sampling import planned_draws
 from idefix_rules.campaign.input.wording import DisplayUnits, violation_text
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation import timeouts as run_timeouts

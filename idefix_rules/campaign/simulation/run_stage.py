@@ -12,7 +12,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from idefix_rules.campaign.input.load import Campaign, PathSpec, stop_limit
+from idefix_rules.campaign.input.campaign_values import stop_limit
+from idefix_rules.campaign.input.load import Campaign, PathSpec
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import RoverGeometry
 

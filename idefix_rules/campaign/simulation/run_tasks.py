@@ -12,7 +12,8 @@ import os
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
-from idefix_rules.campaign.input.load import Campaign, rover_geometry, where_set
+from idefix_rules.campaign.input.campaign_values import rover_geometry, where_set
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.wording import DisplayUnits, range_text, written_unit_at
 from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Timeouts
 from idefix_rules.campaign.simulation.run_stage import FmuSource, PathPlan, SimulationOptions

@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from idefix_rules.campaign.input import sampling
-from idefix_rules.campaign.input.load import Campaign, rover_geometry
+from idefix_rules.campaign.input.campaign_values import rover_geometry
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.simulation import resume as resuming
 from idefix_rules.campaign.simulation.monte_carlo import monte_carlo
 from idefix_rules.campaign.simulation.reference_runs import command_rules, reference_runs

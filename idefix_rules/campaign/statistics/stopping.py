@@ -88,7 +88,7 @@ def tiers(verdict: Any, held: Any, *, waived_before: bool = False,
     campaign's waivers applied (``held``; the same verdict when nothing is waived).
 
     ``waived_before``: the path was simulated under a waived command or prescreen rule, so it
-    is ``waived`` whatever its verdict (campaign/evaluation/evaluate.py) and never ranks with
+    is ``waived`` whatever its verdict (campaign/evaluation/path_result.py) and never ranks with
     the chains that pass clean. ``levels_final``: the levels cannot rise any more before the
     end (budget.py: as many chains shown to fail as there are comparisons, or no other chain
     can still be shown to fail, :func:`settle`); until then a verdict within a rule's margin

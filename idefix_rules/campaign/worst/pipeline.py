@@ -20,7 +20,8 @@ import h5py
 from idefix_rules.campaign.evaluation.evaluate import evaluate_store
 from idefix_rules.campaign.evaluation.sensitivity import store_sensitivity
 from idefix_rules.campaign.evaluation_writing import evaluation_revision, rulebook_info
-from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.outcome import outputs
 from idefix_rules.campaign.output_folder import claimed_output
 from idefix_rules.campaign.preparation import prepare_simulation

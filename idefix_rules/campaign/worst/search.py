@@ -11,7 +11,7 @@ Two phases share the path's run budget:
    the nominal world towards the worst world and along the most sensitive parameters, each
    bracketing where the risk first reaches the threshold (:mod:`.boundary`).
 
->>> from idefix_rules.campaign.input.schema import Normal
+>>> from idefix_rules.campaign.input.distributions import Normal
 >>> space = QuantileSpace.of({"a": Normal(distribution="normal", mean=0.0, std=1.0),
 ...                          "b": Normal(distribution="normal", mean=0.0, std=1.0)})
 >>> search = PathSearch(space, SearchSettings(runs=120), np.random.default_rng(3),

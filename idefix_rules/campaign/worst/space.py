@@ -14,7 +14,7 @@ Each uncertain parameter ``x_i`` with distribution ``F_i`` gets the coordinate
   world (every parameter at its median, ``z = 0``) as ``z`` is ``P(χ²_d ≥ |z|²)``
   (:meth:`QuantileSpace.tail_probability`).
 
->>> from idefix_rules.campaign.input.schema import Normal, Uniform
+>>> from idefix_rules.campaign.input.distributions import Normal, Uniform
 >>> space = QuantileSpace.of({"a": Normal(distribution="normal", mean=0.0, std=2.0),
 ...                          "b": Uniform(distribution="uniform", low=0.0, high=1.0)})
 >>> [round(float(v[0]), 3) for v in space.values(np.array([[1.0, 0.0]])).values()]
@@ -32,13 +32,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from idefix_rules.campaign.input.distributions import Fixed
 from idefix_rules.campaign.input.sampling import (
     AnyDistribution,
     cumulative,
     inverse_cdf,
     nominal,
 )
-from idefix_rules.campaign.input.schema import Fixed
 
 DEFAULT_TAIL = 1e-4  # the box: every parameter within its 0.01 % … 99.99 % quantiles
 

@@ -24,8 +24,9 @@ import numpy as np
 
 from idefix_rules.campaign.evaluation.evaluate import evaluate_path
 from idefix_rules.campaign.input import sampling
-from idefix_rules.campaign.input.load import Campaign, initial_position_sigma, nominal_parameters
-from idefix_rules.campaign.input.schema import Fixed
+from idefix_rules.campaign.input.campaign_values import initial_position_sigma, nominal_parameters
+from idefix_rules.campaign.input.distributions import Fixed
+from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.simulation.monte_carlo import (
     PlannedRuns,
     TaskMaker,

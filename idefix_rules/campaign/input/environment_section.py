@@ -1,0 +1,168 @@
+"""The campaign file's ``environment`` section: terrain, rocks, keep-out and named areas."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, model_validator
+from pydantic_core import PydanticCustomError
+
+from idefix_rules.campaign.input.field_types import (
+    Angle,
+    AnyQuantity,
+    Length,
+    PositiveLength,
+    Seed,
+    Strict,
+    new_run,
+)
+from idefix_rules.limits import MAX_ROCK_SEMI_AXIS
+from idefix_rules.units import Dimension, UnitError, parse_quantity
+
+# Terrain grids hold at most this many nodes (docs/terrain-format.md: nx·ny ≤ 16 million).
+MAX_TERRAIN_NODES = 16_000_000
+
+
+def _inclination(value: float, info: ValidationInfo) -> float:
+    """A plane's inclination: from 0 to under 90 deg (``slope_direction`` says which way it
+    falls; at 90 deg the plane is a wall, its heights infinite)."""
+    if new_run(info) and not 0.0 <= value < math.pi / 2:
+        raise PydanticCustomError("slope", "expected an inclination from 0 deg to under 90 "
+                                  "deg (slope_direction gives the way it falls), got {got} deg",
+                                  {"got": f"{math.degrees(value):g}"})
+    return value
+
+
+def _not_negative_length(value: float, info: ValidationInfo) -> float:
+    if new_run(info) and not value >= 0.0:
+        raise PydanticCustomError("not_negative", "expected a length of 0 m or more, got "
+                                  "{got} m", {"got": f"{value:g}"})
+    return value
+
+
+class SyntheticTerrain(Strict):
+    size: Length = Field(default=4.0, gt=0)
+    cell: Length = Field(default=0.02, gt=0)
+    slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
+    slope_direction: Angle = 0.0
+    # the height's standard deviation
+    roughness: Annotated[Length, AfterValidator(_not_negative_length)] = 0.0
+    seed: Seed = 0
+
+    @model_validator(mode="after")
+    def _grid_size(self) -> SyntheticTerrain:
+        if self.cell >= self.size:
+            raise PydanticCustomError("terrain", "cell {cell} m must be smaller than size {size} m",
+                                      {"cell": f"{self.cell:g}", "size": f"{self.size:g}"})
+        side = self.size / self.cell + 1.0  # nodes a side; side ** 2 overflows at 1e160 m
+        if side > MAX_TERRAIN_NODES or side * side > MAX_TERRAIN_NODES:
+            raise PydanticCustomError(
+                "terrain", "size {size} m with cell {cell} m gives {side} × {side} grid nodes, "
+                "more than {limit}", {"size": f"{self.size:g}", "cell": f"{self.cell:g}",
+                                      "side": f"{side:.3g}", "limit": MAX_TERRAIN_NODES})
+        return self
+
+
+class TerrainSection(Strict):
+    """``dem``: a terrain file (docs/terrain-format.md), ``.npy`` or ``.csv`` heights (these
+    need ``cell``; ``origin`` defaults to centring the grid); or ``synthetic`` settings."""
+
+    dem: str | None = None
+    cell: Length | None = Field(default=None, gt=0)
+    origin: tuple[Length, Length] | None = None
+    synthetic: SyntheticTerrain | None = None
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TerrainSection:
+        if self.dem is not None and self.synthetic is not None:
+            raise PydanticCustomError("terrain", "give either 'dem' or 'synthetic', not both")
+        return self
+
+
+def _rock_size(value: float, info: ValidationInfo) -> float:
+    """A rock's radius or semi-axis: at most :data:`MAX_ROCK_SEMI_AXIS` (a larger one is
+    terrain, and its squares would overflow the obstacle checker's geometry)."""
+    if new_run(info) and value > MAX_ROCK_SEMI_AXIS:
+        raise PydanticCustomError(
+            "rock", "expected a rock radius or semi-axis of at most {most} m, got {got} m (a "
+            "larger rock is a hill or a crater: give it in the terrain's dem)",
+            {"most": f"{MAX_ROCK_SEMI_AXIS:g}", "got": f"{value:.12g}"})
+    return value
+
+
+RockAxis = Annotated[PositiveLength, AfterValidator(_rock_size)]
+
+
+class RockSpec(Strict):
+    x: Length
+    y: Length
+    radius: RockAxis | None = None
+    semi_axes: tuple[RockAxis, RockAxis, RockAxis] | None = None
+    embed: Length = 0.0
+    level: Literal["L1", "L2", "L3"] | None = None
+
+    @model_validator(mode="after")
+    def _one_size(self, info: ValidationInfo) -> RockSpec:
+        if (self.radius is None) == (self.semi_axes is None):
+            raise PydanticCustomError("rock", "give exactly one of 'radius' or 'semi_axes'")
+        height = 2.0 * self.axes[2]
+        if new_run(info) and not 0.0 <= self.embed < height:
+            raise PydanticCustomError(
+                "rock", "embed {embed} m: a rock sits from 0 m (on the ground) to under its "
+                "height {height} m deep (fully buried); a negative depth would float it",
+                {"embed": f"{self.embed:g}", "height": f"{height:g}"})
+        return self
+
+    @property
+    def axes(self) -> tuple[float, float, float]:
+        if self.semi_axes is not None:
+            return self.semi_axes
+        assert self.radius is not None
+        return (self.radius, self.radius, self.radius)
+
+
+class RockLevels(Strict):
+    l1_max_size: Length
+    l2_max_size: Length
+
+
+class KeepOutArea(Strict):
+    name: str
+    polygon: list[tuple[Length, Length]] = Field(min_length=3)
+    level: Literal["L1", "L2", "L3"] = "L3"
+
+
+class NamedAreaGeometry(Strict):
+    """Where a keep-out or unknown-surface area the rulebook declares lies: polygons (x, y)."""
+
+    polygons: list[list[tuple[Length, Length]]] = []
+
+
+class EnvironmentSection(Strict):
+    terrain: TerrainSection = TerrainSection()
+    rocks: list[RockSpec] = []
+    rock_levels: RockLevels | None = None
+    keep_out: list[KeepOutArea] = []
+    areas: dict[str, NamedAreaGeometry] = {}
+    regolith: dict[str, AnyQuantity] = {}
+    # each regolith value's dimension as written (a bare number: dimensionless), checked
+    # against its FMU parameter's unit once the FMU is known
+    _regolith_dimensions: dict[str, Dimension] = PrivateAttr(default_factory=dict)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _written_dimensions(cls, data: Any, handler: Any) -> Any:
+        instance = handler(data)
+        regolith = data.get("regolith") if isinstance(data, dict) else None
+        if isinstance(regolith, dict):
+            for key, value in regolith.items():
+                with contextlib.suppress(UnitError, TypeError, ValueError):
+                    instance._regolith_dimensions[key] = parse_quantity(value).dimension
+        return instance
+
+    @property
+    def regolith_dimensions(self) -> dict[str, Dimension]:
+        """The dimension each regolith value was written with."""
+        return dict(self._regolith_dimensions)

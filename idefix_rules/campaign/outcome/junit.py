@@ -1,0 +1,178 @@
+"""The campaign's JUnit XML: a case per path and expectation, failing where exit code 1 does."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping, Sequence
+
+from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
+from idefix_rules.campaign.input.wording import bounds_label, unfinished_text
+from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
+from idefix_rules.campaign.outcome.expectation_checks import ExpectationResult, percent
+from idefix_rules.campaign.statistics import pairwise
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED
+from idefix_rules.errors import Diagnostic
+
+
+def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
+                    results: str | None) -> None:
+    """The campaign seed, run count, results file and input hashes this suite belongs to."""
+    properties = ET.SubElement(suite, "properties")
+    prov = evaluation.provenance
+    for key, value in (("seed", prov.get("seed")), ("runs", prov.get("runs")),
+                       ("results", results), ("campaign_sha256", prov.get("campaign_sha256")),
+                       ("rulebook_sha256", evaluation.rulebook.get("sha256"))):
+        if value is not None:
+            ET.SubElement(properties, "property", name=key, value=str(value))
+
+
+def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
+              suite_name: str, seconds: Mapping[str, float] | None = None,
+              results: str | None = None, problems: Sequence[Diagnostic] = ()) -> str:
+    """JUnit XML whose failures are exactly what makes the exit code 1 (docs/ci.md).
+
+    Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
+    (one case per path, its verdict). With expectations, the exit code follows them, so only
+    expectation cases fail; path cases report their verdict (property ``verdict``, text) and
+    pass. Without expectations, every path must pass: a path that does not, or whose pass is
+    not decided at this number of runs, is a failure (an error when its evaluation broke).
+    ``seconds``: time spent per path (simulation in the workers and evaluation), the ``time``
+    of its case; each expectation case's time is its check. Each suite's properties name
+    the campaign seed and the results file.
+    """
+    seconds = seconds or {}
+    asserted_paths = not expectations
+    root = ET.Element("testsuites", name=suite_name)
+    paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
+    _run_properties(paths, evaluation, results)
+    failures = errors = skipped = 0
+    for path in evaluation.paths:
+        case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
+                             time=f"{seconds.get(path.name, 0.0):.3f}")
+        properties = ET.SubElement(case, "properties")
+        verdict = path.verdict_text + (" (not decided)" if path.undecided else "")
+        ET.SubElement(properties, "property", name="verdict", value=verdict)
+        ET.SubElement(properties, "property", name="asserted",
+                      value="yes" if asserted_paths else "no: the campaign's expectations "
+                      "decide the exit code")
+        detail = _path_detail(path)
+        if asserted_paths and path.verdict_text == "error":
+            errors += 1
+            ET.SubElement(case, "error", message=f"path {path.name}: {path.reason or 'error'}",
+                          type="error").text = detail
+        elif path.verdict_text == "waived" and (path.held or not asserted_paths):
+            # neither a pass nor a failure: said as skipped
+            skipped += 1
+            ET.SubElement(case, "skipped", message="; ".join(
+                f"{waived.text()} [{waived.rule}]" for waived in path.waivers))
+        elif asserted_paths and not path.held:
+            failures += 1
+            ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
+                          type=path.verdict_text).text = detail
+        compared = [pairwise.describe(pair, path.name) for pair in evaluation.pairs
+                    if path.name in (pair.first, pair.second)]
+        ET.SubElement(case, "system-out").text = "\n".join(
+            [detail, *(f"pair: {line}" for line in compared)])
+    neighbours = pairwise.adjacent(evaluation.ranking, evaluation.pairs)
+    if neighbours:  # the ranking's neighbours compared in the same worlds, best first
+        ET.SubElement(paths, "system-out").text = "\n".join(
+            f"pair: {pairwise.describe(pair, above)}" for above, pair in neighbours)
+    _suite_counts(paths, len(evaluation.paths), failures, errors,
+                  sum(_milliseconds(seconds.get(p.name, 0.0)) for p in evaluation.paths),
+                  skipped)
+    if expectations:
+        suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.expectations")
+        _run_properties(suite, evaluation, results)
+        failed = 0
+        for index, expectation in enumerate(expectations):
+            case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.expect",
+                                 name=f"expect[{index}] {expectation.description}",
+                                 time=f"{expectation.seconds:.3f}")
+            if not expectation.held:
+                failed += 1
+                ET.SubElement(case, "failure", message=expectation.message,
+                              type="expectation").text = expectation.message
+            ET.SubElement(case, "system-out").text = expectation.message
+        _suite_counts(suite, len(expectations), failed, 0,
+                      sum(_milliseconds(e.seconds) for e in expectations))
+        failures += failed
+    if problems:  # the mistakes that make the exit code 2: a case in error each
+        suite = ET.SubElement(root, "testsuite", name=f"{suite_name}.campaign")
+        _run_properties(suite, evaluation, results)
+        for problem in problems:
+            case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.campaign",
+                                 name=f"{problem.code} {problem.location()}", time="0.000")
+            ET.SubElement(case, "error", message=problem.message,
+                          type=problem.code).text = problem.format()
+        _suite_counts(suite, len(problems), 0, len(problems), 0.0)
+        errors += len(problems)
+    _suite_counts(root, len(evaluation.paths) + len(expectations) + len(problems), failures,
+                  errors, sum(float(s.get("time", "0")) for s in root.iter("testsuite")),
+                  skipped)
+    ET.indent(root)
+    _xml_safe(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+# Characters XML 1.0 cannot hold, even escaped (control characters, lone surrogates, U+FFFE/F):
+# ElementTree writes them as they are, and the file is then not XML.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _visible(match: re.Match[str]) -> str:
+    code = ord(match.group())
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def _xml_safe(root: ET.Element) -> None:
+    """Write what XML cannot hold (a control character in a campaign's name, a waiver's
+    reason or a message) as its Python escape (``\\x02``), so the file stays well-formed."""
+    for element in root.iter():
+        if element.text:
+            element.text = _NOT_XML.sub(_visible, element.text)
+        if element.tail:
+            element.tail = _NOT_XML.sub(_visible, element.tail)
+        for key, value in element.attrib.items():
+            element.attrib[key] = _NOT_XML.sub(_visible, value)
+
+
+def _milliseconds(seconds: float) -> float:
+    """A case's time as its ``time`` attribute shows it, so a suite's is their sum."""
+    return round(seconds, 3)
+
+
+def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
+                  seconds: float, skipped: int = 0) -> None:
+    element.set("tests", str(tests))
+    element.set("failures", str(failures))
+    element.set("errors", str(errors))
+    element.set("skipped", str(skipped))
+    element.set("time", f"{seconds:.3f}")
+
+
+def _path_detail(path: PathResult) -> str:
+    lines = [f"status: {path.status}"]
+    if path.reason:
+        lines.append(f"reason: {path.reason}")
+    if path.mean_risk is not None:
+        ci = (f" ({bounds_label(path_confidence(path))} {percent(path.risk_ci[0])}–"
+              f"{percent(path.risk_ci[1])})" if path.risk_ci else "")
+        lines.append(f"mean risk: {percent(path.mean_risk)}{ci}")
+    # An undecided verdict is said by the reasons (each undecided rule's message says it);
+    # an adaptive campaign says why it stopped the path there (a verdict left open because no
+    # decision depends on it, or the cap)
+    for reason in reasons_of(path):
+        lines.append(f"verdict: {reason}")
+    if path.stop_reason and not path.stop_reason.startswith(STOP_FIXED):
+        lines.append(f"runs: {path.stop_reason}")
+    for waived in path.waivers:
+        lines.append(f"{waived.kind} {waived.rule}: {waived.text()}")
+    if path.unfinished and path.stop_time is not None:
+        lines.append(unfinished_text(path.name, path.unfinished, path.completed,
+                                     path.stop_time))
+    if path.risk_spread is not None and path.risk_spread.warning:  # its risk tells nothing
+        lines.append(f"warning: {path.risk_spread.warning}")
+    for run, reason in sorted(path.failures.items()):
+        lines.append(f"run {run} failed: {reason}")
+    return "\n".join(lines)
