@@ -36,9 +36,6 @@ from idefix_rules.campaign.input.field_types import (
 )
 from idefix_rules.limits import MAX_RUNS, MAX_WORKERS
 
-LEVELS = ("L1", "L2", "L3")
-
-
 # --- fmu -------------------------------------------------------------------------------------
 
 class ChainSection(Strict):
