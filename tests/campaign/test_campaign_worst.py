@@ -295,7 +295,7 @@ def test_the_report_of_a_search_scored_again_under_another_rulebook_says_whose_f
     assert main(["report", str(out / "results.h5")]) == 0
     page = " ".join((out / "report.html").read_text().split())
     assert "Searched under another rulebook" not in page and "(now " not in page
-    assert main(["evaluate", str(out / "results.h5"), "--rulebook", str(lenient)]) in (0, 1)
+    assert main(["evaluate", str(out / "results.h5"), "--rulebook", str(lenient)]) == 1
     assert main(["report", str(out / "results.h5")]) == 0
     page = " ".join((out / "report.html").read_text().split())
     assert ("<b>Searched under another rulebook.</b> The search found these worlds under "
@@ -312,6 +312,22 @@ def test_the_report_of_a_search_scored_again_under_another_rulebook_says_whose_f
             assert f"{100 * path['worst']['risk']:.1f} % (now {100 * now:.1f} %)" in page
             shown += 1
     assert shown >= 1
+
+
+def test_a_search_decides_no_chain_to_send_in_evaluate_and_its_summary(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Its verdicts are over chosen worlds: 'run more to settle it' or 'send' would mislead."""
+    out = searched(campaign_dir, capsys)
+    import h5py
+
+    with h5py.File(out / "results.h5") as file:
+        stored = json.loads(file["evaluation"].attrs["summary"])
+    assert stored["decision"]["text"].startswith("none from a worst-case search: its runs are "
+                                                 "the worlds the search chose")
+    assert main(["evaluate", str(out / "results.h5")]) == 1  # too-fast is rejected
+    said = " ".join(capsys.readouterr().out.split())
+    assert "Decision: none from a worst-case search" in said
+    assert "run more" not in said.split("Decision:")[1]
 
 
 def test_the_searched_runs_are_judged_with_the_campaigns_waivers(

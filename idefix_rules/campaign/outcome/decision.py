@@ -36,6 +36,7 @@ from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, Pat
 from idefix_rules.campaign.input.wording import verdict_reason_items
 from idefix_rules.campaign.statistics.pairwise import OPEN, TIED, find
 from idefix_rules.plain import as_plain
+from idefix_rules.results.format import is_search
 
 DecisionKind = Literal["send", "none", "unsettled", "marginal"]
 
@@ -231,8 +232,16 @@ def reason_items(path: PathResult) -> list[tuple[bool, str]]:
     return [(True, r) for r in path.verdict_reasons]
 
 
+SEARCH_DECISION = ("none from a worst-case search: its runs are the worlds the search chose, "
+                   "not draws of the campaign's uncertainty, so its verdicts do not say which "
+                   "chain to send; run the campaign for that (the search's findings: its "
+                   "worst.json and report)")
+
+
 def campaign_decision(evaluation: CampaignEvaluation) -> Decision:
-    """The decision of an evaluated campaign."""
+    """The decision of an evaluated campaign; a worst-case search's runs decide nothing."""
+    if is_search(evaluation.provenance):
+        return Decision("unsettled", None, SEARCH_DECISION)
     return decide([PathFacts(p.name, p.verdict_text, p.undecided, p.rank,
                              reasons_of(p) or ([p.reason] if p.reason else []),
                              tuple(w.rule for w in p.waivers)) for p in evaluation.paths],
