@@ -44,6 +44,7 @@ class Header:
     state: str
     evaluated: str
     results: str = ""  # the results file the report was made from
+    runs_mode: str = ""  # fixed, auto, or worst (a worst-case search's runs)
 
 
 @dataclass(frozen=True)

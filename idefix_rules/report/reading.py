@@ -74,6 +74,7 @@ def read_header(file: h5py.File) -> Header:
         state=_text(attrs.get("state", "")),
         evaluated=_text(ev_attrs.get("evaluated", "")),
         results=str(Path(file.filename).resolve()),
+        runs_mode=_text(attrs.get("runs_mode", "")),
     )
 
 

@@ -19,6 +19,7 @@ from idefix_rules.campaign.outcome.decision import (
 )
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.html import Image
+from idefix_rules.results.format import is_search
 
 
 def path_reasons(data: ReportData) -> dict[str, list[str]]:
@@ -38,6 +39,12 @@ def report_decision(data: ReportData) -> Decision:
     if not data.evaluated_paths and any(p.status == "simulated" for p in data.paths):
         # nothing scored: say why instead of deciding on verdicts no path has
         state = data.header.state or "complete"
+        if state != "complete" and is_search({"runs_mode": data.header.runs_mode}):
+            # interrupted before it stored its outcome (the search's section stands in for
+            # this banner once it has)
+            return Decision("unsettled", None, (
+                f"none yet: the worst-case search is {state} and its runs so far were never "
+                "evaluated; a search cannot be resumed: run `idefix-verify worst` again"))
         text = (f"none yet: the campaign is {state} and its runs so far were never evaluated; "
                 "continue it with `--resume` (the command its interruption printed), or score "
                 "what is stored with `idefix-verify evaluate`" if state != "complete" else

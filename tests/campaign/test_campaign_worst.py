@@ -270,6 +270,22 @@ def test_an_interrupted_search_is_run_again_never_resumed_and_a_campaign_sets_it
     assert (f"a search cannot be resumed: run it again with `idefix-verify worst "
             f"{campaign_dir / 'campaign.yaml'} --out {out} --runs {runs} --seed {seed}`") in said
     assert "--resume" not in said
+    # interrupted before it stored its outcome or an evaluation: the report says to run it
+    # again (a campaign's would say to continue it with --resume)
+    unevaluated = campaign_dir / "unevaluated"
+    shutil.copytree(out, unevaluated)
+    with h5py.File(unevaluated / "results.h5", "r+") as file:
+        for name in list(file["paths"]):
+            if "evaluation" in file["paths"][name]:
+                del file["paths"][name]["evaluation"]
+        del file["evaluation"]
+        del file["worst"]
+    assert main(["report", str(unevaluated / "results.h5")]) == 0
+    page = " ".join((unevaluated / "report.html").read_text().split())
+    assert ("none yet: the worst-case search is interrupted and its runs so far were never "
+            "evaluated; a search cannot be resumed: run `idefix-verify worst` again") in page
+    assert "--resume" not in page
+    capsys.readouterr()
     # a campaign into the search's folder: the search and its record go aside, said once
     code = main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report", "--out",
                  str(out)])
