@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from idefix_rules.rulebook.compile import CompiledRulebook
 from idefix_rules.rulebook.derived import RunContext
-from idefix_rules.rulebook.strategies import RunRanges, realistic_runs
+from idefix_rules.rulebook.run_strategies import RunRanges, realistic_runs
 
 SIDES = ("just inside", "just outside")
 # Signals whose deviation from the reference run is scaled (the others keep time, commands,
