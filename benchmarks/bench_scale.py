@@ -37,12 +37,9 @@ import numpy as np
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation.simulate import SimulationOptions
-from idefix_rules.campaign.storage.store import (
-    STATUS_COMPLETE,
-    ResultStore,
-    encode_run,
-    signal_attrs,
-)
+from idefix_rules.campaign.storage.dataset_layout import signal_attrs
+from idefix_rules.campaign.storage.encoded_chunks import encode_run
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from idefix_rules.campaign.storage.store import ResultStore, encode_chunk, encode_run
+from idefix_rules.campaign.storage.encoded_chunks import encode_chunk, encode_run
+from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.commands import Command
 
 
@@ -79,7 +80,10 @@ def test_the_free_space_estimate_of_an_unwritten_row_covers_what_hdf5_writes(
         tmp_path: Path) -> None:
     """Rows are allocated with HDF5's own NaN fill chunks (zlib at the format's level, not
     the workers' zlib-ng): the estimate the free-space check uses must not fall short."""
-    from idefix_rules.campaign.storage.store import INDEX_BYTES_PER_CHUNK, fill_chunk_bytes
+    from idefix_rules.campaign.storage.dataset_layout import (
+        INDEX_BYTES_PER_CHUNK,
+        fill_chunk_bytes,
+    )
 
     shapes = {"x": (3000,), "wheel.slip": (30000, 4)}
     store = ResultStore.create(tmp_path / "r.h5", {"runs": 2}, {"campaign": "name: e\n"})

@@ -430,7 +430,8 @@ def test_planning_a_million_runs_writes_almost_nothing_before_the_first_run(
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.runner import run_campaign
     from idefix_rules.campaign.simulation.run_stage import SilentProgress, SimulationOptions
-    from idefix_rules.campaign.storage.store import FIRST_ROWS, STATUS_MISSING
+    from idefix_rules.campaign.storage.dataset_layout import FIRST_ROWS
+    from idefix_rules.campaign.storage.store import STATUS_MISSING
 
     text = TEXT.replace(f"runs: {RUNS}", "runs: 1000000").replace(
         "method: monte_carlo", "method: latin_hypercube")

@@ -17,7 +17,8 @@ from test_campaign_robustness import KILLER, assert_same_datasets_dicts, dataset
 from idefix_rules.campaign.input.load import load_campaign
 from idefix_rules.campaign.runner import run_campaign
 from idefix_rules.campaign.simulation.run_stage import SimulationOptions
-from idefix_rules.campaign.storage.store import STATUS_FAILED, encode_reason
+from idefix_rules.campaign.storage.dataset_layout import encode_reason
+from idefix_rules.campaign.storage.store import STATUS_FAILED
 from idefix_rules.cli import main
 from idefix_rules.files import set_aside, write_atomic
 

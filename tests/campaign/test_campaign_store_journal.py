@@ -18,9 +18,10 @@ import pytest
 
 from idefix_rules.campaign.storage import journal
 from idefix_rules.campaign.storage.diskspace import DiskFull
+from idefix_rules.campaign.storage.encoded_chunks import encode_chunk
 from idefix_rules.campaign.storage.journal import stale_end
 from idefix_rules.campaign.storage.revision import Revision
-from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore, encode_chunk
+from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.commands import Command
 
 RUNS = 200

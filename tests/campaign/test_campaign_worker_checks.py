@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from idefix_rules.campaign.evaluation.remembered import collision_pieces, run_collisions
-from idefix_rules.campaign.storage.store import decode_chunk, encode_chunk
+from idefix_rules.campaign.storage.encoded_chunks import decode_chunk, encode_chunk
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.obstacles import ObstacleSet, RoverBodies
 from idefix_rules.results.collisions import POSE_SIGNALS, ObstacleCheck

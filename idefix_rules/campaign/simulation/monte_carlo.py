@@ -35,7 +35,8 @@ from idefix_rules.campaign.simulation.run_tasks import (
 )
 from idefix_rules.campaign.simulation.worker import RunTask, simulate
 from idefix_rules.campaign.storage import diskspace
-from idefix_rules.campaign.storage.store import STATUS_FAILED, ResultStore, run_bytes
+from idefix_rules.campaign.storage.dataset_layout import run_bytes
+from idefix_rules.campaign.storage.store import STATUS_FAILED, ResultStore
 
 if TYPE_CHECKING:
     from idefix_rules.campaign.evaluation.remembered import RememberedCollisions

@@ -29,7 +29,7 @@ import numpy as np
 
 from idefix_rules.campaign.simulation import processes
 from idefix_rules.campaign.simulation.processes import Continued, Retire
-from idefix_rules.campaign.storage.store import EncodedChunk, encode_run
+from idefix_rules.campaign.storage.encoded_chunks import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import Diagnostic, UserInputError
 from idefix_rules.results.format import storage_dtype

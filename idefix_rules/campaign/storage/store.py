@@ -1,12 +1,13 @@
 """The results file (``results.h5``): layout in ``docs/results-format.md``.
 
 Only the parent process writes. A path's run datasets are allocated a block of rows at a time
-(:func:`allocated_rows`: 64, then doubling up to 4,096 more at a time), so planning a million
-runs costs almost no disk before the first one is stored: run signals chunked one run per
-chunk, shuffled and gzip-compressed (HDF5 built-in filters), grown along the run axis with every
-chunk of a block allocated (filled with NaN) when the block is; ``status``, ``failure`` and
-``parameters`` have a row for every planned run and a chunk per 64 rows, uncompressed, written
-(with their fill values, or the sampled values) when the block holding those rows is allocated.
+(:func:`~idefix_rules.campaign.storage.dataset_layout.allocated_rows`: 64, then doubling up to
+4,096 more at a time), so planning a million runs costs almost no disk before the first one is
+stored: run signals chunked one run per chunk, shuffled and gzip-compressed (HDF5 built-in
+filters), grown along the run axis with every chunk of a block allocated (filled with NaN) when
+the block is; ``status``, ``failure`` and ``parameters`` have a row for every planned run and a
+chunk per 64 rows, uncompressed, written (with their fill values, or the sampled values) when the
+block holding those rows is allocated.
 Writing a run replaces its own chunks only: the chunk indexes already hold an entry for every
 allocated run, so a write updates entries in place and never adds index nodes or objects; only
 a block allocation changes the file's structure, after a flush and after checking the free
@@ -24,18 +25,29 @@ tilt angles, the height, the charge and the integer-valued ``command`` / ``stuck
 from __future__ import annotations
 
 import contextlib
-import json
-import zlib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
-from zlib_ng import zlib_ng
 
 from idefix_rules.campaign.storage import diskspace
+from idefix_rules.campaign.storage.dataset_layout import (
+    HEADER_BYTES,
+    INDEX_BYTES_PER_CHUNK,
+    JOURNAL_BYTES_PER_DATASET,
+    REASON_DTYPE,
+    ROW_CHUNK,
+    allocated_rows,
+    early_dcpl,
+    encode_reason,
+    row_bytes,
+    row_dataset,
+    signal_attrs,
+    write_rows,
+)
+from idefix_rules.campaign.storage.encoded_chunks import EncodedChunk, decode_chunk
 from idefix_rules.campaign.storage.journal import JournaledFile, repair_end, roll_back, undo_path
 from idefix_rules.commands import Command
 from idefix_rules.results.format import (
@@ -55,137 +67,12 @@ from idefix_rules.results.format import (
     storage_dtype,
 )
 from idefix_rules.results.reader import StoredResults
-from idefix_rules.signals import lookup
 
 # The format's names, for the writer's callers (defined in idefix_rules.results.format).
 __all__ = ["CHAIN_COLUMNS", "CHAIN_UNITS", "COMPRESSION", "COMPRESSION_LEVEL",
            "FLOAT32_SIGNALS", "FORMAT", "FORMAT_VERSION", "RESUMABLE_FORMAT_VERSIONS",
            "STATUS_COMPLETE", "STATUS_FAILED", "STATUS_MISSING", "STATUS_NOT_NEEDED",
-           "EncodedChunk", "ResultStore", "allocated_rows", "decode_chunk", "decode_reason",
-           "encode_chunk",
-           "encode_reason", "encode_run", "fill_chunk_bytes", "previous_results_path",
-           "run_bytes", "signal_attrs", "storage_dtype"]
-
-REASON_BYTES = 240
-_REASON_DTYPE = f"S{REASON_BYTES}"
-
-# Rows of a path's runs allocated at first, and the largest step a block allocation adds. Every
-# block boundary is a multiple of ROW_CHUNK, the chunk of the per-row datasets (status, failure,
-# parameters), so each of their chunks is written whole, once, when its block is allocated.
-FIRST_ROWS = 64
-MAX_STEP_ROWS = 4096
-ROW_CHUNK = 64
-# Chunk index entry and node share per stored chunk (v1 B-tree: key, address, node slack).
-INDEX_BYTES_PER_CHUNK = 96
-# Object header, attributes and chunk index root node of a group or dataset.
-HEADER_BYTES = 4 * 1024
-# The undo journal of a structural change: the old pages it overwrites (the chunk index nodes
-# and header a block allocation rewrites in place, per dataset).
-JOURNAL_BYTES_PER_DATASET = 32 * 1024
-
-
-def allocated_rows(needed: int, runs: int) -> int:
-    """How many rows of a path's runs are allocated once row ``needed - 1`` is: 64, then
-    doubling, then 4,096 more at a time, never more than the ``runs`` planned. The sequence
-    does not depend on the order rows are written, so a resumed campaign allocates the same.
-
-    >>> [allocated_rows(n, 1_000_000) for n in (1, 64, 65, 5_000, 9_000)]
-    [64, 64, 128, 8192, 12288]
-    >>> allocated_rows(1, 6)
-    6
-    """
-    rows = FIRST_ROWS
-    while rows < needed:
-        rows += min(rows, MAX_STEP_ROWS)
-    return min(rows, runs)
-
-
-def _early_dcpl() -> h5py.h5p.PropDCID:
-    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
-    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
-    # Write the fill value when the space is allocated, also without a user-defined one: space
-    # freed by an allocation cut off by a kill is reused, and must not show its old bytes.
-    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
-    return dcpl
-
-
-def _row_dataset(group: h5py.Group, name: str, runs: int, dtype: Any,
-                 fillvalue: Any) -> h5py.Dataset:
-    """A per-row dataset (``status``, ``failure``, a parameter): a row for every planned run,
-    chunks of :data:`ROW_CHUNK` rows allocated when first written (a block allocation writes
-    them whole); rows never allocated read as the fill value."""
-    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
-    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_INCR)
-    dcpl.set_fill_time(h5py.h5d.FILL_TIME_ALLOC)
-    return group.create_dataset(name, shape=(runs,), dtype=dtype, fillvalue=fillvalue,
-                                chunks=(max(1, min(runs, ROW_CHUNK)),), dcpl=dcpl)
-
-
-def fill_chunk_bytes(name: str, shape: tuple[int, ...]) -> int:
-    """Bytes one allocated but unwritten run of signal ``name`` takes (its compressed NaN
-    chunk and its chunk index entry)."""
-    fill = np.full(shape, np.nan, dtype=storage_dtype(name))
-    # HDF5 writes the fill chunks itself, with zlib at COMPRESSION_LEVEL (not the workers'
-    # zlib-ng, whose level 4 packs a NaN chunk 2.5 to 4.4 times tighter: 3000 and 30000 x 4
-    # samples)
-    shuffled = fill.view(np.uint8).reshape(-1, fill.itemsize).T.tobytes()
-    return len(zlib.compress(shuffled, COMPRESSION_LEVEL)) + INDEX_BYTES_PER_CHUNK
-
-
-def run_bytes(signals: Mapping[str, np.ndarray]) -> int:
-    """Bytes a run like ``signals`` takes once stored (compressed chunks, index entries, its
-    status, failure and parameter rows): the estimate free-space checks use per run."""
-    return sum(len(encode_chunk(name, values).data) + INDEX_BYTES_PER_CHUNK
-               for name, values in signals.items()) + REASON_BYTES + 64
-
-
-@dataclass(frozen=True)
-class EncodedChunk:
-    """One run of one signal as the bytes of its stored chunk (shuffled, deflated): what the
-    HDF5 filters would write, made where the run was simulated so the writer only copies."""
-
-    shape: tuple[int, ...]
-    dtype: str
-    data: bytes
-
-
-# The deflate level of the chunks the workers encode (zlib-ng's): on the example's runs its
-# level 4 deflates 1.6x faster than zlib's level 1, into 0.5 % fewer bytes (docs/results-format.md,
-# "Storage"). Any deflate stream is a valid chunk of HDF5's gzip filter, whatever its level.
-CHUNK_DEFLATE_LEVEL = 4
-
-
-def encode_chunk(name: str, values: np.ndarray) -> EncodedChunk:
-    """The chunk of one run of signal ``name`` (HDF5 shuffle, then deflate by zlib-ng at
-    :data:`CHUNK_DEFLATE_LEVEL`), readable by any HDF5 tool like a chunk HDF5 wrote itself."""
-    array = np.ascontiguousarray(values, dtype=storage_dtype(name))
-    shuffled = array.view(np.uint8).reshape(-1, array.itemsize).T.tobytes()
-    return EncodedChunk(array.shape, array.dtype.str,
-                        zlib_ng.compress(shuffled, CHUNK_DEFLATE_LEVEL))
-
-
-def decode_chunk(chunk: EncodedChunk) -> np.ndarray:
-    """The values of an encoded chunk (:func:`encode_chunk` undone)."""
-    dtype = np.dtype(chunk.dtype)
-    raw = np.frombuffer(zlib_ng.decompress(chunk.data), dtype=np.uint8)
-    return raw.reshape(dtype.itemsize, -1).T.copy().view(dtype).reshape(chunk.shape)
-
-
-def encode_run(signals: Mapping[str, np.ndarray]) -> dict[str, EncodedChunk]:
-    """Every signal of one run encoded as its stored chunk."""
-    return {name: encode_chunk(name, values) for name, values in signals.items()}
-
-
-def encode_reason(reason: str) -> bytes:
-    data = reason.encode("utf-8")[:REASON_BYTES]
-    return data.decode("utf-8", errors="ignore").encode("utf-8")
-
-
-def signal_attrs(name: str) -> dict[str, Any]:
-    spec = lookup(name)
-    if spec is None:
-        return {"unit": "", "axes": json.dumps(["time"])}
-    return {"unit": spec.unit, "axes": json.dumps(list(spec.axes))}
+           "ResultStore", "decode_reason", "previous_results_path", "storage_dtype"]
 
 
 def previous_results_path(path: Path) -> Path:
@@ -374,7 +261,7 @@ class ResultStore(StoredResults):
         self._allocated.pop(name, None)
         rows = allocated_rows(1, runs)
         with self._structural(HEADER_BYTES * (5 + len(shapes) + len(parameters))
-                              + rows * self._row_bytes(shapes, len(parameters)),
+                              + rows * row_bytes(shapes, len(parameters)),
                               f"allocate the runs of path {name!r}", 0):
             self._create_runs(name, runs, rows, shapes, parameters, parameter_info)
 
@@ -396,44 +283,21 @@ class ResultStore(StoredResults):
                                              fillvalue=np.nan, chunks=(1, *shape),
                                              compression=COMPRESSION,
                                              compression_opts=COMPRESSION_LEVEL, shuffle=True,
-                                             dcpl=_early_dcpl())
+                                             dcpl=early_dcpl())
             for attr, value in signal_attrs(key).items():
                 dataset.attrs[attr] = value
         params = group.create_group("parameters", track_order=True)
         self._plans[name] = {key: np.asarray(values) for key, values in parameters.items()}
         for key in parameters:
-            dataset = _row_dataset(params, key, runs, np.float64, np.nan)
+            dataset = row_dataset(params, key, runs, np.float64, np.nan)
             dataset[:rows] = np.asarray(self._plans[name][key][:rows], dtype=np.float64)
             for attr, value in parameter_info.get(key, {}).items():
                 dataset.attrs[attr] = value
-        _row_dataset(group, "failure", runs, _REASON_DTYPE, b"")
+        row_dataset(group, "failure", runs, REASON_DTYPE, b"")
         # The status is created last: its presence means the run datasets all exist (and the
         # first block's parameters are stored).
-        _row_dataset(group, "status", runs, np.int8, STATUS_MISSING)
-        self._write_rows(group, 0, rows, self._plans[name])
-
-    @staticmethod
-    def _row_bytes(shapes: Mapping[str, tuple[int, ...]], parameters: int) -> int:
-        """Bytes one allocated row takes before its run is stored."""
-        return (sum(fill_chunk_bytes(key, shape) for key, shape in shapes.items())
-                + REASON_BYTES + 1 + 8 * parameters + INDEX_BYTES_PER_CHUNK)
-
-    @staticmethod
-    def _write_rows(group: h5py.Group, start: int, stop: int,
-                    parameters: Mapping[str, np.ndarray]) -> None:
-        """Write rows ``start:stop`` of the per-row datasets (status and failure as they read,
-        fill values where never written; the sampled parameters), which allocates their
-        chunks whole."""
-        if stop <= start:
-            return
-        for key in ("status", "failure"):
-            group[key][start:stop] = group[key][start:stop]
-        for key, dataset in group["parameters"].items():
-            values = parameters.get(key)
-            if values is None:
-                raise ValueError(f"the sampled values of parameter {key!r} are needed to "
-                                 f"allocate more runs: give them to allocate_runs first")
-            dataset[start:stop] = np.asarray(values[start:stop], dtype=np.float64)
+        row_dataset(group, "status", runs, np.int8, STATUS_MISSING)
+        write_rows(group, 0, rows, self._plans[name])
 
     def _ensure_rows(self, name: str, needed: int) -> None:
         """Allocate the blocks of rows up to row ``needed - 1`` of a path's runs: the
@@ -452,11 +316,11 @@ class ResultStore(StoredResults):
         rows = allocated_rows(needed, runs)
         shapes = {key: tuple(dataset.shape[1:]) for key, dataset in datasets.items()}
         with self._structural((rows - allocated)
-                              * self._row_bytes(shapes, len(group["parameters"])),
+                              * row_bytes(shapes, len(group["parameters"])),
                               f"allocate runs {allocated + 1}-{rows} of path {name!r}",
                               len(shapes) + len(group["parameters"]) + 2):
             group = self.path_group(name)["runs"]  # (the file was opened anew)
-            self._write_rows(group, allocated, rows, self._plans.get(name, {}))
+            write_rows(group, allocated, rows, self._plans.get(name, {}))
             for dataset in group["signals"].values():
                 dataset.resize(rows, axis=0)
         self._allocated[name] = rows
