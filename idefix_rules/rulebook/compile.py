@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from idefix_rules.commands import Command, RoverGeometry, rule_quantities
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import statistics
 from idefix_rules.rulebook.across import AcrossRuns, finished, non_finite_nodes, runs_reductions
@@ -41,7 +41,6 @@ from idefix_rules.rulebook.expressions import (
     Closure,
     ExpressionCompiler,
     Frame,
-    layout,
     per_run,
     per_run_sample,
     runs_first,
@@ -49,6 +48,7 @@ from idefix_rules.rulebook.expressions import (
 )
 from idefix_rules.rulebook.fold import folded_number
 from idefix_rules.rulebook.model import Expr, Number, Reduce, Rulebook
+from idefix_rules.rulebook.named_values import command_quantities, layout_constants, scope_closure
 from idefix_rules.rulebook.results import (
     CommandViolation,
     PathStatistics,
@@ -56,13 +56,14 @@ from idefix_rules.rulebook.results import (
     RunEvaluation,
     Verdict,
 )
+from idefix_rules.rulebook.run_values import FINITE, bad_runs, normalise, time_energy
 from idefix_rules.rulebook.semantics import (
     OWN_SAMPLES_INPUTS,
     any_counts_own_samples,
     names_in,
     per_sample_form,
 )
-from idefix_rules.signals import AREA_PREFIX, AXIS_LABELS, lookup
+from idefix_rules.signals import AREA_PREFIX, lookup
 
 
 def checked_model(rulebook: Rulebook | CheckedRulebook) -> CheckedRulebook:
@@ -73,31 +74,6 @@ def checked_model(rulebook: Rulebook | CheckedRulebook) -> CheckedRulebook:
     if result.checked is None:
         raise UserInputError(result.errors, {rulebook.path: rulebook.source})
     return result.checked
-
-
-def command_quantities(command: Command, number: int, rover: RoverGeometry) -> dict[str, float]:
-    """The names a command rule reads, SI, from :func:`rule_quantities` (worked out exactly
-    from the command's numbers as written)."""
-    return {
-        "max_wheel_rate": command.max_wheel_rate,
-        "delta_position": command.delta_position,
-        "delta_heading": command.delta_heading,
-        **rule_quantities(command, rover),
-        "command_number": float(number),
-    }
-
-
-def layout_constants(constants: Mapping[str, Any]) -> dict[str, Any]:
-    """Checked constants (floats, ``{label: value}`` tables) in the compiled layout."""
-    out: dict[str, Any] = {}
-    for name, value in constants.items():
-        if isinstance(value, dict):
-            axis = next(a for a, labels in AXIS_LABELS.items() if next(iter(value)) in labels)
-            row = np.array([[value[label] for label in AXIS_LABELS[axis]]])
-            out[name] = layout(row, (axis,))
-        else:
-            out[name] = float(value)
-    return out
 
 
 @dataclass(frozen=True)
@@ -313,7 +289,7 @@ class CompiledRulebook:
                 # a number carries its NaN; a truth value lost it in a comparison: it is not
                 # a number where the signals it read were not (as a run's own chance holds)
                 accumulator.add(values, non_finite=values.dtype == bool and bool(
-                    _bad_runs(source, self._runs_reads[node], finite).any()))
+                    bad_runs(source, self._runs_reads[node], finite).any()))
         return across
 
     def evaluate(self, signals: Mapping[str, np.ndarray], context: RunContext, *,
@@ -343,16 +319,16 @@ class CompiledRulebook:
             across = self.across_runs(signals, context, source=source)
         frame = Frame(source=source, across=finished(across) if across is not None else {})
         # Which runs hold only finite values, per signal: shared like the values are.
-        finite: dict[str, np.ndarray] = {} if shared is None else shared.setdefault(_FINITE, {})
+        finite: dict[str, np.ndarray] = {} if shared is None else shared.setdefault(FINITE, {})
         # the path-level values that are not numbers: whoever reads one is critical (holds)
         # in every run of the path (docs/rulebook-language.md, "Non-finite data")
         not_numbers = non_finite_nodes(across)
 
-        def bad_runs(names: tuple[str, ...], over_runs: frozenset[Reduce] = frozenset()
-                     ) -> np.ndarray:
+        def critical_runs(names: tuple[str, ...], over_runs: frozenset[Reduce] = frozenset()
+                          ) -> np.ndarray:
             if over_runs & not_numbers:
                 return np.ones(runs, dtype=bool)
-            return _bad_runs(source, names, finite)
+            return bad_runs(source, names, finite)
 
         def computed(name: str, closure: Closure) -> np.ndarray:
             if shared is None:
@@ -367,17 +343,17 @@ class CompiledRulebook:
         with np.errstate(all="ignore"):
             for index in self._indices:
                 value = computed(index.name, index.value)
-                bad = bad_runs(index.reads, index.over_runs) | np.isnan(value)
+                bad = critical_runs(index.reads, index.over_runs) | np.isnan(value)
                 raw[index.name] = np.where(bad, np.nan, value)
-                values[index.name] = np.where(bad, 1.0, _normalise(value, index.limit,
-                                                                   index.nominal))
+                values[index.name] = np.where(bad, 1.0, normalise(value, index.limit,
+                                                                  index.nominal))
                 if per_sample:
                     sample_values[index.name] = _sample_value(index, frame, runs, samples)
                 else:
                     sample_values[index.name] = np.empty((runs, 0))
                 weighted[index.name] = index.weight * values[index.name]
             chances = {c.name: computed(c.name, c.test).astype(bool) |
-                       bad_runs(c.reads, c.over_runs) for c in self._chances}
+                       critical_runs(c.reads, c.over_runs) for c in self._chances}
         frame.memo.clear()
         stacked = np.stack([weighted[n] for n in self.index_names])
         dominant = np.argmax(stacked, axis=0)
@@ -386,7 +362,7 @@ class CompiledRulebook:
             chosen = dominant == position
             if chosen.any():
                 dominant_sample[chosen] = np.argmax(sample_values[name][chosen], axis=1)
-        time, energy = self._time_energy(source, runs)
+        time, energy = time_energy(source, runs)
         return RunEvaluation(
             index_names=self.index_names, values=values, raw=raw, per_sample=sample_values,
             weighted=weighted, i_max=stacked.max(axis=0), dominant=dominant,
@@ -416,25 +392,6 @@ class CompiledRulebook:
                       for index in self._indices}
         frame.memo.clear()
         return values
-
-    @staticmethod
-    def _time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
-        # The run ends where the chain is complete (chain_done): 'command' back at -1 after
-        # the chain started (a -1 before it is no end), else a mapped 'done', else the last
-        # sample; without 'energy' the run's energy is unknown (NaN).
-        if source.provides("command") and source.context.chain:
-            done = np.broadcast_to(source.get("chain_done") > 0, (runs, source.samples))
-        elif source.provides("command"):  # nothing to execute: the first -1 ends it
-            done = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples)) == -1
-        elif source.provides("done"):
-            done = np.broadcast_to(source.get("done"), (runs, source.samples)) >= 0.5
-        else:
-            done = np.zeros((runs, source.samples), dtype=bool)
-        sample = np.where(done.any(axis=1), np.argmax(done, axis=1), source.samples - 1)
-        if not source.provides("energy"):
-            return source.t[sample], np.full(runs, np.nan)
-        energy = np.broadcast_to(source.get("energy"), (runs, source.samples))
-        return source.t[sample], energy[np.arange(runs), sample]
 
     # ------------------------------------------------------------------ reference run
     def prescreen(self, reference: RunEvaluation) -> list[PrescreenFinding]:
@@ -471,50 +428,10 @@ class CompiledRulebook:
                                self.checked.verdict_margins)
 
 
-_FINITE = ("finite runs per signal",)  # key of the shared dict that no expression key equals
-
-
-def _bad_runs(source: DerivedSignals, names: tuple[str, ...],
-              finite: dict[str, np.ndarray]) -> np.ndarray:
-    """The runs in which one of the signals ``names`` holds NaN or ±inf (``finite``: which runs
-    hold only finite values, per signal, filled as signals are read)."""
-    flags = np.zeros(source.runs, dtype=bool)
-    for name in names:
-        if name not in finite:
-            array = np.asarray(source.get(name))
-            if array.dtype == bool:
-                finite[name] = np.ones(array.shape[0], dtype=bool)
-            else:  # elementwise: a sum of finite values near the largest double overflows
-                finite[name] = np.isfinite(array.reshape(array.shape[0], -1)).all(axis=1)
-        flags |= ~finite[name]
-    return flags
-
-
 def _sample_value(index: _Index, frame: Frame, runs: int, samples: int) -> np.ndarray:
     """An index's normalised per-sample value, (runs, samples)."""
     sample = per_run_sample(index.per_sample(frame), runs, samples)
-    return _normalise(sample, index.limit, index.nominal)
-
-
-def _normalise(value: np.ndarray, limit: float, nominal: float | None) -> np.ndarray:
-    """``clamp(value / limit, 0, 1)``, or through (nominal, 0.5) when there is a nominal, NaN → 1
-    (``fmin`` returns 1 for NaN): :func:`.semantics.normalised`, element-wise, the same
-    operations in the same order."""
-    if nominal is None:
-        normalised = np.asarray(np.divide(value, limit))
-    else:
-        below = 0.5 * value / nominal
-        above = 0.5 + 0.5 * (value - nominal) / (limit - nominal)
-        normalised = np.asarray(np.where(value <= nominal, below, above), dtype=float)
-    np.fmin(normalised, 1.0, out=normalised)
-    return np.asarray(np.fmax(normalised, 0.0, out=normalised))
-
-
-def scope_closure(name: str) -> Closure:
-    def run(frame: Frame) -> Any:
-        value = frame.scope[name]
-        return value if np.ndim(value) == 0 else layout(np.asarray(value), ())
-    return run
+    return normalise(sample, index.limit, index.nominal)
 
 
 def compile_rulebook(rulebook: Rulebook | CheckedRulebook) -> CompiledRulebook:

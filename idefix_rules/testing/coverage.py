@@ -31,13 +31,13 @@ from typing import Any
 import numpy as np
 
 from idefix_rules.rulebook.across import finished
-from idefix_rules.rulebook.compile import (
-    command_quantities,
-    compile_rulebook,
-    scope_closure,  # the compiler's own reader of named values
-)
+from idefix_rules.rulebook.compile import compile_rulebook
 from idefix_rules.rulebook.expressions import ExpressionCompiler, Frame, signal_closure
 from idefix_rules.rulebook.model import Binary, Expr, Reduce, Select, Unary
+from idefix_rules.rulebook.named_values import (
+    command_quantities,
+    scope_closure,  # the compiler's own reader of named values
+)
 from idefix_rules.testing.runner import CaseOutcome, FileOutcome
 from idefix_rules.testing.synthetic import build_runs
 

@@ -14,11 +14,12 @@ from hypothesis import strategies as st
 
 from idefix_rules.errors import UserInputError
 from idefix_rules.rulebook import check_text
-from idefix_rules.rulebook.compile import _normalise, compile_rulebook
+from idefix_rules.rulebook.compile import compile_rulebook
 from idefix_rules.rulebook.format import format_rulebook
 from idefix_rules.rulebook.interpret import interpret
 from idefix_rules.rulebook.model import Name, Number
 from idefix_rules.rulebook.parser import parse_rulebook
+from idefix_rules.rulebook.run_values import normalise
 from idefix_rules.rulebook.semantics import normalised
 from idefix_rules.rulebook.strategies import rulebooks, run_batches
 
@@ -191,7 +192,7 @@ def test_a_rationale_may_name_the_nominal_instead_of_the_limit():
 ])
 def test_exact_values_with_the_papers_slip(value, expected):
     assert normalised(value, 0.7, 0.2) == expected
-    assert float(_normalise(np.array([value]), 0.7, 0.2)[0]) == expected
+    assert float(normalise(np.array([value]), 0.7, 0.2)[0]) == expected
 
 
 def test_just_inside_and_outside_the_nominal_and_the_limit():
@@ -272,7 +273,7 @@ def test_the_index_is_one_half_exactly_at_the_nominal(shape):
     limit, nominal = shape
     assert normalised(0.0, limit, nominal) == 0.0
     assert normalised(nominal, limit, nominal) == 0.5
-    assert float(_normalise(np.array([nominal]), limit, nominal)[0]) == 0.5
+    assert float(normalise(np.array([nominal]), limit, nominal)[0]) == 0.5
 
 
 @PROPERTY
@@ -300,7 +301,7 @@ def test_the_compiler_normalises_as_the_reference(data, shape):
     limit, nominal = shape
     values = data.draw(st.lists(values_around(limit, nominal), min_size=1, max_size=8))
     event(f"branches: {sorted({_branch(v, limit, nominal) for v in values})}")
-    compiled = _normalise(np.array(values), limit, nominal)
+    compiled = normalise(np.array(values), limit, nominal)
     assert compiled.tolist() == [normalised(v, limit, nominal) for v in values]
 
 
