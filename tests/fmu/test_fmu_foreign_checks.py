@@ -211,13 +211,16 @@ paths:
 def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
     import re
 
+    import idefix_rules.campaign.input.chain_checks as chain
     import idefix_rules.campaign.input.fmu_checks as checks
+    import idefix_rules.campaign.input.fmu_variable_checks as variables
     import idefix_rules.campaign.input.parameter_checks as parameters
+    import idefix_rules.campaign.input.signal_map_checks as signal_map
     import idefix_rules.campaign.input.validate as validate
 
-    emitted = set(re.findall(r'"(C[45]\d\d)"', Path(checks.__file__).read_text()
-                             + Path(parameters.__file__).read_text()
-                             + Path(validate.__file__).read_text()))
+    emitted = set(re.findall(r'"(C[45]\d\d)"', "".join(
+        Path(module.__file__).read_text()
+        for module in (checks, signal_map, chain, variables, parameters, validate))))
     guide = (Path(__file__).parents[2] / "docs" / "bring-your-own-fmu.md").read_text()
     documented = set(re.findall(r"^\| (C[45]\d\d) \|", guide, re.M))
     assert emitted - {"C404"} == documented  # C404 (run size) is docs/ci.md's

@@ -3,8 +3,10 @@ certain where the rulebook needs it uncertain, the output folder. Mistakes point
 campaign line.
 
 The FMU's parameters are checked in :mod:`idefix_rules.campaign.input.parameter_checks`, the
-rest of the FMU mapping in :mod:`idefix_rules.campaign.input.fmu_checks`, what lies on the
-terrain in :mod:`idefix_rules.campaign.input.terrain_checks`.
+rest of the FMU mapping in :mod:`idefix_rules.campaign.input.fmu_checks` (its signal map in
+:mod:`~idefix_rules.campaign.input.signal_map_checks`, its chain delivery in
+:mod:`~idefix_rules.campaign.input.chain_checks`), what lies on the terrain in
+:mod:`idefix_rules.campaign.input.terrain_checks`.
 """
 
 from __future__ import annotations
