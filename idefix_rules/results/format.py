@@ -60,6 +60,11 @@ SEARCHED_RUNS = "worst"
 SEARCH_RECORD_FILE = "worst.json"
 
 
+def attribute_text(value: Any) -> str:
+    """An HDF5 string attribute as text, whether h5py gives it as str or bytes."""
+    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+
 def is_search(attrs: Any) -> bool:
     """Whether a results file's root attributes are a worst-case search's."""
     return str(attrs.get("runs_mode", "fixed")) == SEARCHED_RUNS

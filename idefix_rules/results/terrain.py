@@ -29,6 +29,7 @@ import h5py
 import numpy as np
 
 from idefix_rules.fmu.terrain import Rock, Terrain
+from idefix_rules.results.format import attribute_text
 
 GROUP = "terrain"
 ROCK_COLUMNS = ("x", "y", "z", "a", "b", "c")
@@ -140,7 +141,7 @@ def read_terrain(file: h5py.File) -> Terrain | None:
         return None
     group = file[GROUP]
     table = np.asarray(group["rocks"][()], dtype=np.float64).reshape(-1, 6)
-    levels = [_text(level) for level in group["rock_levels"][()]]
+    levels = [attribute_text(level) for level in group["rock_levels"][()]]
     rocks = tuple(Rock(x=float(x), y=float(y), a=float(a), b=float(b), c=float(c), z=float(z),
                        level=level or None)
                   for (x, y, z, a, b, c), level in zip(table, levels, strict=True))
@@ -154,12 +155,9 @@ def read_source(file: h5py.File) -> TerrainSource | None:
     if not has_terrain(file):
         return None
     attrs = file[GROUP].attrs
-    return TerrainSource(_text(attrs.get("source", "")), _text(attrs.get("source_path", "")),
-                         _text(attrs.get("source_sha256", "")))
-
-
-def _text(value: object) -> str:
-    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+    return TerrainSource(attribute_text(attrs.get("source", "")),
+                         attribute_text(attrs.get("source_path", "")),
+                         attribute_text(attrs.get("source_sha256", "")))
 
 
 # --- comparing --------------------------------------------------------------------------------
@@ -223,7 +221,7 @@ def terrain_for_rescoring(file: h5py.File, results: Path) -> StoredTerrain:
     from idefix_rules.campaign.input.environment import TERRAIN_FILE
     from idefix_rules.campaign.input.environment import read_terrain as read_terrain_file
 
-    version = _text(file.attrs.get("format_version", "?"))
+    version = attribute_text(file.attrs.get("format_version", "?"))
     missing = (f"{results} holds no terrain (results format {version}; the terrain is "
                f"stored from format {FIRST_FORMAT_WITH_TERRAIN} on)")
     beside = results.parent / TERRAIN_FILE
@@ -269,7 +267,7 @@ def terrain_for_resume(file: h5py.File, campaign_terrain: Terrain, source: Terra
     terrain now differs; the campaign's own when the file holds none (it is stored then)."""
     stored = read_terrain(file)
     if stored is None:
-        version = _text(file.attrs.get("format_version", "?"))
+        version = attribute_text(file.attrs.get("format_version", "?"))
         return campaign_terrain, [
             f"{results} held no terrain (results format {version}): {source.describe()} is "
             "stored in it now, and the runs simulated before this resume are taken to have "

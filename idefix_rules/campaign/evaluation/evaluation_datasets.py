@@ -23,13 +23,8 @@ EVALUATION_RULEBOOK = "rulebook_text"
 
 def raw_units(evaluator: Any) -> dict[str, str]:
     """Each index's value before normalisation in its SI unit ("1": a ratio or a count)."""
-    types = getattr(getattr(evaluator, "checked", None), "index_types", {}) or {}
-    units = {}
-    for name, kind in types.items():
-        dimension = getattr(kind, "dimension", None)
-        units[str(name)] = "1" if dimension is None or dimension.is_dimensionless \
-            else str(dimension)
-    return units
+    return {str(name): "1" if kind.dimension.is_dimensionless else str(kind.dimension)
+            for name, kind in evaluator.checked.index_types.items()}
 
 
 def write_path_evaluation(store: ResultStore, name: str, evaluation: Any,

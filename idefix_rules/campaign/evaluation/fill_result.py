@@ -33,9 +33,7 @@ def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: 
 
 def risk_ceiling(evaluator: Any) -> float:
     """The largest I_max the rulebook can give: its largest index weight (1 without indices)."""
-    weights = [float(w) for w in getattr(getattr(evaluator, "checked", None), "weights",
-                                         {}).values()]
-    return max(weights, default=1.0)
+    return max((float(w) for w in evaluator.checked.weights.values()), default=1.0)
 
 
 def fill_result(result: PathResult, evaluation: Any, stats: Any, verdict: Any,

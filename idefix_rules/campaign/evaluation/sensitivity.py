@@ -33,6 +33,7 @@ import numpy as np
 from scipy import stats
 
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE
+from idefix_rules.results.format import attribute_text
 
 CONFIDENCE = 0.95
 MIN_RUNS = 8  # fewer complete runs: no correlation is reported
@@ -116,10 +117,6 @@ def why_none(parameters: dict[str, np.ndarray], target: np.ndarray, what: str) -
     return None
 
 
-def _text(value: Any) -> str:
-    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
-
-
 def path_sensitivity(group: Any) -> dict[str, Any] | None:
     """Sensitivity of one stored path (an h5py group ``/paths/<name>``); None when the path
     has no evaluated runs."""
@@ -132,7 +129,7 @@ def path_sensitivity(group: Any) -> dict[str, Any] | None:
         return None
     parameters = {key: np.asarray(data[()], dtype=float)[complete]
                   for key, data in runs.get("parameters", {}).items()}
-    names = list(json.loads(_text(evaluation.attrs.get("index_names", "[]"))))
+    names = list(json.loads(attribute_text(evaluation.attrs.get("index_names", "[]"))))
     dominant_codes = np.asarray(evaluation["dominant"][()])[complete] \
         if "dominant" in evaluation else np.zeros(0, dtype=int)
     valid = dominant_codes[(dominant_codes >= 0) & (dominant_codes < len(names))]

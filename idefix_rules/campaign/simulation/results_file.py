@@ -23,6 +23,7 @@ from idefix_rules.campaign.storage.store import (
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
+from idefix_rules.results.format import attribute_text
 from idefix_rules.results.terrain import TerrainSource, file_sha256
 from idefix_rules.timestamps import now_iso
 
@@ -40,11 +41,6 @@ def run_settings(campaign: Campaign) -> dict[str, Any]:
             "paired": paired}
 
 
-def _text(value: Any) -> str:
-    """An HDF5 string attribute as text, whether h5py gives it as str or bytes."""
-    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
-
-
 def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
                    results: Path) -> None:
     """A resumed campaign keeps the rulebook it started with: its command rules and prescreen
@@ -53,10 +49,10 @@ def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
     stored = store.file.get("provenance/rulebook")
     if stored is None or "sha256" not in stored.attrs:
         return  # written before results kept the rulebook's hash: nothing to compare
-    digest = _text(stored.attrs["sha256"])
+    digest = attribute_text(stored.attrs["sha256"])
     if digest == str(evaluator.source_hash):
         return
-    started = f"{_text(stored.attrs.get('name', '?'))} {_text(stored.attrs.get('version', '?'))}"
+    started = " ".join(attribute_text(stored.attrs.get(key, "?")) for key in ("name", "version"))
     now = f"{evaluator.name} {evaluator.version}"
     if started == now:
         now += ", edited since"

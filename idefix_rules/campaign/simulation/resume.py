@@ -22,7 +22,7 @@ from idefix_rules.campaign.storage.store import (
     STATUS_MISSING,
     decode_reason,
 )
-from idefix_rules.results.format import is_search
+from idefix_rules.results.format import attribute_text, is_search
 
 __all__ = ["INFRASTRUCTURE", "continue_command", "interrupted_runs", "is_infrastructure",
            "resume_command", "runs_to_simulate", "stored_resume_command"]
@@ -80,34 +80,32 @@ def interrupted_runs(results: Path) -> tuple[int, int] | None:
         store.close()
 
 
-def stored_campaign(results: Path) -> str | None:
-    """The name of the campaign a results file holds; None when there is no such file or it
-    cannot be read (what a run sets aside is named by it)."""
+def root_attributes(results: Path) -> dict[str, Any] | None:
+    """A results file's root attributes; None when there is no such file or it cannot be read
+    (what a run finds in its folder is named, and said, from them)."""
     import h5py
 
     if not Path(results).is_file():
         return None
     try:
         with h5py.File(results, "r") as file:
-            name = file.attrs.get("campaign_name")
+            return dict(file.attrs)
     except Exception:  # unreadable: nothing to name
         return None
-    if name is None:
-        return None
-    return name.decode() if isinstance(name, bytes) else str(name)
+
+
+def stored_campaign(results: Path) -> str | None:
+    """The name of the campaign a results file holds; None when there is no such file or it
+    cannot be read (what a run sets aside is named by it)."""
+    attrs = root_attributes(results)
+    name = None if attrs is None else attrs.get("campaign_name")
+    return None if name is None else attribute_text(name)
 
 
 def stored_search(results: Path) -> bool:
     """Whether a results file holds a worst-case search (False: none, or unreadable)."""
-    import h5py
-
-    if not Path(results).is_file():
-        return False
-    try:
-        with h5py.File(results, "r") as file:
-            return is_search(file.attrs)
-    except Exception:  # unreadable: nothing to name
-        return False
+    attrs = root_attributes(results)
+    return attrs is not None and is_search(attrs)
 
 
 def reference_lost(store: Any, name: str) -> bool:
@@ -151,14 +149,7 @@ def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
 def continue_command(results: Path, source: Any) -> str | None:
     """:func:`stored_resume_command` of the results file ``results`` (its folder as
     ``--out``); None when it cannot be read."""
-    import h5py
-
-    try:
-        with h5py.File(results, "r") as file:
-            attrs = {key: file.attrs[key] for key in ("runs_mode", "runs", "seed", "min_runs")
-                     if key in file.attrs}
-    except Exception:  # unreadable: nothing to continue
-        return None
-    if "runs" not in attrs or "seed" not in attrs:
+    attrs = root_attributes(results)
+    if attrs is None or "runs" not in attrs or "seed" not in attrs:
         return None
     return stored_resume_command(attrs, source, Path(results).parent)
