@@ -19,7 +19,7 @@ from idefix_rules.campaign.outcome.decision import (
 )
 from idefix_rules.report.data import ReportData
 from idefix_rules.report.html import Image
-from idefix_rules.results.format import is_search
+from idefix_rules.results.format import SEARCHED_RUNS
 
 
 def path_reasons(data: ReportData) -> dict[str, list[str]]:
@@ -39,7 +39,7 @@ def report_decision(data: ReportData) -> Decision:
     if not data.evaluated_paths and any(p.status == "simulated" for p in data.paths):
         # nothing scored: say why instead of deciding on verdicts no path has
         state = data.header.state or "complete"
-        if state != "complete" and is_search({"runs_mode": data.header.runs_mode}):
+        if state != "complete" and data.header.runs_mode == SEARCHED_RUNS:
             # interrupted before it stored its outcome (the search's section stands in for
             # this banner once it has)
             return Decision("unsettled", None, (
