@@ -422,3 +422,19 @@ def test_a_campaign_killed_at_its_first_step_has_set_every_old_output_aside(
                  LOCK_FILE):
         assert (out / name).is_file(), name
     assert json.loads((out / "summary.previous.json").read_text())["seed"] == 4242
+
+
+def test_the_write_probe_of_one_campaign_leaves_another_campaigns_probe_alone(
+        campaign_dir: Path) -> None:
+    """Two campaigns started together both probe the folder: each removes only its own (with
+    one shared name the second found its probe gone: C205 'No such file or directory')."""
+    from idefix_rules.campaign.input.load import load_campaign
+    from idefix_rules.campaign.input.validate import prepare_output
+
+    campaign = load_campaign(campaign_dir / "campaign.yaml")
+    campaign.output.mkdir(parents=True, exist_ok=True)
+    in_flight = campaign.output / ".idefix-write-test"  # another campaign's, mid-probe
+    in_flight.write_bytes(b"")
+    prepare_output(campaign)
+    assert in_flight.is_file()
+    assert [p.name for p in campaign.output.iterdir()] == [in_flight.name]

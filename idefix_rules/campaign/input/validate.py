@@ -12,6 +12,8 @@ rest of the FMU mapping in :mod:`idefix_rules.campaign.input.fmu_checks` (its si
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from typing import Any
 
 from idefix_rules.campaign.input.campaign_values import (
@@ -147,9 +149,11 @@ def prepare_output(campaign: Campaign) -> None:
     from_file = folder == (campaign.source.parent / campaign.model.output).resolve()
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / ".idefix-write-test"
-        probe.write_bytes(b"")
-        probe.unlink()
+        # a probe of this process's own: two campaigns started together each remove theirs
+        # (a shared name: one removed the other's, which then failed as "No such file")
+        handle, probe = tempfile.mkstemp(prefix=".idefix-write-test-", dir=folder)
+        os.close(handle)
+        os.unlink(probe)
     except OSError as failure:
         reason = ("it is a file" if folder.is_file() or isinstance(failure, FileExistsError)
                   else failure.strerror or str(failure))
