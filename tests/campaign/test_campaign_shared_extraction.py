@@ -6,10 +6,15 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import pytest
 
+from idefix_rules.campaign.simulation.simulate import UNPACKED_FMU
 from idefix_rules.campaign.simulation.worker import shared_extraction
 from idefix_rules.errors import UserInputError
 
@@ -61,3 +66,74 @@ def test_a_process_that_lost_the_race_keeps_the_winners_folder(tmp_path: Path,
     monkeypatch.undo()
     assert [p.name for p in scratch.iterdir()] == [Path(winner).name]
     shutil.rmtree(scratch)
+
+
+KILLED_WHILE_SIMULATING = textwrap.dedent("""\
+    import os, signal, sys
+    from idefix_rules.campaign.input.load import load_campaign
+    from idefix_rules.campaign.runner import run_campaign
+
+    class KillAtFirstPath:  # the FMU is extracted by the time the first path starts
+        def message(self, text): pass
+        def note(self, text): pass
+        def start_path(self, name, total, done, failed=0):
+            os.kill(os.getpid(), signal.SIGKILL)
+        def run_finished(self, name, ok): pass
+
+    run_campaign(load_campaign(sys.argv[1]), progress=KillAtFirstPath())
+""")
+
+
+@pytest.mark.slow
+def test_a_killed_campaign_leaves_its_extracted_fmu_in_its_output_folder_only(
+        campaign_dir: Path, tmp_path: Path) -> None:
+    """A campaign extracts the FMU once for its workers into its own output folder (it owns
+    it), not the system's temporary folder: killed on its way, it leaves the extraction
+    there, and the next campaign in that folder replaces it and removes it when it ends.
+    Before, every killed campaign left a folder of its own in the temporary folder."""
+    temporary = tmp_path / "temporary"
+    temporary.mkdir()
+    script = tmp_path / "killed.py"
+    script.write_text(KILLED_WHILE_SIMULATING)
+    killed = subprocess.run([sys.executable, str(script), str(campaign_dir / "campaign.yaml")],
+                            capture_output=True, text=True, timeout=300,
+                            env={**os.environ, "TMPDIR": str(temporary)})
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    out = campaign_dir / "out"
+    left = out / UNPACKED_FMU
+    assert (left / "modelDescription.xml").is_file()
+    assert list(temporary.iterdir()) == []
+    stale = left / "stale-marker"
+    stale.write_text("from the killed campaign")
+    finished = subprocess.run([sys.executable, "-m", "idefix_rules", str(campaign_dir /
+                                                                         "campaign.yaml"),
+                               "--quiet"], capture_output=True, text=True, timeout=300,
+                              env={**os.environ, "TMPDIR": str(temporary)})
+    assert finished.returncode == 1, finished.stdout + finished.stderr  # a command rule breaks
+    assert not left.exists()
+    assert list(temporary.iterdir()) == []
+
+
+def test_a_full_disk_while_extracting_is_a_full_disk_not_a_bad_fmu(
+        tmp_path: Path, toy_fmu: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The extraction writes into the output folder: a disk that fills there reaches the
+    campaign's disk guard (exit 3, 'disk full'), not F102 'not a readable FMU'; another
+    failure to write is still F102."""
+    import errno
+
+    import fmpy
+
+    from idefix_rules.campaign.storage import diskspace
+    from idefix_rules.fmu import extract_fmu
+
+    def full(*args: object, **kwargs: object) -> str:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(fmpy, "extract", full)
+    with pytest.raises(diskspace.DiskFull, match=r"disk full: .* to simulate"), \
+            diskspace.guard(tmp_path, "simulate"):
+        extract_fmu(toy_fmu, tmp_path / "x")
+    monkeypatch.setattr(fmpy, "extract", lambda *a, **k: (_ for _ in ()).throw(
+        PermissionError(errno.EACCES, "Permission denied")))
+    with pytest.raises(UserInputError, match="not a readable FMU"):
+        extract_fmu(toy_fmu, tmp_path / "x")

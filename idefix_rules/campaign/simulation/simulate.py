@@ -9,7 +9,7 @@ in :mod:`.monte_carlo`); evaluation is a separate stage
 from __future__ import annotations
 
 import contextlib
-import tempfile
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -40,6 +40,8 @@ __all__ = ["RESULTS_FILE", "TERRAIN_PARAMETER", "Progress", "RunStage", "SilentP
            "SimulationOptions", "SimulationSummary", "simulate_campaign"]
 
 RESULTS_FILE = "results.h5"
+# The FMU extracted for the campaign's workers, in its output folder while it runs.
+UNPACKED_FMU = ".idefix-fmu"
 
 TERRAIN_PARAMETER = "terrain.file"
 
@@ -72,7 +74,7 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()
     try:
-        fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, options, unpacked))
+        fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, campaign.output, options, unpacked))
         store.attrs["state"] = "running"
         store.file.flush()
         plans = [plan_path(campaign, spec, rover) for spec in campaign.paths]
@@ -119,9 +121,12 @@ def _sampling_warning(campaign: Campaign) -> str | None:
     return sampling.sobol_warning(method, campaign.runs)
 
 
-def _unzip_once(fmu_path: Path, options: SimulationOptions,
+def _unzip_once(fmu_path: Path, output: Path, options: SimulationOptions,
                 stack: contextlib.ExitStack) -> str | None:
-    """Extract the FMU once into a temporary folder the campaign owns until it ends.
+    """Extract the FMU once into :data:`UNPACKED_FMU` in the campaign's output folder, which
+    the campaign owns, and remove it when the campaign ends. A campaign killed on its way
+    leaves it there, not in the system's temporary folder, and the next campaign in that
+    folder replaces it.
 
     Workers on a remote Dask cluster cannot see a local folder: there every worker extracts
     the FMU itself (None).
@@ -130,5 +135,7 @@ def _unzip_once(fmu_path: Path, options: SimulationOptions,
         return None
     from idefix_rules.fmu import extract_fmu
 
-    folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="idefix-fmu-"))
+    folder = output / UNPACKED_FMU
+    shutil.rmtree(folder, ignore_errors=True)  # a killed campaign's
+    stack.callback(shutil.rmtree, folder, ignore_errors=True)
     return str(extract_fmu(fmu_path, folder))
