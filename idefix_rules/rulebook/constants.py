@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from idefix_rules.errors import Diagnostic, error
 from idefix_rules.rulebook.environment import CheckEnv
-from idefix_rules.rulebook.fold import NotConstant, fold
+from idefix_rules.rulebook.fold import NotComputable, NotConstant, Value, fold
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.model import Expr
 from idefix_rules.rulebook.walk import names_in
@@ -43,23 +44,8 @@ def resolve_constants(env: CheckEnv) -> list[Diagnostic]:
             problems.append(error("E304", f"constant '{name}' must be a quantity, not a "
                                   "condition", constant.value.span))
             return
-        try:
-            value = fold(constant.value, env.constants)
-        except NotConstant:
-            return
-        except OverflowError:
-            problems.append(error("E402", f"constant '{name}' is beyond a double: its value "
-                                          "is too large for a number", constant.value.span))
-            return
-        except (ValueError, ZeroDivisionError) as failure:
-            problems.append(error("E402", f"constant '{name}' cannot be computed: {failure}",
-                                  constant.value.span))
-            return
-        values = value.values() if isinstance(value, dict) else [value]
-        if not all(math.isfinite(float(v)) for v in values):
-            problems.append(error("E402", f"constant '{name}' is not a finite number (a "
-                                          "division by zero, or a value beyond a double?)",
-                                  constant.value.span))
+        value = folded_constant(constant.value, env.constants, f"constant '{name}'", problems)
+        if value is None:
             return
         env.constant_types[name] = found
         env.constants[name] = value
@@ -82,15 +68,26 @@ def constant_quantity(env: CheckEnv, expr: Expr, wanted: object, what: str,
         problems.append(error("E204", f"{what} must be {describe(wanted)}, got "  # type: ignore[arg-type]
                               f"{describe(found.dimension)}", expr.span))
         return None
+    value = folded_constant(expr, env.constants, what, problems)
+    return None if value is None or isinstance(value, dict) else float(value)
+
+
+def folded_constant(expr: Expr, constants: Mapping[str, Value], what: str,
+                    problems: list[Diagnostic]) -> Value | None:
+    """``expr``'s SI value when it is a constant with a finite value (every entry of a
+    table); E402 at ``expr`` when it has none (``what`` names it in the message), None with no
+    message when it is not constant (its type check says why)."""
     try:
-        value = fold(expr, env.constants)
+        value = fold(expr, constants)
     except NotConstant:
         return None
-    if isinstance(value, dict):
+    except NotComputable as failure:
+        problems.append(error("E402", f"{what} {failure}", expr.span))
         return None
-    if not math.isfinite(float(value)):
-        problems.append(error("E402", f"{what} is not a finite number ({float(value)}; a "
-                                      "division by zero, or a value beyond a double?)",
-                              expr.span))
+    values = value.values() if isinstance(value, dict) else [value]
+    if not all(math.isfinite(float(v)) for v in values):
+        shown = ", ".join(f"{float(v):g}" for v in values)
+        problems.append(error("E402", f"{what} is not a finite number ({shown}; a division "
+                                      "by zero, or a value beyond a double?)", expr.span))
         return None
-    return float(value)
+    return value

@@ -7,14 +7,14 @@ from collections.abc import Callable
 from typing import Any
 
 from idefix_rules.errors import Diagnostic, error
-from idefix_rules.rulebook.constants import constant_quantity
+from idefix_rules.rulebook.constants import constant_quantity, folded_constant
 from idefix_rules.rulebook.environment import Check, CheckEnv, scope_of
-from idefix_rules.rulebook.fold import folded_number
+from idefix_rules.rulebook.fold import NotComputable, NotConstant, fold, folded_number
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.judging import verdict_margins
 from idefix_rules.rulebook.model import Expr, Index, Number, Reduce, Rulebook
 from idefix_rules.rulebook.types import ExprType
-from idefix_rules.rulebook.walk import nodes, rulebook_expressions, windowed
+from idefix_rules.rulebook.walk import children, nodes, rulebook_expressions, windowed
 from idefix_rules.units import DIMENSIONLESS, describe
 
 
@@ -183,8 +183,8 @@ def check_command_windows(env: CheckEnv) -> list[Diagnostic]:
         if found is None or found.dimension != DIMENSIONLESS or found.axes:
             continue  # not a number: E204 says so
         number = folded_number(node.window.value, env.constants)
-        if number is not None and not (math.isfinite(number) and number >= 1
-                                       and number == math.floor(number)):
+        if number is not None and math.isfinite(number) and not (
+                number >= 1 and number == math.floor(number)):  # not finite: E402
             problems.append(error(
                 "E310", f"'during command {number:g}': commands are counted from 1, by whole "
                         "numbers", node.window.span, "the first command is 'during command 1'"))
@@ -201,7 +201,48 @@ def check_percentiles(env: CheckEnv) -> list[Diagnostic]:
                     and node.parameter is not None and not isinstance(node.parameter, Number)):
                 continue
             number = folded_number(node.parameter, env.constants)
-            if number is not None and not 0 <= number <= 100:
+            if number is not None and math.isfinite(number) and not 0 <= number <= 100:
                 problems.append(error("E308", f"percentile needs a number from 0 to 100, "
                                               f"got {number:g}", node.parameter.span))
     return problems
+
+
+def check_constant_parts(env: CheckEnv) -> list[Diagnostic]:
+    """Every part of a rule that reads constants only (a threshold, a window, a reducer's
+    parameter, ``2 * critical_slip`` inside an index) has a finite value: E402 otherwise.
+    ``risk <= 0 / 0`` compared with nan and ``percentile (sqrt(-1))`` were accepted. Limits,
+    weights, nominals, settings and constants have their own checks."""
+    problems: list[Diagnostic] = []
+    book = env.rulebook
+    rules: list[tuple[str, Expr]] = [
+        *((f"command rule '{r.name}'", r.condition) for r in book.command_rules),
+        *((f"index '{i.name}'", i.value) for i in book.indices),
+        *((f"the map of index '{i.name}'", i.map) for i in book.indices if i.map is not None),
+        *((f"chance '{c.name}'", c.condition) for c in book.chances),
+        *((f"prescreen '{p.name}'", p.condition) for p in book.prescreens),
+        *((f"verdict '{v.name}'", v.condition) for v in book.verdicts),
+        *(("a rank key", key.expr) for key in book.ranking.keys)]
+    for label, expr in rules:
+        _constant_parts(expr, label, env, problems)
+    return problems
+
+
+def _constant_parts(expr: Expr, label: str, env: CheckEnv,
+                    problems: list[Diagnostic]) -> None:
+    from idefix_rules.rulebook.format import format_expr
+
+    constant = False
+    if not isinstance(expr, Number):  # a literal is finite (the parser says so)
+        try:
+            fold(expr, env.constants)
+        except NotConstant:
+            pass  # not a constant (or one refused already): its parts may be
+        except NotComputable:
+            constant = True
+        else:
+            constant = True
+        if constant:
+            folded_constant(expr, env.constants, f"'{format_expr(expr)}' in {label}", problems)
+            return
+    for child in children(expr):
+        _constant_parts(child, label, env, problems)

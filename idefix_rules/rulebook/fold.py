@@ -24,6 +24,12 @@ class NotConstant(Exception):
     """The expression reads something that is not a constant (a signal, an index …)."""
 
 
+class NotComputable(ValueError):
+    """A constant expression with no real value: beyond a double (``10 ^ 400``), outside a
+    function's domain (``sqrt(-1)``, ``(-8) ^ 0.5``) or ``0 ^ -1``. The message says which,
+    as the end of a sentence naming the expression ("… cannot be computed: …")."""
+
+
 def number_si(number: Number) -> float:
     """A literal's value in SI (the unit was checked already)."""
     if number.unit is None:
@@ -32,7 +38,20 @@ def number_si(number: Number) -> float:
 
 
 def fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
-    """SI value of a constant expression; raises :class:`NotConstant` otherwise."""
+    """SI value of a constant expression; raises :class:`NotConstant` when it is not one and
+    :class:`NotComputable` when it has no real value. A division by zero gives ±inf or nan,
+    which the callers refuse as not finite."""
+    try:
+        return _fold(expr, constants)
+    except OverflowError:
+        raise NotComputable("is beyond a double: its value is too large for a number") \
+            from None
+    except ZeroDivisionError:
+        raise NotComputable("cannot be computed: 0 raised to a negative power is a division by "
+                            "zero") from None
+
+
+def _fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
     if isinstance(expr, Number):
         return number_si(expr)
     if isinstance(expr, Name):
@@ -42,24 +61,24 @@ def fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
     if isinstance(expr, Table):
         out: dict[str, float] = {}
         for label, value in expr.entries:
-            folded = fold(value, constants)
+            folded = _fold(value, constants)
             if isinstance(folded, dict):
                 raise NotConstant("nested table")
             out[label] = folded
         return out
     if isinstance(expr, Select):
-        base = fold(expr.operand, constants)
+        base = _fold(expr.operand, constants)
         if not isinstance(base, dict) or len(expr.labels) != 1:
             raise NotConstant("selection")
         return base[expr.labels[0]]
     if isinstance(expr, Unary):
         if expr.op != "-":
             raise NotConstant("condition")
-        return _map(lambda v: -v, fold(expr.operand, constants))
+        return _map(lambda v: -v, _fold(expr.operand, constants))
     if isinstance(expr, Binary):
         return _binary(expr, constants)
     if isinstance(expr, Call):
-        args = [fold(arg, constants) for arg in expr.args]
+        args = [_fold(arg, constants) for arg in expr.args]
         return _call(expr.function, args)
     raise NotConstant(type(expr).__name__)
 
@@ -69,7 +88,7 @@ def folded_number(expr: Expr, constants: Mapping[str, Value]) -> float | None:
     computed or is a table (its own checks say why)."""
     try:
         value = fold(expr, constants)
-    except (NotConstant, OverflowError, ValueError, ZeroDivisionError):
+    except (NotConstant, NotComputable):
         return None
     return None if isinstance(value, dict) else float(value)
 
@@ -96,14 +115,28 @@ _OPS: dict[str, Callable[[float, float], float]] = {
     "-": lambda a, b: a - b,
     "*": lambda a, b: a * b,
     "/": lambda a, b: a / b if b != 0 else math.copysign(math.inf, a) if a else math.nan,
-    "^": lambda a, b: a ** b,
+    "^": lambda a, b: _power(a, b),
 }
+
+
+def _power(base: float, exponent: float) -> float:
+    result = base ** exponent
+    if isinstance(result, complex):
+        raise NotComputable(f"cannot be computed: ({base:g}) ^ {exponent:g} is not a real number "
+                            "(a negative base with a fractional exponent)")
+    return float(result)
+
+
+def _sqrt(value: float) -> float:
+    if value < 0:
+        raise NotComputable(f"cannot be computed: sqrt({value:g}) is not a real number")
+    return math.sqrt(value)
 
 
 def _binary(expr: Binary, constants: Mapping[str, Value]) -> Value:
     if expr.op not in _OPS:
         raise NotConstant("condition")
-    return _zip(_OPS[expr.op], fold(expr.left, constants), fold(expr.right, constants))
+    return _zip(_OPS[expr.op], _fold(expr.left, constants), _fold(expr.right, constants))
 
 
 def _call(function: str, args: list[Value]) -> Value:
@@ -114,7 +147,7 @@ def _call(function: str, args: list[Value]) -> Value:
     if function == "abs":
         return _map(abs, args[0])
     if function == "sqrt":
-        return _map(math.sqrt, args[0])
+        return _map(_sqrt, args[0])
     if function in ("min", "max"):
         pick: Callable[[float, float], float] = min if function == "min" else max
         result = args[0]

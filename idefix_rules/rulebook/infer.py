@@ -96,7 +96,9 @@ def _name(expr: Name, scope: Scope, problems: Problems) -> ExprType | None:
     hint = did_you_mean(expr.name, scope.candidates())
     if scope.kind != "run" and signals.lookup(expr.name) is not None:
         message = f"signal '{expr.name}' cannot be used in {where}"
-        hint = "signals are only visible in indices, chances and maps"
+        hint = "a reducer reads signals in its operand, e.g. 'percentile 95 over time (…)'" \
+            if scope.kind == "parameter" else \
+            "signals are only visible in indices, chances and maps"
     else:
         message = f"unknown name '{expr.name}' in {where}"
     problems.append(error("E101", message, expr.span, hint))
@@ -365,7 +367,20 @@ def _rate(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
     return ExprType(operand.dimension / TIME, operand.axes)
 
 
+def _parameter_scope(scope: Scope) -> Scope:
+    """A reducer's parameter or a window sees constants only, whatever the scope around it:
+    a signal or a reduction there would be one value per run, which the evaluation cannot
+    take."""
+    return Scope("parameter", scope.constants)
+
+
 def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
+    if scope.kind in ("constant", "parameter"):
+        problems.append(error("E311", f"a reduction cannot be used in "
+                              f"{SCOPE_DESCRIPTIONS[scope.kind]}", expr.span,
+                              "write the value itself; signals are reduced in an index's or a "
+                              "chance's value"))
+        return None
     if expr.reducer == "rate":
         return _rate(expr, scope, problems)
     if expr.domain == "runs" and not _runs_allowed(expr, scope, problems):
@@ -374,18 +389,22 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
     axis = DOMAIN_AXES[expr.domain]
     parameter = None
     if expr.parameter is not None:
-        parameter = infer_type(expr.parameter, scope, problems)
+        parameter = infer_type(expr.parameter, _parameter_scope(scope), problems)
     if expr.window is not None:
-        window_type = infer_type(expr.window.value, scope, problems)
+        window_type = infer_type(expr.window.value, _parameter_scope(scope), problems)
         if expr.domain != "time":
             problems.append(error("E305", f"a window only applies to reductions over time, "
                                   f"not over {expr.domain}", expr.window.span))
         elif window_type is not None:
             wanted = DIMENSIONLESS if expr.window.kind == "command" else TIME
-            if window_type.dimension != wanted or window_type.axes:
-                what = "a command number" if expr.window.kind == "command" else "a duration"
+            what = "a command number" if expr.window.kind == "command" else "a duration"
+            if window_type.dimension != wanted:
                 problems.append(error("E204", f"'{expr.window.kind}' window needs {what}, got "
                                       f"{describe(window_type.dimension)}", expr.window.span))
+            elif window_type.axes:
+                problems.append(error("E302", f"'{expr.window.kind}' window needs one {what[2:]}"
+                                      f", got one per {' and '.join(window_type.axes)}",
+                                      expr.window.span))
     if operand is None:
         return None
     if expr.domain == "runs":
@@ -445,6 +464,11 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
         if parameter.dimension != operand.dimension:
             problems.append(error("E201", f"time_above compares {describe(operand.dimension)} "
                                   f"with a threshold that is {describe(parameter.dimension)}",
+                                  expr.parameter.span if expr.parameter else expr.span))
+            return None
+        if parameter.axes:
+            problems.append(error("E302", "time_above needs one threshold, got one per "
+                                  + " and ".join(parameter.axes),
                                   expr.parameter.span if expr.parameter else expr.span))
             return None
         return ExprType(TIME, operand.without(axis).axes)

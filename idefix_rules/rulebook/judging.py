@@ -29,12 +29,13 @@ failed; no number of runs bounds a chance to 0).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 from idefix_rules.errors import Diagnostic, error
-from idefix_rules.rulebook.fold import NotConstant, Value, fold
+from idefix_rules.rulebook.fold import NotComputable, NotConstant, Value, fold
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.model import (
     Binary,
@@ -231,6 +232,8 @@ def verdict_margins(rulebook: Rulebook, path_scope: Scope, constant_scope: Scope
             value = fold(margin, constants)
         except NotConstant:
             continue
+        except NotComputable:
+            value = math.nan  # refused below as not finite
         if isinstance(value, dict) or not 0.0 <= float(value) < float("inf"):
             problems.append(error(MARGIN_RANGE, f"the indifference of verdict '{rule.name}' "
                                   "must be a finite margin of 0 or more", margin.span))

@@ -54,10 +54,11 @@ class ExprType:
 BOOLEAN = ExprType(DIMENSIONLESS, (), True)
 RATIO = ExprType(DIMENSIONLESS)
 
-ScopeKind = Literal["constant", "command", "run", "prescreen", "path"]
+ScopeKind = Literal["constant", "parameter", "command", "run", "prescreen", "path"]
 
 SCOPE_DESCRIPTIONS: dict[str, str] = {
     "constant": "a constant expression (constants and numbers only)",
+    "parameter": "a reducer's parameter or window (constants and numbers only)",
     "command": "a command rule",
     "run": "an index or chance",
     "prescreen": "a prescreen rule",

@@ -148,7 +148,8 @@ def test_nominal_errors_carry_the_values_as_written_and_in_si():
 
 
 def test_a_nominal_that_is_not_a_constant_is_an_error():
-    assert [c for c, _, _ in codes(with_nominal("max over time (x)"))] == ["E101"]
+    assert [c for c, _, _ in codes(with_nominal("max over time (x)"))] == ["E311"]  # reduction
+    assert [c for c, _, _ in codes(with_nominal("x"))] == ["E101"]  # signal
 
 
 def test_a_constant_used_only_as_a_nominal_is_used():
