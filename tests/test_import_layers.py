@@ -15,6 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "idefix_rules"
 # Lowest first; a module belongs to the layer of the longest prefix that names it.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("base", ("idefix_rules", "idefix_rules.errors", "idefix_rules.units", "idefix_rules.signals",
+              "idefix_rules.chain_end",
               "idefix_rules.limits", "idefix_rules.files", "idefix_rules.plain",
               "idefix_rules.timestamps", "idefix_rules.commands",
               "idefix_rules.diagnostic_codes")),

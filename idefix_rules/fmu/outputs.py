@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from idefix_rules.chain_end import EndWatch
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.fmu.binding import OutputGroup
 from idefix_rules.fmu.description import FmuVariable
@@ -60,10 +61,10 @@ class OutputPlan:
         ends.sort(key=lambda end: end[1])
         self.end_output: tuple[int, bool] | None = ends[0] if ends else None
 
-    def end_watch(self, groups: Sequence[OutputGroup], buffers: list[np.ndarray]
-                  ) -> Callable[[int], bool] | None:
+    def end_watch(self, groups: Sequence[OutputGroup], buffers: list[np.ndarray],
+                  started: bool = False) -> Callable[[int], bool] | None:
         """Whether sample k of a co-simulation run says the chain is complete (None: the FMU
-        maps no output that says so)."""
+        maps no output that says so; ``started``: an empty chain)."""
         if self.end_output is None:
             return None
         position, is_done = self.end_output
@@ -74,10 +75,8 @@ class OutputPlan:
         else:  # pragma: no cover - every output belongs to a group
             return None
         item = column.item
-        if is_done:
-            done_at = self.done_at
-            return lambda k: bool(item(k) >= done_at)
-        return lambda k: round(float(item(k))) == -1
+        watch = EndWatch(is_done, self.done_at, started)
+        return lambda k: watch(float(item(k)))  # called for samples 0, 1, 2 … in order
 
     def pose_columns(self) -> list[int]:
         """Slot positions of the pose outputs (x, y, yaw) this runner reads."""
@@ -100,13 +99,15 @@ class OutputPlan:
         return lambda k: k > 0 and not any(moved(float(column.item(k - 1)),
                                                  float(column.item(k))) for column in columns)
 
-    def end_of(self, columns: list[np.ndarray]) -> int | None:
-        """The first sample of read columns (slot order) where the chain is complete."""
+    def end_of(self, columns: list[np.ndarray], started: bool = False) -> int | None:
+        """The first sample of read columns (slot order) where the chain is complete
+        (``started``: an empty chain)."""
         if self.end_output is None:
             return None
         position, is_done = self.end_output
         column = columns[position]
-        end = end_sample(None, column, self.done_at) if is_done else end_sample(column, None)
+        end = end_sample(None, column, self.done_at, started) if is_done else \
+            end_sample(column, None, started=started)
         poses = [columns[position] for position in self.pose_columns()]
         while end is not None and poses and end + 1 < len(column) and any(
                 moved(float(pose[end]), float(pose[end + 1])) for pose in poses):

@@ -7,6 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from idefix_rules.chain_end import ended
+
 # A rover is at rest when its pose moved by at most this (m, rad) over a sample: far below
 # the creep the contact laws' regularisation allows (10 µm/s, 1 µm per 0.1 s sample).
 REST_SIGNALS = ("x", "y", "yaw")
@@ -20,27 +22,24 @@ def moved(before: float, after: float) -> bool:
 
 
 def end_sample(command: np.ndarray | None, done: np.ndarray | None,
-               done_at: float = 1.0) -> int | None:
+               done_at: float = 1.0, started: bool = False) -> int | None:
     """The first sample where the chain is complete, or None (not within the run).
 
-    Complete: ``command`` (the raw output, index of the active command) rounds to -1; without
-    ``command``, the raw ``done`` output is at least ``done_at`` (the evaluator reads a run's
-    time the same way, docs/derived-signals.md).
+    Complete (:func:`idefix_rules.chain_end.ended`): ``command`` (the raw output, index of the
+    active command) rounds to -1 after a sample that ran a command; without ``command``, the
+    raw ``done`` output reaches ``done_at`` after a sample below it (the evaluator reads a
+    run's time the same way, docs/derived-signals.md). ``started``: an empty chain, complete
+    wherever the output says so.
 
     >>> end_sample(np.array([0.0, 1.0, -1.0, -1.0]), None)
     2
     >>> end_sample(None, np.array([0, 1, 2]), done_at=2)
     2
-    >>> end_sample(np.array([0.0, 0.0]), None) is None
+    >>> end_sample(np.array([-1.0, 0.0]), None) is None  # waiting to start is no end
     True
     """
-    if command is not None:
-        ended = np.rint(np.asarray(command, dtype=np.float64)) == -1
-    elif done is not None:
-        ended = np.asarray(done, dtype=np.float64) >= done_at
-    else:
-        return None
-    return int(np.argmax(ended)) if ended.any() else None
+    complete = ended(command, done, done_at, started)
+    return int(np.argmax(complete)) if complete.any() else None
 
 
 def hold_after_end(columns: Sequence[np.ndarray], held: int) -> None:

@@ -35,7 +35,8 @@ Formulas (``docs/derived-signals.md`` has the same list with figures of speech):
 * ``acceleration`` = ``d speed / dt``, the same way.
 
 >>> import numpy as np
->>> from idefix_rules.commands import Command
+>>> from idefix_rules.chain_end import ended
+from idefix_rules.commands import Command
 >>> t = np.arange(4.0)
 >>> signals = {"t": np.tile(t, (1, 1)), "x": np.array([[0.0, 1.0, 2.0, 3.0]]),
 ...            "y": np.zeros((1, 4)), "command": np.array([[0, 0, 0, -1]])}
@@ -52,6 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from idefix_rules.chain_end import ended
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 from idefix_rules.errors import UserInputError, error
 from idefix_rules.signals import AXIS_LABELS, DERIVED_SIGNALS, REF_PREFIX, area_signal, lookup
@@ -271,10 +273,11 @@ class DerivedSignals:
 
     def _chain_done(self) -> np.ndarray:
         """1.0 from the first sample where the chain is complete, as a run's time reads it:
-        'command' back at -1 after the chain started, else a mapped 'done' >= 0.5, else the
-        ideal schedule (the commands at their ideal durations from t = 0)."""
+        'command' back at -1 after the chain started, else a mapped 'done' set after a sample
+        without it (:mod:`idefix_rules.chain_end`), else the ideal schedule (the commands at
+        their ideal durations from t = 0)."""
         if not self.provides("command") and self.provides("done"):
-            done = np.broadcast_to(self._given("done"), (self.runs, self.samples)) >= 0.5
+            done = ended(None, np.broadcast_to(self._given("done"), (self.runs, self.samples)))
         elif not self.context.chain:  # nothing to execute: complete from the start
             done = np.ones((self.runs, self.samples), dtype=bool)
         else:

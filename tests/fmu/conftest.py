@@ -34,6 +34,14 @@ def unicycle_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def announcer_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An FMI 2.0 FMU exported by pythonfmu that reports -1 (and idle) before it starts."""
+    from foreign_fmus import build_announcer
+
+    return build_announcer(tmp_path_factory.mktemp("announcer"))
+
+
+@pytest.fixture(scope="session")
 def diff_drive_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """An FMI 3.0 co-simulation FMU exported by pythonfmu3 (tests/fmu/foreign_fmus.py)."""
     from foreign_fmus import build_diff_drive

@@ -11,6 +11,10 @@ would have.
 * ``DiffDrive`` (FMI 3.0): inputs ``omega_l``, ``omega_r`` (wheel rates, rad/s), parameters
   ``track`` and ``radius`` (m), ``slip``; outputs ``pos_x``, ``pos_y`` in mm (Float64),
   ``psi`` (rad), ``arrived`` (Boolean), ``steps`` (Int32).
+* ``Announcer`` (FMI 2.0): inputs ``v``, ``w``; outputs ``px``, ``py``, ``heading``, and the
+  command it executes as many models report theirs: ``active`` (Integer: -1 before it moves,
+  0 while the set-points move it, -1 after) and ``idle`` (Boolean: true before and after the
+  drive). It checks itself for its first 2 s, standing still, before it follows the set-points.
 * ``PlanarME`` (FMI 3.0 model exchange only): inputs ``v``, ``w``; states and outputs ``px``,
   ``py``, ``psi`` integrated by the importer (fmpy's CVode).
 """
@@ -72,6 +76,46 @@ class Unicycle(Fmi2Slave):
         self.px += speed * math.cos(middle) * step_size
         self.py += speed * math.sin(middle) * step_size
         self.heading += self.w * step_size
+        return True
+'''
+
+ANNOUNCER = '''
+import math
+from pythonfmu import Fmi2Causality, Fmi2Variability, Fmi2Slave, Boolean, Integer, Real
+
+
+class Announcer(Fmi2Slave):
+    author = "test"
+    description = "planar rover reporting its active command: -1 and idle before and after"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.v = 0.0
+        self.w = 0.0
+        self.px = 0.0
+        self.py = 0.0
+        self.heading = 0.0
+        self.active = -1
+        self.idle = True
+        for name in ("v", "w"):
+            self.register_variable(Real(name, causality=Fmi2Causality.input))
+        for name in ("px", "py", "heading"):
+            self.register_variable(Real(name, causality=Fmi2Causality.output))
+        self.register_variable(Integer("active", causality=Fmi2Causality.output,
+                                       variability=Fmi2Variability.discrete))
+        self.register_variable(Boolean("idle", causality=Fmi2Causality.output,
+                                       variability=Fmi2Variability.discrete))
+
+    def do_step(self, current_time, step_size):
+        # it checks itself for its first 2 s before it follows the set-points (and misses them)
+        moving = current_time >= 2.0 and (self.v != 0.0 or self.w != 0.0)
+        self.active = 0 if moving else -1
+        self.idle = not moving
+        if moving:
+            middle = self.heading + 0.5 * self.w * step_size
+            self.px += self.v * math.cos(middle) * step_size
+            self.py += self.v * math.sin(middle) * step_size
+            self.heading += self.w * step_size
         return True
 '''
 
@@ -139,6 +183,15 @@ def build_unicycle(folder: Path) -> Path:
 
     script = folder / "unicycle.py"
     script.write_text(UNICYCLE, encoding="utf-8")
+    return Path(FmuBuilder.build_FMU(script, dest=folder))
+
+
+def build_announcer(folder: Path) -> Path:
+    """``Announcer.fmu`` (FMI 2.0 co-simulation) built by pythonfmu into ``folder``."""
+    from pythonfmu.builder import FmuBuilder
+
+    script = folder / "announcer.py"
+    script.write_text(ANNOUNCER, encoding="utf-8")
     return Path(FmuBuilder.build_FMU(script, dest=folder))
 
 

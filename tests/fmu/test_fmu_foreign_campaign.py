@@ -104,6 +104,36 @@ def test_without_command_a_mapped_phase_gives_the_run_time(
     assert times["short"] == pytest.approx(41.0)
 
 
+ANNOUNCER_CAMPAIGN = UNICYCLE_CAMPAIGN.replace("Unicycle.fmu", "Announcer.fmu") \
+    .replace("  parameters:\n    x0: initial.x\n", "").replace(
+        "    initial.x: {distribution: normal, mean: \"0 m\", std: \"1 mm\"}\n"
+        "    slip: {distribution: uniform, low: 0.0, high: 0.08}\n", "    {}\n").replace(
+        "  parameters:\n    {}\n", "  parameters: {}\n").replace("runs: 8", "runs: 16")
+
+
+@pytest.mark.parametrize("signal", ["active: command", "idle: done"])
+def test_an_end_signal_set_before_the_chain_started_is_not_its_end(
+        tmp_path: Path, announcer_fmu: Path, capsys: pytest.CaptureFixture[str],
+        signal: str) -> None:
+    """The FMU reports -1 (idle) while it checks itself, standing still for 2 s before it
+    drives: the chain is complete only where it reports so after it started. Before, the
+    runner took sample 0 for the end and held the rover where it stood: a chain never driven
+    was scored."""
+    text = ANNOUNCER_CAMPAIGN.replace("    py: y\n", f"    py: y\n    {signal}\n")
+    code, output = _run(_campaign(tmp_path, announcer_fmu, text), capsys)
+    assert code == 0, output  # 1 cm short (I_end 0.2 in every run): decided at 16 runs
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    paths = {path["name"]: path for path in summary["paths"]}
+    # 0.2 m at 5 mm/s is 40 s, reported idle after the first step without set-points (1 s
+    # steps); the stop time is 57 s. 1.2 m then 30 deg: 240 s + 21 s.
+    assert paths["short"]["time_s"] == pytest.approx(41.0)
+    assert paths["short"]["unfinished_runs"] == 0
+    import h5py
+    with h5py.File(tmp_path / "out" / "results.h5") as results:
+        x = results["paths/short/runs/signals/x"][0]
+    assert x[-1] == pytest.approx(0.19, abs=1e-6)  # driven (but its first 2 s), not held
+
+
 DIFF_DRIVE_CAMPAIGN = """\
 name: diff-drive
 fmu:

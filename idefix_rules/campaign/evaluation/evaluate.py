@@ -38,6 +38,7 @@ from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.campaign.statistics.stopping import restated, settled_outcome
 from idefix_rules.campaign.storage.store import ResultStore
+from idefix_rules.chain_end import ended
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.plain import as_plain
 from idefix_rules.results.collisions import ChunkCollisions, CollisionFunction
@@ -64,17 +65,17 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
 
 
 def chain_finished(signals: Mapping[str, np.ndarray]) -> np.ndarray | None:
-    """Per run (axis 0) whether its chain was complete within the stop time: some sample with
-    ``command`` -1, else with ``done`` set (as the evaluator reads a run's time); None when the
-    runs have neither signal.
+    """Per run (axis 0) whether its chain was complete within the stop time
+    (:func:`idefix_rules.chain_end.ended`, as the evaluator reads a run's time); None when
+    the runs have neither ``command`` nor ``done``.
 
-    >>> chain_finished({"command": np.array([[0.0, -1.0, -1.0], [0.0, 1.0, 1.0]])})
-    array([ True, False])
+    >>> chain_finished({"command": np.array([[0.0, -1.0, -1.0], [0.0, 1.0, 1.0],
+    ...                                      [-1.0, -1.0, -1.0]])})
+    array([ True, False, False])
     """
-    if "command" in signals:
-        return np.asarray((np.rint(signals["command"]) == -1).any(axis=1))
-    if "done" in signals:
-        return np.asarray((np.asarray(signals["done"]) >= 0.5).any(axis=1))
+    if "command" in signals or "done" in signals:
+        return np.asarray(ended(signals.get("command"), None if "command" in signals
+                                else signals["done"]).any(axis=1))
     return None
 
 
