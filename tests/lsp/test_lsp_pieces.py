@@ -65,6 +65,32 @@ def test_a_rulebook_that_does_not_parse_has_diagnostics_but_no_symbols() -> None
     assert shown is not None and shown.markdown.startswith("**error[E001]**: syntax error")
 
 
+def test_the_sizes_and_levels_of_obstacles_and_areas_are_references() -> None:
+    text = (HEADER + "const small = 3 cm\nconst margin = 2 cm\nconst steep_from = 20 deg\n"
+            "obstacles {\n  level L1 below small buffer margin\n"
+            "  level L2 below 10 cm buffer 5 cm\n  level L3 buffer 10 cm\n"
+            "  area rim steep above steep_from level L3 buffer margin  # level L1 in a comment\n"
+            "  area pit keep_out # level L1\n    level L3 buffer 5 cm\n}\n" + INDEX + VERDICT)
+    analysis = analyse(text, "r.rules")
+    assert analysis.diagnostics == ()
+    symbols = analysis.symbols.symbols
+
+    def used(kind: str, name: str) -> list[Position]:
+        return [where.start for where in symbols[(kind, name)].references]
+
+    assert used("constant", "small") == [position(text, "small buffer")]
+    assert used("constant", "margin") == [position(text, "margin\n  level L2"),
+                                          position(text, "margin  #")]
+    assert used("constant", "steep_from") == [position(text, "steep_from level")]
+    assert used("level", "L3") == [position(text, "L3 buffer margin"),
+                                   position(text, "L3 buffer 5 cm")]
+    assert used("level", "L1") == []
+    shown = hover(analysis, position(text, "steep_from level", 2))
+    assert shown is not None and shown.markdown.startswith("**const steep_from** = `20 deg`")
+    found = analysis.symbols.symbol_at(position(text, "L3 buffer 5 cm", 1))
+    assert found is not None and found[0].definition.start == position(text, "L3 buffer 10 cm")
+
+
 # ----------------------------------------------------------------------------- hover
 
 def test_hover_on_a_rulebook_with_errors_still_gives_what_it_can() -> None:
