@@ -17,6 +17,9 @@ from idefix_rules.lsp.completion import completions
 from idefix_rules.lsp.fixes import quick_fixes
 from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
+from idefix_rules.lsp.symbols import expressions
+from idefix_rules.rulebook import parse_text
+from idefix_rules.rulebook.walk import rulebook_expressions
 
 REPOSITORY = Path(__file__).resolve().parents[2]
 # the frozen operations rulebook 1.1.0: the tests name its declarations and texts
@@ -63,6 +66,14 @@ def test_a_rulebook_that_does_not_parse_has_diagnostics_but_no_symbols() -> None
     problem = span_range(analysis.diagnostics[0].span)
     shown = hover(analysis, problem.start)  # the problem itself is explained
     assert shown is not None and shown.markdown.startswith("**error[E001]**: syntax error")
+
+
+@pytest.mark.parametrize("path", ["rulebooks/idefix-ops.rules",
+                                  "rulebooks/examples/site-areas.rules"])
+def test_the_symbols_walk_every_expression_the_rule_model_walks(path: str) -> None:
+    rulebook = parse_text((REPOSITORY / path).read_text(encoding="utf-8"), path)
+    walked = sorted(id(expr) for expr in rulebook_expressions(rulebook))
+    assert sorted(id(expr) for expr, _ in expressions(rulebook)) == walked
 
 
 def test_the_sizes_and_levels_of_obstacles_and_areas_are_references() -> None:
