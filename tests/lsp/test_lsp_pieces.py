@@ -11,6 +11,7 @@ import pytest
 
 from idefix_rules.cli import main
 from idefix_rules.errors import Span
+from idefix_rules.limits import MAX_RULEBOOK_BYTES
 from idefix_rules.lsp.analysis import analyse
 from idefix_rules.lsp.codes import code_explanation
 from idefix_rules.lsp.completion import completions
@@ -19,6 +20,7 @@ from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
 from idefix_rules.lsp.symbols import expressions
 from idefix_rules.rulebook import parse_text
+from idefix_rules.rulebook.checking import check_file
 from idefix_rules.rulebook.walk import rulebook_expressions
 
 REPOSITORY = Path(__file__).resolve().parents[2]
@@ -100,6 +102,30 @@ def test_the_sizes_and_levels_of_obstacles_and_areas_are_references() -> None:
     assert shown is not None and shown.markdown.startswith("**const steep_from** = `20 deg`")
     found = analysis.symbols.symbol_at(position(text, "L3 buffer 5 cm", 1))
     assert found is not None and found[0].definition.start == position(text, "L3 buffer 10 cm")
+
+
+# ----------------------------------------------------------------------------- size limit
+
+@pytest.mark.parametrize("extra_bytes", [0, 1])
+def test_a_buffer_is_over_the_size_limit_exactly_when_its_file_is(
+        tmp_path: Path, extra_bytes: int) -> None:
+    # `°` is one character and two bytes: under the limit in characters, over it in bytes
+    line = "# " + "°" * 999 + "\n"
+    lines = (MAX_RULEBOOK_BYTES - len(HEADER) - len(VERDICT)) // len(line.encode())
+    text = HEADER + line * lines + VERDICT
+    text += "#" * (MAX_RULEBOOK_BYTES - len(text.encode()) - 1 + extra_bytes) + "\n"
+    (tmp_path / "big.rules").write_text(text, encoding="utf-8")
+    assert (tmp_path / "big.rules").stat().st_size == MAX_RULEBOOK_BYTES + extra_bytes
+    assert len(text) < MAX_RULEBOOK_BYTES * 3 // 4
+    from_file = check_file(tmp_path / "big.rules").diagnostics
+    assert analyse(text, str(tmp_path / "big.rules")).diagnostics == from_file
+    if extra_bytes:
+        [problem] = from_file
+        assert problem.code == "E900"
+        assert problem.message == (f"rulebook file {tmp_path / 'big.rules'} is 131073 bytes; "
+                                   "at most 128 KiB (131072 bytes) is accepted")
+    else:
+        assert "E900" not in {d.code for d in from_file}
 
 
 # ----------------------------------------------------------------------------- hover
