@@ -220,7 +220,8 @@ def run(args: argparse.Namespace) -> int:
     found = list(rows(checked))
     for row in found:
         table.add_row(*row)
-    if console.is_terminal and console.width >= TABLE_COLUMNS:
+    tables = console.is_terminal and console.width >= TABLE_COLUMNS
+    if tables:
         console.print(table)
         console.print(_constants_table(checked))
     else:  # a pipe or a narrow terminal: a record per rule, unfolded (the tables fold every
@@ -229,8 +230,8 @@ def run(args: argparse.Namespace) -> int:
                       soft_wrap=True)
         for line in _records(found, checked):
             console.print(line, markup=False, soft_wrap=True)
-    for line in _footer(checked):
-        console.print(line, markup=False)
+    for line in _footer(checked):  # records too, a line each: never cut at the width
+        console.print(line, markup=False, soft_wrap=not tables)
     return 0
 
 

@@ -172,3 +172,19 @@ def test_a_threshold_is_seen_from_the_value_compared_whichever_side_it_is_on(
     assert row["threshold"] == threshold
     assert main(["explain", str(rulebook)]) == 0
     assert f"threshold: {threshold}" in capsys.readouterr().out
+
+
+def test_into_a_pipe_every_record_is_one_line_however_long(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "80")  # what a pipe gets
+    path = tmp_path / "areas.rules"
+    path.write_text(RULEBOOK.replace("  level L3             buffer 10 cm\n",
+                                     "  level L3             buffer 10 cm\n"
+                                     "  area keep_out_zone keep_out level L3 buffer 10 cm\n"),
+                    encoding="utf-8")
+    assert main(["explain", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert ("area keep_out_zone: keep-out, level L3, buffer 10 cm (0.1 m); runs read "
+            "area.keep_out_zone.inside, area.keep_out_zone.buffer") in lines
+    assert [line for line in lines if line != line.rstrip()] == []
