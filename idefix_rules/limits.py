@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 
 MAX_RULEBOOK_BYTES = 128 * 1024  # 18 times the operations rulebook
 MAX_RULEBOOK_LINE = 20_000  # characters; the formatter writes lines of at most 100
@@ -63,18 +63,28 @@ def check_file_size(path: str | Path, limit: int, code: str, what: str) -> None:
     except OSError:
         return
     if size > limit:
-        raise UserInputError(error(code, f"{what} {path} is {size_text(size)}; at most "
-                                         f"{size_text(limit)} is accepted", Span(str(path)),
-                                   hint="is this the file you meant? (limits: "
-                                        "docs/operations.md)"))
+        raise UserInputError(too_large(code, what, str(path), size, limit))
+
+
+def too_large(code: str, what: str, path: str, size: int, limit: int) -> Diagnostic:
+    """The diagnostic of an input of ``size`` bytes over its ``limit``: the file's size as the
+    limit is written (in bytes where rounding would make them look equal)."""
+    size_shown, limit_shown = size_text(size), size_text(limit)
+    if size_shown == limit_shown:  # 131073 bytes is not "128 KiB; at most 128 KiB"
+        size_shown, limit_shown = f"{size} bytes", f"{limit_shown} ({limit} bytes)"
+    return error(code, f"{what} {path} is {size_shown}; at most {limit_shown} is accepted",
+                 Span(path), hint="is this the file you meant? (limits: docs/operations.md)")
 
 
 def check_rulebook_text(text: str, path: str) -> None:
-    """Refuse rulebook text that is too large or has an overlong line (stored text too)."""
-    if len(text) > MAX_RULEBOOK_BYTES:
-        raise UserInputError(error(
-            RULEBOOK_TOO_LARGE, f"rulebook {path} has {len(text)} characters; at most "
-            f"{size_text(MAX_RULEBOOK_BYTES)} is accepted", Span(path)))
+    """Refuse rulebook text that is too large or has an overlong line (stored text and editor
+    buffers too). The size is the text's in UTF-8, as a file's is measured before it is read,
+    so a buffer and its saved file are refused alike (``°`` is two bytes, an emoji four)."""
+    if len(text) > MAX_RULEBOOK_BYTES // 4:  # only then may its UTF-8 be over the limit
+        size = len(text.encode("utf-8", "surrogatepass"))
+        if size > MAX_RULEBOOK_BYTES:
+            raise UserInputError(too_large(RULEBOOK_TOO_LARGE, "rulebook file", path, size,
+                                           MAX_RULEBOOK_BYTES))
     line_number, start = 1, 0
     while True:
         end = text.find("\n", start)

@@ -31,6 +31,8 @@ HELP = ("Explain a rulebook: a table of its rules (kind, name, formula, unit, th
         "Exit 2 when the rulebook is invalid.")
 
 _COMPARISONS = {"<", "<=", ">", ">=", "==", "!="}
+# `a op b` is `b mirrored-op a`
+_MIRRORED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}
 
 
 # The terminal width the tables need to read well (their formula and rationale columns fold).
@@ -68,16 +70,37 @@ def _threshold(checked: CheckedRulebook, expr: Expr, dimension: Dimension | None
     return f"{written} (= {_si(float(value), dimension)})"
 
 
+def _is_constant(checked: CheckedRulebook, expr: Expr) -> bool:
+    """Whether ``expr`` reads constants only (no signal, index, chance or path statistic)."""
+    from idefix_rules.rulebook.fold import NotConstant
+
+    try:
+        checked.value(expr)
+    except NotConstant:
+        return False
+    except (KeyError, ValueError, TypeError, ArithmeticError):
+        return True  # constant, only not computable (the checker has said so)
+    return True
+
+
 def _condition_threshold(checked: CheckedRulebook, condition: Expr, scope: str) -> str:
-    """For ``x <= 90 deg`` the threshold is ``<= 90 deg (= 1.5708 rad)``; else empty."""
+    """For ``x <= 90 deg`` the threshold is ``<= 90 deg (= 1.5708 rad)``; else empty.
+
+    It is seen from the value the rule compares: ``90 deg >= x`` has the same threshold as
+    ``x <= 90 deg``, not ``>= x``.
+    """
     from idefix_rules.rulebook.infer import infer_type
     from idefix_rules.rulebook.model import Binary
 
-    if isinstance(condition, Binary) and condition.op in _COMPARISONS:
-        limit_type = infer_type(condition.right, checked.scope(scope), [])
-        dimension = limit_type.dimension if limit_type is not None else None
-        return f"{condition.op} {_threshold(checked, condition.right, dimension)}"
-    return ""
+    if not isinstance(condition, Binary) or condition.op not in _COMPARISONS:
+        return ""
+    op: str = condition.op
+    limit = condition.right
+    if _is_constant(checked, condition.left) and not _is_constant(checked, condition.right):
+        op, limit = _MIRRORED[condition.op], condition.left
+    limit_type = infer_type(limit, checked.scope(scope), [])
+    dimension = limit_type.dimension if limit_type is not None else None
+    return f"{op} {_threshold(checked, limit, dimension)}"
 
 
 def rows(checked: CheckedRulebook) -> Iterator[tuple[str, ...]]:
@@ -197,7 +220,8 @@ def run(args: argparse.Namespace) -> int:
     found = list(rows(checked))
     for row in found:
         table.add_row(*row)
-    if console.is_terminal and console.width >= TABLE_COLUMNS:
+    tables = console.is_terminal and console.width >= TABLE_COLUMNS
+    if tables:
         console.print(table)
         console.print(_constants_table(checked))
     else:  # a pipe or a narrow terminal: a record per rule, unfolded (the tables fold every
@@ -206,8 +230,8 @@ def run(args: argparse.Namespace) -> int:
                       soft_wrap=True)
         for line in _records(found, checked):
             console.print(line, markup=False, soft_wrap=True)
-    for line in _footer(checked):
-        console.print(line, markup=False)
+    for line in _footer(checked):  # records too, a line each: never cut at the width
+        console.print(line, markup=False, soft_wrap=not tables)
     return 0
 
 

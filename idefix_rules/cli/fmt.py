@@ -1,8 +1,10 @@
 """``idefix-verify fmt RULEBOOK…``: rewrite rulebooks in canonical form, in place.
 
 The formatter keeps comments; the formatted text parses to the same rule model (checked before
-anything is written). ``--check`` writes nothing and exits 1 when a file would change (for CI);
-``--diff`` prints what would change and writes nothing either (as black's and ruff's do).
+anything is written). A file keeps its line endings: CRLF stays CRLF, as in the editor
+(:func:`idefix_rules.rulebook.format.with_line_endings`). ``--check`` writes nothing and exits
+1 when a file would change (for CI); ``--diff`` prints what would change and writes nothing
+either (as black's and ruff's do).
 """
 
 from __future__ import annotations
@@ -62,6 +64,7 @@ def replace_text(path: Path, text: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from idefix_rules.cli.console import StdoutConsole
     from idefix_rules.rulebook import read_source
+    from idefix_rules.rulebook.format import with_line_endings
 
     console = StdoutConsole(highlight=False, soft_wrap=True)
     invalid: list[UserInputError] = []
@@ -71,22 +74,30 @@ def run(args: argparse.Namespace) -> int:
         try:
             source = read_source(path)
             text = formatted_text(source, name)
+            original = path.read_bytes()  # as stored: its line endings
         except UserInputError as failure:
             invalid.append(failure)
             continue
-        if text == source:
+        except OSError as failure:  # gone or unreadable since it was read
+            invalid.append(UserInputError(error(
+                "E002", f"cannot read rulebook file {name}: {failure.strerror or failure}",
+                Span(name))))
+            continue
+        written = with_line_endings(text, original)
+        if written.encode("utf-8") == original:
             continue
         changed.append(name)
         if args.diff:
             diff = difflib.unified_diff(source.splitlines(keepends=True),
                                         text.splitlines(keepends=True),
                                         fromfile=name, tofile=f"{name} (formatted)")
-            console.print("".join(diff), markup=False, end="")
+            shown = "".join(diff)
+            console.print(shown or f"{name}: line endings only\n", markup=False, end="")
         if args.check or args.diff:
             console.print(f"would reformat {name}", markup=False)
         else:
             try:
-                replace_text(path, text)
+                replace_text(path, written)
             except OSError as failure:
                 invalid.append(UserInputError(error(
                     "E010", f"cannot write {name}: {failure.strerror or failure}; the file is "

@@ -6,12 +6,14 @@ and the last words before the cursor tell the rest. Offered, by context:
 
 * after a number: units (``5 c|`` → ``cm``);
 * after ``over``: the domains (``time``, ``wheels``, ``parts``, ``levels``);
-* inside ``[…]``: axis labels;
+* inside ``[…]``: the labels of the axes the selected signal has (``wheel.slip[`` → ``FL`` …);
 * inside ``chance(`` / ``mean(`` of a verdict: the chances / the indices;
 * in an expression: the names visible there (signals in indices and chances, command
   quantities in command rules, path statistics in verdicts, indices and chances in
   prescreens, constants everywhere), reducers and functions;
-* at the start of a line: declaration keywords, or the items of the block the cursor is in.
+* at the start of a line: declaration keywords, or the items of the block the cursor is in;
+* in an ``obstacles`` item: what its grammar puts next (``area rim `` → ``keep_out``,
+  ``steep``, ``unknown``; ``level `` → ``L1`` … ``L3``; ``level L1 `` → ``below``, ``buffer``).
 
 >>> labels = [item.label for item in completions("const a = 5 c", Position(0, 13))]
 >>> "cm" in labels and "delta_heading" not in labels
@@ -37,9 +39,18 @@ Kind = Literal["constant", "signal", "variable", "reducer", "function", "unit", 
 REDUCERS: tuple[str, ...] = get_args(Reducer)  # the rule model's, so none is missed
 INDEX_ITEMS = ("value", "nominal", "limit", "weight", "map", "because")
 COMBINE_ITEMS = ("run", "path", "confidence", "indifference", "verdict_indifference")
+OBSTACLE_ITEMS = {"level": "level L1|L2|L3 below SIZE buffer SIZE",
+                  "area": "area NAME keep_out|unknown|steep above ANGLE level L1|L2|L3 "
+                          "buffer SIZE"}
+AREA_KINDS = {"keep_out": "area kind: a zone kept out of (polygons from the campaign)",
+              "unknown": "area kind: surface not seen (polygons from the campaign)",
+              "steep": "area kind: terrain inclined above ANGLE (found in the campaign's terrain)"}
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WORD = re.compile(r"[A-Za-z_][\w.]*$")
-_UNIT_TAIL = re.compile(rf"{_NUMBER}[ \t]*([A-Za-z%°][A-Za-z%°·*/^\d-]*)?$")
+# a number, not the digits that end a name (`L1 `, `x2 `)
+_UNIT_TAIL = re.compile(rf"(?<![\w.]){_NUMBER}[ \t]*([A-Za-z%°][A-Za-z%°·*/^\d-]*)?$")
+_SELECT = re.compile(r"([A-Za-z_][\w.]*)?[ \t]*\[([\w\s,]*)$")
+_OPEN_EXPRESSION = ("below", "buffer", "above")
 
 
 @dataclass(frozen=True)
@@ -147,14 +158,20 @@ def completions(text: str, position: Position) -> list[Completion]:
             r"\b(percentile|time_above)[ \t]+\S+[ \t]*\S*$", before) else ("and", "or", "because")
         if kind == "verdict" and "because" in words:
             words += ("indifference",)  # a verdict's margin follows its condition
+        if kind == "obstacles":  # a size or an angle: the item's next keyword follows
+            written = _obstacle_item(lines, position, before[:start])
+            words = tuple(c.label for c in _obstacle_items(written, text, after_number)
+                          if c.kind == "keyword")
         return [*_unit_items(after_number),
                 *(Completion(w, "keyword", "keyword", after_number) for w in words)]
     if re.search(r"\bover[ \t]+\w*$", before):
         return [Completion(domain, "keyword", f"reduce over the {axis} axis", word_range)
                 for domain, axis in DOMAIN_AXES.items()]
-    if re.search(r"\[[\w\s,]*$", before):
+    select = _SELECT.search(before)
+    if select is not None:
         return [Completion(label, "label", f"{axis} label", word_range)
-                for axis, labels in signals.AXIS_LABELS.items() for label in labels]
+                for axis, labels in _selectable(select.group(1), select.group(2)).items()
+                for label in labels]
     function = re.search(r"\b(chance|mean|max)\([ \t]*\w*$", before)
     if function is not None and kind in ("verdict", "rank"):
         what: Kind = "chance" if function.group(1) == "chance" else "index"
@@ -167,8 +184,8 @@ def completions(text: str, position: Position) -> list[Completion]:
             return [Completion(name, "setting", f"setting, {describe(dimension)}", word_range)
                     for name, (dimension, _) in SETTINGS.items()]
         if kind == "obstacles" and not re.match(r"\s*obstacles\b", before):
-            return [Completion("level", "keyword", "level L1|L2|L3 below SIZE buffer SIZE",
-                               word_range)]
+            return [Completion(item, "keyword", syntax, word_range)
+                    for item, syntax in OBSTACLE_ITEMS.items()]
         if kind == "combine" and not re.match(r"\s*combine\b", before):
             return [Completion(item, "keyword", "combine item", word_range)
                     for item in COMBINE_ITEMS]
@@ -178,11 +195,73 @@ def completions(text: str, position: Position) -> list[Completion]:
         item = re.match(r"\s*(?:index\b.*\{)?\s*(value|nominal|limit|weight|map)\s*=", before)
         kind = {"value": "index", "map": "map"}.get(item.group(1), "const") if item else "index"
     elif kind == "obstacles":
-        return [*(Completion(word, "keyword", "keyword", word_range) for word in
-                  ("below", "buffer")), *_expression_items("const", text, word_range)]
+        written = _obstacle_item(lines, position, before[:len(before) - len(typed)])
+        return _obstacle_items(written, text, word_range)
     elif kind in ("settings", "combine"):
         kind = "const"
     return _expression_items(kind, text, word_range)
+
+
+def _selectable(operand: str | None, written: str) -> dict[str, tuple[str, ...]]:
+    """The labels that may follow ``operand[written`` by axis: those of the signal's axes
+    that no label already written selects (every label when the operand is not a signal)."""
+    spec = signals.lookup(operand) if operand else None
+    axes = [axis for axis in spec.axes if axis in signals.AXIS_LABELS] if spec else \
+        list(signals.AXIS_LABELS)
+    for label in re.findall(r"\w+", written.rpartition(",")[0]):  # not the one being typed
+        axes = [axis for axis in axes if label not in signals.AXIS_LABELS[axis]]
+    return {axis: signals.AXIS_LABELS[axis] for axis in axes}
+
+
+def _obstacle_item(lines: LineIndex, position: Position, before: str) -> list[str]:
+    """The words of the obstacles item the cursor is in (``area rim steep above``), from the
+    line its keyword starts (``before``: the cursor's line up to the word being typed)."""
+    pieces = [before]
+    for number in range(position.line - 1, -1, -1):
+        if re.match(r"\s*(level|area|obstacles)\b", pieces[0]):
+            break
+        pieces.insert(0, lines.line_text(number))
+    words = " ".join(re.sub(r"#.*", "", piece) for piece in pieces).replace("{", " { ").split()
+    if "{" in words:  # the block starts on this line: `obstacles { level …`
+        words = words[words.index("{") + 1:]
+    return words
+
+
+def _obstacle_items(item: list[str], text: str, word_range: Range) -> list[Completion]:
+    """What the grammar puts after the words ``item`` of an obstacles item:
+    ``level LABEL [below SIZE] buffer SIZE`` and
+    ``area NAME (keep_out | unknown | steep above ANGLE) level LABEL buffer SIZE [because …]``."""
+    def keywords(*words: str) -> list[Completion]:
+        return [Completion(word, "keyword", "keyword", word_range) for word in words]
+
+    def labels() -> list[Completion]:
+        return [Completion(label, "label", "obstacle level", word_range)
+                for label in signals.AXIS_LABELS["level"]]
+
+    if not item:
+        return [Completion(word, "keyword", syntax, word_range)
+                for word, syntax in OBSTACLE_ITEMS.items()]
+    if item[-1] in _OPEN_EXPRESSION or item[-1][-1] in "+-*/^(,<>=":
+        return _expression_items("const", text, word_range)  # a size, an angle
+    head, rest = item[0], item[1:]
+    if head == "area":
+        if len(rest) < 2:  # the area's name is new: nothing to offer
+            return [] if not rest else [Completion(kind, "keyword", detail, word_range)
+                                        for kind, detail in AREA_KINDS.items()]
+        rest = rest[2:] if rest[1] == "steep" else rest[1:]
+        if rest and rest[0] != "level":
+            rest = rest[rest.index("level"):] if "level" in rest else []
+        if not rest:  # after the kind, or a steep area's angle
+            return keywords("above") if item[-1] == "steep" else keywords("level")
+        rest = rest[1:]
+    elif head != "level":
+        return []
+    if not rest:
+        return labels()
+    if "buffer" in rest:  # the buffer's size is written
+        return keywords("because") if head == "area" else []
+    return keywords("buffer") if head == "area" or "below" in rest else \
+        keywords("below", "buffer")
 
 
 def _in_string_or_comment(before: str) -> bool:

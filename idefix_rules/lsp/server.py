@@ -26,7 +26,7 @@ from idefix_rules.lsp.completion import Completion, completions
 from idefix_rules.lsp.fixes import quick_fixes
 from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
-from idefix_rules.rulebook.format import formatted_text
+from idefix_rules.rulebook.format import formatted_text, with_line_endings
 
 DEBOUNCE_SECONDS = 0.3
 SOURCE = "idefix-rules"
@@ -262,8 +262,7 @@ def create_server(debounce: float = DEBOUNCE_SECONDS) -> RulebookServer:
                 type=types.MessageType.Warning,
                 message=f"not formatted: {failure}"))
             return None
-        if "\r\n" in document.source:
-            text = text.replace("\n", "\r\n")
+        text = with_line_endings(text, document.source)  # as fmt writes the file
         if text == document.source:
             return []
         return [types.TextEdit(range=whole_document(document), new_text=text)]

@@ -2,10 +2,11 @@
 
 The symbols an editor can jump between are constants, indices, chances and obstacle levels.
 References are every :class:`~idefix_rules.rulebook.model.Name` that reads one (a constant in
-a limit, an index in a prescreen, ``chance(hit_L3)`` in a verdict) and, for obstacle levels,
-the labels of tables (``{L1: 0.2, …}``) and selections (``collision.hits[L2]``). The rule
-model keeps a span per declaration, not per declared name, so the name is found in the source
-text right after the declaration's keyword.
+a limit, an index in a prescreen, ``chance(hit_L3)`` in a verdict, a constant in a level's or
+an area's sizes: ``steep above critical_inclination``) and, for obstacle levels, the labels of
+tables (``{L1: 0.2, …}``), of selections (``collision.hits[L2]``) and the level of an area
+(``area rim keep_out level L3``). The rule model keeps a span per declaration, not per declared
+name, so the name is found in the source text right after the declaration's keyword.
 
 >>> from idefix_rules.rulebook import parse_text
 >>> text = '''rulebook "r" version "1.0.0" purpose "p"
@@ -28,6 +29,7 @@ from idefix_rules import signals
 from idefix_rules.errors import Span
 from idefix_rules.lsp.positions import LineIndex, Position, Range, span_range
 from idefix_rules.rulebook.model import (
+    Area,
     Chance,
     Constant,
     Expr,
@@ -93,6 +95,10 @@ def expressions(rulebook: Rulebook) -> Iterator[tuple[Expr, ScopeKind]]:
         if level.below is not None:
             yield level.below, "constant"
         yield level.buffer, "constant"
+    for area in rulebook.areas:
+        if area.above is not None:
+            yield area.above, "constant"
+        yield area.buffer, "constant"
     for rule in rulebook.command_rules:
         yield rule.condition, "command"
     for index in rulebook.indices:
@@ -175,6 +181,17 @@ def _labels_in(text_range: Range, labels: tuple[str, ...], lines: LineIndex,
             yield label, lines.range(start + found.start(), start + found.start() + len(label))
 
 
+def _area_level_range(area: Area, lines: LineIndex) -> Range | None:
+    """The level label of an area (``level L3``): after its kind (and a steep area's
+    inclination), before its buffer (comments skipped)."""
+    after = span_range(area.above.span).end if area.above else span_range(area.span).start
+    start = lines.offset(after)
+    end = lines.offset(span_range(area.buffer.span).start)
+    piece = re.sub(r"#[^\n]*", lambda m: " " * len(m.group()), lines.text[start:end])
+    found = re.search(rf"(?<![\w.])level\s+({_word(area.level)})", piece)
+    return None if found is None else lines.range(start + found.start(1), start + found.end(1))
+
+
 def symbol_index(rulebook: Rulebook | None, lines: LineIndex) -> SymbolIndex:
     """Definitions, references and name uses of a parsed rulebook (empty without one)."""
     index = SymbolIndex()
@@ -202,4 +219,11 @@ def symbol_index(rulebook: Rulebook | None, lines: LineIndex) -> SymbolIndex:
                 for label, where in _labels_in(span_range(node.span), keys, lines, r"\s*:"):
                     if ("level", label) in index.symbols:
                         index.symbols[("level", label)].references.append(where)
+    for area in rulebook.areas:
+        level = index.symbols.get(("level", area.level))
+        written = _area_level_range(area, lines)
+        if level is not None and written is not None:
+            level.references.append(written)
+    for symbol in index.symbols.values():
+        symbol.references.sort(key=lambda where: where.start)  # in source order
     return index

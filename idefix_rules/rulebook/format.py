@@ -396,3 +396,15 @@ def formatted_text(source: str, path: str) -> str:
         raise InfrastructureError(f"{path}: the formatter changed the rule model; "
                                   "file left untouched (please report)")
     return text
+
+
+def with_line_endings(text: str, original: str | bytes) -> str:
+    """``text`` (formatted: lines end with LF) with the line endings of the ``original`` it
+    was formatted from: CRLF when the original has one (a file saved on Windows stays so),
+    else LF. What ``fmt`` writes and the language server's formatting gives.
+
+    >>> with_line_endings("a\\nb\\n", b"x\\r\\ny\\r\\n")
+    'a\\r\\nb\\r\\n'
+    """
+    crlf = "\r\n" in original if isinstance(original, str) else b"\r\n" in original
+    return text.replace("\n", "\r\n") if crlf else text

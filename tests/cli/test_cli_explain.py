@@ -148,3 +148,43 @@ def test_named_areas_are_listed_with_their_signals(tmp_path: Path, capsys,
     data = json.loads(capsys.readouterr().out)
     assert [(a["name"], a["kind"], a["buffer_m"]) for a in data["areas"]] == [
         ("rim", "keep_out", 0.1), ("scarp", "steep", 0.05)]
+
+
+@pytest.mark.parametrize(("written", "threshold"), [
+    ("verdict acceptable_risk: require risk <= 70 %", "<= 70 % (= 0.7)"),
+    ("verdict acceptable_risk: require 70 % >= risk", "<= 70 % (= 0.7)"),
+    ("verdict acceptable_risk: require 70 % > risk", "< 70 % (= 0.7)"),
+    ("verdict acceptable_risk: require 0 != risk", "!= 0"),
+    ("command turn: require 90 deg >= abs(delta_heading)", "<= 90 deg (= 1.5708 rad)"),
+    ("command turn: require 5 cm <= abs(delta_position)", ">= 5 cm (= 0.05 m)"),
+    ("prescreen clear: require 1 > I_obs", "< 1"),
+])
+def test_a_threshold_is_seen_from_the_value_compared_whichever_side_it_is_on(
+        rulebook: Path, capsys: pytest.CaptureFixture[str], written: str,
+        threshold: str) -> None:
+    verdict = "verdict acceptable_risk: require risk <= 70 %"
+    text = RULEBOOK.replace(verdict, written) if written.startswith("verdict") else \
+        RULEBOOK + written + "\n"
+    rulebook.write_text(text, encoding="utf-8")
+    name = written.split()[1].rstrip(":")
+    assert main(["explain", "--format", "json", str(rulebook)]) == 0
+    [row] = [r for r in json.loads(capsys.readouterr().out)["rules"] if r["name"] == name]
+    assert row["threshold"] == threshold
+    assert main(["explain", str(rulebook)]) == 0
+    assert f"threshold: {threshold}" in capsys.readouterr().out
+
+
+def test_into_a_pipe_every_record_is_one_line_however_long(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "80")  # what a pipe gets
+    path = tmp_path / "areas.rules"
+    path.write_text(RULEBOOK.replace("  level L3             buffer 10 cm\n",
+                                     "  level L3             buffer 10 cm\n"
+                                     "  area keep_out_zone keep_out level L3 buffer 10 cm\n"),
+                    encoding="utf-8")
+    assert main(["explain", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert ("area keep_out_zone: keep-out, level L3, buffer 10 cm (0.1 m); runs read "
+            "area.keep_out_zone.inside, area.keep_out_zone.buffer") in lines
+    assert [line for line in lines if line != line.rstrip()] == []

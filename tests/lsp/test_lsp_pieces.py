@@ -11,12 +11,17 @@ import pytest
 
 from idefix_rules.cli import main
 from idefix_rules.errors import Span
+from idefix_rules.limits import MAX_RULEBOOK_BYTES
 from idefix_rules.lsp.analysis import analyse
 from idefix_rules.lsp.codes import code_explanation
 from idefix_rules.lsp.completion import completions
 from idefix_rules.lsp.fixes import quick_fixes
 from idefix_rules.lsp.hover import hover
 from idefix_rules.lsp.positions import Position, Range, span_range
+from idefix_rules.lsp.symbols import expressions
+from idefix_rules.rulebook import parse_text
+from idefix_rules.rulebook.checking import check_file
+from idefix_rules.rulebook.walk import rulebook_expressions
 
 REPOSITORY = Path(__file__).resolve().parents[2]
 # the frozen operations rulebook 1.1.0: the tests name its declarations and texts
@@ -63,6 +68,64 @@ def test_a_rulebook_that_does_not_parse_has_diagnostics_but_no_symbols() -> None
     problem = span_range(analysis.diagnostics[0].span)
     shown = hover(analysis, problem.start)  # the problem itself is explained
     assert shown is not None and shown.markdown.startswith("**error[E001]**: syntax error")
+
+
+@pytest.mark.parametrize("path", ["rulebooks/idefix-ops.rules",
+                                  "rulebooks/examples/site-areas.rules"])
+def test_the_symbols_walk_every_expression_the_rule_model_walks(path: str) -> None:
+    rulebook = parse_text((REPOSITORY / path).read_text(encoding="utf-8"), path)
+    walked = sorted(id(expr) for expr in rulebook_expressions(rulebook))
+    assert sorted(id(expr) for expr, _ in expressions(rulebook)) == walked
+
+
+def test_the_sizes_and_levels_of_obstacles_and_areas_are_references() -> None:
+    text = (HEADER + "const small = 3 cm\nconst margin = 2 cm\nconst steep_from = 20 deg\n"
+            "obstacles {\n  level L1 below small buffer margin\n"
+            "  level L2 below 10 cm buffer 5 cm\n  level L3 buffer 10 cm\n"
+            "  area rim steep above steep_from level L3 buffer margin  # level L1 in a comment\n"
+            "  area pit keep_out # level L1\n    level L3 buffer 5 cm\n}\n" + INDEX + VERDICT)
+    analysis = analyse(text, "r.rules")
+    assert analysis.diagnostics == ()
+    symbols = analysis.symbols.symbols
+
+    def used(kind: str, name: str) -> list[Position]:
+        return [where.start for where in symbols[(kind, name)].references]
+
+    assert used("constant", "small") == [position(text, "small buffer")]
+    assert used("constant", "margin") == [position(text, "margin\n  level L2"),
+                                          position(text, "margin  #")]
+    assert used("constant", "steep_from") == [position(text, "steep_from level")]
+    assert used("level", "L3") == [position(text, "L3 buffer margin"),
+                                   position(text, "L3 buffer 5 cm")]
+    assert used("level", "L1") == []
+    shown = hover(analysis, position(text, "steep_from level", 2))
+    assert shown is not None and shown.markdown.startswith("**const steep_from** = `20 deg`")
+    found = analysis.symbols.symbol_at(position(text, "L3 buffer 5 cm", 1))
+    assert found is not None and found[0].definition.start == position(text, "L3 buffer 10 cm")
+
+
+# ----------------------------------------------------------------------------- size limit
+
+@pytest.mark.parametrize("extra_bytes", [0, 1])
+def test_a_buffer_is_over_the_size_limit_exactly_when_its_file_is(
+        tmp_path: Path, extra_bytes: int) -> None:
+    # `°` is one character and two bytes: under the limit in characters, over it in bytes
+    line = "# " + "°" * 999 + "\n"
+    lines = (MAX_RULEBOOK_BYTES - len(HEADER) - len(VERDICT)) // len(line.encode())
+    text = HEADER + line * lines + VERDICT
+    text += "#" * (MAX_RULEBOOK_BYTES - len(text.encode()) - 1 + extra_bytes) + "\n"
+    (tmp_path / "big.rules").write_text(text, encoding="utf-8")
+    assert (tmp_path / "big.rules").stat().st_size == MAX_RULEBOOK_BYTES + extra_bytes
+    assert len(text) < MAX_RULEBOOK_BYTES * 3 // 4
+    from_file = check_file(tmp_path / "big.rules").diagnostics
+    assert analyse(text, str(tmp_path / "big.rules")).diagnostics == from_file
+    if extra_bytes:
+        [problem] = from_file
+        assert problem.code == "E900"
+        assert problem.message == (f"rulebook file {tmp_path / 'big.rules'} is 131073 bytes; "
+                                   "at most 128 KiB (131072 bytes) is accepted")
+    else:
+        assert "E900" not in {d.code for d in from_file}
 
 
 # ----------------------------------------------------------------------------- hover

@@ -337,16 +337,19 @@ const critical_slip=70 % because "Slip above 70 % is critical"
 '''
 
 
-def test_formatting_gives_what_fmt_writes(client: LspClient, tmp_path: Path,
+@pytest.mark.parametrize("ending", ["\n", "\r\n"])
+def test_formatting_gives_what_fmt_writes(client: LspClient, tmp_path: Path, ending: str,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "messy.rules"
-    path.write_text(MESSY, encoding="utf-8")
-    uri = client.open(path, MESSY)
+    messy = MESSY.replace("\n", ending)
+    path.write_bytes(messy.encode("utf-8"))
+    uri = client.open(path, messy)
     edits = client.request("textDocument/formatting", {
         "textDocument": {"uri": uri}, "options": {"tabSize": 2, "insertSpaces": True}})
     assert main(["fmt", str(path)]) == 0
-    formatted = path.read_text(encoding="utf-8")
-    assert formatted != MESSY and apply_edits(MESSY, edits) == formatted
+    formatted = path.read_bytes().decode("utf-8")  # line endings and all
+    assert formatted != messy and apply_edits(messy, edits) == formatted
+    assert formatted.count("\n") == formatted.count(ending)
     client.change(uri, 2, formatted)
     again = client.request("textDocument/formatting", {
         "textDocument": {"uri": uri}, "options": {"tabSize": 2, "insertSpaces": True}})

@@ -100,6 +100,22 @@ def test_fmt_rewrites_in_place(write, capsys):
     assert main(["fmt", "--check", str(path)]) == 0
 
 
+def test_fmt_keeps_a_files_crlf_line_endings(tmp_path, capsys):
+    path = tmp_path / "windows.rules"
+    path.write_bytes(UNFORMATTED.replace("\n", "\r\n").encode())
+    assert main(["fmt", str(path)]) == 0
+    formatted = format_rulebook(parse_rulebook(UNFORMATTED, str(path)))
+    assert path.read_bytes() == formatted.replace("\n", "\r\n").encode()
+    assert main(["fmt", "--check", str(path)]) == 0  # formatted, CRLF and all
+    assert "0 file(s) would be reformatted, 1 unchanged" in capsys.readouterr().out
+    # a file with CRLF and LF mixed is written with CRLF alone, as the editor formats it
+    path.write_bytes(formatted.replace("\n", "\r\n", 1).encode())
+    assert main(["fmt", "--diff", str(path)]) == 0
+    assert f"{path}: line endings only" in capsys.readouterr().out
+    assert main(["fmt", str(path)]) == 0
+    assert path.read_bytes() == formatted.replace("\n", "\r\n").encode()
+
+
 def test_fmt_check_exits_1_names_the_file_and_writes_nothing(write, capsys):
     path = write("f.rules", UNFORMATTED)
     assert main(["fmt", "--check", str(path)]) == 1
