@@ -202,17 +202,25 @@ L3 = "  level L3             buffer 10 cm\n"
 
 
 def test_a_constant_read_by_an_area_moves_the_area_and_the_rules_that_read_it() -> None:
-    """A lower steep threshold makes the area larger: stricter, not neutral."""
+    """A lower steep threshold makes the area larger: more samples on it, stricter. The area
+    is also an obstacle of L3, and the number of its patches hit can fall as well as rise (two
+    that grow into one are hit once): the rules counting L3 hits, and the change with them,
+    are unknown, not neutral."""
     old = edited(L3, L3 + "  area highly_inclined steep above critical_inclination level L3 "
                  "buffer 5 cm\n") + STEEP
     new = old.replace("critical_inclination = 20 deg", "critical_inclination = 15 deg")
     found = labels(old, new)
-    assert found[("constant", "critical_inclination")] == "stricter"
-    assert found[("area", "highly_inclined")] == "stricter"
     assert found[("chance", "on_steep")] == found[("verdict", "steep_avoided")] == "stricter"
+    assert found[("index", "I_obs")] == found[("chance", "hit_L3")] == "unknown"
+    assert found[("prescreen", "no_clear_collision")] == "unknown"
+    assert found[("verdict", "acceptable_risk")] == found[("verdict", "rare_l3_hits")] == \
+        "unknown"
+    assert found[("constant", "critical_inclination")] == "unknown"
+    assert found[("area", "highly_inclined")] == "unknown"
     looser = labels(old, old.replace("critical_inclination = 20 deg",
                                      "critical_inclination = 25 deg"))
-    assert looser[("constant", "critical_inclination")] == "looser"
+    assert looser[("chance", "on_steep")] == looser[("verdict", "steep_avoided")] == "looser"
+    assert looser[("constant", "critical_inclination")] == "unknown"
 
 
 NEAR_L3 = """
