@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from idefix_rules.diff.collisions import area_moves
 from idefix_rules.diff.polarity import Direction, Polarities, combine, direction_of, merge
 from idefix_rules.diff.quantities import effective_nominal, index_of, leaf_moves, sign
 from idefix_rules.rulebook.check import CheckedRulebook
@@ -32,17 +33,9 @@ def _moves(old: CheckedRulebook, new: CheckedRulebook, name: str) -> list[Move]:
             (new, {f"weight:{name}": 1}, sign(old.weights[name], new.weights[name]))]
         return moves + _number_moves(new, before.value, after.value)
     areas = {a.name: a for a in old.areas}, {a.name: a for a in new.areas}
-    if name in areas[0] and name in areas[1]:
-        before_area, after_area = areas[0][name], areas[1][name]
-        if before_area.kind != after_area.kind or before_area.level != after_area.level:
-            return [(new, {}, None)]
-        area_moves: list[Move] = [(new, {f"signal:area.{name}.buffer": 1},
-                                   sign(before_area.buffer, after_area.buffer))]
-        if before_area.above is not None and after_area.above is not None:
-            area_moves.append((new, {f"signal:area.{name}.inside": 1,
-                                     f"signal:area.{name}.buffer": 1},
-                               sign(after_area.above, before_area.above)))
-        return area_moves
+    if name in areas[0] or name in areas[1]:  # its own signals, and those of its level
+        return [(new, seed, moved)
+                for seed, moved in area_moves(areas[0].get(name), areas[1].get(name))]
     chances = ({c.name: c for c in old.rulebook.chances}, {c.name: c for c in new.rulebook.chances})
     if name in chances[0] and name in chances[1]:
         return _number_moves(new, chances[0][name].condition, chances[1][name].condition)
@@ -82,10 +75,10 @@ def affected_index(old: CheckedRulebook, new: CheckedRulebook, name: str,
             if not any(key.startswith("signal:") for key in seed):
                 labels.append("unknown" if moved is None else "neutral")
                 continue
-            if moved is None:
-                labels.append("unknown")
-                continue
             own = Polarities(checked.rulebook, checked.constants, seed).of(value)
+            if moved is None:  # signals that move either way: unknown if it reads them
+                labels.append("neutral" if own == 0 else "unknown")
+                continue
             labels.append("unknown" if own is None else
                           direction_of(through, moved * own) if own and moved else "neutral")
     return merge(labels)
@@ -100,7 +93,7 @@ def affected_condition(old: CheckedRulebook, new: CheckedRulebook, section: str,
     labels: list[Direction] = []
     for changed in sorted(upstream):
         for checked, seed, moved in _moves(old, new, changed):
-            if moved is None:
+            if moved is None and not seed:
                 labels.append("unknown")
                 continue
             if moved == 0:
@@ -113,5 +106,8 @@ def affected_condition(old: CheckedRulebook, new: CheckedRulebook, section: str,
                 own = combine(*(polarities.of(r.condition)
                                 for r in (*model.prescreens, *model.verdicts)
                                 if name in names_in(r.condition)))
+            if moved is None:  # signals that move either way: unknown if it reads them
+                labels.append("neutral" if own == 0 else "unknown")
+                continue
             labels.append(direction_of(own, moved))
     return merge(labels)

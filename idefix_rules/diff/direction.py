@@ -31,14 +31,18 @@ What moves: a constant (each of its uses), an index's limit, nominal or weight, 
 condition (the rest of the condition unchanged), a comparison that gained or lost its boundary
 (``<`` → ``<=`` holds on the boundary too, like its right side moved up by an infinitesimal), a
 level's buffer (more buffer entries, ``collision.buffer``), ``tolerance_growth`` (a wider
-``tolerance_radius``). An added command rule, prescreen or verdict is stricter, a removed one
+``tolerance_radius``), a named area (:mod:`idefix_rules.diff.collisions`: an obstacle of its
+level, so an added one raises the hits, buffer entries and contact of that level and lowers the
+clearance; another level moves them to the new level; a wider buffer or a lower steep threshold
+widens its own signals). An added command rule, prescreen or verdict is stricter, a removed one
 looser; an added index raises the risk (stricter when verdicts bound the risk from above).
 Header, ranking, titles, rationales, maps ``confidence`` (which only decides whether a verdict
 is *decided*), ``indifference`` (which only decides whether two paths' ranks are tied) and a
 verdict's margin (``indifference`` after its condition, ``verdict_indifference``: whether an
 open verdict is within the margin of its limit; a path passes or fails as before) are neutral;
-a changed expression shape, a level size threshold read by the rules, or ``theoretical_slip``
-are unknown.
+a changed expression shape, a level size threshold read by the rules, ``theoretical_slip``,
+an area's kind, or the hits of an area whose steep threshold moved (patches that grow into one
+are hit once) are unknown.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Mapping
 
 from idefix_rules.diff.affected import affected_condition, affected_index
+from idefix_rules.diff.collisions import SignalMove, area_moves
 from idefix_rules.diff.polarity import Direction, Polarities, direction_of, merge
 from idefix_rules.diff.quantities import (
     effective_nominal,
@@ -152,6 +157,10 @@ def added_direction(checked: CheckedRulebook, section: str, name: str, added: bo
     if section == "index":
         # Adding an index raises the risk as far as that index: like its weight going up from 0.
         return _label(checked, {f"weight:{name}": 1}, moved)
+    if section == "area":  # obstacles of its level: more hits, buffer entries, contact
+        spec = next(area for area in checked.areas if area.name == name)
+        return _signals_label(checked, area_moves(None, spec) if added
+                              else area_moves(spec, None))
     return "neutral"
 
 
@@ -219,16 +228,24 @@ def change_direction(old: CheckedRulebook, new: CheckedRulebook, section: str, n
 
 
 def area_direction(old: CheckedRulebook, new: CheckedRulebook, name: str) -> Direction:
-    """A wider buffer flags more samples in ``area.NAME.buffer``; a lower steep threshold
-    makes the area larger (both signals); another kind or level: unknown."""
+    """What the area's signals and, as an obstacle of its level, the collision signals do
+    (:func:`~idefix_rules.diff.collisions.area_moves`): a wider buffer flags more samples in
+    ``area.NAME.buffer``; a lower steep threshold makes the area larger; another level counts
+    it there instead; another kind: unknown."""
     before = {s.name: s for s in old.areas}.get(name)
     after = {s.name: s for s in new.areas}.get(name)
-    if before is None or after is None or before.kind != after.kind or \
-            before.level != after.level:
+    if before is None or after is None:
         return "unknown"
-    inside, near = f"signal:area.{name}.inside", f"signal:area.{name}.buffer"
-    labels = [_label(new, {near: 1}, sign(before.buffer, after.buffer))]
-    if before.above is not None and after.above is not None:
-        grows = sign(after.above, before.above)  # lower threshold: more steep ground
-        labels.append(_label(new, {inside: 1, near: 1}, grows))
+    return _signals_label(new, area_moves(before, after))
+
+
+def _signals_label(checked: CheckedRulebook, moves: Iterable[SignalMove]) -> Direction:
+    """Signals that moved together, each with its own polarity to what moved (the clearance
+    shrinks as the hits grow); a move of no known sign is unknown when the rules read any of
+    its signals, neutral when they read none."""
+    labels: list[Direction] = []
+    for seed, moved in moves:
+        polarity = Polarities(checked.rulebook, checked.constants, seed).passes()
+        labels.append(("neutral" if polarity == 0 else "unknown") if moved is None
+                      else direction_of(polarity, moved))
     return merge(labels)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from typing import Any, Literal
 
+from idefix_rules.diff.collisions import LEVELS, PER_LEVEL, at_level, selected_levels
 from idefix_rules.rulebook.fold import number_si
 from idefix_rules.rulebook.lints import NON_NEGATIVE
 from idefix_rules.rulebook.model import (
@@ -52,9 +54,10 @@ def negate(polarity: Polarity) -> Polarity:
 class Polarities:
     """Polarity of expressions of one rulebook with respect to one moving quantity ``seed``.
 
-    ``seed`` maps atoms to their polarity: ``const:NAME``, ``signal:NAME``, ``limit:INDEX``,
-    ``nominal:INDEX``, ``weight:INDEX``, or ``id:N`` for one particular number node
-    (``id(node)``).
+    ``seed`` maps atoms to their polarity: ``const:NAME``, ``signal:NAME`` (a collision
+    signal per level also at one level, ``signal:collision.hits[L1]``: a selection of other
+    levels does not read it), ``limit:INDEX``, ``nominal:INDEX``, ``weight:INDEX``, or ``id:N``
+    for one particular number node (``id(node)``).
     """
 
     def __init__(self, model: Rulebook, constants: Mapping[str, Any],
@@ -64,6 +67,15 @@ class Polarities:
         self.seed = dict(seed)
         self._index_cache: dict[str, Polarity] = {}
         self._chance_cache: dict[str, Polarity] = {}
+        self._levels = LEVELS  # the levels the selections around the node keep
+
+    @contextmanager
+    def _at_levels(self, levels: tuple[str, ...]) -> Iterator[None]:
+        outer, self._levels = self._levels, levels
+        try:
+            yield
+        finally:
+            self._levels = outer
 
     # ------------------------------------------------------------------ helpers
     def non_negative(self, expr: Expr) -> bool:
@@ -107,7 +119,8 @@ class Polarities:
         if isinstance(expr, Name):
             return self._name(expr.name)
         if isinstance(expr, Select):
-            return self.of(expr.operand)
+            with self._at_levels(selected_levels(expr.labels, self._levels)):
+                return self.of(expr.operand)
         if isinstance(expr, Table):
             return combine(*(self.of(v) for _, v in expr.entries))
         if isinstance(expr, Unary):
@@ -128,6 +141,9 @@ class Polarities:
             return self.seed[f"const:{name}"]
         if f"signal:{name}" in self.seed:
             return self.seed[f"signal:{name}"]
+        if name in PER_LEVEL:
+            return combine(*(self.seed.get(f"signal:{at_level(name, level)}", 0)
+                             for level in self._levels))
         if name in self.constants:
             return self._constant(name)
         if name in self.index_names:
@@ -212,11 +228,13 @@ class Polarities:
         if name not in self._index_cache:
             self._index_cache[name] = 0  # guards recursion through prescreens
             index = next(i for i in self.model.indices if i.name == name)
-            nominal = self.of(index.nominal) if index.nominal is not None else 0
-            self._index_cache[name] = combine(
-                self.of(index.value), negate(self.of(index.limit)), negate(nominal),
-                negate(self.seed.get(f"limit:{name}", 0)),
-                negate(self.seed.get(f"nominal:{name}", 0)), self.seed.get(f"index:{name}", 0))
+            with self._at_levels(LEVELS):  # its own value, whatever selection reads it
+                nominal = self.of(index.nominal) if index.nominal is not None else 0
+                self._index_cache[name] = combine(
+                    self.of(index.value), negate(self.of(index.limit)), negate(nominal),
+                    negate(self.seed.get(f"limit:{name}", 0)),
+                    negate(self.seed.get(f"nominal:{name}", 0)),
+                    self.seed.get(f"index:{name}", 0))
         return self._index_cache[name]
 
     def risk(self) -> Polarity:
@@ -231,7 +249,8 @@ class Polarities:
         if name not in self._chance_cache:
             self._chance_cache[name] = 0
             chance = next(c for c in self.model.chances if c.name == name)
-            self._chance_cache[name] = self.of(chance.condition)
+            with self._at_levels(LEVELS):
+                self._chance_cache[name] = self.of(chance.condition)
         return self._chance_cache[name]
 
     def passes(self) -> Polarity:

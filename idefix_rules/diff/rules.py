@@ -24,6 +24,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from idefix_rules.diff.collisions import PER_LEVEL, area_moves, level_reads, moved_signals
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.derived import SETTING_SIGNALS
 from idefix_rules.rulebook.format import format_expr, format_number, format_string
@@ -38,7 +39,6 @@ from idefix_rules.rulebook.model import (
 )
 from idefix_rules.rulebook.semantics import names_in
 from idefix_rules.rulebook.types import SETTINGS
-from idefix_rules.signals import AREA_PREFIX, AREA_SIGNAL_PARTS, SIGNALS
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH, Dimension
 
 ChangeKind = Literal["added", "removed", "changed", "affected"]
@@ -290,9 +290,11 @@ def _compare(old: _Declaration, new: _Declaration) -> tuple[FieldChange, ...]:
 
 
 def _reads(declaration: _Declaration) -> set[str]:
+    """The names it reads, and the collision signals per level at each level it reads
+    (``collision.hits[L1]``: what a named area of that level moves)."""
     names: set[str] = set()
     for expr in declaration.expressions:
-        names |= names_in(expr)
+        names |= names_in(expr) | level_reads(expr)
     return names
 
 
@@ -300,8 +302,7 @@ def _reads(declaration: _Declaration) -> set[str]:
 # rocks are of it, so every signal per level (the clearance is per part, of every obstacle).
 LEVEL_SIGNALS: dict[str, tuple[str, ...]] = {
     "buffer": ("collision.buffer",),
-    "below": tuple(name for name, spec in SIGNALS.items()
-                   if name.startswith("collision.") and "level" in spec.axes),
+    "below": PER_LEVEL,
 }
 
 _RULE_SECTIONS = frozenset({"command", "index", "chance", "prescreen", "verdict"})
@@ -401,16 +402,17 @@ def diff_rules(old: CheckedRulebook, new: CheckedRulebook, old_label: str = "old
     constants = _section_changes("constant", old, new, {})
     changed_constants = {c.name for c in constants if c.kind != "changed" or c.fields}
     only_constants = {name: {name} for name in changed_constants}
-    # a changed area (or one whose constants moved) moves the signals rules read of it
+    # an area added, removed or changed (or whose constants moved) moves its own signals and,
+    # as an obstacle of its level, the collision signals of that level (diff/collisions.py)
     seeds: dict[str, set[str]] = {}
+    areas = {a.name: a for a in old.areas}, {a.name: a for a in new.areas}
     for change in _section_changes("area", old, new, only_constants):
         if change.kind == "changed" and not change.fields:
             continue  # its rationale alone
-        fields = {f.field for f in change.fields}
         roots = {change.name} if change.kind != "affected" else set(change.upstream)
-        parts = ("buffer",) if fields == {"buffer"} else AREA_SIGNAL_PARTS
-        for part in parts:
-            seeds[f"{AREA_PREFIX}{change.name}.{part}"] = roots
+        moves = area_moves(areas[0].get(change.name), areas[1].get(change.name))
+        for signal in moved_signals(moves):
+            seeds[signal] = seeds.get(signal, set()) | roots
     # a changed setting or obstacle level moves the derived or collision signals it shapes
     for section, signals_of in (("setting", SETTING_SIGNALS), ("obstacle level", None)):
         for change in _section_changes(section, old, new, only_constants):

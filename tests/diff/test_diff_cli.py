@@ -170,3 +170,51 @@ def test_waivers_whose_rule_changed_are_listed(rules: tuple[Path, Path],
                                 "change": "changed"}]
     assert main(["diff", str(old), str(old), "--waivers", str(campaign)]) == 0
     assert "whose rule changed: none" in capsys.readouterr().out
+
+
+FROZEN_OPS = Path(__file__).parents[1] / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+L3_LEVEL = "  level L3             buffer 10 cm\n"
+BLOCKER = '  area blocker keep_out level L1 buffer 1 cm because "Assumption: test area"\n'
+
+
+def test_an_added_area_is_stricter_and_lists_the_rules_its_collisions_reach(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """An area is an obstacle of its level, counted in ``collision.hits``: adding one to the
+    operations rulebook reaches I_obs, the prescreen and the risk verdict through it (it was
+    once ``neutral`` with no rule affected, while the re-score showed hit_L1 0 % → 100 %)."""
+    monkeypatch.setenv("COLUMNS", "250")
+    text = FROZEN_OPS.read_text(encoding="utf-8")
+    assert text.count(L3_LEVEL) == 1
+    old, new = tmp_path / "old.rules", tmp_path / "new.rules"
+    old.write_text(text, encoding="utf-8")
+    new.write_text(text.replace('version "1.1.0"', 'version "1.2.0"')
+                   .replace(L3_LEVEL, L3_LEVEL + BLOCKER), encoding="utf-8")
+    code, out, _ = run(capsys, str(old), str(new))
+    assert code == 0
+    lines = [" ".join(line.replace("│", " ").split()) for line in out.splitlines()]
+    assert "area blocker added stricter kind: keep_out Assumption: test area" in lines
+    assert ("index I_obs affected stricter reads changed: collision.contact[L1], "
+            "collision.hits[L1] (through blocker) Eq. 4: obstacles hit per body part and level "
+            "times the level's factor") in lines
+    assert any(line.startswith("prescreen no_clear_collision affected stricter reads changed: "
+                               "I_obs (through blocker)") for line in lines)
+    assert any(line.startswith("verdict acceptable_risk affected stricter reads changed: "
+                               "risk (through blocker)") for line in lines)
+    # no verdict reads the chance of an L1 hit; L3's hits are not the area's
+    assert any(line.startswith("chance hit_L1 affected neutral") for line in lines)
+    assert not any(line.startswith(("chance hit_L3", "verdict rare_l3_hits")) for line in lines)
+    assert "1 added, 1 changed, 4 affected; 4 stricter, 2 neutral" in lines
+    code, out, _ = run(capsys, str(old), str(new), "--format", "md")
+    assert "- added area **blocker**: kind `keep_out`; level `L1`; buffer `1 cm`" in out
+    assert ("- affected prescreen **no_clear_collision**: reads `I_obs`, which changed "
+            "(through `blocker`)") in out
+    code, out, _ = run(capsys, str(old), str(new), "--format", "json")
+    rules = json.loads(out)["rules"]
+    assert rules["directions"] == {"stricter": 4, "looser": 0, "neutral": 2, "unknown": 0}
+    found = {c["name"]: (c["kind"], c["direction"], c["reads_changed"], c["upstream"])
+             for c in rules["changes"]}
+    assert found["blocker"] == ("added", "stricter", [], [])
+    assert found["I_obs"] == ("affected", "stricter",
+                              ["collision.contact[L1]", "collision.hits[L1]"], ["blocker"])
+    assert found["acceptable_risk"] == ("affected", "stricter", ["risk"], ["blocker"])

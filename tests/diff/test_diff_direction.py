@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
@@ -202,17 +203,25 @@ L3 = "  level L3             buffer 10 cm\n"
 
 
 def test_a_constant_read_by_an_area_moves_the_area_and_the_rules_that_read_it() -> None:
-    """A lower steep threshold makes the area larger: stricter, not neutral."""
+    """A lower steep threshold makes the area larger: more samples on it, stricter. The area
+    is also an obstacle of L3, and the number of its patches hit can fall as well as rise (two
+    that grow into one are hit once): the rules counting L3 hits, and the change with them,
+    are unknown, not neutral."""
     old = edited(L3, L3 + "  area highly_inclined steep above critical_inclination level L3 "
                  "buffer 5 cm\n") + STEEP
     new = old.replace("critical_inclination = 20 deg", "critical_inclination = 15 deg")
     found = labels(old, new)
-    assert found[("constant", "critical_inclination")] == "stricter"
-    assert found[("area", "highly_inclined")] == "stricter"
     assert found[("chance", "on_steep")] == found[("verdict", "steep_avoided")] == "stricter"
+    assert found[("index", "I_obs")] == found[("chance", "hit_L3")] == "unknown"
+    assert found[("prescreen", "no_clear_collision")] == "unknown"
+    assert found[("verdict", "acceptable_risk")] == found[("verdict", "rare_l3_hits")] == \
+        "unknown"
+    assert found[("constant", "critical_inclination")] == "unknown"
+    assert found[("area", "highly_inclined")] == "unknown"
     looser = labels(old, old.replace("critical_inclination = 20 deg",
                                      "critical_inclination = 25 deg"))
-    assert looser[("constant", "critical_inclination")] == "looser"
+    assert looser[("chance", "on_steep")] == looser[("verdict", "steep_avoided")] == "looser"
+    assert looser[("constant", "critical_inclination")] == "unknown"
 
 
 NEAR_L3 = """
@@ -270,3 +279,99 @@ def test_a_comparison_that_gains_its_boundary_turns_passes_into_fails_only_when_
     if before:
         with pytest.raises(AssertionError, match="looser change turned a pass into a fail"):
             check_direction(base, compile_rulebook(changed), "looser", signals, context)
+
+
+# A named area is an obstacle of its level: a change of one moves what the collision check
+# gives, not how the rules read it. Its footprint in a run: hit (contact at one sample, the
+# clearance 0 there), its buffer entered (clearance within 5 cm) or kept far from.
+CLEAR = """
+chance close = min over time (min over parts (collision.clearance)) < 5 cm
+verdict kept_clear: require chance(close) <= 5 %
+"""
+# Rules that read the hits of one level each: moving an area from L1 to L3 is stricter here.
+HITS = """\
+rulebook "hits" version "1.0.0"
+purpose "Hits of one level each"
+
+obstacles {
+  level L1 below 3 cm  buffer 2 cm
+  level L2 below 10 cm buffer 5 cm
+  level L3             buffer 10 cm
+}
+
+index I_phi { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }
+
+chance hit_L1 = any over parts (collision.hits[L1] > 0)
+chance hit_L3 = any over parts (collision.hits[L3] > 0)
+
+verdict rare_l3_hits: require chance(hit_L3) <= 5 %
+"""
+LEVEL_INDEX = {"L1": 0, "L2": 1, "L3": 2}
+
+
+def with_area(text: str, level: str | None) -> str:
+    if level is None:
+        return text
+    line = "  level L3             buffer 10 cm\n"
+    assert text.count(line) == 1
+    return text.replace(line, line + f"  area blocker keep_out level {level} buffer 1 cm\n")
+
+
+def with_footprint(signals: dict, level: str | None, states: list[str], sample: int) -> dict:
+    """The runs as the collision check gives them with the area at ``level`` (None: no area);
+    ``states[run]``: hit, near or far. Areas are checked against the wheels (part 0)."""
+    if level is None:
+        return signals
+    out = {name: np.array(value, dtype=float, copy=True) for name, value in signals.items()}
+    k = LEVEL_INDEX[level]
+    for run, state in enumerate(states):
+        if state == "hit":
+            out["collision.hits"][run, 0, k] += 1
+            out["collision.contact"][run, sample, 0, k] = 1.0
+            out["collision.clearance"][run, sample, 0] = 0.0
+        elif state == "near":
+            out["collision.buffer"][run, 0, k] += 1
+            out["collision.clearance"][run, sample, 0] = min(
+                out["collision.clearance"][run, sample, 0], 0.03)
+    return out
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_an_area_change_never_moves_a_path_against_its_label(data):
+    """An area added, removed or moved to another level, on rulebooks reading the hits of every
+    level (I_obs), of one level each and the clearance: the label of the change (with the
+    rules it affects: all must agree) holds on the runs with the area's footprint counted at
+    its old level for the old rulebook and at its new one for the new rulebook."""
+    bases = {"operations and clearance": DEFAULT + CLEAR, "hits of one level each": HITS}
+    base = bases[data.draw(st.sampled_from(sorted(bases)), label="rulebook")]
+    levels = data.draw(st.lists(st.sampled_from([None, "L1", "L2", "L3"]), min_size=2,
+                                max_size=2, unique=True), label="levels old, new")
+    old_checked = check_text(with_area(base, levels[0]), "old.rules").checked
+    new_checked = check_text(with_area(base, levels[1]), "new.rules").checked
+    assert old_checked is not None and new_checked is not None
+    found = {c.direction for c in diff_rules(old_checked, new_checked).changes
+             if c.section != "header"} - {"neutral"}
+    direction = found.pop() if len(found) == 1 else ("neutral" if not found else "unknown")
+    event(f"{levels[0]} → {levels[1]}: {direction}")
+    signals, context = data.draw(realistic_runs(NARROW))
+    runs, samples = signals["t"].shape
+    states = data.draw(st.lists(st.sampled_from(["hit", "near", "far"]), min_size=runs,
+                                max_size=runs), label="footprint")
+    sample = data.draw(st.integers(0, samples - 1), label="sample")
+    before, after = check_direction(
+        compile_rulebook(old_checked), compile_rulebook(new_checked), direction,
+        with_footprint(signals, levels[0], states, sample), context,
+        new_signals=with_footprint(signals, levels[1], states, sample))
+    event(f"{direction}: {'pass' if before else 'fail'} → {'pass' if after else 'fail'}")
+
+
+def test_an_area_moved_from_l1_to_l3_is_stricter_where_only_l3_counts():
+    """The labels the property above meets on the rulebook reading one level each."""
+    found = labels(with_area(HITS, "L1"), with_area(HITS, "L3"))
+    assert found[("area", "blocker")] == found[("verdict", "rare_l3_hits")] == "stricter"
+    assert found[("chance", "hit_L1")] == "neutral"  # no verdict reads it
+    assert labels(with_area(HITS, "L3"), with_area(HITS, "L1"))[("area", "blocker")] == "looser"
+    assert labels(HITS, with_area(HITS, "L1"))[("area", "blocker")] == "neutral"
+    assert labels(DEFAULT + CLEAR, with_area(DEFAULT + CLEAR, "L2"))[("area", "blocker")] == \
+        "stricter"
