@@ -46,3 +46,30 @@ def test_a_time_signal_that_does_not_increase_fails_the_run_where_it_stalls():
                                          r"1 s\)"):
         check_outputs({"t": np.array([0.0, 1.0, 1.0, 2.0])}, 4)
     assert check_outputs({"t": np.array([0.0, 0.5, 1.0])}, 3)["t"][-1] == 1.0
+
+
+@pytest.mark.parametrize(("command", "outside"), [
+    ([-1.0, 0.0, 1.0, -1.0], None),       # two commands, then -1
+    ([-1.0, 0.0, 1.4, -1.0], None),       # rounds to 1
+    ([-1.0, 0.0, 1.5, -1.0], 2),          # rounds to 2: no command of two
+    ([-1.0, 0.0, 2.0, -1.0], 2),
+    ([-1.4, 0.0, 1.0, -1.0], None),       # rounds to -1
+    ([-1.6, 0.0, 1.0, -1.0], 0),          # rounds to -2
+])
+def test_command_outside_the_chains_indices_is_a_map_mistake(command: list[float],
+                                                              outside: int | None) -> None:
+    """A phase or 1-based counter mapped to 'command' (C520, at the map): checked against the
+    chain's length, here two commands; not checked without it."""
+    from idefix_rules.errors import UserInputError
+
+    signals = {"command": np.array(command)}
+    assert check_outputs(signals, 4)["command"].tolist() == command
+    if outside is None:
+        assert check_outputs(signals, 4, commands=2)["command"].tolist() == command
+        return
+    with pytest.raises(UserInputError) as raised:
+        check_outputs(signals, 4, commands=2)
+    [diagnostic] = raised.value.diagnostics
+    assert diagnostic.code == "C520"
+    assert f"reads {command[outside]:g} at sample {outside}, outside -1 … 1" \
+        in diagnostic.message

@@ -134,6 +134,23 @@ def test_an_end_signal_set_before_the_chain_started_is_not_its_end(
     assert x[-1] == pytest.approx(0.19, abs=1e-6)  # driven (but its first 2 s), not held
 
 
+def test_a_phase_mapped_to_command_stops_the_campaign_at_the_map(
+        tmp_path: Path, unicycle_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Unicycle's phase (0 waiting, 1 driving, 2 stopped) is no command index: read as one, a
+    run "finished" at 0.5 s while the console said it was still driving at the stop limit.
+    Its first value outside -1 … 0 (a one-command path) stops the campaign at the map."""
+    text = UNICYCLE_CAMPAIGN.replace("    py: y\n", "    py: y\n    phase: command\n")
+    text = text[:text.index("  long:\n")] + text[text.index("simulation:"):]  # one path
+    code, output = _run(_campaign(tmp_path, unicycle_fmu, text), capsys)
+    assert code == 2, output
+    line = text.splitlines().index("    phase: command") + 1
+    assert f"campaign.yaml:{line}:5: error[C520]: the FMU output mapped to 'command' reads 1 " \
+        "at sample 1, outside -1 … 0: 'command' is the 0-based index of the active command " \
+        "of the chain (1 command), -1 before and after it" in output, output
+    assert "map it to 'done' with fmu.done_at" in output
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
 DIFF_DRIVE_CAMPAIGN = """\
 name: diff-drive
 fmu:

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 from idefix_rules.campaign.input.campaign_values import rover_geometry, where_set
+from idefix_rules.campaign.input.fmu_variable_checks import fmu_loc, loc_span
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.wording import DisplayUnits, range_text, written_unit_at
 from idefix_rules.campaign.simulation.pool import DaskPool, LocalPool, Outcome, Timeouts
@@ -88,7 +89,13 @@ def raise_input_problem(campaign: Campaign, outcome: Outcome) -> None:
 
 def placed_in_campaign(campaign: Campaign, diagnostic: Diagnostic) -> Diagnostic:
     """A parameter the FMU refused (F110), pointed at the campaign line that set it (a
-    regolith value, or an uncertain parameter's distribution) instead of the FMU file."""
+    regolith value, or an uncertain parameter's distribution) instead of the FMU file; an
+    output that is no 'command' (C520) at the campaign's map of it, else at the FMU."""
+    if diagnostic.code == "C520":
+        mapped = [variable for variable, signal in (campaign.model.fmu.signals or {}).items()
+                  if signal == "command"]
+        loc = ("fmu", "signals", mapped[0]) if mapped else fmu_loc(campaign)
+        return dataclasses.replace(diagnostic, span=loc_span(campaign, loc))
     match = PARAMETER_REJECTED.match(diagnostic.message) if diagnostic.code == "F110" else None
     if match is None:
         return diagnostic

@@ -31,7 +31,7 @@ from idefix_rules.campaign.simulation import processes
 from idefix_rules.campaign.simulation.processes import Continued, Retire
 from idefix_rules.campaign.storage.encoded_chunks import EncodedChunk, encode_run
 from idefix_rules.commands import Command, RoverGeometry
-from idefix_rules.errors import Diagnostic, UserInputError
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.results.format import storage_dtype
 
 
@@ -181,7 +181,10 @@ def simulate(task: RunTask) -> RunResult | InputProblem | Continued | Retire:
         _drop(runner)
         raise
     seconds = time.perf_counter() - started
-    checked = check_outputs(signals, task.samples)
+    try:
+        checked = check_outputs(signals, task.samples, len(task.chain))
+    except UserInputError as failure:  # the map reads an output that is not the signal
+        return InputProblem(tuple(failure.diagnostics))
     result = RunResult({}, seconds, encode_run(checked)) if task.encode \
         else RunResult(checked, seconds)
     check = run_check(task)
@@ -196,6 +199,23 @@ def _drop(runner: Any) -> None:
     _RUNNERS.clear()
     with contextlib.suppress(Exception):
         runner.close()
+
+
+def check_command_range(command: np.ndarray, commands: int) -> None:
+    """C520 at the first sample where ``command`` rounds outside -1 … ``commands`` - 1."""
+    rounded = np.rint(command)
+    outside = np.isfinite(rounded) & ((rounded < -1) | (rounded > commands - 1))
+    if not outside.any():
+        return
+    first = int(np.argmax(outside))
+    raise UserInputError([error(
+        "C520", f"the FMU output mapped to 'command' reads {command[first]:g} at sample "
+                f"{first}, outside -1 … {commands - 1}: 'command' is the 0-based index of the "
+                f"active command of the chain ({commands} command{'s' if commands != 1 else ''})"
+                ", -1 before and after it",
+        Span("fmu.signals"),
+        "a phase or a 1-based counter is not 'command': map it to 'done' with fmu.done_at "
+        "(docs/bring-your-own-fmu.md)")])
 
 
 # The obstacle check a worker inherits when it is forked (local pool), named by a token that
@@ -225,8 +245,13 @@ def run_check(task: RunTask) -> Callable[[Mapping[str, np.ndarray], int], dict[s
     return _RUN_CHECK[1]
 
 
-def check_outputs(signals: Mapping[str, np.ndarray], samples: int) -> dict[str, np.ndarray]:
-    """Outputs on the expected grid and finite, as float64 arrays; ValueError otherwise."""
+def check_outputs(signals: Mapping[str, np.ndarray], samples: int,
+                  commands: int | None = None) -> dict[str, np.ndarray]:
+    """Outputs on the expected grid and finite, as float64 arrays; ValueError otherwise (the
+    run fails). ``command`` outside -1 … ``commands`` - 1 is no index of the chain's commands:
+    the campaign maps an output that is not the signal (a phase, a 1-based counter), C520."""
+    if commands is not None and "command" in signals:
+        check_command_range(np.asarray(signals["command"], dtype=np.float64), commands)
     checked = {}
     for name, values in signals.items():
         array = np.asarray(values, dtype=np.float64)
