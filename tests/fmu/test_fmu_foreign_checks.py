@@ -108,6 +108,12 @@ MISTAKES = [
     Mistake("misspelled-parameter-map", "unicycle", (("    x0: initial.x", "    x00: initial.x"),),
             (("x00:", "C401", "fmu.parameters.x00: unknown FMU variable 'x00' in Unicycle.fmu "
               "hint: did you mean 'x0'?"),)),
+    # two FMU variables for one campaign name: y0 silently kept its start value
+    Mistake("two-variables-mapped-to-one-name", "unicycle",
+            (("    x0: initial.x\n", "    x0: initial.x\n    y0: initial.x\n"),),
+            (("y0: initial.x", "C516", "fmu.parameters.y0: 'initial.x' is mapped from both "
+              "'x0' and 'y0'; a campaign name sets one FMU variable hint: map each FMU variable "
+              "to a name of its own"),)),
     Mistake("chain-as-parameters-to-an-fmu-without-them", "unicycle",
             (("    delivery: inputs\n    inputs:\n      v: body.speed\n      w: body.yaw_rate\n",
               "    delivery: parameters\n"),),

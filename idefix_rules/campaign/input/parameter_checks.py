@@ -28,8 +28,17 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     problems: list[Diagnostic] = []
     parameter_names = {name: name for name, variable in variables.items() if variable.settable}
     if fmu.parameters is not None:
+        mapped_from: dict[str, str] = {}  # our name → the first FMU variable mapped to it
         for fmu_name, our_name in fmu.parameters.items():
             map_loc = ("fmu", "parameters", fmu_name)
+            if our_name in mapped_from:  # one value, two variables: one would get nothing
+                problems.append(error(
+                    "C516", f"{format_loc(map_loc)}: {our_name!r} is mapped from both "
+                            f"{mapped_from[our_name]!r} and {fmu_name!r}; a campaign name sets "
+                            "one FMU variable", campaign.locations.span(map_loc, at_key=True),
+                    hint="map each FMU variable to a name of its own"))
+                continue
+            mapped_from[our_name] = fmu_name
             variable = variables.get(fmu_name)
             if variable is None:
                 problems.append(_unknown(campaign, map_loc, fmu_name, variables, "FMU variable",
