@@ -93,6 +93,21 @@ MISTAKES = [
               "\n    slip: {"),),
             (('{distribution: uniform, low: "10 deg"', "C402",
               "uncertainty.parameters.track: expected a length (FMU unit m), got an angle"),)),
+    # the tool reads initial.x as metres whatever the FMU declares: an FMU without units
+    # took "5 s" as 5 m
+    Mistake("a-start-position-of-another-dimension", "unicycle",
+            (('initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}',
+              'initial.x: {distribution: normal, mean: "0 s", std: "5 s"}'),),
+            (('{distribution: normal, mean: "0 s"', "C402",
+              "uncertainty.parameters.initial.x: expected a length (initial.x is the rover's "
+              "start position, read by this tool in m), got a duration"),)),
+    Mistake("a-start-heading-mapped-to-a-length", "diff_drive",
+            (("  chain:\n", "  parameters:\n    radius: initial.yaw\n  chain:\n"),
+             ("    slip: {", '    initial.yaw: {distribution: fixed, value: "0 deg"}\n'
+              "    slip: {")),
+            (('{distribution: fixed, value: "0 deg"}', "C402",
+              "uncertainty.parameters.initial.yaw: initial.yaw is the rover's start heading, "
+              "read by this tool as an angle in rad, but FMU variable 'radius' is in m"),)),
     Mistake("collisions-without-a-pose", "unicycle", (), (
         ("signals:", "C512", "the rulebook reads collisions, which place the rover's bodies by "
          "its pose, but the map does not provide 'pitch', 'roll', 'yaw', 'z'"),),
@@ -389,3 +404,15 @@ def test_a_draw_outside_the_range_an_fmu_declares_is_F110_before_any_run(
     assert f"{_location(text, given)}: error[F110]: uncertainty.parameters.slip: " in flat, output
     assert says in flat, output
     assert not (tmp_path / "c" / "out" / "results.h5").exists()
+
+
+def test_every_parameter_the_tool_reads_itself_has_its_dimension() -> None:
+    """The start position and the kinematic geometry are read by the tool in SI, whatever the
+    FMU declares: each has the dimension its value is checked against (C402)."""
+    from idefix_rules.campaign.input.campaign_values import (
+        CONTRACT_PARAMETERS,
+        GEOMETRY_PARAMETERS,
+        INITIAL_POSITION,
+    )
+
+    assert {*GEOMETRY_PARAMETERS, *INITIAL_POSITION, "initial.yaw"} <= set(CONTRACT_PARAMETERS)

@@ -9,7 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from idefix_rules.campaign.input.campaign_values import REGOLITH_PREFIX, regolith_parameter
+from idefix_rules.campaign.input.campaign_values import (
+    CONTRACT_PARAMETERS,
+    REGOLITH_PREFIX,
+    regolith_parameter,
+)
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.sampling import planned_draws
 from idefix_rules.campaign.input.yamlsource import format_loc
@@ -99,10 +103,27 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
             ranged.append((loc, name, variable))
             continue
         expected = variable.si.dimension if variable.si is not None else None
+        contract = CONTRACT_PARAMETERS.get(name)
+        if contract is not None and expected is not None and expected != contract.dimension:
+            # the FMU's variable is of another dimension than the tool reads the name in: no
+            # value could be right for both
+            problems.append(error(
+                "C402", f"{format_loc(loc)}: {name} is {contract.what}, read by this tool "
+                        f"as {describe(contract.dimension)} in {contract.unit}, but FMU "
+                        f"variable {variable.name!r} is in {variable.unit}",
+                campaign.span(loc), hint=f"map {name} to an FMU variable of that dimension"))
+            continue
         if expected is not None and expected != dimension:
             problems.append(error(
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
                         f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
+            continue
+        if contract is not None and contract.dimension != dimension:
+            # the FMU declares no unit: the tool's own reading of the name decides
+            problems.append(error(
+                "C402", f"{format_loc(loc)}: expected {describe(contract.dimension)} ({name} "
+                        f"is {contract.what}, read by this tool in {contract.unit}), got "
+                        f"{describe(dimension)}", campaign.span(loc)))
             continue
         ranged.append((loc, name, variable))
     return problems + _outside_declared_range(campaign, description, ranged)
