@@ -226,7 +226,38 @@ paths:
                 f"has no terrain input ('terrain.file'), so its runs do not see the campaign's "
                 f"{what}") in output, output
     assert output.count("warning: ") >= 2
-    assert "collisions are still evaluated geometrically" in output
+    # the rulebook reads no collision: the warning said they were evaluated all the same
+    assert "collisions are still" not in output and "computed geometrically" not in output
+    assert "the campaign's terrain; the rulebook reads no collision or area signal, so it " \
+        "plays no part in the risks" in output, output
+    assert "the campaign's rocks; the rulebook reads no collision or area signal, so they " \
+        "play no part in the risks" in output, output
+    # and the report says it too
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    notes = report[report.index("<h2>Notes</h2>"):]
+    for what in ("terrain", "rocks"):
+        assert f"environment.{what}: Unicycle.fmu has no terrain input ('terrain.file'), so " \
+            f"its runs do not see the campaign's {what}; the rulebook reads no collision" in notes
+
+
+@pytest.mark.parametrize(("what", "reads_collisions", "says"), [
+    ("terrain", False, "the rulebook reads no collision or area signal, so it plays no part in "
+                       "the risks"),
+    ("rocks", False, "the rulebook reads no collision or area signal, so they play no part in "
+                     "the risks"),
+    ("terrain", True, "the rulebook's collision and area signals are still computed "
+                      "geometrically from the runs' pose, against the campaign's obstacles on "
+                      "this terrain (not on the ground the FMU drove on)"),
+    ("rocks", True, "the rulebook's collision signals are still computed geometrically from the "
+                    "runs' pose against them"),
+])
+def test_the_terrain_an_fmu_does_not_see_is_said_as_the_rulebook_uses_it(
+        what: str, reads_collisions: bool, says: str) -> None:
+    from idefix_rules.campaign.input.fmu_checks import unseen_ground_text
+
+    assert unseen_ground_text(what, "Unicycle.fmu", reads_collisions) == (
+        f"Unicycle.fmu has no terrain input ('terrain.file'), so its runs do not see the "
+        f"campaign's {what}; {says}")
 
 
 def test_the_guide_documents_every_mapping_diagnostic_code() -> None:

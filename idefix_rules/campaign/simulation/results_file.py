@@ -69,7 +69,11 @@ def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
 
 
 def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
-               resume: bool, terrain: tuple[Terrain, TerrainSource] | None) -> ResultStore:
+               resume: bool, terrain: tuple[Terrain, TerrainSource] | None,
+               terrain_seen: bool = True) -> ResultStore:
+    """The results file to simulate into: created (``terrain_seen``: whether the FMU takes the
+    campaign's terrain file, stored for the report's note), or opened again to resume after
+    its settings were compared with the campaign's."""
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
         diskspace.require(results.parent, 0, f"continue {results.name}")
@@ -120,6 +124,7 @@ def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path
         "finished": "",
         "state": "running",
         "output_interval": campaign.model.simulation.output_interval,
+        "terrain_seen": terrain_seen,
     }, {"campaign": campaign.text, "rulebook": rulebook_text})
     try:
         text = store.file["provenance"]["rulebook"]
