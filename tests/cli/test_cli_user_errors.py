@@ -72,6 +72,9 @@ simulation:
 """
 STRAIGHT = '    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}\n'
 
+TURN_RULE = ("command max_turn: require abs(delta_heading) <= 10 deg\n"
+             "  because \"Largest allowed turn per command\"\n")
+
 TOY = object()  # placeholder: the toy FMU of the campaign tests
 FOLDER = object()  # placeholder: an empty folder
 RUN = ("campaign.yaml", "--runs", "2", "--quiet", "--no-report")
@@ -367,6 +370,39 @@ CASES = [
             f"{shown} m: a rock sits from 0 m (on the ground) to under its height 0.1 m deep",))
       for name, embed, shown in (("floating", "-1 m", "-1"), ("buried", "10 cm", "0.1"),
                                  ("far-below", "1 m", "1"))),
+    # expectations the rulebook could never judge: found after simulating everything (✗ n/a,
+    # exit 1); now refused before, at the entry
+    Case("campaign-expects-a-collision-chance-the-rulebook-never-computes",
+         campaign(append='expect:\n  - {path: arc, max_collision_chance: {L2: "10 %"}}\n'),
+         RUN, 2, ("campaign.yaml:23:40: error[C220]: expect[0].max_collision_chance.L2: rulebook "
+                  "cli-test 0.1.0 has no chance of obstacle level L2 (one whose name ends in L2); "
+                  "it reads no collisions: the chance is never computed, so this expectation "
+                  "could never be judged",), absent=("Path evaluation",)),
+    Case("campaign-expects-only-levels-the-rulebook-has-chances-for",
+         with_files(campaign(append='expect:\n  - {path: arc, max_collision_chance: '
+                                    '{L2: "100 %", any: "100 %", L3: "10 %"}}\n'),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", "chance slip_L2 = "
+                                                 "max over time (max over wheels "
+                                                 "(abs(wheel.slip))) > 50 %\n\nverdict "
+                                                 "acceptable_risk")),
+         RUN, 2, ("campaign.yaml:23:67: error[C220]: expect[0].max_collision_chance.L3: rulebook "
+                  "cli-test 0.1.0 has no chance of obstacle level L3",),
+         absent=("max_collision_chance.L2", "max_collision_chance.any")),
+    Case("campaign-expects-the-risk-of-a-path-the-command-rules-reject",
+         with_files(campaign(append='expect:\n  - {path: arc, max_mean_risk: "60 %"}\n'),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", TURN_RULE
+                                                 + "\nverdict acceptable_risk")),
+         RUN, 2, ("campaign.yaml:23:17: error[C220]: expect[0].max_mean_risk: path 'arc' breaks "
+                  "the command rule 'max_turn' of rulebook cli-test 0.1.0: it is rejected and "
+                  "never simulated, so its mean risk could never be judged",),
+         absent=("Path evaluation",)),
+    Case("campaign-expects-the-risk-of-a-path-whose-command-rule-is-waived",
+         with_files(campaign(append='expect:\n  - {path: arc, max_mean_risk: "100 %"}\n'
+                                    "waivers:\n  - {rule: max_turn, path: arc, reason: r, "
+                                    "approved_by: a, until: 2099-01-01, command_rules: true}\n"),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", TURN_RULE
+                                                 + "\nverdict acceptable_risk")),
+         RUN, 0, ("CI expectations: 1 of 1 held (exit 0)",), absent=("C220",)),
     Case("campaign-waiver-until-a-number",
          campaign(append="waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
                          "until: 20990101}\n"), RUN, 2,
