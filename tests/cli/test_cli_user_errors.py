@@ -1123,6 +1123,33 @@ def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
     assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
 
 
+def test_the_resume_command_printed_for_a_folder_with_a_space_pastes_as_one_argument(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`idefix-verify my camp.yaml --resume` ran `my` with the arguments `camp.yaml`."""
+    import shlex
+
+    from idefix_rules.campaign import runner
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    folder = tmp_path / "sp ace"
+    folder.mkdir()
+    files = campaign()
+    files["my camp.yaml"] = files.pop("campaign.yaml")
+    materialise(folder, files, cli_toy_fmu)
+    monkeypatch.chdir(folder)
+    monkeypatch.setattr(runner, "run_campaign", interrupted)
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main(["my camp.yaml", "--out", "out $HOME", "--runs", "2", "--quiet",
+                 "--no-report"]) == 130
+    output = "".join(capsys.readouterr())
+    command = "idefix-verify 'my camp.yaml' --resume --out 'out $HOME' --runs 2"
+    assert f"continue with `{command}`" in output, output
+    assert shlex.split(command)[1:4] == ["my camp.yaml", "--resume", "--out"]
+
+
 def test_ctrl_c_while_the_report_is_written_says_the_answer_and_how_to_write_the_report(
         tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:

@@ -37,6 +37,7 @@ from idefix_rules.limits import (
     MAX_WORKERS,
     check_file_size,
 )
+from idefix_rules.shell import command_line
 
 BUILTIN_FMU = "builtin"
 
@@ -125,8 +126,9 @@ def load_campaign(path: str | Path) -> Campaign:
     if _looks_like_a_rulebook(text):
         raise UserInputError(error(
             "C101", f"{shown} is a rulebook (it starts with 'rulebook \"…\"'), not a campaign",
-            Span(shown, 1, 1), hint=f"check it with `idefix-verify check {shown}`; a campaign "
-                                    "(YAML) names its rulebook with 'rulebook: PATH'"),
+            Span(shown, 1, 1),
+            hint=f"check it with `{command_line('idefix-verify', 'check', shown)}`; a campaign "
+                 "(YAML) names its rulebook with 'rulebook: PATH'"),
             sources={shown: ""})
     document = load_yaml(text, shown)
     if not isinstance(document.data, dict):  # maybe no campaign at all: quote none of it
