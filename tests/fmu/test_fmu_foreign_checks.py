@@ -447,3 +447,36 @@ def test_every_parameter_the_tool_reads_itself_has_its_dimension() -> None:
     )
 
     assert {*GEOMETRY_PARAMETERS, *INITIAL_POSITION, "initial.yaw"} <= set(CONTRACT_PARAMETERS)
+
+
+@pytest.mark.parametrize(("old", "new", "says"), [
+    # lxml named a file of the current folder that does not exist: "Error reading file
+    # '/cwd/modelDescription.xml': Invalid bytes in character encoding"
+    (b'modelName="DiffDrive"', b'modelName="Diff\xe9Drive"',
+     "its modelDescription.xml is not UTF-8 text, as the FMI standard requires: byte 0xe9 on "
+     "line 2"),
+    # fmpy's "int() argument must be a string, a bytes-like object or a real number, not
+    # 'NoneType'"
+    (b'name="pos_y" valueReference="7"', b'name="pos_y"',
+     "its modelDescription.xml, line 19: variable 'pos_y' has no valueReference"),
+    (b'name="pos_y" valueReference="7"', b'name="pos_y" valueReference="seven"',
+     "its modelDescription.xml, line 19: variable 'pos_y' has valueReference 'seven', not a "
+     "whole number"),
+    # the second 'pos_x' silently stood for both: x read the y position
+    (b'name="pos_y" valueReference="7"', b'name="pos_x" valueReference="7"',
+     "its modelDescription.xml, line 19: variable 'pos_x' is declared twice (first on line "
+     "18)"),
+    (b"</ModelVariables>", b"</ModelVariable>",
+     "its modelDescription.xml is not well-formed XML: Opening and ending tag mismatch"),
+])
+def test_a_broken_model_description_is_said_as_such_naming_the_fmu(
+        old: bytes, new: bytes, says: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    fmu = _edited_diff_drive(diff_drive_fmu, tmp_path, old, new)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    code, output = _run(_campaign(folder, fmu, DIFF_DRIVE_CAMPAIGN), capsys)
+    assert code == 2, output
+    assert f"{_location(DIFF_DRIVE_CAMPAIGN, 'DiffDrive.fmu')}: error[C400]: " in output, output
+    assert f"DiffDrive.fmu: not a readable FMU ({says}" in output, output
+    assert "Error reading file" not in output and "NoneType" not in output
