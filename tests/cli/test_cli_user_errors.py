@@ -8,7 +8,9 @@ and checks the exit code and message fragments. Campaign cases fail before any s
 from __future__ import annotations
 
 import importlib
+import io
 import json
+import os
 import warnings
 import zipfile
 from collections.abc import Callable
@@ -93,6 +95,15 @@ def campaign(*replacements: tuple[str, str], append: str = "") -> Files:
 
 def with_files(files: Files, **more: object) -> Files:
     return {**files, **{name.replace("__", "."): value for name, value in more.items()}}
+
+
+def _zip_of(members: dict[str, bytes]) -> bytes:
+    """A zip archive of ``members`` (stored, so random bytes keep their size)."""
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    return buffer.getvalue()
 
 
 def _npy_of_objects() -> bytes:
@@ -413,6 +424,20 @@ CASES = [
                          "until: \"4102444800\"}\n"), RUN, 2,
          ("error[C100]: waivers[0].until: expected a date written YYYY-MM-DD (e.g. 2027-03-31), "
           "got the number '4102444800'",)),
+    # an FMU given where the campaign goes: it was "campaign file rover.fmu is 645 KiB; at most
+    # 256 KiB is accepted", or not UTF-8 text for a smaller one
+    *(Case(f"campaign-is-an-fmu-{size}", {"rover.fmu": fmu}, ("rover.fmu", "--runs", "2"), 2,
+           ("rover.fmu: error[C101]: rover.fmu is an FMU (a zip archive holding a "
+            "modelDescription.xml), not a campaign file (YAML): a campaign names its FMU under "
+            "fmu.path", "hint: give the campaign file that names it, e.g. `fmu: {path: "
+            "rover.fmu}`"), absent=("KiB", "UTF-8"), unchanged=("rover.fmu",))
+      for size, fmu in (("small", TOY), ("large", lambda toy: _zip_of({
+          "modelDescription.xml": b"<fmiModelDescription/>",
+          "binaries/x": os.urandom(300 * 1024)})))),
+    Case("campaign-is-a-zip", {"c.zip": lambda toy: _zip_of({"campaign.yaml": b"name: c"})},
+         ("c.zip", "--runs", "2"), 2,
+         ("c.zip: error[C101]: c.zip is a zip archive, not a campaign file (YAML)",),
+         absent=("fmu.path",)),
     Case("campaign-is-a-rulebook", {"test.rules": RULEBOOK},
          ("test.rules", "--runs", "2", "--quiet", "--no-report"), 2,
          ("test.rules:1:1: error[C101]: test.rules is a rulebook (it starts with 'rulebook "
