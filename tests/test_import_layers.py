@@ -17,7 +17,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("base", ("idefix_rules", "idefix_rules.errors", "idefix_rules.units", "idefix_rules.signals",
               "idefix_rules.chain_end",
               "idefix_rules.limits", "idefix_rules.files", "idefix_rules.plain",
-              "idefix_rules.timestamps", "idefix_rules.commands",
+              "idefix_rules.timestamps", "idefix_rules.commands", "idefix_rules.shell",
               "idefix_rules.diagnostic_codes")),
     ("models", ("idefix_rules.rulebook", "idefix_rules.fmu", "idefix_rules.obstacles")),
     ("stages", ("idefix_rules.campaign", "idefix_rules.results")),

@@ -30,6 +30,7 @@ from idefix_rules.campaign.storage.revision import Revision
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.files import write_atomic
+from idefix_rules.shell import command_line
 
 # What the evaluation stores per complete run, at most (indices and raw values, I_max, time,
 # energy, chances, collision counts and details, the clearance profile), for the free-space
@@ -158,7 +159,7 @@ def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
     revision.commit(f"write the evaluation into {revision.path.name}", then)
     steps.stored = True
     written = f"the evaluation is stored in {results}; free space, then write the outputs " \
-              f"again with `idefix-verify evaluate {results}`"
+              f"again with `{command_line('idefix-verify', 'evaluate', results)}`"
     with diskspace.guard(output, f"write {SUMMARY_FILE}", written):
         outputs.write_summary(output / SUMMARY_FILE, data)
     steps.summary = True

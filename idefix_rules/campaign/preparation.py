@@ -14,6 +14,7 @@ from typing import Any, TypeVar
 from idefix_rules.campaign.input import waivers
 from idefix_rules.campaign.input.campaign_values import rover_geometry
 from idefix_rules.campaign.input.environment import build_terrain, write_terrain
+from idefix_rules.campaign.input.expectation_problems import expectation_problems
 from idefix_rules.campaign.input.fmu_checks import check_fmu, describe_warnings
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.terrain_checks import (
@@ -92,6 +93,8 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     # the campaign's mistakes, every one found before any is said (a check that needs what a
     # failed one would give is skipped: the terrain's checks without a terrain)
     problems: list[Diagnostic] = list(waivers.waiver_problems(campaign, evaluator.rulebook))
+    if planned_runs:  # a worst-case search judges no expectations
+        problems += expectation_problems(campaign, evaluator)
     # the texts each failure quotes from (a DEM's own text is never quoted: it is given empty)
     sources: dict[str, str] = {str(campaign.source): campaign.text}
 

@@ -39,6 +39,7 @@ from idefix_rules.campaign.storage import diskspace
 from idefix_rules.campaign.storage.store import STATUS_COMPLETE, ResultStore
 from idefix_rules.errors import IdefixError, InfrastructureError
 from idefix_rules.results.collisions import ObstacleCheck
+from idefix_rules.shell import command_line
 
 # rescore and the result type beside the campaign's pipeline, for callers that import them here
 __all__ = ["REPORT_BYTES", "REPORT_BYTES_PER_PATH", "CampaignResult", "EvaluationInterrupted",
@@ -130,7 +131,7 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
 
     clock = PathClock(evaluating)
     then = (f"the simulated runs are stored; free space, then evaluate them with `{again}` "
-            f"(or `idefix-verify evaluate {simulation.results}`)")
+            f"(or `{command_line('idefix-verify', 'evaluate', simulation.results)}`)")
     try:
         with evaluation_revision(store, then) as revision:
             evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
@@ -150,10 +151,10 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     if report:
         say("writing the report (per-sample risk maps, figures)")
         try:
+            again_report = command_line("idefix-verify", "report", result.results)
             result.report = write_report(result.results, campaign.output,
                                          "the results and summary.json are written; free space, "
-                                         f"then `idefix-verify report {result.results}`",
-                                         advance)
+                                         f"then `{again_report}`", advance)
         except KeyboardInterrupt as stop:  # the results and summary.json are complete
             raise ReportInterrupted(result) from stop
         except (OSError, IdefixError) as failure:  # a full disk, a folder where a figure goes

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from idefix_rules.cli.destinations import output_file, output_folder
+from idefix_rules.shell import command_line
 
 if TYPE_CHECKING:
     from idefix_rules.campaign.rescore import EvaluationInterrupted
@@ -57,12 +58,12 @@ def run(args: argparse.Namespace) -> int:
 
 def again(args: argparse.Namespace) -> str:
     """This command again: what evaluates the stored results anew."""
-    command = f"idefix-verify evaluate {args.results}"
+    words: list[object] = ["idefix-verify", "evaluate", args.results]
     for flag, value in (("--rulebook", args.rulebook), ("--junit", args.junit),
                         ("--out", args.out)):
         if value is not None:
-            command += f" {flag} {value}"
-    return command
+            words += [flag, value]
+    return command_line(*words)
 
 
 def interrupted_text(stop: EvaluationInterrupted, command: str) -> str:

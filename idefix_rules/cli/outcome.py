@@ -20,6 +20,7 @@ from rich.measure import Measurement
 from rich.table import Table
 
 from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
+from idefix_rules.campaign.evaluation.slip import unmeasured_text
 from idefix_rules.campaign.input.wording import (
     bounds_label,
     confidence_text,
@@ -259,14 +260,20 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                           "runs[/red]")
     if marks:
         console.print(f"[dim]{escape(LEGEND)}[/dim]")
+    # assumed vs simulated slip (campaign/evaluation/slip.py); a disagreement is a warning
+    # instead, a reference run that gives no slip is said as not measured (never as agreeing)
     measured = [c for c in evaluation.slip if c.measured is not None]
-    if measured and not any(c.disagrees for c in measured):
-        # assumed vs simulated slip (campaign/evaluation/slip.py); a disagreement is a warning
-        # instead
-        console.print(f"slip: rulebook assumes theoretical_slip = {100 * measured[0].assumed:.1f}"
-                      " %; reference runs measured " + ", ".join(
-                          f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in measured),
-                      markup=False)
+    agreeing = bool(measured) and not any(c.disagrees for c in measured)
+    unmeasured = unmeasured_text(evaluation.slip)
+    if agreeing or unmeasured:
+        said = [f"slip: rulebook assumes theoretical_slip = "
+                f"{100 * evaluation.slip[0].assumed:.1f} %"]
+        if agreeing:
+            said.append("reference runs measured " + ", ".join(
+                f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in measured))
+        if unmeasured:
+            said.append(unmeasured)
+        console.print("; ".join(said), markup=False)
     for expectation in expectations:
         mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
         console.print(f"{mark} expect {escape(expectation.description)}: "

@@ -17,6 +17,7 @@ from idefix_rules.cli.numbers import (
 )
 from idefix_rules.errors import IdefixError, Span, UserInputError, error
 from idefix_rules.limits import MAX_RUNS, MAX_WORKERS
+from idefix_rules.shell import command_line
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -172,12 +173,12 @@ def run(args: argparse.Namespace) -> int:
 
 def _again(args: argparse.Namespace) -> str:
     """This command with ``--resume``: what continues the campaign."""
-    again = f"idefix-verify {args.campaign} --resume"
+    words: list[object] = ["idefix-verify", args.campaign, "--resume"]
     for flag, value in (("--out", args.out), ("--runs", args.runs), ("--seed", args.seed),
                         ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
         if value is not None:
-            again += f" {flag} {value}"
-    return again
+            words += [flag, value]
+    return command_line(*words)
 
 
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,
@@ -204,7 +205,7 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
         console.print(f"[yellow]interrupted[/yellow] while writing the report: the results "
                       f"and summary.json are complete (exit code {stop.result.exit_code} "
                       f"without the interrupt); write the report with "
-                      f"`idefix-verify report {escape(str(stop.result.results))}`")
+                      f"`{escape(command_line('idefix-verify', 'report', stop.result.results))}`")
         return 130  # as the dispatcher would, without saying "interrupted" twice
     except ReportFailed as stop:
         complete(stop.result)
@@ -217,7 +218,7 @@ def _run_owned(args: argparse.Namespace, campaign: Campaign, options: Simulation
         console.print(f"the results and summary.json are complete (exit code "
                       f"{stop.result.exit_code} without the report's failure); once that is "
                       f"put right, write the report with "
-                      f"`idefix-verify report {escape(str(stop.result.results))}`",
+                      f"`{escape(command_line('idefix-verify', 'report', stop.result.results))}`",
                       markup=False)
         return stop.exit_code
     except KeyboardInterrupt:

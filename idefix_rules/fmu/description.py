@@ -117,7 +117,13 @@ def describe_fmu(path: str | Path, span: Span | None = None) -> FmuDescription:
     """Read an FMU's (or an extracted FMU folder's) model description; F102 when unreadable."""
     from fmpy import read_model_description
 
+    from idefix_rules.fmu.description_text import description_problem
+
     path = Path(path)
+    problem = description_problem(path)
+    if problem is not None:  # fmpy's own words name the wrong file, or none
+        raise UserInputError(error("F102", f"not a readable FMU: {problem}",
+                                   span or Span(str(path))))
     try:
         description = read_model_description(str(path), validate=False)
     except Exception as failure:  # fmpy and zipfile raise plain exceptions for bad archives

@@ -395,22 +395,32 @@ def slip_html(records: Sequence[Mapping[str, object]]) -> str:
         return "n/a" if not isinstance(value, int | float) else f"{100.0 * value:.1f}"
 
     rows = []
+    unmeasured: dict[str, list[str]] = {}  # reason → paths
     for record in records:
         disagrees = bool(record.get("disagrees"))
-        rows.append((escape(str(record.get("path", ""))), percent(record.get("assumed")),
+        path = str(record.get("path", ""))
+        if isinstance(record.get("measured"), int | float):
+            judged = (f"<span class=\"{'fail' if disagrees else 'pass'}\">"
+                      f"{'disagree' if disagrees else 'agree'}</span>")
+        else:  # nothing to compare: neither agreeing nor disagreeing
+            judged = "<span class=\"muted\">not measured</span>"
+            reason = str(record.get("not_measured") or "the results file does not say why")
+            unmeasured.setdefault(reason, []).append(path)
+        rows.append((escape(path), percent(record.get("assumed")),
                      percent(record.get("measured")), percent(record.get("wheel_slip")),
-                     f"<span class=\"{'fail' if disagrees else 'pass'}\">"
-                     f"{'disagree' if disagrees else 'agree'}</span>"))
+                     judged))
     margin = percent(records[0].get("margin"))
     warnings = "".join(f"<div class=\"note\">{escape(str(record['warning']))}</div>"
                        for record in records if record.get("warning"))
+    why_not = "".join(f"<p class=\"muted\">Not measured ({escape(', '.join(paths))}): "
+                      f"{escape(reason)}.</p>" for reason, paths in unmeasured.items())
     return ("<section><h2>Assumed vs simulated slip</h2><p>The theoretical path (local error) "
             "assumes the rulebook's <code>theoretical_slip</code>; <em>measured</em> is each "
             "reference run's effective slip along the path (1 − travelled / commanded), "
             "<em>wheel slip</em> its mean longitudinal wheel slip while driving. They should "
             f"agree within {margin} percentage points.</p>"
             + _table(("Path", "assumed %", "measured %", "wheel slip %", "assumed vs measured"),
-                     rows, numeric={1, 2, 3}, raw=True) + warnings + "</section>")
+                     rows, numeric={1, 2, 3}, raw=True) + why_not + warnings + "</section>")
 
 
 def notes_html(notes: Sequence[str]) -> str:

@@ -147,7 +147,27 @@ def setup_from_store(store: StoredResults) -> Setup:
         _campaign_context(stored, setup)
     if setup.collisions is not None:  # the maps' collision and area risks stand on it
         setup.notes += ground.warnings
+    setup.notes += unseen_ground_notes(store, stored, setup.evaluator)
     return setup
+
+
+def unseen_ground_notes(store: StoredResults, stored: StoredCampaign, evaluator: Any
+                        ) -> list[str]:
+    """The campaign's terrain and rocks an FMU without a terrain input did not see (C510, as
+    the campaign said it before simulating), for the rulebook the report scores with; none for
+    a results file that does not say (written before ``terrain_seen``)."""
+    from pathlib import PurePath
+
+    from idefix_rules.campaign.input.fmu_checks import given_ground, unseen_ground_text
+    from idefix_rules.results.format import attribute_text
+
+    seen = store.attrs.get("terrain_seen")
+    if seen is None or bool(seen) or stored.campaign is None:
+        return []
+    fmu_name = PurePath(attribute_text(store.attrs.get("fmu_path", "the FMU"))).name
+    reads_collisions = bool(getattr(evaluator, "needs_collisions", False))
+    return [f"environment.{what}: {unseen_ground_text(what, fmu_name, reads_collisions)} "
+            "(C510)" for what in given_ground(stored.campaign.model.environment)]
 
 
 def _campaign_context(stored: StoredCampaign, setup: Setup) -> None:

@@ -13,7 +13,9 @@ from idefix_rules.campaign.evaluation.slip import (
     SlipCheck,
     effective_slip,
     mean_wheel_slip,
+    slip_measurement,
     stored_records,
+    unmeasured_text,
 )
 from idefix_rules.commands import Command
 
@@ -85,3 +87,40 @@ def test_the_report_shows_assumed_and_measured_slip_and_the_warnings(tmp_path):
     assert page.count("class=\"note\"") == 1  # only path a disagrees
     assert "a: the reference run slipped 1.0 %" in page
     assert ">19.0<" in page and ">18.0<" in page and ">20.0<" in page
+
+
+@pytest.mark.parametrize(("reference", "chain", "reason"), [
+    ({"x": np.zeros(3), "y": np.zeros(3)}, (Command(0.05, 1.0, 0.0),),
+     "the reference run has no 'command' (the FMU's signal map does not provide it), so which "
+     "command was active at each sample is not known"),
+    ({"command": np.zeros(3)}, (Command(0.05, 1.0, 0.0),),
+     "the reference run has no 'x', 'y' (the FMU's signal map does not provide them)"),
+    (_straight(1.0), (Command(0.05, 0.0, 0.0),), "the chain commands no motion"),
+    ({k: v for k, v in _straight(0.0).items() if k != "yaw"}, (Command(0.05, 0.0, 1.0),),
+     "the chain only turns on the spot and the reference run has no 'yaw'"),
+])
+def test_a_reference_run_that_gives_no_slip_says_why(reference, chain, reason):
+    measured, why = slip_measurement(reference, chain)
+    assert measured is None and why is not None and why.startswith(reason)
+
+
+def test_a_slip_not_measured_neither_agrees_nor_disagrees_and_says_why(tmp_path):
+    """A foreign FMU's map without 'command': the report said "agree" (in green) of a slip
+    nobody measured, the console nothing."""
+    from idefix_rules.report.html import slip_html
+
+    reason = "the reference run has no 'command'"
+    unmeasured = SlipCheck("a", 0.0, None, None, not_measured=reason)
+    record = unmeasured.to_dict()
+    assert record["disagrees"] is False and record["warning"] is None
+    assert record["not_measured"] == reason
+    assert SlipCheck("b", 0.0, 0.01, None).to_dict()["not_measured"] is None
+    assert unmeasured_text([unmeasured, SlipCheck("b", 0.0, 0.01, None)]) == \
+        f"not measured for a: {reason}"
+    assert unmeasured_text([SlipCheck("b", 0.0, 0.01, None)]) is None
+    page = slip_html([record, SlipCheck("b", 0.0, 0.01, None).to_dict()])
+    assert page.count(">agree<") == 1  # b only
+    assert ">not measured<" in page and "the reference run has no &#x27;command&#x27;" in page
+    # a record stored before the reason was: not measured all the same
+    old = {key: value for key, value in record.items() if key != "not_measured"}
+    assert ">agree<" not in slip_html([old]) and ">not measured<" in slip_html([old])

@@ -8,7 +8,9 @@ and checks the exit code and message fragments. Campaign cases fail before any s
 from __future__ import annotations
 
 import importlib
+import io
 import json
+import os
 import warnings
 import zipfile
 from collections.abc import Callable
@@ -72,6 +74,9 @@ simulation:
 """
 STRAIGHT = '    - {max_wheel_rate: "0.1 rad/s", delta_position: "0.1 m", delta_heading: "0 deg"}\n'
 
+TURN_RULE = ("command max_turn: require abs(delta_heading) <= 10 deg\n"
+             "  because \"Largest allowed turn per command\"\n")
+
 TOY = object()  # placeholder: the toy FMU of the campaign tests
 FOLDER = object()  # placeholder: an empty folder
 RUN = ("campaign.yaml", "--runs", "2", "--quiet", "--no-report")
@@ -90,6 +95,15 @@ def campaign(*replacements: tuple[str, str], append: str = "") -> Files:
 
 def with_files(files: Files, **more: object) -> Files:
     return {**files, **{name.replace("__", "."): value for name, value in more.items()}}
+
+
+def _zip_of(members: dict[str, bytes]) -> bytes:
+    """A zip archive of ``members`` (stored, so random bytes keep their size)."""
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    return buffer.getvalue()
 
 
 def _npy_of_objects() -> bytes:
@@ -367,6 +381,39 @@ CASES = [
             f"{shown} m: a rock sits from 0 m (on the ground) to under its height 0.1 m deep",))
       for name, embed, shown in (("floating", "-1 m", "-1"), ("buried", "10 cm", "0.1"),
                                  ("far-below", "1 m", "1"))),
+    # expectations the rulebook could never judge: found after simulating everything (✗ n/a,
+    # exit 1); now refused before, at the entry
+    Case("campaign-expects-a-collision-chance-the-rulebook-never-computes",
+         campaign(append='expect:\n  - {path: arc, max_collision_chance: {L2: "10 %"}}\n'),
+         RUN, 2, ("campaign.yaml:23:40: error[C220]: expect[0].max_collision_chance.L2: rulebook "
+                  "cli-test 0.1.0 has no chance of obstacle level L2 (one whose name ends in L2); "
+                  "it reads no collisions: the chance is never computed, so this expectation "
+                  "could never be judged",), absent=("Path evaluation",)),
+    Case("campaign-expects-only-levels-the-rulebook-has-chances-for",
+         with_files(campaign(append='expect:\n  - {path: arc, max_collision_chance: '
+                                    '{L2: "100 %", any: "100 %", L3: "10 %"}}\n'),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", "chance slip_L2 = "
+                                                 "max over time (max over wheels "
+                                                 "(abs(wheel.slip))) > 50 %\n\nverdict "
+                                                 "acceptable_risk")),
+         RUN, 2, ("campaign.yaml:23:67: error[C220]: expect[0].max_collision_chance.L3: rulebook "
+                  "cli-test 0.1.0 has no chance of obstacle level L3",),
+         absent=("max_collision_chance.L2", "max_collision_chance.any")),
+    Case("campaign-expects-the-risk-of-a-path-the-command-rules-reject",
+         with_files(campaign(append='expect:\n  - {path: arc, max_mean_risk: "60 %"}\n'),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", TURN_RULE
+                                                 + "\nverdict acceptable_risk")),
+         RUN, 2, ("campaign.yaml:23:17: error[C220]: expect[0].max_mean_risk: path 'arc' breaks "
+                  "the command rule 'max_turn' of rulebook cli-test 0.1.0: it is rejected and "
+                  "never simulated, so its mean risk could never be judged",),
+         absent=("Path evaluation",)),
+    Case("campaign-expects-the-risk-of-a-path-whose-command-rule-is-waived",
+         with_files(campaign(append='expect:\n  - {path: arc, max_mean_risk: "100 %"}\n'
+                                    "waivers:\n  - {rule: max_turn, path: arc, reason: r, "
+                                    "approved_by: a, until: 2099-01-01, command_rules: true}\n"),
+                    test__rules=RULEBOOK.replace("verdict acceptable_risk", TURN_RULE
+                                                 + "\nverdict acceptable_risk")),
+         RUN, 0, ("CI expectations: 1 of 1 held (exit 0)",), absent=("C220",)),
     Case("campaign-waiver-until-a-number",
          campaign(append="waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
                          "until: 20990101}\n"), RUN, 2,
@@ -377,6 +424,20 @@ CASES = [
                          "until: \"4102444800\"}\n"), RUN, 2,
          ("error[C100]: waivers[0].until: expected a date written YYYY-MM-DD (e.g. 2027-03-31), "
           "got the number '4102444800'",)),
+    # an FMU given where the campaign goes: it was "campaign file rover.fmu is 645 KiB; at most
+    # 256 KiB is accepted", or not UTF-8 text for a smaller one
+    *(Case(f"campaign-is-an-fmu-{size}", {"rover.fmu": fmu}, ("rover.fmu", "--runs", "2"), 2,
+           ("rover.fmu: error[C101]: rover.fmu is an FMU (a zip archive holding a "
+            "modelDescription.xml), not a campaign file (YAML): a campaign names its FMU under "
+            "fmu.path", "hint: give the campaign file that names it, e.g. `fmu: {path: "
+            "rover.fmu}`"), absent=("KiB", "UTF-8"), unchanged=("rover.fmu",))
+      for size, fmu in (("small", TOY), ("large", lambda toy: _zip_of({
+          "modelDescription.xml": b"<fmiModelDescription/>",
+          "binaries/x": os.urandom(300 * 1024)})))),
+    Case("campaign-is-a-zip", {"c.zip": lambda toy: _zip_of({"campaign.yaml": b"name: c"})},
+         ("c.zip", "--runs", "2"), 2,
+         ("c.zip: error[C101]: c.zip is a zip archive, not a campaign file (YAML)",),
+         absent=("fmu.path",)),
     Case("campaign-is-a-rulebook", {"test.rules": RULEBOOK},
          ("test.rules", "--runs", "2", "--quiet", "--no-report"), 2,
          ("test.rules:1:1: error[C101]: test.rules is a rulebook (it starts with 'rulebook "
@@ -1085,6 +1146,33 @@ def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
     output = "".join(capsys.readouterr())
     assert output.count("interrupted") == 1 and "Traceback" not in output
     assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
+
+
+def test_the_resume_command_printed_for_a_folder_with_a_space_pastes_as_one_argument(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`idefix-verify my camp.yaml --resume` ran `my` with the arguments `camp.yaml`."""
+    import shlex
+
+    from idefix_rules.campaign import runner
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    folder = tmp_path / "sp ace"
+    folder.mkdir()
+    files = campaign()
+    files["my camp.yaml"] = files.pop("campaign.yaml")
+    materialise(folder, files, cli_toy_fmu)
+    monkeypatch.chdir(folder)
+    monkeypatch.setattr(runner, "run_campaign", interrupted)
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main(["my camp.yaml", "--out", "out $HOME", "--runs", "2", "--quiet",
+                 "--no-report"]) == 130
+    output = "".join(capsys.readouterr())
+    command = "idefix-verify 'my camp.yaml' --resume --out 'out $HOME' --runs 2"
+    assert f"continue with `{command}`" in output, output
+    assert shlex.split(command)[1:4] == ["my camp.yaml", "--resume", "--out"]
 
 
 def test_ctrl_c_while_the_report_is_written_says_the_answer_and_how_to_write_the_report(

@@ -90,6 +90,13 @@ def test_a_position_only_fmu_runs_a_campaign_scored_on_position_with_a_report(
     assert "risk_map_short.png" in report
     for missing in ("'yaw'", "'energy'", "'command'"):
         assert f"the runs hold no {missing}" in report.replace("&#x27;", "'"), missing
+    # without 'command' the reference runs' slip cannot be measured: said so, never "agree"
+    assert "slip: rulebook assumes theoretical_slip = 0.0 %; not measured for short, long: " \
+        "the reference run has no 'command'" in output, output
+    for record in summary["slip"]["paths"]:
+        assert record["measured"] is None and record["disagrees"] is False
+        assert record["not_measured"].startswith("the reference run has no 'command'")
+    assert report.count(">not measured<") == 2 and ">agree<" not in report
 
 
 def test_without_command_a_mapped_phase_gives_the_run_time(

@@ -93,6 +93,21 @@ MISTAKES = [
               "\n    slip: {"),),
             (('{distribution: uniform, low: "10 deg"', "C402",
               "uncertainty.parameters.track: expected a length (FMU unit m), got an angle"),)),
+    # the tool reads initial.x as metres whatever the FMU declares: an FMU without units
+    # took "5 s" as 5 m
+    Mistake("a-start-position-of-another-dimension", "unicycle",
+            (('initial.x: {distribution: normal, mean: "0 m", std: "1 mm"}',
+              'initial.x: {distribution: normal, mean: "0 s", std: "5 s"}'),),
+            (('{distribution: normal, mean: "0 s"', "C402",
+              "uncertainty.parameters.initial.x: expected a length (initial.x is the rover's "
+              "start position, read by this tool in m), got a duration"),)),
+    Mistake("a-start-heading-mapped-to-a-length", "diff_drive",
+            (("  chain:\n", "  parameters:\n    radius: initial.yaw\n  chain:\n"),
+             ("    slip: {", '    initial.yaw: {distribution: fixed, value: "0 deg"}\n'
+              "    slip: {")),
+            (('{distribution: fixed, value: "0 deg"}', "C402",
+              "uncertainty.parameters.initial.yaw: initial.yaw is the rover's start heading, "
+              "read by this tool as an angle in rad, but FMU variable 'radius' is in m"),)),
     Mistake("collisions-without-a-pose", "unicycle", (), (
         ("signals:", "C512", "the rulebook reads collisions, which place the rover's bodies by "
          "its pose, but the map does not provide 'pitch', 'roll', 'yaw', 'z'"),),
@@ -108,6 +123,12 @@ MISTAKES = [
     Mistake("misspelled-parameter-map", "unicycle", (("    x0: initial.x", "    x00: initial.x"),),
             (("x00:", "C401", "fmu.parameters.x00: unknown FMU variable 'x00' in Unicycle.fmu "
               "hint: did you mean 'x0'?"),)),
+    # two FMU variables for one campaign name: y0 silently kept its start value
+    Mistake("two-variables-mapped-to-one-name", "unicycle",
+            (("    x0: initial.x\n", "    x0: initial.x\n    y0: initial.x\n"),),
+            (("y0: initial.x", "C516", "fmu.parameters.y0: 'initial.x' is mapped from both "
+              "'x0' and 'y0'; a campaign name sets one FMU variable hint: map each FMU variable "
+              "to a name of its own"),)),
     Mistake("chain-as-parameters-to-an-fmu-without-them", "unicycle",
             (("    delivery: inputs\n    inputs:\n      v: body.speed\n      w: body.yaw_rate\n",
               "    delivery: parameters\n"),),
@@ -205,7 +226,38 @@ paths:
                 f"has no terrain input ('terrain.file'), so its runs do not see the campaign's "
                 f"{what}") in output, output
     assert output.count("warning: ") >= 2
-    assert "collisions are still evaluated geometrically" in output
+    # the rulebook reads no collision: the warning said they were evaluated all the same
+    assert "collisions are still" not in output and "computed geometrically" not in output
+    assert "the campaign's terrain; the rulebook reads no collision or area signal, so it " \
+        "plays no part in the risks" in output, output
+    assert "the campaign's rocks; the rulebook reads no collision or area signal, so they " \
+        "play no part in the risks" in output, output
+    # and the report says it too
+    report = (tmp_path / "out" / "report.html").read_text().replace("&#x27;", "'")
+    notes = report[report.index("<h2>Notes</h2>"):]
+    for what in ("terrain", "rocks"):
+        assert f"environment.{what}: Unicycle.fmu has no terrain input ('terrain.file'), so " \
+            f"its runs do not see the campaign's {what}; the rulebook reads no collision" in notes
+
+
+@pytest.mark.parametrize(("what", "reads_collisions", "says"), [
+    ("terrain", False, "the rulebook reads no collision or area signal, so it plays no part in "
+                       "the risks"),
+    ("rocks", False, "the rulebook reads no collision or area signal, so they play no part in "
+                     "the risks"),
+    ("terrain", True, "the rulebook's collision and area signals are still computed "
+                      "geometrically from the runs' pose, against the campaign's obstacles on "
+                      "this terrain (not on the ground the FMU drove on)"),
+    ("rocks", True, "the rulebook's collision signals are still computed geometrically from the "
+                    "runs' pose against them"),
+])
+def test_the_terrain_an_fmu_does_not_see_is_said_as_the_rulebook_uses_it(
+        what: str, reads_collisions: bool, says: str) -> None:
+    from idefix_rules.campaign.input.fmu_checks import unseen_ground_text
+
+    assert unseen_ground_text(what, "Unicycle.fmu", reads_collisions) == (
+        f"Unicycle.fmu has no terrain input ('terrain.file'), so its runs do not see the "
+        f"campaign's {what}; {says}")
 
 
 def test_the_guide_documents_every_mapping_diagnostic_code() -> None:
@@ -383,3 +435,48 @@ def test_a_draw_outside_the_range_an_fmu_declares_is_F110_before_any_run(
     assert f"{_location(text, given)}: error[F110]: uncertainty.parameters.slip: " in flat, output
     assert says in flat, output
     assert not (tmp_path / "c" / "out" / "results.h5").exists()
+
+
+def test_every_parameter_the_tool_reads_itself_has_its_dimension() -> None:
+    """The start position and the kinematic geometry are read by the tool in SI, whatever the
+    FMU declares: each has the dimension its value is checked against (C402)."""
+    from idefix_rules.campaign.input.campaign_values import (
+        CONTRACT_PARAMETERS,
+        GEOMETRY_PARAMETERS,
+        INITIAL_POSITION,
+    )
+
+    assert {*GEOMETRY_PARAMETERS, *INITIAL_POSITION, "initial.yaw"} <= set(CONTRACT_PARAMETERS)
+
+
+@pytest.mark.parametrize(("old", "new", "says"), [
+    # lxml named a file of the current folder that does not exist: "Error reading file
+    # '/cwd/modelDescription.xml': Invalid bytes in character encoding"
+    (b'modelName="DiffDrive"', b'modelName="Diff\xe9Drive"',
+     "its modelDescription.xml is not UTF-8 text, as the FMI standard requires: byte 0xe9 on "
+     "line 2"),
+    # fmpy's "int() argument must be a string, a bytes-like object or a real number, not
+    # 'NoneType'"
+    (b'name="pos_y" valueReference="7"', b'name="pos_y"',
+     "its modelDescription.xml, line 19: variable 'pos_y' has no valueReference"),
+    (b'name="pos_y" valueReference="7"', b'name="pos_y" valueReference="seven"',
+     "its modelDescription.xml, line 19: variable 'pos_y' has valueReference 'seven', not a "
+     "whole number"),
+    # the second 'pos_x' silently stood for both: x read the y position
+    (b'name="pos_y" valueReference="7"', b'name="pos_x" valueReference="7"',
+     "its modelDescription.xml, line 19: variable 'pos_x' is declared twice (first on line "
+     "18)"),
+    (b"</ModelVariables>", b"</ModelVariable>",
+     "its modelDescription.xml is not well-formed XML: Opening and ending tag mismatch"),
+])
+def test_a_broken_model_description_is_said_as_such_naming_the_fmu(
+        old: bytes, new: bytes, says: str, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    fmu = _edited_diff_drive(diff_drive_fmu, tmp_path, old, new)
+    folder = tmp_path / "c"
+    folder.mkdir()
+    code, output = _run(_campaign(folder, fmu, DIFF_DRIVE_CAMPAIGN), capsys)
+    assert code == 2, output
+    assert f"{_location(DIFF_DRIVE_CAMPAIGN, 'DiffDrive.fmu')}: error[C400]: " in output, output
+    assert f"DiffDrive.fmu: not a readable FMU ({says}" in output, output
+    assert "Error reading file" not in output and "NoneType" not in output

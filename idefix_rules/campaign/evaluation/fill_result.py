@@ -9,10 +9,10 @@ import numpy as np
 
 from idefix_rules.campaign.evaluation.path_result import PathResult
 from idefix_rules.campaign.evaluation.spread import risk_spread
+from idefix_rules.campaign.input.expectations import chance_level
 from idefix_rules.campaign.input.wording import runs_needed_text
 from idefix_rules.campaign.statistics.budget import AlphaBudget
 from idefix_rules.campaign.statistics.runs_needed import runs_needed
-from idefix_rules.signals import AXIS_LABELS
 
 
 def fill_runs_needed(result: PathResult, evaluation: Any, verdict: Any, budget: AlphaBudget,
@@ -94,9 +94,9 @@ def collision_chances(chances: Mapping[str, float]) -> dict[str, float]:
     """
     found = {}
     for name, value in chances.items():
-        for level in AXIS_LABELS["level"]:
-            if name.endswith(level) or name.endswith(level.lower()):
-                found[level] = value
+        level = chance_level(name)
+        if level is not None:
+            found[level] = value
     return found
 
 

@@ -14,7 +14,9 @@ theoretical path uses it:
   wheels over the samples where a command is active.
 
 When ``|measured - assumed| > SLIP_MARGIN`` the campaign warns (console, ``summary.json`` under
-``slip``, the HTML report) and names the setting to change.
+``slip``, the HTML report) and names the setting to change. A reference run that cannot be
+measured (a foreign FMU's map without ``command``, a chain that commands no motion) is *not
+measured*, with the reason (``not_measured``): neither agreeing nor disagreeing.
 
 >>> import numpy as np
 >>> from idefix_rules.commands import Command
@@ -50,6 +52,7 @@ class SlipCheck:
     wheel_slip: float | None
     margin: float = SLIP_MARGIN
     rulebook: str = "the rulebook"
+    not_measured: str | None = None  # why ``measured`` is None (None when measured)
 
     @property
     def disagrees(self) -> bool:
@@ -70,7 +73,15 @@ class SlipCheck:
     def to_dict(self) -> dict[str, Any]:
         return {"path": self.path, "assumed": self.assumed, "measured": _finite(self.measured),
                 "wheel_slip": _finite(self.wheel_slip), "margin": self.margin,
-                "setting": SETTING, "disagrees": self.disagrees, "warning": self.warning}
+                "setting": SETTING, "disagrees": self.disagrees, "warning": self.warning,
+                "not_measured": self.unmeasured_reason}
+
+    @property
+    def unmeasured_reason(self) -> str | None:
+        """Why nothing was measured (None when something was)."""
+        if self.measured is not None and math.isfinite(self.measured):
+            return None
+        return self.not_measured or "the reference run gives no effective slip"
 
 
 def slip_warning(checks: Sequence[SlipCheck]) -> str | None:
@@ -103,6 +114,26 @@ def slip_warning(checks: Sequence[SlipCheck]) -> str | None:
             "reference run is representative")
 
 
+def unmeasured_text(checks: Sequence[SlipCheck]) -> str | None:
+    """``not measured for PATHS: REASON`` for the paths whose reference run gave no slip, one
+    group per reason; None when every path was measured.
+
+    >>> print(unmeasured_text([SlipCheck("a", 0.0, None, None, not_measured="no 'command'"),
+    ...                        SlipCheck("b", 0.0, None, None, not_measured="no 'command'"),
+    ...                        SlipCheck("c", 0.0, 0.01, None)]))
+    not measured for a, b: no 'command'
+    """
+    reasons: dict[str, list[str]] = {}
+    for check in checks:
+        reason = check.unmeasured_reason
+        if reason is not None:
+            reasons.setdefault(reason, []).append(check.path)
+    if not reasons:
+        return None
+    return "not measured for " + "; for ".join(f"{', '.join(paths)}: {reason}"
+                                               for reason, paths in reasons.items())
+
+
 def _finite(value: float | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
@@ -110,9 +141,32 @@ def _finite(value: float | None) -> float | None:
 def effective_slip(reference: Mapping[str, np.ndarray], chain: Sequence[Command]
                    ) -> float | None:
     """``1 - travelled / commanded`` of a reference run (see the module docstring); None
-    when the run lacks the signals or the chain commands no motion."""
-    if not all(name in reference for name in ("x", "y", "command")):
-        return None
+    when the run lacks the signals or the chain commands no motion
+    (:func:`slip_measurement` says which)."""
+    return slip_measurement(reference, chain)[0]
+
+
+def slip_measurement(reference: Mapping[str, np.ndarray], chain: Sequence[Command]
+                     ) -> tuple[float | None, str | None]:
+    """The effective slip of a reference run and, when there is none, why.
+
+    Without ``command`` the samples cannot be told apart by command: the run's own timing
+    (an FMU's controller, a rover that slips) need not be the chain's ideal one.
+
+    >>> value, why = slip_measurement({"x": np.zeros(3), "y": np.zeros(3)},
+    ...                               (Command(0.05, 1.0, 0.0),))
+    >>> print(value, why)  # doctest: +NORMALIZE_WHITESPACE
+    None the reference run has no 'command' (the FMU's signal map does not provide it), so which
+    command was active at each sample is not known
+    """
+    missing = [name for name in ("x", "y", "command") if name not in reference]
+    if missing:
+        listed = ", ".join(f"'{name}'" for name in missing)
+        why = "it" if len(missing) == 1 else "them"
+        said = ", so which command was active at each sample is not known" \
+            if "command" in missing else ""
+        return None, (f"the reference run has no {listed} (the FMU's signal map does not provide "
+                      f"{why}){said}")
     command = np.rint(np.asarray(reference["command"], dtype=float)).astype(int)
     x, y = np.asarray(reference["x"], dtype=float), np.asarray(reference["y"], dtype=float)
     step = np.hypot(np.diff(x), np.diff(y))  # step i → i+1 belongs to command[i]
@@ -122,13 +176,18 @@ def effective_slip(reference: Mapping[str, np.ndarray], chain: Sequence[Command]
         travelled = float(step[np.isin(command[:-1], translating)].sum())
     else:
         turning = [k for k, c in enumerate(chain) if c.delta_heading != 0.0]
-        if not turning or "yaw" not in reference:
-            return None
+        if not turning:
+            return None, "the chain commands no motion"
+        if "yaw" not in reference:
+            return None, ("the chain only turns on the spot and the reference run has no 'yaw' "
+                          "(the FMU's signal map does not provide it)")
         commanded = sum(abs(chain[k].delta_heading) for k in turning)
         turned = np.abs(np.diff(np.asarray(reference["yaw"], dtype=float)))
         travelled = float(turned[np.isin(command[:-1], turning)].sum())
     value = 1.0 - travelled / commanded
-    return value if math.isfinite(value) else None
+    if not math.isfinite(value):
+        return None, "the reference run's pose is not finite"
+    return value, None
 
 
 def mean_wheel_slip(reference: Mapping[str, np.ndarray]) -> float | None:
@@ -151,8 +210,9 @@ def slip_checks(store: Any, assumed: float, rulebook: str = "the rulebook"
             continue
         group = store.path_group(name)
         chain = tuple(Command(*map(float, row)) for row in group["chain"][()])
-        checks.append(SlipCheck(name, assumed, effective_slip(reference, chain),
-                                mean_wheel_slip(reference), rulebook=rulebook))
+        measured, why = slip_measurement(reference, chain)
+        checks.append(SlipCheck(name, assumed, measured, mean_wheel_slip(reference),
+                                rulebook=rulebook, not_measured=why))
     return checks
 
 

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
+from idefix_rules.units import ANGLE, ANGULAR_RATE, LENGTH, TIME, Dimension
 
 # Campaign regolith keys are the FMU's soil parameters without their prefix.
 REGOLITH_PREFIX = "soil."
@@ -14,6 +16,31 @@ GEOMETRY_PARAMETERS = {"rover.wheel_radius": "wheel_radius", "rover.half_track":
                        "rover.half_wheelbase": "half_wheelbase",
                        "controller.wheel_acceleration": "wheel_acceleration"}
 INITIAL_POSITION = ("initial.x", "initial.y")
+
+
+@dataclass(frozen=True)
+class ContractParameter:
+    """A campaign parameter the tool reads itself, whatever FMU it is mapped to: its dimension,
+    the SI unit its value is read in, and what it is."""
+
+    dimension: Dimension
+    unit: str
+    what: str
+
+
+# The start pose (terrain checks, the tolerance radius, the report's units) and the kinematic
+# geometry (the chain's ideal durations, its set-points, the stop time): a value of another
+# dimension would be read as these SI units (5 s as 5 m) even where the FMU declares no unit.
+CONTRACT_PARAMETERS: dict[str, ContractParameter] = {
+    "initial.x": ContractParameter(LENGTH, "m", "the rover's start position"),
+    "initial.y": ContractParameter(LENGTH, "m", "the rover's start position"),
+    "initial.yaw": ContractParameter(ANGLE, "rad", "the rover's start heading"),
+    "rover.wheel_radius": ContractParameter(LENGTH, "m", "the rover's geometry"),
+    "rover.half_track": ContractParameter(LENGTH, "m", "the rover's geometry"),
+    "rover.half_wheelbase": ContractParameter(LENGTH, "m", "the rover's geometry"),
+    "controller.wheel_acceleration": ContractParameter(ANGULAR_RATE / TIME, "rad/s^2",
+                                                       "the controller's wheel ramp"),
+}
 
 
 def stop_limit(campaign: Campaign, chain: Sequence[Command], rover: RoverGeometry

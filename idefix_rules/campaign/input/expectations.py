@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, Discriminator, Tag, ValidationInfo
 from pydantic_core import PydanticCustomError
 
 from idefix_rules.campaign.input.field_types import Ratio, Strict, new_run
+from idefix_rules.signals import AXIS_LABELS
 
 
 class PathVerdictExpectation(Strict):
@@ -40,6 +42,38 @@ class MeanRiskExpectation(Strict):
 class CollisionExpectation(Strict):
     path: str
     max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Fraction]
+
+
+# Chances of a hit of any level, by their names (without one, the levels' chances bound it).
+ANY_HIT_CHANCES = ("any", "collision", "hit", "collision.any", "hit_any")
+
+
+def chance_level(name: str) -> str | None:
+    """The obstacle level a rulebook chance counts, by the end of its name: ``hit_L2``,
+    ``collision.L2``, ``collision_l2`` all count as L2 (the L2 column, the L2 expectation).
+
+    >>> chance_level("hit_L2"), chance_level("collision_l3"), chance_level("hit_any")
+    ('L2', 'L3', None)
+    """
+    found = None
+    for level in AXIS_LABELS["level"]:
+        if name.endswith(level) or name.endswith(level.lower()):
+            found = level
+    return found
+
+
+def judged_levels(chance_names: Iterable[str]) -> set[str]:
+    """The levels of ``max_collision_chance`` a rulebook with these chances can judge: each
+    level it has a chance for, and ``any`` with a chance of any hit or of some level.
+
+    >>> sorted(judged_levels(["hit_L3", "tilted"])), judged_levels(["tilted"])
+    (['L3', 'any'], set())
+    """
+    names = list(chance_names)
+    levels = {level for level in map(chance_level, names) if level is not None}
+    if levels or any(name in ANY_HIT_CHANCES for name in names):
+        levels.add("any")
+    return levels
 
 
 # An expectation's kind is the key that names it (and tags it in pydantic's union).

@@ -70,7 +70,8 @@ def check_fmu(campaign: Campaign, fmu_path: Path, evaluator: Any) -> FmuCheck:
     problems += need_problems(campaign, evaluator, check)
     problems += chain_problems(campaign, description)
     problems += area_problems(campaign, evaluator)
-    problems += terrain_warnings(campaign, check) + run_warnings(campaign, evaluator, check)
+    problems += terrain_warnings(campaign, check, evaluator)
+    problems += run_warnings(campaign, evaluator, check)
     check.warnings = [p for p in problems if p.severity is Severity.WARNING]
     errors = [p for p in problems if p.severity is Severity.ERROR]
     if errors:
@@ -189,21 +190,49 @@ def _terrain_variable(campaign: Campaign, description: FmuDescription) -> FmuVar
         and variable.settable else None
 
 
-def terrain_warnings(campaign: Campaign, check: FmuCheck) -> list[Diagnostic]:
+def given_ground(environment: Any) -> list[str]:
+    """What of the ground a campaign's environment gives: ``terrain`` (a DEM or a synthetic
+    terrain), ``rocks``."""
+    return [what for what, given in (
+        ("terrain", environment.terrain.dem or environment.terrain.synthetic),
+        ("rocks", environment.rocks)) if given]
+
+
+def unseen_ground_text(what: str, fmu_name: str, reads_collisions: bool) -> str:
+    """What C510 says of the campaign's ``what`` (``terrain`` or ``rocks``) that an FMU without
+    a terrain input does not see, for a rulebook that reads collisions (or areas) or not: the
+    report's note says the same.
+
+    >>> print(unseen_ground_text("rocks", "rover.fmu", False))  # doctest: +NORMALIZE_WHITESPACE
+    rover.fmu has no terrain input ('terrain.file'), so its runs do not see the campaign's rocks;
+    the rulebook reads no collision or area signal, so they play no part in the risks
+    """
+    said = (f"{fmu_name} has no terrain input ('{TERRAIN_FILE}'), so its runs do not see the "
+            f"campaign's {what}")
+    if not reads_collisions:
+        they = "it plays" if what == "terrain" else "they play"
+        return f"{said}; the rulebook reads no collision or area signal, so {they} no part in " \
+            "the risks"
+    if what == "terrain":
+        return (f"{said}; the rulebook's collision and area signals are still computed "
+                "geometrically from the runs' pose, against the campaign's obstacles on this "
+                "terrain (not on the ground the FMU drove on)")
+    return (f"{said}; the rulebook's collision signals are still computed geometrically from "
+            "the runs' pose against them")
+
+
+def terrain_warnings(campaign: Campaign, check: FmuCheck, evaluator: Any) -> list[Diagnostic]:
     """Terrain or rocks the FMU has no terrain input for: it drives on its own ground."""
     if check.terrain_input:
         return []
-    environment = campaign.model.environment
-    given = [("terrain",) if environment.terrain.dem or environment.terrain.synthetic else None,
-             ("rocks",) if environment.rocks else None]
+    reads_collisions = bool(getattr(evaluator, "needs_collisions", False))
     return [warning(
-        "C510", f"environment.{loc[0]}: {check.description.path.name} has no terrain input "
-                f"('{TERRAIN_FILE}'), so its runs do not see the campaign's {loc[0]}; "
-                "collisions are still evaluated geometrically against the campaign's rocks",
-        loc_span(campaign, ("environment", *loc)),
+        "C510", f"environment.{what}: "
+                f"{unseen_ground_text(what, check.description.path.name, reads_collisions)}",
+        loc_span(campaign, ("environment", what)),
         hint="give the FMU a String parameter for docs/terrain-format.md files and map it: "
              "fmu.parameters: {its.name: terrain.file}")
-        for loc in given if loc is not None]
+        for what in given_ground(campaign.model.environment)]
 
 
 def run_warnings(campaign: Campaign, evaluator: Any, check: FmuCheck) -> list[Diagnostic]:

@@ -61,5 +61,6 @@ def unit_problem(campaign: Campaign, loc: Loc, variable: FmuVariable, name: str,
 
 
 def fmu_names(campaign: Campaign) -> dict[str, str]:
-    """Our parameter name → the FMU variable it is mapped to (``fmu.parameters`` reversed)."""
+    """Our parameter name → the FMU variable it is mapped to (``fmu.parameters`` reversed: a
+    name mapped from two variables is refused, C516)."""
     return {ours: theirs for theirs, ours in (campaign.model.fmu.parameters or {}).items()}

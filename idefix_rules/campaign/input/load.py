@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -37,6 +38,7 @@ from idefix_rules.limits import (
     MAX_WORKERS,
     check_file_size,
 )
+from idefix_rules.shell import command_line
 
 BUILTIN_FMU = "builtin"
 
@@ -116,17 +118,42 @@ def _looks_like_a_rulebook(text: str) -> bool:
     return False
 
 
+def _zip_archive(source: Path) -> str | None:
+    """What a campaign path that is a zip archive is (``an FMU`` when it holds a
+    ``modelDescription.xml``); None for any other file, or one that cannot be read (said by
+    the checks that read it)."""
+    try:
+        with source.open("rb") as file:
+            if file.read(4) not in (b"PK\x03\x04", b"PK\x05\x06"):
+                return None
+        with zipfile.ZipFile(source) as archive:
+            fmu = "modelDescription.xml" in archive.namelist()
+    except (OSError, zipfile.BadZipFile, EOFError, ValueError):
+        return None
+    return "an FMU (a zip archive holding a modelDescription.xml)" if fmu else "a zip archive"
+
+
 def load_campaign(path: str | Path) -> Campaign:
     """Read, validate and resolve a campaign file; :class:`UserInputError` on any mistake."""
     source = Path(path)
     shown = str(path)
+    archive = _zip_archive(source)
+    if archive is not None:  # before its size, which says nothing of what it is
+        fmu = archive.startswith("an FMU")
+        raise UserInputError(error(
+            "C101", f"{shown} is {archive}, not a campaign file (YAML)" + (
+                ": a campaign names its FMU under fmu.path" if fmu else ""),
+            Span(shown), hint=None if not fmu else (
+                "give the campaign file that names it, e.g. `fmu: {path: " + source.name
+                + "}` (docs/bring-your-own-fmu.md)")), sources={shown: ""})
     check_file_size(source, MAX_CAMPAIGN_BYTES, CAMPAIGN_TOO_LARGE, "campaign file")
     text = read_user_text(source, "C010", "campaign file")
     if _looks_like_a_rulebook(text):
         raise UserInputError(error(
             "C101", f"{shown} is a rulebook (it starts with 'rulebook \"…\"'), not a campaign",
-            Span(shown, 1, 1), hint=f"check it with `idefix-verify check {shown}`; a campaign "
-                                    "(YAML) names its rulebook with 'rulebook: PATH'"),
+            Span(shown, 1, 1),
+            hint=f"check it with `{command_line('idefix-verify', 'check', shown)}`; a campaign "
+                 "(YAML) names its rulebook with 'rulebook: PATH'"),
             sources={shown: ""})
     document = load_yaml(text, shown)
     if not isinstance(document.data, dict):  # maybe no campaign at all: quote none of it

@@ -9,7 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from idefix_rules.campaign.input.campaign_values import REGOLITH_PREFIX, regolith_parameter
+from idefix_rules.campaign.input.campaign_values import (
+    CONTRACT_PARAMETERS,
+    REGOLITH_PREFIX,
+    regolith_parameter,
+)
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.sampling import planned_draws
 from idefix_rules.campaign.input.yamlsource import format_loc
@@ -28,8 +32,17 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     problems: list[Diagnostic] = []
     parameter_names = {name: name for name, variable in variables.items() if variable.settable}
     if fmu.parameters is not None:
+        mapped_from: dict[str, str] = {}  # our name → the first FMU variable mapped to it
         for fmu_name, our_name in fmu.parameters.items():
             map_loc = ("fmu", "parameters", fmu_name)
+            if our_name in mapped_from:  # one value, two variables: one would get nothing
+                problems.append(error(
+                    "C516", f"{format_loc(map_loc)}: {our_name!r} is mapped from both "
+                            f"{mapped_from[our_name]!r} and {fmu_name!r}; a campaign name sets "
+                            "one FMU variable", campaign.locations.span(map_loc, at_key=True),
+                    hint="map each FMU variable to a name of its own"))
+                continue
+            mapped_from[our_name] = fmu_name
             variable = variables.get(fmu_name)
             if variable is None:
                 problems.append(_unknown(campaign, map_loc, fmu_name, variables, "FMU variable",
@@ -90,10 +103,27 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
             ranged.append((loc, name, variable))
             continue
         expected = variable.si.dimension if variable.si is not None else None
+        contract = CONTRACT_PARAMETERS.get(name)
+        if contract is not None and expected is not None and expected != contract.dimension:
+            # the FMU's variable is of another dimension than the tool reads the name in: no
+            # value could be right for both
+            problems.append(error(
+                "C402", f"{format_loc(loc)}: {name} is {contract.what}, read by this tool "
+                        f"as {describe(contract.dimension)} in {contract.unit}, but FMU "
+                        f"variable {variable.name!r} is in {variable.unit}",
+                campaign.span(loc), hint=f"map {name} to an FMU variable of that dimension"))
+            continue
         if expected is not None and expected != dimension:
             problems.append(error(
                 "C402", f"{format_loc(loc)}: expected {describe(expected)} (FMU unit "
                         f"{variable.unit}), got {describe(dimension)}", campaign.span(loc)))
+            continue
+        if contract is not None and contract.dimension != dimension:
+            # the FMU declares no unit: the tool's own reading of the name decides
+            problems.append(error(
+                "C402", f"{format_loc(loc)}: expected {describe(contract.dimension)} ({name} "
+                        f"is {contract.what}, read by this tool in {contract.unit}), got "
+                        f"{describe(dimension)}", campaign.span(loc)))
             continue
         ranged.append((loc, name, variable))
     return problems + _outside_declared_range(campaign, description, ranged)

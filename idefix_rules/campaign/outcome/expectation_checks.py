@@ -9,6 +9,7 @@ from typing import Any
 
 from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.expectations import (
+    ANY_HIT_CHANCES,
     CollisionExpectation,
     MeanRiskExpectation,
     PathVerdictExpectation,
@@ -108,7 +109,7 @@ def _any_bounds(path: PathResult, alpha: float) -> tuple[float, float, float] | 
     """The chance of a hit of any level, and its bounds: a dedicated chance's where the
     rulebook has one; else from the per-level chances, which the union only bounds: at least
     the largest (its lower bound), at most their sum (the sum of their upper bounds)."""
-    for key in ("any", "collision", "hit", "collision.any", "hit_any"):
+    for key in ANY_HIT_CHANCES:
         if key in path.chances:
             return (path.chances[key], *chance_bounds(path.chances[key], path.completed, alpha))
     values = list(path.collision_chance.values())

@@ -25,6 +25,7 @@ from idefix_rules.fmu.terrain import Terrain
 from idefix_rules.results import terrain as stored_terrain
 from idefix_rules.results.format import attribute_text
 from idefix_rules.results.terrain import TerrainSource, file_sha256
+from idefix_rules.shell import command_line
 from idefix_rules.timestamps import now_iso
 
 
@@ -57,6 +58,7 @@ def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
     if started == now:
         now += ", edited since"
     store.close()
+    rescore = command_line("idefix-verify", "evaluate", results, "--rulebook", campaign.rulebook)
     raise UserInputError(error(
         "H010", f"cannot resume {results}: it was started with rulebook {started} "
                 f"(sha256 {digest[:12]}), this campaign's rulebook "
@@ -64,12 +66,15 @@ def _same_rulebook(store: ResultStore, evaluator: Any, campaign: Campaign,
         Span(str(results)),
         hint=f"resume with the rulebook it was started with (its text is stored in "
              f"{results.name}, /provenance/rulebook), then score the runs with the new one: "
-             f"idefix-verify evaluate {results} --rulebook {campaign.rulebook}; or run "
-             f"without --resume to start again"))
+             f"{rescore}; or run without --resume to start again"))
 
 
 def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path,
-               resume: bool, terrain: tuple[Terrain, TerrainSource] | None) -> ResultStore:
+               resume: bool, terrain: tuple[Terrain, TerrainSource] | None,
+               terrain_seen: bool = True) -> ResultStore:
+    """The results file to simulate into: created (``terrain_seen``: whether the FMU takes the
+    campaign's terrain file, stored for the report's note), or opened again to resume after
+    its settings were compared with the campaign's."""
     fmu_hash = file_sha256(fmu_path)
     if resume and results.exists():
         diskspace.require(results.parent, 0, f"continue {results.name}")
@@ -120,6 +125,7 @@ def open_store(campaign: Campaign, evaluator: Any, fmu_path: Path, results: Path
         "finished": "",
         "state": "running",
         "output_interval": campaign.model.simulation.output_interval,
+        "terrain_seen": terrain_seen,
     }, {"campaign": campaign.text, "rulebook": rulebook_text})
     try:
         text = store.file["provenance"]["rulebook"]

@@ -23,6 +23,7 @@ from idefix_rules.campaign.storage.store import (
     decode_reason,
 )
 from idefix_rules.results.format import attribute_text, is_search
+from idefix_rules.shell import command_line
 
 __all__ = ["INFRASTRUCTURE", "continue_command", "interrupted_runs", "is_infrastructure",
            "resume_command", "runs_to_simulate", "stored_resume_command"]
@@ -127,9 +128,10 @@ def resume_command(source: Any, output: Any, runs: Any, seed: Any,
                    min_runs: Any = None) -> str:
     """The command that continues this campaign into the same results file (``min_runs``
     given: an adaptive campaign, ``runs`` is its cap)."""
-    count = f"--runs {runs}" if min_runs is None else (
-        f"--runs auto --max-runs {runs} --min-runs {min_runs}")
-    return f"idefix-verify {source} --resume --out {output} {count} --seed {seed}"
+    count = ("--runs", runs) if min_runs is None else (
+        "--runs", "auto", "--max-runs", runs, "--min-runs", min_runs)
+    return command_line("idefix-verify", source, "--resume", "--out", output, *count,
+                        "--seed", seed)
 
 
 def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
@@ -139,8 +141,8 @@ def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
     worst-case search cannot be resumed: the command that runs it again, into the same
     folder, with its budget and seed."""
     if is_search(attrs):
-        return (f"idefix-verify worst {source} --out {output} --runs {attrs.get('runs')} "
-                f"--seed {attrs.get('seed')}")
+        return command_line("idefix-verify", "worst", source, "--out", output,
+                            "--runs", attrs.get("runs"), "--seed", attrs.get("seed"))
     adaptive = str(attrs.get("runs_mode", "fixed")) == "auto"
     return resume_command(source, output, attrs.get("runs"), attrs.get("seed"),
                           attrs.get("min_runs") if adaptive else None)

@@ -70,7 +70,8 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     warning = _sampling_warning(campaign)
     if warning:
         summary.warnings.append(warning)  # said once, with the outcome
-    store = open_store(campaign, evaluator, fmu_path, results, options.resume, terrain)
+    store = open_store(campaign, evaluator, fmu_path, results, options.resume, terrain,
+                       terrain_seen=TERRAIN_PARAMETER in fmu_parameters)
     was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()
     try:

@@ -45,6 +45,7 @@ from idefix_rules.campaign.worst.stage import WorstStage, stored_record
 from idefix_rules.errors import InfrastructureError, Span, UserInputError, error
 from idefix_rules.files import set_aside, write_atomic
 from idefix_rules.results.format import SEARCH_RECORD_FILE, SEARCHED_RUNS
+from idefix_rules.shell import command_line
 
 RECORD_FILE = SEARCH_RECORD_FILE
 FOLDER = "worst"  # inside the campaign's output folder
@@ -148,8 +149,8 @@ def run_worst(campaign: Campaign, settings: SearchSettings,
 
 
 def _again(campaign: Campaign, settings: SearchSettings) -> str:
-    return (f"idefix-verify worst {campaign.source} --out {campaign.output} "
-            f"--runs {settings.runs} --seed {campaign.seed}")
+    return command_line("idefix-verify", "worst", campaign.source, "--out", campaign.output,
+                        "--runs", settings.runs, "--seed", campaign.seed)
 
 
 def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpace,
@@ -181,7 +182,8 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
                      str(results.resolve()))
     say("evaluating the searched runs (as a campaign's, for evaluate, diff and report)")
     store = ResultStore.open(results)
-    then = f"the searched runs are stored; free space, then `idefix-verify evaluate {results}`"
+    then = ("the searched runs are stored; free space, then "
+            f"`{command_line('idefix-verify', 'evaluate', results)}`")
     try:
         with evaluation_revision(store, then) as revision:
             evaluation = evaluate_store(store, evaluator, rover_geometry(campaign),
@@ -202,8 +204,9 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
     result = WorstResult(record, results, record_file, warnings=list(prepared.warnings))
     if report:
         say("writing the report")
+        again_report = command_line("idefix-verify", "report", results)
         result.report = write_report(results, campaign.output,
-                                     f"free space, then `idefix-verify report {results}`")
+                                     f"free space, then `{again_report}`")
     result.timings = {"simulation_and_search": simulated - started,
                       "evaluation": evaluated - simulated,
                       "report": time.perf_counter() - evaluated,
