@@ -3,6 +3,8 @@ column, reported together with the others, before any run is simulated."""
 
 from __future__ import annotations
 
+import platform
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -339,6 +341,48 @@ def test_an_fmu_without_a_binary_for_this_platform_is_C400_before_any_run(
     assert f"no binary for this platform (binaries/{fmpy.platform}/Unicycle" \
         f"{fmpy.sharedLibraryExtension} is missing); it has binaries for win64" in flat, output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+def _elf_header(machine: int, bits: int = 2) -> bytes:
+    return b"\x7fELF" + bytes([bits, 1, 1]) + bytes(9) + (3).to_bytes(2, "little") \
+        + machine.to_bytes(2, "little")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or platform.machine() != "x86_64",
+                    reason="the ELF check of this test is written for x86_64 Linux")
+@pytest.mark.parametrize(("library", "says"), [
+    (b"not a library", "is not a shared library (it has no ELF header)"),
+    (b"\x7fELF\x02\x01", "is cut short (6 bytes)"),
+    (_elf_header(62, bits=1), "is a 32-bit library; this machine loads 64-bit ones"),
+    (_elf_header(183), "is built for aarch64; this machine is x86_64"),
+])
+def test_a_binary_this_machine_cannot_load_is_C400_before_any_run(
+        library: bytes, says: str, tmp_path: Path, unicycle_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A binary under this platform's name that is no library for this machine: it was every
+    reference run failing to load it (exit 3, after the rulebook and terrain stages)."""
+    import zipfile
+
+    import fmpy
+
+    member = f"binaries/{fmpy.platform}/Unicycle{fmpy.sharedLibraryExtension}"
+    fmu = tmp_path / "Unicycle.fmu"
+    with zipfile.ZipFile(unicycle_fmu) as source, zipfile.ZipFile(fmu, "w") as target:
+        for item in source.infolist():
+            target.writestr(item, library if item.filename == member else source.read(item))
+    code, output = _run(_campaign(tmp_path, fmu, UNICYCLE_CAMPAIGN), capsys)
+    assert code == 2, output
+    flat = " ".join(output.split())
+    assert f"{_location(UNICYCLE_CAMPAIGN, 'Unicycle.fmu')}: error[C400]: " in output, output
+    assert f"{member} {says}" in flat, output
+    assert not (tmp_path / "out" / "results.h5").exists()
+
+
+def test_the_real_binary_passes_the_elf_check(unicycle_fmu: Path) -> None:
+    from idefix_rules.campaign.input.fmu_checks import _foreign_binary
+    from idefix_rules.fmu.description import describe_fmu
+
+    assert _foreign_binary(describe_fmu(unicycle_fmu)) is None
 
 
 @pytest.mark.parametrize(("mapped", "says"), [

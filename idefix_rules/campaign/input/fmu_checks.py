@@ -21,6 +21,8 @@ diagnostics located at the campaign line that says the wrong thing:
 
 from __future__ import annotations
 
+import platform
+import sys
 import zipfile
 import zlib
 from collections.abc import Iterable, Mapping
@@ -86,8 +88,9 @@ def binary_problems(campaign: Campaign, description: FmuDescription) -> list[Dia
     span = campaign.locations.span(fmu_loc(campaign))
     return [error("C400", f"{description.path}: {problem}", span, hint=hint)
             for problem, hint in ((_damaged_member(description), "copy or export the FMU again"),
-                                  (_missing_binary(description), "export the FMU with a binary "
-                                   "for this platform (or compile its C sources into one)"))
+                                  (_missing_binary(description) or _foreign_binary(description),
+                                   "export the FMU with a binary for this platform (or compile "
+                                   "its C sources into one)"))
             if problem is not None]
 
 
@@ -127,6 +130,46 @@ def _missing_binary(description: FmuDescription) -> str | None:
     has = f"it has binaries for {', '.join(platforms)}" if platforms else "it has no binaries"
     sources = " and C sources" if "c-code" in supported else ""
     return f"no binary for this platform ({wanted} is missing); {has}{sources}"
+
+
+# ELF machine numbers (e_machine) of the platforms fmpy runs on, by platform.machine()
+_ELF_MACHINES = {"x86_64": 62, "AMD64": 62, "aarch64": 183, "arm64": 183}
+
+
+def _foreign_binary(description: FmuDescription) -> str | None:
+    """On Linux: what is wrong when the FMU's shared library for this platform is no 64-bit
+    ELF library for this machine (a truncated file, another architecture), which the workers
+    could not load; None when it is one, or when this cannot be told here."""
+    import fmpy
+
+    machine = _ELF_MACHINES.get(platform.machine())
+    if not sys.platform.startswith("linux") or machine is None:
+        return None
+    identifier = description.co_simulation or description.model_exchange
+    folder = fmpy.platform_tuple if description.major == 3 else fmpy.platform
+    wanted = f"binaries/{folder}/{identifier}{fmpy.sharedLibraryExtension}"
+    path = Path(description.path)
+    try:
+        if path.is_dir():
+            with open(path / wanted, "rb") as library:
+                header = library.read(20)
+        else:
+            with zipfile.ZipFile(path) as archive, archive.open(wanted) as library:
+                header = library.read(20)
+    except (OSError, KeyError, zipfile.BadZipFile, EOFError, zlib.error):
+        return None  # missing or unreadable: said by the other checks
+    if header[:4] != b"\x7fELF":
+        return f"{wanted} is not a shared library (it has no ELF header)"
+    if len(header) < 20:
+        return f"{wanted} is cut short ({len(header)} bytes)"
+    if header[4] != 2:
+        return f"{wanted} is a 32-bit library; this machine loads 64-bit ones"
+    found = int.from_bytes(header[18:20], "little" if header[5] == 1 else "big")
+    if found != machine:
+        names = {62: "x86_64", 183: "aarch64", 3: "i386", 40: "arm"}
+        return f"{wanted} is built for {names.get(found, f'ELF machine {found}')}; this " \
+               f"machine is {platform.machine()}"
+    return None
 
 
 def fmu_interface(campaign: Campaign, fmu_path: Path) -> FmuDescription:
