@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from idefix_rules.cli import main
@@ -187,6 +188,41 @@ simulation:
   output_interval: "0.5 s"
   extra_time: "5 s"
 """
+
+
+@pytest.mark.parametrize(("geometry", "turned", "exit_code"), [
+    # set-points for IDEFIX's 0.26 m half track: 13 deg, off the commanded path (not decided)
+    ("", 20.0 * 0.26 / 0.4, 1),
+    ("environment:\n  regolith:\n    rover.half_track: \"0.4 m\"\n", 20.0, 0),
+])
+def test_a_foreign_fmu_with_a_geometry_of_its_own_is_described_by_the_campaign(
+        geometry: str, turned: float, exit_code: int, tmp_path: Path, diff_drive_fmu: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """DiffDrive with a track of 0.8 m: the wheel-rate set-points follow the campaign's
+    rover.half_track, a value the tool alone reads (DiffDrive has no such parameter; it was
+    C401 'unknown FMU parameter', and its hint mapped the half track onto the full track)."""
+    text = DIFF_DRIVE_CAMPAIGN.replace(
+        "    slip: {distribution: uniform, low: 0.0, high: 0.05}\n",
+        "    slip: {distribution: fixed, value: 0.0}\n"
+        "    track: {distribution: fixed, value: \"0.8 m\"}\n").replace(
+        "paths:\n", geometry + "paths:\n")
+    code, output = _run(_campaign(tmp_path, diff_drive_fmu, text), capsys)
+    assert code == exit_code, output
+    import h5py
+    with h5py.File(tmp_path / "out" / "results.h5") as results:
+        yaw = results["paths/arc/reference/signals/yaw"][-1]
+    assert np.degrees(yaw) == pytest.approx(turned, abs=0.3)
+
+
+def test_the_tools_own_geometry_is_of_its_dimension(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = DIFF_DRIVE_CAMPAIGN.replace("paths:\n", "environment:\n  regolith:\n"
+                                       "    rover.half_track: \"4 s\"\n" + "paths:\n")
+    code, output = _run(_campaign(tmp_path, diff_drive_fmu, text), capsys)
+    assert code == 2, output
+    assert "error[C402]: environment.regolith.rover.half_track: expected a length " \
+        "(rover.half_track is the rover's geometry, read by this tool in m), got a duration" \
+        in output, output
 
 
 def test_an_fmi3_fmu_with_units_runs_a_campaign(

@@ -70,6 +70,18 @@ def rover_geometry(campaign: Campaign) -> RoverGeometry:
     return RoverGeometry(**overrides)
 
 
+def tool_only_parameters(campaign: Campaign, settable: Iterable[str]) -> frozenset[str]:
+    """The geometry names the campaign gives (``rover.half_track`` …) that the FMU has no
+    settable variable for, by that name or mapped in ``fmu.parameters``: values the tool
+    alone reads (the set-points, the ideal durations, the stop time), never set in the FMU.
+    A foreign FMU with a geometry of its own is described so (docs/bring-your-own-fmu.md)."""
+    mapped = set((campaign.model.fmu.parameters or {}).values())
+    takes = set(settable) | mapped
+    given = {regolith_parameter(key) for key in campaign.model.environment.regolith}
+    given |= set(campaign.model.uncertainty.parameters)
+    return frozenset(name for name in given & set(GEOMETRY_PARAMETERS) if name not in takes)
+
+
 def regolith_parameter(key: str) -> str:
     """The FMU parameter a regolith key sets: ``cohesion`` → ``soil.cohesion``; a name with a
     dot as given."""

@@ -13,6 +13,7 @@ from idefix_rules.campaign.input.campaign_values import (
     CONTRACT_PARAMETERS,
     REGOLITH_PREFIX,
     regolith_parameter,
+    tool_only_parameters,
 )
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.sampling import planned_draws
@@ -66,7 +67,19 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     renamed = {fmu_name for fmu_name, ours in (fmu.parameters or {}).items()
                if is_chain_parameter(ours)}
     ranged: list[tuple[tuple[str, ...], str, FmuVariable]] = []  # to hold to their range
+    tool_only = tool_only_parameters(
+        campaign, (name for name, variable in variables.items() if variable.settable))
     for loc, name, dimension in entries:
+        if name in tool_only and variables.get(name) is None:
+            # the tool's own geometry for an FMU that has its own: of the contract's dimension
+            own = CONTRACT_PARAMETERS[name]
+            if dimension != own.dimension:
+                got = "a bare number" if dimension is None else describe(dimension)
+                problems.append(error(
+                    "C402", f"{format_loc(loc)}: expected {describe(own.dimension)} ({name} "
+                            f"is {own.what}, read by this tool in {own.unit}), got {got}",
+                    campaign.span(loc)))
+            continue
         if chain_set and (is_chain_parameter(name) or parameter_names.get(name) in renamed):
             problems.append(error(
                 "C515", f"{format_loc(loc)}: {name!r} is set by each run's command chain (the "

@@ -98,8 +98,10 @@ def plan_path(campaign: Campaign, spec: PathSpec, rover: RoverGeometry) -> PathP
 
 @dataclass(frozen=True)
 class FmuSource:
-    """The FMU the workers run: its file, and the folder it was extracted to once (None:
-    each worker extracts it)."""
+    """The FMU the workers run: its file, the folder it was extracted to once (None: each
+    worker extracts it), and the campaign's parameters it has no variable for (the tool's own
+    geometry of a foreign FMU: never set in it)."""
 
     path: str
     unzipped: str | None
+    tool_only: frozenset[str] = frozenset()

@@ -64,7 +64,7 @@ def run_task(campaign: Campaign, fmu: FmuSource, plan: PathPlan,
         # The campaign maps FMU variable → our name (like signals); the runner wants ours → FMU.
         parameter_map=tuple((ours, theirs) for theirs, ours in maps.parameters.items())
         if maps.parameters is not None else None,
-        parameters=tuple(parameters.items()),
+        parameters=tuple((k, v) for k, v in parameters.items() if k not in fmu.tool_only),
         chain=plan.spec.chain,
         stop_time=plan.stop_time,
         output_interval=campaign.model.simulation.output_interval,

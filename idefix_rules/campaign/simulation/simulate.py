@@ -75,7 +75,8 @@ def simulate_campaign(campaign: Campaign, evaluator: Any, fmu_path: Path,
     was_complete = options.resume and str(store.attrs.get("state", "")) == "complete"
     unpacked = contextlib.ExitStack()
     try:
-        fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, campaign.output, options, unpacked))
+        fmu = FmuSource(str(fmu_path), _unzip_once(fmu_path, campaign.output, options, unpacked),
+                        _tool_only(campaign, fmu_path))
         store.attrs["state"] = "running"
         store.file.flush()
         plans = [plan_path(campaign, spec, rover) for spec in campaign.paths]
@@ -120,6 +121,16 @@ def _sampling_warning(campaign: Campaign) -> str | None:
     if campaign.adaptive is not None:
         return sampling.adaptive_sampling_note(method)
     return sampling.sobol_warning(method, campaign.runs)
+
+
+def _tool_only(campaign: Campaign, fmu_path: Path) -> frozenset[str]:
+    """The campaign's geometry values the FMU has no variable for (the tool reads them)."""
+    from idefix_rules.campaign.input.campaign_values import tool_only_parameters
+    from idefix_rules.fmu.description import describe_fmu
+
+    variables = describe_fmu(fmu_path).variables
+    return tool_only_parameters(campaign, (name for name, variable in variables.items()
+                                           if variable.settable))
 
 
 def _unzip_once(fmu_path: Path, output: Path, options: SimulationOptions,
