@@ -449,8 +449,8 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
     per_sample = row["per_sample"][names[row["dominant"]]]
     row["dominant_sample"] = per_sample.index(max(per_sample))
     # The run ends where the chain is complete: 'command' back at -1 after the chain started
-    # (or past its last command), else a mapped 'done', else the last sample; without
-    # 'energy' the run's energy is unknown (NaN).
+    # (or past its last command), else a mapped 'done' set after a sample where it was not,
+    # else the last sample; without 'energy' the run's energy is unknown (NaN).
     source = evaluator.source
     commands = len(source.context.chain)
     if source.provides("command") and commands:
@@ -462,8 +462,11 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
             ended.append(active >= commands or (active < 0 and started))
     elif source.provides("command"):
         ended = [round(float(c)) == -1 for c in np.asarray(source.get("command"))[0]]
-    elif source.provides("done"):
-        ended = [float(d) >= 0.5 for d in np.asarray(source.get("done"))[0]]
+    elif source.provides("done"):  # set after a sample where it was not
+        ended, clear = [], False
+        for value in np.asarray(source.get("done"))[0]:
+            ended.append(clear and float(value) >= 0.5)
+            clear = clear or float(value) < 0.5
     else:
         ended = []
     done = ended.index(True) if True in ended else samples - 1
