@@ -14,7 +14,7 @@ from idefix_rules.rulebook.environment import LEVELS, AreaSpec, CheckEnv, Obstac
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.judging import MARGIN_RANGE
 from idefix_rules.rulebook.model import Reducer, Rulebook
-from idefix_rules.rulebook.types import COMMAND_NAMES, PATH_NAMES, SETTINGS
+from idefix_rules.rulebook.types import COMMAND_NAMES, FAILED_RUNS_RULE, PATH_NAMES, SETTINGS
 from idefix_rules.rulebook.walk import names_in, rulebook_expressions
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH
 
@@ -85,7 +85,13 @@ def check_names(env: CheckEnv) -> list[Diagnostic]:
                                   + (f" at {first_span}" if first_span else ""), span))
             continue
         seen[name] = (kind, node)
-        if signals.lookup(name) is not None or name in reserved:
+        if name == FAILED_RUNS_RULE:  # the verdict's own rule: results would show both as one
+            problems.append(error("E103", f"{kind} '{name}' takes the name of the verdict's "
+                                  "own rule for failed runs", span,
+                                  "choose another name; a verdict rule that reads `failed` "
+                                  "(e.g. `require failed <= 10 %`) takes the place of "
+                                  f"'{name}'"))
+        elif signals.lookup(name) is not None or name in reserved:
             problems.append(error("E103", f"{kind} '{name}' hides the built-in name '{name}'",
                                   span, "choose another name"))
         elif name in REDUCER_WORDS and kind in READ_KINDS:  # `x > max`: a reduction begins
