@@ -58,6 +58,10 @@ def _declarations(rulebook: Rulebook) -> Iterator[tuple[str, str, object]]:
 # The reduction words (`max over time (…)`): a name spelt like one starts a reduction wherever
 # an expression may, so a declaration of it could never be used.
 REDUCER_WORDS: frozenset[str] = frozenset(get_args(Reducer))
+# The other keyword an expression may start with (`not x`): where an expression starts
+# (`limit = not`, `mean(not)`) the word is read as a negation, never as the name. The grammar's
+# other keywords are read as names wherever an expression is expected.
+NEGATION_WORD = "not"
 # the declarations whose names expressions read (`limit = c`, `chance(c)`, `mean(I)`); rules
 # and verdicts are named in outputs and waivers only
 READ_KINDS = frozenset({"constant", "index", "chance"})
@@ -98,6 +102,11 @@ def check_names(env: CheckEnv) -> list[Diagnostic]:
             problems.append(error("E103", f"{kind} '{name}' is named like the reduction "
                                   f"'{name} over …': the name could never be read",
                                   span, f"choose another name, e.g. '{name}_{kind.split()[0]}'"))
+        elif name == NEGATION_WORD and kind in READ_KINDS:  # `limit = not`: a negation begins
+            problems.append(error("E103", f"{kind} '{name}' is named like the keyword '{name}': "
+                                  "where an expression starts it is read as a negation, so "
+                                  "the name could not be read there", span,
+                                  f"choose another name, e.g. '{name}_{kind.split()[0]}'"))
     settings_seen: set[str] = set()
     for setting in env.rulebook.settings:
         if setting.name in settings_seen:
