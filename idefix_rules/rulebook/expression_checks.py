@@ -17,6 +17,10 @@ from idefix_rules.rulebook.types import ExprType
 from idefix_rules.rulebook.walk import children, nodes, rulebook_expressions, windowed
 from idefix_rules.units import DIMENSIONLESS, describe
 
+# What one condition of each kind of rule is about (E302): a command rule judges each command,
+# a verdict each path, the others each run.
+_CONDITION_PER = {"command": "command", "path": "path"}
+
 
 def _condition(env: CheckEnv, expr: Expr, kind: str, what: str,
                problems: list[Diagnostic]) -> ExprType | None:
@@ -30,9 +34,10 @@ def _condition(env: CheckEnv, expr: Expr, kind: str, what: str,
         return None
     if found.axes:
         problems.append(error("E302", f"{what} must be one condition per "
-                              f"{'command' if kind == 'command' else 'run'}, but it still has "
+                              f"{_CONDITION_PER.get(kind, 'run')}, but it still has "
                               f"{_axes_phrase(found.axes)}", expr.span,
-                              "reduce them with any/all over …"))
+                              f"reduce {'it' if len(found.axes) == 1 else 'them'} with "
+                              "any/all over …"))
         return None
     return found
 
