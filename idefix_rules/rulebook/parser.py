@@ -97,6 +97,7 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
 
 
 _FIRST_WORD = re.compile(r"(?:[ \t\n]|#[^\n]*)*([A-Za-z_][A-Za-z0-9_]*|\S)")
+_YAML_KEY = re.compile(r"[ \t]*:(?:[ \t]|$)", re.MULTILINE)
 _DECLARATION_WORDS = frozenset(("rulebook", "version", "purpose", "const", "settings",
                                 "obstacles", "command", "index", "chance", "prescreen",
                                 "verdict", "combine", "rank"))
@@ -106,6 +107,14 @@ def _foreign_file(text: str, path: str) -> list[Diagnostic]:
     """One diagnostic, quoting at most the first word, for a file whose very first word starts
     no declaration (another kind of file, named by mistake): none of its lines is shown."""
     first = _FIRST_WORD.match(text)
+    if first is not None and (first.group(1) == "rulebook"
+                              or first.group(1) not in _DECLARATION_WORDS) \
+            and _YAML_KEY.match(text, first.end()):
+        # `rulebook: ../x.rules`: a case file or a campaign, which names a rulebook
+        return [error(NOT_A_RULEBOOK, f"{path} is not a rulebook: it begins with the YAML key "
+                      f"'{first.group(1)[:20]}:', as a case file or a campaign does",
+                      Span(path), hint="check the .rules file it names; `idefix-verify test` "
+                      "runs a case file")]
     if first is None or first.group(1) in _DECLARATION_WORDS \
             or difflib.get_close_matches(first.group(1), _DECLARATION_WORDS, cutoff=0.75):
         return []  # a rulebook with a mistake in its first word: the usual diagnostics
