@@ -13,7 +13,7 @@ from idefix_rules.rulebook.constants import constant_quantity
 from idefix_rules.rulebook.environment import LEVELS, AreaSpec, CheckEnv, ObstacleLevelSpec
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.judging import MARGIN_RANGE
-from idefix_rules.rulebook.model import Reducer, Rulebook
+from idefix_rules.rulebook.model import NO_SPAN, Reducer, Rulebook
 from idefix_rules.rulebook.types import COMMAND_NAMES, FAILED_RUNS_RULE, PATH_NAMES, SETTINGS
 from idefix_rules.rulebook.walk import names_in, rulebook_expressions
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH
@@ -24,7 +24,9 @@ _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-
 
 def check_header(env: CheckEnv) -> list[Diagnostic]:
     header = env.rulebook.header
-    problems = []
+    problems: list[Diagnostic] = []
+    if header.span == NO_SPAN and not (header.name or header.version or header.purpose):
+        return problems  # no header written: the parser said so (E500)
     def at(span: Span) -> Span:  # a header built without its strings' places: the header's
         return span if span.line > 0 else header.span
 

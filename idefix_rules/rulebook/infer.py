@@ -28,6 +28,7 @@ from idefix_rules.rulebook.model import (
     Binary,
     Call,
     Expr,
+    Invalid,
     Name,
     Number,
     Reduce,
@@ -521,6 +522,18 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
     return result
 
 
+def _invalid(expr: Invalid, scope: Scope, problems: Problems) -> ExprType | None:
+    """No type: the parser said what is wrong. What a reduction over an unknown domain reads
+    is checked as its reduction would (in a constant, a reduction is wrong whatever it reads)."""
+    written = expr.written
+    if written is not None and scope.kind not in ("constant", "parameter"):
+        infer_type(written.operand, scope, problems)
+        for inner in (written.parameter, written.window.value if written.window else None):
+            if inner is not None:
+                infer_type(inner, _parameter_scope(scope), problems)
+    return None
+
+
 _HANDLERS: dict[type, Callable[[Expr, Scope, Problems], ExprType | None]] = {
     Number: _number,  # type: ignore[dict-item]
     Name: _name,  # type: ignore[dict-item]
@@ -530,6 +543,7 @@ _HANDLERS: dict[type, Callable[[Expr, Scope, Problems], ExprType | None]] = {
     Binary: _binary,  # type: ignore[dict-item]
     Call: _call,  # type: ignore[dict-item]
     Reduce: _reduce,  # type: ignore[dict-item]
+    Invalid: _invalid,  # type: ignore[dict-item]
 }
 
 __all__ = ["BOOLEAN", "did_you_mean", "infer_type"]

@@ -7,7 +7,8 @@
 Every node gets a span (line, column, end line, end column). Any mistake, syntax or structure (a
 missing header, a repeated section, an index without a limit), raises
 :class:`~idefix_rules.errors.UserInputError` carrying all diagnostics found; arbitrary text never
-raises anything else.
+raises anything else. :func:`lower_rulebook` raises for syntax errors only and returns the
+structure problems with the rulebook, for the checker to report with its own.
 
 Comments are kept on the declaration they belong to (``comments``; the end of the file goes to
 ``Rulebook.trailing_comments``), as the text written, starting with ``#``:
@@ -66,6 +67,19 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
 
     Raises :class:`UserInputError` with every diagnostic found.
     """
+    rulebook, problems = lower_rulebook(text, path)
+    if problems:
+        raise UserInputError(problems, sources={path: text})
+    return rulebook
+
+
+def lower_rulebook(text: str, path: str = "<rulebook>"
+                   ) -> tuple[model.Rulebook, list[Diagnostic]]:
+    """Parse and lower ``text``; the structure problems (a repeated section, an index without
+    a limit, an unknown domain …) come back with the rulebook, sorted, each part that failed
+    to lower an :class:`~idefix_rules.rulebook.model.Invalid` in it, so that the checker can
+    report the rest of the file with them. Raises :class:`UserInputError` for syntax errors
+    (no rulebook then)."""
     if not isinstance(text, str):
         raise UserInputError(error("E000", "a rulebook must be text", Span(path)))
     if text.startswith("\ufeff"):  # a byte-order mark some editors write: not content
@@ -90,10 +104,8 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
                                  sources={path: text}) from None
         raise failure.orig_exc from None
     rulebook = assemble(declarations, comments, text, path, lowering.diagnostics)
-    if lowering.diagnostics:
-        lowering.diagnostics.sort(key=_position)
-        raise UserInputError(lowering.diagnostics, sources={path: text})
-    return rulebook
+    lowering.diagnostics.sort(key=_position)
+    return rulebook, lowering.diagnostics
 
 
 _FIRST_WORD = re.compile(r"(?:[ \t\n]|#[^\n]*)*([A-Za-z_][A-Za-z0-9_]*|\S)")
