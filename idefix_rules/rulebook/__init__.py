@@ -32,8 +32,13 @@ def parse_text(text: str, path: str = "<rulebook>") -> Rulebook:
 
 
 def check_text(text: str, path: str = "<rulebook>", strict: bool = False) -> CheckResult:
-    """Parse and check; raises ``UserInputError`` only for syntax errors."""
-    return check(parse_text(text, path), strict=strict)
+    """Parse and check; raises ``UserInputError`` only for syntax errors. A structure problem
+    (a repeated section, an index without a weight) is reported with the checker's findings on
+    the rest of the file."""
+    from idefix_rules.rulebook.parser import lower_rulebook
+
+    rulebook, problems = lower_rulebook(text, path)
+    return check(rulebook, strict=strict, structure=problems)
 
 
 def load_checked(path: str | Path, strict: bool = False) -> CheckedRulebook:

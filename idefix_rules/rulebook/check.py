@@ -11,6 +11,7 @@ constant value the compiler needs already in SI. The constants are resolved in
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from idefix_rules.errors import Diagnostic, Severity, unique_diagnostics
@@ -123,13 +124,16 @@ CHECKS: tuple[Check, ...] = (
 STRICT_CHECKS: tuple[Check, ...] = (warn_unused_constants, warn_zero_weights)
 
 
-def check(rulebook: Rulebook, strict: bool = False) -> CheckResult:
-    """Run every pass; all diagnostics of the file, sorted by position."""
+def check(rulebook: Rulebook, strict: bool = False,
+          structure: Sequence[Diagnostic] = ()) -> CheckResult:
+    """Run every pass; all diagnostics of the file, sorted by position. ``structure``: the
+    parser's problems with ``rulebook`` (:func:`~idefix_rules.rulebook.parser.lower_rulebook`),
+    reported with the passes' own; the parts that failed to lower are not checked again."""
     from idefix_rules.rulebook.cascade import fold_cascades, fold_misfit_constants, path_hints
     from idefix_rules.rulebook.lints import LINTS
 
     env = CheckEnv(rulebook)
-    diagnostics = resolve_constants(env)
+    diagnostics = [*structure, *resolve_constants(env)]
     for check_pass in CHECKS + (STRICT_CHECKS + LINTS if strict else ()):
         diagnostics.extend(check_pass(env))
     diagnostics = path_hints(rulebook, fold_cascades(rulebook, set(env.constants),

@@ -13,8 +13,8 @@ from idefix_rules.rulebook.constants import constant_quantity
 from idefix_rules.rulebook.environment import LEVELS, AreaSpec, CheckEnv, ObstacleLevelSpec
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.judging import MARGIN_RANGE
-from idefix_rules.rulebook.model import Reducer, Rulebook
-from idefix_rules.rulebook.types import COMMAND_NAMES, PATH_NAMES, SETTINGS
+from idefix_rules.rulebook.model import NO_SPAN, Reducer, Rulebook
+from idefix_rules.rulebook.types import COMMAND_NAMES, FAILED_RUNS_RULE, PATH_NAMES, SETTINGS
 from idefix_rules.rulebook.walk import names_in, rulebook_expressions
 from idefix_rules.units import ANGLE, DIMENSIONLESS, LENGTH
 
@@ -24,7 +24,9 @@ _SEMVER = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:-[0-9A-Za-z.-
 
 def check_header(env: CheckEnv) -> list[Diagnostic]:
     header = env.rulebook.header
-    problems = []
+    problems: list[Diagnostic] = []
+    if header.span == NO_SPAN and not (header.name or header.version or header.purpose):
+        return problems  # no header written: the parser said so (E500)
     def at(span: Span) -> Span:  # a header built without its strings' places: the header's
         return span if span.line > 0 else header.span
 
@@ -58,6 +60,10 @@ def _declarations(rulebook: Rulebook) -> Iterator[tuple[str, str, object]]:
 # The reduction words (`max over time (…)`): a name spelt like one starts a reduction wherever
 # an expression may, so a declaration of it could never be used.
 REDUCER_WORDS: frozenset[str] = frozenset(get_args(Reducer))
+# The other keyword an expression may start with (`not x`): where an expression starts
+# (`limit = not`, `mean(not)`) the word is read as a negation, never as the name. The grammar's
+# other keywords are read as names wherever an expression is expected.
+NEGATION_WORD = "not"
 # the declarations whose names expressions read (`limit = c`, `chance(c)`, `mean(I)`); rules
 # and verdicts are named in outputs and waivers only
 READ_KINDS = frozenset({"constant", "index", "chance"})
@@ -85,13 +91,24 @@ def check_names(env: CheckEnv) -> list[Diagnostic]:
                                   + (f" at {first_span}" if first_span else ""), span))
             continue
         seen[name] = (kind, node)
-        if signals.lookup(name) is not None or name in reserved:
+        if name == FAILED_RUNS_RULE:  # the verdict's own rule: results would show both as one
+            problems.append(error("E103", f"{kind} '{name}' takes the name of the verdict's "
+                                  "own rule for failed runs", span,
+                                  "choose another name; a verdict rule that reads `failed` "
+                                  "(e.g. `require failed <= 10 %`) takes the place of "
+                                  f"'{name}'"))
+        elif signals.lookup(name) is not None or name in reserved:
             problems.append(error("E103", f"{kind} '{name}' hides the built-in name '{name}'",
                                   span, "choose another name"))
         elif name in REDUCER_WORDS and kind in READ_KINDS:  # `x > max`: a reduction begins
             problems.append(error("E103", f"{kind} '{name}' is named like the reduction "
                                   f"'{name} over …': the name could never be read",
                                   span, f"choose another name, e.g. '{name}_{kind.split()[0]}'"))
+        elif name == NEGATION_WORD and kind in READ_KINDS:  # `limit = not`: a negation begins
+            problems.append(error("E103", f"{kind} '{name}' is named like the keyword '{name}': "
+                                  "where an expression starts it is read as a negation, so "
+                                  "the name could not be read there", span,
+                                  f"choose another name, e.g. '{name}_{kind.split()[0]}'"))
     settings_seen: set[str] = set()
     for setting in env.rulebook.settings:
         if setting.name in settings_seen:

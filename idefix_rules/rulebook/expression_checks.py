@@ -12,10 +12,14 @@ from idefix_rules.rulebook.environment import Check, CheckEnv, scope_of
 from idefix_rules.rulebook.fold import NotComputable, NotConstant, fold, folded_number
 from idefix_rules.rulebook.infer import infer_type
 from idefix_rules.rulebook.judging import verdict_margins
-from idefix_rules.rulebook.model import Expr, Index, Number, Reduce, Rulebook
+from idefix_rules.rulebook.model import Expr, Index, Invalid, Number, Reduce, Rulebook
 from idefix_rules.rulebook.types import ExprType
 from idefix_rules.rulebook.walk import children, nodes, rulebook_expressions, windowed
 from idefix_rules.units import DIMENSIONLESS, describe
+
+# What one condition of each kind of rule is about (E302): a command rule judges each command,
+# a verdict each path, the others each run.
+_CONDITION_PER = {"command": "command", "path": "path"}
 
 
 def _condition(env: CheckEnv, expr: Expr, kind: str, what: str,
@@ -30,9 +34,10 @@ def _condition(env: CheckEnv, expr: Expr, kind: str, what: str,
         return None
     if found.axes:
         problems.append(error("E302", f"{what} must be one condition per "
-                              f"{'command' if kind == 'command' else 'run'}, but it still has "
+                              f"{_CONDITION_PER.get(kind, 'run')}, but it still has "
                               f"{_axes_phrase(found.axes)}", expr.span,
-                              "reduce them with any/all over …"))
+                              f"reduce {'it' if len(found.axes) == 1 else 'them'} with "
+                              "any/all over …"))
         return None
     return found
 
@@ -91,6 +96,10 @@ def check_indices(env: CheckEnv) -> list[Diagnostic]:
                     env.limits[index.name] = limit
             if index.nominal is not None:
                 _check_nominal(env, index, found, limit, problems)
+        else:  # the value's error is said: the limit and nominal still get their own mistakes
+            for item, label in ((index.limit, "limit"), (index.nominal, "nominal")):
+                if item is not None:
+                    constant_quantity(env, item, None, f"the {label} of {what}", problems)
         weight = constant_quantity(env, index.weight, DIMENSIONLESS, f"the weight of {what}",
                                     problems)
         if weight is not None:
@@ -157,6 +166,8 @@ def check_ranking(env: CheckEnv) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     seen: dict[str, Any] = {}
     for key in env.rulebook.ranking.keys:
+        if isinstance(key.expr, Invalid):  # its number is beyond a double: said (E003)
+            continue
         written = format_expr(key.expr)
         if written in seen:  # a later key on the same statistic never decides anything
             problems.append(error("E413", f"rank key '{written}' is given twice: the second "

@@ -111,6 +111,8 @@ def format_expr(expr: model.Expr) -> str:
             parts.append(format_window(expr.window))
         parts.append(f"({format_expr(expr.operand)})")
         return " ".join(parts)
+    if isinstance(expr, model.Invalid):  # in a message only: such a rulebook is never printed
+        return "…"
     raise TypeError(f"not an expression: {expr!r}")
 
 

@@ -28,6 +28,7 @@ from idefix_rules.rulebook.model import (
     Binary,
     Call,
     Expr,
+    Invalid,
     Name,
     Number,
     Reduce,
@@ -110,19 +111,55 @@ def _select(expr: Select, scope: Scope, problems: Problems) -> ExprType | None:
     if base is None:
         return None
     axes = list(base.axes)
+    selected: dict[str, str] = {}  # axis → the label that selected it
     for label in expr.labels:
         axis = axis_of_label(label)
         if axis is None:
-            known = [lab for labels in signals.AXIS_LABELS.values() for lab in labels]
+            # the labels of the operand's own axes (every label when it has none)
+            own = [axis for axis in base.axes if axis in signals.AXIS_LABELS]
+            known = [lab for axis in own or signals.AXIS_LABELS
+                     for lab in signals.AXIS_LABELS[axis]]
             problems.append(error("E104", f"unknown label '{label}'", expr.span,
-                                  did_you_mean(label, known) or f"labels are {', '.join(known)}"))
+                                  did_you_mean(label, known) or _labels_phrase(own)
+                                  or f"labels are {', '.join(known)}"))
+            return None
+        if axis in selected:
+            problems.append(error("E104", f"cannot select '{label}': it is a second {axis} "
+                                  f"label for the {axis} axis, after '{selected[axis]}'; one "
+                                  "label per axis", expr.span,
+                                  f"write {_label_example(expr, selected[axis])} and "
+                                  f"{_label_example(expr, label)} as two values, or reduce "
+                                  f"over {_AXIS_PLURALS[axis]}"))
             return None
         if axis not in axes:
+            left = [a for a in axes if a in signals.AXIS_LABELS]
             problems.append(error("E104", f"cannot select '{label}': the expression has no "
-                                  f"{axis} axis", expr.span))
+                                  f"{axis} axis", expr.span,
+                                  _labels_phrase(left) if left else
+                                  f"after [{', '.join(selected.values())}] it has no axis left"
+                                  if selected else None))
             return None
         axes.remove(axis)
+        selected[axis] = label
     return ExprType(base.dimension, tuple(axes), base.boolean)
+
+
+_AXIS_PLURALS = {"wheel": "wheels", "part": "parts", "level": "levels"}
+
+
+def _labels_phrase(axes: list[str]) -> str | None:
+    """``its labels: parts wheel, solar_panel, chassis; levels L1, L2, L3``."""
+    if not axes:
+        return None
+    return "its labels: " + "; ".join(
+        f"{_AXIS_PLURALS.get(axis, axis)} {', '.join(signals.AXIS_LABELS[axis])}"
+        for axis in axes)
+
+
+def _label_example(expr: Select, label: str) -> str:
+    """The selection written with one label (``wheel.slip[FL]``) for a hint."""
+    operand = expr.operand.name if isinstance(expr.operand, Name) else "…"
+    return f"{operand}[{label}]"
 
 
 def _table(expr: Table, scope: Scope, problems: Problems) -> ExprType | None:
@@ -297,8 +334,15 @@ def _path_call(expr: Call, scope: Scope, problems: Problems) -> ExprType | None:
     known = scope.chances if kind == "chance" else scope.indices
     if name.name not in known:
         what = "chance" if kind == "chance" else "index"
-        problems.append(error("E101", f"unknown {what} '{name.name}'", name.span,
-                              did_you_mean(name.name, sorted(known))))
+        message, hint = f"unknown {what} '{name.name}'", did_you_mean(name.name, sorted(known))
+        if kind == "chance" and name.name in scope.indices:
+            message = f"'{name.name}' is an index, not a chance: chance() takes a chance"
+            hint = f"write mean({name.name}) (or max({name.name}))"
+        elif kind == "index" and name.name in scope.chances:
+            message = (f"'{name.name}' is a chance, not an index: {expr.function}() takes an "
+                       "index")
+            hint = f"write chance({name.name})"
+        problems.append(error("E101", message, name.span, hint))
         return None
     return RATIO
 
@@ -478,6 +522,18 @@ def _reduce(expr: Reduce, scope: Scope, problems: Problems) -> ExprType | None:
     return result
 
 
+def _invalid(expr: Invalid, scope: Scope, problems: Problems) -> ExprType | None:
+    """No type: the parser said what is wrong. What a reduction over an unknown domain reads
+    is checked as its reduction would (in a constant, a reduction is wrong whatever it reads)."""
+    written = expr.written
+    if written is not None and scope.kind not in ("constant", "parameter"):
+        infer_type(written.operand, scope, problems)
+        for inner in (written.parameter, written.window.value if written.window else None):
+            if inner is not None:
+                infer_type(inner, _parameter_scope(scope), problems)
+    return None
+
+
 _HANDLERS: dict[type, Callable[[Expr, Scope, Problems], ExprType | None]] = {
     Number: _number,  # type: ignore[dict-item]
     Name: _name,  # type: ignore[dict-item]
@@ -487,6 +543,7 @@ _HANDLERS: dict[type, Callable[[Expr, Scope, Problems], ExprType | None]] = {
     Binary: _binary,  # type: ignore[dict-item]
     Call: _call,  # type: ignore[dict-item]
     Reduce: _reduce,  # type: ignore[dict-item]
+    Invalid: _invalid,  # type: ignore[dict-item]
 }
 
 __all__ = ["BOOLEAN", "did_you_mean", "infer_type"]

@@ -76,7 +76,7 @@ class Lowering(Transformer):  # type: ignore[type-arg]
 
     # ---- expressions
 
-    def number(self, meta: Any, children: list[Token]) -> model.Number:
+    def number(self, meta: Any, children: list[Token]) -> model.Number | model.Invalid:
         token = children[0]
         match = _QUANTITY.fullmatch(str(token))
         number_text, unit = (match.group(1), match.group(2)) if match else (str(token), "")
@@ -85,12 +85,13 @@ class Lowering(Transformer):  # type: ignore[type-arg]
         if not math.isfinite(value):
             self.diagnostics.append(error(NUMBER_OUT_OF_RANGE, f"number {number_text} is too "
                                           "large", span))
-            value = 0.0
-        elif underflows(number_text, value):
+            return model.Invalid(span=span)
+        if underflows(number_text, value):
             self.diagnostics.append(error(
                 NUMBER_OUT_OF_RANGE, f"number {str(token).strip()} is too small for a double: "
                                      "it would be read as 0", span,
                 hint="write 0 if zero is meant, or a realistic value"))
+            return model.Invalid(span=span)
         return model.Number(value, unit or None, span=span)
 
     def name(self, meta: Any, children: list[Token]) -> model.Name:
@@ -135,13 +136,15 @@ class Lowering(Transformer):  # type: ignore[type-arg]
     def parameter(self, meta: Any, children: list[Any]) -> Any:
         return children[0]
 
-    def reduction(self, meta: Any, children: list[Any]) -> model.Reduce:
+    def reduction(self, meta: Any, children: list[Any]) -> model.Reduce | model.Invalid:
         if len(children) == 4:
             reducer, domain, window, operand = children
             parameter = None
         else:
             reducer, parameter, domain, window, operand = children
         domain_text = str(domain)
+        reduce = model.Reduce(reducer, domain_text, operand, parameter,  # type: ignore[arg-type]
+                              window, span=self._s(meta))
         if domain_text not in model.DOMAIN_AXES:
             known = list(model.DOMAIN_AXES)
             hint = did_you_mean(domain_text, known)
@@ -149,8 +152,8 @@ class Lowering(Transformer):  # type: ignore[type-arg]
                 UNKNOWN_DOMAIN, f"unknown domain '{domain_text}' after 'over'; "
                 f"expected {', '.join(known[:-1])} or {known[-1]}",
                 _token_span(self.path, domain), hint))
-        return model.Reduce(reducer, domain_text, operand, parameter,  # type: ignore[arg-type]
-                            window, span=self._s(meta))
+            return model.Invalid(reduce, span=reduce.span)
+        return reduce
 
     def during_command(self, meta: Any, children: list[Any]) -> model.Window:
         return model.Window("command", children[0], span=self._s(meta))
@@ -259,19 +262,22 @@ class Lowering(Transformer):  # type: ignore[type-arg]
         name, title, *items = children
         span = self._s(meta)
         found = self._items(f"index '{name}'", items)
-        for required in ("value", "limit", "weight"):
-            if required not in found:
+        name_span = _token_span(self.path, name)
+        for key in ("value", "limit", "weight"):
+            if key not in found:
                 self.diagnostics.append(error(
-                    INDEX_ITEM, f"index '{name}' has no '{required}'", _token_span(self.path, name),
-                    f"add `{required} = …` inside the braces"))
-        placeholder = model.Number(0.0)
+                    INDEX_ITEM, f"index '{name}' has no '{key}'", name_span,
+                    f"add `{key} = …` inside the braces"))
 
         def get(key: str) -> Any:
             return found[key].value if key in found else None
 
+        def required(key: str) -> Any:  # a missing item: no type, its E006 says why
+            return found[key].value if key in found else model.Invalid(span=name_span)
+
         return model.Index(
-            str(name), get("value") or placeholder, get("limit") or placeholder,
-            get("weight") or placeholder, _unquote(title) if title is not None else None,
+            str(name), required("value"), required("limit"), required("weight"),
+            _unquote(title) if title is not None else None,
             get("map"), get("because"), get("nominal"), span=span)
 
     def combine_method(self, meta: Any, children: list[Token]) -> Token:

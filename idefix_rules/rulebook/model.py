@@ -137,7 +137,19 @@ class Reduce:
     span: Span = _span()
 
 
-Expr: TypeAlias = Number | Name | Select | Table | Unary | Binary | Call | Reduce
+@dataclass(frozen=True)
+class Invalid:
+    """An expression the parser could not lower, its diagnostic already given: a number beyond
+    a double (E003), a reduction over an unknown domain (E007, ``written`` holds it, for the
+    checks of what it reads), an index item left out (E006). The checker gives it no type and
+    says nothing more of it, so the rest of the file is still checked; a rulebook holding one
+    never passes the check (:func:`~idefix_rules.rulebook.parser.parse_rulebook` refuses it)."""
+
+    written: Reduce | None = None
+    span: Span = _span()
+
+
+Expr: TypeAlias = Number | Name | Select | Table | Unary | Binary | Call | Reduce | Invalid
 
 
 # ----------------------------------------------------------------------------- declarations

@@ -7,7 +7,8 @@
 Every node gets a span (line, column, end line, end column). Any mistake, syntax or structure (a
 missing header, a repeated section, an index without a limit), raises
 :class:`~idefix_rules.errors.UserInputError` carrying all diagnostics found; arbitrary text never
-raises anything else.
+raises anything else. :func:`lower_rulebook` raises for syntax errors only and returns the
+structure problems with the rulebook, for the checker to report with its own.
 
 Comments are kept on the declaration they belong to (``comments``; the end of the file goes to
 ``Rulebook.trailing_comments``), as the text written, starting with ``#``:
@@ -66,6 +67,19 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
 
     Raises :class:`UserInputError` with every diagnostic found.
     """
+    rulebook, problems = lower_rulebook(text, path)
+    if problems:
+        raise UserInputError(problems, sources={path: text})
+    return rulebook
+
+
+def lower_rulebook(text: str, path: str = "<rulebook>"
+                   ) -> tuple[model.Rulebook, list[Diagnostic]]:
+    """Parse and lower ``text``; the structure problems (a repeated section, an index without
+    a limit, an unknown domain …) come back with the rulebook, sorted, each part that failed
+    to lower an :class:`~idefix_rules.rulebook.model.Invalid` in it, so that the checker can
+    report the rest of the file with them. Raises :class:`UserInputError` for syntax errors
+    (no rulebook then)."""
     if not isinstance(text, str):
         raise UserInputError(error("E000", "a rulebook must be text", Span(path)))
     if text.startswith("\ufeff"):  # a byte-order mark some editors write: not content
@@ -90,13 +104,12 @@ def parse_rulebook(text: str, path: str = "<rulebook>") -> model.Rulebook:
                                  sources={path: text}) from None
         raise failure.orig_exc from None
     rulebook = assemble(declarations, comments, text, path, lowering.diagnostics)
-    if lowering.diagnostics:
-        lowering.diagnostics.sort(key=_position)
-        raise UserInputError(lowering.diagnostics, sources={path: text})
-    return rulebook
+    lowering.diagnostics.sort(key=_position)
+    return rulebook, lowering.diagnostics
 
 
 _FIRST_WORD = re.compile(r"(?:[ \t\n]|#[^\n]*)*([A-Za-z_][A-Za-z0-9_]*|\S)")
+_YAML_KEY = re.compile(r"[ \t]*:(?:[ \t]|$)", re.MULTILINE)
 _DECLARATION_WORDS = frozenset(("rulebook", "version", "purpose", "const", "settings",
                                 "obstacles", "command", "index", "chance", "prescreen",
                                 "verdict", "combine", "rank"))
@@ -106,6 +119,14 @@ def _foreign_file(text: str, path: str) -> list[Diagnostic]:
     """One diagnostic, quoting at most the first word, for a file whose very first word starts
     no declaration (another kind of file, named by mistake): none of its lines is shown."""
     first = _FIRST_WORD.match(text)
+    if first is not None and (first.group(1) == "rulebook"
+                              or first.group(1) not in _DECLARATION_WORDS) \
+            and _YAML_KEY.match(text, first.end()):
+        # `rulebook: ../x.rules`: a case file or a campaign, which names a rulebook
+        return [error(NOT_A_RULEBOOK, f"{path} is not a rulebook: it begins with the YAML key "
+                      f"'{first.group(1)[:20]}:', as a case file or a campaign does",
+                      Span(path), hint="check the .rules file it names; `idefix-verify test` "
+                      "runs a case file")]
     if first is None or first.group(1) in _DECLARATION_WORDS \
             or difflib.get_close_matches(first.group(1), _DECLARATION_WORDS, cutoff=0.75):
         return []  # a rulebook with a mistake in its first word: the usual diagnostics

@@ -45,6 +45,7 @@ from idefix_rules.rulebook.results import (
     Verdict,
 )
 from idefix_rules.rulebook.semantics import names_in
+from idefix_rules.rulebook.types import FAILED_RUNS_RULE
 from idefix_rules.units import percent_text
 
 Interval = tuple[float, float]
@@ -394,7 +395,7 @@ def verdict(rulebook: Rulebook, constants: Mapping[str, Any], stats: PathStatist
     if not reads_failed:
         passed = stats.failed_runs == 0
         results.append(RuleResult(
-            "no_failed_runs", passed, True, "failed", stats.failed_fraction, None, 0.0,
+            FAILED_RUNS_RULE, passed, True, "failed", stats.failed_fraction, None, 0.0,
             "A path whose simulations failed cannot pass without the rulebook saying so",
             f"{stats.failed_runs} of {stats.runs + stats.failed_runs} runs failed"
             if not passed else "no run failed"))

@@ -122,7 +122,7 @@ def syntax_diagnostic(failure: lark.exceptions.UnexpectedInput, text: str,
         end = token.end_pos if isinstance(token.end_pos, int) else None
         following = text[end] if end is not None and end < len(text) else ""
         hint = _name_read_as_reduction(token, expected, text) or \
-            _hint(token, expected, following)
+            _name_read_as_negation(token, text) or _hint(token, expected, following)
         return error(SYNTAX_ERROR, message, span, hint)
     line, column = getattr(failure, "line", 1) or 1, getattr(failure, "column", 1) or 1
     return error(SYNTAX_ERROR, "syntax error", Span(path, line, column, line, column + 1))
@@ -147,6 +147,28 @@ def _name_read_as_reduction(token: lark.Token, expected: set[str], text: str) ->
     kind = {"const": "constant"}.get(declared.group(1), declared.group(1))
     return (f"'{word.group(1)}' is read as the reduction '{word.group(1)} over …'; the {kind} "
             f"of that name (line {line}) can never be read: rename it")
+
+def _name_read_as_negation(token: lark.Token, text: str) -> str | None:
+    """A constant, index or chance named ``not`` used where an expression starts (``limit =
+    not``) is read as a negation of what follows, and the parser fails a little later: point at
+    its declaration (E103)."""
+    declared = re.search(r"^[ \t]*(const|index|chance)[ \t]+not\b", text, re.MULTILINE)
+    if declared is None:
+        return None
+    start = token.start_pos if isinstance(token.start_pos, int) and token.type != "$END" \
+        else len(text)
+    before = re.sub(r"#[^\n]*", "", text[:start])
+    # the words of the failing declaration up to the token, its own name left out
+    starts = list(re.finditer(r"^[ \t]*(?:" + "|".join(sorted(TOP_LEVEL_KEYWORDS))
+                              + r")\b(?:[ \t]+not\b)?", before, re.MULTILINE))
+    own = before[starts[-1].end():] if starts else before
+    if re.search(r"\bnot\b", own) is None:
+        return None
+    line = text.count("\n", 0, declared.start()) + 1
+    kind = {"const": "constant"}.get(declared.group(1), declared.group(1))
+    return (f"'not' is read as the negation 'not …' of what follows; the {kind} of that name "
+            f"(line {line}) cannot be read there: rename it")
+
 
 def _reduction_mistake(token: lark.Token, text: str, path: str) -> Diagnostic | None:
     """A reduction written wrong before the token: a parametric reducer without its parameter

@@ -91,6 +91,10 @@ PATH_NAMES: dict[str, ExprType] = {
     "runs": RATIO,
 }
 
+# The verdict's own rule, added where no verdict rule reads `failed` (statistics.verdict): a
+# built-in name, which no declaration may take.
+FAILED_RUNS_RULE = "no_failed_runs"
+
 # Functions of the path scope: argument kind → result.
 PATH_FUNCTIONS: dict[str, str] = {"chance": "chance", "mean": "index", "max": "index"}
 

@@ -10,6 +10,7 @@ from idefix_rules.rulebook.model import (
     Binary,
     Call,
     Expr,
+    Invalid,
     Name,
     Reduce,
     Rulebook,
@@ -37,6 +38,8 @@ def children(expr: Expr) -> tuple[Expr, ...]:
         return inner
     if isinstance(expr, Table):
         return tuple(value for _, value in expr.entries)
+    if isinstance(expr, Invalid) and expr.written is not None:  # what it reads is still read
+        return children(expr.written)
     return ()
 
 

@@ -13,6 +13,7 @@ from idefix_rules.campaign.input.yamlsource import Loc, flag_value
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.rulebook.infer import did_you_mean
 from idefix_rules.rulebook.semantics import names_in
+from idefix_rules.rulebook.types import FAILED_RUNS_RULE
 from idefix_rules.testing.case_model import Expectation, ExpectKind
 from idefix_rules.testing.case_reader import CaseReader
 
@@ -35,7 +36,7 @@ def _named(reader: CaseReader, data: Any, loc: Loc, checked: CheckedRulebook,
                                      for rule in checked.rulebook.verdicts):
         # the verdict's own rule for failed runs, where no verdict rule reads `failed`
         # (rulebook/statistics.py)
-        known = [*known, "no_failed_runs"]
+        known = [*known, FAILED_RUNS_RULE]
     if not isinstance(data, dict):
         reader.fail("T009", f"expected a mapping of {kind} names to expected values", loc)
         return

@@ -26,7 +26,14 @@ from typing import Any
 
 from idefix_rules.campaign.input.yamlsource import Loc, load_yaml
 from idefix_rules.commands import Command, RoverGeometry, chain_duration
-from idefix_rules.errors import Span, UserInputError, error, read_user_text, unique_diagnostics
+from idefix_rules.errors import (
+    Diagnostic,
+    Span,
+    UserInputError,
+    error,
+    read_user_text,
+    unique_diagnostics,
+)
 from idefix_rules.rulebook import check_text, read_source
 from idefix_rules.rulebook.check import CheckedRulebook
 from idefix_rules.testing.case_expectations import read_expectations
@@ -103,18 +110,51 @@ def load_case_file(path: str | Path) -> CaseFile:
 
     check_file_size(path, MAX_CASE_FILE_BYTES, "T001", "case file")
     text = read_user_text(path, "T001", "case file")
+    if Path(path).suffix == ".rules":
+        raise UserInputError(_a_rulebook(str(path)))
     return parse_case_file(text, str(path))
+
+
+# The header a rulebook starts with (after comments); a case file's first key is `rulebook:`
+_RULEBOOK_HEADER = re.compile(r'(?:\s|#[^\n]*)*rulebook[ \t]+"')
+
+
+def _a_rulebook(path: str) -> list[Diagnostic]:
+    """T001 for a rulebook named where a case file is wanted (``idefix-verify test
+    rulebooks/idefix-ops.rules``), naming the case files beside it that test it."""
+    rulebook = Path(path)
+    beside = sorted(p for folder in (rulebook.parent / "tests", rulebook.parent)
+                    if folder.is_dir() for p in folder.glob("*.y*ml")
+                    if p.suffix in (".yaml", ".yml") and _holds_cases(p))
+    naming = [p for p in beside if _names_rulebook(p, rulebook.name)] or beside
+    shown = ", ".join(str(p) for p in naming[:3]) + (", …" if len(naming) > 3 else "")
+    hint = (f"its case files: {shown}; " if naming else "") + \
+        f"`idefix-verify check {path}` checks the rulebook itself"
+    return [error("T001", f"{path} is a rulebook, not a case file: `idefix-verify test` takes "
+                  "case files (YAML with 'rulebook:' and 'cases:', docs/testing-rulebooks.md)",
+                  Span(path), hint)]
+
+
+def _names_rulebook(case_file: Path, name: str) -> bool:
+    try:
+        return name in case_file.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def parse_case_file(text: str, path: str) -> CaseFile:
     try:
         document = load_yaml(text, path)
     except UserInputError as failure:  # YAML syntax: same place, this file's code range
+        if _RULEBOOK_HEADER.match(text):
+            raise UserInputError(_a_rulebook(path)) from None
         raise UserInputError([error("T001", d.message, d.span, d.hint)
                               for d in failure.diagnostics], {path: text}) from None
     reader = CaseReader(document.locations)
     data = document.data
     if not isinstance(data, dict):
+        if _RULEBOOK_HEADER.match(text):
+            raise UserInputError(_a_rulebook(path))
         raise UserInputError(error("T002", "a case file is a mapping with 'rulebook' and "
                                    "'cases'", Span(path, 1, 1)), {path: text})
     reader.unknown_keys(data, (), _TOP_KEYS)

@@ -151,3 +151,10 @@ def test_a_misspelt_collision_signal_over_runs_is_an_unknown_name() -> None:
     [found] = [d for d in diagnostics if d.code.startswith("E")]
     assert (found.code, found.hint) == ("E101", "did you mean 'collision.hits'?")
     assert rulebook_codes(text.replace("collision.hist", "collision.hits")) == ["E802"]
+
+
+def test_the_unknown_domain_explanation_names_every_domain() -> None:
+    """E007's explanation (explain-error, the editor's hover) left out `runs`."""
+    from idefix_rules.rulebook.model import DOMAIN_AXES
+
+    assert [d for d in DOMAIN_AXES if f"`{d}`" not in CODES["E007"].explanation] == []

@@ -18,6 +18,7 @@ from idefix_rules.rulebook.model import (
     Name,
     Number,
     ObstacleLevel,
+    Prescreen,
     Ranking,
     RankKey,
     Reduce,
@@ -122,6 +123,21 @@ def test_command_rules_see_command_quantities():
 def test_duplicate_names_across_kinds():
     book = rulebook(chances=(Chance("I_s", Binary(">", Name("risk"), Number(0))),))
     assert "E102" in codes(book)
+
+
+@pytest.mark.parametrize("kind", ["verdict", "prescreen", "chance"])
+def test_no_failed_runs_is_the_verdicts_own_rule_and_no_declaration_takes_it(kind):
+    """A verdict named `no_failed_runs` was accepted: the results showed its text with the
+    automatic rule's reason, and a case expecting it to pass passed on a failing path."""
+    condition = Binary("<=", Name("risk"), Number(50, "%"))
+    named = {"verdict": {"verdicts": (VERDICT, VerdictRule("no_failed_runs", condition))},
+             "prescreen": {"prescreens": (Prescreen("no_failed_runs", condition),)},
+             "chance": {"chances": (Chance("no_failed_runs", Reduce(
+                 "any", "time", Binary(">", Name("pitch"), Number(0, "deg")))),)}}
+    result = check(rulebook(**named[kind]))
+    assert [d.code for d in result.errors] == ["E103"]
+    assert result.errors[0].message == (f"{kind} 'no_failed_runs' takes the name of the "
+                                        "verdict's own rule for failed runs")
 
 
 def test_constants_in_a_circle():

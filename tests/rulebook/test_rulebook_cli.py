@@ -85,6 +85,17 @@ def test_check_of_a_missing_or_binary_file_is_exit_2_not_a_traceback(write, tmp_
     assert "not found" in captured.out
 
 
+def test_check_of_a_case_file_says_it_is_no_rulebook(write, capsys):
+    """A case file begins with `rulebook:`: check said only "unexpected ':'; expected a
+    string" at its first key."""
+    path = write("cases.yaml", "# cases\nrulebook: ../ops.rules\ncases:\n  c: {}\n")
+    assert main(["check", str(path)]) == 2
+    out = capsys.readouterr().out
+    assert f"error[E902]: {path} is not a rulebook: it begins with the YAML key 'rulebook:'" \
+        in out
+    assert "E001" not in out
+
+
 def test_check_of_a_syntax_error_is_exit_2(write, capsys):
     assert main(["check", str(write("s.rules", VALID + "verdict x: require risk = 1\n"))]) == 2
     assert "use '==' to compare" in capsys.readouterr().out

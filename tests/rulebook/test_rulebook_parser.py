@@ -240,7 +240,7 @@ def test_an_unclosed_block_is_reported_at_the_end():
     assert diagnostic.span.line == 4
 
 
-@pytest.mark.parametrize(("body", "code", "words"), [
+STRUCTURAL_MISTAKES = [
     ("", "E500", "no header"),
     (HEADER + "settings { }\nsettings { }\n", "E004", "appears twice"),
     (HEADER + "index I { value = 1 weight = 1 }\n", "E006", "has no 'limit'"),
@@ -248,10 +248,28 @@ def test_an_unclosed_block_is_reported_at_the_end():
     (HEADER + "const a = max over wheel (x)\n", "E007", "unknown domain 'wheel'"),
     (HEADER + "combine { run = sum }\n", "E008", "unknown run combination"),
     (HEADER + "const a = 1e999\n", "E003", "too large"),
-])
+]
+
+
+@pytest.mark.parametrize(("body", "code", "words"), STRUCTURAL_MISTAKES)
 def test_structural_mistakes(body, code, words):
     found = errors(body)
     assert any(d.code == code and words in d.message for d in found), found
+
+
+@pytest.mark.parametrize(("body", "code", "words"), STRUCTURAL_MISTAKES)
+def test_a_structural_mistake_is_reported_with_the_rest_of_the_files_problems(body, code,
+                                                                             words):
+    """One structural mistake hid every other problem of the file (the checker never ran);
+    each is now reported once, with the other, and the file still does not pass."""
+    from idefix_rules.rulebook import check_text
+
+    text = body + INDEX + "verdict far: require risk <= 5 cm\n"
+    result = check_text(text, "bad.rules")
+    found = [d.code for d in result.diagnostics]
+    assert sorted(found) == sorted([code, "E201"]), result.diagnostics
+    assert result.checked is None
+    assert [d.code for d in errors(text)] == [code]  # parsing alone (fmt, the editor) refuses
 
 
 @pytest.mark.parametrize(("literal", "column"), [
@@ -326,6 +344,33 @@ def test_damaged_rulebooks_give_a_rulebook_error_never_another_exception(data):
     formatted = format_rulebook(model)
     assert parse_rulebook(formatted, "damaged.rules") == model
     assert format_rulebook(parse_rulebook(formatted, "damaged.rules")) == formatted
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_damaged_rulebooks_check_to_diagnostics_never_another_exception(data):
+    """The checker also runs on what lowered of a file with structural mistakes: whatever
+    the damage, diagnostics (or a syntax error), never a crash, never a passing file."""
+    from idefix_rules.rulebook import check_text
+
+    start = data.draw(st.integers(0, len(SAMPLE)))
+    end = data.draw(st.integers(start, min(len(SAMPLE), start + 12)))
+    insert = data.draw(st.sampled_from(["", "1e400", "1e-400", "over tim", "over run",
+                                        "limit = 1", "weight = 1", "}", "rank by risk\n",
+                                        "combine { run = sum }\n", "value = 1e999"]))
+    text = SAMPLE[:start] + insert + SAMPLE[end:]
+    try:
+        parse_rulebook(text, "damaged.rules")
+        refused = False
+    except UserInputError:
+        refused = True
+    try:
+        result = check_text(text, "damaged.rules", strict=data.draw(st.booleans()))
+    except UserInputError as failure:
+        assert failure.diagnostics
+        return
+    if refused:
+        assert result.checked is None and result.errors
 
 
 @pytest.mark.parametrize("expression", ["(" * 5000 + "1" + ")" * 5000, "-" * 5000 + "1",

@@ -188,6 +188,22 @@ def test_a_broken_case_file_exits_2_naming_line_and_column(tmp_path, capsys, bod
     assert "Traceback" not in text
 
 
+@pytest.mark.parametrize("name", ["ops.rules", "ops.txt"])
+def test_a_rulebook_named_as_the_case_file_is_said_to_be_one(tmp_path, capsys, name):
+    """`idefix-verify test rulebooks/idefix-ops.rules` said only 'invalid YAML: mapping values
+    are not allowed here' at a line of the rulebook."""
+    rulebook = tmp_path / name
+    rulebook.write_text(RULEBOOK.read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "ops.yaml").write_text(
+        f"rulebook: ../{name}\ncases: {{c: {{expect: {{verdict: pass}}}}}}\n", encoding="utf-8")
+    assert main(["test", str(rulebook)]) == 2
+    out = capsys.readouterr().out
+    assert f"{rulebook}: error[T001]: {rulebook} is a rulebook, not a case file" in out
+    assert f"its case files: {tmp_path / 'tests' / 'ops.yaml'};" in out
+    assert "YAML:" not in out and "Traceback" not in out
+
+
 def test_invalid_yaml_and_missing_rulebook_exit_2(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("rulebook: x.rules\ncases: [\n", encoding="utf-8")
