@@ -7,7 +7,7 @@ getter family that reads it (``real``, ``integer``, ``boolean``). Units are unde
 ``<UnitDefinitions>`` base-unit exponents.
 
 >>> description = describe_fmu("rover.fmu")                   # doctest: +SKIP
->>> description.variables["x"].unit, description.variables["x"].reader
+>>> description.variables["x"].unit, description.variables["x"].reader  # doctest: +SKIP
 ('m', 'real')
 """
 

@@ -35,8 +35,7 @@ Formulas (``docs/derived-signals.md`` has the same list with figures of speech):
 * ``acceleration`` = ``d speed / dt``, the same way.
 
 >>> import numpy as np
->>> from idefix_rules.chain_end import ended
-from idefix_rules.commands import Command
+>>> from idefix_rules.commands import Command
 >>> t = np.arange(4.0)
 >>> signals = {"t": np.tile(t, (1, 1)), "x": np.array([[0.0, 1.0, 2.0, 3.0]]),
 ...            "y": np.zeros((1, 4)), "command": np.array([[0, 0, 0, -1]])}
