@@ -225,16 +225,19 @@ def check_constant_parts(env: CheckEnv) -> list[Diagnostic]:
     weights, nominals, settings and constants have their own checks."""
     problems: list[Diagnostic] = []
     book = env.rulebook
-    rules: list[tuple[str, Expr]] = [
-        *((f"command rule '{r.name}'", r.condition) for r in book.command_rules),
-        *((f"index '{i.name}'", i.value) for i in book.indices),
-        *((f"the map of index '{i.name}'", i.map) for i in book.indices if i.map is not None),
-        *((f"chance '{c.name}'", c.condition) for c in book.chances),
-        *((f"prescreen '{p.name}'", p.condition) for p in book.prescreens),
-        *((f"verdict '{v.name}'", v.condition) for v in book.verdicts),
-        *(("a rank key", key.expr) for key in book.ranking.keys)]
-    for label, expr in rules:
-        _constant_parts(expr, label, env, problems)
+    rules: list[tuple[str, str, Expr]] = [
+        *((f"command rule '{r.name}'", "command", r.condition) for r in book.command_rules),
+        *((f"index '{i.name}'", "run", i.value) for i in book.indices),
+        *((f"the map of index '{i.name}'", "run", i.map) for i in book.indices
+          if i.map is not None),
+        *((f"chance '{c.name}'", "run", c.condition) for c in book.chances),
+        *((f"prescreen '{p.name}'", "prescreen", p.condition) for p in book.prescreens),
+        *((f"verdict '{v.name}'", "path", v.condition) for v in book.verdicts),
+        *(("a rank key", "path", key.expr) for key in book.ranking.keys)]
+    for label, kind, expr in rules:
+        typed: list[Diagnostic] = []
+        if infer_type(expr, env.scope(kind), typed) is not None and not typed:
+            _constant_parts(expr, label, env, problems)  # else its type check says what
     return problems
 
 

@@ -68,8 +68,8 @@ def _fold(expr: Expr, constants: Mapping[str, Value]) -> Value:
         return out
     if isinstance(expr, Select):
         base = _fold(expr.operand, constants)
-        if not isinstance(base, dict) or len(expr.labels) != 1:
-            raise NotConstant("selection")
+        if not isinstance(base, dict) or len(expr.labels) != 1 or expr.labels[0] not in base:
+            raise NotConstant("selection")  # of two axes' tables, or a label not there
         return base[expr.labels[0]]
     if isinstance(expr, Unary):
         if expr.op != "-":
@@ -101,6 +101,8 @@ def _map(function: Callable[[float], float], value: Value) -> Value:
 
 def _zip(function: Callable[[float, float], float], left: Value, right: Value) -> Value:
     if isinstance(left, dict) and isinstance(right, dict):
+        if left.keys() != right.keys():  # two axes: one value per pair, folded by neither
+            raise NotConstant("tables of two axes")
         return {k: function(left[k], right[k]) for k in left}
     if isinstance(left, dict):
         assert not isinstance(right, dict)

@@ -105,3 +105,21 @@ def test_a_constant_refused_once_is_not_reported_again_where_it_is_used() -> Non
     assert found(const="const bad = 1 / 0", condition="risk <= bad") == [
         ("E402", "constant 'bad' is not a finite number (inf; a division by zero, or a "
                  "value beyond a double?)")]
+
+
+def test_tables_of_two_axes_in_a_rule_are_valid_as_before() -> None:
+    """A product of tables on two axes is a value per pair, which the evaluators broadcast:
+    folding it as one table raised KeyError (exit 3) on a rulebook that passed."""
+    const = "const w = {FL: 1, FR: 1, RL: 0.5, RR: 0.5}"
+    assert found("max over time (max over wheels (abs(wheel.slip) * (w * f_obs)[L3]))",
+                 const=const) == []
+    assert found(condition="risk <= (f_obs + w)[L1, FL] * 70 %", const=const) == []
+
+
+@pytest.mark.parametrize(("condition", "code"), [
+    ("risk <= f_obs[FL]", "E104"),        # a label of another axis: said by the type check
+    ("risk <= 70 hits", "E205"),          # an unknown unit
+])
+def test_a_constant_part_the_type_check_refused_is_not_folded(condition: str,
+                                                             code: str) -> None:
+    assert [c for c, _ in found(condition=condition)] == [code]
