@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from idefix_rules.chain_end import EndWatch
+from idefix_rules.chain_end import EndWatch, nothing_to_execute
+from idefix_rules.commands import Command
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.fmu.binding import OutputGroup
 from idefix_rules.fmu.description import FmuVariable
@@ -62,9 +63,9 @@ class OutputPlan:
         self.end_output: tuple[int, bool] | None = ends[0] if ends else None
 
     def end_watch(self, groups: Sequence[OutputGroup], buffers: list[np.ndarray],
-                  started: bool = False) -> Callable[[int], bool] | None:
+                  chain: Sequence[Command]) -> Callable[[int], bool] | None:
         """Whether sample k of a co-simulation run says the chain is complete (None: the FMU
-        maps no output that says so; ``started``: an empty chain)."""
+        maps no output that says so), for a run of ``chain``."""
         if self.end_output is None:
             return None
         position, is_done = self.end_output
@@ -75,7 +76,7 @@ class OutputPlan:
         else:  # pragma: no cover - every output belongs to a group
             return None
         item = column.item
-        watch = EndWatch(is_done, self.done_at, started)
+        watch = EndWatch(is_done, self.done_at, nothing_to_execute(chain), len(chain))
         return lambda k: watch(float(item(k)))  # called for samples 0, 1, 2 … in order
 
     def pose_columns(self) -> list[int]:
@@ -99,15 +100,16 @@ class OutputPlan:
         return lambda k: k > 0 and not any(moved(float(column.item(k - 1)),
                                                  float(column.item(k))) for column in columns)
 
-    def end_of(self, columns: list[np.ndarray], started: bool = False) -> int | None:
+    def end_of(self, columns: list[np.ndarray], chain: Sequence[Command]) -> int | None:
         """The first sample of read columns (slot order) where the chain is complete
-        (``started``: an empty chain)."""
+        (a run of ``chain``)."""
         if self.end_output is None:
             return None
         position, is_done = self.end_output
         column = columns[position]
+        started, commands = nothing_to_execute(chain), len(chain)
         end = end_sample(None, column, self.done_at, started) if is_done else \
-            end_sample(column, None, started=started)
+            end_sample(column, None, started=started, commands=commands)
         poses = [columns[position] for position in self.pose_columns()]
         while end is not None and poses and end + 1 < len(column) and any(
                 moved(float(pose[end]), float(pose[end + 1])) for pose in poses):

@@ -22,14 +22,15 @@ def moved(before: float, after: float) -> bool:
 
 
 def end_sample(command: np.ndarray | None, done: np.ndarray | None,
-               done_at: float = 1.0, started: bool = False) -> int | None:
+               done_at: float = 1.0, started: bool = False,
+               commands: int | None = None) -> int | None:
     """The first sample where the chain is complete, or None (not within the run).
 
     Complete (:func:`idefix_rules.chain_end.ended`): ``command`` (the raw output, index of the
     active command) rounds to -1 after a sample that ran a command; without ``command``, the
     raw ``done`` output reaches ``done_at`` after a sample below it (the evaluator reads a
-    run's time the same way, docs/derived-signals.md). ``started``: an empty chain, complete
-    wherever the output says so.
+    run's time the same way, docs/derived-signals.md). ``started``: a chain with nothing to
+    execute, complete wherever the output says so; ``commands``: the chain's length.
 
     >>> end_sample(np.array([0.0, 1.0, -1.0, -1.0]), None)
     2
@@ -38,7 +39,7 @@ def end_sample(command: np.ndarray | None, done: np.ndarray | None,
     >>> end_sample(np.array([-1.0, 0.0]), None) is None  # waiting to start is no end
     True
     """
-    complete = ended(command, done, done_at, started)
+    complete = ended(command, done, done_at, started, commands)
     return int(np.argmax(complete)) if complete.any() else None
 
 

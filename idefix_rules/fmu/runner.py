@@ -241,7 +241,7 @@ class FmuRunner:
                 raise
             # fmpy's solver runs to the stop time: the same hold afterwards, so the stored
             # samples mean the same whatever the FMU's interface
-            end = self._plan.end_of(columns, not chain) if hold_after_chain else None
+            end = self._plan.end_of(columns, chain) if hold_after_chain else None
             held = None if end is None else min(end + 1, steps)
             if held is not None:
                 hold_after_end(columns, held)
@@ -269,7 +269,7 @@ class FmuRunner:
             if status not in OK_STATUSES:
                 raise self._read_error(0.0, status)
         do_step = self._do_step
-        watch = self._plan.end_watch(self._groups, buffers, not chain) if hold_after_chain \
+        watch = self._plan.end_watch(self._groups, buffers, chain) if hold_after_chain \
             else None
         rest = self._plan.rest_watch(self._groups, buffers) if watch is not None else None
         ended = watch is not None and watch(0)

@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from idefix_rules.chain_end import ended
+from idefix_rules.chain_end import ended, nothing_to_execute
 from idefix_rules.commands import Command, RoverGeometry, command_kinematics, ideal_poses
 from idefix_rules.errors import UserInputError, error
 from idefix_rules.signals import AXIS_LABELS, DERIVED_SIGNALS, REF_PREFIX, area_signal, lookup
@@ -271,17 +271,25 @@ class DerivedSignals:
         raise AssertionError(f"derived signal {name!r} has no formula")  # pragma: no cover
 
     def _chain_done(self) -> np.ndarray:
-        """1.0 from the first sample where the chain is complete, as a run's time reads it:
-        'command' back at -1 after the chain started, else a mapped 'done' set after a sample
-        without it (:mod:`idefix_rules.chain_end`), else the ideal schedule (the commands at
-        their ideal durations from t = 0)."""
-        if not self.provides("command") and self.provides("done"):
-            done = ended(None, np.broadcast_to(self._given("done"), (self.runs, self.samples)))
-        elif not self.context.chain:  # nothing to execute: complete from the start
-            done = np.ones((self.runs, self.samples), dtype=bool)
+        """1.0 from the first sample where the chain is complete, as a run's time reads it
+        (:mod:`idefix_rules.chain_end`): 'command' back at -1 after the chain started (or
+        past its last command), else a mapped 'done' set after a sample without it, else the
+        ideal schedule (the commands at their ideal durations from t = 0); a chain with
+        nothing to execute is complete wherever the output says so (throughout without
+        one)."""
+        chain = self.context.chain
+        shape = (self.runs, self.samples)
+        if self.provides("command") or self.provides("done"):
+            command = np.broadcast_to(self._given("command"), shape) \
+                if self.provides("command") else None
+            done = ended(command, None if command is not None else
+                         np.broadcast_to(self._given("done"), shape),
+                         started=nothing_to_execute(chain), commands=len(chain))
+        elif nothing_to_execute(chain):
+            done = np.ones(shape, dtype=bool)
         else:
             active, _ = self._command_progress()
-            done = active == len(self.context.chain)
+            done = active == len(chain)
         return np.maximum.accumulate(done, axis=1).astype(np.float64)
 
     def run_lengths(self) -> np.ndarray | None:

@@ -450,25 +450,23 @@ def _evaluate_run(model: Rulebook, checked: CheckedRulebook, evaluator: _Run,
     row["dominant_sample"] = per_sample.index(max(per_sample))
     # The run ends where the chain is complete: 'command' back at -1 after the chain started
     # (or past its last command), else a mapped 'done' set after a sample where it was not,
-    # else the last sample; without 'energy' the run's energy is unknown (NaN).
+    # else the last sample; a chain that moves nothing is complete wherever the output says
+    # so. Without 'energy' the run's energy is unknown (NaN).
     source = evaluator.source
     commands = len(source.context.chain)
-    if source.provides("command") and commands:
-        ended: list[bool] = []
-        started = False
+    idle = all(c.delta_position == 0 and c.delta_heading == 0 for c in source.context.chain)
+    ended: list[bool] = []
+    if source.provides("command"):
+        started = idle
         for value in np.asarray(source.get("command"))[0]:
             active = round(float(value))
             started = started or active >= 0
-            ended.append(active >= commands or (active < 0 and started))
-    elif source.provides("command"):
-        ended = [round(float(c)) == -1 for c in np.asarray(source.get("command"))[0]]
+            ended.append(started and (active >= commands or active < 0))
     elif source.provides("done"):  # set after a sample where it was not
-        ended, clear = [], False
+        clear = idle
         for value in np.asarray(source.get("done"))[0]:
-            ended.append(clear and float(value) >= 0.5)
             clear = clear or float(value) < 0.5
-    else:
-        ended = []
+            ended.append(clear and float(value) >= 0.5)
     done = ended.index(True) if True in ended else samples - 1
     row["time"] = evaluator.t[done]
     row["energy"] = float(np.asarray(source.get("energy"))[0][done]) \

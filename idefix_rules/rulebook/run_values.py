@@ -41,15 +41,10 @@ def normalise(value: np.ndarray, limit: float, nominal: float | None) -> np.ndar
 
 def time_energy(source: DerivedSignals, runs: int) -> tuple[np.ndarray, np.ndarray]:
     """Each run's time and energy, at the sample where it ends."""
-    # The run ends where the chain is complete (chain_done): 'command' back at -1 after
-    # the chain started (a -1 before it is no end), else a mapped 'done' set after a sample
-    # without it (idefix_rules.chain_end), else the last sample; without 'energy' the run's
+    # The run ends where the chain is complete (chain_done, idefix_rules.chain_end) when the
+    # runs say so ('command' or 'done'), else at the last sample; without 'energy' the run's
     # energy is unknown (NaN).
-    if source.provides("command") and source.context.chain:
-        done = np.broadcast_to(source.get("chain_done") > 0, (runs, source.samples))
-    elif source.provides("command"):  # nothing to execute: the first -1 ends it
-        done = np.broadcast_to(np.rint(source.get("command")), (runs, source.samples)) == -1
-    elif source.provides("done"):
+    if source.provides("command") or source.provides("done"):
         done = np.broadcast_to(source.get("chain_done") > 0, (runs, source.samples))
     else:
         done = np.zeros((runs, source.samples), dtype=bool)

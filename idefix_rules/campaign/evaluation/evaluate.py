@@ -38,8 +38,8 @@ from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.campaign.statistics.stopping import restated, settled_outcome
 from idefix_rules.campaign.storage.store import ResultStore
-from idefix_rules.chain_end import ended
-from idefix_rules.commands import RoverGeometry
+from idefix_rules.chain_end import ended, nothing_to_execute
+from idefix_rules.commands import Command, RoverGeometry
 from idefix_rules.plain import as_plain
 from idefix_rules.results.collisions import ChunkCollisions, CollisionFunction
 from idefix_rules.results.format import drawn_paired
@@ -64,19 +64,21 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
     return type(evaluations[0]).concat(list(evaluations))
 
 
-def chain_finished(signals: Mapping[str, np.ndarray]) -> np.ndarray | None:
+def chain_finished(signals: Mapping[str, np.ndarray], chain: Sequence[Command] = ()
+                   ) -> np.ndarray | None:
     """Per run (axis 0) whether its chain was complete within the stop time
     (:func:`idefix_rules.chain_end.ended`, as the evaluator reads a run's time); None when
     the runs have neither ``command`` nor ``done``.
 
-    >>> chain_finished({"command": np.array([[0.0, -1.0, -1.0], [0.0, 1.0, 1.0],
-    ...                                      [-1.0, -1.0, -1.0]])})
+    >>> one = (Command(0.05, 0.3, 0.0),)
+    >>> chain_finished({"command": np.array([[0.0, -1.0, -1.0], [0.0, 0.0, 0.0],
+    ...                                      [-1.0, -1.0, -1.0]])}, one)
     array([ True, False, False])
     """
-    if "command" in signals or "done" in signals:
-        return np.asarray(ended(signals.get("command"), None if "command" in signals
-                                else signals["done"]).any(axis=1))
-    return None
+    if "command" not in signals and "done" not in signals:
+        return None
+    return np.asarray(ended(signals.get("command"), signals.get("done"),
+                            started=nothing_to_execute(chain), commands=len(chain)).any(axis=1))
 
 
 def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverGeometry,
@@ -110,7 +112,7 @@ def evaluate_path(store: StoredResults, name: str, evaluator: Any, rover: RoverG
                                   chunk_runs=chunk_runs, within=within, workers=workers,
                                   across_chunk_runs=DEFAULT_CHUNK_RUNS,
                                   across_cache=across_cache):
-            finished.append(chain_finished(chunk.signals))
+            finished.append(chain_finished(chunk.signals, context.chain))
             collided = chunk.collisions[0]
             if collided is not None and known is None:
                 pieces = collision_pieces(chunk.rows, *collided, chunk.signals.get("t"))
