@@ -214,6 +214,20 @@ def test_a_foreign_fmu_with_a_geometry_of_its_own_is_described_by_the_campaign(
     assert np.degrees(yaw) == pytest.approx(turned, abs=0.3)
 
 
+def test_the_tools_own_geometry_drawn_per_run_is_refused(
+        tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A drawn rover.half_track for an FMU without it would change no run (the tool reads one
+    geometry per campaign, its nominal): C401 with the reason, not a silent fixed value."""
+    given = "rover.half_track: {distribution: uniform, low: \"0.2 m\", high: \"0.6 m\"}"
+    text = DIFF_DRIVE_CAMPAIGN.replace("  parameters:\n", f"  parameters:\n    {given}\n", 1)
+    code, output = _run(_campaign(tmp_path, diff_drive_fmu, text), capsys)
+    assert code == 2, output
+    line = text.count("\n", 0, text.index(given)) + 1
+    assert f"campaign.yaml:{line}:5: error[C401]: uncertainty.parameters.rover.half_track: " \
+        "unknown FMU parameter 'rover.half_track' in DiffDrive.fmu" in output, output
+    assert "the tool reads one geometry per campaign" in output
+
+
 def test_the_tools_own_geometry_is_of_its_dimension(
         tmp_path: Path, diff_drive_fmu: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text = DIFF_DRIVE_CAMPAIGN.replace("paths:\n", "environment:\n  regolith:\n"

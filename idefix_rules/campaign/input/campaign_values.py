@@ -71,14 +71,17 @@ def rover_geometry(campaign: Campaign) -> RoverGeometry:
 
 
 def tool_only_parameters(campaign: Campaign, settable: Iterable[str]) -> frozenset[str]:
-    """The geometry names the campaign gives (``rover.half_track`` …) that the FMU has no
-    settable variable for, by that name or mapped in ``fmu.parameters``: values the tool
-    alone reads (the set-points, the ideal durations, the stop time), never set in the FMU.
+    """The geometry names the campaign gives (``rover.half_track`` …, as a regolith value or a
+    fixed parameter) that the FMU has no settable variable for, by that name or mapped in
+    ``fmu.parameters``: values the tool alone reads (the set-points, the ideal durations, the
+    stop time), never set in the FMU. The tool reads one geometry per campaign: a drawn value
+    is no tool-only value (the FMU must take it, else C401).
     A foreign FMU with a geometry of its own is described so (docs/bring-your-own-fmu.md)."""
     mapped = set((campaign.model.fmu.parameters or {}).values())
     takes = set(settable) | mapped
     given = {regolith_parameter(key) for key in campaign.model.environment.regolith}
-    given |= set(campaign.model.uncertainty.parameters)
+    given |= {name for name, spec in campaign.model.uncertainty.parameters.items()
+              if spec.distribution == "fixed"}  # a drawn value would reach no run
     return frozenset(name for name in given & set(GEOMETRY_PARAMETERS) if name not in takes)
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from idefix_rules.campaign.input.campaign_values import (
     CONTRACT_PARAMETERS,
+    GEOMETRY_PARAMETERS,
     REGOLITH_PREFIX,
     regolith_parameter,
     tool_only_parameters,
@@ -240,6 +241,11 @@ def _unknown(campaign: Campaign, loc: tuple[str, ...], name: str, known: Mapping
     hint = f"did you mean {close[0]!r}?" if close else None
     if grouped:
         hint = f"{hint} (a variable is named with its group)"
+    if hint is None and what == "FMU parameter" and name in GEOMETRY_PARAMETERS \
+            and loc[0] == "uncertainty":
+        hint = (f"{fmu_path.name} has no {name}: the tool reads one geometry per campaign, so "
+                "give it a fixed value (distribution: fixed) or a regolith value; drawn, it "
+                "would change no run")
     if hint is None and what == "FMU parameter":
         # `fmpy info` lists inputs and outputs only: name the parameters there are
         names = [n for n in known if n]
