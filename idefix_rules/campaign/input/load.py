@@ -121,8 +121,11 @@ def _looks_like_a_rulebook(text: str) -> bool:
 def _zip_archive(source: Path) -> str | None:
     """What a campaign path that is a zip archive is (``an FMU`` when it holds a
     ``modelDescription.xml``); None for any other file, or one that cannot be read (said by
-    the checks that read it)."""
+    the checks that read it). A pipe (``<(…)``) is not looked into: what this read would be
+    gone for the campaign's own read."""
     try:
+        if not source.is_file():
+            return None
         with source.open("rb") as file:
             if file.read(4) not in (b"PK\x03\x04", b"PK\x05\x06"):
                 return None
