@@ -109,14 +109,22 @@ def _damaged_member(description: FmuDescription) -> str | None:
         "does not match)"
 
 
+def _binary_member(description: FmuDescription) -> str:
+    """The FMU's shared library for this platform, as a path inside it: the model identifier
+    of the interface the runner uses (co-simulation first)."""
+    import fmpy
+
+    identifier = description.co_simulation or description.model_exchange
+    folder = fmpy.platform_tuple if description.major == 3 else fmpy.platform
+    return f"binaries/{folder}/{identifier}{fmpy.sharedLibraryExtension}"
+
+
 def _missing_binary(description: FmuDescription) -> str | None:
     """What is missing when the FMU has no shared library for this platform under the model
     identifier of the interface the runner uses (co-simulation first); None when it has."""
     import fmpy
 
-    identifier = description.co_simulation or description.model_exchange
-    folder = fmpy.platform_tuple if description.major == 3 else fmpy.platform
-    wanted = f"binaries/{folder}/{identifier}{fmpy.sharedLibraryExtension}"
+    wanted = _binary_member(description)
     path = Path(description.path)
     if path.is_dir():
         present = (path / wanted).is_file()
@@ -140,14 +148,10 @@ def _foreign_binary(description: FmuDescription) -> str | None:
     """On Linux: what is wrong when the FMU's shared library for this platform is no 64-bit
     ELF library for this machine (a truncated file, another architecture), which the workers
     could not load; None when it is one, or when this cannot be told here."""
-    import fmpy
-
     machine = _ELF_MACHINES.get(platform.machine())
     if not sys.platform.startswith("linux") or machine is None:
         return None
-    identifier = description.co_simulation or description.model_exchange
-    folder = fmpy.platform_tuple if description.major == 3 else fmpy.platform
-    wanted = f"binaries/{folder}/{identifier}{fmpy.sharedLibraryExtension}"
+    wanted = _binary_member(description)
     path = Path(description.path)
     try:
         if path.is_dir():
