@@ -1,8 +1,8 @@
 """One analysis of an editor buffer: the checker's diagnostics, the rule model and its symbols.
 
 The diagnostics are those of ``idefix-verify check --strict`` on the same text, from the same
-function (:func:`idefix_rules.cli.check.check_source`): the editor and the command line never
-disagree. The rule model (when the text parses) and the checked rulebook (when it also checks)
+function (:func:`idefix_rules.rulebook.checking.check_source`): the editor and the command line
+never disagree. The rule model (when the text parses) and the checked rulebook (when it also checks)
 feed hover, go to definition, references and completion.
 
 >>> analysis = analyse('rulebook "r" version "1" purpose "p"\\n', "r.rules")
