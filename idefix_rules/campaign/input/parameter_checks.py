@@ -73,13 +73,8 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
     for loc, name, dimension in entries:
         if name in tool_only and variables.get(name) is None:
             # the tool's own geometry for an FMU that has its own: of the contract's dimension
-            own = CONTRACT_PARAMETERS[name]
-            if dimension != own.dimension:
-                got = "a bare number" if dimension is None else describe(dimension)
-                problems.append(error(
-                    "C402", f"{format_loc(loc)}: expected {describe(own.dimension)} ({name} "
-                            f"is {own.what}, read by this tool in {own.unit}), got {got}",
-                    campaign.span(loc)))
+            if dimension != CONTRACT_PARAMETERS[name].dimension:
+                problems.append(_not_its_dimension(campaign, loc, name, dimension))
             continue
         if chain_set and (is_chain_parameter(name) or parameter_names.get(name) in renamed):
             problems.append(error(
@@ -134,10 +129,7 @@ def parameter_problems(campaign: Campaign, description: FmuDescription) -> list[
             continue
         if contract is not None and contract.dimension != dimension:
             # the FMU declares no unit: the tool's own reading of the name decides
-            problems.append(error(
-                "C402", f"{format_loc(loc)}: expected {describe(contract.dimension)} ({name} "
-                        f"is {contract.what}, read by this tool in {contract.unit}), got "
-                        f"{describe(dimension)}", campaign.span(loc)))
+            problems.append(_not_its_dimension(campaign, loc, name, dimension))
             continue
         ranged.append((loc, name, variable))
     return problems + _outside_declared_range(campaign, description, ranged)
@@ -183,6 +175,16 @@ def _outside_declared_range(campaign: Campaign, description: FmuDescription,
                      "truncated_normal with low and high, a uniform), or narrow it"))
             break
     return problems
+
+
+def _not_its_dimension(campaign: Campaign, loc: tuple[str, ...], name: str,
+                       dimension: Dimension | None) -> Diagnostic:
+    """C402: a value for a name the tool reads itself, of another dimension than its own."""
+    own = CONTRACT_PARAMETERS[name]
+    got = "a bare number" if dimension is None else describe(dimension)
+    return error("C402", f"{format_loc(loc)}: expected {describe(own.dimension)} ({name} is "
+                         f"{own.what}, read by this tool in {own.unit}), got {got}",
+                 campaign.span(loc))
 
 
 def _beyond(value: float, variable: FmuVariable) -> tuple[str, float] | None:
