@@ -65,12 +65,17 @@ def scheduler_address(text: str) -> str:
     try:
         scheme, location = parse_address(text)
         get_backend(scheme)
-        # a network address names a host and a port that is a number (inproc:// does not)
+        # a network address names a host and a port that is a number (inproc:// does not);
+        # without a port Dask's client refuses it once the campaign has started
         host = location if scheme == "inproc" else parse_host_port(location, 8786)[0]
+        if not str(host).strip():
+            raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: it "
+                                             "names no host (tcp://HOST:PORT)")
+        port = None if scheme == "inproc" else parse_host_port(location)[1]
     except (ValueError, TypeError) as failure:
         raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: "
-                                         f"{failure}") from None
-    if not str(host).strip():
-        raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: it names "
-                                         "no host (tcp://HOST:PORT)")
+                                         f"{failure} (tcp://HOST:PORT)") from None
+    if port is not None and not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a Dask scheduler address: port "
+                                         f"{port} is not from 1 to 65535 (tcp://HOST:PORT)")
     return text

@@ -1298,6 +1298,11 @@ def test_report_into_a_folder_keeps_the_report_already_there(
     ("tcp://", "it names no host"),
     ("tcp://:8786", "it names no host"),
     ("tcp://scheduler:notaport", "invalid literal for int()"),
+    # no port: Dask's client refused it after the output folder had been taken over, and a
+    # second such typo replaced the last good results set aside
+    ("localhost", "missing port number"),
+    ("tcp://127.0.0.1", "missing port number"),
+    ("tcp://127.0.0.1:65536", "port 65536 is not from 1 to 65535"),
 ])
 def test_a_scheduler_address_that_is_none_is_a_usage_error_before_anything_runs(
         tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
