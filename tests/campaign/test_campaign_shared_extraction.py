@@ -137,3 +137,20 @@ def test_a_full_disk_while_extracting_is_a_full_disk_not_a_bad_fmu(
         PermissionError(errno.EACCES, "Permission denied")))
     with pytest.raises(UserInputError, match="not a readable FMU"):
         extract_fmu(toy_fmu, tmp_path / "x")
+
+
+def test_a_process_keeps_its_runner_only_while_the_fmu_file_is_the_same(
+        tmp_path: Path, toy_fmu: Path) -> None:
+    """A Dask worker outlives campaigns: an FMU replaced at the same path was still run from
+    the runner made for the old file (the results labelled with the new file's hash)."""
+    from idefix_rules.campaign.simulation.worker import RunTask, runner_key
+
+    fmu = tmp_path / "rover.fmu"
+    shutil.copy(toy_fmu, fmu)
+    task = RunTask(str(fmu), None, None, (), (), 1.0, 0.1, 2)
+    first = runner_key(task)
+    assert runner_key(task) == first  # the same file: the same runner
+    replacement = tmp_path / "other.fmu"
+    replacement.write_bytes(toy_fmu.read_bytes() + b"\0")  # another file, moved into place
+    os.replace(replacement, fmu)
+    assert runner_key(task) != first

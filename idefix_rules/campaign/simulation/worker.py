@@ -99,11 +99,23 @@ def shared_extraction(fmu_path: str, scratch: str) -> str | None:
     return target
 
 
+def runner_key(task: RunTask) -> tuple[Any, ...]:
+    """What a process's runner is kept for: the task's FMU and maps, and the FMU file as it
+    is now (a Dask worker outlives campaigns: an FMU replaced at the same path was run from
+    the old runner, its results labelled with the new file's hash)."""
+    try:
+        stat = os.stat(task.fmu_path)
+        identity: tuple[int, ...] = (stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    except OSError:
+        identity = ()  # the runner says what is wrong with it
+    return (task.fmu_path, identity, task.unzipped, task.signal_map, task.parameter_map,
+            task.chain_delivery, task.chain_inputs, task.done_at)
+
+
 def _runner(task: RunTask) -> Any:
     from idefix_rules.fmu import FmuRunner
 
-    key = (task.fmu_path, task.unzipped, task.signal_map, task.parameter_map,
-           task.chain_delivery, task.chain_inputs, task.done_at)
+    key = runner_key(task)
     runner = _RUNNERS.get(key)
     if runner is None:
         for old in _RUNNERS.values():
