@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import signal
 import threading
 import time
 from collections import deque
@@ -223,6 +224,12 @@ def _check_in_worker(poses: dict[str, np.ndarray], rows: np.ndarray
     return _WORKER_COLLISIONS(poses, rows)
 
 
+def ignore_ctrl_c() -> None:
+    """In a collision-check worker: Ctrl-C is the parent's to handle (it stops the evaluation
+    and says so); a worker that took it printed its own traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
                     collisions: CollisionFunction, workers: int
                     ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], Any]]:
@@ -244,8 +251,8 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
     with _FORK_LOCK:
         _WORKER_COLLISIONS = collisions
         try:
-            with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")
-                                     ) as pool:
+            with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                     initializer=ignore_ctrl_c) as pool:
                 for rows, signals in chunks:
                     poses = {key: signals[key] for key in POSE_SIGNALS}
                     pending.append((rows, signals, pool.submit(_check_in_worker, poses, rows)))

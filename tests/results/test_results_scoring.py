@@ -3,9 +3,11 @@ and read only what they need."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 
 import numpy as np
+import pytest
 
 from idefix_rules.commands import Command
 from idefix_rules.results.format import STATUS_COMPLETE, STATUS_FAILED
@@ -98,3 +100,21 @@ def test_scored_per_run_the_chunks_hold_the_evaluation_and_its_derived_signals()
     np.testing.assert_array_equal(
         np.concatenate([chunk.evaluations[0].i_max for chunk in chunks]), whole.i_max)
     assert {"energy", "stuck"} <= reader.read
+
+
+def _ctrl_c_ignored(signals: dict, rows: np.ndarray) -> bool:
+    import signal
+
+    return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="the checks fork only with two cores")
+def test_the_collision_check_workers_leave_ctrl_c_to_the_evaluation() -> None:
+    """Ctrl-C while an evaluation checked collisions printed a forked worker's traceback
+    (KeyboardInterrupt in concurrent.futures); the parent alone handles it."""
+    from idefix_rules.results.collisions import POSE_SIGNALS
+    from idefix_rules.results.scoring import with_collisions
+
+    chunks = [(np.arange(1), {key: np.zeros((1, 2)) for key in POSE_SIGNALS})]
+    [(_, _, ignored)] = list(with_collisions(chunks, _ctrl_c_ignored, workers=2))
+    assert ignored is True
