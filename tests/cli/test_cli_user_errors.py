@@ -867,7 +867,8 @@ CASES = [
          ("argument --output/-o: out is a folder; give a file name",)),
     # ----------------------------------------------------------------- run options
     Case("option-scheduler-not-an-address", campaign(), (*RUN, "--scheduler", "no address"), 2,
-         ("--scheduler 'no address': missing port number",)),
+         ("argument --scheduler: 'no address' is not a Dask scheduler address: missing port "
+          "number",)),
     Case("option-runs-zero", campaign(), ("campaign.yaml", "--runs", "0"), 2,
          ("argument --runs: expected a positive whole number, got 0",)),
     Case("option-runs-negative", campaign(), ("campaign.yaml", "--runs", "-1"), 2,
