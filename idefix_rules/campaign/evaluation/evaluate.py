@@ -64,7 +64,7 @@ def concatenate(evaluations: Sequence[Any]) -> Any:
     return type(evaluations[0]).concat(list(evaluations))
 
 
-def chain_finished(signals: Mapping[str, np.ndarray], chain: Sequence[Command] = ()
+def chain_finished(signals: Mapping[str, np.ndarray], chain: Sequence[Command]
                    ) -> np.ndarray | None:
     """Per run (axis 0) whether its chain was complete within the stop time
     (:func:`idefix_rules.chain_end.ended`, as the evaluator reads a run's time); None when
