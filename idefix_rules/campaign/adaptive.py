@@ -58,7 +58,11 @@ from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.bounds import failure_sequence, judged_statistics
 from idefix_rules.campaign.statistics.budget import AlphaBudget, alpha_budget, recycled
 from idefix_rules.campaign.statistics.stopping import expected_paths, settle, stop_reason
-from idefix_rules.campaign.storage.store import STATUS_FAILED, STATUS_MISSING, ResultStore
+from idefix_rules.campaign.storage.store import (
+    STATUS_COMPLETE,
+    STATUS_FAILED,
+    ResultStore,
+)
 from idefix_rules.commands import RoverGeometry
 from idefix_rules.results.scoring import FirstPassCache
 
@@ -89,8 +93,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         running[name] = plan
         runs_to_simulate(store, name, reset=True)  # lost to the infrastructure: to simulate
         status = store.run_status(name)
-        progress.start_path(name, settings.max_runs, int(np.sum(status != STATUS_MISSING)),
-                            int(np.sum(status == STATUS_FAILED)))
+        # rows a stop before a --resume marked not needed are no runs stored (the looks
+        # replayed stop the path there again)
+        progress.start_path(name, settings.max_runs,
+                            int(np.sum((status == STATUS_COMPLETE) | (status == STATUS_FAILED))),
+                            int(np.sum(status == STATUS_FAILED)), up_to=True)
     parts: dict[str, list[Any]] = {name: [] for name in running}
     rows: dict[str, list[np.ndarray]] = {name: [] for name in running}
     drawn_paired = bool(campaign.model.uncertainty.paired)
@@ -137,6 +144,17 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
                 break
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                            progress, summary, pool, check, remember)
+            lost = {name: _lost_below(store, name, look) for name in running}
+            if any(lost.values()):
+                # a look judges every row below it: with rows lost it would judge fewer runs
+                # than an undisturbed campaign, and stop on it; no path is judged at this
+                # look, none is stopped for good, and --resume replays the looks from the
+                # first with the lost runs simulated (the same decisions, bit for bit)
+                paused = lost_reason(look, sum(lost.values()))
+                for name in running:
+                    _pause(store, name, look, paused)
+                    progress.note(f"{name}: {paused}")
+                break
             for name, plan in running.items():
                 new = look - done[name]  # rows; the complete ones among them are checked
                 evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma,
@@ -253,6 +271,34 @@ def _checked_in_workers(collisions: Any, evaluator: Any, pool: Any) -> bool:
     check; on Dask or spawned workers every look checks its runs."""
     return (isinstance(collisions, RememberedCollisions) and collisions.usable_for(evaluator)
             and isinstance(pool, LocalPool) and pool.forks)
+
+
+def lost_reason(look: int, lost: int) -> str:
+    """Why the looks ended at ``look`` rows with ``lost`` runs below it lost to the
+    infrastructure.
+
+    >>> lost_reason(32, 3).split("; ")
+    ['not judged after 32 runs: 3 runs of the campaign lost to the infrastructure', \
+'--resume simulates them and goes on']
+    """
+    what = "1 run" if lost == 1 else f"{lost} runs"
+    return (f"not judged after {look} runs: {what} of the campaign lost to the infrastructure; "
+            "--resume simulates them and goes on")
+
+
+def _lost_below(store: ResultStore, name: str, look: int) -> int:
+    """How many of path ``name``'s rows below ``look`` were lost to the infrastructure."""
+    return sum(1 for run, reason in store.failures(name).items()
+               if run < look and is_infrastructure(reason))
+
+
+def _pause(store: ResultStore, name: str, runs: int, reason: str) -> None:
+    """Record that the looks ended at ``runs`` rows without judging path ``name``: its rows
+    from there on stay to simulate (``--resume`` goes on)."""
+    group = store.path_group(name)
+    group.attrs["runs_used"] = runs
+    group.attrs["stop_reason"] = reason
+    store.file.flush()
 
 
 def _stop(store: ResultStore, name: str, runs: int, reason: str) -> None:

@@ -127,7 +127,8 @@ class RichProgress:
             self.console.print(f"[dim]{escape(text)} ({time.perf_counter() - began:.1f} s)"
                                "[/dim]")
 
-    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                   up_to: bool = False) -> None:
         if self.quiet:
             return
         self._end_step()
@@ -252,7 +253,8 @@ class PlainProgress:
             self.runs_began = None
             self.paths = {}
 
-    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                   up_to: bool = False) -> None:
         self._end_phase()
         now = self.clock()
         if self.runs_began is None:
@@ -261,8 +263,9 @@ class PlainProgress:
         self.paths[name] = _PathRuns(total, done, now, done, decile, failed)
         if done:
             failures = f" ({failed} failed)" if failed else ""
-            self._say(f"{name}: {done}/{total} runs stored already{failures}, {total - done} "
-                      "to simulate")
+            rest = f"up to {total - done} more as its looks decide" if up_to else \
+                f"{total - done} to simulate"
+            self._say(f"{name}: {done}/{total} runs stored already{failures}, {rest}")
 
     def run_finished(self, name: str, ok: bool) -> None:
         runs = self.paths.get(name)

@@ -336,6 +336,72 @@ def assert_resumes_alike(killed: Path, whole: Path, tmp_path: Path) -> None:
     assert_same_datasets(killed.parent / "out" / "results.h5", whole.parent / "out" / "results.h5")
 
 
+def test_runs_lost_at_a_look_judge_nothing_and_resume_to_the_same_result(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every run of the first look of one path (arc, which goes on past it undisturbed) lost
+    to the infrastructure (its workers killed from outside at every attempt): the look judges
+    no path and stops none for good, the exit code is 3, and the printed --resume gives the
+    stopping points, exit code and datasets of an undisturbed campaign. (It once stopped that
+    path for good, "no run completed", and marked its other rows not needed: the resume kept
+    it at its first look and called the cap reached.)"""
+    lost = "infrastructure: killed by SIGKILL 3 times"
+    disturbed = write_campaign(tmp_path / "disturbed", campaign_dir, ADAPTIVE)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    original = adaptive.run_and_store
+    losses: list[int] = []
+
+    def losing(campaign: Any, planned: Any, running: Any, store: ResultStore,
+               *rest: Any) -> Any:
+        if not losses:  # the first look's runs of `arc`: lost, never simulated
+            rows = planned.rows["arc"]
+            for run in rows:
+                store.write_failure("arc", int(run), lost)
+            losses.extend(int(run) for run in rows)
+            planned = dataclasses.replace(planned, rows={**planned.rows, "arc": rows[:0]})
+        return original(campaign, planned, running, store, *rest)
+
+    monkeypatch.setattr(adaptive, "run_and_store", losing)
+    first = run_campaign(load_campaign(disturbed), report=False)
+    monkeypatch.setattr(adaptive, "run_and_store", original)
+    assert losses == list(range(10))
+    assert first.exit_code == 3
+    reason = ("not judged after 10 runs: 10 runs of the campaign lost to the infrastructure; "
+              "--resume simulates them and goes on")
+    assert [(p["name"], p["stop_reason"]) for p in first.summary["paths"]] == \
+        [("straight", reason), ("arc", reason), ("too-fast", "")]  # too-fast: rejected
+    with h5py.File(disturbed.parent / "out" / "results.h5", "r") as results:
+        for name in ("straight", "arc"):
+            status = results[f"paths/{name}/runs/status"][()]
+            assert not np.any(status == STATUS_NOT_NEEDED), name  # nothing given up
+
+    resumed = run_campaign(load_campaign(disturbed), SimulationOptions(resume=True),
+                           report=False)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    assert resumed.exit_code == uninterrupted.exit_code == 1  # too-fast is rejected
+    assert [p["stop_reason"] for p in resumed.summary["paths"]] == \
+        [p["stop_reason"] for p in uninterrupted.summary["paths"]]
+    assert [p["runs_used"] for p in resumed.summary["paths"]] == \
+        [p["runs_used"] for p in uninterrupted.summary["paths"]]
+    assert uninterrupted.summary["paths"][1]["runs_used"] > 10  # arc goes on past its loss
+    assert_same_datasets(disturbed.parent / "out" / "results.h5",
+                         whole.parent / "out" / "results.h5")
+
+
+def test_a_resume_counts_as_stored_only_the_runs_a_path_has(
+        campaign_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Rows a stopped path did not need are no runs stored: resuming a complete adaptive
+    campaign says how many each path has (it said 200/200 of a path stopped after 10)."""
+    path = write_campaign(campaign_dir, campaign_dir, ADAPTIVE)
+    first = run_campaign(load_campaign(path), report=False)
+    used = {p["name"]: p["runs_used"] for p in first.summary["paths"][:2]}
+    capsys.readouterr()
+    assert main([str(path), "--no-report", "--resume"]) == first.exit_code
+    out = capsys.readouterr().out
+    for name, runs in used.items():
+        assert f"{name}: {runs}/200 runs stored already, up to {200 - runs} more as its " \
+            "looks decide" in out, out
+
+
 def test_a_resumed_campaign_with_collisions_checks_its_earlier_runs_at_the_look(
         campaign_dir: Path, tmp_path: Path) -> None:
     # Killed after its first look, the campaign's runs stored so far were checked by workers

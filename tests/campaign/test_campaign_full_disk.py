@@ -440,7 +440,8 @@ def test_planning_a_million_runs_writes_almost_nothing_before_the_first_run(
     stopped = uuid.uuid4().hex
 
     class StopAfterAllocation(SilentProgress):
-        def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+        def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                       up_to: bool = False) -> None:
             raise KeyboardInterrupt(stopped)  # right after the path's runs are allocated
 
     with pytest.raises(KeyboardInterrupt, match=stopped):

@@ -396,7 +396,7 @@ KILLED_AT_FIRST_STEP = textwrap.dedent("""\
         def message(self, text):
             os.kill(os.getpid(), signal.SIGKILL)
         def note(self, text): pass
-        def start_path(self, name, total, done, failed=0): pass
+        def start_path(self, name, total, done, failed=0, up_to=False): pass
         def run_finished(self, name, ok): pass
 
     campaign = load_campaign(sys.argv[1]).with_overrides(seed=int(sys.argv[2]))

@@ -76,7 +76,7 @@ KILLER = textwrap.dedent("""\
         seen = 0
         def message(self, text): pass
         def note(self, text): pass
-        def start_path(self, name, total, done, failed=0): pass
+        def start_path(self, name, total, done, failed=0, up_to=False): pass
         def run_finished(self, name, ok):
             self.seen += 1
             if self.seen == int(sys.argv[2]):
@@ -269,7 +269,8 @@ class InterruptAfter:
     def note(self, text: str) -> None:
         pass
 
-    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                   up_to: bool = False) -> None:
         pass
 
     def run_finished(self, name: str, ok: bool) -> None:
@@ -352,7 +353,8 @@ def test_an_adaptive_resume_counts_as_failed_only_the_runs_it_keeps(
     capsys.readouterr()
     main([str(campaign_dir / "campaign.yaml"), "--no-report", "--resume"])
     out = capsys.readouterr().out
-    assert f"straight: {kept}/200 runs stored already, " in out, out
+    assert f"straight: {kept}/200 runs stored already, up to {200 - kept} more as its looks " \
+        "decide" in out, out
     with h5py.File(results) as stored:
         failed = int(np.sum(stored["paths/straight/runs/status"][()] == 2))
     assert failed == 0  # the lost runs ran again, and completed

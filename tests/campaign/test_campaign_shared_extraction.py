@@ -76,7 +76,7 @@ KILLED_WHILE_SIMULATING = textwrap.dedent("""\
     class KillAtFirstPath:  # the FMU is extracted by the time the first path starts
         def message(self, text): pass
         def note(self, text): pass
-        def start_path(self, name, total, done, failed=0):
+        def start_path(self, name, total, done, failed=0, up_to=False):
             os.kill(os.getpid(), signal.SIGKILL)
         def run_finished(self, name, ok): pass
 

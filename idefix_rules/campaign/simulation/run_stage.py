@@ -28,9 +28,11 @@ class Progress(Protocol):
         unlike :meth:`message`, which starts a new phase."""
         ...
 
-    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
-        """Runs of path ``name`` begin: ``total`` planned, ``done`` of them stored already
-        (a resumed campaign's), ``failed`` of those failed."""
+    def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                   up_to: bool = False) -> None:
+        """Runs of path ``name`` begin: ``total`` planned (``up_to``: at most, an adaptive
+        campaign's cap), ``done`` of them stored already (a resumed campaign's), ``failed`` of
+        those failed."""
         ...
 
     def run_finished(self, name: str, ok: bool) -> None: ...
@@ -43,7 +45,8 @@ class SilentProgress:
     def note(self, text: str) -> None:
         pass
 
-    def start_path(self, name: str, total: int, done: int, failed: int = 0) -> None:
+    def start_path(self, name: str, total: int, done: int, failed: int = 0,
+                   up_to: bool = False) -> None:
         pass
 
     def run_finished(self, name: str, ok: bool) -> None:
