@@ -31,7 +31,7 @@ from idefix_rules.campaign.output_folder import REPORT_FILE, claimed_output
 from idefix_rules.campaign.preparation import prepare_simulation
 from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
 from idefix_rules.campaign.simulation.dask_pool import ClusterError
-from idefix_rules.campaign.simulation.resume import resume_command
+from idefix_rules.campaign.simulation.resume import execution_options, resume_command
 from idefix_rules.campaign.simulation.run_stage import Progress, SimulationOptions
 from idefix_rules.campaign.simulation.run_tasks import local_workers
 from idefix_rules.campaign.simulation.simulate import simulate_campaign
@@ -94,7 +94,10 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
     # How far a phase is, where the progress shows it (an ETA); optional in the protocol.
     advance = getattr(progress, "advance", None) or (lambda fraction, detail="": None)
     again = resume_command(campaign.source, campaign.output, campaign.runs, campaign.seed,
-                           campaign.adaptive.min_runs if campaign.adaptive else None)
+                           campaign.adaptive.min_runs if campaign.adaptive else None,
+                           execution_options(options.workers, options.scheduler,
+                                             options.dask_local, options.run_timeout, junit,
+                                             report))
     prepared = prepare_simulation(campaign, say, again, options.resume)
     evaluator, fmu_path, fixed, collisions = (prepared.evaluator, prepared.fmu_path,
                                               prepared.fixed, prepared.collisions)

@@ -92,7 +92,12 @@ def process_main() -> int:
     :func:`main`, then Ctrl-C ignored while the interpreter shuts down. The command has
     finished and said what it had to say; an interrupt arriving now (a user pressing Ctrl-C as
     a long campaign ends) would only print a traceback from the interpreter's clean-up and
-    could not change the exit code."""
+    could not change the exit code.
+
+    Under ``python -m idefix_rules`` CPython may end an interrupted command by SIGINT itself
+    rather than with 130: it does so whenever a KeyboardInterrupt ended a string ``exec`` (a
+    library defining a dataclass as Ctrl-C came, during a lazy import), even one caught later
+    (bpo-41602). A shell's ``$?`` is 130 either way; the console script is not affected."""
     code = main()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     return code
@@ -133,11 +138,38 @@ def _main(argv: Sequence[str] | None) -> int:
         return 130
     except BrokenPipeError:
         raise  # main() ends quietly
-    except Exception:  # last line of defence: report, exit 3
+    except Exception as failure:  # last line of defence: report, exit 3
+        if _caused_by_interrupt(failure):
+            # Ctrl-C inside a C extension's initialisation (scipy imported as it came)
+            # surfaces as the ImportError it caused: an interrupt, not an internal error
+            print("interrupted", file=sys.stderr)
+            return 130
         traceback.print_exc()
         print("idefix-verify: internal error (exit 3); please report the traceback above",
               file=sys.stderr)
         return 3
+
+
+def _caused_by_interrupt(failure: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is in ``failure``'s chain of causes and contexts.
+
+    >>> try:
+    ...     try:
+    ...         raise KeyboardInterrupt
+    ...     except KeyboardInterrupt as interrupt:
+    ...         raise ImportError("initialization failed") from interrupt
+    ... except ImportError as failure:
+    ...     _caused_by_interrupt(failure), _caused_by_interrupt(ValueError())
+    (True, False)
+    """
+    seen: set[int] = set()
+    current: BaseException | None = failure
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
 
 
 if __name__ == "__main__":

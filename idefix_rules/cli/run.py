@@ -92,6 +92,9 @@ def stored_titles(results: Path) -> dict[str, str]:
 def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
+    # the campaign's modules (scipy among them, about a second) are imported before the
+    # output folder is taken: a Ctrl-C meanwhile leaves nothing to resume
+    import idefix_rules.campaign.runner  # noqa: F401
     from idefix_rules.campaign.input.load import load_campaign
     from idefix_rules.campaign.output_folder import claimed_output
     from idefix_rules.campaign.simulation.resume import (
@@ -144,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
         if interrupted is not None and interrupted[0] > 0:  # runs worth resuming
             stored, planned = interrupted
             # the stored campaign's runs and seed, which may not be this command's
-            again = continue_command(previous_path(results), args.campaign) or _again(args)
+            again = continue_command(previous_path(results), args.campaign,
+                                     _execution(args)) or _again(args)
             console.print(
                 f"[yellow]note:[/yellow] {escape(str(results))} held an interrupted campaign "
                 f"({stored} of {planned} Monte Carlo runs stored): it is set aside as "
@@ -178,7 +182,16 @@ def _again(args: argparse.Namespace) -> str:
                         ("--max-runs", args.max_runs), ("--min-runs", args.min_runs)):
         if value is not None:
             words += [flag, value]
-    return command_line(*words)
+    return command_line(*words, *_execution(args))
+
+
+def _execution(args: argparse.Namespace) -> list[object]:
+    """This command's options a resume of it is given again (workers, cluster, run timeout,
+    JUnit file, report)."""
+    from idefix_rules.campaign.simulation.resume import execution_options
+
+    return execution_options(args.workers, args.scheduler, args.dask_local, args.run_timeout,
+                             args.junit, not args.no_report)
 
 
 def _run_owned(args: argparse.Namespace, campaign: Campaign, options: SimulationOptions,

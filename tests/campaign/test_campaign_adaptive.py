@@ -361,10 +361,18 @@ def test_runs_lost_at_a_look_judge_nothing_and_resume_to_the_same_result(
         return original(campaign, planned, running, store, *rest)
 
     monkeypatch.setattr(adaptive, "run_and_store", losing)
-    first = run_campaign(load_campaign(disturbed), report=False)
+    junit = tmp_path / "junit.xml"
+    first = run_campaign(load_campaign(disturbed), SimulationOptions(workers=1, run_timeout=60.0),
+                         junit=junit, report=False)
     monkeypatch.setattr(adaptive, "run_and_store", original)
     assert losses == list(range(10))
     assert first.exit_code == 3
+    # the warning's resume command continues the campaign as it ran
+    out = disturbed.parent / "out"
+    again = (f"idefix-verify {disturbed} --resume --out {out} --runs auto --max-runs 200 "
+             f"--min-runs 10 --seed 5 --workers 1 --run-timeout 60 --junit {junit} "
+             "--no-report")
+    assert any(again in warning for warning in first.warnings), first.warnings
     reason = ("not judged after 10 runs: 10 runs of the campaign lost to the infrastructure; "
               "--resume simulates them and goes on")
     assert [(p["name"], p["stop_reason"]) for p in first.summary["paths"]] == \

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPOSITORY = Path(__file__).resolve().parents[2]
 
 # The interrupt is delivered by the process to itself after the command returned, where a
@@ -48,3 +50,30 @@ def test_the_console_script_and_the_module_end_through_process_main() -> None:
     text = (REPOSITORY / "pyproject.toml").read_text()
     assert 'idefix-verify = "idefix_rules.cli:process_main"' in text
     assert "process_main()" in (REPOSITORY / "idefix_rules" / "__main__.py").read_text()
+
+
+def test_an_error_a_ctrl_c_caused_is_an_interrupt_not_an_internal_error(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C inside a C extension's initialisation (scipy imported as it came) surfaces as
+    the ImportError it caused: "interrupted", exit 130, no traceback (it was exit 3, "internal
+    error", with scipy's traceback). An error with no interrupt behind it stays exit 3."""
+    from idefix_rules import cli
+    from idefix_rules.cli import check
+
+    def interrupted_import(args: object) -> int:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise ImportError("initialization failed") from interrupt
+
+    monkeypatch.setattr(check, "run", interrupted_import)
+    assert cli.main(["check", "any.rules"]) == 130
+    captured = capsys.readouterr()
+    assert captured.err == "interrupted\n", captured.err
+
+    def failing(args: object) -> int:
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(check, "run", failing)
+    assert cli.main(["check", "any.rules"]) == 3
+    assert "internal error (exit 3)" in capsys.readouterr().err

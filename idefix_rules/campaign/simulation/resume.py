@@ -10,6 +10,7 @@ simulate.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,8 +26,8 @@ from idefix_rules.campaign.storage.store import (
 from idefix_rules.results.format import attribute_text, is_search
 from idefix_rules.shell import command_line
 
-__all__ = ["INFRASTRUCTURE", "continue_command", "interrupted_runs", "is_infrastructure",
-           "resume_command", "runs_to_simulate", "stored_resume_command"]
+__all__ = ["INFRASTRUCTURE", "continue_command", "execution_options", "interrupted_runs",
+           "is_infrastructure", "resume_command", "runs_to_simulate", "stored_resume_command"]
 
 
 def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
@@ -125,16 +126,46 @@ def nothing_left(store: Any, names: list[str]) -> bool:
 
 
 def resume_command(source: Any, output: Any, runs: Any, seed: Any,
-                   min_runs: Any = None) -> str:
+                   min_runs: Any = None, execution: Sequence[object] = ()) -> str:
     """The command that continues this campaign into the same results file (``min_runs``
-    given: an adaptive campaign, ``runs`` is its cap)."""
+    given: an adaptive campaign, ``runs`` is its cap), with the options of ``execution``
+    (:func:`execution_options`: where and how the interrupted command ran)."""
     count = ("--runs", runs) if min_runs is None else (
         "--runs", "auto", "--max-runs", runs, "--min-runs", min_runs)
     return command_line("idefix-verify", source, "--resume", "--out", output, *count,
-                        "--seed", seed)
+                        "--seed", seed, *execution)
 
 
-def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
+def execution_options(workers: int | None = None, scheduler: str | None = None,
+                      dask_local: bool = False, run_timeout: float | None = None,
+                      junit: Any = None, report: bool = True) -> list[object]:
+    """The options of a run that a resume of it should be given again: the workers or
+    cluster it ran on, its run timeout, its JUnit file and whether it wrote a report (none
+    changes a stored number, but an operator continuing a campaign continues it as it ran).
+
+    >>> execution_options(2, None, False, 30.0, "out/junit.xml", report=False)
+    ['--workers', 2, '--run-timeout', '30', '--junit', 'out/junit.xml', '--no-report']
+    >>> execution_options(scheduler="tcp://10.0.0.5:8786")
+    ['--scheduler', 'tcp://10.0.0.5:8786']
+    """
+    words: list[object] = []
+    if workers is not None:
+        words += ["--workers", workers]
+    if scheduler is not None:
+        words += ["--scheduler", scheduler]
+    if dask_local:
+        words.append("--dask-local")
+    if run_timeout is not None:
+        words += ["--run-timeout", f"{run_timeout:g}"]
+    if junit is not None:
+        words += ["--junit", junit]
+    if not report:
+        words.append("--no-report")
+    return words
+
+
+def stored_resume_command(attrs: Any, source: Any, output: Any,
+                          execution: Sequence[object] = ()) -> str:
     """The command that continues the campaign of a results file whose root attributes are
     ``attrs``: with its stored run count and seed (an adaptive one's cap and first look),
     whatever the command that found the file asked for (``--resume`` refuses others). A
@@ -145,13 +176,14 @@ def stored_resume_command(attrs: Any, source: Any, output: Any) -> str:
                             "--runs", attrs.get("runs"), "--seed", attrs.get("seed"))
     adaptive = str(attrs.get("runs_mode", "fixed")) == "auto"
     return resume_command(source, output, attrs.get("runs"), attrs.get("seed"),
-                          attrs.get("min_runs") if adaptive else None)
+                          attrs.get("min_runs") if adaptive else None, execution)
 
 
-def continue_command(results: Path, source: Any) -> str | None:
+def continue_command(results: Path, source: Any,
+                     execution: Sequence[object] = ()) -> str | None:
     """:func:`stored_resume_command` of the results file ``results`` (its folder as
     ``--out``); None when it cannot be read."""
     attrs = root_attributes(results)
     if attrs is None or "runs" not in attrs or "seed" not in attrs:
         return None
-    return stored_resume_command(attrs, source, Path(results).parent)
+    return stored_resume_command(attrs, source, Path(results).parent, execution)
