@@ -326,6 +326,10 @@ def test_yes_no_on_off_are_names_where_names_are_meant_and_flags_where_flags_are
      ["23:52: expect[0].max_collision_chance.path: expected 'L1', 'L2', 'L3' or 'any', "
       "got 'path'", "23:58: expect[0].max_collision_chance.path: expected a risk or chance "
       'from 0 to 100 %, got 300 % (a bare number is a fraction: write "30 %" or 0.3)'], None),
+    # no level at all: it would hold with nothing checked (a CI pass on any chain)
+    ('{path: detour, max_collision_chance: {}}',
+     ['23:42: expect[0].max_collision_chance: give at least one level with its largest '
+      'chance, e.g. {L2: "10 %"} (levels: L1, L2, L3, any)'], None),
     ('{path: detour, max_collision_chance: {any: 0.1, verdict: 0.2}}',
      ["23:53: expect[0].max_collision_chance.verdict: expected 'L1', 'L2', 'L3' or 'any', "
       "got 'verdict'"], None),

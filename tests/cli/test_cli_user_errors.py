@@ -327,6 +327,10 @@ CASES = [
             "'.' and '..' mean this folder and the one above in a file path",),
            absent=("give a non-empty name",))
       for name, dots in (("dot", "."), ("dot-dot", ".."))),
+    # a waiver's `path: all` means every path: a path of that name would widen its waivers
+    Case("campaign-path-named-all", campaign(("  arc:", "  all:")), RUN, 2,
+         ("campaign.yaml:17:3: error[C100]: paths.all: path name 'all' is reserved: a "
+          "waiver's `path: all` means every path",)),
     Case("campaign-path-named-three-dots", campaign(("  arc:", '  "...":')), RUN, 1,
          ("CI verdicts",)),
     Case("campaign-empty-path-name", campaign(("  arc:", '  "":')), RUN, 2,

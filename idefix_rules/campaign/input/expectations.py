@@ -39,9 +39,19 @@ class MeanRiskExpectation(Strict):
     max_mean_risk: Fraction
 
 
+def _some_level(levels: dict[str, float]) -> dict[str, float]:
+    """At least one level: an empty mapping would hold with nothing checked."""
+    if not levels:
+        raise PydanticCustomError(
+            "levels", "give at least one level with its largest chance, e.g. {L2: \"10 %\"} "
+                      "(levels: L1, L2, L3, any)")
+    return levels
+
+
 class CollisionExpectation(Strict):
     path: str
-    max_collision_chance: dict[Literal["L1", "L2", "L3", "any"], Fraction]
+    max_collision_chance: Annotated[dict[Literal["L1", "L2", "L3", "any"], Fraction],
+                                    AfterValidator(_some_level)]
 
 
 # Chances of a hit of any level, by their names (without one, the levels' chances bound it).

@@ -131,6 +131,11 @@ MAX_PATH_NAME = 100  # characters: a name for people, and a part of figure file 
 
 def _path_name(value: Any, info: ValidationInfo) -> Any:
     # Path names become HDF5 group names, file names of figures and JUnit test names.
+    if isinstance(value, str) and value == "all" and new_run(info):
+        raise PydanticCustomError(
+            "path_name", "path name 'all' is reserved: a waiver's `path: all` means every "
+            "path, so a waiver meant for this one would cover them all; give it another name",
+            {})
     if isinstance(value, str) and (
             not value.strip() or "/" in value or value in (".", "..")
             or (new_run(info) and (len(value) > MAX_PATH_NAME or any(
