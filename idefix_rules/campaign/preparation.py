@@ -24,7 +24,11 @@ from idefix_rules.campaign.input.terrain_checks import (
     check_rocks_on_terrain,
     check_start_on_terrain,
 )
-from idefix_rules.campaign.input.validate import check_simulation_size, check_tolerance_start
+from idefix_rules.campaign.input.validate import (
+    check_geometry,
+    check_simulation_size,
+    check_tolerance_start,
+)
 from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, TERRAIN_PARAMETER
 from idefix_rules.campaign.storage import diskspace
@@ -106,12 +110,15 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
             sources.update(failure.sources)
             return None
 
+    # the checks below compute with the rover's geometry (durations, bodies): only a sound one
+    geometry = gather(lambda: check_geometry(campaign))
     gather(lambda: check_tolerance_start(campaign, evaluator))
     if campaign.fmu is None and not _fmu_cached():
         say("building the rover FMU from its C sources (once; cached afterwards)")
     fmu_path = resolve_fmu(campaign)
     mapping = gather(lambda: check_fmu(campaign, fmu_path, evaluator))
-    gather(lambda: check_simulation_size(campaign))
+    if geometry:
+        gather(lambda: check_simulation_size(campaign))
     say("preparing the terrain")
     terrain = gather(lambda: build_terrain(campaign.model.environment, campaign.dem))
     if terrain is not None and campaign.dem is None:
@@ -119,7 +126,7 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
         terrain = gather(lambda: _plausible_synthetic(campaign, generated))
     if terrain is not None:
         extent = terrain.extent
-        gather(lambda: _check_on_terrain(campaign, extent, planned_runs))
+        gather(lambda: _check_on_terrain(campaign, extent, planned_runs, bool(geometry)))
     if problems:
         raise UserInputError(problems, sources=sources)
     assert mapping is not None and terrain is not None
@@ -176,9 +183,10 @@ def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource
 
 
 def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, float],
-                      planned_runs: bool = True) -> None:
+                      planned_runs: bool = True, geometry: bool = True) -> None:
     """Rocks, the rover's start and its chains on the terrain, every mistake said at once (a
-    chain is checked only from a start on the terrain: from one off it, every chain is off)."""
+    chain is checked only from a start on the terrain: from one off it, every chain is off;
+    and only with a sound ``geometry``, which its driven outline is computed from)."""
     problems: list[Diagnostic] = []
 
     def gather(check: Callable[[Campaign, tuple[float, float, float, float]], None]) -> bool:
@@ -196,7 +204,7 @@ def _check_on_terrain(campaign: Campaign, extent: tuple[float, float, float, flo
     # the built-in rover starts at initial.x, initial.y on the terrain it is given (a foreign
     # FMU may start from parameters of its own; without a terrain the ground is flat
     # everywhere)
-    if campaign.fmu is None and terrain_given and gather(check_start_on_terrain):
+    if campaign.fmu is None and terrain_given and gather(check_start_on_terrain) and geometry:
         gather(check_paths_on_terrain)
         if planned_runs:
             gather(check_drawn_starts_on_terrain)

@@ -542,6 +542,26 @@ CASES = [
                              '"0.5 rad/s"\npaths:')), RUN, 2,
          ("campaign.yaml:16:5: error[C515]: environment.regolith.chain.max_wheel_rate[0]: "
           "'chain.max_wheel_rate[0]' is set by each run's command chain",)),
+    # the tool computes durations and bodies from the geometry before any run: a wheel of
+    # radius 0 divided by zero (a traceback), a negative one said C404 at line 1
+    *(Case(f"regolith-{name}-{label}",
+           campaign(("paths:", f'environment:\n  regolith: {{rover.{name}: "{value}"}}\npaths:')),
+           RUN, 2, (f"campaign.yaml:15:{22 + len(name)}: error[C221]: "
+                    f"environment.regolith.rover.{name}: "
+                    f"rover.{name} is the rover's geometry: it must be a positive length, got "
+                    f"{metres:g} m",), absent=("Traceback", "C404"))
+      for name, label, value, metres in (("wheel_radius", "zero", "0 cm", 0.0),
+                                         ("wheel_radius", "negative", "-1 cm", -0.01),
+                                         ("half_track", "zero", "0 cm", 0.0))),
+    Case("regolith-a-wheel-radius-just-above-zero",
+         campaign(("paths:", 'environment:\n  regolith: {rover.wheel_radius: "1 mm"}\npaths:')),
+         RUN, 1, ("CI verdicts",), absent=("C221",)),
+    Case("regolith-sets-a-parameter-twice",
+         campaign(("paths:", 'environment:\n  regolith: {cohesion: "-5 Pa", soil.cohesion: '
+                             '"260 Pa"}\npaths:')),
+         RUN, 2, ("campaign.yaml:15:33: error[C100]: environment.regolith.soil.cohesion: sets "
+                  "soil.cohesion again (as 'cohesion' above); one of the two values would be "
+                  "dropped",)),
     Case("regolith-sets-the-chain-count",
          campaign(("paths:", "environment:\n  regolith: {chain.count: 0}\npaths:")), RUN, 2,
          ("error[C515]: environment.regolith.chain.count: 'chain.count' is set by each run's "

@@ -17,12 +17,18 @@ import tempfile
 from typing import Any
 
 from idefix_rules.campaign.input.campaign_values import (
+    CONTRACT_PARAMETERS,
+    GEOMETRY_PARAMETERS,
     INITIAL_POSITION,
     initial_position_sigma,
+    nominal_parameters,
+    regolith_parameter,
     rover_geometry,
+    where_set,
 )
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.schema import DEFAULT_DURATION_MARGIN
+from idefix_rules.campaign.input.yamlsource import format_loc
 from idefix_rules.errors import Span, UserInputError, error
 
 # Output samples per run: 300 s at 10 Hz is 3000; a million means a stop time or output interval
@@ -31,6 +37,45 @@ MAX_SAMPLES = 1_000_000
 
 # The output interval a campaign gets when it gives none (schema.SimulationSection), s.
 DEFAULT_OUTPUT_INTERVAL = 0.1
+
+
+def check_geometry(campaign: Campaign) -> bool:
+    """The rover geometry the tool reads (``rover.wheel_radius``, ``rover.half_track``,
+    ``rover.half_wheelbase``: positive lengths; ``controller.wheel_acceleration``: not
+    negative), as the campaign gives it (its nominal value); True when sound: a chain's ideal
+    durations, set-points and the collision bodies are computed from them before any FMU
+    range is looked at. A regolith key given under its short and its full name (``cohesion`` and
+    ``soil.cohesion``) is refused too: one of the two would be dropped without a word."""
+    problems = []
+    seen: dict[str, str] = {}
+    for key in campaign.model.environment.regolith:
+        name = regolith_parameter(key)
+        if name in seen:
+            loc: tuple[str | int, ...] = ("environment", "regolith", key)
+            problems.append(error(
+                "C100", f"{format_loc(loc)}: sets {name} again (as {seen[name]!r} above); "
+                        "one of the two values would be dropped",
+                campaign.locations.span(loc, at_key=True),
+                hint="give each parameter once"))
+        seen.setdefault(name, key)
+    values = nominal_parameters(campaign)
+    for name in GEOMETRY_PARAMETERS:
+        if name not in values:
+            continue
+        value = float(values[name])
+        acceleration = name == "controller.wheel_acceleration"
+        if math.isfinite(value) and (value >= 0 if acceleration else value > 0):
+            continue
+        places = where_set(campaign, [name])
+        where: tuple[str | int, ...] = places[0] if places else ("environment", "regolith")
+        contract = CONTRACT_PARAMETERS[name]
+        wanted = "not negative" if acceleration else "a positive length"
+        problems.append(error(
+            "C221", f"{format_loc(where)}: {name} is {contract.what}: it must be {wanted}, got "
+                    f"{value:g} {contract.unit}", campaign.span(where)))
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+    return True
 
 
 def check_simulation_size(campaign: Campaign) -> None:
