@@ -136,6 +136,23 @@ def test_an_area_the_rulebook_does_not_declare_is_an_error_at_its_line(
     assert not (areas_dir / "out" / "results.h5").exists()
 
 
+def test_a_polygon_without_vertices_is_an_error_at_its_line(
+        areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`polygons: [[]]`: C209 at the polygon (the check of polygons against the terrain's
+    extent took the largest x of no vertex: a traceback, exit 3)."""
+    old = ('      polygons: [[["0.45 m", "-0.6 m"], ["1 m", "-0.6 m"], ["1 m", "0.6 m"], '
+           '["0.45 m", "0.6 m"]]]\n')
+    assert old in CAMPAIGN
+    text = CAMPAIGN.replace(old, "      polygons: [[]]\n")
+    (areas_dir / "campaign.yaml").write_text(text)
+    assert run(areas_dir, monkeypatch) == 2
+    err = capsys.readouterr().err
+    line = text.splitlines().index("      polygons: [[]]") + 1
+    assert f"campaign.yaml:{line}:18: error[C209]: environment.areas.crater.polygons[0]: " \
+           "area crater: a polygon needs at least 3 finite (x, y) vertices" in err, err
+    assert "Traceback" not in err
+
+
 def test_polygons_for_a_steep_area_are_refused(areas_dir: Path, capsys,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     text = CAMPAIGN.replace("    dark:\n", "    scarp:\n      polygons: [[[\"0 m\", \"0 m\"], "

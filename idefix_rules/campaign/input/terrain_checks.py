@@ -40,6 +40,8 @@ def check_polygons_on_terrain(campaign: Campaign, extent: tuple[float, float, fl
     x_min, x_max, y_min, y_max = extent
 
     def outside(polygon: list[tuple[float, float]]) -> bool:
+        if not polygon:  # no vertex: no polygon at all, said as such (C209), not as outside
+            return False
         xs, ys = [x for x, _ in polygon], [y for _, y in polygon]
         return max(xs) < x_min or min(xs) > x_max or max(ys) < y_min or min(ys) > y_max
 
