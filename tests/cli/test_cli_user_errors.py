@@ -327,6 +327,16 @@ CASES = [
             "'.' and '..' mean this folder and the one above in a file path",),
            absent=("give a non-empty name",))
       for name, dots in (("dot", "."), ("dot-dot", ".."))),
+    # texts the results file stores, and file names: no NUL, no lone surrogate (h5py refused
+    # them with a traceback after the last run's outputs were set aside)
+    Case("campaign-name-with-a-nul", campaign(("name: cli", 'name: "cl\\0i"')), RUN, 2,
+         ("campaign.yaml:1:7: error[C100]: name: character 3 is a NUL (\\0), which no text "
+          "stored in the results file or file name can hold",)),
+    Case("campaign-name-with-a-lone-surrogate", campaign(("name: cli", 'name: "cl\\ud800"')),
+         RUN, 2, ("campaign.yaml:1:7: error[C100]: name: character 3 is a lone surrogate "
+                  "(\\ud800)",)),
+    Case("campaign-output-with-a-nul", campaign(("output: out", 'output: "o\\0ut"')), RUN, 2,
+         ("error[C100]: output: character 2 is a NUL (\\0)",)),
     # a waiver's `path: all` means every path: a path of that name would widen its waivers
     Case("campaign-path-named-all", campaign(("  arc:", "  all:")), RUN, 2,
          ("campaign.yaml:17:3: error[C100]: paths.all: path name 'all' is reserved: a "
@@ -1170,7 +1180,9 @@ def test_ctrl_c_during_a_campaign_exits_130_with_the_resume_command_once(
     assert main([*RUN, "--seed", "9"]) == 130
     output = "".join(capsys.readouterr())
     assert output.count("interrupted") == 1 and "Traceback" not in output
-    assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9`" in output
+    # RUN's --no-report too: the command continues the campaign as it ran
+    assert "continue with `idefix-verify campaign.yaml --resume --runs 2 --seed 9 --no-report`" \
+        in output
 
 
 def test_the_resume_command_printed_for_a_folder_with_a_space_pastes_as_one_argument(
@@ -1195,7 +1207,7 @@ def test_the_resume_command_printed_for_a_folder_with_a_space_pastes_as_one_argu
     assert main(["my camp.yaml", "--out", "out $HOME", "--runs", "2", "--quiet",
                  "--no-report"]) == 130
     output = "".join(capsys.readouterr())
-    command = "idefix-verify 'my camp.yaml' --resume --out 'out $HOME' --runs 2"
+    command = "idefix-verify 'my camp.yaml' --resume --out 'out $HOME' --runs 2 --no-report"
     assert f"continue with `{command}`" in output, output
     assert shlex.split(command)[1:4] == ["my camp.yaml", "--resume", "--out"]
 

@@ -56,7 +56,7 @@ def _finite(value: Any) -> Any:
 
 
 class FmuSection(Strict):
-    path: str = "builtin"
+    path: Storable = "builtin"
     signals: dict[str, str] | None = None
     parameters: dict[str, str] | None = None
     chain: ChainSection = ChainSection()
@@ -74,13 +74,29 @@ class CommandSpec(Strict):
 
 # --- waivers --------------------------------------------------------------------------------
 
-def _plain_text(value: Any) -> Any:
-    if isinstance(value, str) and not value.strip():
-        raise PydanticCustomError("text", "expected a non-empty text")
+def _storable(value: Any) -> Any:
+    """A text the results file stores (HDF5 attributes) or a file path: no NUL character
+    and no lone surrogate (``"\\ud800"``), which neither can hold."""
+    if isinstance(value, str):
+        for index, character in enumerate(value):
+            if character == "\0" or unicodedata.category(character) == "Cs":
+                raise PydanticCustomError(
+                    "text", "character {index} is {what}, which no text stored in the results "
+                    "file or file name can hold: remove it",
+                    {"index": str(index + 1),
+                     "what": "a NUL (\\0)" if character == "\0"
+                     else f"a lone surrogate (\\u{ord(character):04x})"})
     return value
 
 
+def _plain_text(value: Any) -> Any:
+    if isinstance(value, str) and not value.strip():
+        raise PydanticCustomError("text", "expected a non-empty text")
+    return _storable(value)
+
+
 Text = Annotated[str, BeforeValidator(_plain_text)]
+Storable = Annotated[str, BeforeValidator(_storable)]
 
 
 def _written_date(value: Any, info: ValidationInfo) -> Any:
@@ -163,7 +179,7 @@ def _output_folder(value: Any) -> Any:
         raise PydanticCustomError(
             "output_folder", "an empty folder name: give the folder the results go to "
             "(results/NAME), or '.' for the campaign file's own folder", {})
-    return value
+    return _storable(value)
 
 
 OutputFolder = Annotated[str, BeforeValidator(_output_folder)]
@@ -226,8 +242,8 @@ class AdaptiveRuns:
 
 
 class CampaignFile(Strict):
-    name: str | None = None
-    description: str = ""
+    name: Storable | None = None
+    description: Storable = ""
     fmu: FmuSection = FmuSection()
     environment: EnvironmentSection = EnvironmentSection()
     uncertainty: UncertaintySection = UncertaintySection()
@@ -238,7 +254,7 @@ class CampaignFile(Strict):
     max_runs: RunCount | None = None  # only with `runs: auto`
     min_runs: RunCount | None = None
     batch_runs: RunCount | None = None
-    rulebook: str
+    rulebook: Storable
     output: OutputFolder = "results"
     workers: Workers = "auto"
     simulation: SimulationSection = SimulationSection()
