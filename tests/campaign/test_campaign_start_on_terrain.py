@@ -52,3 +52,20 @@ def test_a_start_far_off_the_terrain_is_exit_2_before_any_run(
     assert code == 2, output
     assert "error[C216]: the rover starts at (50 m, 0 m), outside the terrain" in output
     assert not (tmp_path / "out" / "results.h5").exists()
+
+
+def test_the_error_points_at_the_coordinate_that_is_off(tmp_path: Path) -> None:
+    """A start off the terrain in y only: C216 at initial.y's line, not initial.x's."""
+    text = _campaign(tmp_path, "0 m").read_text()
+    start_y = 'initial.y: {distribution: normal, mean: "0 m", std: "1 cm"}'
+    assert start_y in text
+    path = tmp_path / "off-in-y.yaml"
+    path.write_text(text.replace(start_y, start_y.replace('"0 m"', '"50 m"')))
+    campaign = load_campaign(path)
+    extent = build_terrain(campaign.model.environment, campaign.dem).extent
+    with pytest.raises(UserInputError) as refused:
+        check_start_on_terrain(campaign, extent)
+    (diagnostic,) = refused.value.diagnostics
+    assert diagnostic.message.startswith("the rover starts at (0 m, 50 m)")
+    assert diagnostic.span is not None and diagnostic.span.line == \
+        campaign.text[:campaign.text.index("initial.y:")].count("\n") + 1

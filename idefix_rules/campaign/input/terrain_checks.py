@@ -73,7 +73,11 @@ def check_start_on_terrain(campaign: Campaign, extent: tuple[float, float, float
     x, y = float(nominal.get("initial.x", 0.0)), float(nominal.get("initial.y", 0.0))
     if x_min <= x <= x_max and y_min <= y <= y_max:
         return
-    where = [*where_set(campaign, ("initial.x", "initial.y")), ("environment", "terrain")][0]
+    # at the coordinate that is off (x when both are), where the campaign gives it
+    off = [name for name, value, low, high in (("initial.x", x, x_min, x_max),
+                                               ("initial.y", y, y_min, y_max))
+           if not low <= value <= high]
+    where = [*where_set(campaign, off), ("environment", "terrain")][0]
     raise UserInputError([error(
         "C216", f"the rover starts at ({x:g} m, {y:g} m), outside the terrain (x {x_min:g} … "
                 f"{x_max:g} m, y {y_min:g} … {y_max:g} m)", campaign.span(where),
