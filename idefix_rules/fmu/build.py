@@ -98,7 +98,8 @@ def _compile(unzipdir: Path) -> None:
 
         try:
             build_platform_binary(unzipdir)
-        except (OSError, RuntimeError) as failure:  # no C compiler, no cmake
+        except (OSError, RuntimeError, subprocess.CalledProcessError) as failure:
+            # no C compiler, no cmake, or cmake found no compiler (its exit status)
             raise InfrastructureError(
                 f"building the rover FMU needs a C compiler (cc, gcc or clang; or $CC): "
                 f"none was found, and fmpy's cmake build failed too ({failure})") from None
@@ -121,6 +122,17 @@ def build_fmu(force: bool = False, output: Path | None = None) -> Path:
     target = output or cache_dir() / f"{MODEL_IDENTIFIER}-{source_hash(src)[:16]}.fmu"
     if target.is_file() and not force:
         return target
+    try:
+        return _built(src, target)
+    except OSError as failure:  # a cache folder this user cannot write, a full disk
+        raise InfrastructureError(
+            f"building the rover FMU into {target.parent} failed: {failure.strerror or failure}"
+            f"; the FMU needs a writable folder: point IDEFIX_CACHE at one "
+            f"(docs/operations.md, \"The cache folder\")") from None
+
+
+def _built(src: Path, target: Path) -> Path:
+    """Build the FMU of the sources ``src`` into ``target``."""
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="idefix-fmu-") as tmp:
         unzipdir = Path(tmp) / "fmu"

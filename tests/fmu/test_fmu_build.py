@@ -57,3 +57,40 @@ def test_the_built_fmu_is_readable_as_the_umask_lets_and_only_an_fmu_is_replaced
     assert main(["build-fmu", "-o", str(rulebook)]) == 2  # a usage error
     assert rulebook.read_text() == 'rulebook "x" version "1.0.0"\n'
     assert "exists and is not an FMU" in capsys.readouterr().err
+
+
+def test_a_cache_folder_that_cannot_be_made_is_said_without_a_traceback(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A cache this user cannot write (here a file where the folder should be): exit 3 with
+    what to do, not "internal error" and an OSError's traceback."""
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("")
+    monkeypatch.setenv("IDEFIX_CACHE", str(blocker / "cache"))
+    assert main(["build-fmu"]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "internal error" not in err, err
+    assert f"building the rover FMU into {blocker / 'cache' / 'fmu'} failed: Not a directory; " \
+           "the FMU needs a writable folder: point IDEFIX_CACHE at one" in err, err
+
+
+def test_no_compiler_and_a_failing_cmake_build_is_said_without_a_traceback(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No C compiler on PATH: fmpy's cmake build fails with a CalledProcessError (cmake
+    finds no compiler either), said as the missing compiler, exit 3."""
+    import subprocess
+
+    import fmpy.build
+
+    def cmake_fails(unzipdir: object) -> None:
+        raise subprocess.CalledProcessError(1, ["cmake", "--build", "."])
+
+    monkeypatch.setenv("IDEFIX_CACHE", str(tmp_path))
+    monkeypatch.setattr(build, "_compiler", lambda: None)
+    monkeypatch.setattr(fmpy.build, "build_platform_binary", cmake_fails)
+    assert main(["build-fmu"]) == 3
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "internal error" not in err, err
+    assert "building the rover FMU needs a C compiler (cc, gcc or clang; or $CC): none was " \
+           "found, and fmpy's cmake build failed too" in err, err
