@@ -28,6 +28,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -248,20 +249,42 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
     # the checks are bound by the CPU: no more processes than cores, whatever `workers`
     # (1024 would fork as many at once for a single chunk); the outcome is the same
     workers = min(workers, os.cpu_count() or 1)
+    # A worker killed from outside (the out-of-memory killer, an operator) breaks the pool:
+    # the chunks it held, and every chunk after them, are checked in this process instead,
+    # with the same outcome (a chunk's checks depend on its poses alone).
+    broken = False
+
+    def outcome(rows: np.ndarray, signals: dict[str, np.ndarray], future: Future[Any]) -> Any:
+        nonlocal broken
+        if not broken:
+            try:
+                return future.result()
+            except BrokenProcessPool:
+                broken = True
+        return collisions(signals, rows)
+
     with _FORK_LOCK:
         _WORKER_COLLISIONS = collisions
         try:
             with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                                      initializer=ignore_ctrl_c) as pool:
                 for rows, signals in chunks:
+                    if broken:  # the chunks before it are yielded already (below)
+                        yield rows, signals, collisions(signals, rows)
+                        continue
                     poses = {key: signals[key] for key in POSE_SIGNALS}
-                    pending.append((rows, signals, pool.submit(_check_in_worker, poses, rows)))
-                    while len(pending) >= 2 * workers:
+                    try:
+                        future = pool.submit(_check_in_worker, poses, rows)
+                    except BrokenProcessPool:
+                        broken = True
+                        future = Future()  # never asked: checked here once broken
+                    pending.append((rows, signals, future))
+                    while len(pending) >= 2 * workers or (broken and pending):
                         done_rows, done_signals, future = pending.popleft()
-                        yield done_rows, done_signals, future.result()
+                        yield done_rows, done_signals, outcome(done_rows, done_signals, future)
                 while pending:
                     done_rows, done_signals, future = pending.popleft()
-                    yield done_rows, done_signals, future.result()
+                    yield done_rows, done_signals, outcome(done_rows, done_signals, future)
         finally:
             _WORKER_COLLISIONS = None
 
