@@ -120,3 +120,53 @@ def test_a_model_exchange_run_failing_inside_the_solver_is_taken_as_fatal(
                               "failed (CVode error"), failure
     assert "at the first call" not in failure  # the precondition: it failed mid-run
     assert fatal is True
+
+
+def _model_exchange_error(fmu: Path) -> tuple[str, bool, list[str]]:
+    """A model-exchange run whose FMU returns Error (not Fatal) where fmpy calls it from
+    Python (reading an output): what the runner raised, whether it took the process as
+    corrupted, and the FMI calls made on the instance after the failure."""
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi3 import FMU3Model
+
+    from idefix_rules.fmu import FmuRunner
+
+    original = FMU3Model.getFloat64
+    calls = [0]
+    after: list[str] = []
+
+    def failing(self: Any, *args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        if calls[0] > 20:
+            raise FMICallException("fmi3GetFloat64", 3)  # fmi3Error
+        return original(self, *args, **kwargs)
+
+    freeing = FMU3Model.freeInstance
+
+    def free(self: Any) -> None:
+        after.append("freeInstance")
+        freeing(self)
+
+    FMU3Model.getFloat64 = failing  # type: ignore[method-assign]
+    FMU3Model.freeInstance = free  # type: ignore[method-assign]
+    runner = FmuRunner(fmu, signal_map={"px": "x", "py": "y", "psi": "yaw"},
+                       chain_delivery="inputs",
+                       chain_inputs={"v": "body.speed", "w": "body.yaw_rate"})
+    try:
+        runner.run({}, CHAIN, 20.0, 0.5)
+    except Exception as failure:  # sent back as text: FMU errors need not pickle
+        return f"{type(failure).__name__}: {failure}", runner.fatal, after
+    return "no failure", runner.fatal, after
+
+
+def test_a_model_exchange_run_failing_with_error_frees_its_instance(
+        planar_me_fmu: Path) -> None:
+    """fmpy frees a model-exchange instance it made only when the run succeeds: each run that
+    failed with Error left one allocated in the worker, which runs on. The instance is the
+    runner's own now, freed after an Error (FMI allows it), and the process goes on."""
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        failure, fatal, after = pool.apply(_model_exchange_error, (planar_me_fmu,))
+    assert failure.startswith("InfrastructureError: PlanarME.fmu: model exchange simulation "
+                              "failed"), failure
+    assert fatal is False
+    assert after == ["freeInstance"]
