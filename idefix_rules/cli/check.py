@@ -82,9 +82,9 @@ def run(args: argparse.Namespace) -> int:
         records = [d.to_dict() for report in reports for d in report.diagnostics]
         print(json.dumps(records, indent=2, ensure_ascii=False))
         return 2 if failed else 0
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
 
-    console = StdoutConsole(highlight=False, soft_wrap=True)
+    console = make_console(soft_wrap=True)
     for report in reports:
         style = "red" if report.errors else "yellow" if report.warnings else "green"
         text = render_report(report)

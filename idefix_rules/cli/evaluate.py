@@ -29,7 +29,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
     from rich.markup import escape
 
     from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
@@ -39,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     console = make_console()
     try:
-        with Console(stderr=True).status("evaluating the stored runs (collision checks, "
+        with make_console(stderr=True).status("evaluating the stored runs (collision checks, "
                                          "rulebook)"):
             result = rescore(args.results, args.rulebook, args.junit, args.out)
     except EvaluationInterrupted as stop:

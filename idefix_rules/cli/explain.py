@@ -199,7 +199,7 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
     from idefix_rules.rulebook import load_checked
 
     checked = load_checked(args.rulebook)
@@ -208,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     rulebook = checked.rulebook
     header = rulebook.header
-    console = StdoutConsole(highlight=False)
+    console = make_console()
     table = Table(title=f"{header.name} {header.version} — {header.purpose}",
                   show_lines=True, expand=False)
     for column, style in (("kind", "cyan"), ("name", "bold")):

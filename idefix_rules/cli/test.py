@@ -89,7 +89,7 @@ def _percent(text: str | None, option: str, code: str, gate: bool = True) -> flo
     return value
 
 def run(args: argparse.Namespace) -> int:
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
     from idefix_rules.errors import error
     from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
     from idefix_rules.testing.coverage import by_rulebook, coverage_of_files, coverage_percent
@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
                           "passed": 0, "failed": 0, "exit_code": 2}, indent=2,
                          ensure_ascii=False))
         return 2
-    console = StdoutConsole(highlight=False, soft_wrap=True)
+    console = make_console(soft_wrap=True)
     broken: list[UserInputError] = []
     outcomes: list[FileOutcome] = []
     for path in files:

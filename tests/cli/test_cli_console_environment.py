@@ -1,0 +1,121 @@
+"""The console under what a CI runner's environment may hold: a ``COLUMNS`` of no use (0, 1),
+``FORCE_COLOR`` in a log, an output encoding without the symbols the output uses. Each command
+still prints its whole answer and ends with its own exit code.
+
+The commands run as processes, with the environment variable set for them alone."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pty
+import struct
+import subprocess
+import sys
+import termios
+from pathlib import Path
+
+import pytest
+from campaign_texts import CAMPAIGN, RULEBOOK
+
+REPOSITORY = Path(__file__).resolve().parents[2]
+LOG_COLUMNS = 150  # a log's width when COLUMNS gives none (docs/ci.md)
+BROKEN = 'rulebook "x" version 1\n'
+BROKEN_REPORT = [
+    "broken.rules:1:22: error[E001]: unexpected number '1'; expected a string (\"…\")",
+    '    rulebook "x" version 1',
+    "                         ^",
+    "broken.rules: 1 error",
+]
+CI_LINE = ("CI verdicts (no expectations: every path must pass): 0 of 3 passed, 1 passing but "
+           "not decided (exit 1)")
+
+
+def verify(*arguments: str, cwd: Path, **environment: str) -> subprocess.CompletedProcess[str]:
+    """``idefix-verify ARGUMENTS`` as a process, its output not a terminal."""
+    env = {**os.environ, **environment}
+    for name in ("COLUMNS", "FORCE_COLOR", "NO_COLOR", "TTY_COMPATIBLE", "PYTHONIOENCODING"):
+        if name not in environment:
+            env.pop(name, None)
+    return subprocess.run([sys.executable, "-m", "idefix_rules", *arguments], cwd=cwd, env=env,
+                          capture_output=True, text=True, encoding="utf-8", timeout=300,
+                          check=False)
+
+
+@pytest.fixture(scope="module")
+def toy_campaign(tmp_path_factory: pytest.TempPathFactory, cli_toy_fmu: Path) -> Path:
+    folder = tmp_path_factory.mktemp("toy-campaign")
+    (folder / "toy.fmu").write_bytes(cli_toy_fmu.read_bytes())
+    (folder / "test.rules").write_text(RULEBOOK)
+    (folder / "campaign.yaml").write_text(CAMPAIGN)
+    return folder / "campaign.yaml"
+
+
+# ----------------------------------------------------------------------------- COLUMNS
+
+@pytest.mark.parametrize("columns", ["0", "1", "39"])
+def test_a_columns_too_small_to_print_at_is_ignored(columns: str, tmp_path: Path) -> None:
+    (tmp_path / "broken.rules").write_text(BROKEN)
+    done = verify("check", "broken.rules", cwd=tmp_path, COLUMNS=columns)
+    assert (done.returncode, done.stderr) == (2, "")
+    assert done.stdout.splitlines() == BROKEN_REPORT
+    (tmp_path / "ugly.rules").write_text((REPOSITORY / "tests" / "fixtures" / "rulebooks" /
+                                          "idefix-ops-1.1.0.rules").read_text() + "\n\n\n")
+    done = verify("fmt", "--check", "ugly.rules", cwd=tmp_path, COLUMNS=columns)
+    assert (done.returncode, done.stderr) == (1, "")
+    assert done.stdout.splitlines() == ["would reformat ugly.rules",
+                                        "1 file(s) would be reformatted, 0 unchanged"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("columns", ["0", "1"])
+def test_a_campaign_under_a_useless_columns_prints_its_answer_at_a_logs_width(
+        columns: str, toy_campaign: Path, tmp_path: Path) -> None:
+    done = verify(str(toy_campaign), "--quiet", "--no-report", "--out", str(tmp_path / "out"),
+                  cwd=tmp_path, COLUMNS=columns)
+    assert (done.returncode, done.stderr) == (1, "")
+    lines = done.stdout.splitlines()
+    assert max(len(line) for line in lines) <= LOG_COLUMNS
+    assert lines[0].rstrip() == "Path evaluation"  # the table: it fits 150 columns
+    assert "Decision: not settled yet: the verdict of arc, straight is not decided at this " \
+           "number of runs (run more to settle it)" in lines
+    assert lines[-4:] == [
+        "  #1 arc: pass (not decided) · risk 32.3 % · not decided: acceptable_risk",
+        "  #2 straight: fail (not decided) · risk 86.0 % · not decided: acceptable_risk",
+        "  – too-fast: rejected",
+        CI_LINE,
+    ]
+
+
+def _terminal(columns: int) -> tuple[int, int]:
+    """A pseudo-terminal ``columns`` wide: (its terminal end, the other end)."""
+    controller, terminal = pty.openpty()
+    fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    return terminal, controller
+
+
+def test_on_a_terminal_a_columns_too_small_gives_the_terminals_own_width(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from idefix_rules.cli.console import console_width
+
+    terminal, controller = _terminal(97)
+    try:
+        with os.fdopen(terminal, "w", closefd=False) as stream:
+            monkeypatch.setenv("COLUMNS", "0")
+            assert console_width(stream) == 97
+            monkeypatch.setenv("COLUMNS", "60")
+            assert console_width(stream) == 60
+            monkeypatch.delenv("COLUMNS")
+            assert console_width(stream) is None  # rich follows the terminal as it prints
+    finally:
+        os.close(terminal)
+        os.close(controller)
+
+
+def test_standard_error_follows_the_same_rule(monkeypatch: pytest.MonkeyPatch) -> None:
+    from idefix_rules.cli.console import make_console
+
+    monkeypatch.setenv("COLUMNS", "0")
+    assert make_console(stderr=True).width == make_console().width == LOG_COLUMNS
+    monkeypatch.setenv("COLUMNS", "72")
+    assert make_console(stderr=True).width == make_console().width == 72
