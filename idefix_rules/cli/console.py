@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TextIO
 
 from rich.console import Console
@@ -40,6 +42,14 @@ def is_tty(stream: object) -> bool:
         return False
 
 
+def interactive(console: Console) -> bool:
+    """Whether ``console`` writes to a terminal a person watches, where bars and spinners may
+    redraw their line. Rich's ``is_terminal`` alone is not enough: ``FORCE_COLOR`` (and
+    ``TTY_COMPATIBLE=1``) make it true for a log too, which asks for colour, not for cursor
+    movement."""
+    return console.is_terminal and is_tty(console.file)
+
+
 def console_width(stream: TextIO) -> int | None:
     """The width a console on ``stream`` prints at (the module docstring's rule); None: the
     terminal's own, measured by rich as it prints."""
@@ -64,3 +74,15 @@ def make_console(stderr: bool = False, soft_wrap: bool = False) -> Console:
     if stderr:
         return Console(stderr=True, highlight=False, width=width, soft_wrap=soft_wrap)
     return StdoutConsole(highlight=False, width=width, soft_wrap=soft_wrap)
+
+
+@contextmanager
+def status(text: str) -> Iterator[None]:
+    """A spinner with ``text`` on standard error while the block runs, on a terminal only:
+    in a log (even one ``FORCE_COLOR`` colours) it would be redrawn into the file."""
+    console = make_console(stderr=True)
+    if not interactive(console):
+        yield
+        return
+    with console.status(text):
+        yield

@@ -32,14 +32,13 @@ def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
     from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
-    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.console import make_console, status
     from idefix_rules.cli.outcome import print_outcome
     from idefix_rules.cli.run import stored_titles
 
     console = make_console()
     try:
-        with make_console(stderr=True).status("evaluating the stored runs (collision checks, "
-                                         "rulebook)"):
+        with status("evaluating the stored runs (collision checks, rulebook)"):
             result = rescore(args.results, args.rulebook, args.junit, args.out)
     except EvaluationInterrupted as stop:
         console.print(interrupted_text(stop, again(args)), markup=False)

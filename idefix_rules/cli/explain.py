@@ -199,7 +199,7 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
-    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.console import interactive, make_console
     from idefix_rules.rulebook import load_checked
 
     checked = load_checked(args.rulebook)
@@ -220,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
     found = list(rows(checked))
     for row in found:
         table.add_row(*row)
-    tables = console.is_terminal and console.width >= TABLE_COLUMNS
+    tables = interactive(console) and console.width >= TABLE_COLUMNS
     if tables:
         console.print(table)
         console.print(_constants_table(checked))

@@ -9,6 +9,7 @@ from __future__ import annotations
 import fcntl
 import os
 import pty
+import re
 import struct
 import subprocess
 import sys
@@ -27,6 +28,8 @@ BROKEN_REPORT = [
     "                         ^",
     "broken.rules: 1 error",
 ]
+FROZEN = REPOSITORY / "tests" / "fixtures" / "rulebooks" / "idefix-ops-1.1.0.rules"
+ESCAPE = re.compile(r"\x1b\[[0-9;?]*([A-Za-z])")
 CI_LINE = ("CI verdicts (no expectations: every path must pass): 0 of 3 passed, 1 passing but "
            "not decided (exit 1)")
 
@@ -119,3 +122,41 @@ def test_standard_error_follows_the_same_rule(monkeypatch: pytest.MonkeyPatch) -
     assert make_console(stderr=True).width == make_console().width == LOG_COLUMNS
     monkeypatch.setenv("COLUMNS", "72")
     assert make_console(stderr=True).width == make_console().width == 72
+
+
+# ----------------------------------------------------------------------------- FORCE_COLOR
+
+@pytest.mark.slow
+def test_force_color_colours_a_log_but_never_redraws_it(toy_campaign: Path,
+                                                        tmp_path: Path) -> None:
+    """Rich calls any stream a terminal under FORCE_COLOR: a log then got the bars and
+    spinners of a terminal, redrawn with carriage returns and cursor movements."""
+    out = tmp_path / "out"
+    done = verify(str(toy_campaign), "--runs", "32", "--no-report", "--out", str(out),
+                  cwd=tmp_path, FORCE_COLOR="1")
+    assert (done.returncode, done.stderr) == (1, "")
+    assert "\r" not in done.stdout
+    # colour (SGR, "…m") and nothing else: no cursor hidden, moved or line erased
+    assert set(ESCAPE.findall(done.stdout)) == {"m"}
+    plain = ESCAPE.sub("", done.stdout)
+    assert re.search(r"^compiling the rulebook test\.rules \(\d+\.\d s\)$", plain, re.M)
+    assert re.search(r"^arc: 32/32 runs \(100 %\), \d+:\d\d$", plain, re.M)
+    assert plain.splitlines()[-1] == ("CI verdicts (no expectations: every path must pass): 1 "
+                                      "of 3 passed (exit 1)")
+    # evaluate's spinner on standard error neither
+    done = verify("evaluate", str(out / "results.h5"), cwd=tmp_path, FORCE_COLOR="1")
+    assert (done.returncode, done.stderr) == (1, "")
+    assert ESCAPE.sub("", done.stdout).splitlines()[-1] == (
+        "CI verdicts (no expectations: every path must pass): 1 of 3 passed (exit 1)")
+
+
+def test_force_color_keeps_explain_in_records_in_a_pipe(tmp_path: Path) -> None:
+    """explain prints tables on a wide terminal, records a line each into a pipe (what grep
+    reads), coloured or not."""
+    done = verify("explain", str(FROZEN), cwd=tmp_path, FORCE_COLOR="1")
+    assert (done.returncode, done.stderr) == (0, "")
+    plain = ESCAPE.sub("", done.stdout).splitlines()
+    assert plain[0] == ("idefix-ops 1.1.0 — Movement rules for manual driving in the first "
+                        "mobility phase")
+    assert "command wheel_rate_limit" in plain and "constants" in plain
+    assert not any(line.startswith(("┏", "│", "┃")) for line in plain)
