@@ -11,10 +11,11 @@ combination and the ranking follow. ``--format json`` gives the same as data.
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from idefix_rules.cli.encoding import json_text
 
 # The rulebook and rich are imported by the functions that use them: the command line is read
 # (and `explain --help` printed) without them.
@@ -204,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
 
     checked = load_checked(args.rulebook)
     if args.format == "json":
-        print(json.dumps(as_data(checked), indent=2, ensure_ascii=False))
+        print(json_text(as_data(checked), indent=2))
         return 0
     rulebook = checked.rulebook
     header = rulebook.header

@@ -11,11 +11,11 @@ option is out of range (each mistake located), as ``docs/testing-rulebooks.md`` 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from idefix_rules.cli.encoding import json_text
 from idefix_rules.errors import UserInputError, render_diagnostics
 
 if TYPE_CHECKING:
@@ -113,9 +113,8 @@ def run(args: argparse.Namespace) -> int:
     except UserInputError as nothing:  # T013: with --format json, said as JSON too
         if args.format != "json":
             raise
-        print(json.dumps({"files": [], "broken": [d.to_dict() for d in nothing.diagnostics],
-                          "passed": 0, "failed": 0, "exit_code": 2}, indent=2,
-                         ensure_ascii=False))
+        print(json_text({"files": [], "broken": [d.to_dict() for d in nothing.diagnostics],
+                         "passed": 0, "failed": 0, "exit_code": 2}, indent=2))
         return 2
     console = make_console(soft_wrap=True)
     broken: list[UserInputError] = []
@@ -159,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                 for g, c in zip(groups, coverages, strict=True)]
         if want_mutation:
             data["mutation"] = [r.to_dict() for r in reports]
-        print(json.dumps(data, indent=2, ensure_ascii=False))
+        print(json_text(data, indent=2))
         return code
     for problem in broken:
         console.print(render_diagnostics(problem.diagnostics, problem.sources), markup=False)

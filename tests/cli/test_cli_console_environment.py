@@ -7,6 +7,7 @@ The commands run as processes, with the environment variable set for them alone.
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 import pty
 import re
@@ -40,8 +41,9 @@ def verify(*arguments: str, cwd: Path, **environment: str) -> subprocess.Complet
     for name in ("COLUMNS", "FORCE_COLOR", "NO_COLOR", "TTY_COMPATIBLE", "PYTHONIOENCODING"):
         if name not in environment:
             env.pop(name, None)
+    encoding = environment.get("PYTHONIOENCODING", "utf-8")
     return subprocess.run([sys.executable, "-m", "idefix_rules", *arguments], cwd=cwd, env=env,
-                          capture_output=True, text=True, encoding="utf-8", timeout=300,
+                          capture_output=True, text=True, encoding=encoding, timeout=300,
                           check=False)
 
 
@@ -160,3 +162,65 @@ def test_force_color_keeps_explain_in_records_in_a_pipe(tmp_path: Path) -> None:
                         "mobility phase")
     assert "command wheel_rate_limit" in plain and "constants" in plain
     assert not any(line.startswith(("┏", "│", "┃")) for line in plain)
+
+
+# ----------------------------------------------------------------------------- encodings
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("encoding", "dot", "dash"), [("ascii", "|", "-"),
+                                                       ("latin-1", "·", "-")])
+def test_an_output_encoding_without_the_symbols_still_gets_the_whole_answer(
+        encoding: str, dot: str, dash: str, toy_campaign: Path, tmp_path: Path) -> None:
+    """A finished campaign ended in a UnicodeEncodeError ('–') and exit 3, its summary.json
+    saying 1: symbols the encoding lacks are written in ASCII, those it has as they are."""
+    out = tmp_path / "out"
+    done = verify(str(toy_campaign), "--quiet", "--no-report", "--out", str(out),
+                  cwd=tmp_path, PYTHONIOENCODING=encoding)
+    assert (done.returncode, done.stderr) == (1, "")
+    assert json.loads((out / "summary.json").read_text())["exit_code"] == 1
+    lines = done.stdout.splitlines()
+    assert lines[-4:] == [
+        f"  #1 arc: pass (not decided) {dot} risk 32.3 % {dot} not decided: acceptable_risk",
+        f"  #2 straight: fail (not decided) {dot} risk 86.0 % {dot} not decided: "
+        "acceptable_risk",
+        f"  {dash} too-fast: rejected",
+        CI_LINE,
+    ]
+    assert "Decision: not settled yet: the verdict of arc, straight is not decided at this " \
+           "number of runs (run more to settle it)" in lines
+    assert "-" * LOG_COLUMNS in lines  # the rule above the answer, in ASCII
+    assert f"x rule failed {dot} ? rule not decided yet" in done.stdout
+
+
+def test_diagnostics_on_an_ascii_stream_are_readable_with_their_caret(tmp_path: Path) -> None:
+    (tmp_path / "broken.rules").write_text(BROKEN)
+    ascii_report = [line.replace("…", "...") for line in BROKEN_REPORT]
+    done = verify("check", "broken.rules", cwd=tmp_path, PYTHONIOENCODING="ascii")
+    assert (done.returncode, done.stderr, done.stdout.splitlines()) == (2, "", ascii_report)
+    # an error the dispatcher says, on standard error (Python's own default there wrote
+    # "\u2026")
+    done = verify("explain", "broken.rules", cwd=tmp_path, PYTHONIOENCODING="ascii")
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr.splitlines() == ascii_report[:3]
+    # JSON loses nothing: escapes instead of characters
+    done = verify("check", "--format", "json", "broken.rules", cwd=tmp_path,
+                  PYTHONIOENCODING="ascii")
+    assert (done.returncode, done.stderr) == (2, "")
+    assert json.loads(done.stdout)[0]["message"] == \
+        "unexpected number '1'; expected a string (\"…\")"
+    assert "\\u2026" in done.stdout
+
+
+def test_help_on_an_ascii_stream(tmp_path: Path) -> None:
+    done = verify("run", "--help", cwd=tmp_path, PYTHONIOENCODING="ascii")
+    assert (done.returncode, done.stderr) == (0, "")
+    assert "  --seed SEED           campaign seed, 0 ... 2^64 - 1 (overrides" in \
+        done.stdout.splitlines()
+
+
+def test_every_symbol_has_an_ascii_stand_in() -> None:
+    from idefix_rules.cli.encoding import ascii_text
+
+    assert [ascii_text(c) for c in "–—…·✗✓≈≥≤±×°→"] == [
+        "-", "-", "...", "|", "x", "ok", "~", ">=", "<=", "+/-", "x", " deg", "->"]
+    assert "".join(ascii_text(c) for c in "┏━┃┡╇└") == "+-|+++"
