@@ -77,11 +77,12 @@ def make_console(stderr: bool = False, soft_wrap: bool = False) -> Console:
 
 
 @contextmanager
-def status(text: str) -> Iterator[None]:
+def status(text: str, quiet: bool = False) -> Iterator[None]:
     """A spinner with ``text`` on standard error while the block runs, on a terminal only:
-    in a log (even one ``FORCE_COLOR`` colours) it would be redrawn into the file."""
+    in a log (even one ``FORCE_COLOR`` colours) it would be redrawn into the file. Nothing
+    with ``quiet``."""
     console = make_console(stderr=True)
-    if not interactive(console):
+    if quiet or not interactive(console):
         yield
         return
     with console.status(text):

@@ -15,6 +15,7 @@ import struct
 import subprocess
 import sys
 import termios
+import threading
 from pathlib import Path
 
 import pytest
@@ -54,6 +55,16 @@ def toy_campaign(tmp_path_factory: pytest.TempPathFactory, cli_toy_fmu: Path) ->
     (folder / "test.rules").write_text(RULEBOOK)
     (folder / "campaign.yaml").write_text(CAMPAIGN)
     return folder / "campaign.yaml"
+
+
+@pytest.fixture(scope="module")
+def toy_results(toy_campaign: Path) -> Path:
+    """The toy campaign's stored results (its default 6 runs)."""
+    out = toy_campaign.parent / "stored"
+    done = verify(str(toy_campaign), "--quiet", "--no-report", "--out", str(out),
+                  cwd=toy_campaign.parent)
+    assert done.returncode == 1, done.stdout + done.stderr
+    return out / "results.h5"
 
 
 # ----------------------------------------------------------------------------- COLUMNS
@@ -224,3 +235,49 @@ def test_every_symbol_has_an_ascii_stand_in() -> None:
     assert [ascii_text(c) for c in "–—…·✗✓≈≥≤±×°→"] == [
         "-", "-", "...", "|", "x", "ok", "~", ">=", "<=", "+/-", "x", " deg", "->"]
     assert "".join(ascii_text(c) for c in "┏━┃┡╇└") == "+-|+++"
+
+
+# ----------------------------------------------------------------------------- --quiet
+
+def _with_stderr_on_a_terminal(*arguments: str, cwd: Path) -> tuple[int, str, str]:
+    """``idefix-verify ARGUMENTS`` with standard error on a terminal (where spinners show),
+    standard output in a pipe: exit code, standard output, what reached the terminal."""
+    terminal, controller = _terminal(100)
+    said: list[bytes] = []
+
+    def read() -> None:
+        while True:
+            try:
+                chunk = os.read(controller, 4096)
+            except OSError:  # every writer closed its end
+                return
+            if not chunk:
+                return
+            said.append(chunk)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    env = {key: value for key, value in os.environ.items()
+           if key not in ("COLUMNS", "FORCE_COLOR", "NO_COLOR", "TTY_COMPATIBLE")}
+    try:
+        done = subprocess.run([sys.executable, "-m", "idefix_rules", *arguments], cwd=cwd,
+                              env=env, stdout=subprocess.PIPE, stderr=terminal, text=True,
+                              timeout=300, check=False)
+    finally:
+        os.close(terminal)
+    reader.join(timeout=10)
+    os.close(controller)
+    return done.returncode, done.stdout, b"".join(said).decode("utf-8", "replace")
+
+
+@pytest.mark.slow
+def test_evaluate_quiet_shows_no_spinner(toy_results: Path, tmp_path: Path) -> None:
+    """--quiet meant nothing to evaluate: its spinner still turned on a terminal."""
+    code, out, terminal = _with_stderr_on_a_terminal("evaluate", str(toy_results),
+                                                     cwd=tmp_path)
+    assert code == 1 and out.splitlines()[-1] == CI_LINE
+    assert "evaluating the stored runs (collision checks, rulebook)" in terminal  # it shows
+    code, out, terminal = _with_stderr_on_a_terminal("evaluate", "--quiet", str(toy_results),
+                                                     cwd=tmp_path)
+    assert (code, terminal) == (1, "")
+    assert out.splitlines()[-1] == CI_LINE  # the results are still printed
