@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from typing import TextIO
 
@@ -87,3 +87,15 @@ def status(text: str, quiet: bool = False) -> Iterator[None]:
         return
     with console.status(text):
         yield
+
+
+def print_whole(console: Console, line: str, keep: Iterable[str], markup: bool = True) -> None:
+    """Print ``line`` wrapped at the console's width as any line is, unless the wrapping would
+    break one of ``keep`` that it holds (a path name, ``#1 name``) across lines or fold it:
+    then the line is printed unwrapped, longer than the width, so that the name is whole and
+    ``grep '#1 name'`` finds it."""
+    text = console.render_str(line, markup=markup)
+    wanted = [whole for whole in keep if whole and whole in text.plain]
+    pieces = [piece.plain for piece in text.wrap(console, console.width)]
+    broken = any(not any(whole in piece for piece in pieces) for whole in wanted)
+    console.print(text, soft_wrap=broken)

@@ -281,3 +281,33 @@ def test_evaluate_quiet_shows_no_spinner(toy_results: Path, tmp_path: Path) -> N
                                                      cwd=tmp_path)
     assert (code, terminal) == (1, "")
     assert out.splitlines()[-1] == CI_LINE  # the results are still printed
+
+
+# ----------------------------------------------------------------------------- long names
+
+LONG = "detour-left-of-the-rock-" + "x" * 69 + "-end-07"  # 100 characters, the longest allowed
+
+
+@pytest.mark.slow
+def test_at_40_columns_a_100_character_name_stays_whole_for_grep(
+        toy_campaign: Path, tmp_path: Path) -> None:
+    """The short block per path and the answer folded the name into slices of 40 characters:
+    ``grep '#1 NAME'`` found nothing. A line holding a name is wrapped only where the name
+    stays whole, and printed unwrapped where it cannot be."""
+    assert len(LONG) == 100
+    for name in ("toy.fmu", "test.rules"):
+        (tmp_path / name).write_bytes((toy_campaign.parent / name).read_bytes())
+    (tmp_path / "campaign.yaml").write_text(toy_campaign.read_text().replace("  arc:\n",
+                                                                             f"  {LONG}:\n"))
+    done = verify("campaign.yaml", "--runs", "32", "--quiet", "--no-report", cwd=tmp_path,
+                  COLUMNS="40")
+    assert (done.returncode, done.stderr) == (1, "")
+    lines = done.stdout.splitlines()
+    assert f"#1 {LONG}  pass" in lines  # the short block's first line
+    assert f"Decision: send {LONG} (passes every verdict, rank 1 of 2)" in lines
+    assert f"Ranking: {LONG} > straight" in lines
+    assert f"  #1 {LONG}: pass · risk 36.9 %" in lines
+    # the rest still wraps at 40 columns
+    assert [line for line in lines if len(line) > 40 and LONG not in line] == []
+    assert lines[-2:] == ["CI verdicts (no expectations: every path", "must pass): 1 of 3 "
+                          "passed (exit 1)"]
