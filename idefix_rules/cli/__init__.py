@@ -10,7 +10,8 @@ needs to run (rich, numpy, h5py, the rulebook, the campaign) it imports inside `
 an internal error (exit 3). ``idefix-verify campaign.yaml`` is short for
 ``idefix-verify run campaign.yaml``. A reader that closes standard output early
 (``idefix-verify explain … | head -1``) ends the command quietly with exit 141, the code a shell
-reports for a process ended by SIGPIPE.
+reports for a process ended by SIGPIPE. A standard output or error whose encoding lacks a
+character the output uses gets an ASCII equivalent (:mod:`idefix_rules.cli.encoding`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from pathlib import Path
 from types import ModuleType
 
 from idefix_rules import __version__
+from idefix_rules.cli.encoding import tolerate_encodings
 from idefix_rules.cli.pipes import quiet_broken_pipe
 from idefix_rules.errors import IdefixError
 
@@ -78,6 +80,7 @@ def _looks_like_campaign(argument: str) -> bool:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    tolerate_encodings()  # an ASCII stdout gets "-" for "–", not a traceback after the work
     try:
         code = _main(argv)
         if not sys.stdout.closed:  # the language server closes it on exit

@@ -44,11 +44,10 @@ def _is_fmu(path: Path) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
+    from idefix_rules.cli.console import make_console
     from idefix_rules.fmu.build import build_fmu, source_dir
 
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     console.print(f"[dim]sources:[/] {source_dir()}")
     path = build_fmu(force=not args.cached or args.output is not None, output=args.output)
     if args.validate:

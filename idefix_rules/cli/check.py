@@ -11,11 +11,11 @@ server (``idefix-verify lsp``) publishes the same diagnostics through
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from idefix_rules.cli.encoding import json_text
 from idefix_rules.errors import render_diagnostics
 
 if TYPE_CHECKING:
@@ -80,11 +80,11 @@ def run(args: argparse.Namespace) -> int:
     failed = _failed(reports)
     if args.format == "json":
         records = [d.to_dict() for report in reports for d in report.diagnostics]
-        print(json.dumps(records, indent=2, ensure_ascii=False))
+        print(json_text(records, indent=2))
         return 2 if failed else 0
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
 
-    console = StdoutConsole(highlight=False, soft_wrap=True)
+    console = make_console(soft_wrap=True)
     for report in reports:
         style = "red" if report.errors else "yellow" if report.warnings else "green"
         text = render_report(report)

@@ -25,22 +25,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--junit", type=output_file, metavar="FILE", help="write JUnit XML")
     parser.add_argument("--out", type=output_folder,
                         help="folder for summary.json (default: next to results.h5)")
-    parser.add_argument("--quiet", action="store_true", help="accepted for symmetry with run")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress at all (no spinner while the stored runs are "
+                             "evaluated); the results are still printed")
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
     from rich.markup import escape
 
     from idefix_rules.campaign.rescore import EvaluationInterrupted, rescore
-    from idefix_rules.cli.console import make_console
+    from idefix_rules.cli.console import make_console, status
     from idefix_rules.cli.outcome import print_outcome
     from idefix_rules.cli.run import stored_titles
 
     console = make_console()
     try:
-        with Console(stderr=True).status("evaluating the stored runs (collision checks, "
-                                         "rulebook)"):
+        with status("evaluating the stored runs (collision checks, rulebook)", args.quiet):
             result = rescore(args.results, args.rulebook, args.junit, args.out)
     except EvaluationInterrupted as stop:
         console.print(interrupted_text(stop, again(args)), markup=False)

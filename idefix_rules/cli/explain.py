@@ -11,10 +11,11 @@ combination and the ranking follow. ``--format json`` gives the same as data.
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from idefix_rules.cli.encoding import json_text
 
 # The rulebook and rich are imported by the functions that use them: the command line is read
 # (and `explain --help` printed) without them.
@@ -199,16 +200,16 @@ def as_data(checked: CheckedRulebook) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import interactive, make_console
     from idefix_rules.rulebook import load_checked
 
     checked = load_checked(args.rulebook)
     if args.format == "json":
-        print(json.dumps(as_data(checked), indent=2, ensure_ascii=False))
+        print(json_text(as_data(checked), indent=2))
         return 0
     rulebook = checked.rulebook
     header = rulebook.header
-    console = StdoutConsole(highlight=False)
+    console = make_console()
     table = Table(title=f"{header.name} {header.version} — {header.purpose}",
                   show_lines=True, expand=False)
     for column, style in (("kind", "cyan"), ("name", "bold")):
@@ -220,7 +221,7 @@ def run(args: argparse.Namespace) -> int:
     found = list(rows(checked))
     for row in found:
         table.add_row(*row)
-    tables = console.is_terminal and console.width >= TABLE_COLUMNS
+    tables = interactive(console) and console.width >= TABLE_COLUMNS
     if tables:
         console.print(table)
         console.print(_constants_table(checked))

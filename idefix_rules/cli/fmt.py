@@ -62,11 +62,11 @@ def replace_text(path: Path, text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
     from idefix_rules.rulebook import read_source
     from idefix_rules.rulebook.format import with_line_endings
 
-    console = StdoutConsole(highlight=False, soft_wrap=True)
+    console = make_console(soft_wrap=True)
     invalid: list[UserInputError] = []
     changed = []
     for path in args.rulebooks:

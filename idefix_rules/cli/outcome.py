@@ -40,6 +40,7 @@ from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.pairwise import OPEN
 from idefix_rules.campaign.statistics.stopping import MOOT, STOP_FIXED
+from idefix_rules.cli.console import print_whole
 
 LEVELS = ("L1", "L2", "L3")
 STYLES = {"pass": "green", "fail": "red", "waived": "magenta", "marginal": "yellow"}
@@ -103,6 +104,12 @@ def results_table(evaluation: CampaignEvaluation, titles: Mapping[str, str]) -> 
     return table
 
 
+def ranked_name(path: PathResult) -> str:
+    """``#1 name`` (``name`` without a rank): what the short block of a path starts with,
+    never broken across lines."""
+    return f"#{path.rank} {path.name}" if path.rank is not None else path.name
+
+
 def path_lines(path: PathResult, titles: Mapping[str, str]) -> list[str]:
     """One path as a few short lines (the narrow layout)."""
     rank = f"#{path.rank} " if path.rank is not None else ""
@@ -130,9 +137,13 @@ def fits(console: Console, table: Table) -> bool:
     return Measurement.get(console, unbounded, table).maximum <= console.width
 
 
-def print_decision(console: Console, decision: Decision) -> None:
+def print_decision(console: Console, decision: Decision, names: Sequence[str] = ()) -> None:
+    """The ``Decision:`` line; the path ``names`` it holds, and ``Decision: send NAME``, are
+    never broken across lines."""
     style = {"send": "green", "none": "red"}.get(decision.kind, "yellow")  # marginal: yellow
-    console.print(f"[bold]Decision:[/bold] [{style}]{escape(decision.text)}[/{style}]")
+    keep = [*names, *([f"Decision: send {decision.path}"] if decision.kind == "send" else [])]
+    print_whole(console, f"[bold]Decision:[/bold] [{style}]{escape(decision.text)}[/{style}]",
+                keep)
 
 
 def ci_line(expectations: Sequence[ExpectationResult], code: int,
@@ -162,6 +173,11 @@ def _rule_name(text: str) -> str:
 def _near_rules(path: PathResult) -> set[str]:
     """The verdict rules of a path that lie within their margin of the limit."""
     return {rule.name for rule in getattr(path.verdict, "rules", ()) if rule.near}
+
+
+def verdict_title(path: PathResult) -> str:
+    """``#1 name`` (``– name`` without a rank): what a path's verdict line starts with."""
+    return f"{'–' if path.rank is None else f'#{path.rank}'} {path.name}"
 
 
 def verdict_line(path: PathResult) -> str:
@@ -194,18 +210,20 @@ def verdict_line(path: PathResult) -> str:
 def print_answer(console: Console, evaluation: CampaignEvaluation,
                  expectations: Sequence[ExpectationResult], code: int) -> Decision:
     """The answer, printed last so it is what the screen ends on: the decision, the ranking,
-    each path's verdict in one line, then CI's outcome."""
+    each path's verdict in one line, then CI's outcome. A line holding a path name is
+    wrapped only where the name stays whole (:func:`print_whole`)."""
     decision = campaign_decision(evaluation)
+    names = [path.name for path in evaluation.paths]
     console.rule(style="dim")
-    print_decision(console, decision)
+    print_decision(console, decision, names)
     if evaluation.ranking:
-        console.print("[bold]Ranking:[/bold] "
-                      + " > ".join(escape(n) for n in evaluation.ranking))
-        _print_ties(console, evaluation)
+        print_whole(console, "[bold]Ranking:[/bold] "
+                    + " > ".join(escape(n) for n in evaluation.ranking), names)
+        _print_ties(console, evaluation, names)
         for above, pair in pairwise.adjacent(evaluation.ranking, evaluation.pairs):
-            console.print("  " + pairwise.describe(pair, above), markup=False)
+            print_whole(console, "  " + pairwise.describe(pair, above), names, markup=False)
     for path in _ordered(evaluation):
-        console.print(verdict_line(path))
+        print_whole(console, verdict_line(path), [verdict_title(path), *names])
     style = "green" if code == 0 else "red"
     console.print(f"[{style}]{ci_line(expectations, code, evaluation)}[/{style}]")
     return decision
@@ -216,8 +234,10 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                   titles: Mapping[str, str] | None = None,
                   files: Sequence[tuple[str, object]] = ()) -> Decision:
     """The details (table or per-path blocks, reasons, slip, expectations, warnings, the files
-    written), then the answer (:func:`print_answer`) last."""
+    written), then the answer (:func:`print_answer`) last. A line holding a path name is
+    wrapped only where the name stays whole (:func:`print_whole`)."""
     titles = titles or {}
+    names = [path.name for path in evaluation.paths]
     table = results_table(evaluation, titles)
     wide = fits(console, table)
     if wide:
@@ -227,34 +247,38 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
     marks = False
     for path in _ordered(evaluation) if not wide else evaluation.paths:
         if not wide:
-            for line in path_lines(path, titles):
+            header, *lines = path_lines(path, titles)
+            print_whole(console, header, [ranked_name(path)])
+            for line in lines:
                 console.print(line)
         if path.reason:
-            console.print(f"  [yellow]{escape(path.name)}[/yellow] {path.status}: "
-                          f"{escape(path.reason)}")
+            print_whole(console, f"  [yellow]{escape(path.name)}[/yellow] {path.status}: "
+                                 f"{escape(path.reason)}", names)
         if path.stop_reason and not path.stop_reason.startswith(STOP_FIXED):
-            console.print(f"  {escape(path.name)}: runs: {escape(path.stop_reason)}")
+            print_whole(console, f"  {escape(path.name)}: runs: {escape(path.stop_reason)}",
+                        names)
         if path.unfinished and path.stop_time is not None:
             text = unfinished_text(path.name, path.unfinished, path.completed, path.stop_time)
-            console.print(f"  [yellow]{escape(text)}[/yellow]")
+            print_whole(console, f"  [yellow]{escape(text)}[/yellow]", names)
         near = _near_rules(path)
         for decided, reason in reason_items(path):
             marks = True
             mark = (f"[yellow]{NEAR_MARK}[/yellow]" if _rule_name(reason) in near
                     else f"[red]{FAILED_MARK}[/red]" if decided
                     else f"[yellow]{UNDECIDED_MARK}[/yellow]")
-            console.print(f"  {mark} {escape(path.name)}: {escape(reason)}" if wide
-                          else f"  {mark} {escape(reason)}")
+            print_whole(console, f"  {mark} {escape(path.name)}: {escape(reason)}" if wide
+                        else f"  {mark} {escape(reason)}", names)
         for waived in path.waivers:
-            console.print(f"  [magenta]waived[/magenta] {escape(path.name)}: {waived.kind} "
-                          f"{escape(waived.rule)}: {escape(waived.text())}")
+            print_whole(console, f"  [magenta]waived[/magenta] {escape(path.name)}: "
+                                 f"{waived.kind} {escape(waived.rule)}: "
+                                 f"{escape(waived.text())}", names)
         for run, reason in sorted(path.failures.items())[:10]:
             if is_infrastructure(reason):  # no failure of the path's: --resume runs it again
-                console.print(f"  [yellow]{escape(path.name)} run {run} lost[/yellow]: "
-                              f"{escape(reason)}")
+                print_whole(console, f"  [yellow]{escape(path.name)} run {run} lost[/yellow]: "
+                                     f"{escape(reason)}", names)
             else:
-                console.print(f"  [red]{escape(path.name)} run {run} failed[/red]: "
-                              f"{escape(reason)}")
+                print_whole(console, f"  [red]{escape(path.name)} run {run} failed[/red]: "
+                                     f"{escape(reason)}", names)
         if len(path.failures) > 10:
             console.print(f"  [red]… and {len(path.failures) - 10} more failed or lost "
                           "runs[/red]")
@@ -273,13 +297,13 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
                 f"{c.path} {100 * (c.measured or 0.0):.1f} %" for c in measured))
         if unmeasured:
             said.append(unmeasured)
-        console.print("; ".join(said), markup=False)
+        print_whole(console, "; ".join(said), names, markup=False)
     for expectation in expectations:
         mark = "[green]✓[/green]" if expectation.held else "[red]✗[/red]"
-        console.print(f"{mark} expect {escape(expectation.description)}: "
-                      f"{escape(expectation.message)}")
+        print_whole(console, f"{mark} expect {escape(expectation.description)}: "
+                             f"{escape(expectation.message)}", names)
     for text in dict.fromkeys(warnings):  # each said once
-        console.print(f"[yellow]warning:[/yellow] {escape(text)}")
+        print_whole(console, f"[yellow]warning:[/yellow] {escape(text)}", names)
     for label, value in files:
         console.print(f"{label}: {escape(str(value))}")
     return print_answer(console, evaluation, expectations, code)
@@ -291,17 +315,18 @@ def index_titles(rulebook: Any) -> dict[str, str]:
             if getattr(index, "title", None)}
 
 
-def _print_ties(console: Console, evaluation: CampaignEvaluation) -> None:
+def _print_ties(console: Console, evaluation: CampaignEvaluation,
+                names: Sequence[str]) -> None:
     """One line per tie of the ranking: ``tie: A = B (risk difference within ±2 %)``; one per
     comparison the decision depends on that is still open, with the paired runs that would
     settle it."""
     margin = f"{evaluation.indifference * 100:.3g} %"
     for first, second in evaluation.ties:
-        console.print(f"tie: {first} = {second} (risk difference within ±{margin})",
-                      markup=False)
+        print_whole(console, f"tie: {first} = {second} (risk difference within ±{margin})",
+                    names, markup=False)
     for pair in evaluation.pairs:
         if pair.needed and pair.outcome == OPEN:
-            console.print(open_pair_text(pair), markup=False)
+            print_whole(console, open_pair_text(pair), names, markup=False)
 
 
 def open_pair_text(pair: Any) -> str:

@@ -37,6 +37,8 @@ from rich.progress import (
 from rich.table import Column
 from rich.text import Text
 
+from idefix_rules.cli.console import interactive
+
 # A phase shorter than this gets no ETA and, in a log, no line when it starts.
 LONG_PHASE = 2.0
 
@@ -291,7 +293,9 @@ class PlainProgress:
 
 
 def make_progress(console: Console, quiet: bool) -> RichProgress | PlainProgress:
-    """Bars and spinners on a terminal, plain lines in a log; nothing at all with ``quiet``."""
-    if quiet or console.is_terminal:
+    """Bars and spinners on a terminal, plain lines in a log (a file or a pipe, coloured by
+    ``FORCE_COLOR`` or not: :func:`~idefix_rules.cli.console.interactive`); nothing at all
+    with ``quiet``."""
+    if quiet or interactive(console):
         return RichProgress(console, quiet)
     return PlainProgress(console)

@@ -27,10 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
     from idefix_rules.campaign.runner import write_report
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console, status
 
     out = args.out if args.out is not None else args.results.resolve().parent
     # -o was checked as it was read; the results' folder is checked here (a missing results
@@ -52,10 +50,9 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.report import REPORT_FILE
 
     set_aside(*report_outputs(out, REPORT_FILE))
-    console = Console(stderr=True)
-    with console.status("writing the report"):
+    with status("writing the report"):
         page = write_report(args.results, out, "free space, then run this command again")
-    StdoutConsole().print(f"report written: [bold]{page}[/bold]")
+    make_console().print(f"report written: [bold]{page}[/bold]")
     return 0
 
 

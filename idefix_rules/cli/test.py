@@ -11,11 +11,11 @@ option is out of range (each mistake located), as ``docs/testing-rulebooks.md`` 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from idefix_rules.cli.encoding import json_text
 from idefix_rules.errors import UserInputError, render_diagnostics
 
 if TYPE_CHECKING:
@@ -89,7 +89,7 @@ def _percent(text: str | None, option: str, code: str, gate: bool = True) -> flo
     return value
 
 def run(args: argparse.Namespace) -> int:
-    from idefix_rules.cli.console import StdoutConsole
+    from idefix_rules.cli.console import make_console
     from idefix_rules.errors import error
     from idefix_rules.testing import discover_case_files, load_case_file, run_case_file
     from idefix_rules.testing.coverage import by_rulebook, coverage_of_files, coverage_percent
@@ -113,11 +113,10 @@ def run(args: argparse.Namespace) -> int:
     except UserInputError as nothing:  # T013: with --format json, said as JSON too
         if args.format != "json":
             raise
-        print(json.dumps({"files": [], "broken": [d.to_dict() for d in nothing.diagnostics],
-                          "passed": 0, "failed": 0, "exit_code": 2}, indent=2,
-                         ensure_ascii=False))
+        print(json_text({"files": [], "broken": [d.to_dict() for d in nothing.diagnostics],
+                         "passed": 0, "failed": 0, "exit_code": 2}, indent=2))
         return 2
-    console = StdoutConsole(highlight=False, soft_wrap=True)
+    console = make_console(soft_wrap=True)
     broken: list[UserInputError] = []
     outcomes: list[FileOutcome] = []
     for path in files:
@@ -159,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                 for g, c in zip(groups, coverages, strict=True)]
         if want_mutation:
             data["mutation"] = [r.to_dict() for r in reports]
-        print(json.dumps(data, indent=2, ensure_ascii=False))
+        print(json_text(data, indent=2))
         return code
     for problem in broken:
         console.print(render_diagnostics(problem.diagnostics, problem.sources), markup=False)

@@ -126,11 +126,22 @@ def test_a_long_phase_is_announced_when_it_starts_a_short_one_is_not() -> None:
     assert lines[1:] == ["long …", lines[2]] and lines[2].startswith("long (")
 
 
+class Terminal(io.StringIO):
+    """What a terminal device answers."""
+
+    def isatty(self) -> bool:
+        return True
+
+
 def test_the_mode_follows_the_output() -> None:
     log = Console(file=io.StringIO(), force_terminal=False)
-    terminal = Console(file=io.StringIO(), force_terminal=True)
+    terminal = Console(file=Terminal(), force_terminal=True)
+    # what rich makes of a log under FORCE_COLOR: a terminal, for colour; bars would be
+    # redrawn into the file
+    coloured_log = Console(file=io.StringIO(), force_terminal=True)
     assert isinstance(make_progress(log, quiet=False), PlainProgress)
     assert isinstance(make_progress(terminal, quiet=False), RichProgress)
+    assert isinstance(make_progress(coloured_log, quiet=False), PlainProgress)
     quiet = make_progress(log, quiet=True)
     quiet.message("nothing")
     quiet.stop()
