@@ -1213,7 +1213,28 @@ def test_building_the_fmu_without_a_compiler_is_exit_3_and_says_what_is_missing(
     assert "Traceback" not in output
 
 
-@pytest.mark.parametrize("where", ["regolith", "uncertainty"])
+# (old, new, what the line is found by, the message in the campaign's unit)
+REFUSED_BY_THE_ROVER = {
+    "regolith": ('    n: 1.0\n', '    n: 1.0\n    friction_angle: "85 deg"\n', '"85 deg',
+                 "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]"),
+    "uncertainty": ("  parameters:\n", "  parameters:\n    soil.friction_angle: "
+                    '{distribution: uniform, low: "84 deg", high: "86 deg"}\n',
+                    '{distribution: uniform, low: "84',
+                    "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]"),
+    # a pressure and a modulus: compound units, their SI spelled kg/(m·s^2)
+    "regolith-pascal": ('    n: 1.0\n', '    n: 1.0\n    cohesion: "-5 Pa"\n', '"-5 Pa',
+                        "soil.cohesion = -5 Pa out of range: allowed [0, 1e+06 Pa]"),
+    "regolith-modulus": ('k_phi: "820000 N/m^3"', 'k_phi: "-820000 N/m^3"', '"-820000',
+                         "soil.k_phi = -820000 N/m^3 out of range: allowed [0, 1e+12 N/m^3]"),
+    "uncertainty-kilopascal": (
+        "  parameters:\n", "  parameters:\n    soil.cohesion: "
+        '{distribution: uniform, low: "-2 kPa", high: "-1 kPa"}\n',
+        '{distribution: uniform, low: "-2 kPa"',
+        "soil.cohesion = -1.5 kPa out of range: allowed [0, 1000 kPa]"),
+}
+
+
+@pytest.mark.parametrize("where", REFUSED_BY_THE_ROVER)
 def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
         where: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -1223,10 +1244,7 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     rulebook = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
     text = (Path(__file__).parents[2] / "campaigns" / "flat-control.yaml").read_text()
     text = text.replace("../rulebooks/idefix-ops.rules", str(rulebook))
-    setting = {"regolith": ('    n: 1.0\n', '    n: 1.0\n    friction_angle: "85 deg"\n'),
-               "uncertainty": ("  parameters:\n", "  parameters:\n    soil.friction_angle: "
-                               '{distribution: uniform, low: "84 deg", high: "86 deg"}\n')}
-    old, new = setting[where]
+    old, new, found_by, expected = REFUSED_BY_THE_ROVER[where]
     assert old in text
     text = text.replace(old, new, 1)
     (tmp_path / "campaign.yaml").write_text(text)
@@ -1234,14 +1252,13 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     code = main(["run", "campaign.yaml", "--runs", "2", "--quiet", "--no-report", "--out", "o"])
     captured = capsys.readouterr()
     output = captured.out + captured.err
-    line = text[:text.index("85 deg" if where == "regolith" else "{distribution: uniform, "
-                            "low: \"84")].count("\n") + 1
+    before = text[:text.index(found_by)]
+    line, column = before.count("\n") + 1, len(before) - before.rfind("\n")
     assert code == 2, output
-    assert f"campaign.yaml:{line}:" in output and "error[F110]: parameter soil.friction_angle" \
-        in output, output
-    # in the unit the campaign wrote it in, not the FMU's radians (the reference run's value:
-    # the given one, or the uniform distribution's median)
-    assert "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]" in output, output
+    # in the unit the campaign wrote it in, not the FMU's SI (the reference run's value: the
+    # given one, or the uniform distribution's median)
+    assert f"campaign.yaml:{line}:{column}: error[F110]: " \
+           f"parameter {expected}\n" in output, output
     assert "Traceback" not in output and ".fmu: error" not in output
 
 
