@@ -248,6 +248,20 @@ CASES = [
          ("campaign.yaml:3:1: error[C000]: invalid YAML: found character '\\t'",)),
     Case("campaign-duplicate-key", campaign(append="runs: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C002]: duplicate key 'runs'",)),
+    # a merge key's mapping gives what the mapping does not: a key it writes twice is still
+    # a duplicate, a mistake in a merged value is said where the anchored mapping writes it
+    Case("campaign-merge-key-duplicate",
+         campaign(('    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}',
+                   '    initial.x: &n {distribution: normal, mean: "0 m", std: "1 cm"}\n'
+                   '    initial.y: {<<: *n, std: "2 cm", std: "3 cm"}')), RUN, 2,
+         ("campaign.yaml:13:38: error[C002]: duplicate key 'std'",)),
+    Case("campaign-merged-value-wrong",
+         campaign(('    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}',
+                   '    initial.x: &n {distribution: normal, mean: "0 m", std: "1 parsec"}\n'
+                   '    initial.y: {<<: *n, std: "2 cm"}')), RUN, 2,
+         ("campaign.yaml:12:60: error[C100]: uncertainty.parameters.initial.x.std: unknown "
+          "unit 'parsec'",),
+         absent=("initial.y",)),
     Case("campaign-unknown-key", campaign(append="runz: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
     Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,

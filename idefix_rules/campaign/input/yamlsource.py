@@ -62,10 +62,88 @@ class YamlDocument:
 _PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 
 
+_MERGE = "tag:yaml.org,2002:merge"
+_VALUE = "tag:yaml.org,2002:value"
+_STR = "tag:yaml.org,2002:str"
+
+
 class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
     """A SafeLoader that records the position of every node while constructing the data."""
 
     values_seen = 0
+
+    def __init__(self, stream: Any) -> None:
+        super().__init__(stream)
+        self._merging: set[int] = set()  # mappings whose merge keys are being resolved
+
+    def flatten_mapping(self, node: yaml.MappingNode) -> None:
+        """Resolve the merge key ``<<`` of a mapping (https://yaml.org/type/merge.html) in
+        place: its value, a mapping or a list of mappings, gives the keys the mapping does not
+        give itself, a mapping earlier in the list winning over a later one. The merged pairs
+        stand where ``<<`` is written, their nodes those of the merged mapping (its lines).
+
+        PyYAML's own puts every merged pair before the mapping's, so a key given both ways
+        came twice: the campaign's duplicate check refused the override the merge key exists
+        for. A key a mapping writes twice itself stays for that check, merged or not.
+        """
+        if id(node) in self._merging:
+            raise yaml.constructor.ConstructorError(
+                None, None, "a mapping merges itself: '<<' names the mapping it stands in",
+                node.start_mark)
+        merges = [pair for pair in node.value if pair[0].tag == _MERGE]
+        for key_node, _ in node.value:
+            if key_node.tag == _VALUE:  # `=`, YAML 1.1's default-value key: a plain name here
+                key_node.tag = _STR
+        if not merges:
+            return
+        if len(merges) > 1:
+            raise yaml.constructor.ConstructorError(
+                None, None, "a second merge key '<<' in one mapping: give one, with a list of "
+                "the mappings to merge (<<: [*first, *second])", merges[1][0].start_mark)
+        self._merging.add(id(node))
+        try:
+            given = {self._key_identity(key_node) for key_node, _ in node.value
+                     if key_node.tag != _MERGE}
+            merged = []
+            for source in self._merge_sources(merges[0][1]):
+                self.flatten_mapping(source)
+                # a mapping's keys win over those of the mappings after it, and its own
+                # duplicates are kept for the duplicate check
+                own = [(self._key_identity(key_node), (key_node, value_node))
+                       for key_node, value_node in source.value]
+                merged += [pair for identity, pair in own if identity not in given]
+                given |= {identity for identity, _ in own}
+        finally:
+            self._merging.discard(id(node))
+        flat: list[tuple[yaml.Node, yaml.Node]] = []
+        for pair in node.value:
+            flat += merged if pair[0].tag == _MERGE else [pair]
+        node.value = flat
+
+    def _merge_sources(self, value_node: yaml.Node) -> list[yaml.MappingNode]:
+        """The mappings a merge key's value names: itself, or the items of its list."""
+        items = value_node.value if isinstance(value_node, yaml.SequenceNode) else [value_node]
+        for item in items:
+            if not isinstance(item, yaml.MappingNode):
+                kind = ("a list" if isinstance(item, yaml.SequenceNode) else
+                        f"{item.value}" if str(item.value).strip() else "nothing")
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"a merge key '<<' takes a mapping (an alias such as *name of "
+                    f"one) or a list of mappings, got {kind}", item.start_mark)
+        return list(items)
+
+    def _key_identity(self, key_node: yaml.Node) -> Any:
+        """What makes two keys the same key: their values (``16`` and ``0x10`` are), their
+        types apart (``true`` is not ``1``); a key that cannot be read is itself."""
+        if isinstance(key_node, yaml.ScalarNode):
+            try:
+                key = self.construct_object(key_node, deep=True)
+                hash(key)
+            except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
+                    AttributeError):
+                return ("node", id(key_node))
+            return (type(key).__name__, key)
+        return ("node", id(key_node))
 
     def construct_with_locations(self, node: yaml.Node, source_map: SourceMap,
                                  loc: Loc = ()) -> Any:
