@@ -123,3 +123,57 @@ def test_nested_merges_of_one_mapping_cost_no_more_than_its_keys() -> None:
     lines += [f"a{d}: &a{d} {{<<: [{', '.join([f'*a{d - 1}'] * 9)}], own{d}: 1}}"
               for d in range(1, 40)]
     assert len(load_yaml("\n".join(lines), "c.yaml").data["a39"]) == 10 + 39
+
+
+# ------------------------------------------------------------------- keys that are no names
+
+CHAIN = '[{max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}]'
+
+
+@pytest.mark.parametrize(("key", "kind"), [
+    ("true", "a boolean"), ("False", "a boolean"), ("1", "a whole number"),
+    ("-1", "a whole number"), ("0x10", "a whole number"), ("1.5", "a number"),
+    (".inf", "a number"), ("2024-01-01", "a date"),
+    ("2024-01-01 10:00:00", "a date and time"), ("null", "null (no value)"),
+    ("~", "null (no value)"),
+])
+def test_a_path_named_as_yaml_reads_no_name_is_refused_at_its_key_quoted_in_the_hint(
+        tmp_path: Path, key: str, kind: str) -> None:
+    text = CAMPAIGN.replace("uncertainty:", f"  {key}: {CHAIN}\nuncertainty:")
+    assert problems(tmp_path, text) == [
+        f'5:3: error[C001]: the key {key} is read by YAML as {kind}, not as a name (hint: '
+        f'quote it to keep it as a name: "{key}")']
+
+
+@pytest.mark.parametrize(("old", "new", "expected"), [
+    # a parameter, a regolith value, an area, a signal, a setting: every key is a name
+    ("    initial.x:", "    1: {distribution: fixed, value: 1}\n    initial.x:",
+     '7:5: error[C001]: the key 1 is read by YAML as a whole number'),
+    ("uncertainty:", "environment:\n  regolith: {true: 1}\nuncertainty:",
+     '6:14: error[C001]: the key true is read by YAML as a boolean'),
+    ("uncertainty:", "environment:\n  areas:\n    2024-01-01: {polygons: []}\nuncertainty:",
+     '7:5: error[C001]: the key 2024-01-01 is read by YAML as a date'),
+    ("uncertainty:", "fmu:\n  signals: {.nan: x}\nuncertainty:",
+     '6:13: error[C001]: the key .nan is read by YAML as a number'),
+    ("rulebook:", "null: x\nrulebook:", '1:1: error[C001]: the key null is read by YAML as null'),
+    ("uncertainty:", "simulation:\n  ?\n  : 1\nuncertainty:",
+     "6:4: error[C001]: a key is missing before ':' (hint: write the name of what the value "
+     "sets before the colon)"),
+])
+def test_every_key_is_a_name(tmp_path: Path, old: str, new: str, expected: str) -> None:
+    (found,) = problems(tmp_path, CAMPAIGN.replace(old, new, 1))
+    assert found.startswith(expected), found
+
+
+def test_names_quoted_are_names_however_yaml_would_read_them_unquoted(tmp_path: Path) -> None:
+    """``true`` and ``1`` were one key to Python (True == 1: 'duplicate key 1'), ``0x10`` and
+    ``16`` too; a path ``true`` was said as an index (``paths[1]``). Quoted, each is its name."""
+    names = ["true", "1", "0x10", "16", "-1", "2024-01-01", "null"]
+    text = CAMPAIGN.replace("uncertainty:", "".join(f'  "{name}": {CHAIN}\n' for name in names)
+                            + "uncertainty:")
+    assert [path.name for path in load_campaign(write(tmp_path, text)).paths] == \
+        ["straight", *names]
+    # and a mistake in one is said at its name, not at a list index
+    broken = text.replace(f'  "true": {CHAIN}', f'  "true": {CHAIN.replace("1 m", "1 parsec")}')
+    assert problems(tmp_path, broken) == [
+        "5:59: error[C100]: paths.true[0].delta_position: unknown unit 'parsec'"]

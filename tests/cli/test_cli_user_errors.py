@@ -262,6 +262,18 @@ CASES = [
          ("campaign.yaml:12:60: error[C100]: uncertainty.parameters.initial.x.std: unknown "
           "unit 'parsec'",),
          absent=("initial.y",)),
+    # a key is a name: one YAML reads as a boolean or a number (said as a list index, or the
+    # same key as another: true and 1, 0x10 and 16) is refused at it, quoted in the hint
+    *(Case(f"campaign-key-{key}", campaign(("  arc:", f"  {key}:")), RUN, 2,
+           (f"campaign.yaml:17:3: error[C001]: the key {key} is read by YAML as {kind}, not as "
+            f"a name", f'hint: quote it to keep it as a name: "{key}"'),
+           absent=("duplicate key", "paths[", "Input should"))
+      for key, kind in (("true", "a boolean"), ("0x10", "a whole number"),
+                        ("-1", "a whole number"), ("2024-01-01", "a date"),
+                        ("null", "null (no value)"), (".inf", "a number"))),
+    Case("campaign-key-16-beside-0x10", campaign(("  straight:", "  0x10:"), ("  arc:", "  16:")),
+         RUN, 2, ("campaign.yaml:15:3: error[C001]: the key 0x10 is read by YAML as a whole "
+                  "number, not as a name",), absent=("duplicate key",)),
     Case("campaign-unknown-key", campaign(append="runz: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
     Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,

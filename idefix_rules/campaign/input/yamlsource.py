@@ -12,14 +12,15 @@ Pydantic reports errors at a ``loc`` tuple such as ``("paths", "detour", 1, "del
 
 from __future__ import annotations
 
+import datetime
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import yaml
 
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.units import underflows
 
 Loc = tuple[str | int, ...]
@@ -72,8 +73,10 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
 
     values_seen = 0
 
-    def __init__(self, stream: Any) -> None:
+    def __init__(self, stream: Any,
+                 keys_as_written: Callable[[Loc], bool] = lambda loc: False) -> None:
         super().__init__(stream)
+        self.keys_as_written = keys_as_written
         self._merging: set[int] = set()  # mappings whose merge keys are being resolved
 
     def flatten_mapping(self, node: yaml.MappingNode) -> None:
@@ -163,13 +166,14 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
             self.flatten_mapping(node)
             result: dict[Any, Any] = {}
             for key_node, value_node in node.value:
-                key = (self._scalar(key_node, source_map)
-                       if isinstance(key_node, yaml.ScalarNode) else None)
-                if not isinstance(key, str | int):
-                    raise UserInputError(error(
-                        "C001", "mapping keys must be plain names",
-                        Span(source_map.path, key_node.start_mark.line + 1,
-                             key_node.start_mark.column + 1)))
+                key: Any
+                if isinstance(key_node, yaml.ScalarNode) and self.keys_as_written(loc):
+                    key = str(key_node.value)  # a value for its reader to parse (a time)
+                else:
+                    key = (self._scalar(key_node, source_map)
+                           if isinstance(key_node, yaml.ScalarNode) else None)
+                if not isinstance(key, str):
+                    raise UserInputError(_not_a_name(key_node, key, source_map.path))
                 if key in result:
                     raise UserInputError(error(
                         "C002", f"duplicate key {key!r}",
@@ -219,6 +223,46 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
 
 
 
+def _not_a_name(key_node: yaml.Node, key: Any, path: str) -> Diagnostic:
+    """C001: a mapping key that is no name. Every key of a campaign or case file names
+    something (a setting, a path, a parameter, an area), and a key YAML reads as a boolean,
+    a number, a date or null would be taken for a list index (``paths[1]``) or be the same
+    key as another written differently (``true`` and ``1``, ``0x10`` and ``16``): refused at
+    the key, with its quoted form, which keeps it as written."""
+    span = Span(path, key_node.start_mark.line + 1, key_node.start_mark.column + 1,
+                key_node.end_mark.line + 1, key_node.end_mark.column + 1)
+    if not isinstance(key_node, yaml.ScalarNode):
+        kind = "a list" if isinstance(key_node, yaml.SequenceNode) else "a mapping"
+        return error("C001", f"mapping keys must be plain names, not {kind}", span,
+                     hint="write one key per line: `x: 1 cm`")
+    written = str(key_node.value)
+    if key is None and not written.strip():
+        return error("C001", "a key is missing before ':'", span,
+                     hint="write the name of what the value sets before the colon")
+    quoted = '"' + written.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return error("C001", f"the key {written} is read by YAML as {_kind_of(key)}, not as a name",
+                 span, hint=f"quote it to keep it as a name: {quoted}")
+
+
+def _kind_of(value: Any) -> str:
+    """What YAML read a scalar as, in the words of the campaign docs."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int):
+        return "a whole number"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, datetime.datetime):
+        return "a date and time"
+    if isinstance(value, datetime.date):
+        return "a date"
+    if value is None:
+        return "null (no value)"
+    if isinstance(value, bytes):
+        return "binary data"
+    return "no text"
+
+
 # Booleans as YAML 1.2 reads them: only true and false (any case). YAML 1.1, PyYAML's default,
 # also reads yes/no/on/off/y/n unquoted as booleans, so a keep-out area named `off` or a path
 # named `yes` became a boolean and was refused as "not a valid string". Where a flag is meant,
@@ -251,9 +295,14 @@ def yaml_data(text: str) -> Any:
     return yaml.load(text, Loader=LocatingLoader)
 
 
-def load_yaml(text: str, path: str) -> YamlDocument:
-    """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics."""
-    loader = LocatingLoader(text)
+def load_yaml(text: str, path: str,
+              keys_as_written: Callable[[Loc], bool] = lambda loc: False) -> YamlDocument:
+    """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics.
+
+    Every mapping key is a name, text (C001 for one YAML reads as a boolean, a number, a date
+    or null), except in the mappings at the locations ``keys_as_written`` accepts, whose keys
+    are values their reader parses (a case file's keyframe times): taken as written."""
+    loader = LocatingLoader(text, keys_as_written)
     source_map = SourceMap(path)
     try:
         node = loader.get_single_node()
