@@ -274,6 +274,40 @@ CASES = [
     Case("campaign-key-16-beside-0x10", campaign(("  straight:", "  0x10:"), ("  arc:", "  16:")),
          RUN, 2, ("campaign.yaml:15:3: error[C001]: the key 0x10 is read by YAML as a whole "
                   "number, not as a name",), absent=("duplicate key",)),
+    # a value of the wrong type: what is expected there, with an example, not pydantic's
+    # "Input should be a valid list" or "Unable to extract tag using discriminator"
+    *(Case(f"campaign-type-{name}", campaign(*edits, append=append), RUN, 2, fragments,
+           absent=("Input should", "Unable to extract", "Datetimes provided"))
+      for name, edits, append, fragments in (
+          ("distribution-missing",
+           (('initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}', "initial.x: {}"),),
+           "", ("campaign.yaml:12:16: error[C100]: uncertainty.parameters.initial.x."
+                "distribution: missing required key: which distribution, one of 'fixed', "
+                "'normal', 'truncated_normal', 'uniform' or 'log_normal'",
+                'hint: for example {distribution: normal, mean: "0 m", std: "1 cm"}')),
+          ("path-without-commands", (("  arc:\n" + STRAIGHT.replace("0 deg", "20 deg"),
+                                      "  arc:\n"),), "",
+           ("campaign.yaml:17:7: error[C100]: paths.arc: expected a list, got nothing",
+            "hint: for example [{max_wheel_rate: \"0.05 rad/s\", delta_position: \"1 m\", "
+            "delta_heading: \"0 deg\"}], or one command per '- ' line")),
+          ("expect-empty", (), "expect:\n",
+           ("campaign.yaml:22:8: error[C100]: expect: expected a list, got nothing",
+            "hint: for example expect: [{path: straight, verdict: pass}], or expect: [] for "
+            "none")),
+          ("waivers-empty", (), "waivers:\n",
+           ("campaign.yaml:22:9: error[C100]: waivers: expected a list, got nothing",)),
+          ("seed-not-whole", (("seed: 5", "seed: 1.5"),), "",
+           ("campaign.yaml:10:9: error[C100]: uncertainty.seed: expected a whole number, got "
+            "1.5", "hint: for example seed: 3")),
+          ("origin-one-value", (), 'environment:\n  terrain: {origin: "-2 m"}\n',
+           ("campaign.yaml:23:21: error[C100]: environment.terrain.origin: expected a list of 2 "
+            "values, got '-2 m'", 'hint: for example origin: ["-2 m", "-2 m"] (x, y)')),
+          ("until-with-a-time", (),
+           "waivers:\n  - {rule: acceptable_risk, reason: x, approved_by: me, "
+           "until: 2030-01-01 10:00:00}\n",
+           ("campaign.yaml:23:64: error[C100]: waivers[0].until: expected a date without a "
+            "time of day, got 2030-01-01 10:00:00 (a waiver holds up to and including the day "
+            "it names)", "hint: for example until: 2027-03-31")))),
     Case("campaign-unknown-key", campaign(append="runz: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
     Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,

@@ -37,6 +37,9 @@ class SourceMap:
     path: str
     values: dict[Loc, tuple[int, int]] = field(default_factory=dict)
     keys: dict[Loc, tuple[int, int]] = field(default_factory=dict)
+    # a scalar YAML read as no text (a number, a boolean, a date, null) as it is written:
+    # `0x10`, not 16, when a message quotes it
+    written: dict[Loc, str] = field(default_factory=dict)
 
     def span(self, loc: Sequence[str | int], at_key: bool = False) -> Span:
         """Span of the deepest known prefix of ``loc`` (its key when ``at_key``)."""
@@ -188,6 +191,8 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
             return [self.construct_with_locations(item, source_map, (*loc, index))
                     for index, item in enumerate(node.value)]
         value = self._scalar(node, source_map)
+        if not isinstance(value, str):
+            source_map.written[loc] = str(node.value)
         if isinstance(value, float) and underflows(str(node.value).replace("_", ""), value):
             # YAML reads `1.0e-400` as 0.0: refused here, where what was written is known
             where = "".join(f"[{part}]" if isinstance(part, int) else f".{part}"
