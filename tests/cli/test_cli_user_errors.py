@@ -437,10 +437,15 @@ CASES = [
     *(Case(f"campaign-rock-{name}",
            campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
                      f'radius: "5 cm", embed: "{embed}"}}\npaths:')), RUN, 2,
-           ("campaign.yaml:16:7: error[C100]: environment.rocks[0]: embed "
-            f"{shown} m: a rock sits from 0 m (on the ground) to under its height 0.1 m deep",))
-      for name, embed, shown in (("floating", "-1 m", "-1"), ("buried", "10 cm", "0.1"),
-                                 ("far-below", "1 m", "1"))),
+           # at the embed, in the unit it is written in
+           ("campaign.yaml:16:53: error[C100]: environment.rocks[0].embed: expected a depth "
+            f"from 0 {unit} (on the ground) to under the rock's height {height} {unit} (fully "
+            f"buried), got {embed}{floats}",))
+      for name, embed, unit, height, floats in (
+          ("floating", "-1 m", "m", "0.1", ": a negative depth would float it"),
+          ("buried", "10 cm", "cm", "10", ""), ("far-below", "1 m", "m", "0.1", ""),
+          ("floating-by-a-millimetre", "-1 mm", "mm", "100",
+           ": a negative depth would float it"))),
     # expectations the rulebook could never judge: found after simulating everything (✗ n/a,
     # exit 1); now refused before, at the entry
     Case("campaign-expects-a-collision-chance-the-rulebook-never-computes",
@@ -512,8 +517,15 @@ CASES = [
          ("fmt", "big.rules"), 2,
          ("big.rules: error[E900]: formatted, big.rules would be over a rulebook's limits",
           "the file is left as it is"), unchanged=("big.rules",)),
+    # said at the value that makes the runs this long, not at `simulation:`
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
-         2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
+         2, ("campaign.yaml:21:15: error[C404]: paths.straight: a run would last 1e+09 s at an "
+             "output interval of 0.5 s: 2e+09 samples per run, more than 1000000",)),
+    Case("campaign-huge-stop-time-in-flow-style",
+         campaign(('simulation:\n  output_interval: "0.5 s"\n  extra_time: "2 s"\n',
+                   'simulation: {extra_time: "1e12 s"}\n')), RUN,
+         2, ("campaign.yaml:19:26: error[C404]: paths.straight: a run would last 1e+12 s at an "
+             "output interval of 0.1 s: 1e+13 samples per run, more than 1000000",)),
     # a wheel rate so slow the chain itself takes years: said at the path, not the settings
     Case("campaign-crawling-chain", campaign(('{max_wheel_rate: "0.1 rad/s", delta_position: '
                                               '"0.1 m", delta_heading: "0 deg"}',
