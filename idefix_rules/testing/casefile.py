@@ -142,9 +142,17 @@ def _names_rulebook(case_file: Path, name: str) -> bool:
         return False
 
 
+def _keyframes_at(loc: Loc) -> bool:
+    """Whether the mapping at ``loc`` is a signal's keyframes (``cases.NAME.signals.SIGNAL``,
+    also in ``offsets``, ``reference`` and a variant), whose keys are times: ``0`` is read as
+    the time written without its unit (T005), not refused as a key that is no name."""
+    return len(loc) >= 4 and loc[0] == "cases" and loc[-2] in ("signals", "offsets",
+                                                               "reference")
+
+
 def parse_case_file(text: str, path: str) -> CaseFile:
     try:
-        document = load_yaml(text, path)
+        document = load_yaml(text, path, keys_as_written=_keyframes_at)
     except UserInputError as failure:  # YAML syntax: same place, this file's code range
         if _RULEBOOK_HEADER.match(text):
             raise UserInputError(_a_rulebook(path)) from None

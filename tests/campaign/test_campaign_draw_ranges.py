@@ -4,6 +4,7 @@ lie inside runs."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -55,3 +56,21 @@ def test_the_range_edge(tmp_path: Path, friction: str, code: int,
     output = "".join(capsys.readouterr())
     assert got == code, output
     assert ("error[F110]" in output) is (code == 2)
+
+
+def test_a_drawn_pressure_beyond_the_range_is_said_in_the_unit_of_its_distribution(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A compound unit (Pa, whose SI is kg/(m·s^2)) converts as a degree does: the drawn
+    value and the range in Pa, the value to 6 significant digits."""
+    path = _campaign(tmp_path, '{distribution: normal, mean: "250 Pa", std: "1 kPa"}')
+    text = path.read_text().replace("    soil.friction_angle:", "    soil.cohesion:")
+    path.write_text(text)
+    assert main([str(path), "--runs", "8", "--workers", "1", "--quiet", "--no-report"]) == 2
+    output = " ".join("".join(capsys.readouterr()).split())
+    line = 1 + text.splitlines().index(
+        '    soil.cohesion: {distribution: normal, mean: "250 Pa", std: "1 kPa"}')
+    found = re.search(rf"{re.escape(str(path))}:{line}:20: error\[F110\]: parameter "
+                      r"soil\.cohesion = (\S+) Pa out of range: allowed \[0, 1e\+06 Pa\]: run "
+                      r"\d+ of path straight draws it \(of 8 planned\)", output)
+    assert found, output
+    assert len(found[1].lstrip("-").replace(".", "")) <= 6, found[1]

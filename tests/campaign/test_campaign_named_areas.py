@@ -175,6 +175,25 @@ def test_a_declared_area_without_polygons_is_a_warning(areas_dir: Path, capsys,
     assert "'dark'" in captured.out + captured.err
 
 
+def test_a_declared_area_written_without_polygons_is_the_same_warning_at_its_entry(
+        areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`dark: {}` (a template left unfilled) placed the area nowhere without a word: it is
+    no entry, as `dark:` left out is; `dark: {polygons: []}` says the site has none."""
+    for entry, warned in (("{}", True), ("{polygons: []}", False)):
+        text = CAMPAIGN.replace('    dark:\n      polygons: [[["0.55 m", "0.5 m"], ["1 m", '
+                                '"0.5 m"], ["1 m", "1 m"]]]\n', f"    dark: {entry}\n")
+        (areas_dir / "campaign.yaml").write_text(text)
+        assert run(areas_dir, monkeypatch) == 1
+        output = " ".join("".join(capsys.readouterr()).split())
+        line = text.splitlines().index(f"    dark: {entry}") + 1
+        said = (f"campaign.yaml:{line}:5: [C210] the rulebook declares the unknown area "
+                "'dark', which this campaign gives no polygons: its signals are 0 in every run")
+        assert (said in output) is warned, output
+        assert ("hint: give its polygons under environment.areas.dark.polygons, or `dark: "
+                "{polygons: []}` to say the site has none" in output) is warned
+        assert "Traceback" not in output
+
+
 def test_scoring_stored_runs_with_a_rulebook_of_areas_the_campaign_never_placed_warns(
         areas_dir: Path, capsys, monkeypatch: pytest.MonkeyPatch) -> None:
     """evaluate --rulebook and diff --results say C210 as a run does: the new rulebook's

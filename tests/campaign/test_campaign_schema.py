@@ -244,7 +244,8 @@ def test_the_limits_added_for_new_runs_accept_what_lies_just_inside():
     rock = {"x": "0 m", "y": "0 m", "radius": "5 cm"}
     assert RockSpec.model_validate({**rock, "embed": "9.99 cm"}).embed == pytest.approx(0.0999)
     assert RockSpec.model_validate({**rock, "embed": "0 m"}).embed == 0.0
-    with pytest.raises(ValidationError, match=r"embed 0\.1 m"):
+    with pytest.raises(ValidationError, match=r"under the rock's height 10 cm \(fully buried\), "
+                                              r"got 10 cm"):
         RockSpec.model_validate({**rock, "embed": "10 cm"})
     assert RockSpec.model_validate({**rock, "embed": "10 cm"}, context=STORED_CAMPAIGN)
 
@@ -377,7 +378,7 @@ def test_a_rock_is_at_most_1_km_in_radius_or_semi_axis(size: dict[str, object],
     ('    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}',
      "    - 5", "7:7: paths.straight[0]: expected a mapping (key: value), got 5"),
     ("uncertainty:\n", "uncertainty: [seed]\nx:\n",
-     "11:14: uncertainty: expected a mapping (key: value), got ['seed']"),
+     "11:14: uncertainty: expected a mapping (key: value), got [seed]"),
 ])
 def test_a_section_that_is_no_mapping_is_said_without_the_schema_s_class_names(
         tmp_path: Path, old: str, new: str, expected: str) -> None:
@@ -385,3 +386,75 @@ def test_a_section_that_is_no_mapping_is_said_without_the_schema_s_class_names(
     found = messages(write(tmp_path, GOOD.replace(old, new, 1)))
     assert expected in found
     assert not any("instance of" in message for message in found), found
+
+
+WAIVER = ("waivers:\n  - {rule: acceptable_risk, path: detour, reason: survey, "
+          "approved_by: J. Doe, until: UNTIL}\n")
+
+
+@pytest.mark.parametrize(("old", "new", "expected", "hint"), [
+    # pydantic's "Unable to extract tag using discriminator 'distribution'"
+    ('initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}', "initial.x: {}",
+     "15:16: uncertainty.parameters.initial.x.distribution: missing required key: which "
+     "distribution, one of 'fixed', 'normal', 'truncated_normal', 'uniform' or 'log_normal'",
+     'for example {distribution: normal, mean: "0 m", std: "1 cm"}'),
+    ("distribution: normal", "distribution: true",
+     "15:31: uncertainty.parameters.initial.x: unknown distribution 'true' (expected one of: "
+     "'fixed', 'normal', 'truncated_normal', 'uniform', 'log_normal')", None),
+    # "Input should be a valid list": a path, expect or waivers without a value
+    ('  straight:\n    - {max_wheel_rate: "0.05 rad/s", delta_position: "1 m", '
+     'delta_heading: "0 deg"}\n', "  straight:\n",
+     "6:12: paths.straight: expected a list, got nothing",
+     'for example [{max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: '
+     "\"0 deg\"}], or one command per '- ' line"),
+    (GOOD[GOOD.index("expect:"):], "expect:\n", "22:8: expect: expected a list, got nothing",
+     "for example expect: [{path: straight, verdict: pass}], or expect: [] for none"),
+    (GOOD[GOOD.index("expect:"):], "waivers:\n", "22:9: waivers: expected a list, got nothing",
+     'for example waivers: [{rule: max_turn, path: detour, reason: "…", approved_by: NAME, '
+     "until: 2027-03-31}], or waivers: [] for none"),
+    ("  rocks:\n    - {x: \"0.5 m\", y: \"-0.26 m\", radius: \"5 cm\", level: L2}\n",
+     "  rocks: big\n", "20:10: environment.rocks: expected a list, got 'big'",
+     'for example rocks: [{x: "0.5 m", y: "0 m", radius: "5 cm"}], or rocks: [] for none'),
+    # "Input should be a valid integer"
+    ("seed: 3", "seed: 1.5", "13:9: uncertainty.seed: expected a whole number, got 1.5",
+     "for example seed: 3"),
+    ("runs: 8", "runs: auto\nmax_runs: 0x1p3",
+     "4:11: max_runs: expected a whole number, got '0x1p3'", "for example max_runs: 1000"),
+    # "Input should be a valid tuple"
+    ("synthetic: {slope:", 'origin: "-2 m"\n    synthetic: {slope:',
+     "19:13: environment.terrain.origin: expected a list of 2 values, got '-2 m'",
+     'for example origin: ["-2 m", "-2 m"] (x, y)'),
+    ("  rocks:\n", '  keep_out:\n    - {name: k, polygon: ["1 m", ["1 m", "0 m"], ["0 m", '
+                   '"1 m"]]}\n  rocks:\n',
+     "21:27: environment.keep_out[0].polygon[0]: expected a list of 2 values, got '1 m'",
+     'for example ["1 m", "0 m"] (x, y)'),
+    # "Input should be a valid string": a name YAML read as a number
+    ("name: demo", "name: 1.5", "1:7: name: expected text, got 1.5",
+     'quote it to keep it as text: "1.5"'),
+    ("rulebook: demo.rules", "rulebook: [demo.rules]",
+     "2:11: rulebook: expected text, got [demo.rules]", None),
+    # dates: "Datetimes provided to dates should have zero time", "Input should be a valid date"
+    (GOOD[GOOD.index("expect:"):], WAIVER.replace("UNTIL", "2027-03-31 12:00:00"),
+     "23:87: waivers[0].until: expected a date without a time of day, got 2027-03-31 12:00:00 "
+     "(a waiver holds up to and including the day it names)", "for example until: 2027-03-31"),
+    (GOOD[GOOD.index("expect:"):], WAIVER.replace("UNTIL", "end of March"),
+     "23:87: waivers[0].until: expected a date written YYYY-MM-DD, got 'end of March'",
+     "for example until: 2027-03-31"),
+    (GOOD[GOOD.index("expect:"):], WAIVER.replace("UNTIL", "[2027-03-31]"),
+     "23:87: waivers[0].until: expected a date written YYYY-MM-DD, got [2027-03-31]",
+     "for example until: 2027-03-31"),
+    # "Input should be a valid boolean"
+    ("uncertainty:\n", "uncertainty:\n  paired: 2\n",
+     "12:11: uncertainty.paired: expected a boolean: true or false (or yes/no, on/off), got 2",
+     "for example paired: false"),
+])
+def test_a_value_of_the_wrong_type_says_what_is_expected_with_an_example(
+        tmp_path: Path, old: str, new: str, expected: str, hint: str | None) -> None:
+    """pydantic's own words ("Input should be a valid list") named neither what the campaign
+    expects there nor how to write it."""
+    assert old in GOOD
+    with pytest.raises(UserInputError) as caught:
+        load_campaign(write(tmp_path, GOOD.replace(old, new, 1)))
+    found = [(f"{d.span.line}:{d.span.column}: {d.message}", d.hint)
+             for d in caught.value.diagnostics if d.code == "C100"]
+    assert found == [(expected, hint)]

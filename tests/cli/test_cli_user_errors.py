@@ -248,6 +248,66 @@ CASES = [
          ("campaign.yaml:3:1: error[C000]: invalid YAML: found character '\\t'",)),
     Case("campaign-duplicate-key", campaign(append="runs: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C002]: duplicate key 'runs'",)),
+    # a merge key's mapping gives what the mapping does not: a key it writes twice is still
+    # a duplicate, a mistake in a merged value is said where the anchored mapping writes it
+    Case("campaign-merge-key-duplicate",
+         campaign(('    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}',
+                   '    initial.x: &n {distribution: normal, mean: "0 m", std: "1 cm"}\n'
+                   '    initial.y: {<<: *n, std: "2 cm", std: "3 cm"}')), RUN, 2,
+         ("campaign.yaml:13:38: error[C002]: duplicate key 'std'",)),
+    Case("campaign-merged-value-wrong",
+         campaign(('    initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}',
+                   '    initial.x: &n {distribution: normal, mean: "0 m", std: "1 parsec"}\n'
+                   '    initial.y: {<<: *n, std: "2 cm"}')), RUN, 2,
+         ("campaign.yaml:12:60: error[C100]: uncertainty.parameters.initial.x.std: unknown "
+          "unit 'parsec'",),
+         absent=("initial.y",)),
+    # a key is a name: one YAML reads as a boolean or a number (said as a list index, or the
+    # same key as another: true and 1, 0x10 and 16) is refused at it, quoted in the hint
+    *(Case(f"campaign-key-{key}", campaign(("  arc:", f"  {key}:")), RUN, 2,
+           (f"campaign.yaml:17:3: error[C001]: the key {key} is read by YAML as {kind}, not as "
+            f"a name", f'hint: quote it to keep it as a name: "{key}"'),
+           absent=("duplicate key", "paths[", "Input should"))
+      for key, kind in (("true", "a boolean"), ("0x10", "a whole number"),
+                        ("-1", "a whole number"), ("2024-01-01", "a date"),
+                        ("null", "null (no value)"), (".inf", "a number"))),
+    Case("campaign-key-16-beside-0x10", campaign(("  straight:", "  0x10:"), ("  arc:", "  16:")),
+         RUN, 2, ("campaign.yaml:15:3: error[C001]: the key 0x10 is read by YAML as a whole "
+                  "number, not as a name",), absent=("duplicate key",)),
+    # a value of the wrong type: what is expected there, with an example, not pydantic's
+    # "Input should be a valid list" or "Unable to extract tag using discriminator"
+    *(Case(f"campaign-type-{name}", campaign(*edits, append=append), RUN, 2, fragments,
+           absent=("Input should", "Unable to extract", "Datetimes provided"))
+      for name, edits, append, fragments in (
+          ("distribution-missing",
+           (('initial.x: {distribution: normal, mean: "0 m", std: "1 cm"}', "initial.x: {}"),),
+           "", ("campaign.yaml:12:16: error[C100]: uncertainty.parameters.initial.x."
+                "distribution: missing required key: which distribution, one of 'fixed', "
+                "'normal', 'truncated_normal', 'uniform' or 'log_normal'",
+                'hint: for example {distribution: normal, mean: "0 m", std: "1 cm"}')),
+          ("path-without-commands", (("  arc:\n" + STRAIGHT.replace("0 deg", "20 deg"),
+                                      "  arc:\n"),), "",
+           ("campaign.yaml:17:7: error[C100]: paths.arc: expected a list, got nothing",
+            "hint: for example [{max_wheel_rate: \"0.05 rad/s\", delta_position: \"1 m\", "
+            "delta_heading: \"0 deg\"}], or one command per '- ' line")),
+          ("expect-empty", (), "expect:\n",
+           ("campaign.yaml:22:8: error[C100]: expect: expected a list, got nothing",
+            "hint: for example expect: [{path: straight, verdict: pass}], or expect: [] for "
+            "none")),
+          ("waivers-empty", (), "waivers:\n",
+           ("campaign.yaml:22:9: error[C100]: waivers: expected a list, got nothing",)),
+          ("seed-not-whole", (("seed: 5", "seed: 1.5"),), "",
+           ("campaign.yaml:10:9: error[C100]: uncertainty.seed: expected a whole number, got "
+            "1.5", "hint: for example seed: 3")),
+          ("origin-one-value", (), 'environment:\n  terrain: {origin: "-2 m"}\n',
+           ("campaign.yaml:23:21: error[C100]: environment.terrain.origin: expected a list of 2 "
+            "values, got '-2 m'", 'hint: for example origin: ["-2 m", "-2 m"] (x, y)')),
+          ("until-with-a-time", (),
+           "waivers:\n  - {rule: acceptable_risk, reason: x, approved_by: me, "
+           "until: 2030-01-01 10:00:00}\n",
+           ("campaign.yaml:23:64: error[C100]: waivers[0].until: expected a date without a "
+            "time of day, got 2030-01-01 10:00:00 (a waiver holds up to and including the day "
+            "it names)", "hint: for example until: 2027-03-31")))),
     Case("campaign-unknown-key", campaign(append="runz: 7\n"), RUN, 2,
          ("campaign.yaml:22:1: error[C100]: runz: unknown key",)),
     Case("campaign-billion-laughs", {**campaign(), "campaign.yaml": BOMB + CAMPAIGN}, RUN, 2,
@@ -391,10 +451,15 @@ CASES = [
     *(Case(f"campaign-rock-{name}",
            campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
                      f'radius: "5 cm", embed: "{embed}"}}\npaths:')), RUN, 2,
-           ("campaign.yaml:16:7: error[C100]: environment.rocks[0]: embed "
-            f"{shown} m: a rock sits from 0 m (on the ground) to under its height 0.1 m deep",))
-      for name, embed, shown in (("floating", "-1 m", "-1"), ("buried", "10 cm", "0.1"),
-                                 ("far-below", "1 m", "1"))),
+           # at the embed, in the unit it is written in
+           ("campaign.yaml:16:53: error[C100]: environment.rocks[0].embed: expected a depth "
+            f"from 0 {unit} (on the ground) to under the rock's height {height} {unit} (fully "
+            f"buried), got {embed}{floats}",))
+      for name, embed, unit, height, floats in (
+          ("floating", "-1 m", "m", "0.1", ": a negative depth would float it"),
+          ("buried", "10 cm", "cm", "10", ""), ("far-below", "1 m", "m", "0.1", ""),
+          ("floating-by-a-millimetre", "-1 mm", "mm", "100",
+           ": a negative depth would float it"))),
     # expectations the rulebook could never judge: found after simulating everything (✗ n/a,
     # exit 1); now refused before, at the entry
     Case("campaign-expects-a-collision-chance-the-rulebook-never-computes",
@@ -466,8 +531,15 @@ CASES = [
          ("fmt", "big.rules"), 2,
          ("big.rules: error[E900]: formatted, big.rules would be over a rulebook's limits",
           "the file is left as it is"), unchanged=("big.rules",)),
+    # said at the value that makes the runs this long, not at `simulation:`
     Case("campaign-huge-stop-time", campaign(('extra_time: "2 s"', 'extra_time: "1e9 s"')), RUN,
-         2, ("campaign.yaml:19:1: error[C404]: paths.straight: a run would last",)),
+         2, ("campaign.yaml:21:15: error[C404]: paths.straight: a run would last 1e+09 s at an "
+             "output interval of 0.5 s: 2e+09 samples per run, more than 1000000",)),
+    Case("campaign-huge-stop-time-in-flow-style",
+         campaign(('simulation:\n  output_interval: "0.5 s"\n  extra_time: "2 s"\n',
+                   'simulation: {extra_time: "1e12 s"}\n')), RUN,
+         2, ("campaign.yaml:19:26: error[C404]: paths.straight: a run would last 1e+12 s at an "
+             "output interval of 0.1 s: 1e+13 samples per run, more than 1000000",)),
     # a wheel rate so slow the chain itself takes years: said at the path, not the settings
     Case("campaign-crawling-chain", campaign(('{max_wheel_rate: "0.1 rad/s", delta_position: '
                                               '"0.1 m", delta_heading: "0 deg"}',
@@ -1249,7 +1321,28 @@ def test_building_the_fmu_without_a_compiler_is_exit_3_and_says_what_is_missing(
     assert "Traceback" not in output
 
 
-@pytest.mark.parametrize("where", ["regolith", "uncertainty"])
+# (old, new, what the line is found by, the message in the campaign's unit)
+REFUSED_BY_THE_ROVER = {
+    "regolith": ('    n: 1.0\n', '    n: 1.0\n    friction_angle: "85 deg"\n', '"85 deg',
+                 "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]"),
+    "uncertainty": ("  parameters:\n", "  parameters:\n    soil.friction_angle: "
+                    '{distribution: uniform, low: "84 deg", high: "86 deg"}\n',
+                    '{distribution: uniform, low: "84',
+                    "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]"),
+    # a pressure and a modulus: compound units, their SI spelled kg/(m·s^2)
+    "regolith-pascal": ('    n: 1.0\n', '    n: 1.0\n    cohesion: "-5 Pa"\n', '"-5 Pa',
+                        "soil.cohesion = -5 Pa out of range: allowed [0, 1e+06 Pa]"),
+    "regolith-modulus": ('k_phi: "820000 N/m^3"', 'k_phi: "-820000 N/m^3"', '"-820000',
+                         "soil.k_phi = -820000 N/m^3 out of range: allowed [0, 1e+12 N/m^3]"),
+    "uncertainty-kilopascal": (
+        "  parameters:\n", "  parameters:\n    soil.cohesion: "
+        '{distribution: uniform, low: "-2 kPa", high: "-1 kPa"}\n',
+        '{distribution: uniform, low: "-2 kPa"',
+        "soil.cohesion = -1.5 kPa out of range: allowed [0, 1000 kPa]"),
+}
+
+
+@pytest.mark.parametrize("where", REFUSED_BY_THE_ROVER)
 def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
         where: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -1259,10 +1352,7 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     rulebook = Path(__file__).parents[2] / "rulebooks" / "idefix-ops.rules"
     text = (Path(__file__).parents[2] / "campaigns" / "flat-control.yaml").read_text()
     text = text.replace("../rulebooks/idefix-ops.rules", str(rulebook))
-    setting = {"regolith": ('    n: 1.0\n', '    n: 1.0\n    friction_angle: "85 deg"\n'),
-               "uncertainty": ("  parameters:\n", "  parameters:\n    soil.friction_angle: "
-                               '{distribution: uniform, low: "84 deg", high: "86 deg"}\n')}
-    old, new = setting[where]
+    old, new, found_by, expected = REFUSED_BY_THE_ROVER[where]
     assert old in text
     text = text.replace(old, new, 1)
     (tmp_path / "campaign.yaml").write_text(text)
@@ -1270,14 +1360,13 @@ def test_a_value_the_rover_refuses_points_at_the_campaign_line_that_set_it(
     code = main(["run", "campaign.yaml", "--runs", "2", "--quiet", "--no-report", "--out", "o"])
     captured = capsys.readouterr()
     output = captured.out + captured.err
-    line = text[:text.index("85 deg" if where == "regolith" else "{distribution: uniform, "
-                            "low: \"84")].count("\n") + 1
+    before = text[:text.index(found_by)]
+    line, column = before.count("\n") + 1, len(before) - before.rfind("\n")
     assert code == 2, output
-    assert f"campaign.yaml:{line}:" in output and "error[F110]: parameter soil.friction_angle" \
-        in output, output
-    # in the unit the campaign wrote it in, not the FMU's radians (the reference run's value:
-    # the given one, or the uniform distribution's median)
-    assert "soil.friction_angle = 85 deg out of range: allowed [0, 80 deg]" in output, output
+    # in the unit the campaign wrote it in, not the FMU's SI (the reference run's value: the
+    # given one, or the uniform distribution's median)
+    assert f"campaign.yaml:{line}:{column}: error[F110]: " \
+           f"parameter {expected}\n" in output, output
     assert "Traceback" not in output and ".fmu: error" not in output
 
 

@@ -170,6 +170,20 @@ def test_threshold_just_inside_and_just_outside_the_tolerance(tmp_path, capsys):
     ("""  c:
     expect: {risk: {at_least: 70}}
 """, "T009", ":7:", "so the expected ≥ 70 can never hold"),
+    # a keyframe time is a value: one without its unit is said so, read as written
+    ("""  c:
+    signals: {"wheel.slip[FL]": {0: 10 %, 20 s: 80 %}}
+    expect: {verdict: pass}
+""", "T005", ":7:33:", "keyframe time '0' must be a duration, got a ratio (a bare number)"),
+    # a case's name is a name: one YAML reads as a number is refused at it, quoted in the hint
+    ("""  1:
+    expect: {verdict: pass}
+""", "T001", ":6:3:", 'the key 1 is read by YAML as a whole number, not as a name\n'),
+    ("""  c:
+    variants:
+      - {count: 1, offsets: {x: {0 s: 0 cm, 1.5: 1 cm}}}
+    expect: {verdict: pass}
+""", "T005", ":8:", "keyframe time '1.5' must be a duration"),
     # longer than a double: T005 like any chain too long, not an OverflowError
     ("""  c:
     chain: [{max_wheel_rate: 0.04 rad/s, delta_position: 1e308 m, delta_heading: 0 deg}]

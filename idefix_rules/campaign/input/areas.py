@@ -19,7 +19,8 @@ from idefix_rules.errors import Diagnostic, UserInputError, error, warning
 def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
     """Areas the rulebook does not declare, polygons for a steep area and polygons without
     area are errors (C209) at their line; a keep-out or unknown area the campaign gives no
-    polygons is a warning (C210): its signals stay 0 in every run."""
+    polygons (no entry, or one without ``polygons``) is a warning (C210): its signals stay 0
+    in every run."""
     from idefix_rules.obstacles.areas import polygon_area
 
     declared = {spec.name: spec for spec in declared_areas(evaluator)}
@@ -55,11 +56,15 @@ def area_problems(campaign: Campaign, evaluator: Any) -> list[Diagnostic]:
                     campaign.locations.span((*loc, "polygons", number))))
     problems += _keep_out_problems(campaign, declared) + _rock_level_problems(campaign)
     for name, spec in declared.items():
-        if spec.kind != "steep" and name not in given:
+        # an entry that writes no polygons (`NAME: {}`, a template left unfilled) places the
+        # area nowhere, as no entry does; `NAME: {polygons: []}` says the site has none
+        written = name in given and "polygons" in given[name].model_fields_set
+        if spec.kind != "steep" and not written:
+            where = ("environment", "areas", name) if name in given else ("environment",)
             problems.append(warning(
                 "C210", f"the rulebook declares the {spec.kind.replace('_', '-')} area "
                 f"{name!r}, which this campaign gives no polygons: its signals are 0 in every "
-                "run", campaign.locations.span(("environment",), at_key=True),
+                "run", campaign.locations.span(where, at_key=True),
                 f"give its polygons under environment.areas.{name}.polygons, or `{name}: "
                 "{polygons: []}` to say the site has none"))
     return problems

@@ -4,9 +4,18 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, model_validator
+from pydantic import (
+    AfterValidator,
+    Field,
+    PrivateAttr,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from idefix_rules.campaign.input.field_types import (
@@ -19,7 +28,7 @@ from idefix_rules.campaign.input.field_types import (
     new_run,
 )
 from idefix_rules.limits import MAX_ROCK_SEMI_AXIS
-from idefix_rules.units import Dimension, UnitError, parse_quantity
+from idefix_rules.units import Dimension, UnitError, parse_quantity, parse_unit
 
 # Terrain grids hold at most this many nodes (docs/terrain-format.md: nx·ny ≤ 16 million).
 MAX_TERRAIN_NODES = 16_000_000
@@ -94,6 +103,9 @@ def _rock_size(value: float, info: ValidationInfo) -> float:
 
 RockAxis = Annotated[PositiveLength, AfterValidator(_rock_size)]
 
+# the unit of a quantity as written: "8 cm" → "cm"
+_QUANTITY_UNIT = re.compile(r"^[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\s*(.*)$")
+
 
 class RockSpec(Strict):
     x: Length
@@ -103,16 +115,38 @@ class RockSpec(Strict):
     embed: Length = 0.0
     level: Literal["L1", "L2", "L3"] | None = None
 
+    @field_validator("embed", mode="wrap")
+    @classmethod
+    def _embed_in_height(cls, value: Any, handler: ValidatorFunctionWrapHandler,
+                         info: ValidationInfo) -> float:
+        """How deep a rock sits: from 0 (on the ground) to under its height (buried), said at
+        ``embed`` in the unit written there (the size, checked before it, gives the height;
+        without one size the model's check says so)."""
+        depth = float(handler(value))
+        radius, semi_axes = info.data.get("radius"), info.data.get("semi_axes")
+        size = semi_axes[2] if semi_axes is not None else radius
+        if not new_run(info) or size is None or (radius is not None and semi_axes is not None):
+            return depth
+        height = 2.0 * float(size)
+        if 0.0 <= depth < height:
+            return depth
+        written = str(value).strip()
+        unit = _QUANTITY_UNIT.match(written)
+        try:
+            shown = parse_unit(unit[1]).from_si(height) if unit and unit[1] else height
+            unit_text = unit[1] if unit and unit[1] else "m"
+        except UnitError:
+            shown, unit_text = height, "m"
+        raise PydanticCustomError(
+            "rock", "expected a depth from 0 {unit} (on the ground) to under the rock's height "
+            "{height} {unit} (fully buried), got {embed}{floats}",
+            {"unit": unit_text, "height": f"{shown:.6g}", "embed": written,
+             "floats": ": a negative depth would float it" if depth < 0 else ""})
+
     @model_validator(mode="after")
-    def _one_size(self, info: ValidationInfo) -> RockSpec:
+    def _one_size(self) -> RockSpec:
         if (self.radius is None) == (self.semi_axes is None):
             raise PydanticCustomError("rock", "give exactly one of 'radius' or 'semi_axes'")
-        height = 2.0 * self.axes[2]
-        if new_run(info) and not 0.0 <= self.embed < height:
-            raise PydanticCustomError(
-                "rock", "embed {embed} m: a rock sits from 0 m (on the ground) to under its "
-                "height {height} m deep (fully buried); a negative depth would float it",
-                {"embed": f"{self.embed:g}", "height": f"{height:g}"})
         return self
 
     @property

@@ -85,7 +85,16 @@ def _has_unit(text: str) -> bool:
 
 
 def show(value: Any) -> str:
-    """A value as a message quotes it: text in double quotes, anything else as its repr."""
+    """A value as a message quotes it: text in double quotes, a boolean and nothing (an empty
+    value, YAML's null) in YAML's words, anything else as its repr.
+
+    >>> show("90"), show(None), show(True), show(0.05)
+    ('"90"', 'nothing', 'true', '0.05')
+    """
+    if value is None:
+        return "nothing"
+    if isinstance(value, bool):
+        return str(value).lower()
     return f'"{value}"' if isinstance(value, str) else repr(value)
 
 

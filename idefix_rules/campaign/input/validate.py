@@ -119,8 +119,8 @@ def check_simulation_size(campaign: Campaign) -> None:
             usual = ideal * DEFAULT_DURATION_MARGIN + settings.extra_time
             where = ("paths", spec.name) if usual / settings.output_interval > MAX_SAMPLES \
                 else ("simulation", "duration_margin")
-        else:
-            where = ("simulation",)
+        else:  # extra_time, which only a value written makes this long
+            where = ("simulation", "extra_time")
         if where[0] == "simulation":  # a setting stretches every path: said once, at it
             if where in settings_said:
                 continue
@@ -136,8 +136,7 @@ def check_simulation_size(campaign: Campaign) -> None:
                       f"{MAX_SAMPLES} samples")
         problems.append(error(
             "C404", f"paths.{spec.name}: a run would last {length}",
-            campaign.locations.span(where, at_key=where[-1] not in ("output_interval",
-                                                                    "duration_margin")),
+            campaign.locations.span(where, at_key=where[0] == "paths"),
             hint="stop time = chain duration × duration_margin + extra_time; check the "
                  "simulation section and the chain's wheel rates"))
     if problems:

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import difflib
+import typing
 from collections.abc import Sequence
 from typing import Any
 
+import yaml
 from pydantic import BaseModel, ValidationError
 
+from idefix_rules.campaign.input.distributions import Distribution
 from idefix_rules.campaign.input.expectations import EXPECTATION_KINDS
 from idefix_rules.campaign.input.schema import CampaignFile
 from idefix_rules.campaign.input.yamlsource import SourceMap, format_loc
@@ -124,10 +127,18 @@ def diagnostics_from_validation(failure: ValidationError, data: Any,
             span = locations.span(loc)
         elif kind == "union_tag_invalid":
             context = item.get("ctx", {})
-            message = (f"unknown {context.get('discriminator', 'kind').strip(chr(39))} "
-                       f"{context.get('tag')!r} (expected one of: "
+            name = str(context.get("discriminator", "kind")).strip(chr(39))
+            # as written: `true`, not pydantic's 'True'
+            tag = locations.written.get((*loc, name), context.get("tag"))
+            message = (f"unknown {name} {tag!r} (expected one of: "
                        f"{context.get('expected_tags', '')})")
             span = locations.span((*loc, "distribution"))
+        elif kind in _EXPECTED or kind == "union_tag_not_found":
+            # pydantic's "Input should be a valid list": what is expected, with an example
+            message, hint = _type_error(kind, item, loc, locations)
+            span = locations.span(loc)
+            if kind == "union_tag_not_found":  # the key that says which kind is missing
+                loc = (*loc, _discriminator(item))
         elif kind == "expectation" and isinstance(item.get("input"), dict):
             # an entry of no kind: its keys the schema does not know are likely the kind
             # misspelt (`rank: 1` for `rank_first`)
@@ -156,9 +167,122 @@ def diagnostics_from_validation(failure: ValidationError, data: Any,
     return diagnostics
 
 
-def _shown(value: Any) -> str:
-    """A value as the campaign file wrote it (a string in quotes, a number as it is)."""
-    return f"'{value}'" if isinstance(value, str) else str(value)
+def _shown(value: Any, written: str | None = None) -> str:
+    """A value as the campaign file wrote it (a string in quotes, a number as it is, as
+    ``written`` where the file's text of it is known: ``0x10``, not 16)."""
+    if isinstance(value, str):
+        return f"'{value}'"
+    if value is None and not (written or "").strip():
+        return "nothing"
+    if written is not None:
+        return written
+    if isinstance(value, list | dict):  # in YAML's flow style: [a, 2027-03-31], not a repr
+        text = str(yaml.safe_dump(value, default_flow_style=True, width=1000)).strip()
+        return text if len(text) <= 60 else text[:59] + "…"
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+# What each of pydantic's type errors that a campaign file can meet expects, in the words of
+# the other messages (pydantic's own: "Input should be a valid list", "Unable to extract tag
+# using discriminator 'distribution'", "Datetimes provided to dates should have zero time").
+_EXPECTED = {
+    "string_type": "text",
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "int_from_float": "a whole number",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "bool_type": "a boolean: true or false (or yes/no, on/off)",
+    "bool_parsing": "a boolean: true or false (or yes/no, on/off)",
+    "list_type": "a list",
+    "tuple_type": "a list",
+    "date_type": "a date written YYYY-MM-DD",
+    "date_parsing": "a date written YYYY-MM-DD",
+    "date_from_datetime_parsing": "a date written YYYY-MM-DD",
+    "date_from_datetime_inexact": "a date without a time of day",
+}
+
+_POINT = '["1 m", "0 m"] (x, y)'
+_POLYGON = '[["1 m", "0 m"], ["1.2 m", "0 m"], ["1.2 m", "0.2 m"]]'
+_COMMAND = '{max_wheel_rate: "0.05 rad/s", delta_position: "1 m", delta_heading: "0 deg"}'
+
+# (the field, how many list levels below it) -> an example of what it takes
+_EXAMPLES: dict[tuple[str, int], str] = {
+    ("paths", 1): f"[{_COMMAND}], or one command per '- ' line",
+    ("expect", 0): "expect: [{path: straight, verdict: pass}], or expect: [] for none",
+    ("waivers", 0): 'waivers: [{rule: max_turn, path: detour, reason: "…", approved_by: '
+                    "NAME, until: 2027-03-31}], or waivers: [] for none",
+    ("rocks", 0): 'rocks: [{x: "0.5 m", y: "0 m", radius: "5 cm"}], or rocks: [] for none',
+    ("keep_out", 0): f"keep_out: [{{name: ridge, polygon: {_POLYGON}}}], or keep_out: [] for "
+                     "none",
+    ("polygons", 0): f"polygons: [{_POLYGON}], or polygons: [] for none",
+    ("polygons", 1): _POLYGON,
+    ("polygons", 2): _POINT,
+    ("polygon", 0): f"polygon: {_POLYGON}",
+    ("polygon", 1): _POINT,
+    ("origin", 0): 'origin: ["-2 m", "-2 m"] (x, y)',
+    ("semi_axes", 0): 'semi_axes: ["5 cm", "5 cm", "3 cm"]',
+    ("seed", 0): "seed: 3",
+    ("max_runs", 0): "max_runs: 1000",
+    ("min_runs", 0): "min_runs: 32",
+    ("batch_runs", 0): "batch_runs: 32",
+    ("done_at", 0): "done_at: 1",
+    ("until", 0): "until: 2027-03-31",
+    ("paired", 0): "paired: false",
+    ("command_rules", 0): "command_rules: true",
+}
+# the values a tuple takes: (the field, list levels below it) -> how many
+_TUPLE_SIZES = {("origin", 0): 2, ("semi_axes", 0): 3, ("polygon", 1): 2, ("polygons", 2): 2}
+
+
+def _field(loc: Sequence[str | int]) -> tuple[str, int]:
+    """The field a location is in and how many list levels below it: ``("environment",
+    "keep_out", 0, "polygon", 2)`` → ``("polygon", 1)``; a path's chain is ``("paths", 1)``."""
+    if len(loc) == 2 and loc[0] == "paths":
+        return "paths", 1
+    names = [index for index, part in enumerate(loc) if isinstance(part, str)]
+    if not names:
+        return "", len(loc)
+    return str(loc[names[-1]]), len(loc) - 1 - names[-1]
+
+
+def _type_error(kind: str, item: Any, loc: Sequence[str | int],
+                locations: SourceMap) -> tuple[str, str | None]:
+    """The message and hint of one of pydantic's type errors (:data:`_EXPECTED`)."""
+    value = item.get("input")
+    got = _shown(value, locations.written.get(tuple(loc)))
+    where = _field(loc)
+    example = _EXAMPLES.get(where)
+    hint = f"for example {example}" if example else None
+    if kind == "union_tag_not_found":
+        return (f"missing required key: which distribution, one of {_DISTRIBUTIONS}",
+                'for example {distribution: normal, mean: "0 m", std: "1 cm"}')
+    expected = _EXPECTED[kind]
+    if kind == "tuple_type" and where in _TUPLE_SIZES:
+        expected = f"a list of {_TUPLE_SIZES[where]} values"
+    if kind == "string_type" and value is not None and not isinstance(value, list | dict):
+        # a name or a text YAML read as a number, a boolean or a date
+        written = got.replace("\\", "\\\\").replace('"', '\\"')
+        hint = f'quote it to keep it as text: "{written}"'
+    if kind == "date_from_datetime_inexact":
+        return (f"expected a date without a time of day, got {got} (a waiver holds up to and "
+                "including the day it names)", hint)
+    return f"expected {expected}, got {got}", hint
+
+
+def _discriminator(item: Any) -> str:
+    return str(item.get("ctx", {}).get("discriminator", "distribution")).strip("'")
+
+
+def _distribution_kinds() -> str:
+    """The distributions a parameter may take: 'fixed', 'normal', … or 'log_normal'."""
+    union = typing.get_args(Distribution)[0]
+    kinds = [f"'{typing.get_args(model.model_fields['distribution'].annotation)[0]}'"
+             for model in typing.get_args(union)]
+    return ", ".join(kinds[:-1]) + f" or {kinds[-1]}"
+
+
+_DISTRIBUTIONS = _distribution_kinds()
 
 
 # pydantic's bound checks in the words of the other messages

@@ -179,11 +179,6 @@ def _number_of(text: str) -> float:
     return float(match.group(1)) if match else math.nan
 
 
-def si_unit_for(unit: str) -> str:
-    """The SI spelling of a unit's dimension (``deg`` → ``rad``, ``Pa`` → ``kg/(m·s^2)``)."""
-    return str(parse_unit(unit).dimension)
-
-
 def parameter_text(name: str, si_value: float, stored_unit: str, units: DisplayUnits) -> str:
     """A sampled parameter in the campaign's unit (stored values are SI, ``stored_unit``)."""
     unit = units.unit_of(name)
@@ -195,31 +190,39 @@ def parameter_text(name: str, si_value: float, stored_unit: str, units: DisplayU
     return number(si_value) + (f" {stored_unit}" if stored_unit and stored_unit != "1" else "")
 
 
-_FMU_RANGE = re.compile(r"^parameter (?P<name>\S+) = (?P<value>\S+) out of range: allowed "
-                        r"(?P<open>[\[(])(?P<low>\S+), (?P<high>\S+)(?P<close>[\])])$")
+_FMU_REFUSED = re.compile(r"^parameter (?P<name>\S+) = (?P<value>\S+) out of range: "
+                          r"(?P<why>.*)$", re.DOTALL)
+_FMU_RANGE = re.compile(r"^allowed (?P<open>[\[(])(?P<low>\S+), (?P<high>\S+)(?P<close>[\])])$")
 
 
 def range_text(message: str, unit: str) -> str:
     """An FMU's "parameter N = V out of range: allowed [lo, hi]" (SI) in ``unit``, the unit
-    the campaign wrote the parameter in; the message as it is when it has another shape or the
-    unit is not one of the value's dimension.
+    the campaign wrote the parameter in (the value alone when the FMU says another reason);
+    the message as it is when it has another shape or the unit is not one of the value's
+    dimension.
 
     >>> range_text("parameter soil.friction_angle = 1.5271630954950384 out of range: "
     ...            "allowed [0, 1.39626]", "deg")
     'parameter soil.friction_angle = 87.5 deg out of range: allowed [0, 80 deg]'
+    >>> range_text("parameter soil.cohesion = -1424.4447954825537 out of range: "
+    ...            "allowed [0, 1e+06]", "kPa")
+    'parameter soil.cohesion = -1.42444 kPa out of range: allowed [0, 1000 kPa]'
     """
-    match = _FMU_RANGE.match(message)
+    match = _FMU_REFUSED.match(message)
     if match is None or not unit or unit == "1":
         return message
+    allowed = _FMU_RANGE.match(match["why"])
     try:
-        source = si_unit_for(unit)
-        # the FMU prints its limits with 6 significant digits (%g): 5 of them survive a unit
-        value, low, high = (number(convert(float(match[key]), source, unit), digits)
-                            for key, digits in (("value", 6), ("low", 5), ("high", 5)))
-    except (UnitError, ValueError):
+        from_si = parse_unit(unit).from_si
+        # the FMU prints the value with 17 significant digits (%.17g), its limits with 6 (%g):
+        # 6 of the value are plenty to compare, 5 of the limits survive a change of unit
+        value = number(from_si(float(match["value"])), 6)
+        why = match["why"] if allowed is None else (
+            f"allowed {allowed['open']}{number(from_si(float(allowed['low'])), 5)}, "
+            f"{number(from_si(float(allowed['high'])), 5)} {unit}{allowed['close']}")
+    except (UnitError, ValueError, ArithmeticError):
         return message
-    return (f"parameter {match['name']} = {value} {unit} out of range: allowed "
-            f"{match['open']}{low}, {high} {unit}{match['close']}")
+    return f"parameter {match['name']} = {value} {unit} out of range: {why}"
 
 
 def _si_spelling(unit: str) -> str:

@@ -12,14 +12,15 @@ Pydantic reports errors at a ``loc`` tuple such as ``("paths", "detour", 1, "del
 
 from __future__ import annotations
 
+import datetime
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import yaml
 
-from idefix_rules.errors import Span, UserInputError, error
+from idefix_rules.errors import Diagnostic, Span, UserInputError, error
 from idefix_rules.units import underflows
 
 Loc = tuple[str | int, ...]
@@ -36,6 +37,9 @@ class SourceMap:
     path: str
     values: dict[Loc, tuple[int, int]] = field(default_factory=dict)
     keys: dict[Loc, tuple[int, int]] = field(default_factory=dict)
+    # a scalar YAML read as no text (a number, a boolean, a date, null) as it is written:
+    # `0x10`, not 16, when a message quotes it
+    written: dict[Loc, str] = field(default_factory=dict)
 
     def span(self, loc: Sequence[str | int], at_key: bool = False) -> Span:
         """Span of the deepest known prefix of ``loc`` (its key when ``at_key``)."""
@@ -62,10 +66,90 @@ class YamlDocument:
 _PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 
 
+_MERGE = "tag:yaml.org,2002:merge"
+_VALUE = "tag:yaml.org,2002:value"
+_STR = "tag:yaml.org,2002:str"
+
+
 class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
     """A SafeLoader that records the position of every node while constructing the data."""
 
     values_seen = 0
+
+    def __init__(self, stream: Any,
+                 keys_as_written: Callable[[Loc], bool] = lambda loc: False) -> None:
+        super().__init__(stream)
+        self.keys_as_written = keys_as_written
+        self._merging: set[int] = set()  # mappings whose merge keys are being resolved
+
+    def flatten_mapping(self, node: yaml.MappingNode) -> None:
+        """Resolve the merge key ``<<`` of a mapping (https://yaml.org/type/merge.html) in
+        place: its value, a mapping or a list of mappings, gives the keys the mapping does not
+        give itself, a mapping earlier in the list winning over a later one. The merged pairs
+        stand where ``<<`` is written, their nodes those of the merged mapping (its lines).
+
+        PyYAML's own puts every merged pair before the mapping's, so a key given both ways
+        came twice: the campaign's duplicate check refused the override the merge key exists
+        for. A key a mapping writes twice itself stays for that check, merged or not.
+        """
+        if id(node) in self._merging:
+            raise yaml.constructor.ConstructorError(
+                None, None, "a mapping merges itself: '<<' names the mapping it stands in",
+                node.start_mark)
+        merges = [pair for pair in node.value if pair[0].tag == _MERGE]
+        for key_node, _ in node.value:
+            if key_node.tag == _VALUE:  # `=`, YAML 1.1's default-value key: a plain name here
+                key_node.tag = _STR
+        if not merges:
+            return
+        if len(merges) > 1:
+            raise yaml.constructor.ConstructorError(
+                None, None, "a second merge key '<<' in one mapping: give one, with a list of "
+                "the mappings to merge (<<: [*first, *second])", merges[1][0].start_mark)
+        self._merging.add(id(node))
+        try:
+            given = {self._key_identity(key_node) for key_node, _ in node.value
+                     if key_node.tag != _MERGE}
+            merged = []
+            for source in self._merge_sources(merges[0][1]):
+                self.flatten_mapping(source)
+                # a mapping's keys win over those of the mappings after it, and its own
+                # duplicates are kept for the duplicate check
+                own = [(self._key_identity(key_node), (key_node, value_node))
+                       for key_node, value_node in source.value]
+                merged += [pair for identity, pair in own if identity not in given]
+                given |= {identity for identity, _ in own}
+        finally:
+            self._merging.discard(id(node))
+        flat: list[tuple[yaml.Node, yaml.Node]] = []
+        for pair in node.value:
+            flat += merged if pair[0].tag == _MERGE else [pair]
+        node.value = flat
+
+    def _merge_sources(self, value_node: yaml.Node) -> list[yaml.MappingNode]:
+        """The mappings a merge key's value names: itself, or the items of its list."""
+        items = value_node.value if isinstance(value_node, yaml.SequenceNode) else [value_node]
+        for item in items:
+            if not isinstance(item, yaml.MappingNode):
+                kind = ("a list" if isinstance(item, yaml.SequenceNode) else
+                        f"{item.value}" if str(item.value).strip() else "nothing")
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"a merge key '<<' takes a mapping (an alias such as *name of "
+                    f"one) or a list of mappings, got {kind}", item.start_mark)
+        return list(items)
+
+    def _key_identity(self, key_node: yaml.Node) -> Any:
+        """What makes two keys the same key: their values (``16`` and ``0x10`` are), their
+        types apart (``true`` is not ``1``); a key that cannot be read is itself."""
+        if isinstance(key_node, yaml.ScalarNode):
+            try:
+                key = self.construct_object(key_node, deep=True)
+                hash(key)
+            except (yaml.YAMLError, ValueError, TypeError, ArithmeticError, LookupError,
+                    AttributeError):
+                return ("node", id(key_node))
+            return (type(key).__name__, key)
+        return ("node", id(key_node))
 
     def construct_with_locations(self, node: yaml.Node, source_map: SourceMap,
                                  loc: Loc = ()) -> Any:
@@ -85,13 +169,14 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
             self.flatten_mapping(node)
             result: dict[Any, Any] = {}
             for key_node, value_node in node.value:
-                key = (self._scalar(key_node, source_map)
-                       if isinstance(key_node, yaml.ScalarNode) else None)
-                if not isinstance(key, str | int):
-                    raise UserInputError(error(
-                        "C001", "mapping keys must be plain names",
-                        Span(source_map.path, key_node.start_mark.line + 1,
-                             key_node.start_mark.column + 1)))
+                key: Any
+                if isinstance(key_node, yaml.ScalarNode) and self.keys_as_written(loc):
+                    key = str(key_node.value)  # a value for its reader to parse (a time)
+                else:
+                    key = (self._scalar(key_node, source_map)
+                           if isinstance(key_node, yaml.ScalarNode) else None)
+                if not isinstance(key, str):
+                    raise UserInputError(_not_a_name(key_node, key, source_map.path))
                 if key in result:
                     raise UserInputError(error(
                         "C002", f"duplicate key {key!r}",
@@ -106,6 +191,8 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
             return [self.construct_with_locations(item, source_map, (*loc, index))
                     for index, item in enumerate(node.value)]
         value = self._scalar(node, source_map)
+        if not isinstance(value, str):
+            source_map.written[loc] = str(node.value)
         if isinstance(value, float) and underflows(str(node.value).replace("_", ""), value):
             # YAML reads `1.0e-400` as 0.0: refused here, where what was written is known
             where = "".join(f"[{part}]" if isinstance(part, int) else f".{part}"
@@ -141,6 +228,46 @@ class LocatingLoader(yaml.SafeLoader):  # type: ignore[misc]
 
 
 
+def _not_a_name(key_node: yaml.Node, key: Any, path: str) -> Diagnostic:
+    """C001: a mapping key that is no name. Every key of a campaign or case file names
+    something (a setting, a path, a parameter, an area), and a key YAML reads as a boolean,
+    a number, a date or null would be taken for a list index (``paths[1]``) or be the same
+    key as another written differently (``true`` and ``1``, ``0x10`` and ``16``): refused at
+    the key, with its quoted form, which keeps it as written."""
+    span = Span(path, key_node.start_mark.line + 1, key_node.start_mark.column + 1,
+                key_node.end_mark.line + 1, key_node.end_mark.column + 1)
+    if not isinstance(key_node, yaml.ScalarNode):
+        kind = "a list" if isinstance(key_node, yaml.SequenceNode) else "a mapping"
+        return error("C001", f"mapping keys must be plain names, not {kind}", span,
+                     hint="write one key per line: `x: 1 cm`")
+    written = str(key_node.value)
+    if key is None and not written.strip():
+        return error("C001", "a key is missing before ':'", span,
+                     hint="write the name of what the value sets before the colon")
+    quoted = '"' + written.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return error("C001", f"the key {written} is read by YAML as {_kind_of(key)}, not as a name",
+                 span, hint=f"quote it to keep it as a name: {quoted}")
+
+
+def _kind_of(value: Any) -> str:
+    """What YAML read a scalar as, in the words of the campaign docs."""
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int):
+        return "a whole number"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, datetime.datetime):
+        return "a date and time"
+    if isinstance(value, datetime.date):
+        return "a date"
+    if value is None:
+        return "null (no value)"
+    if isinstance(value, bytes):
+        return "binary data"
+    return "no text"
+
+
 # Booleans as YAML 1.2 reads them: only true and false (any case). YAML 1.1, PyYAML's default,
 # also reads yes/no/on/off/y/n unquoted as booleans, so a keep-out area named `off` or a path
 # named `yes` became a boolean and was refused as "not a valid string". Where a flag is meant,
@@ -173,9 +300,14 @@ def yaml_data(text: str) -> Any:
     return yaml.load(text, Loader=LocatingLoader)
 
 
-def load_yaml(text: str, path: str) -> YamlDocument:
-    """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics."""
-    loader = LocatingLoader(text)
+def load_yaml(text: str, path: str,
+              keys_as_written: Callable[[Loc], bool] = lambda loc: False) -> YamlDocument:
+    """Parse YAML text safely, with a :class:`SourceMap`; syntax errors become diagnostics.
+
+    Every mapping key is a name, text (C001 for one YAML reads as a boolean, a number, a date
+    or null), except in the mappings at the locations ``keys_as_written`` accepts, whose keys
+    are values their reader parses (a case file's keyframe times): taken as written."""
+    loader = LocatingLoader(text, keys_as_written)
     source_map = SourceMap(path)
     try:
         node = loader.get_single_node()
