@@ -136,13 +136,13 @@ def evaluation_revision(store: ResultStore, then: str) -> Revision:
 def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
                       campaign: Campaign, output: Path, junit: Path | None, name: str,
                       seconds: dict[str, float] | None = None, then: str = "",
-                      expect: bool = True, steps: EvaluationSteps | None = None
-                      ) -> CampaignResult:
+                      expect: bool = True, steps: EvaluationSteps | None = None,
+                      again: str | None = None) -> CampaignResult:
     """Store the summary with the evaluation, put the new results file in place, then write
     ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2.
     ``expect``: the campaign's expectations are checked (not for a worst-case search's
     runs, which say nothing about how often a world occurs); ``steps`` hears how far it
-    got."""
+    got; ``again``: the command that runs again the runs lost to the infrastructure."""
     steps = steps or EvaluationSteps()
     model = campaign.model
     expected = model.expect if expect else []
@@ -168,7 +168,7 @@ def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
             junit.parent.mkdir(parents=True, exist_ok=True)
             with diskspace.guard(junit.parent, f"write {junit.name}", written):
                 write_atomic(junit, junit_xml(evaluation, checks, name, seconds,
-                                                      results, problems))
+                                              results, problems, again))
         except OSError as failure:  # the results are stored already: say so
             raise UserInputError(error(
                 "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",

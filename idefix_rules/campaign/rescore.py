@@ -171,11 +171,13 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                                     on_path=clock.start, into=revision.store,
                                     waivers=model.waivers, gate=gate)
         name = str(store.attrs.get("campaign_name", "campaign"))
+        again = stored_resume_command(store.attrs, stub.source, results.parent)
         result = finish_evaluation(revision, evaluation, stub, output, junit, name,
-                                   clock.seconds(), then, expect=not search, steps=steps)
+                                   clock.seconds(), then, expect=not search, steps=steps,
+                                   again=again)
     result.warnings.extend(held_warnings(store.attrs, results, stub.source,
                                          bool(model.expect), state))
-    warn_lost_runs(result, stored_resume_command(store.attrs, stub.source, results.parent))
+    warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
     result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),
                                              {stub.locations.path: stub.text}))

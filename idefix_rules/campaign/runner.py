@@ -147,7 +147,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                         waivers=campaign.model.waivers)
             result = finish_evaluation(revision, evaluation, campaign, campaign.output,
                                        junit, campaign.name,
-                                       clock.seconds(simulation.path_seconds), then)
+                                       clock.seconds(simulation.path_seconds), then,
+                                       again=again)
     finally:
         store.close()
     evaluated = time.perf_counter()

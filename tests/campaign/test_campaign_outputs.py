@@ -326,3 +326,69 @@ def test_raw_index_values_carry_the_si_unit_of_their_expression() -> None:
     units = raw_units(compile_rulebook_file(Path(__file__).parents[2] / "rulebooks" /
                                             "idefix-ops.rules"))
     assert units["I_ds"] == "m" and units["I_beta"] == "rad" and units["I_s"] == "1"
+
+
+LOST = "infrastructure: worker died 4 times while running it"
+AGAIN = "idefix-verify c.yaml --resume --junit ci.xml"
+
+
+def lost_evaluation() -> CampaignEvaluation:
+    """good passes; arc lost runs 1 and 4 of 8 to the infrastructure and passes on the six
+    left; straight's reference run was lost (verdict error, nothing simulated)."""
+    good = evaluation().paths[0]
+    arc = PathResult("arc", 1, "simulated", runs=8, completed=6,
+                     failures={1: LOST, 4: LOST}, mean_risk=0.2, risk_ci=(0.1, 0.3),
+                     passed=True, rank=2)
+    straight = PathResult("straight", 2, "reference_failed", runs=8, reason=LOST)
+    return CampaignEvaluation([good, arc, straight], ["good", "arc"],
+                              {"name": "r", "version": "1.0.0"}, {"campaign_name": "c"})
+
+
+def test_junit_of_runs_lost_to_the_infrastructure_is_in_error_as_the_exit_code_3() -> None:
+    """Exit code 3 (runs lost, not a verdict): each path that lost runs is an error case
+    naming the runs, their reasons and the command that runs them again; it was a passing
+    case (failures="0" errors="0", a green report for a red job) with the loss only in its
+    output, and a reference run lost was an error of type "error"."""
+    results = lost_evaluation()
+    assert exit_code(results, [], has_expectations=False) == 3
+    root, cases = _junit_failures(junit_xml(results, [], "c", resume=AGAIN))
+    assert (root.get("tests"), root.get("failures"), root.get("errors")) == ("3", "0", "2")
+    assert cases["good"].find("error") is None and cases["good"].find("failure") is None
+    arc = cases["arc"].find("error")
+    assert arc is not None and cases["arc"].find("failure") is None
+    assert arc.attrib == {
+        "type": "infrastructure",
+        "message": "path arc: runs 1, 4 lost to the infrastructure (2 of 8), not a verdict; "
+                   f"run them again with `{AGAIN}`"}
+    assert arc.text == f"run 1 lost: {LOST}\nrun 4 lost: {LOST}\nrun them again with `{AGAIN}`"
+    assert f"run 1 lost: {LOST}" in (cases["arc"].findtext("system-out") or "")
+    straight = cases["straight"].find("error")
+    assert straight is not None and straight.attrib == {
+        "type": "infrastructure",
+        "message": "path straight: its reference run was lost to the infrastructure, not a "
+                   f"verdict; run them again with `{AGAIN}`"}
+    assert straight.text == f"reference run lost: {LOST}\nrun them again with `{AGAIN}`"
+
+
+def test_an_expectation_on_a_path_that_lost_runs_is_not_judged_but_in_error() -> None:
+    """``expect: straight fails`` on a path whose reference run was lost: the expectation
+    does not hold (verdict error), which is the loss, not a failure of the chain: an error
+    case (it was <failure type="expectation">verdict error, as if the chain had passed). An
+    expectation on a path that lost nothing fails as before; the path cases of the lost
+    paths are errors too, the exit code being 3 whatever the expectations say."""
+    results = lost_evaluation()
+    checks = check_expectations([PathVerdictExpectation(path="straight", verdict="fail"),
+                                 PathVerdictExpectation(path="good", verdict="fail")], results)
+    assert exit_code(results, checks, has_expectations=True) == 3
+    root, cases = _junit_failures(junit_xml(results, checks, "c", resume=AGAIN))
+    assert (root.get("failures"), root.get("errors")) == ("1", "3")
+    unjudged = cases["expect[0] straight fails"].find("error")
+    assert unjudged is not None and unjudged.attrib == {
+        "type": "infrastructure",
+        "message": "not judged: straight lost runs to the infrastructure (verdict error); "
+                   f"run them again with `{AGAIN}`"}
+    assert cases["expect[0] straight fails"].find("failure") is None
+    failed = cases["expect[1] good fails"].find("failure")
+    assert failed is not None and failed.get("message") == "verdict pass"
+    assert [name for name, case in cases.items() if case.find("error") is not None] == [
+        "arc", "straight", "expect[0] straight fails"]
