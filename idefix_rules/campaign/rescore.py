@@ -76,18 +76,21 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
                             + [previous_path(output / name)
                                for name in (SUMMARY_FILE, REPORT_FILE)]
                             + [previous_path(results)])
+    steps = EvaluationSteps()
     try:
-        return _rescore(results, rulebook, junit, output)
+        return _rescore(results, rulebook, junit, output, steps)
     except IdefixError as refusal:
-        if junit is not None and not (isinstance(refusal, FolderInUse)
-                                      and refusal.may_write(junit)):
+        # refused, or failed before the new evaluation was stored: no JUnit file of this
+        # command will be written (one written after that is this command's, and stays)
+        if junit is not None and not steps.stored and not (
+                isinstance(refusal, FolderInUse) and refusal.may_write(junit)):
             with contextlib.suppress(OSError):
                 set_aside_report(junit)
         raise
 
 
-def _rescore(results: Path, rulebook: Path | None, junit: Path | None,
-             output: Path) -> CampaignResult:
+def _rescore(results: Path, rulebook: Path | None, junit: Path | None, output: Path,
+             steps: EvaluationSteps) -> CampaignResult:
     check_writable_results_folder(results)
     with contextlib.ExitStack() as owned:
         notes = []
@@ -104,7 +107,6 @@ def _rescore(results: Path, rulebook: Path | None, junit: Path | None,
             output.mkdir(parents=True, exist_ok=True)
             notes.append(owned.enter_context(own_folder(output, junit=junit)).note)
             stale += [results.parent / SUMMARY_FILE, *report_outputs(results.parent)]
-        steps = EvaluationSteps()
         try:
             result = _rescore_owned(store, results, rulebook, junit, output, stale, steps)
         except KeyboardInterrupt:

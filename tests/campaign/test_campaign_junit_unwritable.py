@@ -5,6 +5,7 @@ command the hint gives writes both, --junit included."""
 
 from __future__ import annotations
 
+import errno
 import json
 from pathlib import Path
 
@@ -29,3 +30,29 @@ def test_a_junit_file_that_cannot_be_written_is_c207_and_no_summary_disagrees(
     assert main(["evaluate", str(results), "--junit", str(junit)]) == 1
     assert json.loads((out / "summary.json").read_text())["exit_code"] == 1
     assert junit.read_text().startswith("<?xml")
+
+
+@pytest.mark.slow
+def test_a_summary_that_cannot_be_written_takes_the_junit_file_with_it(
+        campaign_dir: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The disk fills between the JUnit file and summary.json: exit 3, and no JUnit file is
+    left to show the campaign's outcome for a command that exited 3."""
+    from idefix_rules.campaign.outcome import outputs
+
+    out = campaign_dir / "out"
+    junit = campaign_dir / "ci.xml"
+    assert main([str(campaign_dir / "campaign.yaml"), "--quiet", "--no-report", "--junit",
+                 str(junit)]) == 1
+    earlier = junit.read_text()
+
+    def full(path: Path, data: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(outputs, "write_summary", full)
+    capsys.readouterr()
+    assert main(["evaluate", str(out / "results.h5"), "--junit", str(junit)]) == 3
+    assert "needed to write summary.json" in capsys.readouterr().err
+    assert not junit.exists() and not (out / "summary.json").exists()
+    # the copy set aside is the earlier run's, not the one this command wrote and took back
+    assert (campaign_dir / "ci.xml.previous").read_text() == earlier
