@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from test_campaign_outputs import assert_junit_10
 
 from idefix_rules.campaign.storage.store import ResultStore
 from idefix_rules.cli import main
@@ -47,4 +48,9 @@ def test_a_campaign_that_lost_runs_writes_an_error_case_with_the_resume_command(
         "message": "path arc: runs 1, 4 lost to the infrastructure (2 of 6), not a verdict; "
                    f"run them again with `{again}`"}
     assert error.text == f"run 1 lost: {LOST}\nrun 4 lost: {LOST}\nrun them again with `{again}`"
+    # the other cases are what they would be: too-fast's command rule fails it
+    rejected = cases["too-fast"].find("failure")
+    assert rejected is not None and \
+        rejected.get("message") == "path too-fast: rejected · breaks wheel_rate_limit"
+    assert_junit_10(junit.read_text())
     assert json.loads((campaign_dir / "out" / "summary.json").read_text())["exit_code"] == 3

@@ -7,8 +7,8 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 
 from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
-from idefix_rules.campaign.input.wording import bounds_label, unfinished_text
-from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of
+from idefix_rules.campaign.input.wording import bounds_label, gate_rules, unfinished_text
+from idefix_rules.campaign.outcome.decision import path_confidence, reasons_of, verdict_parts
 from idefix_rules.campaign.outcome.expectation_checks import ExpectationResult, percent
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
@@ -17,8 +17,9 @@ from idefix_rules.errors import Diagnostic
 
 
 def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
-                    results: str | None) -> None:
-    """The campaign seed, run count, results file and input hashes this suite belongs to."""
+                    results: str | None) -> ET.Element:
+    """The campaign seed, run count, results file and input hashes this suite belongs to (its
+    ``<properties>``, which the caller may add to)."""
     properties = ET.SubElement(suite, "properties")
     prov = evaluation.provenance
     for key, value in (("seed", prov.get("seed")), ("runs", prov.get("runs")),
@@ -26,6 +27,7 @@ def _run_properties(suite: ET.Element, evaluation: CampaignEvaluation,
                        ("rulebook_sha256", evaluation.rulebook.get("sha256"))):
         if value is not None:
             ET.SubElement(properties, "property", name=key, value=str(value))
+    return properties
 
 
 def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResult],
@@ -36,33 +38,36 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
 
     Two suites: ``<name>.expectations`` (one case per ``expect:`` entry) and ``<name>.paths``
     (one case per path, its verdict). With expectations, the exit code follows them, so only
-    expectation cases fail; path cases report their verdict (property ``verdict``, text) and
-    pass. Without expectations, every path must pass: a path that does not, or whose pass is
-    not decided at this number of runs, is a failure (an error when its evaluation broke).
+    expectation cases fail; path cases report their verdict (the first line of their output,
+    and the suite's property ``verdict[<path>]``) and pass. Without expectations, every path
+    must pass: a path that does not, or whose pass is not decided at this number of runs, is a
+    failure whose message names the rules it fails (an error when its evaluation broke).
     What makes the exit code 3 or 2 is an error: a path that lost runs to the infrastructure
     (its case, ``type="infrastructure"``, naming the runs, their reasons and ``resume``, the
     command that runs them again), and an expectation that does not hold on such a path
     (not judged); a mistake only the evaluation shows (``<name>.campaign``).
     ``seconds``: time spent per path (simulation in the workers and evaluation), the ``time``
     of its case; each expectation case's time is its check. Each suite's properties name
-    the campaign seed and the results file.
+    the campaign seed and the results file. The file is valid against the JUnit schema CI
+    servers check (the Jenkins xUnit plugin's ``junit-10.xsd``): properties belong to
+    suites, and ``<testsuites>`` counts no skipped cases (each suite does).
     """
     seconds = seconds or {}
     asserted_paths = not expectations
     lost = {path.name: path for path in evaluation.paths if _lost_runs(path)}
     root = ET.Element("testsuites", name=suite_name)
     paths = ET.SubElement(root, "testsuite", name=f"{suite_name}.paths")
-    _run_properties(paths, evaluation, results)
+    properties = _run_properties(paths, evaluation, results)
+    ET.SubElement(properties, "property", name="asserted",
+                  value="yes" if asserted_paths else "no: the campaign's expectations "
+                  "decide the exit code")
     failures = errors = skipped = 0
     for path in evaluation.paths:
         case = ET.SubElement(paths, "testcase", classname=f"{suite_name}.paths", name=path.name,
                              time=f"{seconds.get(path.name, 0.0):.3f}")
-        properties = ET.SubElement(case, "properties")
         verdict = path.verdict_text + (" (not decided)" if path.undecided else "")
-        ET.SubElement(properties, "property", name="verdict", value=verdict)
-        ET.SubElement(properties, "property", name="asserted",
-                      value="yes" if asserted_paths else "no: the campaign's expectations "
-                      "decide the exit code")
+        ET.SubElement(properties, "property", name=f"verdict[{path.name}]", value=verdict)
+        summary = _summary_line(path, verdict)
         detail = _path_detail(path)
         if path.name in lost:  # not a verdict: the runs are run again (exit 3)
             errors += 1
@@ -79,12 +84,12 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
                 f"{waived.text()} [{waived.rule}]" for waived in path.waivers))
         elif asserted_paths and not path.held:
             failures += 1
-            ET.SubElement(case, "failure", message=f"path {path.name}: {verdict}",
+            ET.SubElement(case, "failure", message=summary,
                           type=path.verdict_text).text = detail
         compared = [pairwise.describe(pair, path.name) for pair in evaluation.pairs
                     if path.name in (pair.first, pair.second)]
         ET.SubElement(case, "system-out").text = "\n".join(
-            [detail, *(f"pair: {line}" for line in compared)])
+            [summary, detail, *(f"pair: {line}" for line in compared)])
     neighbours = pairwise.adjacent(evaluation.ranking, evaluation.pairs)
     if neighbours:  # the ranking's neighbours compared in the same worlds, best first
         ET.SubElement(paths, "system-out").text = "\n".join(
@@ -128,7 +133,7 @@ def junit_xml(evaluation: CampaignEvaluation, expectations: list[ExpectationResu
         errors += len(problems)
     _suite_counts(root, len(evaluation.paths) + len(expectations) + len(problems), failures,
                   errors, sum(float(s.get("time", "0")) for s in root.iter("testsuite")),
-                  skipped)
+                  None)  # the schema has no skipped count on <testsuites>: the suite has it
     ET.indent(root)
     _xml_safe(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
@@ -204,12 +209,26 @@ def _milliseconds(seconds: float) -> float:
 
 
 def _suite_counts(element: ET.Element, tests: int, failures: int, errors: int,
-                  seconds: float, skipped: int = 0) -> None:
+                  seconds: float, skipped: int | None = 0) -> None:
     element.set("tests", str(tests))
     element.set("failures", str(failures))
     element.set("errors", str(errors))
-    element.set("skipped", str(skipped))
+    if skipped is not None:
+        element.set("skipped", str(skipped))
     element.set("time", f"{seconds:.3f}")
+
+
+def _summary_line(path: PathResult, verdict: str) -> str:
+    """The path's verdict in one line, the rules it fails by name (what a CI server's
+    summary shows of a failure: its message): ``path straight: fail · risk 86.0 % · fails
+    acceptable_risk``; a rejected or excluded path names the command or prescreen rules."""
+    parts = [f"path {path.name}: {verdict}", *verdict_parts(path)]
+    named = gate_rules(path.reason)
+    if path.status == "rejected" and named:
+        parts.append("breaks " + ", ".join(named))
+    elif path.status == "excluded" and named:
+        parts.append("fails prescreen " + ", ".join(named))
+    return " · ".join(parts)
 
 
 def _path_detail(path: PathResult) -> str:
