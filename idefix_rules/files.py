@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -24,6 +25,53 @@ def cache_root() -> Path:
 def previous_path(path: Path) -> Path:
     """Where :func:`set_aside` keeps ``path``: ``name.previous.ext`` beside it."""
     return path.with_name(f"{path.stem}.previous{path.suffix}")
+
+
+def previous_report_path(path: Path) -> Path:
+    """Where :func:`set_aside_report` keeps a JUnit report: ``name.xml.previous`` beside it, a
+    name no ``*.xml`` glob of a CI server (``reports/*.xml``) takes for a second report."""
+    return path.with_name(f"{path.name}.previous")
+
+
+def set_aside_report(path: Path | None) -> list[Path]:
+    """Rename the JUnit report ``path`` to its :func:`previous_report_path` (replacing an
+    older copy). A copy an earlier version kept as ``name.previous.xml``, which a CI
+    server's ``*.xml`` glob took for a second report on every run, goes too: it becomes the
+    kept copy when there is no newer one, else it is removed. Returns the new names."""
+    if path is None:
+        return []
+    path = Path(path)
+    target = previous_report_path(path)
+    earlier = previous_path(path)
+    if earlier != path and earlier.is_file() and is_junit_report(earlier):
+        if path.is_file() or target.is_file():
+            earlier.unlink()
+        else:
+            os.replace(earlier, target)
+    if not path.is_file():
+        return []
+    os.replace(path, target)
+    return [target]
+
+
+def is_junit_report(path: Path) -> bool:
+    """Whether an existing file may be replaced by a JUnit report: an empty file (``touch``,
+    ``mktemp``), or an XML document (UTF-8 or UTF-16 with its byte order mark) whose first
+    element is ``testsuites`` or ``testsuite`` (ours or another tool's, after any
+    declaration, stylesheet instruction, comment or document type)."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(8192)
+    except OSError:
+        return False
+    if not head.strip():
+        return True
+    encoding = "utf-16" if head[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8"
+    text = head.decode(encoding, errors="replace").lstrip("\ufeff")
+    prolog = re.compile(r"\s*(<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>)", re.DOTALL)
+    while (found := prolog.match(text)) is not None:
+        text = text[found.end():]
+    return re.match(r"\s*<testsuites?[\s/>]", text) is not None
 
 
 def write_atomic(path: Path, data: str | bytes) -> None:

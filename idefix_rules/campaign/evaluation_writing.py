@@ -136,13 +136,13 @@ def evaluation_revision(store: ResultStore, then: str) -> Revision:
 def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
                       campaign: Campaign, output: Path, junit: Path | None, name: str,
                       seconds: dict[str, float] | None = None, then: str = "",
-                      expect: bool = True, steps: EvaluationSteps | None = None
-                      ) -> CampaignResult:
+                      expect: bool = True, steps: EvaluationSteps | None = None,
+                      again: str | None = None) -> CampaignResult:
     """Store the summary with the evaluation, put the new results file in place, then write
     ``summary.json`` (and JUnit). A waiver that matched nothing makes the exit code 2.
     ``expect``: the campaign's expectations are checked (not for a worst-case search's
     runs, which say nothing about how often a world occurs); ``steps`` hears how far it
-    got."""
+    got; ``again``: the command that runs again the runs lost to the infrastructure."""
     steps = steps or EvaluationSteps()
     model = campaign.model
     expected = model.expect if expect else []
@@ -158,26 +158,47 @@ def finish_evaluation(revision: Revision, evaluation: CampaignEvaluation,
         json.dumps(data, default=str)
     revision.commit(f"write the evaluation into {revision.path.name}", then)
     steps.stored = True
+    # what writes the outputs again from the stored evaluation, with this command's JUnit
+    # file and summary folder
+    rewrite = command_line("idefix-verify", "evaluate", results,
+                           *(["--junit", junit] if junit is not None else []),
+                           *(["--out", output] if output.resolve() != revision.path.parent
+                             .resolve() else []))
     written = f"the evaluation is stored in {results}; free space, then write the outputs " \
-              f"again with `{command_line('idefix-verify', 'evaluate', results)}`"
-    with diskspace.guard(output, f"write {SUMMARY_FILE}", written):
-        outputs.write_summary(output / SUMMARY_FILE, data)
-    steps.summary = True
+              f"again with `{rewrite}`"
+    # summary.json, which gives the exit code, comes last: the outputs are written both or
+    # neither, so none gives an exit code the command does not exit with
     if junit is not None:
-        try:
-            junit.parent.mkdir(parents=True, exist_ok=True)
-            with diskspace.guard(junit.parent, f"write {junit.name}", written):
-                write_atomic(junit, junit_xml(evaluation, checks, name, seconds,
-                                                      results, problems))
-        except OSError as failure:  # the results are stored already: say so
-            raise UserInputError(error(
-                "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
-                Span(str(junit)), hint=f"the results are in {revision.path}")) from None
+        _write_junit(junit, junit_xml(evaluation, checks, name, seconds, results, problems,
+                                      again), written, f"the results are in {revision.path}; "
+                     f"once {junit} can be written, write the outputs again with `{rewrite}`")
+    try:
+        with diskspace.guard(output, f"write {SUMMARY_FILE}", written):
+            outputs.write_summary(output / SUMMARY_FILE, data)
+    except BaseException:
+        if junit is not None:
+            junit.unlink(missing_ok=True)
+        raise
+    steps.summary = True
     slipped = slip_warning(evaluation.slip)
     warnings = [slipped] if slipped else []
     warnings += spread_warnings([path.risk_spread for path in evaluation.paths])
     return CampaignResult(revision.path, evaluation, checks, data, code, warnings,
                           problems=problems)
+
+
+def _write_junit(junit: Path, text: str, written: str, hint: str) -> None:
+    """The JUnit file, whole or not at all: a full disk is :class:`DiskFull` (exit 3, as every
+    full disk, ``written`` saying what to do), a place it cannot go (no permission, a folder
+    there, a read-only file system) is ``C207`` (exit 2) with ``hint``."""
+    try:
+        with diskspace.guard(junit.parent, f"write {junit.name}", written):
+            junit.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(junit, text)
+    except OSError as failure:  # a full disk is DiskFull by now: this is the file's place
+        raise UserInputError(error(
+            "C207", f"cannot write the JUnit file {junit}: {failure.strerror or failure}",
+            Span(str(junit)), hint=hint)) from None
 
 
 def evaluation_bytes(store: ResultStore) -> int:

@@ -7,7 +7,6 @@ file that is not a JUnit report (``C703``)."""
 from __future__ import annotations
 
 import contextlib
-import re
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -15,9 +14,16 @@ from idefix_rules.campaign.input.environment import TERRAIN_FILE
 from idefix_rules.campaign.input.load import Campaign
 from idefix_rules.campaign.input.validate import prepare_output
 from idefix_rules.campaign.simulation.simulate import RESULTS_FILE
-from idefix_rules.campaign.storage.ownership import FolderLock, own_folder
-from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.files import previous_path, report_outputs, set_aside
+from idefix_rules.campaign.storage.ownership import FolderInUse, FolderLock, own_folder
+from idefix_rules.errors import IdefixError, Span, UserInputError, error
+from idefix_rules.files import (
+    is_junit_report,
+    previous_path,
+    previous_report_path,
+    report_outputs,
+    set_aside,
+    set_aside_report,
+)
 from idefix_rules.results.format import SEARCH_RECORD_FILE
 
 SUMMARY_FILE = "summary.json"
@@ -29,26 +35,53 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
                    resume: bool = False) -> Iterator[FolderLock]:
     """The campaign's output folder, created and owned by this process for the ``with`` block
     (``C208`` when another campaign owns it), with the last run's outputs set aside at once:
-    ``summary.json``, ``report.html``, the JUnit file and, unless resuming, ``results.h5`` (and
-    a search's ``worst.json``) become ``*.previous.*``. From then on nothing in the folder
-    speaks for another run."""
+    ``summary.json``, ``report.html`` and, unless resuming, ``results.h5`` (and a search's
+    ``worst.json``) become ``*.previous.*``, the JUnit file ``*.xml.previous``. From then on
+    nothing in the folder speaks for another run. Refused before it owns the folder, the
+    campaign sets aside what it will not write again (:func:`set_aside_refused`); refused for
+    its ``--junit`` destination (``C703``), it moves nothing."""
     check_junit_destination(junit, *campaign_files(campaign))
-    _check_terrain_source(campaign)
     existed = campaign.output.exists()
-    prepare_output(campaign)
     sources = {str(campaign.source): campaign.text}
     try:
-        with own_folder(campaign.output, span=Span(str(campaign.output)),
-                        sources=sources) as lock:
+        with contextlib.ExitStack() as owned:
+            try:
+                _check_terrain_source(campaign)
+                prepare_output(campaign)
+                lock = owned.enter_context(own_folder(
+                    campaign.output, span=Span(str(campaign.output)), sources=sources,
+                    junit=junit))
+            except IdefixError as refusal:
+                set_aside_refused(campaign.output, junit, refusal)
+                raise
             # a search's record there would speak for results no longer beside it
-            set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output), junit,
+            set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output),
                       None if resume else campaign.output / RESULTS_FILE,
                       None if resume else campaign.output / SEARCH_RECORD_FILE)
+            set_aside_report(junit)
             yield lock
     finally:
         if not existed:  # a campaign refused before writing anything leaves no folder behind
             with contextlib.suppress(OSError):
                 campaign.output.rmdir()  # only when empty
+
+
+def set_aside_refused(folder: Path | None, junit: Path | None,
+                      refusal: BaseException | None = None) -> None:
+    """A run refused before it owns its output folder writes none of its outputs: the
+    ``--junit`` file and the ``folder``'s ``summary.json`` and report (not its results, which
+    a ``--resume`` or ``evaluate`` may want) are set aside now, so that none of them speaks
+    for this run. The folder is owned while they are moved; a folder another process owns
+    (``refusal`` C208, or owned meanwhile) is left as it is, and so is the JUnit file its
+    owner writes. A file that cannot be moved stays: the refusal is what is said."""
+    if junit is not None and not (isinstance(refusal, FolderInUse)
+                                  and refusal.may_write(junit)):
+        with contextlib.suppress(OSError):
+            set_aside_report(junit)
+    if folder is None or isinstance(refusal, FolderInUse) or not folder.is_dir():
+        return
+    with contextlib.suppress(IdefixError, OSError), own_folder(folder):
+        set_aside(folder / SUMMARY_FILE, *report_outputs(folder))
 
 
 JUNIT_CODE = "C703"
@@ -71,32 +104,12 @@ def check_junit_destination(junit: Path | None, inputs: Iterable[Path | None],
                             f"({path}); it would be replaced by the JUnit report",
                 Span(str(junit)), hint="give the JUnit report a file of its own, e.g. "
                                        "--junit junit.xml"))
-    if target.is_file() and not _is_junit_report(target):
+    if target.is_file() and not is_junit_report(target):
         raise UserInputError(error(
             JUNIT_CODE, f"--junit {junit} is an existing file that is not a JUnit report; "
                         "it would be replaced (set aside as "
-                        f"{previous_path(junit).name})", Span(str(junit)),
+                        f"{previous_report_path(junit).name})", Span(str(junit)),
             hint="give a new file name, or delete the file first if it is meant to go"))
-
-
-def _is_junit_report(path: Path) -> bool:
-    """Whether an existing file may be replaced by a JUnit report: an empty file (``touch``,
-    ``mktemp``), or an XML document (UTF-8 or UTF-16 with its byte order mark) whose first
-    element is ``testsuites`` or ``testsuite`` (ours or another tool's, after any
-    declaration, stylesheet instruction, comment or document type)."""
-    try:
-        with path.open("rb") as handle:
-            head = handle.read(8192)
-    except OSError:
-        return False
-    if not head.strip():
-        return True
-    encoding = "utf-16" if head[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8"
-    text = head.decode(encoding, errors="replace").lstrip("\ufeff")
-    prolog = re.compile(r"\s*(<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>)", re.DOTALL)
-    while (found := prolog.match(text)) is not None:
-        text = text[found.end():]
-    return re.match(r"\s*<testsuites?[\s/>]", text) is not None
 
 
 def _check_terrain_source(campaign: Campaign) -> None:

@@ -33,10 +33,10 @@ from idefix_rules.campaign.output_folder import REPORT_FILE, SUMMARY_FILE, check
 from idefix_rules.campaign.preparation import compile_rulebook_file
 from idefix_rules.campaign.simulation.resume import stored_resume_command
 from idefix_rules.campaign.storage.journal import roll_back
-from idefix_rules.campaign.storage.ownership import own_folder
+from idefix_rules.campaign.storage.ownership import FolderInUse, own_folder
 from idefix_rules.campaign.storage.store import ResultStore
-from idefix_rules.errors import Span, UserInputError, error
-from idefix_rules.files import previous_path, report_outputs, set_aside
+from idefix_rules.errors import IdefixError, Span, UserInputError, error
+from idefix_rules.files import previous_path, report_outputs, set_aside, set_aside_report
 from idefix_rules.results.campaign import STORED_RULEBOOK, StoredCampaign
 from idefix_rules.results.format import is_search
 from idefix_rules.results.terrain import StoredTerrain
@@ -64,31 +64,49 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
     the time (``C208`` while a campaign writes there). Once the new evaluation is being
     written (nothing refused it), what spoke for the one it replaces is set aside: the
     ``summary.json``, report and figures in ``out`` and beside the results, and the JUnit
-    file. Ctrl-C is :class:`EvaluationInterrupted`."""
+    file. Refused, it sets aside only the JUnit file (it writes none for this command; the
+    rest still speaks for the evaluation the results file holds), and nothing when the
+    refusal is the JUnit file itself (``C703``) or it is the one a campaign owning the
+    folder writes. Ctrl-C is :class:`EvaluationInterrupted`."""
     if results.is_symlink():  # the evaluation is renamed over the file, not over the link
         results = results.resolve()
     output = out or results.parent
-    check_writable_results_folder(results)
     check_junit_destination(junit, [results, rulebook],
                             [output / name for name in (SUMMARY_FILE, REPORT_FILE)]
                             + [previous_path(output / name)
                                for name in (SUMMARY_FILE, REPORT_FILE)]
                             + [previous_path(results)])
+    steps = EvaluationSteps()
+    try:
+        return _rescore(results, rulebook, junit, output, steps)
+    except IdefixError as refusal:
+        # refused, or failed before the new evaluation was stored: no JUnit file of this
+        # command will be written (one written after that is this command's, and stays)
+        if junit is not None and not steps.stored and not (
+                isinstance(refusal, FolderInUse) and refusal.may_write(junit)):
+            with contextlib.suppress(OSError):
+                set_aside_report(junit)
+        raise
+
+
+def _rescore(results: Path, rulebook: Path | None, junit: Path | None, output: Path,
+             steps: EvaluationSteps) -> CampaignResult:
+    check_writable_results_folder(results)
     with contextlib.ExitStack() as owned:
         notes = []
         if results.parent.is_dir() and os.access(results.parent, os.W_OK):
-            notes.append(owned.enter_context(own_folder(results.parent, elsewhere=None)).note)
+            notes.append(owned.enter_context(own_folder(results.parent, elsewhere=None,
+                                                        junit=junit)).note)
             roll_back(results)  # a change of its structure a kill cut off (journal.py)
         store = ResultStore.open(results)  # read only: the evaluation writes a new version
         owned.callback(store.close)
         # what spoke for the evaluation this replaces: the summary, the report with its
         # figures (here and, with --out elsewhere, beside the results) and the JUnit file
-        stale = [output / SUMMARY_FILE, *report_outputs(output), junit]
+        stale = [output / SUMMARY_FILE, *report_outputs(output)]
         if output.resolve() != results.parent.resolve():
             output.mkdir(parents=True, exist_ok=True)
-            notes.append(owned.enter_context(own_folder(output)).note)
+            notes.append(owned.enter_context(own_folder(output, junit=junit)).note)
             stale += [results.parent / SUMMARY_FILE, *report_outputs(results.parent)]
-        steps = EvaluationSteps()
         try:
             result = _rescore_owned(store, results, rulebook, junit, output, stale, steps)
         except KeyboardInterrupt:
@@ -98,7 +116,7 @@ def rescore(results: Path, rulebook: Path | None = None, junit: Path | None = No
 
 
 def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
-                   junit: Path | None, output: Path, stale: list[Path | None],
+                   junit: Path | None, output: Path, stale: list[Path],
                    steps: EvaluationSteps) -> CampaignResult:
     stored = StoredCampaign(store)
     stub = stored.require_campaign()
@@ -126,6 +144,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
             # the stored evaluation waived on an approval that has lapsed: its outputs no
             # longer hold today, though nothing is scored again
             set_aside(*stale)
+            set_aside_report(junit)
         raise UserInputError(mistakes, sources={stub.locations.path: stub.text})
     _check_stored_signals(store, evaluator, results)
     # the terrain matters to the scores only through the collision and area checks
@@ -145,7 +164,7 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
     state = str(store.attrs.get("state", "complete"))
     with evaluation_revision(store, then) as revision:
         # nothing refused the evaluation and the disk has room: it is being written now
-        steps.set_aside = set_aside(*stale)
+        steps.set_aside = set_aside(*stale) + set_aside_report(junit)
         if state == "running":  # this process owns the folder: no campaign writes the file,
             state = "interrupted"  # the one that did was killed
             revision.store.attrs["state"] = state
@@ -154,11 +173,13 @@ def _rescore_owned(store: ResultStore, results: Path, rulebook: Path | None,
                                     on_path=clock.start, into=revision.store,
                                     waivers=model.waivers, gate=gate)
         name = str(store.attrs.get("campaign_name", "campaign"))
+        again = stored_resume_command(store.attrs, stub.source, results.parent)
         result = finish_evaluation(revision, evaluation, stub, output, junit, name,
-                                   clock.seconds(), then, expect=not search, steps=steps)
+                                   clock.seconds(), then, expect=not search, steps=steps,
+                                   again=again)
     result.warnings.extend(held_warnings(store.attrs, results, stub.source,
                                          bool(model.expect), state))
-    warn_lost_runs(result, stored_resume_command(store.attrs, stub.source, results.parent))
+    warn_lost_runs(result, again)
     result.warnings.extend(ground.warnings)
     result.warnings.extend(describe_warnings(unplaced_area_warnings(stub, evaluator),
                                              {stub.locations.path: stub.text}))

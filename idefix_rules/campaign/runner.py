@@ -113,6 +113,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                 campaign, evaluator, fmu_path, fixed, options, progress, collisions,
                 (terrain, source),
                 stage=adaptive_monte_carlo if campaign.adaptive is not None else None)
+    except BrokenPipeError:  # stdout's reader went away (`| head`): the dispatcher ends
+        raise                # quietly (141); the results file is marked interrupted
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / 'results.h5'} failed: "
                                   f"{failure}") from failure
@@ -145,7 +147,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                         waivers=campaign.model.waivers)
             result = finish_evaluation(revision, evaluation, campaign, campaign.output,
                                        junit, campaign.name,
-                                       clock.seconds(simulation.path_seconds), then)
+                                       clock.seconds(simulation.path_seconds), then,
+                                       again=again)
     finally:
         store.close()
     evaluated = time.perf_counter()
@@ -160,6 +163,8 @@ def _run_owned(campaign: Campaign, options: SimulationOptions, progress: Progres
                                          f"then `{again_report}`", advance)
         except KeyboardInterrupt as stop:  # the results and summary.json are complete
             raise ReportInterrupted(result) from stop
+        except BrokenPipeError:  # stdout's reader went away: nothing is left to say
+            raise
         except (OSError, IdefixError) as failure:  # a full disk, a folder where a figure goes
             raise ReportFailed(result, failure) from failure
     result.timings = {"preparation_and_simulation": simulated - started,

@@ -31,15 +31,18 @@ from idefix_rules.campaign.outcome.decision import (
     Decision,
     campaign_confidence,
     campaign_decision,
+    near_rules,
     path_confidence,
     reason_items,
+    rule_name,
     verdict_counts,
+    verdict_parts,
 )
 from idefix_rules.campaign.outcome.expectation_checks import ExpectationResult
 from idefix_rules.campaign.simulation.processes import is_infrastructure
 from idefix_rules.campaign.statistics import pairwise
 from idefix_rules.campaign.statistics.pairwise import OPEN
-from idefix_rules.campaign.statistics.stopping import MOOT, STOP_FIXED
+from idefix_rules.campaign.statistics.stopping import STOP_FIXED
 from idefix_rules.cli.console import print_whole
 
 LEVELS = ("L1", "L2", "L3")
@@ -166,15 +169,6 @@ LEGEND = (f"{FAILED_MARK} rule failed · {UNDECIDED_MARK} rule not decided yet (
           "rulebook's confidence, so each alone is wider than a plain interval")
 
 
-def _rule_name(text: str) -> str:
-    return text.split(":", 1)[0] if ":" in text else text
-
-
-def _near_rules(path: PathResult) -> set[str]:
-    """The verdict rules of a path that lie within their margin of the limit."""
-    return {rule.name for rule in getattr(path.verdict, "rules", ()) if rule.near}
-
-
 def verdict_title(path: PathResult) -> str:
     """``#1 name`` (``– name`` without a rank): what a path's verdict line starts with."""
     return f"{'–' if path.rank is None else f'#{path.rank}'} {path.name}"
@@ -185,24 +179,7 @@ def verdict_line(path: PathResult) -> str:
     not decided yet (by name; the details are printed above the answer)."""
     rank = f"#{path.rank}" if path.rank is not None else "–"
     parts = [f"{rank} [bold]{escape(path.name)}[/bold]: {_verdict(path)}"]
-    if path.mean_risk is not None:
-        parts.append(f"risk {percent(path.mean_risk)}")
-    items = reason_items(path)
-    near = _near_rules(path)
-    failed = [_rule_name(text) for decided, text in items
-              if decided and _rule_name(text) not in near]
-    within = [_rule_name(text) for decided, text in items if _rule_name(text) in near]
-    open_ = [_rule_name(text) for decided, text in items if not decided]
-    if failed and path.verdict_text != "pass" and path.verdict is not None:
-        parts.append("fails " + ", ".join(escape(n) for n in failed))
-    if within:
-        parts.append("within the margin: " + ", ".join(escape(n) for n in within))
-    if open_:
-        # left open on purpose (an adaptive campaign stopped it: nothing depends on it), not
-        # waiting for more runs
-        label = ("not decided (no decision depends on it)" if MOOT in path.stop_reason
-                 else "not decided")
-        parts.append(f"{label}: " + ", ".join(escape(n) for n in open_))
+    parts.extend(escape(part) for part in verdict_parts(path))
     parts.extend(f"{escape(w.rule)} {escape(w.text())}" for w in path.waivers)
     return "  " + " · ".join(parts)
 
@@ -260,10 +237,10 @@ def print_outcome(console: Console, evaluation: CampaignEvaluation,
         if path.unfinished and path.stop_time is not None:
             text = unfinished_text(path.name, path.unfinished, path.completed, path.stop_time)
             print_whole(console, f"  [yellow]{escape(text)}[/yellow]", names)
-        near = _near_rules(path)
+        near = near_rules(path)
         for decided, reason in reason_items(path):
             marks = True
-            mark = (f"[yellow]{NEAR_MARK}[/yellow]" if _rule_name(reason) in near
+            mark = (f"[yellow]{NEAR_MARK}[/yellow]" if rule_name(reason) in near
                     else f"[red]{FAILED_MARK}[/red]" if decided
                     else f"[yellow]{UNDECIDED_MARK}[/yellow]")
             print_whole(console, f"  {mark} {escape(path.name)}: {escape(reason)}" if wide

@@ -194,14 +194,21 @@ class PlainProgress:
         self.paths: dict[str, _PathRuns] = {}
         self.runs_began: float | None = None
         self.runs_label = "Monte Carlo runs"  # what the runs are, in the line that ends them
+        # stdout's reader went away while the timer thread wrote: the main thread raises it
+        self.broken_pipe = False
 
     def _say(self, text: str) -> None:
+        if self.broken_pipe:  # the console is quiet since: it would not raise it again
+            raise BrokenPipeError
         self.console.print(text, markup=False, highlight=False, soft_wrap=True)
 
     def _announce(self, phase: tuple[str, float]) -> None:
         with self.lock:
             if self.phase is phase and self.decile == 0:  # still, and nothing said of it
-                self._say(f"{phase[0]} …")
+                try:
+                    self._say(f"{phase[0]} …")
+                except BrokenPipeError:  # said at the next line, where the command stops
+                    self.broken_pipe = True
 
     def message(self, text: str) -> None:
         self._end_phase()

@@ -95,8 +95,8 @@ def run(args: argparse.Namespace) -> int:
     # the campaign's modules (scipy among them, about a second) are imported before the
     # output folder is taken: a Ctrl-C meanwhile leaves nothing to resume
     import idefix_rules.campaign.runner  # noqa: F401
-    from idefix_rules.campaign.input.load import load_campaign
-    from idefix_rules.campaign.output_folder import claimed_output
+    from idefix_rules.campaign.input.load import declared_output
+    from idefix_rules.campaign.output_folder import claimed_output, set_aside_refused
     from idefix_rules.campaign.simulation.resume import (
         continue_command,
         interrupted_runs,
@@ -110,22 +110,14 @@ def run(args: argparse.Namespace) -> int:
     from idefix_rules.files import previous_path
 
     console = make_console()
-    campaign = load_campaign(args.campaign)
-    adaptive = args.runs == "auto" or (args.runs is None and campaign.adaptive is not None)
-    if not adaptive and (args.max_runs is not None or args.min_runs is not None):
-        raise UserInputError(error(
-            "C702", "--max-runs and --min-runs apply to an adaptive campaign only",
-            Span(str(args.campaign)), hint="add --runs auto, or write 'runs: auto' in the "
-                                          "campaign"))
-    campaign = campaign.with_overrides(
-        runs=args.runs, seed=args.seed,
-        output=args.out.resolve() if args.out else None, workers=args.workers,
-        max_runs=args.max_runs, min_runs=args.min_runs)
-    if campaign.adaptive is not None and campaign.adaptive.min_runs > campaign.adaptive.max_runs:
-        raise UserInputError(error(
-            "C701", f"min_runs {campaign.adaptive.min_runs} exceeds max_runs "
-                    f"{campaign.adaptive.max_runs}", Span(str(args.campaign)),
-            hint="give --max-runs at least the minimum (or a smaller --min-runs)"))
+    try:
+        campaign = _campaign(args)
+    except IdefixError as refusal:
+        # refused before the folder is taken: what this run will not write is set aside
+        # all the same, so that no earlier run's summary or JUnit speaks for it
+        set_aside_refused(args.out.resolve() if args.out else declared_output(args.campaign),
+                          args.junit, refusal)
+        raise
     options = SimulationOptions(workers=args.workers, run_timeout=args.run_timeout,
                                 resume=args.resume, scheduler=args.scheduler,
                                 dask_local=args.dask_local)
@@ -173,6 +165,30 @@ def run(args: argparse.Namespace) -> int:
             console.print(f"[yellow]warning:[/yellow] nothing to resume in {campaign.output}: "
                           "simulating every run")
         return _run_owned(args, campaign, options, progress, console)
+
+
+def _campaign(args: argparse.Namespace) -> Campaign:
+    """The campaign file with this command's options applied (C701, C702 when they do not
+    fit it)."""
+    from idefix_rules.campaign.input.load import load_campaign
+
+    campaign = load_campaign(args.campaign)
+    adaptive = args.runs == "auto" or (args.runs is None and campaign.adaptive is not None)
+    if not adaptive and (args.max_runs is not None or args.min_runs is not None):
+        raise UserInputError(error(
+            "C702", "--max-runs and --min-runs apply to an adaptive campaign only",
+            Span(str(args.campaign)), hint="add --runs auto, or write 'runs: auto' in the "
+                                          "campaign"))
+    campaign = campaign.with_overrides(
+        runs=args.runs, seed=args.seed,
+        output=args.out.resolve() if args.out else None, workers=args.workers,
+        max_runs=args.max_runs, min_runs=args.min_runs)
+    if campaign.adaptive is not None and campaign.adaptive.min_runs > campaign.adaptive.max_runs:
+        raise UserInputError(error(
+            "C701", f"min_runs {campaign.adaptive.min_runs} exceeds max_runs "
+                    f"{campaign.adaptive.max_runs}", Span(str(args.campaign)),
+            hint="give --max-runs at least the minimum (or a smaller --min-runs)"))
+    return campaign
 
 
 def _again(args: argparse.Namespace) -> str:

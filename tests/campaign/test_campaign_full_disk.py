@@ -461,3 +461,30 @@ def test_planning_a_million_runs_writes_almost_nothing_before_the_first_run(
         assert np.all(np.isfinite(parameters[:FIRST_ROWS]))
         assert np.all(np.isnan(parameters[FIRST_ROWS:]))  # not allocated yet
         assert file.attrs["state"] == "interrupted"
+
+
+def test_a_disk_full_when_the_junit_file_is_written(small_disk: Path, toy_fmu: Path,
+                                                    tmp_path: Path) -> None:
+    """The JUnit file's disk is full (the outputs' is not): exit 3 as every full disk (not
+    C207, which is a place the file cannot go), no summary.json giving exit code 1 for a
+    command that exited 3, and the command it prints writes both once there is space: it
+    gives --junit (without it, it wrote a summary and never the JUnit file)."""
+    folder = place_campaign(tmp_path / "campaign", toy_fmu).parent
+    reports = small_disk / "reports"
+    reports.mkdir()
+    junit = reports / "ci.xml"
+    filler = fill(small_disk, 0)
+    outcome = cli("campaign.yaml", "--quiet", "--no-report", "--runs", "8", "--junit",
+                  str(junit), cwd=folder)
+    line = assert_one_clear_line(outcome, reports)
+    results = (folder / "out" / "results.h5").resolve()
+    rewrite = f"idefix-verify evaluate {results} --junit {junit}"
+    assert line.endswith(f"more space is needed to write ci.xml; the evaluation is stored in "
+                         f"{results}; free space, then write the outputs again with "
+                         f"`{rewrite}`"), line
+    assert not junit.exists() and not (folder / "out" / "summary.json").exists()
+    filler.unlink()
+    again = cli(*rewrite.split()[1:], cwd=folder)
+    assert again.code == 1, again.stdout + again.stderr
+    assert json.loads((folder / "out" / "summary.json").read_text())["exit_code"] == 1
+    assert junit.read_text().startswith("<?xml")

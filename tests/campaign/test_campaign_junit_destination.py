@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from idefix_rules.campaign.output_folder import _is_junit_report
+from idefix_rules.files import is_junit_report
 
 REPLACEABLE = {
     "empty (touch, mktemp)": b"",
@@ -34,10 +34,10 @@ KEPT = {
 @pytest.mark.parametrize("name", list(REPLACEABLE))
 def test_a_junit_report_or_an_empty_file_may_be_replaced(tmp_path: Path, name: str) -> None:
     (tmp_path / "junit.xml").write_bytes(REPLACEABLE[name])
-    assert _is_junit_report(tmp_path / "junit.xml")
+    assert is_junit_report(tmp_path / "junit.xml")
 
 
 @pytest.mark.parametrize("name", list(KEPT))
 def test_any_other_file_is_kept(tmp_path: Path, name: str) -> None:
     (tmp_path / "junit.xml").write_bytes(KEPT[name])
-    assert not _is_junit_report(tmp_path / "junit.xml")
+    assert not is_junit_report(tmp_path / "junit.xml")

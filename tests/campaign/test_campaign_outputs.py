@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -140,8 +141,9 @@ def test_junit_with_expectations_fails_only_on_expectations() -> None:
     assert root.get("failures") == "1" and root.get("tests") == "6"
     assert suites["c.paths"].get("failures") == "0"
     broken = cases["broken"]
-    verdict = broken.find("properties/property[@name='verdict']")
+    verdict = suites["c.paths"].find("properties/property[@name='verdict[broken]']")
     assert verdict is not None and verdict.get("value") == "fail"
+    assert (broken.findtext("system-out") or "").startswith("path broken: fail · risk 10.0 %\n")
     assert "run 3 failed: the simulation process crashed (SIGSEGV)" in (
         broken.findtext("system-out") or "")
     assert cases["good"].get("time") == "1.250"
@@ -213,7 +215,11 @@ def test_an_undecided_verdict_says_not_decided_once() -> None:
     assert path.verdict_reasons[0].count("not decided") == 1
     results = CampaignEvaluation([path], ["close"], {}, {})
     detail = ET.fromstring(junit_xml(results, [], "c")).find(".//system-out")
-    assert detail is not None and (detail.text or "").count("not decided") == 1
+    assert detail is not None
+    # the verdict in one line (as the failure's message), then the details, which say it once
+    verdict, details = (detail.text or "").split("\n", 1)
+    assert verdict == "path close: pass (not decided) · risk 47.5 % · not decided: acceptable"
+    assert details.count("not decided") == 1
 
 
 def test_without_expectations_a_pass_not_decided_fails_ci() -> None:
@@ -226,7 +232,8 @@ def test_without_expectations_a_pass_not_decided_fails_ci() -> None:
     root, cases = _junit_failures(junit_xml(both, [], "c"))
     assert root.get("failures") == "1"
     failure = cases["close"].find("failure")
-    assert failure is not None and failure.get("message") == "path close: pass (not decided)"
+    assert failure is not None and \
+        failure.get("message") == "path close: pass (not decided) · risk 49.0 %"
     assert ci_line([], 1, both) == ("CI verdicts (no expectations: every path must pass): 1 of "
                                     "2 passed, 1 passing but not decided (exit 1)")
 
@@ -326,3 +333,171 @@ def test_raw_index_values_carry_the_si_unit_of_their_expression() -> None:
     units = raw_units(compile_rulebook_file(Path(__file__).parents[2] / "rulebooks" /
                                             "idefix-ops.rules"))
     assert units["I_ds"] == "m" and units["I_beta"] == "rad" and units["I_s"] == "1"
+
+
+LOST = "infrastructure: worker died 4 times while running it"
+AGAIN = "idefix-verify c.yaml --resume --junit ci.xml"
+
+
+def lost_evaluation() -> CampaignEvaluation:
+    """good passes; arc lost runs 1 and 4 of 8 to the infrastructure and passes on the six
+    left; straight's reference run was lost (verdict error, nothing simulated)."""
+    good = evaluation().paths[0]
+    arc = PathResult("arc", 1, "simulated", runs=8, completed=6,
+                     failures={1: LOST, 4: LOST}, mean_risk=0.2, risk_ci=(0.1, 0.3),
+                     passed=True, rank=2)
+    straight = PathResult("straight", 2, "reference_failed", runs=8, reason=LOST)
+    return CampaignEvaluation([good, arc, straight], ["good", "arc"],
+                              {"name": "r", "version": "1.0.0"}, {"campaign_name": "c"})
+
+
+def test_junit_of_runs_lost_to_the_infrastructure_is_in_error_as_the_exit_code_3() -> None:
+    """Exit code 3 (runs lost, not a verdict): each path that lost runs is an error case
+    naming the runs, their reasons and the command that runs them again; it was a passing
+    case (failures="0" errors="0", a green report for a red job) with the loss only in its
+    output, and a reference run lost was an error of type "error"."""
+    results = lost_evaluation()
+    assert exit_code(results, [], has_expectations=False) == 3
+    root, cases = _junit_failures(junit_xml(results, [], "c", resume=AGAIN))
+    assert (root.get("tests"), root.get("failures"), root.get("errors")) == ("3", "0", "2")
+    assert cases["good"].find("error") is None and cases["good"].find("failure") is None
+    arc = cases["arc"].find("error")
+    assert arc is not None and cases["arc"].find("failure") is None
+    assert arc.attrib == {
+        "type": "infrastructure",
+        "message": "path arc: runs 1, 4 lost to the infrastructure (2 of 8), not a verdict; "
+                   f"run them again with `{AGAIN}`"}
+    assert arc.text == f"run 1 lost: {LOST}\nrun 4 lost: {LOST}\nrun them again with `{AGAIN}`"
+    assert f"run 1 lost: {LOST}" in (cases["arc"].findtext("system-out") or "")
+    straight = cases["straight"].find("error")
+    assert straight is not None and straight.attrib == {
+        "type": "infrastructure",
+        "message": "path straight: its reference run was lost to the infrastructure, not a "
+                   f"verdict; run them again with `{AGAIN}`"}
+    assert straight.text == f"reference run lost: {LOST}\nrun them again with `{AGAIN}`"
+
+
+def test_an_expectation_on_a_path_that_lost_runs_is_not_judged_but_in_error() -> None:
+    """``expect: straight fails`` on a path whose reference run was lost: the expectation
+    does not hold (verdict error), which is the loss, not a failure of the chain: an error
+    case (it was <failure type="expectation">verdict error, as if the chain had passed). An
+    expectation on a path that lost nothing fails as before; the path cases of the lost
+    paths are errors too, the exit code being 3 whatever the expectations say."""
+    results = lost_evaluation()
+    checks = check_expectations([PathVerdictExpectation(path="straight", verdict="fail"),
+                                 PathVerdictExpectation(path="good", verdict="fail")], results)
+    assert exit_code(results, checks, has_expectations=True) == 3
+    root, cases = _junit_failures(junit_xml(results, checks, "c", resume=AGAIN))
+    assert (root.get("failures"), root.get("errors")) == ("1", "3")
+    unjudged = cases["expect[0] straight fails"].find("error")
+    assert unjudged is not None and unjudged.attrib == {
+        "type": "infrastructure",
+        "message": "not judged: straight lost runs to the infrastructure (verdict error); "
+                   f"run them again with `{AGAIN}`"}
+    assert cases["expect[0] straight fails"].find("failure") is None
+    failed = cases["expect[1] good fails"].find("failure")
+    assert failed is not None and failed.get("message") == "verdict pass"
+    assert [name for name, case in cases.items() if case.find("error") is not None] == [
+        "arc", "straight", "expect[0] straight fails"]
+
+
+FAILING_RULEBOOK = (
+    'rulebook "t" version "1.0.0"\npurpose "test"\n'
+    "index I_a { value = max over time (abs(pitch)) limit = 1 rad weight = 1 }\n"
+    "verdict acceptable: require risk <= 50 %\n"
+    "verdict quick: require time <= 5 s\n"
+    "verdict frugal: require energy <= 1 As\n")
+
+
+def failing_path() -> PathResult:
+    """Four runs at risk 0.9 taking 10 s each: acceptable and quick fail, decidedly."""
+    checked = check_text(FAILING_RULEBOOK, "t.rules").checked
+    assert checked is not None
+    rules = compile_rulebook(checked)
+    i_max = np.full(4, 0.9)
+    runs = RunEvaluation(
+        index_names=("I_a",), values={"I_a": i_max}, raw={"I_a": i_max},
+        per_sample={"I_a": i_max[:, None]}, weighted={"I_a": i_max}, i_max=i_max,
+        dominant=np.zeros(4, dtype=int), dominant_sample=np.zeros(4, dtype=int),
+        chance_names=(), chances={}, time=np.full(4, 10.0), energy=np.full(4, 0.5))
+    stats = rules.path_statistics(runs)
+    path = PathResult("straight", 0, "simulated", runs=4, completed=4, rank=1)
+    fill_result(path, runs, stats, rules.verdict(stats))
+    assert path.verdict_text == "fail" and not path.undecided
+    return path
+
+
+def test_a_failure_message_names_the_rules_the_path_breaks() -> None:
+    """A CI server's summary shows a failure's message only: it names the verdict rules the
+    path fails (or the command rule that rejected it), as the console's verdict line does; it
+    said only "path straight: fail" / "path too-fast: rejected"."""
+    rejected = PathResult("too-fast", 1, "rejected", reason=(
+        "command 1 breaks rule 'wheel_rate_limit' (max_wheel_rate = 0.5 rad/s): Fastest; "
+        "command 2 breaks rule 'turn_limit' (delta_heading = 200 deg)"))
+    excluded = PathResult("detour", 2, "excluded", reason=(
+        "the reference run fails prescreen 'reference_not_critical' (risk = 1)"))
+    results = CampaignEvaluation([failing_path(), rejected, excluded], ["straight"], {}, {})
+    _, cases = _junit_failures(junit_xml(results, [], "c"))
+    messages = {name: case.find("failure").get("message")  # type: ignore[union-attr]
+                for name, case in cases.items()}
+    assert messages == {
+        "straight": "path straight: fail · risk 90.0 % · fails acceptable, quick",
+        "too-fast": "path too-fast: rejected · breaks wheel_rate_limit, turn_limit",
+        "detour": "path detour: excluded · fails prescreen reference_not_critical"}
+
+
+# What the JUnit schema CI servers validate against allows (the Jenkins xUnit plugin's
+# junit-10.xsd, which refuses a file that breaks it): per element, its attributes and children.
+JUNIT_10 = {
+    "testsuites": ({"name", "time", "tests", "failures", "errors"}, {"testsuite"}),
+    "testsuite": ({"name", "tests", "failures", "errors", "group", "time", "skipped",
+                   "timestamp", "hostname", "id", "package", "file", "log", "url"},
+                  {"testsuite", "properties", "testcase", "system-out", "system-err"}),
+    "properties": (set(), {"property"}),
+    "property": ({"name", "value"}, set()),
+    "testcase": ({"name", "time", "classname", "group"},
+                 {"skipped", "error", "failure", "rerunFailure", "rerunError",
+                  "flakyFailure", "flakyError", "system-out", "system-err"}),
+    "failure": ({"type", "message"}, set()),
+    "error": ({"type", "message"}, set()),
+    "skipped": ({"type", "message"}, set()),
+    "system-out": (set(), set()),
+    "system-err": (set(), set()),
+}
+REQUIRED = {"testsuite": {"name", "tests", "failures", "errors"}, "property": {"name", "value"},
+            "testcase": {"name"}}
+
+
+def assert_junit_10(text: str) -> None:
+    root = ET.fromstring(text)
+    assert root.tag == "testsuites"
+    for element in root.iter():
+        attributes, children = JUNIT_10[element.tag]
+        assert set(element.attrib) <= attributes, (element.tag, element.attrib)
+        assert REQUIRED.get(element.tag, set()) <= set(element.attrib), element.tag
+        assert {child.tag for child in element} <= children, (element.tag, list(element))
+        if "time" in element.attrib:
+            assert re.fullmatch(r"[0-9]*(\.[0-9]*)?", element.get("time", "")), element.attrib
+
+
+def test_the_junit_file_is_valid_against_the_schema_ci_servers_check() -> None:
+    """<properties> inside a <testcase> and a skipped count on <testsuites> broke it: the
+    xUnit plugin refuses such a file. The verdict of each path is a property of its suite
+    (``verdict[<path>]``) and the first line of the case's output."""
+    from idefix_rules.errors import Span, error
+
+    results = evaluation()
+    checks = check_expectations([RankFirstExpectation(rank_first="close"),
+                                 PathVerdictExpectation(path="good", verdict="pass")], results)
+    unused = error("C215", "waiver matches nothing", Span("c.yaml", 3, 5))
+    for text in (junit_xml(results, [], "c"), junit_xml(results, checks, "c", {"good": 1.25}),
+                 junit_xml(results, checks, "c", problems=[unused]),
+                 junit_xml(lost_evaluation(), [], "c", resume=AGAIN)):
+        assert_junit_10(text)
+    root = ET.fromstring(junit_xml(results, [], "c"))
+    assert "skipped" not in root.attrib
+    properties = {p.get("name"): p.get("value") for p in root.iter("property")}
+    assert {key: value for key, value in properties.items() if key.startswith("verdict[")} == {
+        "verdict[good]": "pass", "verdict[close]": "pass (not decided)",
+        "verdict[broken]": "fail", "verdict[rejected]": "rejected"}
+    assert properties["asserted"] == "yes"

@@ -67,7 +67,7 @@ def test_a_rerun_killed_midway_leaves_no_output_of_the_previous_run_in_place(
     previous = json.loads((out / "summary.previous.json").read_text())
     assert previous["seed"] == 4242
     assert (out / "report.previous.html").is_file()
-    assert ET.parse(junit.with_name("junit.previous.xml")).getroot() is not None
+    assert ET.parse(junit.with_name("junit.xml.previous")).getroot() is not None
     assert (out / "results.previous.h5").is_file()
 
     # Finishing the run writes outputs that name its seed and results file.

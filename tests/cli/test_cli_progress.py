@@ -4,8 +4,10 @@ per 10 % of a path's runs with an ETA, a line when a long phase starts."""
 from __future__ import annotations
 
 import io
+import threading
 import time
 
+import pytest
 from rich.console import Console
 
 from idefix_rules.cli.progress import PlainProgress, RichProgress, make_progress, remaining
@@ -176,3 +178,26 @@ def test_on_a_terminal_a_note_prints_above_the_bars_and_keeps_them() -> None:
     assert progress.bars is bars and bars.tasks[1].completed == 1
     progress.stop()
     assert "a: decided after 1 runs: verdict fail" in out.getvalue()
+
+
+class _ClosedPipe(io.StringIO):
+    def write(self, text: str) -> int:
+        raise BrokenPipeError
+
+
+def test_a_reader_gone_while_a_long_phase_is_announced_stops_the_command(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The announcement comes from a timer thread: the broken pipe it meets is the main
+    thread's to raise at its next line (the dispatcher then ends quietly, exit 141), not a
+    thread's traceback on stderr followed by a command that runs on without a word."""
+    from idefix_rules.cli.console import StdoutConsole
+
+    thread_errors: list[type[BaseException]] = []
+    monkeypatch.setattr(threading, "excepthook",
+                        lambda hook: thread_errors.append(hook.exc_type))
+    progress = PlainProgress(StdoutConsole(file=_ClosedPipe(), width=80), long_phase=0.01)
+    progress.message("simulating")
+    time.sleep(0.3)
+    assert thread_errors == []
+    with pytest.raises(BrokenPipeError):
+        progress.message("evaluating")

@@ -196,6 +196,37 @@ def load_campaign(path: str | Path) -> Campaign:
     )
 
 
+def declared_output(path: str | Path) -> Path | None:
+    """The output folder a campaign file names (its ``output``, or the default), read without
+    validating the rest: for a campaign :func:`load_campaign` refused, the folder whose
+    outputs it would have replaced. None when the file is no regular file holding a YAML
+    mapping (a pipe is never read twice), or its ``output`` is no folder name.
+
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "c.yaml").write_text("runs: eight\\noutput: out\\n")
+    >>> declared_output(folder / "c.yaml") == (folder / "out").resolve()
+    True
+    """
+    source = Path(path)
+    try:
+        if not source.is_file() or _zip_archive(source) is not None:
+            return None
+        check_file_size(source, MAX_CAMPAIGN_BYTES, CAMPAIGN_TOO_LARGE, "campaign file")
+        text = read_user_text(source, "C010", "campaign file")
+        if _looks_like_a_rulebook(text):
+            return None
+        data = load_yaml(text, str(path)).data
+    except Exception:  # no campaign to read a folder from: none is named
+        return None
+    if not isinstance(data, dict):
+        return None
+    value = data.get("output", CampaignFile.model_fields["output"].default)
+    if not isinstance(value, str) or not value.strip():
+        return None
+    return (source.resolve().parent / value).resolve()
+
+
 def _raw_expectation_paths(data: Mapping[str, Any], locations: SourceMap
                            ) -> list[Diagnostic]:
     """C202 on the data as written, when the schema refused something else in the file:

@@ -244,6 +244,25 @@ def violation_text(violation: Any, units: DisplayUnits) -> str:
     return text + (f": {rationale}" if rationale else "")
 
 
+# How a rejection names its command rule (violation_text) and an exclusion its prescreen rule
+# (the compiled rulebook's finding): rule names are identifiers, never quoted inside.
+_GATE_RULE = re.compile(r"(?:breaks rule|fails prescreen) '([^']+)'")
+
+
+def gate_rules(reason: str) -> list[str]:
+    """The command or prescreen rules a rejected or excluded path's reason names, in order,
+    each once.
+
+    >>> gate_rules("command 1 breaks rule 'wheel_rate' (max_wheel_rate = 0.5 rad/s): "
+    ...            "Fastest; command 2 breaks rule 'turn_angle'; command 3 breaks rule "
+    ...            "'wheel_rate'")
+    ['wheel_rate', 'turn_angle']
+    >>> gate_rules("the reference run fails prescreen 'not_critical' (risk = 1)")
+    ['not_critical']
+    """
+    return list(dict.fromkeys(_GATE_RULE.findall(reason)))
+
+
 def _statistic_value(statistic: str, value: float) -> str:
     if statistic in ("time",):
         return f"{number(value)} s"

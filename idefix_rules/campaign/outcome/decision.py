@@ -35,6 +35,7 @@ from idefix_rules.campaign.evaluation.gate import NEEDS_RUN
 from idefix_rules.campaign.evaluation.path_result import CampaignEvaluation, PathResult
 from idefix_rules.campaign.input.wording import verdict_reason_items
 from idefix_rules.campaign.statistics.pairwise import OPEN, TIED, find
+from idefix_rules.campaign.statistics.stopping import MOOT
 from idefix_rules.plain import as_plain
 from idefix_rules.results.format import is_search
 
@@ -208,6 +209,40 @@ def reasons_of(path: PathResult) -> list[str]:
     """A path's failing (or undecided) verdict rules in words and percent, else its stored
     reasons (a rejected or excluded path says why in ``path.reason``)."""
     return [text for _, text in reason_items(path)]
+
+
+def rule_name(reason: str) -> str:
+    """The rule a reason of :func:`reasons_of` speaks of (the text before its first colon)."""
+    return reason.split(":", 1)[0] if ":" in reason else reason
+
+
+def near_rules(path: PathResult) -> set[str]:
+    """The verdict rules of a path that lie within their margin of the limit."""
+    return {rule.name for rule in getattr(path.verdict, "rules", ()) if rule.near}
+
+
+def verdict_parts(path: PathResult) -> list[str]:
+    """What follows a path's verdict in one line, by name: its risk, the rules it fails, those
+    within their margin of the limit, those not decided yet (the console's verdict line, the
+    JUnit message): ``['risk 86.0 %', 'fails acceptable_risk, runs_complete']``."""
+    parts = [f"risk {100.0 * path.mean_risk:.1f} %"] if path.mean_risk is not None else []
+    items = reason_items(path)
+    near = near_rules(path)
+    failed = [rule_name(text) for decided, text in items
+              if decided and rule_name(text) not in near]
+    within = [rule_name(text) for decided, text in items if rule_name(text) in near]
+    open_ = [rule_name(text) for decided, text in items if not decided]
+    if failed and path.verdict_text != "pass" and path.verdict is not None:
+        parts.append("fails " + ", ".join(failed))
+    if within:
+        parts.append("within the margin: " + ", ".join(within))
+    if open_:
+        # left open on purpose (an adaptive campaign stopped it: nothing depends on it), not
+        # waiting for more runs
+        label = ("not decided (no decision depends on it)" if MOOT in path.stop_reason
+                 else "not decided")
+        parts.append(f"{label}: " + ", ".join(open_))
+    return parts
 
 
 def path_confidence(path: PathResult) -> float:

@@ -25,6 +25,9 @@ class ExpectationResult:
     held: bool
     message: str
     seconds: float = 0.0  # time the check took (JUnit ``time``)
+    # The paths whose results it reads (every path for ``rank_first``): a path that lost runs
+    # to the infrastructure leaves it unjudged (JUnit says so as an error, not a failure).
+    paths: tuple[str, ...] = ()
 
 
 def percent(value: float | None) -> str:
@@ -168,5 +171,8 @@ def check_expectations(expectations: list[Any],
     for expectation in expectations:
         started = time.perf_counter()
         result = check_expectation(expectation, evaluation)
-        results.append(dataclasses.replace(result, seconds=time.perf_counter() - started))
+        read = (tuple(p.name for p in evaluation.paths)
+                if isinstance(expectation, RankFirstExpectation) else (expectation.path,))
+        results.append(dataclasses.replace(result, seconds=time.perf_counter() - started,
+                                           paths=read))
     return results

@@ -61,11 +61,15 @@ class Owner:
     # The kernel's start time of the pid (Linux: boot id and clock ticks since boot); tells a
     # pid reused by a later process from the owner. None where it cannot be read.
     process_start: str | None = None
+    # The JUnit file the owner writes (absolute), so that a command refused for the folder
+    # (C208) leaves it to its owner. None: it writes none.
+    junit: str | None = None
 
     def to_json(self) -> str:
         return json.dumps({"format": "idefix-lock", "pid": self.pid, "host": self.host,
                            "started": self.started, "command": self.command,
-                           "process_start": self.process_start}, indent=1) + "\n"
+                           "process_start": self.process_start, "junit": self.junit},
+                          indent=1) + "\n"
 
     @classmethod
     def from_json(cls, data: bytes) -> Owner | None:
@@ -73,10 +77,12 @@ class Owner:
         try:
             record = json.loads(data.decode("utf-8"))
             owner = cls(int(record["pid"]), str(record["host"]), str(record["started"]),
-                        str(record.get("command", "")), record.get("process_start"))
+                        str(record.get("command", "")), record.get("process_start"),
+                        record.get("junit"))
         except (ValueError, KeyError, TypeError, AttributeError):
             return None
-        if owner.process_start is not None and not isinstance(owner.process_start, str):
+        if any(value is not None and not isinstance(value, str)
+               for value in (owner.process_start, owner.junit)):
             return None
         return owner
 
@@ -87,8 +93,8 @@ class Owner:
         return f"pid {self.pid} on host {self.host}, started {started}{command}"
 
 
-def this_process(command: str | None = None) -> Owner:
-    """The owner record of the running process."""
+def this_process(command: str | None = None, junit: Path | None = None) -> Owner:
+    """The owner record of the running process (``junit``: the JUnit file it writes)."""
     if command is None:
         program = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
         if program == "__main__.py":
@@ -96,7 +102,8 @@ def this_process(command: str | None = None) -> Owner:
         command = " ".join([program, *sys.argv[1:]])
     started = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
     return Owner(os.getpid(), socket.gethostname(), started, command[:300],
-                 process_start(os.getpid()))
+                 process_start(os.getpid()),
+                 None if junit is None else str(Path(junit).resolve()))
 
 
 def process_start(pid: int) -> str | None:
@@ -174,20 +181,37 @@ class FolderLock:
 _HELD: dict[Path, FolderLock] = {}
 
 
+class FolderInUse(UserInputError):
+    """``C208``: another process owns the folder; ``owner`` names it (None when its lock
+    file cannot be read, or changed hands too often to tell)."""
+
+    def __init__(self, diagnostic: Diagnostic, owner: Owner | None,
+                 sources: dict[str, str] | None = None) -> None:
+        super().__init__(diagnostic, sources=sources)
+        self.owner = owner
+
+    def may_write(self, path: Path) -> bool:
+        """Whether the owner may write ``path`` as its JUnit file (True when it cannot be
+        told: another process's output is never taken from it)."""
+        return self.owner is None or self.owner.junit == str(Path(path).resolve())
+
+
 @contextlib.contextmanager
 def own_folder(folder: Path, command: str | None = None, span: Span | None = None,
                sources: dict[str, str] | None = None,
-               elsewhere: str | None = ELSEWHERE) -> Iterator[FolderLock]:
-    """Own ``folder`` (which must exist) for the ``with`` block; :class:`UserInputError`
+               elsewhere: str | None = ELSEWHERE,
+               junit: Path | None = None) -> Iterator[FolderLock]:
+    """Own ``folder`` (which must exist) for the ``with`` block; :class:`FolderInUse`
     ``C208`` when another live process owns it (``elsewhere``: how the refused command could
-    write somewhere else, for the hint). A process may own a folder more than once (nested),
-    the lock goes with the outermost block."""
+    write somewhere else, for the hint). The lock names ``junit``, the JUnit file this
+    process writes. A process may own a folder more than once (nested), the lock goes with
+    the outermost block."""
     key = folder.resolve()
     held = _HELD.get(key)
     if held is not None and held.owner.pid == os.getpid():
         yield FolderLock(held.folder, held.path, held.owner, held.data)  # the outer one frees it
         return
-    lock = acquire(folder, command, span, sources, elsewhere)
+    lock = acquire(folder, command, span, sources, elsewhere, junit)
     _HELD[key] = lock
     try:
         yield lock
@@ -198,10 +222,10 @@ def own_folder(folder: Path, command: str | None = None, span: Span | None = Non
 
 def acquire(folder: Path, command: str | None = None, span: Span | None = None,
             sources: dict[str, str] | None = None,
-            elsewhere: str | None = ELSEWHERE) -> FolderLock:
+            elsewhere: str | None = ELSEWHERE, junit: Path | None = None) -> FolderLock:
     """Create the lock file in ``folder``, taking over a stale one; refuse a live owner."""
     path = folder / LOCK_FILE
-    me = this_process(command)
+    me = this_process(command, junit)
     data = me.to_json().encode("utf-8")
     notes: list[str] = []
     unreadable_since: float | None = None
@@ -227,10 +251,10 @@ def acquire(folder: Path, command: str | None = None, span: Span | None = None,
         except FileNotFoundError:
             continue  # released meanwhile: try again
         except OSError as failure:
-            raise UserInputError(error(
+            raise FolderInUse(error(
                 FOLDER_IN_USE, f"output folder {folder} may be in use: its lock file cannot "
                                f"be read ({failure.strerror or failure})", Span(str(path)),
-                hint=f"delete {path} once no campaign writes into {folder}"),
+                hint=f"delete {path} once no campaign writes into {folder}"), None,
                 sources=sources) from None
         owner = Owner.from_json(seen)
         if owner is None:
@@ -245,16 +269,16 @@ def acquire(folder: Path, command: str | None = None, span: Span | None = None,
         else:
             stale = stale_reason(owner, me)
             if stale is None:
-                raise UserInputError(_in_use(folder, path, owner, me, elsewhere),
-                                     sources=sources)
+                raise FolderInUse(_in_use(folder, path, owner, me, elsewhere), owner,
+                                  sources=sources)
             reason, named = stale, owner.describe()
         if _take_away(path, seen):
             notes.append(f"{path}: took over the lock of {named}: {reason}")
-    raise UserInputError(error(
+    raise FolderInUse(error(
         FOLDER_IN_USE, f"output folder {folder} is contended: its lock changed hands "
                        f"{_ATTEMPTS} times while this campaign tried to take it",
         Span(str(path)), hint="more than one campaign is starting on this folder: run one "
-                              "at a time, or give each its own --out"), sources=sources)
+                              "at a time, or give each its own --out"), None, sources=sources)
 
 
 def _in_use(folder: Path, path: Path, owner: Owner, me: Owner,

@@ -172,6 +172,8 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
                                            prepared.fixed, options, progress,
                                            prepared.collisions,
                                            (prepared.terrain, prepared.source), stage=stage)
+    except BrokenPipeError:  # stdout's reader went away (`| head`): the dispatcher ends
+        raise                # quietly (141); the results file is marked interrupted
     except OSError as failure:  # the results file could not be written (locked …)
         raise InfrastructureError(f"writing {campaign.output / RESULTS_FILE} failed: "
                                   f"{failure}") from failure
