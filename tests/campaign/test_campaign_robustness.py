@@ -382,7 +382,7 @@ def test_a_rerun_without_resume_says_first_what_it_sets_aside_and_how_to_resume(
             "runs stored): it is set aside as results.previous.h5 and this run starts from "
             "zero; to continue it instead, stop now (Ctrl-C), rename it back to results.h5 "
             f"and run `idefix-verify {campaign_dir / 'campaign.yaml'} --resume --out "
-            f"{campaign.output} --runs 6 --seed 5`")
+            f"{campaign.output} --runs 6 --seed 5 --no-report`")  # and this command's options
     assert note in words
     assert words.index(note) < words.index("compiling the rulebook")  # before it starts
     assert (campaign.output / "results.previous.h5").is_file()
@@ -413,10 +413,10 @@ def test_the_command_that_continues_an_interrupted_campaign_has_its_runs_and_see
                  "--runs", "4", "--seed", "9"]) == 1  # too-fast rejected
     words = " ".join(capsys.readouterr().out.split())
     again = (f"idefix-verify {campaign_dir / 'campaign.yaml'} --resume --out {campaign.output} "
-             "--runs 6 --seed 5")
+             "--runs 6 --seed 5 --no-report")  # the stored runs and seed, this command's options
     assert f"rename it back to results.h5 and run `{again}`" in words, words
     (campaign.output / "results.previous.h5").replace(results)
-    code = main([*again.split()[1:], "--no-report", "--quiet"])
+    code = main([*again.split()[1:], "--quiet"])
     captured = capsys.readouterr()
     words = " ".join((captured.out + captured.err).split())
     assert code == 1 and "H010" not in words  # continued: too-fast is rejected, as before
