@@ -154,7 +154,9 @@ def _main(argv: Sequence[str] | None) -> int:
 
 
 def _caused_by_interrupt(failure: BaseException) -> bool:
-    """Whether a KeyboardInterrupt is in ``failure``'s chain of causes and contexts.
+    """Whether a KeyboardInterrupt is in ``failure``'s chain of causes (``raise … from``, as
+    a C extension's failed initialisation raises it; not a mere context: an error raised
+    while a Ctrl-C was being handled is an error of its own).
 
     >>> try:
     ...     try:
@@ -164,6 +166,14 @@ def _caused_by_interrupt(failure: BaseException) -> bool:
     ... except ImportError as failure:
     ...     _caused_by_interrupt(failure), _caused_by_interrupt(ValueError())
     (True, False)
+    >>> try:
+    ...     try:
+    ...         raise KeyboardInterrupt
+    ...     except KeyboardInterrupt:
+    ...         raise ValueError("a bug in the handler")
+    ... except ValueError as failure:
+    ...     _caused_by_interrupt(failure)
+    False
     """
     seen: set[int] = set()
     current: BaseException | None = failure
@@ -171,7 +181,7 @@ def _caused_by_interrupt(failure: BaseException) -> bool:
         if isinstance(current, KeyboardInterrupt):
             return True
         seen.add(id(current))
-        current = current.__cause__ or current.__context__
+        current = current.__cause__
     return False
 
 

@@ -40,7 +40,6 @@ from idefix_rules.campaign.statistics.budget import alpha_budget
 from idefix_rules.commands import Command
 from idefix_rules.diff.evaluators import values_only
 from idefix_rules.diff.source import RulebookSource
-from idefix_rules.errors import UserInputError, error
 from idefix_rules.results.campaign import StoredCampaign
 from idefix_rules.results.collisions import CollisionSources, collision_reads, source_sha256
 from idefix_rules.results.format import drawn_paired
@@ -271,12 +270,6 @@ def diff_results_file(path: Path, old: RulebookSource, new: RulebookSource,
     stored = StoredCampaign.open(path)
     runs = ParallelRuns(stored.store, threads)
     try:
-        if stored.campaign is None:
-            if isinstance(stored.problem, KeyError | ValueError):
-                raise UserInputError(error(
-                    "D010", f"{path}: the stored campaign cannot be read back: "
-                            f"{stored.problem}")) from None
-            stored.require_campaign()
         store = stored.store
         campaign = stored.require_campaign()
         context = {"rover": stored.rover, "sigma": stored.sigma,

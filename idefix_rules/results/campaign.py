@@ -22,6 +22,7 @@ import numpy as np
 from idefix_rules.campaign.input.campaign_values import initial_position_sigma, rover_geometry
 from idefix_rules.campaign.input.load import Campaign, PathSpec
 from idefix_rules.commands import Command, RoverGeometry
+from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.results.collisions import CollisionFunction, collision_function
 from idefix_rules.results.reader import StoredResults, damaged
 from idefix_rules.results.terrain import StoredTerrain, terrain_for_rescoring
@@ -56,6 +57,19 @@ def rebuilt_campaign(store: StoredResults) -> Campaign:
                     paths=paths, rulebook=base / model.rulebook, output=base / model.output,
                     fmu=None, dem=None, runs=model.run_count, seed=model.uncertainty.seed,
                     workers=None, locations=document.locations, adaptive=model.adaptive)
+
+
+def _first_problem(failure: Exception) -> str:
+    """What a failed rebuild says first: pydantic's first error as ``key: message``."""
+    errors = getattr(failure, "errors", None)
+    if callable(errors):
+        try:
+            first = errors()[0]
+            where = ".".join(str(part) for part in first.get("loc", ()))
+            return f"{where}: {first.get('msg', failure)}" if where else str(first.get("msg"))
+        except (IndexError, TypeError, AttributeError):
+            pass
+    return str(failure)
 
 
 class StoredCampaign:
@@ -103,9 +117,16 @@ class StoredCampaign:
         self.close()
 
     def require_campaign(self) -> Campaign:
-        """The rebuilt campaign; raises what rebuilding it raised."""
+        """The rebuilt campaign; raises what rebuilding it raised (a stored campaign that no
+        longer validates, e.g. its FMU moved: D010, said as the user's to put right)."""
         if self.campaign is None:
             assert self.problem is not None
+            if isinstance(self.problem, KeyError | ValueError):
+                raise UserInputError(error(
+                    "D010", f"the stored campaign cannot be read back: "
+                            f"{_first_problem(self.problem)}", Span(str(self.path)),
+                    hint="re-run the campaign with this version, or read the file with the "
+                         "version that wrote it")) from None
             raise self.problem
         return self.campaign
 

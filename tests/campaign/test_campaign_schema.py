@@ -248,6 +248,15 @@ def test_the_limits_added_for_new_runs_accept_what_lies_just_inside():
                                               r"got 10 cm"):
         RockSpec.model_validate({**rock, "embed": "10 cm"})
     assert RockSpec.model_validate({**rock, "embed": "10 cm"}, context=STORED_CAMPAIGN)
+    # no level: refused for a new run, read back from a campaign stored before the check
+    from idefix_rules.campaign.input.expectations import CollisionExpectation
+
+    assert CollisionExpectation.model_validate(
+        {"path": "p", "max_collision_chance": {"L2": "0 %"}}).max_collision_chance == {"L2": 0}
+    with pytest.raises(ValidationError, match="give at least one level"):
+        CollisionExpectation.model_validate({"path": "p", "max_collision_chance": {}})
+    assert CollisionExpectation.model_validate(
+        {"path": "p", "max_collision_chance": {}}, context=STORED_CAMPAIGN)
 
 
 @pytest.mark.parametrize("written", ["auto", "AUTO", "Auto", " auto "])

@@ -1393,6 +1393,7 @@ def test_results_stored_before_a_stricter_check_are_scored_again_as_they_were(
         "environment:\n  rocks:\n    - {x: \"3 m\", y: \"3 m\", radius: \"2 cm\", "
         "embed: \"-1 cm\"}\n  terrain:\n    synthetic: {roughness: \"-1 mm\"}\n"
         "expect:\n  - {path: straight, max_mean_risk: 30}\n"
+        "  - {path: straight, max_collision_chance: {}}\n"
         "waivers:\n  - {rule: acceptable_risk, reason: r, approved_by: a, "
         "until: 4102444800}\n")
     (tmp_path / "older.yaml").write_text(older)
@@ -1408,6 +1409,31 @@ def test_results_stored_before_a_stricter_check_are_scored_again_as_they_were(
         output = "".join(capsys.readouterr())
         assert "Traceback" not in output and code == 0, output
     assert (tmp_path / "site" / "report.html").is_file()
+
+
+def test_a_stored_campaign_this_version_cannot_read_is_d010_not_a_traceback(
+        tmp_path: Path, cli_toy_fmu: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """evaluate and diff --results re-score a results file from the campaign it stores: one
+    that no longer validates is D010, exit 2 (evaluate ended in pydantic's traceback)."""
+    materialise(tmp_path, campaign(), cli_toy_fmu)
+    monkeypatch.chdir(tmp_path)
+    assert main(list(RUN)) == 1
+    capsys.readouterr()
+    stored = tmp_path / "out" / "results.h5"
+    with h5py.File(stored, "r+") as results:
+        text = results["provenance/campaign"][()].decode()
+        del results["provenance/campaign"]
+        results["provenance/campaign"] = text.replace("runs: 6", "runs: six")
+    for argv in (["evaluate", str(stored)],
+                 ["diff", "test.rules", "test.rules", "--results", str(stored)]):
+        code = main(argv)
+        output = "".join(capsys.readouterr())
+        assert code == 2, output
+        assert "Traceback" not in output, output
+        assert f"{stored}: error[D010]: the stored campaign cannot be read back: runs: " \
+               "expected a whole number of runs from 1 to 1000000 or 'auto', got \"six\"" in \
+               output, output
 
 
 def test_report_into_a_folder_keeps_the_report_already_there(

@@ -39,9 +39,10 @@ class MeanRiskExpectation(Strict):
     max_mean_risk: Fraction
 
 
-def _some_level(levels: dict[str, float]) -> dict[str, float]:
-    """At least one level: an empty mapping would hold with nothing checked."""
-    if not levels:
+def _some_level(levels: dict[str, float], info: ValidationInfo) -> dict[str, float]:
+    """At least one level: an empty mapping would hold with nothing checked (a campaign
+    stored before this check is read back as it ran)."""
+    if not levels and new_run(info):
         raise PydanticCustomError(
             "levels", "give at least one level with its largest chance, e.g. {L2: \"10 %\"} "
                       "(levels: L1, L2, L3, any)")
