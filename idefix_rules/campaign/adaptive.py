@@ -92,6 +92,10 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         sampled[name] = values
         running[name] = plan
         runs_to_simulate(store, name, reset=True)  # lost to the infrastructure: to simulate
+        # the looks are replayed from the first: where a path stops is theirs to say again
+        # (the same place, bit for bit; a stop a file of an earlier version made on runs that
+        # were then lost is not kept)
+        store.unmark_not_needed(name)
         status = store.run_status(name)
         # rows a stop before a --resume marked not needed are no runs stored (the looks
         # replayed stop the path there again)
@@ -113,6 +117,13 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # own) is no pass: without expectations the exit code is 1 whatever the open verdicts say;
     # a reference run lost to the infrastructure is not (exit code 3, and --resume runs it)
     exit_failing = any(makes_exit_failing(plan.status, plan.reason) for plan in plans)
+    # a reference run lost to the infrastructure: its path joins the looks after --resume,
+    # so the looks run now would judge one path too few (the levels, the comparisons) and
+    # could stop the others where an undisturbed campaign would not
+    lost_reference = next(
+        (f"not judged: the reference run of {plan.spec.name} was lost to the infrastructure; "
+         "--resume simulates it and goes on" for plan in plans
+         if plan.status == "reference_failed" and is_infrastructure(plan.reason)), None)
     # the paths simulated under a waived command or prescreen rule: `waived` whatever their
     # verdict, they rank below every chain that passes clean (campaign/outcome/decision.py)
     waived_before = {name for name in running
@@ -130,6 +141,11 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
     # what each path was last judged on (its runs up to its last look), to judge it again
     # when the chains shown to fail raise the levels (statistics/budget.py), stopped or not
     judged: dict[str, tuple[Any, Any, float, np.ndarray]] = {}
+    if lost_reference is not None:  # no look: P paths are judged together, not P - 1
+        for name in running:
+            _pause(store, name, 0, lost_reference)
+            progress.note(f"{name}: {lost_reference}")
+        running = {}
     # one pool for every look: its workers keep their loaded FMU from batch to batch
     with contextlib.ExitStack() as stack:
         pool = stack.enter_context(contextlib.closing(
@@ -142,6 +158,8 @@ def adaptive_monte_carlo(campaign: Any, evaluator: Any, rover: RoverGeometry, fm
         for look in settings.looks():
             if not running:
                 break
+            for name in running:  # the rows this look asks for: the path's runs so far
+                store.path_group(name).attrs["runs_used"] = look
             _simulate_rows(campaign, fmu, base, running, sampled, done, look, store, options,
                            progress, summary, pool, check, remember)
             lost = {name: _lost_below(store, name, look) for name in running}

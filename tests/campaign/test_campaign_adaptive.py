@@ -181,7 +181,10 @@ def test_an_open_verdict_no_decision_depends_on_stops_with_the_chain_that_leads(
     assert f"Runs: {reason}" in report
     case = next(c for c in ET.parse(junit).iter("testcase") if c.get("name") == "arc")
     failure = case.find("failure")
-    assert failure is not None and failure.get("message") == "path arc: fail (not decided)"
+    assert failure is not None
+    message = failure.get("message") or ""
+    assert message.startswith("path arc: fail (not decided) · risk ") and message.endswith(
+        " · not decided (no decision depends on it): acceptable_risk"), message
     assert f"runs: {reason}" in (failure.text or "")
     with h5py.File(campaign_dir / "out" / "results.h5") as results:
         status = results["paths/arc/runs/status"][()]
@@ -381,6 +384,15 @@ def test_runs_lost_at_a_look_judge_nothing_and_resume_to_the_same_result(
         for name in ("straight", "arc"):
             status = results[f"paths/{name}/runs/status"][()]
             assert not np.any(status == STATUS_NOT_NEEDED), name  # nothing given up
+    # the paths are judged on the rows the look asked for (straight's 10 complete runs, arc's
+    # 10 lost ones), never on the 190 rows no look asked for, which once counted as failed
+    # runs (runs_complete "failed 95 %", a passing chain shown failing)
+    paths = {p["name"]: p for p in first.summary["paths"]}
+    assert [paths[name]["runs_used"] for name in ("straight", "arc")] == [10, 10]
+    assert [paths[name]["missing_runs"] for name in ("straight", "arc")] == [0, 0]
+    assert paths["straight"]["failed_runs"] == 0 and paths["arc"]["failed_runs"] == 0
+    straight = next(p for p in uninterrupted_first_look(whole) if p["name"] == "straight")
+    assert paths["straight"]["verdict"] == straight["verdict"]
 
     resumed = run_campaign(load_campaign(disturbed), SimulationOptions(resume=True),
                            report=False)
@@ -392,6 +404,80 @@ def test_runs_lost_at_a_look_judge_nothing_and_resume_to_the_same_result(
         [p["runs_used"] for p in uninterrupted.summary["paths"]]
     assert uninterrupted.summary["paths"][1]["runs_used"] > 10  # arc goes on past its loss
     assert_same_datasets(disturbed.parent / "out" / "results.h5",
+                         whole.parent / "out" / "results.h5")
+
+
+def uninterrupted_first_look(folder: Path) -> list[dict[str, Any]]:
+    """The summary's paths of campaign ``folder`` run undisturbed to its first look only
+    (max_runs 10: its looks are the same up to there)."""
+    text = folder.read_text().replace("max_runs: 200", "max_runs: 10")
+    first = folder.parent / "first-look.yaml"
+    first.write_text(text.replace("output: out", "output: out-first-look"))
+    return list(run_campaign(load_campaign(first), report=False).summary["paths"])
+
+
+def test_a_reference_run_lost_ends_the_looks_before_the_first(
+        campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """arc's reference run lost to the infrastructure: its path would join the looks only
+    after --resume, so looks run now would judge the others with one path too few (the
+    levels, the comparisons) and could stop them for good where an undisturbed campaign goes
+    on. No look is run (exit 3), and --resume gives the undisturbed campaign."""
+    from idefix_rules.campaign.simulation import processes, reference_runs
+
+    lost = "infrastructure: killed by SIGKILL 3 times"
+    disturbed = write_campaign(tmp_path / "disturbed", campaign_dir, ADAPTIVE)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    original = reference_runs._reference_outcome
+
+    def losing(campaign: Any, evaluator: Any, rover: Any, store: Any, plan: Any,
+               nominal: Any, outcome: Any, *rest: Any) -> None:
+        if plan.spec.name == "arc":
+            outcome = processes.Outcome(False, reason=lost)
+        original(campaign, evaluator, rover, store, plan, nominal, outcome, *rest)
+
+    monkeypatch.setattr(reference_runs, "_reference_outcome", losing)
+    first = run_campaign(load_campaign(disturbed), report=False)
+    monkeypatch.setattr(reference_runs, "_reference_outcome", original)
+    assert first.exit_code == 3
+    paths = {p["name"]: p for p in first.summary["paths"]}
+    assert paths["straight"]["stop_reason"] == (
+        "not judged: the reference run of arc was lost to the infrastructure; --resume "
+        "simulates it and goes on")
+    assert paths["straight"]["runs_used"] == 0
+    resumed = run_campaign(load_campaign(disturbed), SimulationOptions(resume=True),
+                           report=False)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    assert resumed.exit_code == uninterrupted.exit_code
+    assert [(p["stop_reason"], p["runs_used"]) for p in resumed.summary["paths"]] == \
+        [(p["stop_reason"], p["runs_used"]) for p in uninterrupted.summary["paths"]]
+    assert_same_datasets(disturbed.parent / "out" / "results.h5",
+                         whole.parent / "out" / "results.h5")
+
+
+def test_a_resume_replays_a_stop_it_would_not_make(campaign_dir: Path, tmp_path: Path) -> None:
+    """A results file whose path was stopped where the looks would not stop it (as an earlier
+    version did on runs then lost), interrupted: --resume replays the looks, simulates the
+    rows that stop marked not needed, and ends as the undisturbed campaign."""
+    damaged = write_campaign(tmp_path / "damaged", campaign_dir, ADAPTIVE)
+    whole = write_campaign(tmp_path / "whole", campaign_dir, ADAPTIVE)
+    uninterrupted = run_campaign(load_campaign(whole), report=False)
+    arc = next(p for p in uninterrupted.summary["paths"] if p["name"] == "arc")
+    assert arc["runs_used"] > 10
+    run_campaign(load_campaign(damaged), report=False)
+    store = ResultStore.open(damaged.parent / "out" / "results.h5", writable=True)
+    try:
+        status = store.path_group("arc")["runs"]["status"]
+        status[10:] = STATUS_NOT_NEEDED  # as if never simulated
+        store.path_group("arc").attrs["runs_used"] = 10
+        store.path_group("arc").attrs["stop_reason"] = "cap of 200 runs reached"
+        store.attrs["state"] = "interrupted"
+    finally:
+        store.close()
+    resumed = run_campaign(load_campaign(damaged), SimulationOptions(resume=True),
+                           report=False)
+    assert [(p["stop_reason"], p["runs_used"]) for p in resumed.summary["paths"]] == \
+        [(p["stop_reason"], p["runs_used"]) for p in uninterrupted.summary["paths"]]
+    assert_same_datasets(damaged.parent / "out" / "results.h5",
                          whole.parent / "out" / "results.h5")
 
 

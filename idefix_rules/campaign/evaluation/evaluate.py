@@ -28,6 +28,7 @@ from idefix_rules.campaign.evaluation.path_result import (
     CampaignEvaluation,
     PathResult,
     fixed_stop_reason,
+    judged_rows,
     stored_path_result,
 )
 from idefix_rules.campaign.evaluation.remembered import RememberedCollisions, collision_pieces
@@ -184,8 +185,10 @@ def evaluate_store(store: ResultStore, evaluator: Any, rover: RoverGeometry, sig
             continue
         if on_path is not None:
             on_path(name, result.completed)
+        limit = judged_rows(store, name)  # an adaptive path: the rows its looks asked for
         evaluation, extra = evaluate_path(store, name, evaluator, rover, sigma, collisions,
-                                          chunk_runs, workers)
+                                          chunk_runs, workers,
+                                          within=None if limit is None else slice(0, limit))
         if evaluation is None:
             result.passed = False
             result.verdict_reasons = ["no complete run to evaluate"]

@@ -141,9 +141,25 @@ def stored_path_result(store: StoredResults, name: str) -> PathResult:
                         waivers=stored_waivers(str(group.attrs.get(STORED_ATTRIBUTE, ""))))
     if result.status == "simulated" and store.has_runs(name):
         status = store.run_status(name)
-        # rows an adaptive campaign never needed are not runs of the path
+        limit = judged_rows(store, name)
+        if limit is not None:
+            status = status[:limit]
+        # rows an adaptive campaign never needed (or its looks never asked for) are not runs
+        # of the path
         result.runs = int(np.sum(status != STATUS_NOT_NEEDED))
         result.completed = int(np.sum(status == STATUS_COMPLETE))
-        result.failures = store.failures(name)
+        result.failures = {run: reason for run, reason in store.failures(name).items()
+                           if limit is None or run < limit}
     return result
+
+
+def judged_rows(store: StoredResults, name: str) -> int | None:
+    """The rows of an adaptive campaign's path its looks asked for (its ``runs_used``: the
+    look it stopped at, or the one under way when the campaign was interrupted or ended for
+    lost runs): the path's runs. None for a fixed campaign (every row is a run) and for a
+    path no look has asked for runs yet."""
+    if str(store.attrs.get("runs_mode", "fixed")) != "auto":
+        return None
+    used = store.path_group(name).attrs.get("runs_used")
+    return None if used is None else int(used)
 

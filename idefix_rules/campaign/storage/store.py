@@ -381,6 +381,15 @@ class ResultStore(StoredResults):
         status[run] = STATUS_FAILED
         self.file.flush()
 
+    def unmark_not_needed(self, name: str) -> None:
+        """Rows marked not needed are missing again (an adaptive campaign replays its looks,
+        which mark them again where the path stops)."""
+        _, status, _ = self._run_handles(name)
+        current = status[()]
+        if np.any(current == STATUS_NOT_NEEDED):
+            status[...] = np.where(current == STATUS_NOT_NEEDED, STATUS_MISSING, current)
+            self.file.flush()
+
     def mark_not_needed(self, name: str, first: int) -> None:
         """Rows from ``first`` on that are still missing will never be simulated: an adaptive
         campaign stopped the path (raw data written in place, like a run's status)."""
