@@ -267,8 +267,11 @@ def test_an_interrupted_search_is_run_again_never_resumed_and_a_campaign_sets_it
     captured = capsys.readouterr()
     said = " ".join((captured.out + captured.err).split())
     assert "holds a worst-case search that is interrupted" in said
+    # with the search's shape: a command without it searched otherwise (--critical 1, the
+    # default tail, 2 axes, 3 rounds here)
     assert (f"a search cannot be resumed: run it again with `idefix-verify worst "
-            f"{campaign_dir / 'campaign.yaml'} --out {out} --runs {runs} --seed {seed}`") in said
+            f"{campaign_dir / 'campaign.yaml'} --out {out} --runs {runs} --seed {seed} "
+            "--critical 1 --tail 0.0001 --axes 2 --rounds 3`") in said, said
     assert "--resume" not in said
     # interrupted before it stored its outcome or an evaluation: the report says to run it
     # again (a campaign's would say to continue it with --resume)

@@ -27,7 +27,8 @@ from idefix_rules.results.format import attribute_text, is_search
 from idefix_rules.shell import command_line
 
 __all__ = ["INFRASTRUCTURE", "continue_command", "execution_options", "interrupted_runs",
-           "is_infrastructure", "resume_command", "runs_to_simulate", "stored_resume_command"]
+           "is_infrastructure", "resume_command", "runs_to_simulate", "search_command",
+           "stored_resume_command"]
 
 
 def runs_to_simulate(store: Any, name: str, reset: bool = False) -> np.ndarray:
@@ -147,6 +148,8 @@ def execution_options(workers: int | None = None, scheduler: str | None = None,
     ['--workers', 2, '--run-timeout', '30', '--junit', 'out/junit.xml', '--no-report']
     >>> execution_options(scheduler="tcp://10.0.0.5:8786")
     ['--scheduler', 'tcp://10.0.0.5:8786']
+    >>> execution_options(run_timeout=1234567.0)  # every digit, as it was given
+    ['--run-timeout', '1234567']
     """
     words: list[object] = []
     if workers is not None:
@@ -156,12 +159,39 @@ def execution_options(workers: int | None = None, scheduler: str | None = None,
     if dask_local:
         words.append("--dask-local")
     if run_timeout is not None:
-        words += ["--run-timeout", f"{run_timeout:g}"]
+        words += ["--run-timeout", _number(run_timeout)]
     if junit is not None:
         words += ["--junit", junit]
     if not report:
         words.append("--no-report")
     return words
+
+
+def search_command(source: Any, output: Any, runs: Any, seed: Any, threshold: Any = None,
+                   tail: Any = None, axes: Any = None, rounds: Any = None,
+                   execution: Sequence[object] = ()) -> str:
+    """The command that runs a worst-case search again into the same folder: its budget,
+    seed and shape (``--critical``, ``--tail``, ``--axes``, ``--rounds``: those known), and the
+    options of ``execution``.
+
+    >>> search_command("c.yaml", "out", 200, 7, 1.0, 0.01, 2, 3, ["--no-report"])
+    'idefix-verify worst c.yaml --out out --runs 200 --seed 7 --critical 1 --tail 0.01 \
+--axes 2 --rounds 3 --no-report'
+    """
+    words: list[object] = ["idefix-verify", "worst", source, "--out", output, "--runs", runs,
+                           "--seed", seed]
+    for flag, value in (("--critical", threshold), ("--tail", tail)):
+        if value is not None:
+            words += [flag, _number(float(value))]
+    for flag, value in (("--axes", axes), ("--rounds", rounds)):
+        if value is not None:
+            words += [flag, int(value)]
+    return command_line(*words, *execution)
+
+
+def _number(value: float) -> str:
+    """A number as a command takes it back unchanged (``30``, ``0.01``, ``1234567``)."""
+    return f"{value:.17g}" if float(f"{value:.15g}") != value else f"{value:.15g}"
 
 
 def stored_resume_command(attrs: Any, source: Any, output: Any,
@@ -172,8 +202,9 @@ def stored_resume_command(attrs: Any, source: Any, output: Any,
     worst-case search cannot be resumed: the command that runs it again, into the same
     folder, with its budget and seed."""
     if is_search(attrs):
-        return command_line("idefix-verify", "worst", source, "--out", output,
-                            "--runs", attrs.get("runs"), "--seed", attrs.get("seed"))
+        return search_command(source, output, attrs.get("runs"), attrs.get("seed"),
+                              attrs.get("worst_threshold"), attrs.get("worst_tail"),
+                              attrs.get("worst_axes"), attrs.get("worst_rounds"), execution)
     adaptive = str(attrs.get("runs_mode", "fixed")) == "auto"
     return resume_command(source, output, attrs.get("runs"), attrs.get("seed"),
                           attrs.get("min_runs") if adaptive else None, execution)

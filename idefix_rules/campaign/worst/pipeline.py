@@ -27,6 +27,7 @@ from idefix_rules.campaign.output_folder import claimed_output
 from idefix_rules.campaign.preparation import prepare_simulation
 from idefix_rules.campaign.runner import write_report
 from idefix_rules.campaign.simulation.monte_carlo import parameter_info
+from idefix_rules.campaign.simulation.resume import execution_options, search_command
 from idefix_rules.campaign.simulation.run_stage import Progress, SimulationOptions
 from idefix_rules.campaign.simulation.simulate import RESULTS_FILE, simulate_campaign
 from idefix_rules.campaign.storage import diskspace
@@ -148,9 +149,14 @@ def run_worst(campaign: Campaign, settings: SearchSettings,
         return result
 
 
-def _again(campaign: Campaign, settings: SearchSettings) -> str:
-    return command_line("idefix-verify", "worst", campaign.source, "--out", campaign.output,
-                        "--runs", settings.runs, "--seed", campaign.seed)
+def _again(campaign: Campaign, settings: SearchSettings, options: SimulationOptions,
+           report: bool) -> str:
+    """The command that runs this search again: its budget, seed, shape and options."""
+    return search_command(campaign.source, campaign.output, settings.runs, campaign.seed,
+                          settings.threshold, settings.tail, settings.axes, settings.rounds,
+                          execution_options(options.workers, options.scheduler,
+                                            options.dask_local, options.run_timeout,
+                                            report=report))
 
 
 def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpace,
@@ -158,7 +164,7 @@ def _run_owned(campaign: Campaign, settings: SearchSettings, space: QuantileSpac
                report: bool) -> WorstResult:
     started = time.perf_counter()
     say = progress.message if progress is not None else (lambda text: None)
-    again = _again(campaign, settings)
+    again = _again(campaign, settings, options, report)
     prepared = prepare_simulation(campaign, say, again, planned_runs=False)
     evaluator = prepared.evaluator
     _check_threshold(campaign, evaluator, settings)

@@ -88,7 +88,9 @@ class WorstStage:
                             "sampling": SAMPLING, "paired": False,
                             "seed_derivation": SEED_DERIVATION,
                             "worst_threshold": self.settings.threshold,
-                            "worst_tail": self.settings.tail})
+                            "worst_tail": self.settings.tail,
+                            "worst_axes": self.settings.axes,
+                            "worst_rounds": self.settings.rounds})
         base = {**fmu_parameters, **nominal_parameters(campaign)}
         sigma = initial_position_sigma(campaign)
         by_name = {plan.spec.name: plan for plan in plans}
