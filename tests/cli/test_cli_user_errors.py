@@ -635,6 +635,15 @@ CASES = [
       for name, label, value, metres in (("wheel_radius", "zero", "0 cm", 0.0),
                                          ("wheel_radius", "negative", "-1 cm", -0.01),
                                          ("half_track", "zero", "0 cm", 0.0))),
+    # a drawn geometry: at the distribution's nominal value
+    Case("uncertain-half-wheelbase-negative",
+         campaign(("uncertainty:\n  method: monte_carlo\n  seed: 5\n  parameters:\n",
+                   "uncertainty:\n  method: monte_carlo\n  seed: 5\n  parameters:\n"
+                   '    rover.half_wheelbase: {distribution: normal, mean: "-2 cm", '
+                   'std: "1 mm"}\n')),
+         RUN, 2, ("campaign.yaml:12:56: error[C221]: uncertainty.parameters.rover."
+                  "half_wheelbase.mean: rover.half_wheelbase is the rover's geometry: it must "
+                  "be a positive length, got -0.02 m",)),
     Case("regolith-a-wheel-radius-just-above-zero",
          campaign(("paths:", 'environment:\n  regolith: {rover.wheel_radius: "1 mm"}\npaths:')),
          RUN, 1, ("CI verdicts",), absent=("C221",)),

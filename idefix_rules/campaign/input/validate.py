@@ -68,6 +68,11 @@ def check_geometry(campaign: Campaign) -> bool:
             continue
         places = where_set(campaign, [name])
         where: tuple[str | int, ...] = places[0] if places else ("environment", "regolith")
+        if where[0] == "uncertainty":  # at the distribution's nominal: its value, mean, median
+            spec = campaign.model.uncertainty.parameters[name]
+            nominal_key = next((key for key in ("value", "mean", "median")
+                                if hasattr(spec, key)), None)
+            where = (*where, nominal_key) if nominal_key is not None else where
         contract = CONTRACT_PARAMETERS[name]
         wanted = "not negative" if acceleration else "a positive length"
         problems.append(error(
