@@ -7,6 +7,7 @@ file that is not a JUnit report (``C703``)."""
 from __future__ import annotations
 
 import contextlib
+import os
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -55,15 +56,36 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
                 set_aside_refused(campaign.output, junit, refusal)
                 raise
             # a search's record there would speak for results no longer beside it
-            set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output),
-                      None if resume else campaign.output / RESULTS_FILE,
-                      None if resume else campaign.output / SEARCH_RECORD_FILE)
+            moved = set_aside(campaign.output / SUMMARY_FILE, *report_outputs(campaign.output),
+                              None if resume else campaign.output / RESULTS_FILE,
+                              None if resume else campaign.output / SEARCH_RECORD_FILE)
             set_aside_report(junit)
-            yield lock
+            try:
+                yield lock
+            except UserInputError:
+                if previous_path(campaign.output / RESULTS_FILE) in moved:
+                    _results_back(campaign.output)
+                raise
     finally:
         if not existed:  # a campaign refused before writing anything leaves no folder behind
             with contextlib.suppress(OSError):
                 campaign.output.rmdir()  # only when empty
+
+
+def _results_back(folder: Path) -> None:
+    """A run refused (exit 2) after it set the last results aside, having simulated no Monte
+    Carlo run (a drawn value the FMU refuses, F110, is found beside the reference runs):
+    those results go back in place, over what the refused run began, as they stay when a
+    run is refused before it takes the folder. Left aside, a second refused run replaced
+    them with the first one's stub."""
+    from idefix_rules.campaign.simulation.resume import interrupted_runs
+
+    results = folder / RESULTS_FILE
+    began = interrupted_runs(results) if results.exists() else (0, 0)
+    if began is None or began[0] > 0:  # complete, unreadable, or runs worth resuming
+        return
+    with contextlib.suppress(OSError):
+        os.replace(previous_path(results), results)
 
 
 def set_aside_refused(folder: Path | None, junit: Path | None,

@@ -74,3 +74,26 @@ def test_a_drawn_pressure_beyond_the_range_is_said_in_the_unit_of_its_distributi
                       r"\d+ of path straight draws it \(of 8 planned\)", output)
     assert found, output
     assert len(found[1].lstrip("-").replace(".", "")) <= 6, found[1]
+
+
+def test_refused_runs_in_a_row_keep_the_last_good_results(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run refused for a drawn value (F110, found beside the reference runs, after the
+    last results were set aside) puts them back: a second refused run replaced them with the
+    first one's stub, and the good results were gone."""
+    import h5py
+
+    good = _campaign(tmp_path, '{distribution: uniform, low: "30 deg", high: "40 deg"}')
+    argv = ["--runs", "2", "--workers", "1", "--quiet", "--no-report"]
+    assert main([str(good), *argv]) == 1
+    results = tmp_path / "out" / "results.h5"
+    with h5py.File(results) as stored:
+        planned = stored.attrs["started"]
+    for _ in range(2):
+        refused = _campaign(tmp_path, '{distribution: uniform, low: "85 deg", high: "95 deg"}')
+        assert main([str(refused), *argv]) == 2
+        assert "error[F110]" in "".join(capsys.readouterr())
+        with h5py.File(results) as stored:
+            assert stored.attrs["state"] == "complete" and stored.attrs["started"] == planned
+            assert "runs" in stored["paths/straight"]
+    assert not (tmp_path / "out" / "results.previous.h5").exists()
