@@ -31,6 +31,7 @@ from idefix_rules.limits import (
     TERRAIN_TOO_LARGE,
     check_file_size,
 )
+from idefix_rules.units import UnitError, plain_number
 
 MAGIC = "IDEFIX-TERRAIN 1"
 MAX_ROCKS = 4096
@@ -351,6 +352,8 @@ def load_dem(path: str | Path, cell: float | None = None,
     return Terrain(heights, origin, cell, tuple(rocks))
 
 
+PLAIN_HEIGHTS = ("a height is a plain decimal number in metres: a sign, the digits 0-9, a point, "
+                 "an exponent (-1.25e-3)")
 HEIGHTS_HINT = ("heights are metres from a datum near the ground (every planet's surface lies "
                 f"within {MAX_TERRAIN_HEIGHT / 1000:g} km of its reference); a no-data value "
                 "(1e308, 3.4e38) marks cells to fill or cut away")
@@ -406,26 +409,36 @@ def _read_csv(path: Path) -> np.ndarray:
             cells = cells[:-1]  # a separator ending the row (some tools write one)
         row = []
         for column, cell_text in enumerate(cells):
+            # plain decimal numbers only: Python's float() reads 1_000 as 1000 and every
+            # script's digits, and 1e-400 as 0
+            refused = ""
             try:
-                value: float | None = float(cell_text.replace(",", ".") if separator == ";"
-                                            else cell_text)
-            except ValueError:
-                value = None
+                value: float | None = plain_number(cell_text.replace(",", ".")
+                                                   if separator == ";" else cell_text)
+            except UnitError as failure:
+                value, refused = None, str(failure)
+            token = cell_text.strip()
+            if token.lstrip("+-").lower() in ("nan", "inf", "infinity"):
+                value = math.nan  # a no-data value: said as one
             if value is not None and math.isfinite(value) and abs(value) <= MAX_TERRAIN_HEIGHT:
                 row.append(value)
                 continue
             col = sum(len(c) + 1 for c in cells[:column]) + 1
-            if value is None and not rows:
+            col += len(cell_text) - len(cell_text.lstrip())  # at the number, not its blanks
+            if value is None and not rows and refused.startswith("not a number"):
                 # before any row of numbers it may be any file: quote none of it
                 raise UserInputError(error(
                     "F207", "not a CSV grid of heights: this line is not a row of numbers",
                     Span(str(path), number, 1)), sources={str(path): ""}) from None
-            token = cell_text.strip()
             shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
-            if value is None or not math.isfinite(value):  # nan, 1e400
+            if value is None:  # 1_000, ٣, 1e-400: said why
                 raise UserInputError(error(
-                    "F207", f"{'not a number' if value is None else 'not a finite height'}: "
-                            f"{shown}", Span(str(path), number, col))) from None
+                    "F207", f"not a number: {shown}" if refused.startswith("not a number")
+                    else refused, Span(str(path), number, col), hint=PLAIN_HEIGHTS)) from None
+            if not math.isfinite(value):  # nan, inf, 1e400
+                raise UserInputError(error(
+                    "F207", f"not a finite height: {shown}", Span(str(path), number, col))) \
+                    from None
             raise UserInputError(error(
                 "F207", f"height {shown} is beyond ±{MAX_TERRAIN_HEIGHT:g} m of the datum",
                 Span(str(path), number, col), hint=HEIGHTS_HINT)) from None

@@ -657,6 +657,21 @@ CASES = [
                     site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                         "rocks 0\n", "rocks 1\nrock 0 0 0 1 1e200 1\n"))),
          RUN, 2, ("site.dem:7:1: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
+    # plain ASCII decimal numbers only, as the campaign's: Python's float read 1_000 as 1000,
+    # other scripts' digits as theirs, and 1e-400 as 0
+    *(Case(f"dem-csv-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                                "    cell: \"1 m\"\npaths:")),
+                      site__csv=f"0,0,0\n0,{value},0\n0,0,0\n"), RUN, 2,
+           (f"site.csv:2:3: error[F207]: {said}",))
+      for name, value, said in (
+          ("underscore", "1_000", "not a number: '1_000'"),
+          ("arabic-indic-digit", "\u0663", "'\u0663' (ARABIC-INDIC DIGIT THREE) is not one of "
+           "the ASCII digits 0-9: write '3'"),
+          ("fullwidth-digits", "\uff11\uff12", "'\uff11' (FULLWIDTH DIGIT ONE) is not one of the "
+           "ASCII digits 0-9: write '12'"),
+          ("underflow", "1e-400", "1e-400 is too small for a double: it would be read as 0 (write "
+           "0 if zero is meant)"))),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
