@@ -34,6 +34,7 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
     speaks for another run."""
     check_junit_destination(junit, *campaign_files(campaign))
     _check_terrain_source(campaign)
+    _check_terrain_file(campaign)
     existed = campaign.output.exists()
     prepare_output(campaign)
     sources = {str(campaign.source): campaign.text}
@@ -113,6 +114,18 @@ def _check_terrain_source(campaign: Campaign) -> None:
             campaign.span(("environment", "terrain", "dem")),
             hint="keep the DEM beside the campaign, or write the campaign's output elsewhere"),
             sources={str(campaign.source): campaign.text})
+
+
+def _check_terrain_file(campaign: Campaign) -> None:
+    """A terrain file's mistakes (its header, grid and rocks: docs/terrain-format.md), said
+    before the folder is taken: reading one costs what copying it does (a few MB; 128 MB at
+    most), and the run reads it again. A DEM of bare heights needs the campaign's cell and is
+    read once, by the run."""
+    from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES, read_terrain
+
+    dem = campaign.dem
+    if dem is not None and dem.suffix.lower() not in HEIGHT_GRID_SUFFIXES and dem.is_file():
+        read_terrain(dem)
 
 
 def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:

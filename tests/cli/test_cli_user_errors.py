@@ -575,17 +575,18 @@ CASES = [
                                                       "    dem: site.dem\npaths:")),
                                            site__dem=terrain_file(
                                                header=TERRAIN_HEADER.replace("nx 3", "nx three"))),
-         RUN, 2, ("site.dem:2:1: error[F204]: header needs 'nx N'",)),
+         RUN, 2, ("site.dem:2:4: error[F204]: header needs 'nx N', 'ny N', 'origin X Y', 'cell C': "
+                  "'three' is not a whole number",)),
     Case("dem-cell-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                "    dem: site.dem\npaths:")),
                                     site__dem=terrain_file(
                                         header=TERRAIN_HEADER.replace("cell 1.0", "cell nan"))),
-         RUN, 2, ("site.dem:5:1: error[F204]: need a finite cell > 0",)),
+         RUN, 2, ("site.dem:5:6: error[F204]: 'cell': not a number: 'nan'",)),
     Case("dem-rock-level-unknown", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                         "    dem: site.dem\npaths:")),
                                               site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                                                   "rocks 0\n", "rocks 1\nrock 0 0 0 1 1 1 L9\n"))),
-         RUN, 2, ("site.dem:7:1: error[F204]: rock level 'L9': expected L1, L2 or L3",)),
+         RUN, 2, ("site.dem:7:18: error[F204]: rock level 'L9': expected L1, L2 or L3",)),
     Case("dem-csv-bad-value", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -656,7 +657,47 @@ CASES = [
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
                     site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                         "rocks 0\n", "rocks 1\nrock 0 0 0 1 1e200 1\n"))),
-         RUN, 2, ("site.dem:7:1: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
+         RUN, 2, ("site.dem:7:14: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
+    # the terrain file's header as the rover model reads it: a second item replaced the first
+    # there (a 100 m map from 'cell 0.02' then 'cell 0.5'), values after the ones it wants were
+    # ignored ('cell 0.02 0.04' taken as square)
+    *(Case(f"dem-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                      site__dem=terrain_file(header=TERRAIN_HEADER.replace(old, new))),
+           RUN, 2, (f"site.dem:{where}: error[F204]: {said}",))
+      for name, old, new, where, said in (
+          ("cell-twice", "cell 1.0\n", "cell 1.0\ncell 0.5\n", "6:1",
+           "'cell' given again: line 5 gives it already"),
+          ("nx-twice", "ny 3\n", "ny 3\nnx 4\n", "4:1",
+           "'nx' given again: line 2 gives it already"),
+          ("cell-of-two-values", "cell 1.0", "cell 1.0 2.0", "5:10",
+           "'cell' takes one value: '2.0' is one too many"),
+          ("nx-of-two-values", "nx 3", "nx 3 7", "2:6",
+           "'nx' takes one value: '7' is one too many"),
+          ("file-origin-of-three-values", "origin -1.0 -1.0", "origin -1.0 -1.0 5", "4:18",
+           "'origin' takes two values: '5' is one too many"),
+          ("heights-with-a-value", "heights", "heights 9", "7:9",
+           "'heights' takes no value: '9' is one too many"),
+          # the rover model's C reader takes 1_000 for 1, Python's float for 1000
+          ("cell-with-an-underscore", "cell 1.0", "cell 1_0", "5:6",
+           "'cell': not a number: '1_0'"),
+          ("rock-after-a-blank-line", "rocks 0\n", "rocks 1\n\nrock 0 0 0 0.1 0.1 0.1\n", "7:1",
+           "'rocks 1' (line 6) says 1 rock lines follow it directly; line 7 is no rock line"),
+          ("rock-before-its-count", "rocks 0\n", "rock 0 0 0 0.1 0.1 0.1\nrocks 1\n", "6:1",
+           "a 'rock' line outside the rock lines: they follow their 'rocks N' line directly, "
+           "N of them"),
+          ("rock-floating-1-km-up", "rocks 0\n", "rocks 1\nrock 0.5 0 1000 0.05 0.05 0.04\n",
+           "7:1", "rock at (0.5 m, 0 m) floats: its lowest point (z - c = 999.96 m) is 999.96 m "
+           "above the highest ground under it (0 m)"))),
+    # the binary grid after a header without its 'heights' line: never quoted (its NUL bytes
+    # were printed as the source line)
+    Case("dem-missing-heights-before-the-grid",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace("heights\n", ""))),
+         RUN, 2, ("site.dem:7:1: error[F204]: missing 'heights' line: line 7 holds binary data "
+                  "(byte 0x00), not header text",
+                  "hint: the header ends with a line 'heights'; the binary height grid follows "
+                  "it"), absent=("\x00",)),
     # plain ASCII decimal numbers only, as the campaign's: Python's float read 1_000 as 1000,
     # other scripts' digits as theirs, and 1e-400 as 0
     *(Case(f"dem-csv-{name}",
