@@ -40,6 +40,13 @@ MAX_WORKERS = 1024
 # rover model take overflow a double: a collision test of a rock 1e200 m wide was always false.
 MAX_ROCK_SEMI_AXIS = 1_000.0
 MAX_TERRAIN_HEIGHT = 100_000.0
+# A terrain's width along x and along y (m). The rover model places the rover within 1000 km
+# of the terrain's frame origin (its initial.x and initial.y range, parameters.c), so ground
+# beyond 2000 km across is ground no run starts on; and a flat map that wide is no body's
+# surface (across 2000 km of Mars the sphere falls 150 km below its tangent plane, more than
+# MAX_TERRAIN_HEIGHT). Far wider, the count of the rover model's rut grid cells over the
+# terrain overflowed (soil.c): the FMU ran out of memory or crashed.
+MAX_TERRAIN_EXTENT = 2_000_000.0
 
 RULEBOOK_TOO_LARGE = "E900"
 RULEBOOK_LINE_TOO_LONG = "E901"

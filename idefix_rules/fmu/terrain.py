@@ -26,6 +26,7 @@ from idefix_rules.fmu.terrain_header import MAGIC, MAX_NODES, read_header
 from idefix_rules.limits import (
     MAX_CSV_DEM_BYTES,
     MAX_NPY_DEM_BYTES,
+    MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEADER_BYTES,
     MAX_TERRAIN_HEIGHT,
     TERRAIN_TOO_LARGE,
@@ -153,6 +154,11 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
     ny, nx = terrain.heights.shape
     if len(terrain.rocks) > MAX_ROCKS:
         raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS}"))
+    widest = (max(nx, ny) - 1) * terrain.cell
+    if not widest <= MAX_TERRAIN_EXTENT:
+        raise UserInputError(error("F201", f"terrain of {nx} x {ny} nodes {terrain.cell:.12g} m "
+                                   f"apart is {widest:.6g} m wide; at most "
+                                   f"{MAX_TERRAIN_EXTENT / 1000:g} km"))
     lines = [MAGIC, f"nx {nx}", f"ny {ny}",
              f"origin {terrain.origin[0]!r} {terrain.origin[1]!r}", f"cell {terrain.cell!r}",
              f"rocks {len(terrain.rocks)}"]

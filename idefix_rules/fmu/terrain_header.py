@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from idefix_rules.errors import Span, UserInputError, error
 from idefix_rules.limits import (
     MAX_ROCK_SEMI_AXIS,
+    MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEIGHT,
 )
 from idefix_rules.units import PLAIN_WHOLE_NUMBER, UnitError, plain_number
@@ -297,6 +298,14 @@ def _checked(reader: _Reader, values: dict[str, list[tuple[str, int]]],
                           values["nx"][0][1])
     if not cell > 0:
         raise reader.fail("need a finite cell > 0", lines["cell"], values["cell"][0][1])
+    widest = (max(nx, ny) - 1) * cell
+    if widest > MAX_TERRAIN_EXTENT:
+        raise reader.fail(
+            f"cell {cell:.12g} m with {'nx' if nx >= ny else 'ny'} {max(nx, ny)} makes the grid "
+            f"{widest:.12g} m wide; at most {MAX_TERRAIN_EXTENT / 1000:g} km",
+            lines["cell"], values["cell"][0][1],
+            hint="the rover model starts within 1000 km of the terrain's origin; is the cell "
+                 "in metres?")
     header = TerrainHeader(nx, ny, (x0, y0), cell, tuple(rocks), lines, reader.line,
                            reader.offset, "\n".join(reader.shown))
     x_min, x_max, y_min, y_max = header.extent

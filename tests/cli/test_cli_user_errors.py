@@ -351,10 +351,20 @@ CASES = [
          ("campaign.yaml:13:30: error[C100]: uncertainty.parameters.toy.slip: unknown "
           "distribution 'gaussian'",)),
     Case("campaign-terrain-size-overflows",
-         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "1e160 m", '
-                   'cell: "1 cm"}\npaths:')), RUN, 2,
-         ("error[C100]: environment.terrain.synthetic: size 1e+160 m with cell 0.01 m gives "
-          "1e+162 × 1e+162 grid nodes, more than 16000000",)),
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 m", '
+                   'cell: "1e-200 m"}\npaths:')), RUN, 2,
+         ("error[C100]: environment.terrain.synthetic: size 4 m with cell 1e-200 m gives "
+          "4e+200 × 4e+200 grid nodes, more than 16000000",)),
+    # wider than 2000 km: the rover model's rut grid over it overflowed its count of cells
+    # (out of memory, or a crash: exit 3)
+    *(Case(f"campaign-synthetic-terrain-{name}",
+           campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: '
+                     f'"{size}", cell: "100 km"}}\npaths:')), RUN, 2,
+           (f"campaign.yaml:16:23: error[C100]: environment.terrain.synthetic.size: expected at "
+            f"most 2000 km, got {shown} m: the rover model starts within 1000 km of the "
+            "terrain's origin, so a terrain is at most 2000 km wide",))
+      for name, size, shown in (("40000-km-wide", "40000 km", "40000000"),
+                                ("just-over-2000-km-wide", "2000.001 km", "2000001"))),
     # a slope over the whole size lifting the ground beyond 100 km: said at the section, not
     # at the terrain file written from it (45 deg over 200 km is 100 km: just inside)
     Case("campaign-synthetic-terrain-beyond-100-km",
@@ -688,7 +698,12 @@ CASES = [
            "N of them"),
           ("rock-floating-1-km-up", "rocks 0\n", "rocks 1\nrock 0.5 0 1000 0.05 0.05 0.04\n",
            "7:1", "rock at (0.5 m, 0 m) floats: its lowest point (z - c = 999.96 m) is 999.96 m "
-           "above the highest ground under it (0 m)"))),
+           "above the highest ground under it (0 m)"),
+          # 2 cells of 1e20 m: the rover model's rut grid over it crashed the FMU (exit 3)
+          ("cell-1e20-m", "cell 1.0", "cell 1e20", "5:6",
+           "cell 1e+20 m with nx 3 makes the grid 2e+20 m wide; at most 2000 km"),
+          ("cell-just-over-1000-km", "cell 1.0", "cell 1000000.5", "5:6",
+           "cell 1000000.5 m with nx 3 makes the grid 2000001 m wide; at most 2000 km"))),
     # the binary grid after a header without its 'heights' line: never quoted (its NUL bytes
     # were printed as the source line)
     Case("dem-missing-heights-before-the-grid",
@@ -698,6 +713,20 @@ CASES = [
                   "(byte 0x00), not header text",
                   "hint: the header ends with a line 'heights'; the binary height grid follows "
                   "it"), absent=("\x00",)),
+    # a DEM of bare heights wider than 2000 km by its cell: the FMU ran out of memory or crashed
+    Case("dem-npy-cell-making-it-wider-than-2000-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              '    cell: "1000.001 km"\npaths:')),
+                    site__npy=_npy(np.zeros((3, 3)))),
+         RUN, 2, ("campaign.yaml:17:11: error[C100]: environment.terrain.cell: a cell of "
+                  "1000001 m makes the DEM's 3 x 3 heights 2000002 m wide; at most 2000 km",)),
+    Case("dem-npy-cell-1e20-m",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              '    cell: "1e20 m"\npaths:')),
+                    site__npy=_npy(np.zeros((3, 3)))),
+         RUN, 2, ("campaign.yaml:17:11: error[C100]: environment.terrain.cell: expected at most "
+                  "2000 km, got 1e+20 m: the rover model starts within 1000 km of the terrain's "
+                  "origin, so a terrain is at most 2000 km wide",)),
     # plain ASCII decimal numbers only, as the campaign's: Python's float read 1_000 as 1000,
     # other scripts' digits as theirs, and 1e-400 as 0
     *(Case(f"dem-csv-{name}",

@@ -18,7 +18,10 @@ from idefix_rules.campaign.input.field_types import (
     Strict,
     new_run,
 )
-from idefix_rules.limits import MAX_ROCK_SEMI_AXIS
+from idefix_rules.limits import (
+    MAX_ROCK_SEMI_AXIS,
+    MAX_TERRAIN_EXTENT,
+)
 from idefix_rules.units import Dimension, UnitError, parse_quantity
 
 # Terrain grids hold at most this many nodes (docs/terrain-format.md: nx·ny ≤ 16 million).
@@ -42,8 +45,23 @@ def _not_negative_length(value: float, info: ValidationInfo) -> float:
     return value
 
 
+def _terrain_width(value: float, info: ValidationInfo) -> float:
+    """A terrain's size, or a DEM's cell (the grid is at least one cell wide): at most
+    :data:`MAX_TERRAIN_EXTENT` (the rover model starts within 1000 km of the terrain's origin;
+    far wider grids overflowed its rut grid)."""
+    if new_run(info) and value > MAX_TERRAIN_EXTENT:
+        raise PydanticCustomError(
+            "terrain", "expected at most {most} km, got {got} m: the rover model starts within "
+            "1000 km of the terrain's origin, so a terrain is at most {most} km wide",
+            {"most": f"{MAX_TERRAIN_EXTENT / 1000:g}", "got": f"{value:.12g}"})
+    return value
+
+
+TerrainWidth = Annotated[Length, AfterValidator(_terrain_width)]
+
+
 class SyntheticTerrain(Strict):
-    size: Length = Field(default=4.0, gt=0)
+    size: TerrainWidth = Field(default=4.0, gt=0)
     cell: Length = Field(default=0.02, gt=0)
     slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
     slope_direction: Angle = 0.0
@@ -70,7 +88,7 @@ class TerrainSection(Strict):
     need ``cell``; ``origin`` defaults to centring the grid); or ``synthetic`` settings."""
 
     dem: str | None = None
-    cell: Length | None = Field(default=None, gt=0)
+    cell: TerrainWidth | None = Field(default=None, gt=0)
     origin: tuple[Length, Length] | None = None
     synthetic: SyntheticTerrain | None = None
 
