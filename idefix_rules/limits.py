@@ -40,6 +40,8 @@ MAX_WORKERS = 1024
 # rover model take overflow a double: a collision test of a rock 1e200 m wide was always false.
 MAX_ROCK_SEMI_AXIS = 1_000.0
 MAX_TERRAIN_HEIGHT = 100_000.0
+# The rocks the rover model holds (MAX_ROCKS in fmu/idefix_rover/sources/idefix.h).
+MAX_TERRAIN_ROCKS = 4096
 # A terrain's width along x and along y (m). The rover model places the rover within 1000 km
 # of the terrain's frame origin (its initial.x and initial.y range, parameters.c), so ground
 # beyond 2000 km across is ground no run starts on; and a flat map that wide is no body's

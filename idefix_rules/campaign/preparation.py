@@ -163,9 +163,10 @@ def _plausible_synthetic(campaign: Campaign, terrain: Terrain) -> Terrain:
 
 def _plausible_dem(campaign: Campaign, terrain: Terrain) -> Terrain:
     """A DEM of bare heights whose cell (the campaign's) makes it wider than the rover model
-    takes: said at the campaign's value (the DEM's own mistakes are said at its lines)."""
+    takes, or a terrain file whose rocks and the campaign's are more than it holds: said at the
+    campaign's value (the DEM's own mistakes are said at its lines)."""
     from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
-    from idefix_rules.limits import MAX_TERRAIN_EXTENT
+    from idefix_rules.limits import MAX_TERRAIN_EXTENT, MAX_TERRAIN_ROCKS
 
     problems = []
     ny, nx = terrain.heights.shape
@@ -179,6 +180,14 @@ def _plausible_dem(campaign: Campaign, terrain: Terrain) -> Terrain:
                     f"{MAX_TERRAIN_EXTENT / 1000:g} km", campaign.span(loc),
             hint="the rover model starts within 1000 km of the terrain's origin; is the cell "
                  "the DEM's spacing in metres?"))
+    given = len(campaign.model.environment.rocks)
+    if len(terrain.rocks) > MAX_TERRAIN_ROCKS:
+        loc = ("environment", "rocks")
+        problems.append(error(
+            "F202", f"{format_loc(loc)}: {given} rocks and the {len(terrain.rocks) - given} of "
+                    f"the terrain file make {len(terrain.rocks)}; at most {MAX_TERRAIN_ROCKS} "
+                    f"(the rover model holds {MAX_TERRAIN_ROCKS})", campaign.span(loc),
+            hint="keep the rocks near the paths"))
     if problems:
         raise UserInputError(problems, sources={str(campaign.source): campaign.text})
     return terrain

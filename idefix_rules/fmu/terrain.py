@@ -29,12 +29,13 @@ from idefix_rules.limits import (
     MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEADER_BYTES,
     MAX_TERRAIN_HEIGHT,
+    MAX_TERRAIN_ROCKS,
     TERRAIN_TOO_LARGE,
     check_file_size,
 )
 from idefix_rules.units import UnitError, plain_number
 
-MAX_ROCKS = 4096
+MAX_ROCKS = MAX_TERRAIN_ROCKS
 
 
 @dataclass(frozen=True)
@@ -153,7 +154,8 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
     path = Path(path)
     ny, nx = terrain.heights.shape
     if len(terrain.rocks) > MAX_ROCKS:
-        raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS}"))
+        raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS} "
+                                   f"(the rover model holds {MAX_ROCKS})"))
     widest = (max(nx, ny) - 1) * terrain.cell
     if not widest <= MAX_TERRAIN_EXTENT:
         raise UserInputError(error("F201", f"terrain of {nx} x {ny} nodes {terrain.cell:.12g} m "

@@ -25,6 +25,7 @@ from idefix_rules.limits import (
     MAX_ROCK_SEMI_AXIS,
     MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEIGHT,
+    MAX_TERRAIN_ROCKS,
 )
 from idefix_rules.units import PLAIN_WHOLE_NUMBER, UnitError, plain_number
 
@@ -224,6 +225,10 @@ def _rock_count(reader: _Reader, words: list[tuple[str, int]]) -> int:
     column = words[1][1]
     if count < 0:
         raise reader.fail(f"'rocks {count}': a count of rocks is 0 or more", column=column)
+    if count > MAX_TERRAIN_ROCKS:
+        raise reader.fail(f"{count} rocks; at most {MAX_TERRAIN_ROCKS} (the rover model holds "
+                          f"{MAX_TERRAIN_ROCKS})", column=column, code="F202",
+                          hint="keep the rocks near the paths")
     return count
 
 

@@ -713,6 +713,31 @@ CASES = [
                   "(byte 0x00), not header text",
                   "hint: the header ends with a line 'heights'; the binary height grid follows "
                   "it"), absent=("\x00",)),
+    # more rocks than the rover model holds: said at their count, before the output folder
+    # is taken (the last run's summary stays where it is)
+    Case("dem-with-5000-rocks",
+         {**with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\n"
+                                           "paths:")),
+                       site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                           "rocks 0\n", "rocks 5000\n" + "rock 0 0 0 0.1 0.1 0.1\n" * 5000))),
+          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
+         ("site.dem:6:7: error[F202]: 5000 rocks; at most 4096 (the rover model holds 4096)",),
+         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+    Case("campaign-with-5001-rocks-by-alias",
+         {**campaign(("paths:", 'environment:\n  rocks: [&r {x: "0.5 m", y: "0 m", radius: '
+                                '"1 cm"}' + ", *r" * 5000 + "]\npaths:")),
+          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
+         ("campaign.yaml:15:10: error[C100]: environment.rocks: 5001 rocks; at most 4096 (the "
+          "rover model holds 4096)",),
+         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+    Case("dem-rocks-and-the-campaign-s-over-4096",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\n"
+                                        '  rocks: [{x: "0.5 m", y: "0 m", radius: "1 cm"}]\n'
+                                        "paths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                        "rocks 0\n", "rocks 4096\n" + "rock 0 0 0 0.1 0.1 0.1\n" * 4096))),
+         RUN, 2, ("campaign.yaml:17:10: error[F202]: environment.rocks: 1 rocks and the 4096 of "
+                  "the terrain file make 4097; at most 4096 (the rover model holds 4096)",)),
     # a DEM of bare heights wider than 2000 km by its cell: the FMU ran out of memory or crashed
     Case("dem-npy-cell-making-it-wider-than-2000-km",
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"

@@ -21,6 +21,7 @@ from idefix_rules.campaign.input.field_types import (
 from idefix_rules.limits import (
     MAX_ROCK_SEMI_AXIS,
     MAX_TERRAIN_EXTENT,
+    MAX_TERRAIN_ROCKS,
 )
 from idefix_rules.units import Dimension, UnitError, parse_quantity
 
@@ -158,9 +159,19 @@ class NamedAreaGeometry(Strict):
     polygons: list[list[tuple[Length, Length]]] = []
 
 
+def _rock_count(value: list[RockSpec], info: ValidationInfo) -> list[RockSpec]:
+    """At most :data:`MAX_TERRAIN_ROCKS` rocks, as many as the rover model holds (YAML aliases
+    write thousands in a few lines)."""
+    if new_run(info) and len(value) > MAX_TERRAIN_ROCKS:
+        raise PydanticCustomError(
+            "rocks", "{count} rocks; at most {most} (the rover model holds {most})",
+            {"count": len(value), "most": MAX_TERRAIN_ROCKS})
+    return value
+
+
 class EnvironmentSection(Strict):
     terrain: TerrainSection = TerrainSection()
-    rocks: list[RockSpec] = []
+    rocks: Annotated[list[RockSpec], AfterValidator(_rock_count)] = []
     rock_levels: RockLevels | None = None
     keep_out: list[KeepOutArea] = []
     areas: dict[str, NamedAreaGeometry] = {}
