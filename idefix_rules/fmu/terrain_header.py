@@ -26,6 +26,7 @@ from idefix_rules.limits import (
     MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEIGHT,
     MAX_TERRAIN_ROCKS,
+    MIN_ROCK_SEMI_AXIS,
 )
 from idefix_rules.units import PLAIN_WHOLE_NUMBER, UnitError, plain_number
 
@@ -262,6 +263,10 @@ def _rock(reader: _Reader, words: list[tuple[str, int]]) -> RockLine:
         if not size > 0:
             raise reader.fail(f"rock semi-axis {size:.12g} m: a semi-axis is above 0",
                               column=column)
+        if size < MIN_ROCK_SEMI_AXIS:
+            raise reader.fail(f"rock semi-axis {size:.12g} m: at least {MIN_ROCK_SEMI_AXIS:g} m "
+                              "(a smaller grain is part of the regolith, which the soil model "
+                              "represents)", column=column)
         if size > MAX_ROCK_SEMI_AXIS:
             raise reader.fail(f"rock semi-axis {size:.12g} m: at most {MAX_ROCK_SEMI_AXIS:g} m "
                               "(a larger rock is a hill or a crater: give it in the heights)",

@@ -699,6 +699,9 @@ CASES = [
           ("rock-floating-1-km-up", "rocks 0\n", "rocks 1\nrock 0.5 0 1000 0.05 0.05 0.04\n",
            "7:1", "rock at (0.5 m, 0 m) floats: its lowest point (z - c = 999.96 m) is 999.96 m "
            "above the highest ground under it (0 m)"),
+          ("rock-a-grain", "rocks 0\n", "rocks 1\nrock 0.5 0 0 0.05 0.0005 0.04\n", "7:19",
+           "rock semi-axis 0.0005 m: at least 0.001 m (a smaller grain is part of the regolith, "
+           "which the soil model represents)"),
           # 2 cells of 1e20 m: the rover model's rut grid over it crashed the FMU (exit 3)
           ("cell-1e20-m", "cell 1.0", "cell 1e20", "5:6",
            "cell 1e+20 m with nx 3 makes the grid 2e+20 m wide; at most 2000 km"),
@@ -789,6 +792,14 @@ CASES = [
           ("radius-just-above-1-km", 'radius: "1000.001 m"', 38, "radius", "1000.001"),
           ("semi-axis-1e300", 'semi_axes: ["1 cm", "1e300 m", "1 cm"]', 50, "semi_axes[1]",
            "1e+300"))),
+    # a rock of 1e-300 m: how deep a point lay inside it overflowed (a traceback after the
+    # reference runs)
+    Case("rock-semi-axis-1e-300-m",
+         campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                             'semi_axes: ["1e-300 m", "5 cm", "5 cm"]}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:42: error[C100]: environment.rocks[0].semi_axes[0]: expected a rock "
+          "radius or semi-axis of at least 0.001 m, got 1e-300 m (a smaller grain is part of the "
+          "regolith, which the soil model represents; the collision check resolves 0.1 mm)",)),
     Case("rock-negative-radius",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
                              'radius: "-4 cm"}\npaths:')), RUN, 2,

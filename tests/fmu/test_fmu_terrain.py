@@ -185,6 +185,7 @@ def test_heights_lie_within_100_km_of_the_datum_in_every_dem_format(
 @pytest.mark.parametrize(("rock", "ground", "refused"), [
     ("rock 0.5 0.5 0 1000 1 1", 0.0, None),
     ("rock 0.5 0.5 0 1 1 1000.001", 0.0, "rock semi-axis 1000.001 m: at most 1000 m"),
+    ("rock 0.5 0.5 0 1 0.0009 1", 0.0, "rock semi-axis 0.0009 m: at least 0.001 m"),
     ("rock 0.5 0.5 101000 1 1000 1000", 1e5, None),  # a 1 km rock on ground 100 km high
     ("rock 0.5 0.5 -101000.001 1 1 1", 0.0,
      "rock centre height -101000.001 m: at most 101000 m"),

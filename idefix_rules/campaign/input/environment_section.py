@@ -22,6 +22,7 @@ from idefix_rules.limits import (
     MAX_ROCK_SEMI_AXIS,
     MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_ROCKS,
+    MIN_ROCK_SEMI_AXIS,
 )
 from idefix_rules.units import Dimension, UnitError, parse_quantity
 
@@ -101,8 +102,16 @@ class TerrainSection(Strict):
 
 
 def _rock_size(value: float, info: ValidationInfo) -> float:
-    """A rock's radius or semi-axis: at most :data:`MAX_ROCK_SEMI_AXIS` (a larger one is
-    terrain, and its squares would overflow the obstacle checker's geometry)."""
+    """A rock's radius or semi-axis: from :data:`MIN_ROCK_SEMI_AXIS` (a smaller grain is
+    regolith, and how deep a point lies inside it overflowed the obstacle checker) to
+    :data:`MAX_ROCK_SEMI_AXIS` (a larger one is terrain, and its squares would overflow the
+    obstacle checker's geometry)."""
+    if new_run(info) and value < MIN_ROCK_SEMI_AXIS:
+        raise PydanticCustomError(
+            "rock", "expected a rock radius or semi-axis of at least {least} m, got {got} m (a "
+            "smaller grain is part of the regolith, which the soil model represents; the "
+            "collision check resolves 0.1 mm)",
+            {"least": f"{MIN_ROCK_SEMI_AXIS:g}", "got": f"{value:.12g}"})
     if new_run(info) and value > MAX_ROCK_SEMI_AXIS:
         raise PydanticCustomError(
             "rock", "expected a rock radius or semi-axis of at most {most} m, got {got} m (a "
