@@ -40,6 +40,20 @@ MAX_WORKERS = 1024
 # rover model take overflow a double: a collision test of a rock 1e200 m wide was always false.
 MAX_ROCK_SEMI_AXIS = 1_000.0
 MAX_TERRAIN_HEIGHT = 100_000.0
+# A rock's smallest semi-axis (1 mm): a smaller grain is part of the regolith, which the soil
+# model represents. The collision check certifies its distances to 0.1 mm (CheckSettings.min_step
+# in obstacles/result.py), ten times finer; how deep a point lies inside a rock divides by its
+# semi-axes, and a semi-axis of 1e-300 m overflowed that (a traceback after the reference runs).
+MIN_ROCK_SEMI_AXIS = 0.001
+# The rocks the rover model holds (MAX_ROCKS in fmu/idefix_rover/sources/idefix.h).
+MAX_TERRAIN_ROCKS = 4096
+# A terrain's width along x and along y (m). The rover model places the rover within 1000 km
+# of the terrain's frame origin (its initial.x and initial.y range, parameters.c), so ground
+# beyond 2000 km across is ground no run starts on; and a flat map that wide is no body's
+# surface (across 2000 km of Mars the sphere falls 150 km below its tangent plane, more than
+# MAX_TERRAIN_HEIGHT). Far wider, the count of the rover model's rut grid cells over the
+# terrain overflowed (soil.c): the FMU ran out of memory or crashed.
+MAX_TERRAIN_EXTENT = 2_000_000.0
 
 RULEBOOK_TOO_LARGE = "E900"
 RULEBOOK_LINE_TOO_LONG = "E901"

@@ -233,6 +233,40 @@ def underflows(number_text: str, value: float) -> bool:
     return value == 0 and any(char in "123456789" for char in mantissa)
 
 
+PLAIN_NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+PLAIN_WHOLE_NUMBER = re.compile(r"[-+]?[0-9]+")
+
+
+def plain_number(text: str) -> float:
+    """``text`` (surrounding blanks aside) read as a plain ASCII decimal number: a sign,
+    digits, a point, an exponent. Python's ``float`` also reads ``1_000``, every script's
+    digits, ``nan`` and ``inf``, and a C reader of the same text (``%lf``) stops at the
+    ``_``; a number read differently by two readers, or as 0 when it is not (``1e-400``), is
+    refused with the reason (:class:`UnitError`). A number beyond a double is ``inf``: the
+    caller says what range it wanted.
+
+    >>> plain_number(" -2.5e3"), plain_number("1e400")
+    (-2500.0, inf)
+    >>> plain_number("1_000")
+    Traceback (most recent call last):
+    ...
+    idefix_rules.units.UnitError: not a number: '1_000'
+    """
+    token = text.strip()
+    foreign = foreign_digit(token)
+    if foreign is not None:
+        written = ascii_digits(token)  # a script's own decimal sign stays: then no advice
+        advice = f": write {written!r}" if PLAIN_NUMBER.fullmatch(written) else ""
+        raise UnitError(f"{foreign_digit_message(token, foreign)}{advice}", foreign)
+    if PLAIN_NUMBER.fullmatch(token) is None:
+        raise UnitError(f"not a number: {token!r}")
+    value = float(token)
+    if underflows(token, value):
+        raise UnitError(f"{token.lstrip('+')} is too small for a double: it would be read as 0 "
+                        "(write 0 if zero is meant)")
+    return value
+
+
 @functools.lru_cache(maxsize=1024)
 def parse_unit(text: str) -> Unit:
     """Parse a unit expression: atoms joined by ``*``, ``·`` or ``/`` with ``^n`` powers.

@@ -48,6 +48,7 @@ def claimed_output(campaign: Campaign, junit: Path | None = None,
         with contextlib.ExitStack() as owned:
             try:
                 _check_terrain_source(campaign)
+                _check_terrain_file(campaign)
                 prepare_output(campaign)
                 lock = owned.enter_context(own_folder(
                     campaign.output, span=Span(str(campaign.output)), sources=sources,
@@ -148,6 +149,18 @@ def _check_terrain_source(campaign: Campaign) -> None:
             campaign.span(("environment", "terrain", "dem")),
             hint="keep the DEM beside the campaign, or write the campaign's output elsewhere"),
             sources={str(campaign.source): campaign.text})
+
+
+def _check_terrain_file(campaign: Campaign) -> None:
+    """A terrain file's mistakes (its header, grid and rocks: docs/terrain-format.md), said
+    before the folder is taken: reading one costs what copying it does (a few MB; 128 MB at
+    most), and the run reads it again. A DEM of bare heights needs the campaign's cell and is
+    read once, by the run."""
+    from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES, read_terrain
+
+    dem = campaign.dem
+    if dem is not None and dem.suffix.lower() not in HEIGHT_GRID_SUFFIXES and dem.is_file():
+        read_terrain(dem)
 
 
 def campaign_files(campaign: Campaign) -> tuple[list[Path | None], list[Path]]:

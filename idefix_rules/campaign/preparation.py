@@ -124,6 +124,9 @@ def prepare_simulation(campaign: Campaign, say: Callable[[str], None],
     if terrain is not None and campaign.dem is None:
         generated = terrain
         terrain = gather(lambda: _plausible_synthetic(campaign, generated))
+    elif terrain is not None:
+        loaded = terrain
+        terrain = gather(lambda: _plausible_dem(campaign, loaded))
     if terrain is not None:
         extent = terrain.extent
         gather(lambda: _check_on_terrain(campaign, extent, planned_runs, bool(geometry)))
@@ -163,6 +166,38 @@ def _plausible_synthetic(campaign: Campaign, terrain: Terrain) -> Terrain:
         campaign.span(loc), hint="the slope over the whole size, or the roughness, lifts the "
         "ground that far: give a smaller size, slope or roughness"),
         sources={str(campaign.source): campaign.text})
+
+
+def _plausible_dem(campaign: Campaign, terrain: Terrain) -> Terrain:
+    """A DEM of bare heights whose cell (the campaign's) makes it wider than the rover model
+    takes, or a terrain file whose rocks and the campaign's are more than it holds: said at the
+    campaign's value (the DEM's own mistakes are said at its lines)."""
+    from idefix_rules.fmu.terrain import HEIGHT_GRID_SUFFIXES
+    from idefix_rules.limits import MAX_TERRAIN_EXTENT, MAX_TERRAIN_ROCKS
+
+    problems = []
+    ny, nx = terrain.heights.shape
+    widest = (max(nx, ny) - 1) * terrain.cell
+    bare = campaign.dem is not None and campaign.dem.suffix.lower() in HEIGHT_GRID_SUFFIXES
+    if bare and widest > MAX_TERRAIN_EXTENT:  # a terrain file's own cell is said at its line
+        loc: tuple[str, ...] = ("environment", "terrain", "cell")
+        problems.append(error(
+            "C100", f"{format_loc(loc)}: a cell of {terrain.cell:.12g} m makes the DEM's {nx} "
+                    f"x {ny} heights {widest:.12g} m wide; at most "
+                    f"{MAX_TERRAIN_EXTENT / 1000:g} km", campaign.span(loc),
+            hint="the rover model starts within 1000 km of the terrain's origin; is the cell "
+                 "the DEM's spacing in metres?"))
+    given = len(campaign.model.environment.rocks)
+    if len(terrain.rocks) > MAX_TERRAIN_ROCKS:
+        loc = ("environment", "rocks")
+        problems.append(error(
+            "F202", f"{format_loc(loc)}: {given} rocks and the {len(terrain.rocks) - given} of "
+                    f"the terrain file make {len(terrain.rocks)}; at most {MAX_TERRAIN_ROCKS} "
+                    f"(the rover model holds {MAX_TERRAIN_ROCKS})", campaign.span(loc),
+            hint="keep the rocks near the paths"))
+    if problems:
+        raise UserInputError(problems, sources={str(campaign.source): campaign.text})
+    return terrain
 
 
 def _resumed_terrain(results: Path, terrain: Terrain, source: TerrainSource

@@ -22,19 +22,20 @@ import numpy as np
 
 from idefix_rules.errors import Span, UserInputError, error, read_user_text
 from idefix_rules.files import write_atomic
+from idefix_rules.fmu.terrain_header import MAGIC, MAX_NODES, read_header
 from idefix_rules.limits import (
     MAX_CSV_DEM_BYTES,
     MAX_NPY_DEM_BYTES,
-    MAX_ROCK_SEMI_AXIS,
+    MAX_TERRAIN_EXTENT,
     MAX_TERRAIN_HEADER_BYTES,
     MAX_TERRAIN_HEIGHT,
+    MAX_TERRAIN_ROCKS,
     TERRAIN_TOO_LARGE,
     check_file_size,
 )
+from idefix_rules.units import UnitError, plain_number
 
-MAGIC = "IDEFIX-TERRAIN 1"
-MAX_ROCKS = 4096
-MAX_NODES = 16_000_000  # nx*ny, as the FMU reads it
+MAX_ROCKS = MAX_TERRAIN_ROCKS
 
 
 @dataclass(frozen=True)
@@ -153,7 +154,13 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
     path = Path(path)
     ny, nx = terrain.heights.shape
     if len(terrain.rocks) > MAX_ROCKS:
-        raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS}"))
+        raise UserInputError(error("F202", f"{len(terrain.rocks)} rocks; at most {MAX_ROCKS} "
+                                   f"(the rover model holds {MAX_ROCKS})"))
+    widest = (max(nx, ny) - 1) * terrain.cell
+    if not widest <= MAX_TERRAIN_EXTENT:
+        raise UserInputError(error("F201", f"terrain of {nx} x {ny} nodes {terrain.cell:.12g} m "
+                                   f"apart is {widest:.6g} m wide; at most "
+                                   f"{MAX_TERRAIN_EXTENT / 1000:g} km"))
     lines = [MAGIC, f"nx {nx}", f"ny {ny}",
              f"origin {terrain.origin[0]!r} {terrain.origin[1]!r}", f"cell {terrain.cell!r}",
              f"rocks {len(terrain.rocks)}"]
@@ -168,7 +175,9 @@ def write_terrain(path: str | Path, terrain: Terrain) -> Path:
 
 
 def read_terrain(path: str | Path) -> Terrain:
-    """Read a terrain file written by :func:`write_terrain` (or by hand, same format)."""
+    """Read a terrain file written by :func:`write_terrain` (or by hand, same format): its
+    header as the rover model reads it (:mod:`~idefix_rules.fmu.terrain_header`), its grid,
+    and every rock resting on or in the ground."""
     path = Path(path)
     check_file_size(path, MAX_TERRAIN_HEADER_BYTES + 8 * MAX_NODES, TERRAIN_TOO_LARGE,
                     "terrain file")
@@ -177,93 +186,15 @@ def read_terrain(path: str | Path) -> Terrain:
     except OSError as exc:
         raise UserInputError(error("F203", f"cannot read terrain file: {exc.strerror}",
                                    Span(str(path)))) from None
-    header: dict[str, list[str]] = {}
-    rocks: list[Rock] = []
-    rock_lines: list[int] = []  # the line of each rock
-    offset, line_number = 0, 0
+    header = read_header(data, str(path))
+    sources = {str(path): header.text}  # the header's text only: never the grid's bytes
 
-    lines: dict[str, int] = {}  # header key → its line, for messages about its values
+    def fail(message: str, line: int = header.end_line, hint: str | None = None
+             ) -> UserInputError:
+        return UserInputError(error("F204", message, Span(str(path), line, 1), hint=hint),
+                              sources=sources)
 
-    def fail(message: str, key: str | None = None) -> UserInputError:
-        line = lines.get(key, line_number) if key else line_number
-        return UserInputError(error("F204", message, Span(str(path), line, 1)))
-
-    while True:
-        end = data.find(b"\n", offset)
-        if end < 0:
-            line_number += 1
-            raise fail("missing 'heights' line")
-        line_number += 1
-        try:
-            text = data[offset:end].decode("ascii").strip()
-        except UnicodeDecodeError:
-            raise fail("header line is not ASCII text") from None
-        offset = end + 1
-        if line_number == 1:
-            if text != MAGIC:  # another kind of file: quote none of it
-                raise UserInputError(error(
-                    "F204", f"expected '{MAGIC}' as the first line", Span(str(path), 1, 1),
-                    hint="a DEM of bare heights ends in .npy or .csv"), sources={str(path): ""})
-            continue
-        if not text:
-            continue
-        key, *values = text.split()
-        if key == "heights":
-            break
-        if key == "rock":
-            try:
-                x, y, z, a, b, c = (float(v) for v in values[:6])
-            except ValueError:
-                raise fail("expected 'rock x y z a b c [level]'") from None
-            if len(values) not in (6, 7) or not min(a, b, c) > 0 \
-                    or not np.all(np.isfinite((x, y, z, a, b, c))):
-                raise fail("expected 'rock x y z a b c [level]' with finite values and "
-                           "positive semi-axes")
-            if max(a, b, c) > MAX_ROCK_SEMI_AXIS:
-                raise fail(f"rock semi-axis {max(a, b, c):.12g} m: at most "
-                           f"{MAX_ROCK_SEMI_AXIS:g} m (a larger rock is a hill or a crater: "
-                           "give it in the heights)")
-            if abs(z) > MAX_TERRAIN_HEIGHT + MAX_ROCK_SEMI_AXIS:  # a rock on the highest ground
-                raise fail(f"rock centre height {z:.12g} m: at most "
-                           f"{MAX_TERRAIN_HEIGHT + MAX_ROCK_SEMI_AXIS:g} m from the datum either "
-                           "way (heights lie within "
-                           f"{MAX_TERRAIN_HEIGHT:g} m of it)")
-            if len(values) == 7 and values[6] not in ("L1", "L2", "L3"):
-                raise fail(f"rock level '{values[6]}': expected L1, L2 or L3")
-            rocks.append(Rock(x, y, a, b, c, z=z, level=values[6] if len(values) == 7 else None))
-            rock_lines.append(line_number)
-            continue
-        if key not in ("nx", "ny", "origin", "cell", "rocks"):
-            raise fail(f"unknown header line '{key}'")
-        header[key] = values
-        lines[key] = line_number
-
-    def number(key: str, parse: type[int] | type[float], index: int = 0) -> float:
-        try:
-            return parse(header[key][index])
-        except (KeyError, IndexError, ValueError):
-            raise fail("header needs 'nx N', 'ny N', 'origin X Y', 'cell C'",
-                       key if key in header else None) from None
-
-    nx, ny = int(number("nx", int)), int(number("ny", int))
-    x0, y0 = number("origin", float), number("origin", float, 1)
-    cell = number("cell", float)
-    count = int(number("rocks", int)) if "rocks" in header else 0
-    if nx < 2 or ny < 2 or nx * ny > MAX_NODES:
-        raise fail(f"need nx >= 2, ny >= 2 and nx*ny <= {MAX_NODES}", "ny" if ny < 2 else "nx")
-    if not (cell > 0 and np.isfinite(cell)):
-        raise fail("need a finite cell > 0", "cell")
-    if not np.all(np.isfinite((x0, y0))):
-        raise fail("need a finite origin", "origin")
-    if count != len(rocks):
-        raise fail(f"'rocks {count}' but {len(rocks)} rock lines", "rocks")
-    x1, y1 = x0 + (nx - 1) * cell, y0 + (ny - 1) * cell
-    for rock, at in zip(rocks, rock_lines, strict=True):
-        if not (x0 <= rock.x <= x1 and y0 <= rock.y <= y1):  # as a campaign's rock (C206)
-            raise UserInputError(error(
-                "F204", f"rock at ({rock.x:g} m, {rock.y:g} m) lies outside the grid (x {x0:g} "
-                        f"… {x1:g} m, y {y0:g} … {y1:g} m)", Span(str(path), at, 1),
-                hint="rock positions are world coordinates, in the grid's frame"))
+    nx, ny, offset = header.nx, header.ny, header.grid_offset
     expected = nx * ny * 8
     if len(data) - offset != expected:
         raise fail(f"height grid holds {len(data) - offset} bytes, expected {expected} "
@@ -274,7 +205,66 @@ def read_terrain(path: str | Path) -> Terrain:
     beyond = beyond_heights(heights)
     if beyond:
         raise fail(f"height grid: {beyond}")
-    return Terrain(heights.copy(), (x0, y0), cell, tuple(rocks))
+    terrain = Terrain(heights.copy(), header.origin, header.cell)
+    rocks = tuple(Rock(r.x, r.y, r.a, r.b, r.c, z=r.z, level=r.level) for r in header.rocks)
+    centres = terrain.height_at(np.array([r.x for r in rocks]), np.array([r.y for r in rocks]))
+    for rock, given, centre in zip(rocks, header.rocks, np.atleast_1d(centres), strict=True):
+        base, line = given.z - given.c, given.line
+        if base <= float(centre) + ROCK_REST_TOLERANCE:
+            continue  # on or in the ground at its centre (every rock write_terrain writes)
+        ground = highest_ground_under(terrain, rock)
+        if base > ground + ROCK_REST_TOLERANCE:
+            raise fail(f"rock at ({rock.x:g} m, {rock.y:g} m) floats: its lowest point "
+                       f"(z - c = {base:.6g} m) is {base - ground:.6g} m above the highest "
+                       f"ground under it ({ground:.6g} m)", line,
+                       hint="a rock rests on or in the ground: z = the ground at its centre "
+                            "+ c - the depth its bottom is buried")
+    return replace(terrain, rocks=rocks)
+
+
+# How far a rock's lowest point may lie above the ground under it and still rest there: a z
+# written to the millimetre (a hand-made file, a survey's rounding) still rests; a file written
+# by write_terrain has its rocks exactly on or in the ground, to rounding (1e-11 m at 100 km).
+ROCK_REST_TOLERANCE = 0.001
+
+
+def highest_ground_under(terrain: Terrain, rock: Rock) -> float:
+    """The highest ground (bilinear, rocks excluded) within the rectangle x ± a, y ± b around
+    ``rock``'s outline: a rock resting on a slope or a bump touches the ground there, above
+    the ground at its centre (a sphere of radius r on a slope α by r·(1/cos α − 1)).
+
+    The bilinear surface is linear along every grid line, so its highest point in the
+    rectangle is a grid node inside it or a point where its edges cross a grid line (or a
+    corner); the grid is clamped at its edges, as the heights continue there.
+
+    >>> flat = Terrain(np.array([[0.0, 0.0], [1.0, 1.0]]), (0.0, 0.0), 1.0)
+    >>> float(highest_ground_under(flat, Rock(0.5, 0.25, 0.1, 0.25, 0.1)))
+    0.5
+    """
+    ny, nx = terrain.heights.shape
+    x0, y0 = terrain.origin
+    cell = terrain.cell
+
+    def lines_across(low: float, high: float, origin: float, count: int) -> np.ndarray:
+        """The rectangle's edges and the grid lines between them, in grid units, clamped."""
+        lo = min(max((low - origin) / cell, 0.0), count - 1.0)
+        hi = min(max((high - origin) / cell, 0.0), count - 1.0)
+        inner = np.arange(math.floor(lo) + 1, math.ceil(hi), dtype=float)
+        return np.concatenate(([lo], inner, [hi]))
+
+    fx = lines_across(rock.x - rock.a, rock.x + rock.a, x0, nx)
+    fy = lines_across(rock.y - rock.b, rock.y + rock.b, y0, ny)
+    inner_x = fx[1:-1].astype(int)
+    inner_y = fy[1:-1].astype(int)
+    highest = -math.inf
+    if inner_x.size and inner_y.size:  # the nodes inside: a slice, however many
+        highest = float(terrain.heights[inner_y[0]:inner_y[-1] + 1,
+                                        inner_x[0]:inner_x[-1] + 1].max())
+    xs, ys = x0 + cell * fx, y0 + cell * fy
+    for edge_x, edge_y in ((xs, ys[[0, -1]]), (xs[[0, -1]], ys)):  # the edges' crossings
+        gx, gy = np.meshgrid(edge_x, edge_y)
+        highest = max(highest, float(np.max(terrain.height_at(gx, gy))))
+    return highest
 
 
 HEIGHT_GRID_SUFFIXES = (".npy", ".csv")  # DEMs of bare heights: no cell size, no origin
@@ -351,6 +341,8 @@ def load_dem(path: str | Path, cell: float | None = None,
     return Terrain(heights, origin, cell, tuple(rocks))
 
 
+PLAIN_HEIGHTS = ("a height is a plain decimal number in metres: a sign, the digits 0-9, a point, "
+                 "an exponent (-1.25e-3)")
 HEIGHTS_HINT = ("heights are metres from a datum near the ground (every planet's surface lies "
                 f"within {MAX_TERRAIN_HEIGHT / 1000:g} km of its reference); a no-data value "
                 "(1e308, 3.4e38) marks cells to fill or cut away")
@@ -406,26 +398,36 @@ def _read_csv(path: Path) -> np.ndarray:
             cells = cells[:-1]  # a separator ending the row (some tools write one)
         row = []
         for column, cell_text in enumerate(cells):
+            # plain decimal numbers only: Python's float() reads 1_000 as 1000 and every
+            # script's digits, and 1e-400 as 0
+            refused = ""
             try:
-                value: float | None = float(cell_text.replace(",", ".") if separator == ";"
-                                            else cell_text)
-            except ValueError:
-                value = None
+                value: float | None = plain_number(cell_text.replace(",", ".")
+                                                   if separator == ";" else cell_text)
+            except UnitError as failure:
+                value, refused = None, str(failure)
+            token = cell_text.strip()
+            if token.lstrip("+-").lower() in ("nan", "inf", "infinity"):
+                value = math.nan  # a no-data value: said as one
             if value is not None and math.isfinite(value) and abs(value) <= MAX_TERRAIN_HEIGHT:
                 row.append(value)
                 continue
             col = sum(len(c) + 1 for c in cells[:column]) + 1
-            if value is None and not rows:
+            col += len(cell_text) - len(cell_text.lstrip())  # at the number, not its blanks
+            if value is None and not rows and refused.startswith("not a number"):
                 # before any row of numbers it may be any file: quote none of it
                 raise UserInputError(error(
                     "F207", "not a CSV grid of heights: this line is not a row of numbers",
                     Span(str(path), number, 1)), sources={str(path): ""}) from None
-            token = cell_text.strip()
             shown = repr(token[:20]) + ("…" if len(token) > 20 else "")
-            if value is None or not math.isfinite(value):  # nan, 1e400
+            if value is None:  # 1_000, ٣, 1e-400: said why
                 raise UserInputError(error(
-                    "F207", f"{'not a number' if value is None else 'not a finite height'}: "
-                            f"{shown}", Span(str(path), number, col))) from None
+                    "F207", f"not a number: {shown}" if refused.startswith("not a number")
+                    else refused, Span(str(path), number, col), hint=PLAIN_HEIGHTS)) from None
+            if not math.isfinite(value):  # nan, inf, 1e400
+                raise UserInputError(error(
+                    "F207", f"not a finite height: {shown}", Span(str(path), number, col))) \
+                    from None
             raise UserInputError(error(
                 "F207", f"height {shown} is beyond ±{MAX_TERRAIN_HEIGHT:g} m of the datum",
                 Span(str(path), number, col), hint=HEIGHTS_HINT)) from None

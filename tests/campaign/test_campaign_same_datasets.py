@@ -62,7 +62,7 @@ from idefix_rules.fmu.build import source_hash
 # pressed fraction and mean depth, soil supports counted from their static sinkage, rock
 # friction (lateral and the rim's) on the bounded normal force; results format 2, default
 # stop limit 3 × ideal, held after the chain.
-ROVER_SOURCE_HASH = "66ff6958e36deca38a1e3d9a40439c67ebb95dd68618579775f14a6b4488f546"
+ROVER_SOURCE_HASH = "775cff41be452beb81acc2632691c91c98bdbeb3e14a4ab532c003eb33fbcad4"
 
 
 def _same_as_recorded(name: str, results: Path) -> None:

@@ -425,10 +425,20 @@ CASES = [
          ("campaign.yaml:13:30: error[C100]: uncertainty.parameters.toy.slip: unknown "
           "distribution 'gaussian'",)),
     Case("campaign-terrain-size-overflows",
-         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "1e160 m", '
-                   'cell: "1 cm"}\npaths:')), RUN, 2,
-         ("error[C100]: environment.terrain.synthetic: size 1e+160 m with cell 0.01 m gives "
-          "1e+162 × 1e+162 grid nodes, more than 16000000",)),
+         campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: "4 m", '
+                   'cell: "1e-200 m"}\npaths:')), RUN, 2,
+         ("error[C100]: environment.terrain.synthetic: size 4 m with cell 1e-200 m gives "
+          "4e+200 × 4e+200 grid nodes, more than 16000000",)),
+    # wider than 2000 km: the rover model's rut grid over it overflowed its count of cells
+    # (out of memory, or a crash: exit 3)
+    *(Case(f"campaign-synthetic-terrain-{name}",
+           campaign(("paths:", 'environment:\n  terrain:\n    synthetic: {size: '
+                     f'"{size}", cell: "100 km"}}\npaths:')), RUN, 2,
+           (f"campaign.yaml:16:23: error[C100]: environment.terrain.synthetic.size: expected at "
+            f"most 2000 km, got {shown} m: the rover model starts within 1000 km of the "
+            "terrain's origin, so a terrain is at most 2000 km wide",))
+      for name, size, shown in (("40000-km-wide", "40000 km", "40000000"),
+                                ("just-over-2000-km-wide", "2000.001 km", "2000001"))),
     # a slope over the whole size lifting the ground beyond 100 km: said at the section, not
     # at the terrain file written from it (45 deg over 200 km is 100 km: just inside)
     Case("campaign-synthetic-terrain-beyond-100-km",
@@ -690,17 +700,18 @@ CASES = [
                                                       "    dem: site.dem\npaths:")),
                                            site__dem=terrain_file(
                                                header=TERRAIN_HEADER.replace("nx 3", "nx three"))),
-         RUN, 2, ("site.dem:2:1: error[F204]: header needs 'nx N'",)),
+         RUN, 2, ("site.dem:2:4: error[F204]: header needs 'nx N', 'ny N', 'origin X Y', 'cell C': "
+                  "'three' is not a whole number",)),
     Case("dem-cell-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                "    dem: site.dem\npaths:")),
                                     site__dem=terrain_file(
                                         header=TERRAIN_HEADER.replace("cell 1.0", "cell nan"))),
-         RUN, 2, ("site.dem:5:1: error[F204]: need a finite cell > 0",)),
+         RUN, 2, ("site.dem:5:6: error[F204]: 'cell': not a number: 'nan'",)),
     Case("dem-rock-level-unknown", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                         "    dem: site.dem\npaths:")),
                                               site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                                                   "rocks 0\n", "rocks 1\nrock 0 0 0 1 1 1 L9\n"))),
-         RUN, 2, ("site.dem:7:1: error[F204]: rock level 'L9': expected L1, L2 or L3",)),
+         RUN, 2, ("site.dem:7:18: error[F204]: rock level 'L9': expected L1, L2 or L3",)),
     Case("dem-csv-bad-value", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -771,7 +782,109 @@ CASES = [
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
                     site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                         "rocks 0\n", "rocks 1\nrock 0 0 0 1 1e200 1\n"))),
-         RUN, 2, ("site.dem:7:1: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
+         RUN, 2, ("site.dem:7:14: error[F204]: rock semi-axis 1e+200 m: at most 1000 m",)),
+    # the terrain file's header as the rover model reads it: a second item replaced the first
+    # there (a 100 m map from 'cell 0.02' then 'cell 0.5'), values after the ones it wants were
+    # ignored ('cell 0.02 0.04' taken as square)
+    *(Case(f"dem-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                      site__dem=terrain_file(header=TERRAIN_HEADER.replace(old, new))),
+           RUN, 2, (f"site.dem:{where}: error[F204]: {said}",))
+      for name, old, new, where, said in (
+          ("cell-twice", "cell 1.0\n", "cell 1.0\ncell 0.5\n", "6:1",
+           "'cell' given again: line 5 gives it already"),
+          ("nx-twice", "ny 3\n", "ny 3\nnx 4\n", "4:1",
+           "'nx' given again: line 2 gives it already"),
+          ("cell-of-two-values", "cell 1.0", "cell 1.0 2.0", "5:10",
+           "'cell' takes one value: '2.0' is one too many"),
+          ("nx-of-two-values", "nx 3", "nx 3 7", "2:6",
+           "'nx' takes one value: '7' is one too many"),
+          ("file-origin-of-three-values", "origin -1.0 -1.0", "origin -1.0 -1.0 5", "4:18",
+           "'origin' takes two values: '5' is one too many"),
+          ("heights-with-a-value", "heights", "heights 9", "7:9",
+           "'heights' takes no value: '9' is one too many"),
+          # the rover model's C reader takes 1_000 for 1, Python's float for 1000
+          ("cell-with-an-underscore", "cell 1.0", "cell 1_0", "5:6",
+           "'cell': not a number: '1_0'"),
+          ("rock-after-a-blank-line", "rocks 0\n", "rocks 1\n\nrock 0 0 0 0.1 0.1 0.1\n", "7:1",
+           "'rocks 1' (line 6) says 1 rock lines follow it directly; line 7 is no rock line"),
+          ("rock-before-its-count", "rocks 0\n", "rock 0 0 0 0.1 0.1 0.1\nrocks 1\n", "6:1",
+           "a 'rock' line outside the rock lines: they follow their 'rocks N' line directly, "
+           "N of them"),
+          ("rock-floating-1-km-up", "rocks 0\n", "rocks 1\nrock 0.5 0 1000 0.05 0.05 0.04\n",
+           "7:1", "rock at (0.5 m, 0 m) floats: its lowest point (z - c = 999.96 m) is 999.96 m "
+           "above the highest ground under it (0 m)"),
+          ("rock-a-grain", "rocks 0\n", "rocks 1\nrock 0.5 0 0 0.05 0.0005 0.04\n", "7:19",
+           "rock semi-axis 0.0005 m: at least 0.001 m (a smaller grain is part of the regolith, "
+           "which the soil model represents)"),
+          # 2 cells of 1e20 m: the rover model's rut grid over it crashed the FMU (exit 3)
+          ("cell-1e20-m", "cell 1.0", "cell 1e20", "5:6",
+           "cell 1e+20 m with nx 3 makes the grid 2e+20 m wide; at most 2000 km"),
+          ("cell-just-over-1000-km", "cell 1.0", "cell 1000000.5", "5:6",
+           "cell 1000000.5 m with nx 3 makes the grid 2000001 m wide; at most 2000 km"))),
+    # the binary grid after a header without its 'heights' line: never quoted (its NUL bytes
+    # were printed as the source line)
+    Case("dem-missing-heights-before-the-grid",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\npaths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace("heights\n", ""))),
+         RUN, 2, ("site.dem:7:1: error[F204]: missing 'heights' line: line 7 holds binary data "
+                  "(byte 0x00), not header text",
+                  "hint: the header ends with a line 'heights'; the binary height grid follows "
+                  "it"), absent=("\x00",)),
+    # more rocks than the rover model holds: said at their count, before the output folder
+    # is taken (the last run's summary stays where it is)
+    Case("dem-with-5000-rocks",
+         {**with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\n"
+                                           "paths:")),
+                       site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                           "rocks 0\n", "rocks 5000\n" + "rock 0 0 0 0.1 0.1 0.1\n" * 5000))),
+          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
+         ("site.dem:6:7: error[F202]: 5000 rocks; at most 4096 (the rover model holds 4096)",),
+         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+    Case("campaign-with-5001-rocks-by-alias",
+         {**campaign(("paths:", 'environment:\n  rocks: [&r {x: "0.5 m", y: "0 m", radius: '
+                                '"1 cm"}' + ", *r" * 5000 + "]\npaths:")),
+          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
+         ("campaign.yaml:15:10: error[C100]: environment.rocks: 5001 rocks; at most 4096 (the "
+          "rover model holds 4096)",),
+         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+    Case("dem-rocks-and-the-campaign-s-over-4096",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\n"
+                                        '  rocks: [{x: "0.5 m", y: "0 m", radius: "1 cm"}]\n'
+                                        "paths:")),
+                    site__dem=terrain_file(header=TERRAIN_HEADER.replace(
+                        "rocks 0\n", "rocks 4096\n" + "rock 0 0 0 0.1 0.1 0.1\n" * 4096))),
+         RUN, 2, ("campaign.yaml:17:10: error[F202]: environment.rocks: 1 rocks and the 4096 of "
+                  "the terrain file make 4097; at most 4096 (the rover model holds 4096)",)),
+    # a DEM of bare heights wider than 2000 km by its cell: the FMU ran out of memory or crashed
+    Case("dem-npy-cell-making-it-wider-than-2000-km",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              '    cell: "1000.001 km"\npaths:')),
+                    site__npy=_npy(np.zeros((3, 3)))),
+         RUN, 2, ("campaign.yaml:17:11: error[C100]: environment.terrain.cell: a cell of "
+                  "1000001 m makes the DEM's 3 x 3 heights 2000002 m wide; at most 2000 km",)),
+    Case("dem-npy-cell-1e20-m",
+         with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.npy\n"
+                              '    cell: "1e20 m"\npaths:')),
+                    site__npy=_npy(np.zeros((3, 3)))),
+         RUN, 2, ("campaign.yaml:17:11: error[C100]: environment.terrain.cell: expected at most "
+                  "2000 km, got 1e+20 m: the rover model starts within 1000 km of the terrain's "
+                  "origin, so a terrain is at most 2000 km wide",)),
+    # plain ASCII decimal numbers only, as the campaign's: Python's float read 1_000 as 1000,
+    # other scripts' digits as theirs, and 1e-400 as 0
+    *(Case(f"dem-csv-{name}",
+           with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.csv\n"
+                                "    cell: \"1 m\"\npaths:")),
+                      site__csv=f"0,0,0\n0,{value},0\n0,0,0\n"), RUN, 2,
+           (f"site.csv:2:3: error[F207]: {said}",))
+      for name, value, said in (
+          ("underscore", "1_000", "not a number: '1_000'"),
+          ("arabic-indic-digit", "\u0663", "'\u0663' (ARABIC-INDIC DIGIT THREE) is not one of "
+           "the ASCII digits 0-9: write '3'"),
+          ("fullwidth-digits", "\uff11\uff12", "'\uff11' (FULLWIDTH DIGIT ONE) is not one of the "
+           "ASCII digits 0-9: write '12'"),
+          ("underflow", "1e-400", "1e-400 is too small for a double: it would be read as 0 (write "
+           "0 if zero is meant)"))),
     Case("dem-csv-nan", with_files(campaign(("paths:", "environment:\n  terrain:\n"
                                                     "    dem: site.csv\n    cell: \"1 m\"\n"
                                                     "paths:")),
@@ -794,6 +907,14 @@ CASES = [
           ("radius-just-above-1-km", 'radius: "1000.001 m"', 38, "radius", "1000.001"),
           ("semi-axis-1e300", 'semi_axes: ["1 cm", "1e300 m", "1 cm"]', 50, "semi_axes[1]",
            "1e+300"))),
+    # a rock of 1e-300 m: how deep a point lay inside it overflowed (a traceback after the
+    # reference runs)
+    Case("rock-semi-axis-1e-300-m",
+         campaign(("paths:", 'environment:\n  rocks:\n    - {x: "0.5 m", y: "0 m", '
+                             'semi_axes: ["1e-300 m", "5 cm", "5 cm"]}\npaths:')), RUN, 2,
+         ("campaign.yaml:16:42: error[C100]: environment.rocks[0].semi_axes[0]: expected a rock "
+          "radius or semi-axis of at least 0.001 m, got 1e-300 m (a smaller grain is part of the "
+          "regolith, which the soil model represents; the collision check resolves 0.1 mm)",)),
     Case("rock-negative-radius",
          campaign(("paths:", 'environment:\n  rocks:\n    - {x: "1 m", y: "0 m", '
                              'radius: "-4 cm"}\npaths:')), RUN, 2,

@@ -491,8 +491,8 @@ def test_a_step_is_climbed_while_the_push_lifts_the_wheel_over_its_edge(
     walls = [Rock(0.35, 0.0, 0.005, 0.5, heights[0], z=0.0)]
     if highest + math.radians(10) < math.pi / 2:
         walls.append(Rock(0.35, 0.0, 0.005, 0.5, heights[1], z=0.0))
-    else:  # a face above the axle: a rock block from 5 cm to 20 cm height
-        walls.append(Rock(0.35, 0.0, 0.02, 0.5, 0.075, z=0.125))
+    else:  # a face above the axle: a block resting on the ground, its rim 12.5 cm high
+        walls.append(Rock(0.35, 0.0, 0.02, 0.5, 0.125, z=0.125))
     for wall_rock, climbs in zip(walls, (True, False), strict=True):
         height = wall_rock.z + wall_rock.c
         wall = _flat_with(tmp_path, [wall_rock], f"wall{height:.4f}.terrain")

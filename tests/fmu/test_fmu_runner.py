@@ -159,6 +159,19 @@ def test_a_parameter_out_of_range_is_a_user_error_naming_it(
     assert rover.run({}, [], 0.2, 0.1)["x"][-1] == 0.0  # the runner is still usable
 
 
+def test_a_rut_grid_cell_far_finer_than_memory_allows_is_coarsened_not_out_of_memory(
+        rover_fmu: Path, tmp_path: Path) -> None:
+    """The rut grid counted its cells in a long: 1e-9 m cells over a 4 m terrain (5 m with its
+    margins) overflowed it, and the FMU ran out of memory (exit 3). The grid coarsens instead,
+    as it does for any count beyond its bound (a fresh runner: the coarsened grid is kept
+    across resets)."""
+    terrain = write_terrain(tmp_path / "site.terrain", synthetic_terrain(size=4.0, cell=0.05))
+    with FmuRunner(rover_fmu) as runner:
+        out = runner.run({"soil.grid_cell": 1e-9, "terrain.file": str(terrain)},
+                         [Command(0.05, 0.1, 0.0)], 10.0, 0.1)
+    assert np.isfinite(out["x"]).all() and out["x"][-1] > 0.03  # it drove
+
+
 def test_a_rejected_parameter_is_named_by_its_campaign_name(rover_fmu: Path) -> None:
     with FmuRunner(rover_fmu, parameter_map={"wheel_rock_mu": "rock.friction_coefficient"}) \
             as runner, pytest.raises(UserInputError, match="'wheel_rock_mu'"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ from idefix_rules.errors import UserInputError
 from idefix_rules.fmu.terrain import (
     Rock,
     Terrain,
+    highest_ground_under,
     load_dem,
     read_terrain,
     synthetic_terrain,
@@ -180,17 +182,19 @@ def test_heights_lie_within_100_km_of_the_datum_in_every_dem_format(
             assert (found.span.line, found.span.column) == where
 
 
-@pytest.mark.parametrize(("rock", "refused"), [
-    ("rock 0.5 0.5 0 1000 1 1", None),
-    ("rock 0.5 0.5 0 1 1 1000.001", "rock semi-axis 1000.001 m: at most 1000 m"),
-    ("rock 0.5 0.5 101000 1 1 1", None),  # a 1 km rock on ground 100 km high
-    ("rock 0.5 0.5 -101000.001 1 1 1", "rock centre height -101000.001 m: at most 101000 m"),
+@pytest.mark.parametrize(("rock", "ground", "refused"), [
+    ("rock 0.5 0.5 0 1000 1 1", 0.0, None),
+    ("rock 0.5 0.5 0 1 1 1000.001", 0.0, "rock semi-axis 1000.001 m: at most 1000 m"),
+    ("rock 0.5 0.5 0 1 0.0009 1", 0.0, "rock semi-axis 0.0009 m: at least 0.001 m"),
+    ("rock 0.5 0.5 101000 1 1000 1000", 1e5, None),  # a 1 km rock on ground 100 km high
+    ("rock 0.5 0.5 -101000.001 1 1 1", 0.0,
+     "rock centre height -101000.001 m: at most 101000 m"),
 ])
 def test_a_rock_of_a_terrain_file_is_at_most_1_km_and_near_the_ground(
-        tmp_path: Path, rock: str, refused: str | None) -> None:
+        tmp_path: Path, rock: str, ground: float, refused: str | None) -> None:
     path = tmp_path / "site.dem"
     path.write_bytes(f"IDEFIX-TERRAIN 1\nnx 2\nny 2\norigin 0 0\ncell 1\nrocks 1\n{rock}\n"
-                     "heights\n".encode() + np.zeros(4).tobytes())
+                     "heights\n".encode() + np.full(4, ground).tobytes())
     if refused is None:
         assert len(read_terrain(path).rocks) == 1
         return
@@ -212,3 +216,58 @@ def test_a_synthetic_slope_over_its_size_is_plausible_up_to_100_km() -> None:
     assert beyond_heights(inside.heights) == ""
     outside = synthetic_terrain(size=200.002e3, cell=100.001e3, slope=math.pi / 4)
     assert beyond_heights(outside.heights).startswith("height 100001 m at row 0, column 0")
+
+
+def _with_rock(tmp_path: Path, terrain: Terrain, z: float, x: float = 0.5, r: float = 0.1) -> Path:
+    return write_terrain(tmp_path / "site.dem", replace(terrain, rocks=(Rock(x, 0.0, r, r, r,
+                                                                             z=z),)))
+
+
+def test_a_rock_resting_on_a_slope_rests_and_one_above_the_ground_under_it_floats(
+        tmp_path: Path) -> None:
+    """A ball of radius r resting on a 30 deg slope has its lowest point r (1/cos 30° - 1) =
+    1.5 cm above the ground at its centre, and touches the slope uphill of it: it rests. Its
+    lowest point may lie up to 1 mm above the highest ground under its outline (a z written to
+    the millimetre); beyond, it floats (a rock 1 km up was simulated as a tower)."""
+    slope, r = math.radians(30), 0.1
+    terrain = synthetic_terrain(size=2.0, cell=0.05, slope=slope)
+    ground = float(terrain.height_at(0.5, 0.0))
+    resting = ground + r / math.cos(slope)
+    assert read_terrain(_with_rock(tmp_path, terrain, resting)).rocks[0].z == resting
+    highest = ground + r * math.tan(slope)  # uphill edge of the outline, x = 0.4 m
+    for gap, floats in ((0.0009, False), (0.0011, True), (1000.0, True)):
+        path = _with_rock(tmp_path, terrain, highest + gap + r)
+        if not floats:
+            assert len(read_terrain(path).rocks) == 1
+            continue
+        with pytest.raises(UserInputError) as caught:
+            read_terrain(path)
+        found = caught.value.diagnostics[0]
+        assert found.code == "F204" and found.span is not None and found.span.line == 7
+        assert found.message == (
+            f"rock at (0.5 m, 0 m) floats: its lowest point (z - c = {highest + gap:.6g} m) is "
+            f"{gap:.6g} m above the highest ground under it ({highest:.6g} m)")
+
+
+def test_the_highest_ground_under_a_rock_is_found_between_the_grid_nodes() -> None:
+    """Bilinear ground is linear along grid lines: its highest point under a rock's outline
+    is a node inside it or where the outline's edges cross a grid line."""
+    heights = np.zeros((5, 5))
+    heights[2, 2] = 1.0  # a peak at (2, 2)
+    terrain = Terrain(heights, (0.0, 0.0), 1.0)
+    assert float(highest_ground_under(terrain, Rock(2.0, 2.0, 0.5, 0.5, 0.1))) == 1.0
+    assert float(highest_ground_under(terrain, Rock(1.2, 2.0, 0.5, 0.1, 0.1))) == \
+        pytest.approx(0.7)  # the outline's edge x = 1.7 m, on the grid line y = 2 m
+    assert float(highest_ground_under(terrain, Rock(0.2, 0.2, 0.1, 0.1, 0.1))) == 0.0
+
+
+def test_a_header_line_the_rover_model_would_read_as_two_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "site.dem"
+    path.write_bytes(b"IDEFIX-TERRAIN 1\nnx 2\nny 2\norigin 0 " + b"0" * 505 + b"\ncell 1\n"
+                     b"heights\n" + np.zeros(4).tobytes())
+    with pytest.raises(UserInputError) as caught:
+        read_terrain(path)
+    found = caught.value.diagnostics[0]
+    assert found.message == ("header line of 514 characters: at most 510 (the rover model reads "
+                             "a longer line as two)")
+    assert found.span is not None and (found.span.line, found.span.column) == (4, 511)

@@ -188,7 +188,7 @@ void rover_step(Instance *inst, double dt)
 int rover_initialise(Instance *inst, char *message, size_t message_size)
 {
     double x_min, y_min, x_max, y_max, cell = inst->r[VR_SOIL_GRID_CELL];
-    int i;
+    int i, status;
     SoilParameters *s = &inst->soil;
 
     if (parameters_check(inst, message, message_size) != 0) return -1;
@@ -219,12 +219,13 @@ int rover_initialise(Instance *inst, char *message, size_t message_size)
     }
     /* keep the grid allocation across resets when its extent is unchanged */
     if (inst->grid.sinkage && inst->grid.x0 == x_min && inst->grid.y0 == y_min &&
-        inst->grid.nx == (long)ceil((x_max - x_min) / inst->grid.cell) + 1 &&
-        inst->grid.ny == (long)ceil((y_max - y_min) / inst->grid.cell) + 1 &&
+        (double)inst->grid.nx == ceil((x_max - x_min) / inst->grid.cell) + 1.0 &&
+        (double)inst->grid.ny == ceil((y_max - y_min) / inst->grid.cell) + 1.0 &&
         (inst->grid.cell == cell || inst->grid.nx * inst->grid.ny > MAX_GRID_CELLS / 2)) {
         soil_grid_clear(&inst->grid);
-    } else if (soil_grid_init(&inst->grid, x_min, y_min, x_max, y_max, cell) != 0) {
-        snprintf(message, message_size, "out of memory for the soil grid");
+    } else if ((status = soil_grid_init(&inst->grid, x_min, y_min, x_max, y_max, cell)) != 0) {
+        snprintf(message, message_size, status == -2 ? "terrain too large for the soil grid "
+                 "(its extent is beyond a double)" : "out of memory for the soil grid");
         return -1;
     }
 

@@ -6,19 +6,26 @@
 
 #include "idefix.h"
 
+/* The rut grid over [x_min, x_max] x [y_min, y_max]: 0, or -1 out of memory, -2 an extent
+ * beyond a double. */
 int soil_grid_init(SoilGrid *g, double x_min, double y_min, double x_max, double y_max,
                    double cell)
 {
     long nx, ny;
+    double side_x, side_y;
     soil_grid_free(g);
     if (!(cell > 0.0)) cell = 0.01;
-    /* coarsen rather than exhaust memory on a very large terrain */
+    if (!isfinite(x_max - x_min) || !isfinite(y_max - y_min)) return -2;
+    /* coarsen rather than exhaust memory on a very large terrain; the nodes are counted in
+     * double (exact while they fit MAX_GRID_CELLS), so no count overflows a long on the way */
     for (;;) {
-        nx = (long)ceil((x_max - x_min) / cell) + 1;
-        ny = (long)ceil((y_max - y_min) / cell) + 1;
-        if (nx * ny <= MAX_GRID_CELLS) break;
+        side_x = ceil((x_max - x_min) / cell) + 1.0;
+        side_y = ceil((y_max - y_min) / cell) + 1.0;
+        if (side_x * side_y <= (double)MAX_GRID_CELLS) break;
         cell *= 1.5;
     }
+    nx = (long)side_x;
+    ny = (long)side_y;
     g->cell = cell;
     g->x0 = x_min;
     g->y0 = y_min;

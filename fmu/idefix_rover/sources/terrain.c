@@ -127,8 +127,8 @@ int terrain_load(Terrain *t, const char *path, char *message, size_t message_siz
         free(fresh.rocks);
         return fail(message, message_size, path, line, "unknown or malformed header line");
     }
-    if (nx < 2 || ny < 2 || cell <= 0.0 || !isfinite(x0) || !isfinite(y0) ||
-        nx * ny > 16000000L) {
+    if (nx < 2 || ny < 2 || !(cell > 0.0) || !isfinite(cell) || !isfinite(x0) ||
+        !isfinite(y0) || nx > 16000000L || ny > 16000000L || nx * ny > 16000000L) {
         fclose(f);
         free(fresh.rocks);
         return fail(message, message_size, path, line, "need nx >= 2, ny >= 2, cell > 0");

@@ -27,7 +27,12 @@ from idefix_rules.campaign.input.field_types import (
     Strict,
     new_run,
 )
-from idefix_rules.limits import MAX_ROCK_SEMI_AXIS
+from idefix_rules.limits import (
+    MAX_ROCK_SEMI_AXIS,
+    MAX_TERRAIN_EXTENT,
+    MAX_TERRAIN_ROCKS,
+    MIN_ROCK_SEMI_AXIS,
+)
 from idefix_rules.units import Dimension, UnitError, parse_quantity, parse_unit
 
 # Terrain grids hold at most this many nodes (docs/terrain-format.md: nx·ny ≤ 16 million).
@@ -51,8 +56,23 @@ def _not_negative_length(value: float, info: ValidationInfo) -> float:
     return value
 
 
+def _terrain_width(value: float, info: ValidationInfo) -> float:
+    """A terrain's size, or a DEM's cell (the grid is at least one cell wide): at most
+    :data:`MAX_TERRAIN_EXTENT` (the rover model starts within 1000 km of the terrain's origin;
+    far wider grids overflowed its rut grid)."""
+    if new_run(info) and value > MAX_TERRAIN_EXTENT:
+        raise PydanticCustomError(
+            "terrain", "expected at most {most} km, got {got} m: the rover model starts within "
+            "1000 km of the terrain's origin, so a terrain is at most {most} km wide",
+            {"most": f"{MAX_TERRAIN_EXTENT / 1000:g}", "got": f"{value:.12g}"})
+    return value
+
+
+TerrainWidth = Annotated[Length, AfterValidator(_terrain_width)]
+
+
 class SyntheticTerrain(Strict):
-    size: Length = Field(default=4.0, gt=0)
+    size: TerrainWidth = Field(default=4.0, gt=0)
     cell: Length = Field(default=0.02, gt=0)
     slope: Annotated[Angle, AfterValidator(_inclination)] = 0.0
     slope_direction: Angle = 0.0
@@ -79,7 +99,7 @@ class TerrainSection(Strict):
     need ``cell``; ``origin`` defaults to centring the grid); or ``synthetic`` settings."""
 
     dem: str | None = None
-    cell: Length | None = Field(default=None, gt=0)
+    cell: TerrainWidth | None = Field(default=None, gt=0)
     origin: tuple[Length, Length] | None = None
     synthetic: SyntheticTerrain | None = None
 
@@ -91,8 +111,16 @@ class TerrainSection(Strict):
 
 
 def _rock_size(value: float, info: ValidationInfo) -> float:
-    """A rock's radius or semi-axis: at most :data:`MAX_ROCK_SEMI_AXIS` (a larger one is
-    terrain, and its squares would overflow the obstacle checker's geometry)."""
+    """A rock's radius or semi-axis: from :data:`MIN_ROCK_SEMI_AXIS` (a smaller grain is
+    regolith, and how deep a point lies inside it overflowed the obstacle checker) to
+    :data:`MAX_ROCK_SEMI_AXIS` (a larger one is terrain, and its squares would overflow the
+    obstacle checker's geometry)."""
+    if new_run(info) and value < MIN_ROCK_SEMI_AXIS:
+        raise PydanticCustomError(
+            "rock", "expected a rock radius or semi-axis of at least {least} m, got {got} m (a "
+            "smaller grain is part of the regolith, which the soil model represents; the "
+            "collision check resolves 0.1 mm)",
+            {"least": f"{MIN_ROCK_SEMI_AXIS:g}", "got": f"{value:.12g}"})
     if new_run(info) and value > MAX_ROCK_SEMI_AXIS:
         raise PydanticCustomError(
             "rock", "expected a rock radius or semi-axis of at most {most} m, got {got} m (a "
@@ -174,9 +202,19 @@ class NamedAreaGeometry(Strict):
     polygons: list[list[tuple[Length, Length]]] = []
 
 
+def _rock_count(value: list[RockSpec], info: ValidationInfo) -> list[RockSpec]:
+    """At most :data:`MAX_TERRAIN_ROCKS` rocks, as many as the rover model holds (YAML aliases
+    write thousands in a few lines)."""
+    if new_run(info) and len(value) > MAX_TERRAIN_ROCKS:
+        raise PydanticCustomError(
+            "rocks", "{count} rocks; at most {most} (the rover model holds {most})",
+            {"count": len(value), "most": MAX_TERRAIN_ROCKS})
+    return value
+
+
 class EnvironmentSection(Strict):
     terrain: TerrainSection = TerrainSection()
-    rocks: list[RockSpec] = []
+    rocks: Annotated[list[RockSpec], AfterValidator(_rock_count)] = []
     rock_levels: RockLevels | None = None
     keep_out: list[KeepOutArea] = []
     areas: dict[str, NamedAreaGeometry] = {}
