@@ -838,16 +838,14 @@ CASES = [
                                            "paths:")),
                        site__dem=terrain_file(header=TERRAIN_HEADER.replace(
                            "rocks 0\n", "rocks 5000\n" + "rock 0 0 0 0.1 0.1 0.1\n" * 5000))),
-          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
-         ("site.dem:6:7: error[F202]: 5000 rocks; at most 4096 (the rover model holds 4096)",),
-         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+          "out": FOLDER}, RUN, 2,
+         ("site.dem:6:7: error[F202]: 5000 rocks; at most 4096 (the rover model holds 4096)",)),
     Case("campaign-with-5001-rocks-by-alias",
          {**campaign(("paths:", 'environment:\n  rocks: [&r {x: "0.5 m", y: "0 m", radius: '
                                 '"1 cm"}' + ", *r" * 5000 + "]\npaths:")),
-          "out": FOLDER, "out/summary.json": "{}"}, RUN, 2,
+          "out": FOLDER}, RUN, 2,
          ("campaign.yaml:15:10: error[C100]: environment.rocks: 5001 rocks; at most 4096 (the "
-          "rover model holds 4096)",),
-         unchanged=("out/summary.json",), absent=("summary.previous.json",)),
+          "rover model holds 4096)",)),
     Case("dem-rocks-and-the-campaign-s-over-4096",
          with_files(campaign(("paths:", "environment:\n  terrain:\n    dem: site.dem\n"
                                         '  rocks: [{x: "0.5 m", y: "0 m", radius: "1 cm"}]\n'

@@ -224,7 +224,10 @@ def declared_output(path: str | Path) -> Path | None:
     value = data.get("output", CampaignFile.model_fields["output"].default)
     if not isinstance(value, str) or not value.strip():
         return None
-    return (source.resolve().parent / value).resolve()
+    try:
+        return (source.resolve().parent / value).resolve()
+    except (ValueError, OSError):  # no usable folder name (a NUL in it): none is named
+        return None
 
 
 def _raw_expectation_paths(data: Mapping[str, Any], locations: SourceMap
