@@ -121,6 +121,8 @@ def test_a_campaign_runs_on_its_waivers_last_day_and_is_refused_the_day_after(
     set_today(date(2026, 12, 1))
     assert main([str(path), "--quiet", "--no-report"]) == 0
     capsys.readouterr()
+    results = campaign_dir / "out" / "results.h5"
+    last_good = results.read_bytes()
     set_today(date(2026, 12, 2))
     assert main([str(path), "--quiet", "--no-report"]) == 2
     err = " ".join(capsys.readouterr().err.split())
@@ -128,7 +130,9 @@ def test_a_campaign_runs_on_its_waivers_last_day_and_is_refused_the_day_after(
     assert f"campaign.yaml:{line}:12: error[C213]" in err
     assert f"campaign.yaml:{line + 5}:12: error[C213]" in err
     assert "expired on 2026-12-01 (today is 2026-12-02)" in err
-    assert not (campaign_dir / "out" / "results.h5").exists()  # refused before simulating
+    # refused before simulating: the last day's results are put back, unchanged
+    assert results.read_bytes() == last_good
+    assert not (campaign_dir / "out" / "results.previous.h5").exists()
 
 
 def test_evaluate_checks_the_waivers_expiry_against_today(
