@@ -255,13 +255,13 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
     broken = False
 
     def outcome(rows: np.ndarray, signals: dict[str, np.ndarray], future: Future[Any]) -> Any:
+        """A chunk's checks: its worker's (those finished before the break too), else here."""
         nonlocal broken
-        if not broken:
-            try:
-                return future.result()
-            except BrokenProcessPool:
-                broken = True
-        return collisions(signals, rows)
+        try:
+            return future.result()
+        except BrokenProcessPool:
+            broken = True
+            return collisions(signals, rows)
 
     with _FORK_LOCK:
         _WORKER_COLLISIONS = collisions
@@ -275,9 +275,10 @@ def with_collisions(chunks: Iterable[tuple[np.ndarray, dict[str, np.ndarray]]],
                     poses = {key: signals[key] for key in POSE_SIGNALS}
                     try:
                         future = pool.submit(_check_in_worker, poses, rows)
-                    except BrokenProcessPool:
+                    except BrokenProcessPool as failure:
                         broken = True
-                        future = Future()  # never asked: checked here once broken
+                        future = Future()  # checked here, as a chunk the break took
+                        future.set_exception(failure)
                     pending.append((rows, signals, future))
                     while len(pending) >= 2 * workers or (broken and pending):
                         done_rows, done_signals, future = pending.popleft()

@@ -190,8 +190,9 @@ def search_command(source: Any, output: Any, runs: Any, seed: Any, threshold: An
 
 
 def _number(value: float) -> str:
-    """A number as a command takes it back unchanged (``30``, ``0.01``, ``1234567``)."""
-    return f"{value:.17g}" if float(f"{value:.15g}") != value else f"{value:.15g}"
+    """A number as a command takes it back unchanged (``30``, ``0.01``, ``1234567``): a
+    whole number without its ``.0``, any other as Python's shortest exact spelling."""
+    return str(int(value)) if value.is_integer() else repr(value)
 
 
 def stored_resume_command(attrs: Any, source: Any, output: Any,
